@@ -1,0 +1,58 @@
+//! Command-line arguments (clap) and dispatch to the library.
+
+mod bench;
+mod env_cmd;
+
+use clap::{Parser, Subcommand};
+
+use crate::ExitStatus;
+
+/// Make language-conditioned RL agents transparent: a BabyAI world, a per-word text-visual
+/// attention policy, PPO, grounding metrics, recordings and a debugger.
+#[derive(Debug, Parser)]
+#[command(
+    name = "groundscope",
+    version,
+    after_long_help = "EXIT STATUS:\n  0  done\n  1  ran, but a check failed (a replay mismatch, a metric below its threshold)\n  2  error or bad input (one line on stderr naming the file, field or word)"
+)]
+pub struct Cli {
+    /// What to do.
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// The subcommands.
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Inspect and check the world: `env show`, `env verify`.
+    #[command(subcommand)]
+    Env(env_cmd::EnvCommand),
+    /// Speed benchmarks that print JSON lines.
+    #[command(subcommand)]
+    Bench(bench::BenchCommand),
+}
+
+/// Runs the parsed command.
+pub fn run(cli: Cli) -> anyhow::Result<ExitStatus> {
+    match cli.command {
+        Command::Env(cmd) => env_cmd::run(cmd),
+        Command::Bench(cmd) => bench::run(cmd),
+    }
+}
+
+/// Writes `bytes` to `path` atomically: a temporary file in the same directory, then a rename,
+/// so that a failure never leaves a half-written file.
+pub fn write_atomic(path: &std::path::Path, bytes: &[u8]) -> anyhow::Result<()> {
+    use std::io::Write as _;
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => std::path::Path::new("."),
+    };
+    let mut tmp = tempfile::NamedTempFile::new_in(dir)
+        .map_err(|e| anyhow::anyhow!("writing {}: {e}", path.display()))?;
+    tmp.write_all(bytes)
+        .map_err(|e| anyhow::anyhow!("writing {}: {e}", path.display()))?;
+    tmp.persist(path)
+        .map_err(|e| anyhow::anyhow!("writing {}: {}", path.display(), e.error))?;
+    Ok(())
+}

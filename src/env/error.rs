@@ -1,0 +1,64 @@
+//! Errors of the world: invalid configs, states, dumps and missions.
+
+use thiserror::Error;
+
+/// Everything that can go wrong in `env`; every variant names the field or word at fault.
+#[derive(Debug, Error)]
+pub enum EnvError {
+    /// A level configuration that cannot be generated.
+    #[error("invalid level config: {field}: {reason}")]
+    InvalidConfig {
+        /// The offending field, e.g. `room_size`.
+        field: String,
+        /// Why.
+        reason: String,
+    },
+    /// A world state that is inconsistent.
+    #[error("invalid state: {field}: {reason}")]
+    InvalidState {
+        /// The offending field, e.g. `agent_pos`.
+        field: String,
+        /// Why.
+        reason: String,
+    },
+    /// A snapshot / dump that does not parse or is out of range.
+    #[error("invalid snapshot: {field}: {reason}")]
+    InvalidSnapshot {
+        /// JSON path of the offending field, e.g. `grid[3][4]`.
+        field: String,
+        /// Why.
+        reason: String,
+    },
+    /// A mission word outside the vocabulary.
+    #[error("unknown word \"{word}\" in mission \"{mission}\" (vocabulary: {vocabulary})")]
+    UnknownWord {
+        /// The word.
+        word: String,
+        /// The whole mission.
+        mission: String,
+        /// The known words, space-separated.
+        vocabulary: String,
+    },
+    /// A mission text that names no object of the world or is not a BabyAI instruction.
+    #[error("invalid mission \"{mission}\": {reason}")]
+    InvalidMission {
+        /// The mission text.
+        mission: String,
+        /// Why.
+        reason: String,
+    },
+    /// `step` after the episode ended, without a reset.
+    #[error("the episode ended at step {step_count}; reset before stepping again")]
+    EpisodeEnded {
+        /// Steps taken when it ended.
+        step_count: u32,
+    },
+    /// Level generation kept failing (rejection sampling exhausted).
+    #[error("could not generate a level for seed {seed} after {tries} tries")]
+    GenerationFailed {
+        /// The seed.
+        seed: u64,
+        /// Attempts made.
+        tries: u32,
+    },
+}

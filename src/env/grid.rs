@@ -1,0 +1,117 @@
+//! The world grid: x-major, `y` grows downward, `None` for an empty cell.
+
+use super::object::{Cell, Color, ObjectKind, WorldObj};
+
+/// A cell position in the world, `(x, y)`; `y` grows downward.
+pub type Pos = (i32, i32);
+
+/// MiniGrid's `DIR_TO_VEC`: 0 = right (+x), 1 = down (+y), 2 = left (−x), 3 = up (−y).
+pub const DIR_TO_VEC: [Pos; 4] = [(1, 0), (0, 1), (-1, 0), (0, -1)];
+
+/// The width × height world grid of MiniGrid (`grid[x][y]`).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Grid {
+    width: i32,
+    height: i32,
+    /// Cells in x-major order: index `x * height + y`, like numpy's `(W, H)` arrays.
+    cells: Vec<Cell>,
+}
+
+impl Grid {
+    /// An empty grid (no walls).
+    pub fn new(width: usize, height: usize) -> Self {
+        Self {
+            width: width as i32,
+            height: height as i32,
+            cells: vec![None; width * height],
+        }
+    }
+
+    /// Width in cells.
+    pub fn width(&self) -> usize {
+        self.width as usize
+    }
+
+    /// Height in cells.
+    pub fn height(&self) -> usize {
+        self.height as usize
+    }
+
+    /// Whether `pos` lies inside the grid.
+    #[inline]
+    pub fn contains(&self, (x, y): Pos) -> bool {
+        x >= 0 && y >= 0 && x < self.width && y < self.height
+    }
+
+    #[inline]
+    fn index(&self, (x, y): Pos) -> usize {
+        (x * self.height + y) as usize
+    }
+
+    /// The cell at `pos`; `None` for empty cells and for positions outside the grid.
+    #[inline]
+    pub fn get(&self, pos: Pos) -> Cell {
+        if self.contains(pos) {
+            self.cells[self.index(pos)]
+        } else {
+            None
+        }
+    }
+
+    /// The cell at `pos`, treating positions outside the grid as walls (`Grid.slice` does).
+    #[inline]
+    pub fn get_or_wall(&self, pos: Pos) -> Cell {
+        if self.contains(pos) {
+            self.cells[self.index(pos)]
+        } else {
+            Some(WorldObj::new(ObjectKind::Wall, Color::Grey, u32::MAX))
+        }
+    }
+
+    /// Writes `cell` at `pos`; positions outside the grid are ignored.
+    #[inline]
+    pub fn set(&mut self, pos: Pos, cell: Cell) {
+        if self.contains(pos) {
+            let i = self.index(pos);
+            self.cells[i] = cell;
+        }
+    }
+
+    /// Walls on the outer ring, as `RoomGrid` builds a 1×1 room.
+    pub fn wall_ring(&mut self, next_id: &mut u32) {
+        for x in 0..self.width {
+            for y in 0..self.height {
+                if x == 0 || y == 0 || x == self.width - 1 || y == self.height - 1 {
+                    self.set((x, y), Some(WorldObj::new(ObjectKind::Wall, Color::Grey, *next_id)));
+                    *next_id += 1;
+                }
+            }
+        }
+    }
+
+    /// Every non-empty cell with its position, in x-major order (MiniGrid's scan order).
+    pub fn objects(&self) -> impl Iterator<Item = (Pos, WorldObj)> + '_ {
+        self.cells.iter().enumerate().filter_map(move |(i, c)| {
+            c.map(|o| {
+                let i = i as i32;
+                ((i / self.height, i % self.height), o)
+            })
+        })
+    }
+
+    /// The position of the object with identity `id`, if it is in the grid.
+    pub fn find_id(&self, id: u32) -> Option<Pos> {
+        self.objects().find(|(_, o)| o.id == id).map(|(p, _)| p)
+    }
+
+    /// MiniGrid's `Grid.encode()`: `[x][y] = (type, colour, state)`, the agent not included.
+    pub fn encode(&self) -> Vec<Vec<[u8; 3]>> {
+        (0..self.width)
+            .map(|x| {
+                (0..self.height)
+                    .map(|y| super::object::encode_cell(&self.get((x, y))))
+                    .collect()
+            })
+            .collect()
+    }
+}

@@ -1,0 +1,202 @@
+//! BabyAI instructions ("go to …", "pick up …") and their surface text (`verifier.py`).
+
+use std::fmt;
+
+use serde::{Deserialize, Serialize};
+
+use super::grid::{DIR_TO_VEC, Grid, Pos};
+use super::object::{Color, ObjectKind, WorldObj};
+
+/// The kind of task an instruction asks for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum TaskKind {
+    /// `GoToInstr`: face a matching object.
+    GoTo,
+    /// `PickupInstr`: pick up a matching object.
+    Pickup,
+}
+
+impl TaskKind {
+    /// The class name the Python dumps use (`"GoToInstr"`, `"PickupInstr"`).
+    pub fn instr_class(self) -> &'static str {
+        match self {
+            Self::GoTo => "GoToInstr",
+            Self::Pickup => "PickupInstr",
+        }
+    }
+
+    /// The verb phrase that starts the mission.
+    pub fn verb(self) -> &'static str {
+        match self {
+            Self::GoTo => "go to",
+            Self::Pickup => "pick up",
+        }
+    }
+}
+
+impl fmt::Display for TaskKind {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Self::GoTo => "goto",
+            Self::Pickup => "pickup",
+        })
+    }
+}
+
+/// BabyAI's location qualifiers, relative to the agent's pose at reset.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Loc {
+    /// "on your left".
+    Left,
+    /// "on your right".
+    Right,
+    /// "in front of you".
+    Front,
+    /// "behind you".
+    Behind,
+}
+
+impl Loc {
+    /// The name used in dumps.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Left => "left",
+            Self::Right => "right",
+            Self::Front => "front",
+            Self::Behind => "behind",
+        }
+    }
+
+    /// The location called `name`, if any.
+    pub fn from_name(name: &str) -> Option<Self> {
+        [Self::Left, Self::Right, Self::Front, Self::Behind]
+            .into_iter()
+            .find(|l| l.name() == name)
+    }
+}
+
+/// `ObjDesc`: an optional type, colour and location.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub struct ObjDesc {
+    /// Object type; `None` reads "object".
+    pub kind: Option<ObjectKind>,
+    /// Colour; `None` omits it.
+    pub color: Option<Color>,
+    /// Location relative to the agent's start pose.
+    pub loc: Option<Loc>,
+}
+
+impl ObjDesc {
+    /// Whether `obj` has the described type and colour (location not considered).
+    pub fn matches(&self, obj: &WorldObj) -> bool {
+        self.kind.is_none_or(|k| k == obj.kind) && self.color.is_none_or(|c| c == obj.color)
+    }
+
+    /// `find_matching_objs(use_location=True)`: the ids and positions of all matching objects,
+    /// in MiniGrid's x-major scan order, for an agent at `agent_pos` facing `agent_dir`.
+    pub fn find_matching(&self, grid: &Grid, agent_pos: Pos, agent_dir: u8) -> (Vec<u32>, Vec<Pos>) {
+        let d1 = DIR_TO_VEC[usize::from(agent_dir & 3)];
+        let d2 = (-d1.1, d1.0);
+        let mut ids = Vec::new();
+        let mut poss = Vec::new();
+        for (pos, obj) in grid.objects() {
+            if !self.matches(&obj) {
+                continue;
+            }
+            if let Some(loc) = self.loc {
+                // One room per level here, so every cell is in the agent's room.
+                let v = (pos.0 - agent_pos.0, pos.1 - agent_pos.1);
+                let dot = |d: Pos| v.0 * d.0 + v.1 * d.1;
+                let ok = match loc {
+                    Loc::Left => dot(d2) < 0,
+                    Loc::Right => dot(d2) > 0,
+                    Loc::Front => dot(d1) > 0,
+                    Loc::Behind => dot(d1) < 0,
+                };
+                if !ok {
+                    continue;
+                }
+            }
+            ids.push(obj.id);
+            poss.push(pos);
+        }
+        (ids, poss)
+    }
+
+    /// `ObjDesc.surface`: article + [colour] + type [+ location]; "the" iff exactly one
+    /// object matches.
+    pub fn surface(&self, n_matches: usize) -> String {
+        let mut s = self.kind.map_or("object", ObjectKind::name).to_owned();
+        if let Some(c) = self.color {
+            s = format!("{} {s}", c.name());
+        }
+        match self.loc {
+            Some(Loc::Front) => s.push_str(" in front of you"),
+            Some(Loc::Behind) => s.push_str(" behind you"),
+            Some(l @ (Loc::Left | Loc::Right)) => {
+                s.push_str(" on your ");
+                s.push_str(l.name());
+            }
+            None => {}
+        }
+        let article = if n_matches > 1 { "a" } else { "the" };
+        format!("{article} {s}")
+    }
+}
+
+/// A single-clause instruction: what to do with which objects.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Instruction {
+    /// Go to or pick up.
+    pub task: TaskKind,
+    /// The description of the target(s).
+    pub desc: ObjDesc,
+    /// `PickupInstr(strict=True)`: picking up a wrong object fails (PickupDistDebug).
+    pub strict: bool,
+}
+
+impl Instruction {
+    /// The mission text, e.g. `"go to the red key"`.
+    pub fn surface(&self, n_matches: usize) -> String {
+        format!("{} {}", self.task.verb(), self.desc.surface(n_matches))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn surface_text_is_babyai_s() {
+        let desc = ObjDesc {
+            kind: Some(ObjectKind::Key),
+            color: Some(Color::Red),
+            loc: None,
+        };
+        let goto = Instruction {
+            task: TaskKind::GoTo,
+            desc,
+            strict: false,
+        };
+        assert_eq!(goto.surface(1), "go to the red key");
+        assert_eq!(goto.surface(2), "go to a red key");
+        let pick = Instruction {
+            task: TaskKind::Pickup,
+            desc: ObjDesc {
+                kind: None,
+                color: Some(Color::Blue),
+                loc: Some(Loc::Left),
+            },
+            strict: false,
+        };
+        assert_eq!(pick.surface(3), "pick up a blue object on your left");
+        let ball = ObjDesc {
+            kind: Some(ObjectKind::Ball),
+            color: None,
+            loc: Some(Loc::Front),
+        };
+        assert_eq!(ball.surface(1), "the ball in front of you");
+    }
+}

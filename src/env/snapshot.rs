@@ -1,0 +1,518 @@
+//! World snapshots in the JSON format of `shared/tools/dump_minigrid.py`, and replay checks.
+//!
+//! A snapshot holds everything a world needs: the x-major grid encoding (`grid[x][y] =
+//! [type, colour, state]`, the agent not in it), the agent pose, the carried object, the
+//! instruction (kind, type, colour, location, matching positions), `done_actions` and
+//! `max_steps`. Dumps from Python also carry `steps`, which [`verify_dump`] replays.
+
+use serde::{Deserialize, Serialize};
+
+use super::error::EnvError;
+use super::grid::{Grid, Pos};
+use super::mission::{Instruction, Loc, ObjDesc, TaskKind};
+use super::object::{Cell, Color, DoorState, ObjectKind, WorldObj};
+use super::view::Observation;
+use super::world::{Action, World};
+
+/// `instr` of a dump.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct InstrJson {
+    /// `"GoToInstr"` or `"PickupInstr"`.
+    pub kind: String,
+    /// Object type name or null.
+    #[serde(rename = "type")]
+    pub kind_name: Option<String>,
+    /// Colour name or null.
+    pub color: Option<String>,
+    /// Location name or null.
+    pub loc: Option<String>,
+    /// Positions of the matching objects, `[x, y]`.
+    pub match_positions: Vec<[i64; 2]>,
+    /// `PickupInstr(strict=…)`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub strict: Option<bool>,
+}
+
+/// An observation as dumped.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ObsJson {
+    /// x-major 7×7×3 image.
+    pub image: Vec<Vec<Vec<i64>>>,
+    /// Agent direction.
+    pub direction: i64,
+    /// Mission text.
+    pub mission: String,
+}
+
+/// One dumped step.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StepJson {
+    /// Action index.
+    pub action: i64,
+    /// Action name.
+    #[serde(default)]
+    pub action_name: Option<String>,
+    /// Reward returned.
+    pub reward: f64,
+    /// Terminated flag.
+    pub terminated: bool,
+    /// Truncated flag.
+    pub truncated: bool,
+    /// `step_count` after the step.
+    pub step_count: i64,
+    /// Agent position after the step.
+    pub agent_pos: [i64; 2],
+    /// Agent direction after the step.
+    pub agent_dir: i64,
+    /// Carried object encoding after the step.
+    pub carrying: Option<[i64; 3]>,
+    /// Observation image after the step.
+    pub image: Vec<Vec<Vec<i64>>>,
+    /// Observation direction.
+    pub direction: i64,
+    /// The world grid, present only when the step changed it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub grid: Option<Vec<Vec<Vec<i64>>>>,
+}
+
+/// A world snapshot / episode dump (the `dump_minigrid.py` format).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Snapshot {
+    /// Producer version (`minigrid` version for Python dumps).
+    #[serde(default)]
+    pub minigrid_version: Option<String>,
+    /// Level id.
+    #[serde(default)]
+    pub env_id: Option<String>,
+    /// Level seed.
+    #[serde(default)]
+    pub seed: Option<u64>,
+    /// Grid width.
+    pub width: i64,
+    /// Grid height.
+    pub height: i64,
+    /// Room size.
+    #[serde(default)]
+    pub room_size: Option<i64>,
+    /// View size (must be 7).
+    #[serde(default)]
+    pub agent_view_size: Option<i64>,
+    /// Must be false.
+    #[serde(default)]
+    pub see_through_walls: Option<bool>,
+    /// BabyAI's done-action mode.
+    pub done_actions: bool,
+    /// Truncation horizon.
+    pub max_steps: i64,
+    /// Mission text.
+    pub mission: String,
+    /// The instruction.
+    pub instr: InstrJson,
+    /// Free-text note on the layout.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub layout_note: Option<String>,
+    /// Grid encoding, `grid[x][y] = [type, colour, state]`.
+    pub grid: Vec<Vec<Vec<i64>>>,
+    /// MiniGrid's `pprint_grid` lines.
+    #[serde(default)]
+    pub grid_ascii: Vec<String>,
+    /// Agent position.
+    pub agent_pos: [i64; 2],
+    /// Agent direction.
+    pub agent_dir: i64,
+    /// Carried object encoding.
+    pub carrying: Option<[i64; 3]>,
+    /// Steps taken so far.
+    #[serde(default)]
+    pub step_count: i64,
+    /// The observation of this state.
+    #[serde(default)]
+    pub initial_obs: Option<ObsJson>,
+    /// Dumped steps from this state, if any.
+    #[serde(default)]
+    pub steps: Vec<StepJson>,
+}
+
+fn invalid(field: impl Into<String>, reason: impl Into<String>) -> EnvError {
+    EnvError::InvalidSnapshot {
+        field: field.into(),
+        reason: reason.into(),
+    }
+}
+
+fn u8_in(v: i64, max: u8, field: impl Fn() -> String) -> Result<u8, EnvError> {
+    u8::try_from(v)
+        .ok()
+        .filter(|x| *x <= max)
+        .ok_or_else(|| invalid(field(), format!("{v} is out of range 0..={max}")))
+}
+
+/// Decodes one `[type, colour, state]` triple (MiniGrid's `WorldObj.decode`).
+fn decode_cell(v: &[i64], id: u32, field: &str) -> Result<Cell, EnvError> {
+    let [t, c, s] = v else {
+        return Err(invalid(field, format!("expected [type, colour, state], got {} values", v.len())));
+    };
+    let kind = ObjectKind::from_index(u8_in(*t, 10, || format!("{field}[0]"))?)
+        .ok_or_else(|| invalid(field, "unknown type"))?;
+    let color = Color::from_index(u8_in(*c, 5, || format!("{field}[1]"))?)
+        .ok_or_else(|| invalid(field, "unknown colour"))?;
+    let state = u8_in(*s, 2, || format!("{field}[2]"))?;
+    match kind {
+        ObjectKind::Empty | ObjectKind::Unseen => Ok(None),
+        ObjectKind::Agent => Err(invalid(field, "the agent is not stored in the grid")),
+        ObjectKind::Door => {
+            let state = [DoorState::Open, DoorState::Closed, DoorState::Locked][usize::from(state)];
+            Ok(Some(WorldObj {
+                kind,
+                color,
+                state,
+                id,
+            }))
+        }
+        _ if state != 0 => Err(invalid(
+            format!("{field}[2]"),
+            format!("state {state} is only valid for doors"),
+        )),
+        _ => Ok(Some(WorldObj::new(kind, color, id))),
+    }
+}
+
+fn encode_i64(enc: [u8; 3]) -> Vec<i64> {
+    enc.iter().map(|&v| i64::from(v)).collect()
+}
+
+/// The grid of a dump, with ids in x-major order starting at 0.
+pub fn decode_grid(
+    rows: &[Vec<Vec<i64>>],
+    width: i64,
+    height: i64,
+    field: &str,
+) -> Result<Grid, EnvError> {
+    if rows.len() as i64 != width {
+        return Err(invalid(field, format!("{} columns, but width is {width}", rows.len())));
+    }
+    let mut grid = Grid::new(width as usize, height as usize);
+    let mut id = 0;
+    for (x, col) in rows.iter().enumerate() {
+        if col.len() as i64 != height {
+            return Err(invalid(
+                format!("{field}[{x}]"),
+                format!("{} cells, but height is {height}", col.len()),
+            ));
+        }
+        for (y, v) in col.iter().enumerate() {
+            let cell = decode_cell(v, id, &format!("{field}[{x}][{y}]"))?;
+            if cell.is_some() {
+                id += 1;
+            }
+            grid.set((x as i32, y as i32), cell);
+        }
+    }
+    Ok(grid)
+}
+
+/// MiniGrid's `pprint_grid`: two characters per cell, rows top to bottom.
+pub fn ascii_grid(grid: &Grid, agent_pos: Pos, agent_dir: u8) -> Vec<String> {
+    let mut lines = Vec::with_capacity(grid.height());
+    for y in 0..grid.height() as i32 {
+        let mut line = String::with_capacity(grid.width() * 2);
+        for x in 0..grid.width() as i32 {
+            if (x, y) == agent_pos {
+                let c = ['>', 'V', '<', '^'][usize::from(agent_dir & 3)];
+                line.push(c);
+                line.push(c);
+                continue;
+            }
+            let Some(o) = grid.get((x, y)) else {
+                line.push_str("  ");
+                continue;
+            };
+            let color = o.color.name().chars().next().unwrap_or(' ').to_ascii_uppercase();
+            let kind = match o.kind {
+                ObjectKind::Door => match o.state {
+                    DoorState::Open => {
+                        line.push_str("__");
+                        continue;
+                    }
+                    DoorState::Locked => 'L',
+                    DoorState::Closed => 'D',
+                },
+                ObjectKind::Wall => 'W',
+                ObjectKind::Floor => 'F',
+                ObjectKind::Key => 'K',
+                ObjectKind::Ball => 'A',
+                ObjectKind::Box => 'B',
+                ObjectKind::Goal => 'G',
+                ObjectKind::Lava => 'V',
+                ObjectKind::Unseen | ObjectKind::Empty | ObjectKind::Agent => '?',
+            };
+            line.push(kind);
+            line.push(color);
+        }
+        lines.push(line);
+    }
+    lines
+}
+
+fn pos_of(v: [i64; 2], field: &str) -> Result<Pos, EnvError> {
+    let ok = |x: i64| i32::try_from(x).map_err(|_| invalid(field, format!("{x} is out of range")));
+    Ok((ok(v[0])?, ok(v[1])?))
+}
+
+impl Snapshot {
+    /// Parses a snapshot from JSON text.
+    pub fn from_json(text: &str) -> Result<Self, EnvError> {
+        serde_json::from_str(text).map_err(|e| {
+            invalid(
+                format!("line {} column {}", e.line(), e.column()),
+                e.to_string(),
+            )
+        })
+    }
+
+    /// Serialises the snapshot as pretty JSON.
+    pub fn to_json(&self) -> String {
+        // Serialising plain data with string keys cannot fail.
+        serde_json::to_string_pretty(self).unwrap_or_default()
+    }
+
+    /// Rebuilds the world this snapshot describes (at its `step_count`).
+    pub fn to_world(&self) -> Result<World, EnvError> {
+        if !(1..=256).contains(&self.width) || !(1..=256).contains(&self.height) {
+            return Err(invalid("width", format!("{}×{} is not a grid size", self.width, self.height)));
+        }
+        if let Some(v) = self.agent_view_size
+            && v != 7
+        {
+            return Err(invalid("agent_view_size", format!("{v} is not supported (only 7)")));
+        }
+        if self.see_through_walls == Some(true) {
+            return Err(invalid("see_through_walls", "true is not supported"));
+        }
+        let grid = decode_grid(&self.grid, self.width, self.height, "grid")?;
+        let mut next_id = grid.objects().count() as u32;
+        let agent_pos = pos_of(self.agent_pos, "agent_pos")?;
+        let agent_dir = u8_in(self.agent_dir, 3, || "agent_dir".into())?;
+        let carrying = match &self.carrying {
+            None => None,
+            Some(c) => {
+                let obj = decode_cell(c, next_id, "carrying")?;
+                next_id += 1;
+                match obj {
+                    Some(o) if o.kind.can_pickup() => Some(o),
+                    _ => return Err(invalid("carrying", "only keys, balls and boxes can be carried")),
+                }
+            }
+        };
+        let instr = self.instruction()?;
+        let mut obj_set = Vec::new();
+        let mut obj_poss = Vec::new();
+        for (i, p) in self.instr.match_positions.iter().enumerate() {
+            let field = format!("instr.match_positions[{i}]");
+            let pos = pos_of(*p, &field)?;
+            match grid.get(pos) {
+                Some(o) if instr.desc.matches(&o) => {
+                    obj_set.push(o.id);
+                    obj_poss.push(pos);
+                }
+                Some(o) => {
+                    return Err(invalid(field, format!("{pos:?} holds a {}, which does not match", o.describe())));
+                }
+                None => return Err(invalid(field, format!("{pos:?} holds no object"))),
+            }
+        }
+        let max_steps = u32::try_from(self.max_steps)
+            .map_err(|_| invalid("max_steps", format!("{} is out of range", self.max_steps)))?;
+        let mut world = World::from_parts(
+            grid,
+            agent_pos,
+            agent_dir,
+            carrying,
+            instr,
+            max_steps,
+            self.done_actions,
+            next_id,
+            obj_set,
+            obj_poss,
+        )?;
+        world.step_count = u32::try_from(self.step_count)
+            .ok()
+            .filter(|s| *s < max_steps)
+            .ok_or_else(|| invalid("step_count", format!("{} is not below max_steps", self.step_count)))?;
+        if world.mission != self.mission {
+            return Err(invalid(
+                "mission",
+                format!("{:?} does not match the instruction, which reads {:?}", self.mission, world.mission),
+            ));
+        }
+        Ok(world)
+    }
+
+    fn instruction(&self) -> Result<Instruction, EnvError> {
+        let task = match self.instr.kind.as_str() {
+            "GoToInstr" => TaskKind::GoTo,
+            "PickupInstr" => TaskKind::Pickup,
+            other => return Err(invalid("instr.kind", format!("{other:?} is not GoToInstr or PickupInstr"))),
+        };
+        let kind = match &self.instr.kind_name {
+            None => None,
+            Some(t) => Some(
+                ObjectKind::from_name(t)
+                    .filter(|k| k.can_pickup())
+                    .ok_or_else(|| invalid("instr.type", format!("{t:?} is not key, ball or box")))?,
+            ),
+        };
+        let color = match &self.instr.color {
+            None => None,
+            Some(c) => Some(Color::from_name(c).ok_or_else(|| invalid("instr.color", format!("{c:?} is not a colour")))?),
+        };
+        let loc = match &self.instr.loc {
+            None => None,
+            Some(l) => Some(Loc::from_name(l).ok_or_else(|| invalid("instr.loc", format!("{l:?} is not a location")))?),
+        };
+        Ok(Instruction {
+            task,
+            desc: ObjDesc { kind, color, loc },
+            strict: self.instr.strict.unwrap_or(false),
+        })
+    }
+
+    /// The snapshot of `world` (no steps), with its observation as `initial_obs`.
+    pub fn from_world(world: &World, env_id: Option<String>, seed: Option<u64>) -> Self {
+        let grid = world.grid.encode().into_iter().map(|col| col.into_iter().map(encode_i64).collect()).collect();
+        let obs = world.observe();
+        let desc = world.instr.desc;
+        let carrying = world.carrying.map(|c| {
+            let e = c.encode();
+            [i64::from(e[0]), i64::from(e[1]), i64::from(e[2])]
+        });
+        Self {
+            minigrid_version: Some(format!("groundscope {}", env!("CARGO_PKG_VERSION"))),
+            env_id,
+            seed,
+            width: world.grid.width() as i64,
+            height: world.grid.height() as i64,
+            room_size: Some(world.grid.width() as i64),
+            agent_view_size: Some(7),
+            see_through_walls: Some(false),
+            done_actions: world.done_actions,
+            max_steps: i64::from(world.max_steps),
+            mission: world.mission.clone(),
+            instr: InstrJson {
+                kind: world.instr.task.instr_class().into(),
+                kind_name: desc.kind.map(|k| k.name().into()),
+                color: desc.color.map(|c| c.name().into()),
+                loc: desc.loc.map(|l| l.name().into()),
+                match_positions: world.verifier.obj_poss.iter().map(|p| [i64::from(p.0), i64::from(p.1)]).collect(),
+                strict: (world.instr.task == TaskKind::Pickup).then_some(world.instr.strict),
+            },
+            layout_note: None,
+            grid,
+            grid_ascii: ascii_grid(&world.grid, world.agent_pos, world.agent_dir),
+            agent_pos: [i64::from(world.agent_pos.0), i64::from(world.agent_pos.1)],
+            agent_dir: i64::from(world.agent_dir),
+            carrying,
+            step_count: i64::from(world.step_count),
+            initial_obs: Some(ObsJson {
+                image: obs_to_i64(&obs),
+                direction: i64::from(world.agent_dir),
+                mission: world.mission.clone(),
+            }),
+            steps: Vec::new(),
+        }
+    }
+}
+
+fn obs_to_i64(obs: &Observation) -> Vec<Vec<Vec<i64>>> {
+    obs.image.iter().map(|col| col.iter().map(|&c| encode_i64(c)).collect()).collect()
+}
+
+/// The first difference between a replay and its dump.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Mismatch {
+    /// 1-based step (0 = the initial state).
+    pub step: usize,
+    /// What differed, with expected and actual values.
+    pub what: String,
+}
+
+/// Replays a dump's actions from its initial state and compares every observation, reward,
+/// flag, pose, carried object and changed grid; returns the first mismatch, or the number
+/// of steps checked. Invalid dumps are errors.
+pub fn verify_dump(snap: &Snapshot) -> Result<Result<usize, Mismatch>, EnvError> {
+    let mut world = snap.to_world()?;
+    if let Some(obs) = &snap.initial_obs {
+        let got = obs_to_i64(&world.observe());
+        if got != obs.image {
+            return Ok(Err(Mismatch {
+                step: 0,
+                what: format!("initial observation differs: expected {:?}, got {got:?}", obs.image),
+            }));
+        }
+    }
+    let ascii = ascii_grid(&world.grid, world.agent_pos, world.agent_dir);
+    if !snap.grid_ascii.is_empty() && snap.grid_ascii != ascii {
+        return Ok(Err(Mismatch {
+            step: 0,
+            what: format!("grid_ascii differs: expected {:?}, got {ascii:?}", snap.grid_ascii),
+        }));
+    }
+    for (i, s) in snap.steps.iter().enumerate() {
+        let t = i + 1;
+        let field = format!("steps[{i}].action");
+        let action = usize::try_from(s.action)
+            .ok()
+            .and_then(Action::from_index)
+            .ok_or_else(|| invalid(field, format!("{} is not an action (0..=6)", s.action)))?;
+        if world.ended() {
+            return Ok(Err(Mismatch {
+                step: t,
+                what: "the dump continues after the episode ended".into(),
+            }));
+        }
+        let out = world.step(action)?;
+        let mismatch = |what: String| Ok(Err(Mismatch { step: t, what }));
+        let image = obs_to_i64(&world.observe());
+        if image != s.image {
+            return mismatch(format!("observation differs after {action}: expected {:?}, got {image:?}", s.image));
+        }
+        if out.reward != s.reward {
+            return mismatch(format!("reward: expected {}, got {}", s.reward, out.reward));
+        }
+        if out.terminated != s.terminated || out.truncated != s.truncated {
+            return mismatch(format!(
+                "terminated/truncated: expected {}/{}, got {}/{}",
+                s.terminated, s.truncated, out.terminated, out.truncated
+            ));
+        }
+        let pos = [i64::from(world.agent_pos.0), i64::from(world.agent_pos.1)];
+        if pos != s.agent_pos || i64::from(world.agent_dir) != s.agent_dir {
+            return mismatch(format!(
+                "agent pose: expected {:?} dir {}, got {pos:?} dir {}",
+                s.agent_pos, s.agent_dir, world.agent_dir
+            ));
+        }
+        if i64::from(world.step_count) != s.step_count {
+            return mismatch(format!("step_count: expected {}, got {}", s.step_count, world.step_count));
+        }
+        let carrying = world.carrying.map(|c| {
+            let e = c.encode();
+            [i64::from(e[0]), i64::from(e[1]), i64::from(e[2])]
+        });
+        if carrying != s.carrying {
+            return mismatch(format!("carrying: expected {:?}, got {carrying:?}", s.carrying));
+        }
+        if let Some(g) = &s.grid {
+            let got: Vec<Vec<Vec<i64>>> =
+                world.grid.encode().into_iter().map(|col| col.into_iter().map(encode_i64).collect()).collect();
+            if &got != g {
+                return mismatch("world grid differs".into());
+            }
+        }
+    }
+    Ok(Ok(snap.steps.len()))
+}

@@ -1,0 +1,81 @@
+//! The fixed mission vocabulary and BabyAI's tokenizer.
+//!
+//! BabyAI assigns word ids in first-seen order; we fix one table instead so that checkpoints
+//! are portable. Id 0 is padding; ids 1..=25 cover every GoTo / Pickup mission BabyAI's local
+//! levels produce, location phrases and "object" included.
+
+use super::error::EnvError;
+
+/// The padding id.
+pub const PAD: u32 = 0;
+
+/// The vocabulary, index = token id; index 0 is the padding token `<pad>`.
+pub const VOCABULARY: [&str; 26] = [
+    "<pad>", "a", "the", "go", "to", "pick", "up", "ball", "box", "key", "object", "red", "green",
+    "blue", "purple", "yellow", "grey", "in", "front", "of", "you", "behind", "on", "your",
+    "left", "right",
+];
+
+/// Vocabulary size including padding (the embedding table's rows).
+pub const VOCAB_SIZE: usize = VOCABULARY.len();
+
+/// The id of `word`, if it is in the vocabulary (padding excluded).
+pub fn token_id(word: &str) -> Option<u32> {
+    VOCABULARY
+        .iter()
+        .skip(1)
+        .position(|w| *w == word)
+        .map(|i| i as u32 + 1)
+}
+
+/// The word of token `id` (`"<pad>"` for 0), if any.
+pub fn word(id: u32) -> Option<&'static str> {
+    VOCABULARY.get(id as usize).copied()
+}
+
+/// BabyAI's split: lowercase, then maximal runs of `a`–`z` (everything else separates).
+pub fn split_words(mission: &str) -> Vec<String> {
+    let lower = mission.to_lowercase();
+    lower
+        .split(|c: char| !c.is_ascii_lowercase())
+        .filter(|w| !w.is_empty())
+        .map(str::to_owned)
+        .collect()
+}
+
+/// Token ids of `mission`; an unknown word is an error that names it and lists the vocabulary.
+pub fn tokenize(mission: &str) -> Result<Vec<u32>, EnvError> {
+    split_words(mission)
+        .into_iter()
+        .map(|w| {
+            token_id(&w).ok_or_else(|| EnvError::UnknownWord {
+                word: w.clone(),
+                mission: mission.to_owned(),
+                vocabulary: VOCABULARY[1..].join(" "),
+            })
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn tokenizes_like_babyai() {
+        assert_eq!(tokenize("go to the red key").unwrap(), vec![3, 4, 2, 11, 9]);
+        assert_eq!(tokenize("Pick up, a BOX").unwrap(), vec![5, 6, 1, 8]);
+        assert_eq!(split_words("go to  the ball!"), ["go", "to", "the", "ball"]);
+        let err = tokenize("go to the pink key").unwrap_err().to_string();
+        assert!(err.contains("\"pink\"") && err.contains("purple"), "{err}");
+    }
+
+    #[test]
+    fn ids_round_trip() {
+        for (i, w) in VOCABULARY.iter().enumerate().skip(1) {
+            assert_eq!(token_id(w), Some(i as u32));
+            assert_eq!(word(i as u32), Some(*w));
+        }
+        assert_eq!(token_id("<pad>"), None);
+    }
+}

@@ -1,0 +1,12 @@
+//! groundscope: a transparency viewer and debugger for language-conditioned RL agents whose
+//! policy grounds each mission word in what it sees (text-visual attention, PPO, BabyAI).
+//!
+//! Data flows one way: [`env`] (the world) → `policy` (actions and attention traces) →
+//! episode traces → consumers (metrics, recordings, the debugger).
+//!
+//! Coordinates follow MiniGrid: arrays are x-major (`grid[x][y]`, `image[vx][vy]`), `y` grows
+//! downward; in the agent's 7×7 view the agent sits at `(3, 6)` facing up. Displays show the
+//! view agent-up: row = `vy`, column = `vx`.
+
+pub mod env;
+pub mod render;
