@@ -9,4 +9,6 @@
 //! view agent-up: row = `vy`, column = `vx`.
 
 pub mod env;
+pub mod episode;
+pub mod policy;
 pub mod render;

@@ -24,9 +24,15 @@ fn snapshot_round_trips_through_json() {
     let snap = Snapshot::from_json(&std::fs::read_to_string(path).unwrap()).unwrap();
     let world = snap.to_world().unwrap();
     let again = Snapshot::from_world(&world, snap.env_id.clone(), snap.seed);
-    let world2 = Snapshot::from_json(&again.to_json()).unwrap().to_world().unwrap();
+    let world2 = Snapshot::from_json(&again.to_json())
+        .unwrap()
+        .to_world()
+        .unwrap();
     assert_eq!(world, world2);
     assert_eq!(again.grid, snap.grid);
     assert_eq!(again.grid_ascii, snap.grid_ascii);
-    assert_eq!(again.initial_obs.unwrap().image, snap.initial_obs.unwrap().image);
+    assert_eq!(
+        again.initial_obs.unwrap().image,
+        snap.initial_obs.unwrap().image
+    );
 }

@@ -47,7 +47,9 @@ impl LevelArgs {
 #[derive(Debug, Subcommand)]
 pub enum EnvCommand {
     /// Print a generated level (ASCII grid and mission), optionally as a PNG or snapshot.
-    #[command(after_long_help = "EXAMPLES:\n  groundscope env show --seed 3\n  groundscope env show --seed 3 --png level.png --snapshot level.json")]
+    #[command(
+        after_long_help = "EXAMPLES:\n  groundscope env show --seed 3\n  groundscope env show --seed 3 --png level.png --snapshot level.json"
+    )]
     Show {
         /// Level seed.
         #[arg(long, default_value_t = 0)]
@@ -70,7 +72,9 @@ pub enum EnvCommand {
     /// state and every observation, reward, terminated/truncated flag, agent pose, carried object
     /// and changed grid is compared. Prints the first mismatch of each failing file and ends with
     /// `N passed, M failed`.
-    #[command(after_long_help = "EXAMPLES:\n  groundscope env verify tests/fixtures/minigrid/*.json")]
+    #[command(
+        after_long_help = "EXAMPLES:\n  groundscope env verify tests/fixtures/minigrid/*.json"
+    )]
     Verify {
         /// Dump files.
         #[arg(required = true, value_name = "FILE")]
@@ -111,8 +115,8 @@ fn show(
         if !(4..=256).contains(&tile) {
             anyhow::bail!("--tile {tile} is outside 4..=256");
         }
-        let _ = (tile, &world);
-        anyhow::bail!("RENDER_PENDING {}", path.display());
+        let img = groundscope::render::render_world(&world, tile, true);
+        groundscope::render::save_png(&img, &path)?;
         println!("wrote {}", path.display());
     }
     if let Some(path) = snapshot {
@@ -126,8 +130,10 @@ fn verify(files: &[PathBuf]) -> anyhow::Result<ExitStatus> {
     // Read and parse everything first: an unreadable file is bad input (exit 2), not a mismatch.
     let mut dumps = Vec::with_capacity(files.len());
     for f in files {
-        let text = std::fs::read_to_string(f).with_context(|| format!("reading {}", f.display()))?;
-        let snap = Snapshot::from_json(&text).with_context(|| format!("reading {}", f.display()))?;
+        let text =
+            std::fs::read_to_string(f).with_context(|| format!("reading {}", f.display()))?;
+        let snap =
+            Snapshot::from_json(&text).with_context(|| format!("reading {}", f.display()))?;
         dumps.push((f, snap));
     }
     let (mut passed, mut failed) = (0, 0);

@@ -2,6 +2,7 @@
 
 mod bench;
 mod env_cmd;
+mod policy_cmd;
 
 use clap::{Parser, Subcommand};
 
@@ -27,6 +28,10 @@ pub enum Command {
     /// Inspect and check the world: `env show`, `env verify`.
     #[command(subcommand)]
     Env(env_cmd::EnvCommand),
+    /// Write a freshly, deterministically initialised checkpoint.
+    Init(policy_cmd::InitArgs),
+    /// Run a checkpoint on a level and seed, step by step, and write what it saw and did.
+    Replay(policy_cmd::ReplayArgs),
     /// Speed benchmarks that print JSON lines.
     #[command(subcommand)]
     Bench(bench::BenchCommand),
@@ -37,6 +42,8 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitStatus> {
     match cli.command {
         Command::Env(cmd) => env_cmd::run(cmd),
         Command::Bench(cmd) => bench::run(cmd),
+        Command::Init(args) => policy_cmd::init(&args),
+        Command::Replay(args) => policy_cmd::replay(&args),
     }
 }
 

@@ -82,7 +82,10 @@ impl Grid {
         for x in 0..self.width {
             for y in 0..self.height {
                 if x == 0 || y == 0 || x == self.width - 1 || y == self.height - 1 {
-                    self.set((x, y), Some(WorldObj::new(ObjectKind::Wall, Color::Grey, *next_id)));
+                    self.set(
+                        (x, y),
+                        Some(WorldObj::new(ObjectKind::Wall, Color::Grey, *next_id)),
+                    );
                     *next_id += 1;
                 }
             }

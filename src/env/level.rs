@@ -99,7 +99,11 @@ impl fmt::Display for LevelConfig {
             self.room_size,
             self.n_objects,
             if self.done_required { " done" } else { "" },
-            if self.color_optional { " colour-optional" } else { "" }
+            if self.color_optional {
+                " colour-optional"
+            } else {
+                ""
+            }
         )
     }
 }
@@ -120,7 +124,10 @@ impl LevelConfig {
             })
         };
         if self.room_size < 5 {
-            return bad("room_size", format!("{} is below the minimum of 5", self.room_size));
+            return bad(
+                "room_size",
+                format!("{} is below the minimum of 5", self.room_size),
+            );
         }
         if self.room_size > MAX_ROOM_SIZE {
             return bad(
@@ -285,13 +292,25 @@ mod tests {
             room_size: 4,
             ..LevelConfig::default()
         };
-        assert!(small.validate().unwrap_err().to_string().contains("room_size"));
+        assert!(
+            small
+                .validate()
+                .unwrap_err()
+                .to_string()
+                .contains("room_size")
+        );
         let crowded = LevelConfig {
             room_size: 5,
             n_objects: 9,
             ..LevelConfig::default()
         };
-        assert!(crowded.validate().unwrap_err().to_string().contains("n_objects"));
+        assert!(
+            crowded
+                .validate()
+                .unwrap_err()
+                .to_string()
+                .contains("n_objects")
+        );
     }
 
     #[test]
@@ -320,7 +339,10 @@ mod tests {
             }
         }
         assert!(the > a && a > 0);
-        assert!((200..400).contains(&no_color), "no colour in {no_color} of 2000");
+        assert!(
+            (200..400).contains(&no_color),
+            "no colour in {no_color} of 2000"
+        );
         assert!((900..1100).contains(&pickup), "pickup in {pickup} of 2000");
     }
 }

@@ -4,6 +4,7 @@ use std::fmt;
 
 use serde::{Deserialize, Serialize};
 
+use super::error::EnvError;
 use super::grid::{DIR_TO_VEC, Grid, Pos};
 use super::object::{Color, ObjectKind, WorldObj};
 
@@ -96,7 +97,12 @@ impl ObjDesc {
 
     /// `find_matching_objs(use_location=True)`: the ids and positions of all matching objects,
     /// in MiniGrid's x-major scan order, for an agent at `agent_pos` facing `agent_dir`.
-    pub fn find_matching(&self, grid: &Grid, agent_pos: Pos, agent_dir: u8) -> (Vec<u32>, Vec<Pos>) {
+    pub fn find_matching(
+        &self,
+        grid: &Grid,
+        agent_pos: Pos,
+        agent_dir: u8,
+    ) -> (Vec<u32>, Vec<Pos>) {
         let d1 = DIR_TO_VEC[usize::from(agent_dir & 3)];
         let d2 = (-d1.1, d1.0);
         let mut ids = Vec::new();
@@ -164,6 +170,54 @@ impl Instruction {
     }
 }
 
+impl Instruction {
+    /// Parses a BabyAI mission: `("go to" | "pick up") ("the" | "a") [colour] (type | "object")
+    /// [location phrase]`, lowercased and split as BabyAI's tokenizer does.
+    pub fn parse(text: &str) -> Result<Self, EnvError> {
+        let words = super::vocab::split_words(text);
+        super::vocab::tokenize(text)?;
+        let bad = |reason: &str| EnvError::InvalidMission {
+            mission: text.to_owned(),
+            reason: reason.to_owned(),
+        };
+        let w: Vec<&str> = words.iter().map(String::as_str).collect();
+        let (task, rest) = match w.as_slice() {
+            ["go", "to", rest @ ..] => (TaskKind::GoTo, rest),
+            ["pick", "up", rest @ ..] => (TaskKind::Pickup, rest),
+            _ => return Err(bad("it must start with \"go to\" or \"pick up\"")),
+        };
+        let rest = match rest {
+            ["the" | "a", rest @ ..] => rest,
+            _ => return Err(bad("an article (\"the\" or \"a\") must follow the verb")),
+        };
+        let (color, rest) = match rest {
+            [c, rest @ ..] if Color::from_name(c).is_some() => (Color::from_name(c), rest),
+            _ => (None, rest),
+        };
+        let (kind, rest) = match rest {
+            ["object", rest @ ..] => (None, rest),
+            [t, rest @ ..] => match ObjectKind::from_name(t).filter(|k| k.can_pickup()) {
+                Some(k) => (Some(k), rest),
+                None => return Err(bad(&format!("{t:?} is not key, ball, box or object"))),
+            },
+            [] => return Err(bad("it names no object")),
+        };
+        let loc = match rest {
+            [] => None,
+            ["in", "front", "of", "you"] => Some(Loc::Front),
+            ["behind", "you"] => Some(Loc::Behind),
+            ["on", "your", "left"] => Some(Loc::Left),
+            ["on", "your", "right"] => Some(Loc::Right),
+            _ => return Err(bad("unexpected words after the object")),
+        };
+        Ok(Self {
+            task,
+            desc: ObjDesc { kind, color, loc },
+            strict: false,
+        })
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -198,5 +252,34 @@ mod tests {
             loc: Some(Loc::Front),
         };
         assert_eq!(ball.surface(1), "the ball in front of you");
+    }
+
+    #[test]
+    fn parse_reads_back_every_surface_form() {
+        for text in [
+            "go to the red key",
+            "pick up a box",
+            "go to the ball",
+            "pick up the blue object on your left",
+            "go to a key behind you",
+        ] {
+            let i = Instruction::parse(text).unwrap();
+            let n = if text.contains(" a ") { 2 } else { 1 };
+            assert_eq!(i.surface(n), text);
+        }
+        assert!(
+            Instruction::parse("go to red key")
+                .unwrap_err()
+                .to_string()
+                .contains("article")
+        );
+        assert!(
+            Instruction::parse("go to the pink key")
+                .unwrap_err()
+                .to_string()
+                .contains("pink")
+        );
+        assert!(Instruction::parse("to the red key").is_err());
+        assert!(Instruction::parse("go to the red").is_err());
     }
 }

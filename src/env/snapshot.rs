@@ -154,7 +154,10 @@ fn u8_in(v: i64, max: u8, field: impl Fn() -> String) -> Result<u8, EnvError> {
 /// Decodes one `[type, colour, state]` triple (MiniGrid's `WorldObj.decode`).
 fn decode_cell(v: &[i64], id: u32, field: &str) -> Result<Cell, EnvError> {
     let [t, c, s] = v else {
-        return Err(invalid(field, format!("expected [type, colour, state], got {} values", v.len())));
+        return Err(invalid(
+            field,
+            format!("expected [type, colour, state], got {} values", v.len()),
+        ));
     };
     let kind = ObjectKind::from_index(u8_in(*t, 10, || format!("{field}[0]"))?)
         .ok_or_else(|| invalid(field, "unknown type"))?;
@@ -193,7 +196,10 @@ pub fn decode_grid(
     field: &str,
 ) -> Result<Grid, EnvError> {
     if rows.len() as i64 != width {
-        return Err(invalid(field, format!("{} columns, but width is {width}", rows.len())));
+        return Err(invalid(
+            field,
+            format!("{} columns, but width is {width}", rows.len()),
+        ));
     }
     let mut grid = Grid::new(width as usize, height as usize);
     let mut id = 0;
@@ -231,7 +237,13 @@ pub fn ascii_grid(grid: &Grid, agent_pos: Pos, agent_dir: u8) -> Vec<String> {
                 line.push_str("  ");
                 continue;
             };
-            let color = o.color.name().chars().next().unwrap_or(' ').to_ascii_uppercase();
+            let color = o
+                .color
+                .name()
+                .chars()
+                .next()
+                .unwrap_or(' ')
+                .to_ascii_uppercase();
             let kind = match o.kind {
                 ObjectKind::Door => match o.state {
                     DoorState::Open => {
@@ -283,12 +295,18 @@ impl Snapshot {
     /// Rebuilds the world this snapshot describes (at its `step_count`).
     pub fn to_world(&self) -> Result<World, EnvError> {
         if !(1..=256).contains(&self.width) || !(1..=256).contains(&self.height) {
-            return Err(invalid("width", format!("{}×{} is not a grid size", self.width, self.height)));
+            return Err(invalid(
+                "width",
+                format!("{}×{} is not a grid size", self.width, self.height),
+            ));
         }
         if let Some(v) = self.agent_view_size
             && v != 7
         {
-            return Err(invalid("agent_view_size", format!("{v} is not supported (only 7)")));
+            return Err(invalid(
+                "agent_view_size",
+                format!("{v} is not supported (only 7)"),
+            ));
         }
         if self.see_through_walls == Some(true) {
             return Err(invalid("see_through_walls", "true is not supported"));
@@ -304,7 +322,12 @@ impl Snapshot {
                 next_id += 1;
                 match obj {
                     Some(o) if o.kind.can_pickup() => Some(o),
-                    _ => return Err(invalid("carrying", "only keys, balls and boxes can be carried")),
+                    _ => {
+                        return Err(invalid(
+                            "carrying",
+                            "only keys, balls and boxes can be carried",
+                        ));
+                    }
                 }
             }
         };
@@ -320,7 +343,10 @@ impl Snapshot {
                     obj_poss.push(pos);
                 }
                 Some(o) => {
-                    return Err(invalid(field, format!("{pos:?} holds a {}, which does not match", o.describe())));
+                    return Err(invalid(
+                        field,
+                        format!("{pos:?} holds a {}, which does not match", o.describe()),
+                    ));
                 }
                 None => return Err(invalid(field, format!("{pos:?} holds no object"))),
             }
@@ -342,11 +368,19 @@ impl Snapshot {
         world.step_count = u32::try_from(self.step_count)
             .ok()
             .filter(|s| *s < max_steps)
-            .ok_or_else(|| invalid("step_count", format!("{} is not below max_steps", self.step_count)))?;
+            .ok_or_else(|| {
+                invalid(
+                    "step_count",
+                    format!("{} is not below max_steps", self.step_count),
+                )
+            })?;
         if world.mission != self.mission {
             return Err(invalid(
                 "mission",
-                format!("{:?} does not match the instruction, which reads {:?}", self.mission, world.mission),
+                format!(
+                    "{:?} does not match the instruction, which reads {:?}",
+                    self.mission, world.mission
+                ),
             ));
         }
         Ok(world)
@@ -356,23 +390,36 @@ impl Snapshot {
         let task = match self.instr.kind.as_str() {
             "GoToInstr" => TaskKind::GoTo,
             "PickupInstr" => TaskKind::Pickup,
-            other => return Err(invalid("instr.kind", format!("{other:?} is not GoToInstr or PickupInstr"))),
+            other => {
+                return Err(invalid(
+                    "instr.kind",
+                    format!("{other:?} is not GoToInstr or PickupInstr"),
+                ));
+            }
         };
         let kind = match &self.instr.kind_name {
             None => None,
             Some(t) => Some(
                 ObjectKind::from_name(t)
                     .filter(|k| k.can_pickup())
-                    .ok_or_else(|| invalid("instr.type", format!("{t:?} is not key, ball or box")))?,
+                    .ok_or_else(|| {
+                        invalid("instr.type", format!("{t:?} is not key, ball or box"))
+                    })?,
             ),
         };
         let color = match &self.instr.color {
             None => None,
-            Some(c) => Some(Color::from_name(c).ok_or_else(|| invalid("instr.color", format!("{c:?} is not a colour")))?),
+            Some(c) => Some(
+                Color::from_name(c)
+                    .ok_or_else(|| invalid("instr.color", format!("{c:?} is not a colour")))?,
+            ),
         };
         let loc = match &self.instr.loc {
             None => None,
-            Some(l) => Some(Loc::from_name(l).ok_or_else(|| invalid("instr.loc", format!("{l:?} is not a location")))?),
+            Some(l) => Some(
+                Loc::from_name(l)
+                    .ok_or_else(|| invalid("instr.loc", format!("{l:?} is not a location")))?,
+            ),
         };
         Ok(Instruction {
             task,
@@ -383,7 +430,12 @@ impl Snapshot {
 
     /// The snapshot of `world` (no steps), with its observation as `initial_obs`.
     pub fn from_world(world: &World, env_id: Option<String>, seed: Option<u64>) -> Self {
-        let grid = world.grid.encode().into_iter().map(|col| col.into_iter().map(encode_i64).collect()).collect();
+        let grid = world
+            .grid
+            .encode()
+            .into_iter()
+            .map(|col| col.into_iter().map(encode_i64).collect())
+            .collect();
         let obs = world.observe();
         let desc = world.instr.desc;
         let carrying = world.carrying.map(|c| {
@@ -407,7 +459,12 @@ impl Snapshot {
                 kind_name: desc.kind.map(|k| k.name().into()),
                 color: desc.color.map(|c| c.name().into()),
                 loc: desc.loc.map(|l| l.name().into()),
-                match_positions: world.verifier.obj_poss.iter().map(|p| [i64::from(p.0), i64::from(p.1)]).collect(),
+                match_positions: world
+                    .verifier
+                    .obj_poss
+                    .iter()
+                    .map(|p| [i64::from(p.0), i64::from(p.1)])
+                    .collect(),
                 strict: (world.instr.task == TaskKind::Pickup).then_some(world.instr.strict),
             },
             layout_note: None,
@@ -428,7 +485,10 @@ impl Snapshot {
 }
 
 fn obs_to_i64(obs: &Observation) -> Vec<Vec<Vec<i64>>> {
-    obs.image.iter().map(|col| col.iter().map(|&c| encode_i64(c)).collect()).collect()
+    obs.image
+        .iter()
+        .map(|col| col.iter().map(|&c| encode_i64(c)).collect())
+        .collect()
 }
 
 /// The first difference between a replay and its dump.
@@ -450,7 +510,10 @@ pub fn verify_dump(snap: &Snapshot) -> Result<Result<usize, Mismatch>, EnvError>
         if got != obs.image {
             return Ok(Err(Mismatch {
                 step: 0,
-                what: format!("initial observation differs: expected {:?}, got {got:?}", obs.image),
+                what: format!(
+                    "initial observation differs: expected {:?}, got {got:?}",
+                    obs.image
+                ),
             }));
         }
     }
@@ -458,7 +521,10 @@ pub fn verify_dump(snap: &Snapshot) -> Result<Result<usize, Mismatch>, EnvError>
     if !snap.grid_ascii.is_empty() && snap.grid_ascii != ascii {
         return Ok(Err(Mismatch {
             step: 0,
-            what: format!("grid_ascii differs: expected {:?}, got {ascii:?}", snap.grid_ascii),
+            what: format!(
+                "grid_ascii differs: expected {:?}, got {ascii:?}",
+                snap.grid_ascii
+            ),
         }));
     }
     for (i, s) in snap.steps.iter().enumerate() {
@@ -478,7 +544,10 @@ pub fn verify_dump(snap: &Snapshot) -> Result<Result<usize, Mismatch>, EnvError>
         let mismatch = |what: String| Ok(Err(Mismatch { step: t, what }));
         let image = obs_to_i64(&world.observe());
         if image != s.image {
-            return mismatch(format!("observation differs after {action}: expected {:?}, got {image:?}", s.image));
+            return mismatch(format!(
+                "observation differs after {action}: expected {:?}, got {image:?}",
+                s.image
+            ));
         }
         if out.reward != s.reward {
             return mismatch(format!("reward: expected {}, got {}", s.reward, out.reward));
@@ -497,18 +566,28 @@ pub fn verify_dump(snap: &Snapshot) -> Result<Result<usize, Mismatch>, EnvError>
             ));
         }
         if i64::from(world.step_count) != s.step_count {
-            return mismatch(format!("step_count: expected {}, got {}", s.step_count, world.step_count));
+            return mismatch(format!(
+                "step_count: expected {}, got {}",
+                s.step_count, world.step_count
+            ));
         }
         let carrying = world.carrying.map(|c| {
             let e = c.encode();
             [i64::from(e[0]), i64::from(e[1]), i64::from(e[2])]
         });
         if carrying != s.carrying {
-            return mismatch(format!("carrying: expected {:?}, got {carrying:?}", s.carrying));
+            return mismatch(format!(
+                "carrying: expected {:?}, got {carrying:?}",
+                s.carrying
+            ));
         }
         if let Some(g) = &s.grid {
-            let got: Vec<Vec<Vec<i64>>> =
-                world.grid.encode().into_iter().map(|col| col.into_iter().map(encode_i64).collect()).collect();
+            let got: Vec<Vec<Vec<i64>>> = world
+                .grid
+                .encode()
+                .into_iter()
+                .map(|col| col.into_iter().map(encode_i64).collect())
+                .collect();
             if &got != g {
                 return mismatch("world grid differs".into());
             }

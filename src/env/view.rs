@@ -118,7 +118,12 @@ pub fn view_cells(grid: &Grid, agent_pos: Pos, agent_dir: u8) -> [[Cell; VIEW_SI
 
 /// MiniGrid's `gen_obs`: slice, visibility, then the carried object (or nothing) at the
 /// agent's cell, encoded.
-pub fn observe(grid: &Grid, agent_pos: Pos, agent_dir: u8, carrying: Option<WorldObj>) -> Observation {
+pub fn observe(
+    grid: &Grid,
+    agent_pos: Pos,
+    agent_dir: u8,
+    carrying: Option<WorldObj>,
+) -> Observation {
     let mut cells = view_cells(grid, agent_pos, agent_dir);
     let mask = process_vis(&cells);
     cells[AGENT_IN_VIEW.0][AGENT_IN_VIEW.1] = carrying;

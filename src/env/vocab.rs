@@ -12,8 +12,8 @@ pub const PAD: u32 = 0;
 /// The vocabulary, index = token id; index 0 is the padding token `<pad>`.
 pub const VOCABULARY: [&str; 26] = [
     "<pad>", "a", "the", "go", "to", "pick", "up", "ball", "box", "key", "object", "red", "green",
-    "blue", "purple", "yellow", "grey", "in", "front", "of", "you", "behind", "on", "your",
-    "left", "right",
+    "blue", "purple", "yellow", "grey", "in", "front", "of", "you", "behind", "on", "your", "left",
+    "right",
 ];
 
 /// Vocabulary size including padding (the embedding table's rows).

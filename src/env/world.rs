@@ -141,7 +141,15 @@ impl World {
         check_pose(&grid, agent_pos, agent_dir)?;
         let (obj_set, obj_poss) = instr.desc.find_matching(&grid, agent_pos, agent_dir);
         Self::from_parts(
-            grid, agent_pos, agent_dir, carrying, instr, max_steps, done_actions, next_id, obj_set,
+            grid,
+            agent_pos,
+            agent_dir,
+            carrying,
+            instr,
+            max_steps,
+            done_actions,
+            next_id,
+            obj_set,
             obj_poss,
         )
     }
@@ -193,6 +201,30 @@ impl World {
             next_id,
             ended: false,
         })
+    }
+
+    /// Replaces the instruction (a mission override at step 0): targets are re-resolved at
+    /// the current pose and the verifier restarts. Errors if no object matches.
+    pub fn set_instruction(&mut self, instr: Instruction) -> Result<(), EnvError> {
+        let (obj_set, obj_poss) =
+            instr
+                .desc
+                .find_matching(&self.grid, self.agent_pos, self.agent_dir);
+        if obj_set.is_empty() {
+            return Err(EnvError::InvalidMission {
+                mission: instr.surface(1),
+                reason: "no object in this level matches it".into(),
+            });
+        }
+        self.mission = instr.surface(obj_set.len());
+        self.instr = instr;
+        self.verifier = Verifier {
+            obj_set,
+            obj_poss,
+            pre_carrying: None,
+            last_step_match: false,
+        };
+        Ok(())
     }
 
     /// The cell in front of the agent.
@@ -274,7 +306,11 @@ impl World {
                                     let has_key = self.carrying.is_some_and(|c| {
                                         c.kind == ObjectKind::Key && c.color == obj.color
                                     });
-                                    if has_key { DoorState::Open } else { DoorState::Locked }
+                                    if has_key {
+                                        DoorState::Open
+                                    } else {
+                                        DoorState::Locked
+                                    }
                                 }
                                 DoorState::Open => DoorState::Closed,
                                 DoorState::Closed => DoorState::Open,
@@ -373,11 +409,18 @@ fn check_pose(grid: &Grid, agent_pos: Pos, agent_dir: u8) -> Result<(), EnvError
     if !grid.contains(agent_pos) {
         return bad(
             "agent_pos",
-            format!("{agent_pos:?} is outside the {}×{} grid", grid.width(), grid.height()),
+            format!(
+                "{agent_pos:?} is outside the {}×{} grid",
+                grid.width(),
+                grid.height()
+            ),
         );
     }
     if agent_dir > 3 {
-        return bad("agent_dir", format!("{agent_dir} is not a direction (0..=3)"));
+        return bad(
+            "agent_dir",
+            format!("{agent_dir} is not a direction (0..=3)"),
+        );
     }
     if let Some(obj) = grid.get(agent_pos)
         && !obj.can_overlap()

@@ -4,7 +4,9 @@ use std::path::{Path, PathBuf};
 
 /// The fixture files of `tests/fixtures/<set>`, sorted.
 pub fn fixtures(set: &str) -> Vec<PathBuf> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures").join(set);
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/fixtures")
+        .join(set);
     let mut files: Vec<PathBuf> = std::fs::read_dir(&dir)
         .unwrap_or_else(|e| panic!("reading {}: {e}", dir.display()))
         .filter_map(|e| e.ok().map(|e| e.path()))
@@ -22,6 +24,11 @@ pub fn for_each_fixture(set: &str, check: impl Fn(&Path) -> Result<(), String>) 
         .iter()
         .filter_map(|f| check(f).err().map(|e| format!("{}: {e}", f.display())))
         .collect();
-    assert!(failures.is_empty(), "{} of {n} fixtures failed:\n{}", failures.len(), failures.join("\n"));
+    assert!(
+        failures.is_empty(),
+        "{} of {n} fixtures failed:\n{}",
+        failures.len(),
+        failures.join("\n")
+    );
     n
 }

@@ -1,0 +1,290 @@
+//! Episode traces: the one hand-off from `env` + `policy` to every consumer (metrics,
+//! recordings, the debugger). A trace is never recomputed elsewhere.
+
+use std::path::Path;
+
+use rand::{Rng, SeedableRng};
+use rand_pcg::Pcg64Mcg;
+use serde::Serialize;
+
+use crate::env::level::LevelConfig;
+use crate::env::mission::Instruction;
+use crate::env::snapshot::Snapshot;
+use crate::env::view::Observation;
+use crate::env::vocab;
+use crate::env::world::{Action, World};
+use crate::policy::{self, AttentionTrace, Checkpoint, Memory, Net, PolicyError};
+
+/// How actions are chosen from the policy's probabilities.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ActionMode {
+    /// The most probable action (ties go to the lowest index).
+    Greedy,
+    /// Sampled from the probabilities with an RNG seeded by the episode seed.
+    Sampled,
+}
+
+/// One step: what the agent saw and attended to, what it did, and what happened.
+#[derive(Clone, Debug)]
+pub struct StepRecord {
+    /// Step index, 0-based: the state before action `t`.
+    pub t: usize,
+    /// The world before the action.
+    pub world: World,
+    /// The observation the policy saw.
+    pub obs: Observation,
+    /// The attention trace (attention variant only).
+    pub attention: Option<AttentionTrace>,
+    /// Action probabilities.
+    pub probs: [f32; Action::COUNT],
+    /// Critic value.
+    pub value: f32,
+    /// The action taken.
+    pub action: Action,
+    /// Reward the action earned.
+    pub reward: f64,
+    /// The action ended the task (success or failure).
+    pub terminated: bool,
+    /// The action reached `max_steps`.
+    pub truncated: bool,
+}
+
+/// A whole episode.
+#[derive(Clone, Debug)]
+pub struct EpisodeTrace {
+    /// The checkpoint that acted (its path or name).
+    pub checkpoint: String,
+    /// Its variant.
+    pub variant: policy::Variant,
+    /// The level.
+    pub level: LevelConfig,
+    /// The level seed.
+    pub seed: u64,
+    /// Mission text (as the policy read it).
+    pub mission: String,
+    /// Mission tokens.
+    pub tokens: Vec<u32>,
+    /// Greedy or sampled.
+    pub mode: ActionMode,
+    /// The steps.
+    pub steps: Vec<StepRecord>,
+    /// The world after the last action.
+    pub final_world: World,
+}
+
+impl EpisodeTrace {
+    /// Whether the episode ended in success (a positive reward).
+    pub fn success(&self) -> bool {
+        self.steps.last().is_some_and(|s| s.reward > 0.0)
+    }
+
+    /// The episode's return (BabyAI rewards only the last step).
+    pub fn total_reward(&self) -> f64 {
+        self.steps.iter().map(|s| s.reward).sum()
+    }
+
+    /// The mission's words.
+    pub fn words(&self) -> Vec<&'static str> {
+        self.tokens
+            .iter()
+            .map(|&t| vocab::word(t).unwrap_or("?"))
+            .collect()
+    }
+}
+
+/// Chooses an action from probabilities.
+pub fn choose(probs: &[f32], mode: ActionMode, rng: &mut Pcg64Mcg) -> Action {
+    let idx = match mode {
+        ActionMode::Greedy => {
+            probs
+                .iter()
+                .enumerate()
+                .fold((0, f32::NEG_INFINITY), |best, (i, &p)| {
+                    if p > best.1 { (i, p) } else { best }
+                })
+                .0
+        }
+        ActionMode::Sampled => {
+            let u: f32 = rng.random();
+            let mut acc = 0.0;
+            probs
+                .iter()
+                .position(|&p| {
+                    acc += p;
+                    u < acc
+                })
+                .unwrap_or(probs.len() - 1)
+        }
+    };
+    Action::from_index(idx).unwrap_or(Action::Done)
+}
+
+/// What to run: the level, seed, optional mission override and action mode.
+#[derive(Clone, Debug)]
+pub struct EpisodeSpec {
+    /// The level.
+    pub level: LevelConfig,
+    /// The level seed.
+    pub seed: u64,
+    /// A mission that replaces the generated one (its words must be in the vocabulary and
+    /// name an object of the level).
+    pub mission: Option<String>,
+    /// Greedy or sampled.
+    pub mode: ActionMode,
+}
+
+/// The world an episode spec starts from.
+pub fn initial_world(spec: &EpisodeSpec) -> Result<World, PolicyError> {
+    let mut world = spec.level.generate(spec.seed)?;
+    if let Some(text) = &spec.mission {
+        world.set_instruction(Instruction::parse(text)?)?;
+    }
+    Ok(world)
+}
+
+/// Runs `net` from `world` to the end of the episode. The same inputs give the same trace.
+pub fn run_from(
+    net: &Net,
+    checkpoint: &str,
+    spec: &EpisodeSpec,
+    mut world: World,
+) -> Result<EpisodeTrace, PolicyError> {
+    let tokens = vocab::tokenize(&world.mission)?;
+    let mut rng = Pcg64Mcg::seed_from_u64(spec.seed ^ 0x9E37_79B9_7F4A_7C15);
+    let mut memory = Memory::zeros(1, net.cfg.lstm_hidden)?;
+    let mut steps = Vec::new();
+    while !world.ended() {
+        let obs = world.observe();
+        let out = policy::act(net, &[obs], &[&tokens], &memory, true)?;
+        memory = out.memory;
+        let probs_v = out.probs.into_iter().next().unwrap_or_default();
+        let mut probs = [0.0; Action::COUNT];
+        for (p, v) in probs.iter_mut().zip(&probs_v) {
+            *p = *v;
+        }
+        let action = choose(&probs, spec.mode, &mut rng);
+        let before = world.clone();
+        let outcome = world.step(action)?;
+        steps.push(StepRecord {
+            t: steps.len(),
+            world: before,
+            obs,
+            attention: out.traces.and_then(|t| t.into_iter().next()),
+            probs,
+            value: out.values.first().copied().unwrap_or(0.0),
+            action,
+            reward: outcome.reward,
+            terminated: outcome.terminated,
+            truncated: outcome.truncated,
+        });
+    }
+    Ok(EpisodeTrace {
+        checkpoint: checkpoint.to_owned(),
+        variant: net.cfg.variant,
+        level: spec.level,
+        seed: spec.seed,
+        mission: world.mission.clone(),
+        tokens,
+        mode: spec.mode,
+        steps,
+        final_world: world,
+    })
+}
+
+/// Runs a checkpoint on an episode spec.
+pub fn run_episode(
+    ckpt: &Checkpoint,
+    name: &str,
+    spec: &EpisodeSpec,
+) -> Result<EpisodeTrace, PolicyError> {
+    let net = Net::new(ckpt.meta.model, ckpt.params.detached());
+    run_from(&net, name, spec, initial_world(spec)?)
+}
+
+/// JSON form of one step (README documents it).
+#[derive(Serialize)]
+struct StepJson<'a> {
+    t: usize,
+    agent_pos: [i32; 2],
+    agent_dir: u8,
+    carrying: Option<[u8; 3]>,
+    obs: Vec<Vec<Vec<u8>>>,
+    action: u8,
+    action_name: &'static str,
+    probs: &'a [f32],
+    value: f32,
+    reward: f64,
+    terminated: bool,
+    truncated: bool,
+    attention: Option<&'a AttentionTrace>,
+}
+
+/// JSON form of a trace (README documents it).
+#[derive(Serialize)]
+struct TraceJson<'a> {
+    schema_version: u32,
+    checkpoint: &'a str,
+    variant: &'static str,
+    level: &'a LevelConfig,
+    seed: u64,
+    mission: &'a str,
+    tokens: Vec<&'static str>,
+    token_ids: &'a [u32],
+    mode: ActionMode,
+    success: bool,
+    total_reward: f64,
+    initial_state: Snapshot,
+    steps: Vec<StepJson<'a>>,
+}
+
+impl EpisodeTrace {
+    /// The trace as pretty JSON.
+    pub fn to_json(&self) -> String {
+        let first = self.steps.first().map_or(&self.final_world, |s| &s.world);
+        let json = TraceJson {
+            schema_version: 1,
+            checkpoint: &self.checkpoint,
+            variant: self.variant.name(),
+            level: &self.level,
+            seed: self.seed,
+            mission: &self.mission,
+            tokens: self.words(),
+            token_ids: &self.tokens,
+            mode: self.mode,
+            success: self.success(),
+            total_reward: self.total_reward(),
+            initial_state: Snapshot::from_world(
+                first,
+                Some(self.level.to_string()),
+                Some(self.seed),
+            ),
+            steps: self
+                .steps
+                .iter()
+                .map(|s| StepJson {
+                    t: s.t,
+                    agent_pos: [s.world.agent_pos.0, s.world.agent_pos.1],
+                    agent_dir: s.world.agent_dir,
+                    carrying: s.world.carrying.map(|c| c.encode()),
+                    obs: s.obs.to_nested(),
+                    action: s.action as u8,
+                    action_name: s.action.name(),
+                    probs: &s.probs,
+                    value: s.value,
+                    reward: s.reward,
+                    terminated: s.terminated,
+                    truncated: s.truncated,
+                    attention: s.attention.as_ref(),
+                })
+                .collect(),
+        };
+        // Plain data with string keys and finite floats cannot fail to serialise.
+        serde_json::to_string_pretty(&json).unwrap_or_default()
+    }
+
+    /// Writes the JSON trace atomically.
+    pub fn save_json(&self, path: &Path) -> Result<(), PolicyError> {
+        policy::checkpoint::write_atomic(path, self.to_json().as_bytes())
+    }
+}

@@ -1,0 +1,179 @@
+//! The text-visual attention of the paper (§3.3, eqs. 3–7); each formula lives only here.
+//!
+//! Shapes, for a batch of B frames, m words (padded) and 49 view cells:
+//! - `q`: (B, m, d_k) word queries `Q = g̃ W_q`; `kc`: (B, 49, d_k) cell keys `Kc = Õ W_k`;
+//! - `a`: (B, m, 49), `A = softmax_rows(Q Kcᵀ / √d_k)`, row i is word i's map;
+//! - `h`: (B, m), `H_i = −Σ_j A_ij ln A_ij` in nats, with `0 · ln 0 = 0`;
+//! - `w`: (B, m), `w = softmax(−H)` over the real words only (padding gets weight 0);
+//! - `m`: (B, 49), `M = Σ_i w_i A_i`;
+//! - `f`: (B, 49, K), `F_j = 49 · M_j · Õ_j`.
+//!
+//! The factor 49 in `F` is our choice where the paper is silent: with a uniform `M` it passes
+//! `Õ` through unchanged, so the LSTM input keeps the baseline's scale instead of shrinking
+//! 49-fold (it trains markedly faster; a constant factor changes no attention value).
+
+use candle_core::{D, Tensor};
+
+use super::error::PolicyError;
+use super::obs::N_CELLS;
+
+/// Smallest probability fed to `ln`, so that `0 · ln 0` evaluates to `0 · ln(tiny) = 0`.
+const TINY: f64 = 1e-30;
+
+/// Eq. 3–4: `A = softmax_rows(Q Kcᵀ / √d_k)`, (B, m, 49).
+pub fn attention_maps(q: &Tensor, kc: &Tensor) -> Result<Tensor, PolicyError> {
+    let d_k = q.dim(D::Minus1)? as f64;
+    let scores = (q.matmul(&kc.transpose(1, 2)?.contiguous()?)? / d_k.sqrt())?;
+    Ok(candle_nn::ops::softmax(&scores, D::Minus1)?)
+}
+
+/// Eq. 5: `H_i = −Σ_j A_ij ln A_ij` (nats), (B, m).
+pub fn entropies(a: &Tensor) -> Result<Tensor, PolicyError> {
+    let ln_a = a.clamp(TINY, 1.0)?.log()?;
+    Ok((a * ln_a)?.sum(D::Minus1)?.neg()?)
+}
+
+/// Eq. 6: `w = softmax(−H)` over real words; `mask` (B, m) is 1 for real words, 0 for padding.
+pub fn word_weights(h: &Tensor, mask: &Tensor) -> Result<Tensor, PolicyError> {
+    // Padding gets −1e9 before the softmax, i.e. exactly 0 after it.
+    let neg_h = h.neg()?;
+    let masked = ((&neg_h * mask)? + ((mask - 1.0)? * 1e9)?)?;
+    Ok(candle_nn::ops::softmax(&masked, D::Minus1)?)
+}
+
+/// Eq. 7: `M = Σ_i w_i A_i`, (B, 49).
+pub fn combined_map(w: &Tensor, a: &Tensor) -> Result<Tensor, PolicyError> {
+    Ok(w.unsqueeze(1)?.matmul(a)?.squeeze(1)?)
+}
+
+/// `F_j = 49 · M_j · Õ_j`: every cell's feature vector scaled by its combined attention,
+/// (B, 49, K).
+pub fn filter_features(o: &Tensor, m: &Tensor) -> Result<Tensor, PolicyError> {
+    Ok(o.broadcast_mul(&(m * N_CELLS as f64)?.unsqueeze(2)?)?)
+}
+
+/// Everything the attention module computes for a batch.
+#[derive(Clone, Debug)]
+pub struct AttentionOut {
+    /// (B, m, 49) per-word maps.
+    pub a: Tensor,
+    /// (B, m) entropies.
+    pub h: Tensor,
+    /// (B, m) word weights.
+    pub w: Tensor,
+    /// (B, 49) combined map.
+    pub m: Tensor,
+    /// (B, 49, K) filtered features.
+    pub f: Tensor,
+}
+
+/// Eqs. 3–7 and the filter, given queries, keys, the word mask and the cell features `Õ`.
+pub fn attend(
+    q: &Tensor,
+    kc: &Tensor,
+    mask: &Tensor,
+    o: &Tensor,
+) -> Result<AttentionOut, PolicyError> {
+    let a = attention_maps(q, kc)?;
+    let h = entropies(&a)?;
+    let w = word_weights(&h, mask)?;
+    let m = combined_map(&w, &a)?;
+    let f = filter_features(o, &m)?;
+    Ok(AttentionOut { a, h, w, m, f })
+}
+
+#[cfg(test)]
+mod tests {
+    use candle_core::Device;
+
+    use super::*;
+
+    fn round(v: &[f32], digits: i32) -> Vec<f32> {
+        let s = 10f32.powi(digits);
+        v.iter().map(|x| (x * s).round() / s).collect()
+    }
+
+    #[test]
+    fn maps_are_scaled_softmaxes_of_query_key_products() {
+        // One frame, one word, d_k = 4, two informative cells.
+        let q = Tensor::from_vec(vec![2f32, 0., 0., 0.], (1, 1, 4), &Device::Cpu).unwrap();
+        let mut keys = vec![0f32; 49 * 4];
+        keys[0] = 1.0; // cell 0: q·k = 2 → score 2/√4 = 1
+        keys[4] = 2.0; // cell 1: q·k = 4 → score 2
+        let kc = Tensor::from_vec(keys, (1, 49, 4), &Device::Cpu).unwrap();
+        let a = attention_maps(&q, &kc)
+            .unwrap()
+            .flatten_all()
+            .unwrap()
+            .to_vec1::<f32>()
+            .unwrap();
+        let z = 1f32.exp() + 2f32.exp() + 47.0;
+        assert!((a[0] - 1f32.exp() / z).abs() < 1e-6);
+        assert!((a[1] - 2f32.exp() / z).abs() < 1e-6);
+        assert!((a[2] - 1.0 / z).abs() < 1e-6);
+        assert!((a.iter().sum::<f32>() - 1.0).abs() < 1e-5);
+    }
+
+    #[test]
+    fn entropy_of_one_hot_is_zero_and_of_uniform_is_ln_n() {
+        let mut one_hot = vec![0f32; 49];
+        one_hot[10] = 1.0;
+        let uniform = vec![1.0 / 49.0; 49];
+        let mut half = vec![0f32; 49];
+        half[0] = 0.5;
+        half[1] = 0.5;
+        let a =
+            Tensor::from_vec([one_hot, uniform, half].concat(), (1, 3, 49), &Device::Cpu).unwrap();
+        let h = entropies(&a)
+            .unwrap()
+            .flatten_all()
+            .unwrap()
+            .to_vec1::<f32>()
+            .unwrap();
+        assert_eq!(round(&h, 5), round(&[0.0, 49f32.ln(), 2f32.ln()], 5));
+    }
+
+    #[test]
+    fn weights_mask_padding_and_split_ties_evenly() {
+        // Words 0 and 1 tie (H = 1), word 2 is focused (H = 0), word 3 is padding.
+        let h = Tensor::from_vec(vec![1f32, 1., 0., 0.], (1, 4), &Device::Cpu).unwrap();
+        let mask = Tensor::from_vec(vec![1f32, 1., 1., 0.], (1, 4), &Device::Cpu).unwrap();
+        let w = word_weights(&h, &mask)
+            .unwrap()
+            .flatten_all()
+            .unwrap()
+            .to_vec1::<f32>()
+            .unwrap();
+        let e = (-1f32).exp();
+        let z = 2.0 * e + 1.0;
+        assert_eq!(round(&w, 6), round(&[e / z, e / z, 1.0 / z, 0.0], 6));
+    }
+
+    #[test]
+    fn combined_map_is_the_weighted_sum_and_sums_to_one() {
+        let mut a0 = vec![0f32; 49];
+        a0[0] = 1.0;
+        let mut a1 = vec![0f32; 49];
+        a1[1] = 1.0;
+        let a = Tensor::from_vec([a0, a1].concat(), (1, 2, 49), &Device::Cpu).unwrap();
+        let w = Tensor::from_vec(vec![0.25f32, 0.75], (1, 2), &Device::Cpu).unwrap();
+        let m = combined_map(&w, &a)
+            .unwrap()
+            .flatten_all()
+            .unwrap()
+            .to_vec1::<f32>()
+            .unwrap();
+        assert_eq!(&m[..3], &[0.25, 0.75, 0.0]);
+        assert!((m.iter().sum::<f32>() - 1.0).abs() < 1e-6);
+        // Uniform M leaves Õ unchanged.
+        let o = Tensor::ones((1, 49, 3), candle_core::DType::F32, &Device::Cpu).unwrap();
+        let uni = Tensor::full(1f32 / 49.0, (1, 49), &Device::Cpu).unwrap();
+        let f = filter_features(&o, &uni)
+            .unwrap()
+            .flatten_all()
+            .unwrap()
+            .to_vec1::<f32>()
+            .unwrap();
+        assert!(f.iter().all(|x| (x - 1.0).abs() < 1e-5));
+    }
+}

@@ -1,0 +1,72 @@
+//! The serialisable model configuration: every size of the network.
+
+use serde::{Deserialize, Serialize};
+
+/// Which network: the paper's text-visual attention policy or its no-attention baseline.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Variant {
+    /// Per-word attention maps over the view (paper §3.3).
+    Attention,
+    /// The same network with `Õ` going straight into the LSTM.
+    Baseline,
+}
+
+impl Variant {
+    /// Parses `attention` or `baseline`.
+    pub fn parse(s: &str) -> Option<Self> {
+        match s {
+            "attention" => Some(Self::Attention),
+            "baseline" => Some(Self::Baseline),
+            _ => None,
+        }
+    }
+
+    /// The lowercase name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Attention => "attention",
+            Self::Baseline => "baseline",
+        }
+    }
+}
+
+/// Sizes of the network (DESIGN.md §1 defaults).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ModelConfig {
+    /// Attention or baseline.
+    pub variant: Variant,
+    /// K: channels of the 3×3 convolution that keeps the 7×7 grid.
+    pub conv_channels: usize,
+    /// E: word embedding size.
+    pub word_dim: usize,
+    /// d_k: query/key size.
+    pub key_dim: usize,
+    /// Hidden size of the LSTM over the (filtered) visual features.
+    pub lstm_hidden: usize,
+    /// Hidden size of the GRU over the mission words.
+    pub gru_hidden: usize,
+    /// Hidden units of the tanh layer in the actor and in the critic.
+    pub head_hidden: usize,
+}
+
+impl ModelConfig {
+    /// The DESIGN.md defaults for `variant`: K = 16, E = 32, d_k = 32, LSTM/GRU 128, heads 64.
+    pub fn new(variant: Variant) -> Self {
+        Self {
+            variant,
+            conv_channels: 16,
+            word_dim: 32,
+            key_dim: 32,
+            lstm_hidden: 128,
+            gru_hidden: 128,
+            head_hidden: 64,
+        }
+    }
+
+    /// Whether the network has the attention module.
+    pub fn has_attention(&self) -> bool {
+        self.variant == Variant::Attention
+    }
+}

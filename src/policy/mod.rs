@@ -1,0 +1,79 @@
+//! The policy: the paper's text-visual attention network and its no-attention baseline
+//! (candle), attention traces, checkpoints.
+
+pub mod attention;
+pub mod checkpoint;
+pub mod config;
+pub mod error;
+pub mod model;
+pub mod obs;
+pub mod params;
+pub mod trace;
+
+use candle_core::{Device, Tensor};
+
+pub use checkpoint::{Checkpoint, CheckpointMeta, TrainingState, checkpoint_paths};
+pub use config::{ModelConfig, Variant};
+pub use error::PolicyError;
+pub use model::{Memory, MissionInputs, Net};
+pub use obs::TokenBatch;
+pub use params::Params;
+pub use trace::{AttentionTrace, ViewMap, WordAttention};
+
+use crate::env::view::Observation;
+
+/// What one batched, gradient-free step returns for B environments.
+#[derive(Clone, Debug)]
+pub struct ActOutput {
+    /// (B, 7) action logits.
+    pub logits: Vec<Vec<f32>>,
+    /// (B, 7) action probabilities.
+    pub probs: Vec<Vec<f32>>,
+    /// (B,) critic values.
+    pub values: Vec<f32>,
+    /// The memory after the step.
+    pub memory: Memory,
+    /// One trace per environment (attention variant, when asked for).
+    pub traces: Option<Vec<AttentionTrace>>,
+}
+
+/// Steps B environments at once with detached weights (no gradient graph is built).
+/// `missions[b]` are environment b's tokens; `memory` is (B, H), already reset where an
+/// episode starts.
+pub fn act(
+    net: &Net,
+    obs: &[Observation],
+    missions: &[&[u32]],
+    memory: &Memory,
+    with_traces: bool,
+) -> Result<ActOutput, PolicyError> {
+    if obs.len() != missions.len() || memory.h.dim(0)? != obs.len() {
+        return Err(PolicyError::Input(format!(
+            "batch sizes differ: {} observations, {} missions, {} memories",
+            obs.len(),
+            missions.len(),
+            memory.h.dim(0)?
+        )));
+    }
+    let tb = TokenBatch::new(missions)?;
+    let mission = net.mission_inputs(&tb)?;
+    let patches = obs::patches(obs)?;
+    let (logits, values, memory, vis) = net.step(&patches, &mission, memory)?;
+    let traces = match (&vis.attention, with_traces) {
+        (Some(att), true) => Some(trace::extract(att, missions)?),
+        _ => None,
+    };
+    Ok(ActOutput {
+        probs: model::probs_host(&logits)?,
+        logits: logits.to_vec2::<f32>()?,
+        values: values.to_vec1::<f32>()?,
+        memory,
+        traces,
+    })
+}
+
+/// A (B,) f32 tensor on the CPU.
+pub fn vec_tensor(v: Vec<f32>) -> Result<Tensor, PolicyError> {
+    let n = v.len();
+    Ok(Tensor::from_vec(v, n, &Device::Cpu)?)
+}

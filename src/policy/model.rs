@@ -1,0 +1,275 @@
+//! The policy network (paper §3.3) and its no-attention baseline.
+//!
+//! ```text
+//! O (7×7 one-hot codes) ─conv3×3→ Õ (49×K) ─┬─ attention(Q from words, Kc from Õ) → A, H, w, M
+//!                                            └─ F = 49·M⊙Õ (baseline: F = Õ) → LSTM ─┐
+//! mission words → embeddings g̃ → GRU ──────────────────────────────────────────────────┴→ actor (7), critic (1)
+//! ```
+//! The LSTM and GRU follow PyTorch's equations and gate orders (LSTM i, f, g, o; GRU r, z, n).
+
+use std::collections::BTreeMap;
+
+use candle_core::{D, DType, Device, Tensor};
+
+use super::attention::{AttentionOut, attend};
+use super::config::ModelConfig;
+use super::error::PolicyError;
+use super::obs::{N_CELLS, PATCH, TokenBatch};
+use crate::env::world::Action;
+
+/// The network's weights plus its config; cheap to clone (tensors share storage).
+#[derive(Clone, Debug)]
+pub struct Net {
+    /// Sizes and variant.
+    pub cfg: ModelConfig,
+    w: BTreeMap<String, Tensor>,
+}
+
+/// Recurrent memory of B environments: LSTM `h` and `c`, each (B, H).
+#[derive(Clone, Debug)]
+pub struct Memory {
+    /// Hidden state.
+    pub h: Tensor,
+    /// Cell state.
+    pub c: Tensor,
+}
+
+impl Memory {
+    /// Zero memory for `batch` environments.
+    pub fn zeros(batch: usize, hidden: usize) -> Result<Self, PolicyError> {
+        let z = Tensor::zeros((batch, hidden), DType::F32, &Device::Cpu)?;
+        Ok(Self { h: z.clone(), c: z })
+    }
+
+    /// Memory with rows where `keep` is 0 reset to zero (episode starts).
+    pub fn masked(&self, keep: &Tensor) -> Result<Self, PolicyError> {
+        let k = keep.unsqueeze(1)?;
+        Ok(Self {
+            h: self.h.broadcast_mul(&k)?,
+            c: self.c.broadcast_mul(&k)?,
+        })
+    }
+}
+
+/// Output of the visual path for a batch of frames.
+#[derive(Clone, Debug)]
+pub struct Visual {
+    /// (B, 49·K) LSTM input.
+    pub x: Tensor,
+    /// Attention tensors (attention variant only).
+    pub attention: Option<AttentionOut>,
+}
+
+impl Net {
+    /// Wraps named weights (tracked for training, detached for acting).
+    pub fn new(cfg: ModelConfig, w: BTreeMap<String, Tensor>) -> Self {
+        Self { cfg, w }
+    }
+
+    fn p(&self, name: &str) -> Result<&Tensor, PolicyError> {
+        self.w
+            .get(name)
+            .ok_or_else(|| PolicyError::Input(format!("missing parameter {name}")))
+    }
+
+    fn linear(&self, x: &Tensor, prefix: &str) -> Result<Tensor, PolicyError> {
+        let w = self.p(&format!("{prefix}.weight"))?;
+        let b = self.p(&format!("{prefix}.bias"))?;
+        Ok(x.matmul(&w.t()?)?.broadcast_add(b)?)
+    }
+
+    /// `Õ = ReLU(Conv3×3(O))` for B frames from their patches (B·49, PATCH): (B, 49, K).
+    pub fn cells(&self, patches: &Tensor) -> Result<Tensor, PolicyError> {
+        let k = self.cfg.conv_channels;
+        let w = self.p("encoder.conv.weight")?.reshape((k, PATCH))?;
+        let b = self.p("encoder.conv.bias")?;
+        let rows = patches.dim(0)?;
+        let o = patches.matmul(&w.t()?)?.broadcast_add(b)?.relu()?;
+        Ok(o.reshape((rows / N_CELLS, N_CELLS, k))?)
+    }
+
+    /// Word embeddings `g̃` of the distinct missions: (U, L, E).
+    pub fn embed(&self, tb: &TokenBatch) -> Result<Tensor, PolicyError> {
+        let (u, l) = tb.tokens.dims2()?;
+        let emb = self.p("word_emb.weight")?;
+        Ok(emb
+            .index_select(&tb.tokens.flatten_all()?, 0)?
+            .reshape((u, l, self.cfg.word_dim))?)
+    }
+
+    /// The GRU over each distinct mission's real words; its last state: (U, H_gru).
+    pub fn encode_text(&self, tb: &TokenBatch, emb: &Tensor) -> Result<Tensor, PolicyError> {
+        let (u, l) = tb.tokens.dims2()?;
+        let hg = self.cfg.gru_hidden;
+        let w_ih = self.p("gru.weight_ih_l0")?;
+        let w_hh = self.p("gru.weight_hh_l0")?;
+        let b_ih = self.p("gru.bias_ih_l0")?;
+        let b_hh = self.p("gru.bias_hh_l0")?;
+        let gx_all = emb
+            .reshape((u * l, self.cfg.word_dim))?
+            .matmul(&w_ih.t()?)?
+            .broadcast_add(b_ih)?
+            .reshape((u, l, 3 * hg))?;
+        let mut h = Tensor::zeros((u, hg), DType::F32, &Device::Cpu)?;
+        for t in 0..l {
+            let gx = gx_all.narrow(1, t, 1)?.squeeze(1)?;
+            let gh = h.matmul(&w_hh.t()?)?.broadcast_add(b_hh)?;
+            let rz =
+                candle_nn::ops::sigmoid(&(gx.narrow(1, 0, 2 * hg)? + gh.narrow(1, 0, 2 * hg)?)?)?;
+            let r = rz.narrow(1, 0, hg)?;
+            let z = rz.narrow(1, hg, hg)?;
+            let n = (gx.narrow(1, 2 * hg, hg)? + (r * gh.narrow(1, 2 * hg, hg)?)?)?.tanh()?;
+            let h_new = ((&n + (&z * (&h - &n)?)?)?).clone();
+            // Padding steps keep the state: h = h_new·valid + h·(1 − valid).
+            let valid = tb.mask.narrow(1, t, 1)?;
+            h = (&h + (h_new - &h)?.broadcast_mul(&valid)?)?;
+        }
+        Ok(h)
+    }
+
+    /// Word queries `Q = g̃ W_q` of the distinct missions: (U, L, d_k).
+    pub fn queries(&self, emb: &Tensor) -> Result<Tensor, PolicyError> {
+        let (u, l, e) = emb.dims3()?;
+        let wq = self.p("attention.q.weight")?;
+        Ok(emb
+            .reshape((u * l, e))?
+            .matmul(&wq.t()?)?
+            .reshape((u, l, self.cfg.key_dim))?)
+    }
+
+    /// The visual path for B frames: `Õ`, then (attention variant) `Kc`, A, H, w, M and `F`.
+    /// `q` is (B, L, d_k) and `mask` (B, L), both gathered per frame.
+    pub fn visual(&self, o: &Tensor, q: Option<(&Tensor, &Tensor)>) -> Result<Visual, PolicyError> {
+        let (b, n, k) = o.dims3()?;
+        match q {
+            Some((q, mask)) if self.cfg.has_attention() => {
+                let wk = self.p("attention.k.weight")?;
+                let kc =
+                    o.reshape((b * n, k))?
+                        .matmul(&wk.t()?)?
+                        .reshape((b, n, self.cfg.key_dim))?;
+                let out = attend(q, &kc, mask, o)?;
+                Ok(Visual {
+                    x: out.f.reshape((b, n * k))?,
+                    attention: Some(out),
+                })
+            }
+            _ => Ok(Visual {
+                x: o.reshape((b, n * k))?,
+                attention: None,
+            }),
+        }
+    }
+
+    /// The LSTM input projection for all frames at once: `x W_ihᵀ + b_ih`, (B, 4H).
+    pub fn lstm_input(&self, x: &Tensor) -> Result<Tensor, PolicyError> {
+        Ok(x.matmul(&self.p("lstm.weight_ih_l0")?.t()?)?
+            .broadcast_add(self.p("lstm.bias_ih_l0")?)?)
+    }
+
+    /// One LSTM step from the projected input `gx` (B, 4H).
+    pub fn lstm_cell(&self, gx: &Tensor, mem: &Memory) -> Result<Memory, PolicyError> {
+        let hd = self.cfg.lstm_hidden;
+        let g = (gx
+            + mem
+                .h
+                .matmul(&self.p("lstm.weight_hh_l0")?.t()?)?
+                .broadcast_add(self.p("lstm.bias_hh_l0")?)?)?;
+        let ifo = candle_nn::ops::sigmoid(&g)?;
+        let i = ifo.narrow(1, 0, hd)?;
+        let f = ifo.narrow(1, hd, hd)?;
+        let o = ifo.narrow(1, 3 * hd, hd)?;
+        let gg = g.narrow(1, 2 * hd, hd)?.tanh()?;
+        let c = ((f * &mem.c)? + (i * gg)?)?;
+        let h = (o * c.tanh()?)?;
+        Ok(Memory { h, c })
+    }
+
+    /// Actor logits (B, 7) and critic values (B,) from the LSTM output and the text code.
+    pub fn heads(&self, h: &Tensor, text: &Tensor) -> Result<(Tensor, Tensor), PolicyError> {
+        let z = Tensor::cat(&[h, text], 1)?;
+        let a = self.linear(&self.linear(&z, "actor.0")?.tanh()?, "actor.2")?;
+        let v = self.linear(&self.linear(&z, "critic.0")?.tanh()?, "critic.2")?;
+        Ok((a, v.squeeze(1)?))
+    }
+
+    /// Everything that depends only on the missions: text codes and queries per frame.
+    pub fn mission_inputs(&self, tb: &TokenBatch) -> Result<MissionInputs, PolicyError> {
+        let emb = self.embed(tb)?;
+        let text = self.encode_text(tb, &emb)?.index_select(&tb.index, 0)?;
+        let queries = if self.cfg.has_attention() {
+            let q = self.queries(&emb)?.index_select(&tb.index, 0)?;
+            let mask = tb.mask.index_select(&tb.index, 0)?;
+            Some((q, mask))
+        } else {
+            None
+        };
+        Ok(MissionInputs { text, queries })
+    }
+
+    /// One step for B frames: returns logits, values, the new memory and the visual outputs.
+    pub fn step(
+        &self,
+        patches: &Tensor,
+        mission: &MissionInputs,
+        mem: &Memory,
+    ) -> Result<(Tensor, Tensor, Memory, Visual), PolicyError> {
+        let o = self.cells(patches)?;
+        let vis = self.visual(&o, mission.queries.as_ref().map(|(q, m)| (q, m)))?;
+        let gx = self.lstm_input(&vis.x)?;
+        let mem = self.lstm_cell(&gx, mem)?;
+        let (logits, values) = self.heads(&mem.h, &mission.text)?;
+        Ok((logits, values, mem, vis))
+    }
+
+    /// A recurrent sequence for training: `patches` hold T·n frames in t-major order
+    /// (row = t·n + j), `keep` is (T, n) with 0 where an episode starts at step t.
+    /// Returns logits (T·n, 7), values (T·n,) and the memory after every step.
+    pub fn sequence(
+        &self,
+        patches: &Tensor,
+        mission: &MissionInputs,
+        mem0: &Memory,
+        keep: &Tensor,
+    ) -> Result<(Tensor, Tensor, Vec<Memory>), PolicyError> {
+        let (t_len, n) = keep.dims2()?;
+        let o = self.cells(patches)?;
+        let vis = self.visual(&o, mission.queries.as_ref().map(|(q, m)| (q, m)))?;
+        let gx = self.lstm_input(&vis.x)?;
+        let mut mem = mem0.clone();
+        let mut hs = Vec::with_capacity(t_len);
+        let mut mems = Vec::with_capacity(t_len);
+        for t in 0..t_len {
+            let masked = mem.masked(&keep.get(t)?)?;
+            mem = self.lstm_cell(&gx.narrow(0, t * n, n)?, &masked)?;
+            hs.push(mem.h.clone());
+            mems.push(mem.clone());
+        }
+        let (logits, values) = self.heads(&Tensor::cat(&hs, 0)?, &mission.text)?;
+        Ok((logits, values, mems))
+    }
+
+    /// Number of actions the actor scores.
+    pub fn n_actions(&self) -> usize {
+        Action::COUNT
+    }
+}
+
+/// Per-frame mission inputs: the GRU code (B, H_gru) and, for attention, queries and mask.
+#[derive(Clone, Debug)]
+pub struct MissionInputs {
+    /// (B, H_gru).
+    pub text: Tensor,
+    /// (B, L, d_k) queries and (B, L) word mask.
+    pub queries: Option<(Tensor, Tensor)>,
+}
+
+/// Softmax probabilities of logits on the host, row by row.
+pub fn probs_host(logits: &Tensor) -> Result<Vec<Vec<f32>>, PolicyError> {
+    Ok(candle_nn::ops::softmax_last_dim(logits)?.to_vec2::<f32>()?)
+}
+
+/// Log-probabilities (B, A) with gradient.
+pub fn log_probs(logits: &Tensor) -> Result<Tensor, PolicyError> {
+    Ok(candle_nn::ops::log_softmax(logits, D::Minus1)?)
+}

@@ -1,0 +1,163 @@
+//! Host-side input encoding: observations → convolution patches, missions → token batches.
+//!
+//! Each view cell is one-hot encoded over [`CELL_CODES`] = 20 codes (11 object types, 6
+//! colours, 3 states), so the first layer is equivalent to BabyAI 1.1's embedding of the
+//! integer codes. The 3×3 convolution (padding 1) runs as one GEMM over im2col patches built
+//! here: observations are constants, so building patches on the host costs nothing in backward.
+//! Cells are ordered agent-up: flat index `j = vy·7 + vx` (row 0 farthest ahead, the agent at
+//! `j = 45`), so every 49-vector reshapes to the 7×7 picture the displays show.
+
+use std::collections::BTreeMap;
+
+use candle_core::{Device, Tensor};
+
+use super::error::PolicyError;
+use crate::env::view::{Observation, VIEW_SIZE};
+
+/// One-hot codes per cell: 11 object types, then 6 colours, then 3 states.
+pub const CELL_CODES: usize = 11 + 6 + 3;
+
+/// Cells in the view.
+pub const N_CELLS: usize = VIEW_SIZE * VIEW_SIZE;
+
+/// Length of one im2col patch: `CELL_CODES × 3 × 3`, index `c·9 + ky·3 + kx`.
+pub const PATCH: usize = CELL_CODES * 9;
+
+/// The one-hot codes set for an encoded cell.
+#[inline]
+fn codes(enc: [u8; 3]) -> [usize; 3] {
+    [
+        usize::from(enc[0]).min(10),
+        11 + usize::from(enc[1]).min(5),
+        17 + usize::from(enc[2]).min(2),
+    ]
+}
+
+/// Appends the 49 patches of `obs` (49 × [`PATCH`] floats) to `out`.
+pub fn push_patches(obs: &Observation, out: &mut Vec<f32>) {
+    let start = out.len();
+    out.resize(start + N_CELLS * PATCH, 0.0);
+    let dst = &mut out[start..];
+    let v = VIEW_SIZE as i32;
+    for vy in 0..v {
+        for vx in 0..v {
+            let codes = codes(obs.image[vx as usize][vy as usize]);
+            // This cell feeds the patch of every neighbour (ny, nx) at kernel offset (ky, kx).
+            for ky in 0..3 {
+                for kx in 0..3 {
+                    let (ny, nx) = (vy - (ky - 1), vx - (kx - 1));
+                    if !(0..v).contains(&ny) || !(0..v).contains(&nx) {
+                        continue;
+                    }
+                    let row = (ny * v + nx) as usize * PATCH;
+                    for c in codes {
+                        dst[row + c * 9 + (ky * 3 + kx) as usize] = 1.0;
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// Patches of a batch of observations as a `(B·49, PATCH)` tensor.
+pub fn patches(obs: &[Observation]) -> Result<Tensor, PolicyError> {
+    let mut data = Vec::with_capacity(obs.len() * N_CELLS * PATCH);
+    for o in obs {
+        push_patches(o, &mut data);
+    }
+    Ok(Tensor::from_vec(
+        data,
+        (obs.len() * N_CELLS, PATCH),
+        &Device::Cpu,
+    )?)
+}
+
+/// Missions of a batch, deduplicated: the text encoder runs once per distinct mission.
+#[derive(Clone, Debug)]
+pub struct TokenBatch {
+    /// `(U, L)` u32 token ids, right-padded with 0.
+    pub tokens: Tensor,
+    /// `(U, L)` f32, 1 for real words.
+    pub mask: Tensor,
+    /// Real length of each distinct mission.
+    pub lengths: Vec<usize>,
+    /// `(B,)` u32: which distinct mission each batch row uses.
+    pub index: Tensor,
+    /// The distinct token sequences, in `tokens` row order.
+    pub distinct: Vec<Vec<u32>>,
+    /// Distinct-mission row of each batch row (host copy of `index`).
+    pub rows: Vec<usize>,
+}
+
+impl TokenBatch {
+    /// Builds the batch; every mission needs at least one word.
+    pub fn new(missions: &[&[u32]]) -> Result<Self, PolicyError> {
+        let mut ids: BTreeMap<&[u32], usize> = BTreeMap::new();
+        let mut distinct: Vec<Vec<u32>> = Vec::new();
+        let mut rows = Vec::with_capacity(missions.len());
+        for m in missions {
+            if m.is_empty() {
+                return Err(PolicyError::Input("a mission has no words".into()));
+            }
+            let next = distinct.len();
+            let row = *ids.entry(m).or_insert_with(|| {
+                distinct.push(m.to_vec());
+                next
+            });
+            rows.push(row);
+        }
+        let l = distinct.iter().map(Vec::len).max().unwrap_or(1);
+        let u = distinct.len();
+        let mut tokens = vec![0u32; u * l];
+        let mut mask = vec![0f32; u * l];
+        for (i, d) in distinct.iter().enumerate() {
+            tokens[i * l..i * l + d.len()].copy_from_slice(d);
+            mask[i * l..i * l + d.len()]
+                .iter_mut()
+                .for_each(|x| *x = 1.0);
+        }
+        let index: Vec<u32> = rows.iter().map(|&r| r as u32).collect();
+        Ok(Self {
+            tokens: Tensor::from_vec(tokens, (u, l), &Device::Cpu)?,
+            mask: Tensor::from_vec(mask, (u, l), &Device::Cpu)?,
+            lengths: distinct.iter().map(Vec::len).collect(),
+            index: Tensor::from_vec(index, missions.len(), &Device::Cpu)?,
+            distinct,
+            rows,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn patch_centre_holds_the_cell_itself() {
+        let mut obs = Observation {
+            image: [[[1, 0, 0]; 7]; 7],
+        };
+        obs.image[2][4] = [6, 3, 0]; // purple ball at vx 2, vy 4
+        let mut p = Vec::new();
+        push_patches(&obs, &mut p);
+        let row = (4 * 7 + 2) * PATCH;
+        let centre = |c: usize| p[row + c * 9 + 4];
+        assert_eq!(centre(6), 1.0);
+        assert_eq!(centre(11 + 3), 1.0);
+        assert_eq!(centre(1), 0.0);
+        // Zero padding: the top-left cell's patch has no neighbours above or to the left.
+        let top_left = &p[..PATCH];
+        assert!((0..CELL_CODES).all(|c| top_left[c * 9] == 0.0 && top_left[c * 9 + 1] == 0.0));
+        assert_eq!(p.iter().sum::<f32>() as usize, 3 * (49 * 9 - 4 * 7 * 3 + 4));
+    }
+
+    #[test]
+    fn token_batch_dedups() {
+        let a = [3u32, 4, 2, 11, 9];
+        let b = [5u32, 6, 1, 8];
+        let tb = TokenBatch::new(&[&a, &b, &a]).unwrap();
+        assert_eq!(tb.rows, vec![0, 1, 0]);
+        assert_eq!(tb.lengths, vec![5, 4]);
+        assert_eq!(tb.tokens.dims(), &[2, 5]);
+    }
+}

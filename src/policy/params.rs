@@ -1,0 +1,204 @@
+//! Parameter names, shapes and deterministic initialisation.
+//!
+//! Names follow PyTorch (`lstm.weight_ih_l0`, gates i, f, g, o; `gru.*`, gates r, z, n) so the
+//! safetensors files read naturally from Python. Candle's CPU RNG cannot be seeded, so every
+//! tensor is drawn from our own seeded generator, in name order.
+
+use std::collections::BTreeMap;
+
+use candle_core::{DType, Device, Tensor, Var};
+use rand::{Rng, SeedableRng};
+use rand_distr::{Distribution, StandardNormal};
+use rand_pcg::Pcg64Mcg;
+
+use super::config::ModelConfig;
+use super::error::PolicyError;
+use super::obs::CELL_CODES;
+use crate::env::vocab::VOCAB_SIZE;
+use crate::env::world::Action;
+
+/// How a tensor is initialised.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Init {
+    /// torch-ac's Linear init: N(0, 1), each row scaled to unit L2 norm.
+    RowNormal,
+    /// U(−b, b).
+    Uniform(f32),
+    /// N(0, 1) (PyTorch's `nn.Embedding`).
+    Normal,
+    /// All zeros.
+    Zeros,
+}
+
+/// One parameter: name, shape, init.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ParamSpec {
+    /// Stable tensor name (documented in README).
+    pub name: String,
+    /// Shape.
+    pub shape: Vec<usize>,
+    /// Initialisation.
+    pub init: Init,
+}
+
+fn spec(name: &str, shape: &[usize], init: Init) -> ParamSpec {
+    ParamSpec {
+        name: name.to_owned(),
+        shape: shape.to_vec(),
+        init,
+    }
+}
+
+/// Every parameter of the network described by `cfg`, sorted by name.
+pub fn param_specs(cfg: &ModelConfig) -> Vec<ParamSpec> {
+    let k = cfg.conv_channels;
+    let (e, dk) = (cfg.word_dim, cfg.key_dim);
+    let (hl, hg, hh) = (cfg.lstm_hidden, cfg.gru_hidden, cfg.head_hidden);
+    let conv_fan_in = (CELL_CODES * 9) as f32;
+    let lstm_b = 1.0 / (hl as f32).sqrt();
+    let gru_b = 1.0 / (hg as f32).sqrt();
+    let mut v = vec![
+        spec(
+            "encoder.conv.weight",
+            &[k, CELL_CODES, 3, 3],
+            Init::Uniform(1.0 / conv_fan_in.sqrt()),
+        ),
+        spec(
+            "encoder.conv.bias",
+            &[k],
+            Init::Uniform(1.0 / conv_fan_in.sqrt()),
+        ),
+        spec("word_emb.weight", &[VOCAB_SIZE, e], Init::Normal),
+        spec(
+            "lstm.weight_ih_l0",
+            &[4 * hl, 49 * k],
+            Init::Uniform(lstm_b),
+        ),
+        spec("lstm.weight_hh_l0", &[4 * hl, hl], Init::Uniform(lstm_b)),
+        spec("lstm.bias_ih_l0", &[4 * hl], Init::Uniform(lstm_b)),
+        spec("lstm.bias_hh_l0", &[4 * hl], Init::Uniform(lstm_b)),
+        spec("gru.weight_ih_l0", &[3 * hg, e], Init::Uniform(gru_b)),
+        spec("gru.weight_hh_l0", &[3 * hg, hg], Init::Uniform(gru_b)),
+        spec("gru.bias_ih_l0", &[3 * hg], Init::Uniform(gru_b)),
+        spec("gru.bias_hh_l0", &[3 * hg], Init::Uniform(gru_b)),
+        spec("actor.0.weight", &[hh, hl + hg], Init::RowNormal),
+        spec("actor.0.bias", &[hh], Init::Zeros),
+        spec("actor.2.weight", &[Action::COUNT, hh], Init::RowNormal),
+        spec("actor.2.bias", &[Action::COUNT], Init::Zeros),
+        spec("critic.0.weight", &[hh, hl + hg], Init::RowNormal),
+        spec("critic.0.bias", &[hh], Init::Zeros),
+        spec("critic.2.weight", &[1, hh], Init::RowNormal),
+        spec("critic.2.bias", &[1], Init::Zeros),
+    ];
+    if cfg.has_attention() {
+        v.push(spec("attention.q.weight", &[dk, e], Init::RowNormal));
+        v.push(spec("attention.k.weight", &[dk, k], Init::RowNormal));
+    }
+    v.sort_by(|a, b| a.name.cmp(&b.name));
+    v
+}
+
+/// Draws the values of one parameter.
+fn draw(spec: &ParamSpec, rng: &mut Pcg64Mcg) -> Vec<f32> {
+    let n: usize = spec.shape.iter().product();
+    match spec.init {
+        Init::Zeros => vec![0.0; n],
+        Init::Uniform(b) => (0..n).map(|_| rng.random_range(-b..b)).collect(),
+        Init::Normal => (0..n).map(|_| StandardNormal.sample(rng)).collect(),
+        Init::RowNormal => {
+            let cols = spec.shape.last().copied().unwrap_or(1).max(1);
+            let mut v: Vec<f32> = (0..n).map(|_| StandardNormal.sample(rng)).collect();
+            for row in v.chunks_mut(cols) {
+                let norm = row.iter().map(|x| x * x).sum::<f32>().sqrt().max(1e-12);
+                row.iter_mut().for_each(|x| *x /= norm);
+            }
+            v
+        }
+    }
+}
+
+/// The trainable parameters, by name (sorted, so every iteration order is deterministic).
+#[derive(Clone, Debug)]
+pub struct Params {
+    /// name → variable.
+    pub vars: BTreeMap<String, Var>,
+}
+
+impl Params {
+    /// Freshly initialised parameters; the same config and seed give the same values.
+    pub fn init(cfg: &ModelConfig, seed: u64) -> Result<Self, PolicyError> {
+        let mut rng = Pcg64Mcg::seed_from_u64(seed);
+        let mut vars = BTreeMap::new();
+        for s in param_specs(cfg) {
+            let data = draw(&s, &mut rng);
+            let t = Tensor::from_vec(data, s.shape.as_slice(), &Device::Cpu)?;
+            vars.insert(s.name, Var::from_tensor(&t)?);
+        }
+        Ok(Self { vars })
+    }
+
+    /// Parameters holding the given tensors (shapes are the caller's responsibility).
+    pub fn from_tensors(tensors: BTreeMap<String, Tensor>) -> Result<Self, PolicyError> {
+        let mut vars = BTreeMap::new();
+        for (k, t) in tensors {
+            vars.insert(k, Var::from_tensor(&t.to_dtype(DType::F32)?)?);
+        }
+        Ok(Self { vars })
+    }
+
+    /// Tensors that record gradients (for training).
+    pub fn tracked(&self) -> BTreeMap<String, Tensor> {
+        self.vars
+            .iter()
+            .map(|(k, v)| (k.clone(), v.as_tensor().clone()))
+            .collect()
+    }
+
+    /// Tensors sharing the variables' storage that record no graph (for acting).
+    pub fn detached(&self) -> BTreeMap<String, Tensor> {
+        self.vars
+            .iter()
+            .map(|(k, v)| (k.clone(), v.as_detached_tensor()))
+            .collect()
+    }
+
+    /// Number of scalar parameters.
+    pub fn count(&self) -> usize {
+        self.vars.values().map(|v| v.elem_count()).sum()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::policy::config::Variant;
+
+    #[test]
+    fn baseline_has_no_attention_parameters() {
+        let specs = param_specs(&ModelConfig::new(Variant::Baseline));
+        assert!(specs.iter().all(|s| !s.name.starts_with("attention.")));
+        let att = param_specs(&ModelConfig::new(Variant::Attention));
+        assert_eq!(att.len(), specs.len() + 2);
+    }
+
+    #[test]
+    fn init_is_deterministic_and_row_normalised() {
+        let cfg = ModelConfig::new(Variant::Attention);
+        let a = Params::init(&cfg, 7).unwrap();
+        let b = Params::init(&cfg, 7).unwrap();
+        let c = Params::init(&cfg, 8).unwrap();
+        let get = |p: &Params, n: &str| {
+            p.vars[n]
+                .as_tensor()
+                .flatten_all()
+                .unwrap()
+                .to_vec1::<f32>()
+                .unwrap()
+        };
+        assert_eq!(get(&a, "lstm.weight_ih_l0"), get(&b, "lstm.weight_ih_l0"));
+        assert_ne!(get(&a, "lstm.weight_ih_l0"), get(&c, "lstm.weight_ih_l0"));
+        let w = get(&a, "actor.2.weight");
+        let row: f32 = w[..64].iter().map(|x| x * x).sum();
+        assert!((row - 1.0).abs() < 1e-5);
+    }
+}
