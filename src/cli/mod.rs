@@ -3,6 +3,7 @@
 mod bench;
 mod env_cmd;
 mod policy_cmd;
+mod train;
 
 use clap::{Parser, Subcommand};
 
@@ -32,6 +33,8 @@ pub enum Command {
     Init(policy_cmd::InitArgs),
     /// Run a checkpoint on a level and seed, step by step, and write what it saw and did.
     Replay(policy_cmd::ReplayArgs),
+    /// Train a policy with recurrent PPO.
+    Train(Box<train::TrainArgs>),
     /// Speed benchmarks that print JSON lines.
     #[command(subcommand)]
     Bench(bench::BenchCommand),
@@ -42,6 +45,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitStatus> {
     match cli.command {
         Command::Env(cmd) => env_cmd::run(cmd),
         Command::Bench(cmd) => bench::run(cmd),
+        Command::Train(args) => train::run(&args),
         Command::Init(args) => policy_cmd::init(&args),
         Command::Replay(args) => policy_cmd::replay(&args),
     }

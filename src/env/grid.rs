@@ -9,7 +9,7 @@ pub type Pos = (i32, i32);
 pub const DIR_TO_VEC: [Pos; 4] = [(1, 0), (0, 1), (-1, 0), (0, -1)];
 
 /// The width × height world grid of MiniGrid (`grid[x][y]`).
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct Grid {
     width: i32,
     height: i32,

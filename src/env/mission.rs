@@ -153,7 +153,7 @@ impl ObjDesc {
 }
 
 /// A single-clause instruction: what to do with which objects.
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Instruction {
     /// Go to or pick up.
     pub task: TaskKind,

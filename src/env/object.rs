@@ -180,7 +180,7 @@ pub enum DoorState {
 pub type ObjectId = u32;
 
 /// One object in the world grid (never `Empty`, `Unseen` or `Agent`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 pub struct WorldObj {
     /// What the object is.
     pub kind: ObjectKind,

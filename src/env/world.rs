@@ -84,7 +84,7 @@ pub struct StepOutcome {
 }
 
 /// Verifier state of an `ActionInstr` (BabyAI's `verifier.py`).
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Verifier {
     /// Identities of the matching objects, fixed at reset (`desc.obj_set`).
     pub obj_set: Vec<u32>,
@@ -97,7 +97,9 @@ pub struct Verifier {
 }
 
 /// The full state of one episode: grid, agent, instruction and verifier.
-#[derive(Clone, Debug, PartialEq)]
+/// Serialises in full (verifier included) for training-state files; the interchange format
+/// with Python is [`super::snapshot::Snapshot`].
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct World {
     /// The world grid (the agent is not in it).
     pub grid: Grid,

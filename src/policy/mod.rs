@@ -1,6 +1,7 @@
 //! The policy: the paper's text-visual attention network and its no-attention baseline
 //! (candle), attention traces, checkpoints.
 
+pub mod adam;
 pub mod attention;
 pub mod checkpoint;
 pub mod config;
@@ -8,6 +9,7 @@ pub mod error;
 pub mod model;
 pub mod obs;
 pub mod params;
+pub mod ppo;
 pub mod trace;
 
 use candle_core::{Device, Tensor};

@@ -1,6 +1,6 @@
-//! Pictures of the world, the agent's view and per-cell heat maps, in MiniGrid's look.
+//! Pictures of the world, the agent's view and per-cell heat maps, in `MiniGrid`'s look.
 //!
-//! Tiles are drawn as MiniGrid 3.2's `Grid.render_tile` draws them (supersampled 3× and
+//! Tiles are drawn as `MiniGrid` 3.2's `Grid.render_tile` draws them (supersampled 3× and
 //! averaged down, the same shapes, colours and grid line), so a world render matches
 //! `env.get_full_render(highlight, tile_size)` pixel for pixel up to float rounding.
 //!

@@ -1,4 +1,4 @@
-//! Every colour the renderer paints, in one place: MiniGrid's palette (`COLORS` and the
+//! Every colour the renderer paints, in one place: `MiniGrid`'s palette (`COLORS` and the
 //! constants its `render` methods hard-code) and the heat maps' viridis table.
 
 use crate::env::Color;
@@ -6,7 +6,7 @@ use crate::env::Color;
 /// An 8-bit RGB colour.
 pub type Rgb = [u8; 3];
 
-/// Empty floor and the holes shapes cut out of objects: MiniGrid paints them black.
+/// Empty floor and the holes shapes cut out of objects: `MiniGrid` paints them black.
 pub const BACKGROUND: Rgb = [0, 0, 0];
 
 /// The grid line on the top and left edge of every tile.
@@ -15,7 +15,7 @@ pub const GRID_LINE: Rgb = [100, 100, 100];
 /// The agent's triangle.
 pub const AGENT: Rgb = [255, 0, 0];
 
-/// Lava, whatever its nominal colour (MiniGrid hard-codes orange).
+/// Lava, whatever its nominal colour (`MiniGrid` hard-codes orange).
 pub const LAVA: Rgb = [255, 128, 0];
 
 /// Cells the agent did not see, in the view render. Black, like the floor, but they never get
@@ -34,20 +34,20 @@ pub const LOCKED_DOOR_SHADE: f64 = 0.45;
 /// Shade of a floor tile relative to its colour.
 pub const FLOOR_SHADE: f64 = 0.5;
 
-/// MiniGrid's RGB of an object colour (`COLORS`).
+/// `MiniGrid`'s RGB of an object colour (`COLORS`).
 #[inline]
 pub fn object(color: Color) -> Rgb {
     color.rgb()
 }
 
 /// `c` multiplied by `factor`, truncated as numpy truncates when a float image is stored
-/// into MiniGrid's `uint8` canvas.
+/// into `MiniGrid`'s `uint8` canvas.
 #[inline]
 pub fn scaled(c: Rgb, factor: f64) -> Rgb {
     c.map(|v| (f64::from(v) * factor).clamp(0.0, 255.0) as u8)
 }
 
-/// MiniGrid's `highlight_img`: `c + (255 − c)·0.3`, truncated.
+/// `MiniGrid`'s `highlight_img`: `c + (255 − c)·0.3`, truncated.
 #[inline]
 pub fn highlight(c: Rgb) -> Rgb {
     let mut out = c;

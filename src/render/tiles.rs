@@ -1,9 +1,9 @@
-//! One tile, drawn the way MiniGrid's `Grid.render_tile` and the objects' `render` methods
+//! One tile, drawn the way `MiniGrid`'s `Grid.render_tile` and the objects' `render` methods
 //! draw it: shapes are filled on a canvas supersampled [`SUBDIVS`]× along each axis, then every
 //! block of sub-pixels is averaged into one pixel, which antialiases the edges.
 //!
-//! Shape tests use MiniGrid's exact predicates (sub-pixel centres `(i + 0.5) / side`, closed
-//! rectangles and circles, half-open triangles) so that tiles match MiniGrid's pixel for pixel
+//! Shape tests use `MiniGrid`'s exact predicates (sub-pixel centres `(i + 0.5) / side`, closed
+//! rectangles and circles, half-open triangles) so that tiles match `MiniGrid`'s pixel for pixel
 //! up to float rounding.
 
 use std::collections::HashMap;
@@ -14,10 +14,10 @@ use image::RgbImage;
 use super::palette::{self, Rgb};
 use crate::env::{Color, DoorState, ObjectKind, WorldObj};
 
-/// Sub-pixels per pixel along each axis (MiniGrid's `subdivs`).
+/// Sub-pixels per pixel along each axis (`MiniGrid`'s `subdivs`).
 pub const SUBDIVS: u32 = 3;
 
-/// The agent's triangle pointing right (direction 0), in tile units. MiniGrid stores the
+/// The agent's triangle pointing right (direction 0), in tile units. `MiniGrid` stores the
 /// corners as `float32`; keeping that rounding keeps edge pixels identical.
 const AGENT_TRIANGLE: [(f32, f32); 3] = [(0.12, 0.19), (0.87, 0.50), (0.12, 0.81)];
 
@@ -52,7 +52,7 @@ impl Frame {
 /// The supersampled canvas of one tile.
 struct Canvas {
     side: usize,
-    /// Centre of sub-pixel row or column `i` in tile units, computed once as MiniGrid does.
+    /// Centre of sub-pixel row or column `i` in tile units, computed once as `MiniGrid` does.
     centres: Vec<f64>,
     px: Vec<Rgb>,
     frame: Frame,
@@ -116,7 +116,7 @@ impl Canvas {
         });
     }
 
-    /// `point_in_line`: a segment of half-width `r` with round caps; MiniGrid keeps the end
+    /// `point_in_line`: a segment of half-width `r` with round caps; `MiniGrid` keeps the end
     /// points and the direction in `float32`.
     fn line(&mut self, p0: (f64, f64), p1: (f64, f64), r: f64, color: Rgb) {
         let (x0, y0) = (p0.0 as f32, p0.1 as f32);
@@ -145,7 +145,7 @@ impl Canvas {
     }
 
     /// The agent's triangle rotated by 90°·`dir` about the tile centre (`rotate_fn` around
-    /// `point_in_triangle`): the query point is rotated back, as MiniGrid does.
+    /// `point_in_triangle`): the query point is rotated back, as `MiniGrid` does.
     fn agent(&mut self, dir: u8, color: Rgb) {
         let theta = FRAC_PI_2 * f64::from(dir & 3);
         let (cos, sin) = ((-theta).cos(), (-theta).sin());
@@ -244,7 +244,7 @@ impl Canvas {
 
     /// `highlight_img` (optional) then `downsample`. The average is taken as numpy takes it
     /// (mean over a row's sub-pixels, then over the rows) and truncated as the assignment into
-    /// MiniGrid's `uint8` frame truncates.
+    /// `MiniGrid`'s `uint8` frame truncates.
     fn into_image(mut self, highlight: bool) -> RgbImage {
         if highlight {
             // A table per channel: 256 blends instead of one per sub-pixel.
@@ -381,7 +381,7 @@ impl TileCache {
     }
 }
 
-/// One world tile of `tile_size`² pixels, as MiniGrid's `Grid.render_tile` draws it: black
+/// One world tile of `tile_size`² pixels, as `MiniGrid`'s `Grid.render_tile` draws it: black
 /// floor with a grey grid line on the top and left edge, the object in `cell` if any, the
 /// agent's red triangle pointing along `agent_dir` (0 = right, 1 = down, 2 = left, 3 = up)
 /// if given, and everything blended 30 % towards white if `highlight`.

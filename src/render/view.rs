@@ -1,4 +1,4 @@
-//! The agent's 7×7 view, agent-up, drawn from its observation encoding alone (MiniGrid's
+//! The agent's 7×7 view, agent-up, drawn from its observation encoding alone (`MiniGrid`'s
 //! `get_pov_render`, except that cells the agent did not see are blank: the encoding has
 //! nothing to draw there).
 
@@ -8,7 +8,7 @@ use super::tiles::{TileCache, TileKey};
 use crate::env::{AGENT_IN_VIEW, Color, DoorState, ObjectKind, Observation, VIEW_SIZE, WorldObj};
 
 /// The object an encoded view cell `(type, colour, state)` shows: `None` when the cell was
-/// not seen (type 0, or a type MiniGrid does not have), `Some(None)` for a seen empty cell.
+/// not seen (type 0, or a type `MiniGrid` does not have), `Some(None)` for a seen empty cell.
 /// Unknown colours read as grey and unknown door states as closed; object ids are 0.
 pub fn decode_view_cell(enc: [u8; 3]) -> Option<Option<WorldObj>> {
     let [kind, color, state] = enc;
@@ -36,7 +36,7 @@ pub fn decode_view_cell(enc: [u8; 3]) -> Option<Option<WorldObj>> {
 /// The view as the agent sees it, `7·tile_size` pixels square: image row = `vy` (row 0
 /// farthest ahead), column = `vx`, the agent at the bottom middle `(3, 6)` as a triangle
 /// pointing up with its carried object, if any, small in the corner of its tile. Seen cells
-/// are highlighted as in MiniGrid's POV render; unseen cells stay black.
+/// are highlighted as in `MiniGrid`'s POV render; unseen cells stay black.
 pub fn render_view(obs: &Observation, tile_size: u32) -> RgbImage {
     let side = (VIEW_SIZE as u32).saturating_mul(tile_size);
     let mut img = RgbImage::new(side, side);

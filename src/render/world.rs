@@ -1,4 +1,4 @@
-//! The whole world, as MiniGrid's `get_full_render` draws it: every cell's tile, the agent
+//! The whole world, as `MiniGrid`'s `get_full_render` draws it: every cell's tile, the agent
 //! on its cell, and (optionally) the cells it currently sees highlighted.
 
 use image::{RgbImage, imageops};
@@ -14,7 +14,7 @@ pub fn px_in_image(cell_in_world: Pos, tile_size: u32) -> (u32, u32) {
 }
 
 /// The grid cells the agent sees now: the cells of its 7×7 view that lie inside the grid and
-/// that its observation marks visible (MiniGrid's `highlight_mask`), in view order.
+/// that its observation marks visible (`MiniGrid`'s `highlight_mask`), in view order.
 pub fn visible_cells(world: &World) -> Vec<Pos> {
     let obs = world.observe();
     let mut cells = Vec::with_capacity(VIEW_SIZE * VIEW_SIZE);
@@ -34,8 +34,8 @@ pub fn visible_cells(world: &World) -> Vec<Pos> {
 
 /// The full world, `width·tile_size` × `height·tile_size` pixels: each cell drawn by
 /// [`render_tile`](super::render_tile), the agent's triangle on its cell, and with
-/// `highlight_view` the cells it sees blended towards white, like MiniGrid's
-/// `get_full_render(highlight=True)`. The carried object is not drawn (MiniGrid does not).
+/// `highlight_view` the cells it sees blended towards white, like `MiniGrid`'s
+/// `get_full_render(highlight=True)`. The carried object is not drawn (`MiniGrid` does not).
 pub fn render_world(world: &World, tile_size: u32, highlight_view: bool) -> RgbImage {
     let (w, h) = (world.grid.width(), world.grid.height());
     let mut lit = vec![false; w * h];

@@ -1,0 +1,321 @@
+//! `groundscope train`: recurrent PPO with checkpoints, resume, logs and Ctrl-C handling.
+
+use std::collections::BTreeMap;
+use std::io::Write as _;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Instant;
+
+use anyhow::Context as _;
+use candle_core::{Device, Tensor};
+use clap::Args;
+use groundscope::policy::checkpoint::{checkpoint_paths, write_atomic};
+use groundscope::policy::ppo::{PpoConfig, Trainer, UpdateLog};
+use groundscope::policy::{Checkpoint, ModelConfig, Params, TrainingState};
+use serde::{Deserialize, Serialize};
+
+use crate::ExitStatus;
+use crate::cli::env_cmd::LevelArgs;
+use crate::cli::policy_cmd::parse_variant;
+
+/// `groundscope train`.
+#[derive(Debug, Args)]
+#[command(
+    after_long_help = "EXAMPLES:\n  RAYON_NUM_THREADS=1 groundscope train --model attention --out runs/att --frames 5000000\n  RAYON_NUM_THREADS=1 groundscope train --model attention --out runs/att --frames 8000000 --resume"
+)]
+pub struct TrainArgs {
+    /// attention or baseline.
+    #[arg(long, value_name = "MODEL", default_value = "attention")]
+    pub model: String,
+    /// Run directory: model.{safetensors,json}, log.csv, resume state.
+    #[arg(long, value_name = "DIR")]
+    pub out: PathBuf,
+    /// Train until this many frames in total (a resumed run counts its earlier frames).
+    #[arg(long, default_value_t = 5_000_000)]
+    pub frames: u64,
+    /// Seed of the initial weights and of the sampling / shuffling streams.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Continue the run in --out exactly where it stopped (weights, Adam, RNGs, environments).
+    #[arg(long)]
+    pub resume: bool,
+    /// Save a checkpoint every this many updates.
+    #[arg(long, default_value_t = 10)]
+    pub save_interval: u64,
+    #[command(flatten)]
+    pub level: LevelArgs,
+    /// Environments stepped together.
+    #[arg(long, default_value_t = PpoConfig::default().procs)]
+    pub procs: usize,
+    /// Frames per environment per update.
+    #[arg(long, default_value_t = PpoConfig::default().frames_per_proc)]
+    pub frames_per_proc: usize,
+    /// PPO epochs per update.
+    #[arg(long, default_value_t = PpoConfig::default().epochs)]
+    pub epochs: usize,
+    /// Frames per minibatch.
+    #[arg(long, default_value_t = PpoConfig::default().batch_size)]
+    pub batch_size: usize,
+    /// BPTT chunk length.
+    #[arg(long, default_value_t = PpoConfig::default().recurrence)]
+    pub recurrence: usize,
+    /// Adam learning rate.
+    #[arg(long, default_value_t = PpoConfig::default().lr)]
+    pub lr: f64,
+    /// Adam epsilon.
+    #[arg(long, default_value_t = PpoConfig::default().adam_eps)]
+    pub adam_eps: f64,
+    /// Discount factor.
+    #[arg(long, default_value_t = PpoConfig::default().discount)]
+    pub discount: f64,
+    /// GAE lambda.
+    #[arg(long, default_value_t = PpoConfig::default().gae_lambda)]
+    pub gae_lambda: f64,
+    /// Entropy bonus coefficient.
+    #[arg(long, default_value_t = PpoConfig::default().entropy_coef)]
+    pub entropy_coef: f64,
+    /// Value loss coefficient.
+    #[arg(long, default_value_t = PpoConfig::default().value_loss_coef)]
+    pub value_loss_coef: f64,
+    /// Gradient-norm clip.
+    #[arg(long, default_value_t = PpoConfig::default().max_grad_norm)]
+    pub max_grad_norm: f64,
+    /// PPO clip epsilon.
+    #[arg(long, default_value_t = PpoConfig::default().clip_eps)]
+    pub clip_eps: f64,
+    /// Hidden size of the LSTM and GRU (smaller trains faster; the paper's default is 128).
+    #[arg(long, default_value_t = 128)]
+    pub hidden: usize,
+    /// Hide the progress bar (log lines only).
+    #[arg(long)]
+    pub quiet: bool,
+}
+
+/// `resume.json`: what `--resume` needs besides the weights and the optimizer tensors.
+#[derive(Serialize, Deserialize)]
+struct ResumeFile {
+    ppo: PpoConfig,
+    seed: u64,
+    adam_step: u64,
+    updates: u64,
+    run_state: serde_json::Value,
+}
+
+const LOG_HEADER: &str = "update,frames,fps,episodes,success_rate,mean_reward,mean_length,policy_loss,value_loss,entropy,grad_norm,elapsed_secs";
+
+fn ppo_config(a: &TrainArgs) -> PpoConfig {
+    PpoConfig {
+        procs: a.procs,
+        frames_per_proc: a.frames_per_proc,
+        epochs: a.epochs,
+        batch_size: a.batch_size,
+        recurrence: a.recurrence,
+        lr: a.lr,
+        adam_eps: a.adam_eps,
+        discount: a.discount,
+        gae_lambda: a.gae_lambda,
+        entropy_coef: a.entropy_coef,
+        value_loss_coef: a.value_loss_coef,
+        max_grad_norm: a.max_grad_norm,
+        clip_eps: a.clip_eps,
+    }
+}
+
+fn save_run(
+    trainer: &Trainer,
+    dir: &Path,
+    seed: u64,
+    last: Option<&UpdateLog>,
+) -> anyhow::Result<()> {
+    let training = TrainingState {
+        frames: trainer.state.frames,
+        updates: trainer.state.updates,
+        success_rate: last.map(|l| l.success_rate).filter(|x| x.is_finite()),
+        mean_reward: last.map(|l| l.mean_reward).filter(|x| x.is_finite()),
+        seed,
+    };
+    let mut ckpt = Checkpoint::new(
+        trainer.model,
+        trainer.level,
+        training,
+        trainer.params.clone(),
+    );
+    ckpt.save(&dir.join("model"))?;
+    let opt = trainer.optimizer_tensors();
+    let (opt_path, _) = checkpoint_paths(&dir.join("optimizer"));
+    let tmp = tempfile::NamedTempFile::new_in(dir)?;
+    candle_core::safetensors::save(
+        &opt.into_iter().collect::<std::collections::HashMap<_, _>>(),
+        tmp.path(),
+    )?;
+    tmp.persist(&opt_path)
+        .map_err(|e| anyhow::anyhow!("writing {}: {}", opt_path.display(), e.error))?;
+    let resume = ResumeFile {
+        ppo: trainer.ppo,
+        seed,
+        adam_step: trainer.adam.step,
+        updates: trainer.state.updates,
+        run_state: serde_json::from_str(&trainer.state_json()?)?,
+    };
+    write_atomic(
+        &dir.join("resume.json"),
+        serde_json::to_string(&resume)?.as_bytes(),
+    )?;
+    Ok(())
+}
+
+fn resume_run(args: &TrainArgs, model: ModelConfig) -> anyhow::Result<(Trainer, u64)> {
+    let dir = &args.out;
+    let ckpt = Checkpoint::load(&dir.join("model"))
+        .with_context(|| format!("resuming from {}", dir.display()))?;
+    if ckpt.meta.model.variant != model.variant {
+        anyhow::bail!(
+            "--resume: {} holds a {} model, not {}",
+            dir.display(),
+            ckpt.meta.model.variant.name(),
+            model.variant.name()
+        );
+    }
+    let text = std::fs::read_to_string(dir.join("resume.json"))
+        .with_context(|| format!("reading {}", dir.join("resume.json").display()))?;
+    let resume: ResumeFile = serde_json::from_str(&text)
+        .with_context(|| format!("reading {}", dir.join("resume.json").display()))?;
+    if resume.updates != ckpt.meta.training.updates {
+        anyhow::bail!(
+            "--resume: {} is at update {} but model.json at update {}; the run directory is inconsistent",
+            dir.display(),
+            resume.updates,
+            ckpt.meta.training.updates
+        );
+    }
+    let mut trainer = Trainer::new(
+        ckpt.meta.model,
+        ckpt.meta.level,
+        resume.ppo,
+        ckpt.params,
+        resume.seed,
+    )?;
+    trainer.restore_state(&serde_json::to_string(&resume.run_state)?)?;
+    let (opt_path, _) = checkpoint_paths(&dir.join("optimizer"));
+    let opt: BTreeMap<String, Tensor> = candle_core::safetensors::load(&opt_path, &Device::Cpu)
+        .with_context(|| format!("reading {}", opt_path.display()))?
+        .into_iter()
+        .collect();
+    trainer.restore_optimizer(&opt, resume.adam_step)?;
+    Ok((trainer, resume.seed))
+}
+
+/// Runs `train`.
+pub fn run(args: &TrainArgs) -> anyhow::Result<ExitStatus> {
+    let variant = parse_variant(&args.model)?;
+    let mut model = ModelConfig::new(variant);
+    model.lstm_hidden = args.hidden;
+    model.gru_hidden = args.hidden;
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("creating {}", args.out.display()))?;
+    let probe = tempfile::NamedTempFile::new_in(&args.out)
+        .with_context(|| format!("{} is not writable", args.out.display()))?;
+    drop(probe);
+    let log_path = args.out.join("log.csv");
+    let (mut trainer, seed) = if args.resume {
+        resume_run(args, model)?
+    } else {
+        if args.out.join("resume.json").exists() {
+            anyhow::bail!(
+                "{} already holds a run; pass --resume to continue it or choose another --out",
+                args.out.display()
+            );
+        }
+        let level = args.level.config()?;
+        let ppo = ppo_config(args);
+        ppo.validate()?;
+        let params = Params::init(&model, args.seed)?;
+        let trainer = Trainer::new(model, level, ppo, params, args.seed)?;
+        write_atomic(&log_path, format!("{LOG_HEADER}\n").as_bytes())?;
+        (trainer, args.seed)
+    };
+    let mut log_file = std::fs::OpenOptions::new()
+        .append(true)
+        .open(&log_path)
+        .with_context(|| format!("opening {}", log_path.display()))?;
+    let stop = Arc::new(AtomicBool::new(false));
+    {
+        let stop = Arc::clone(&stop);
+        // A second handler cannot be installed in tests that call run twice; ignore that case.
+        let _ = ctrlc::set_handler(move || stop.store(true, Ordering::SeqCst));
+    }
+    let bar = if args.quiet {
+        indicatif::ProgressBar::hidden()
+    } else {
+        indicatif::ProgressBar::new(args.frames)
+    };
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("{bar:30} {pos}/{len} frames {msg} ETA {eta}")
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+    );
+    bar.set_position(trainer.state.frames);
+    let start = Instant::now();
+    let frames_at_start = trainer.state.frames;
+    let mut last: Option<UpdateLog> = None;
+    println!(
+        "training {} on {} ({} parameters), {} frames/update, from frame {}",
+        variant.name(),
+        trainer.level,
+        trainer.params.count(),
+        trainer.ppo.frames_per_update(),
+        trainer.state.frames
+    );
+    while trainer.state.frames < args.frames && !stop.load(Ordering::SeqCst) {
+        let log = trainer.update()?;
+        let elapsed = start.elapsed().as_secs_f64();
+        let fps = (trainer.state.frames - frames_at_start) as f64 / elapsed.max(1e-9);
+        writeln!(
+            log_file,
+            "{},{},{:.0},{},{:.4},{:.4},{:.2},{:.5},{:.5},{:.4},{:.4},{:.1}",
+            log.update,
+            log.frames,
+            fps,
+            log.episodes,
+            log.success_rate,
+            log.mean_reward,
+            log.mean_length,
+            log.policy_loss,
+            log.value_loss,
+            log.entropy,
+            log.grad_norm,
+            elapsed
+        )?;
+        bar.set_position(trainer.state.frames);
+        bar.set_message(format!(
+            "{fps:.0} fps, success {:.2}, reward {:.3}",
+            log.success_rate, log.mean_reward
+        ));
+        if args.quiet && log.update % 10 == 0 {
+            println!(
+                "update {} frames {} fps {fps:.0} success {:.3} reward {:.3} entropy {:.3}",
+                log.update, log.frames, log.success_rate, log.mean_reward, log.entropy
+            );
+        }
+        if log.update % args.save_interval == 0 {
+            save_run(&trainer, &args.out, seed, Some(&log))?;
+        }
+        last = Some(log);
+    }
+    save_run(&trainer, &args.out, seed, last.as_ref())?;
+    bar.finish_and_clear();
+    let why = if stop.load(Ordering::SeqCst) {
+        "interrupted; saved"
+    } else {
+        "done"
+    };
+    println!(
+        "{why}: {} frames, {} updates, last success {:.3}, reward {:.3}; checkpoint {}",
+        trainer.state.frames,
+        trainer.state.updates,
+        last.as_ref().map_or(f64::NAN, |l| l.success_rate),
+        last.as_ref().map_or(f64::NAN, |l| l.mean_reward),
+        args.out.join("model").display()
+    );
+    Ok(ExitStatus::Success)
+}
