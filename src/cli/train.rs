@@ -99,7 +99,6 @@ struct ResumeFile {
     seed: u64,
     adam_step: u64,
     updates: u64,
-    run_state: serde_json::Value,
 }
 
 const LOG_HEADER: &str = "update,frames,fps,episodes,success_rate,mean_reward,mean_length,policy_loss,value_loss,entropy,grad_norm,elapsed_secs";
@@ -156,8 +155,12 @@ fn save_run(
         seed,
         adam_step: trainer.adam.step,
         updates: trainer.state.updates,
-        run_state: serde_json::from_str(&trainer.state_json()?)?,
     };
+    // RNG states are u128s, which serde_json::Value cannot hold: the run state gets a file.
+    write_atomic(
+        &dir.join("run_state.json"),
+        trainer.state_json()?.as_bytes(),
+    )?;
     write_atomic(
         &dir.join("resume.json"),
         serde_json::to_string(&resume)?.as_bytes(),
@@ -196,7 +199,12 @@ fn resume_run(args: &TrainArgs, model: ModelConfig) -> anyhow::Result<(Trainer, 
         ckpt.params,
         resume.seed,
     )?;
-    trainer.restore_state(&serde_json::to_string(&resume.run_state)?)?;
+    let state_path = dir.join("run_state.json");
+    let state = std::fs::read_to_string(&state_path)
+        .with_context(|| format!("reading {}", state_path.display()))?;
+    trainer
+        .restore_state(&state)
+        .with_context(|| format!("reading {}", state_path.display()))?;
     let (opt_path, _) = checkpoint_paths(&dir.join("optimizer"));
     let opt: BTreeMap<String, Tensor> = candle_core::safetensors::load(&opt_path, &Device::Cpu)
         .with_context(|| format!("reading {}", opt_path.display()))?

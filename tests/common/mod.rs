@@ -1,4 +1,5 @@
 //! Helpers shared by the integration tests.
+#![allow(dead_code, reason = "each test binary uses a subset of the helpers")]
 
 use std::path::{Path, PathBuf};
 

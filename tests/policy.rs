@@ -1,0 +1,258 @@
+//! The policy: gradients, checkpoints, traces.
+
+use std::collections::BTreeMap;
+
+use candle_core::{Device, Tensor};
+use groundscope::env::LevelConfig;
+use groundscope::episode::{ActionMode, EpisodeSpec, run_episode};
+use groundscope::policy::obs::{TokenBatch, patches};
+use groundscope::policy::{
+    Checkpoint, Memory, ModelConfig, Net, Params, TrainingState, Variant, act,
+};
+
+fn tiny(variant: Variant) -> ModelConfig {
+    ModelConfig {
+        variant,
+        conv_channels: 3,
+        word_dim: 4,
+        key_dim: 4,
+        lstm_hidden: 5,
+        gru_hidden: 4,
+        head_hidden: 3,
+    }
+}
+
+/// A scalar that depends on every output of a two-step sequence.
+fn loss(net: &Net, level: &LevelConfig) -> Tensor {
+    let w1 = level.generate(1).unwrap();
+    let w2 = level.generate(2).unwrap();
+    let t1 = groundscope::env::vocab::tokenize(&w1.mission).unwrap();
+    let t2 = groundscope::env::vocab::tokenize(&w2.mission).unwrap();
+    let obs = [w1.observe(), w2.observe(), w2.observe(), w1.observe()];
+    let missions: Vec<&[u32]> = vec![&t1, &t2, &t1, &t2];
+    let tb = TokenBatch::new(&missions).unwrap();
+    let mi = net.mission_inputs(&tb).unwrap();
+    let hid = net.cfg.lstm_hidden;
+    let mem0 = Memory {
+        h: Tensor::from_vec(
+            (0..2 * hid)
+                .map(|i| i as f32 * 0.05 - 0.2)
+                .collect::<Vec<_>>(),
+            (2, hid),
+            &Device::Cpu,
+        )
+        .unwrap(),
+        c: Tensor::from_vec(
+            (0..2 * hid)
+                .map(|i| 0.1 - i as f32 * 0.03)
+                .collect::<Vec<_>>(),
+            (2, hid),
+            &Device::Cpu,
+        )
+        .unwrap(),
+    };
+    let keep = Tensor::from_vec(vec![1f32, 1., 1., 0.], (2, 2), &Device::Cpu).unwrap();
+    let (logits, values, _) = net
+        .sequence(&patches(&obs).unwrap(), &mi, &mem0, &keep)
+        .unwrap();
+    let coef = Tensor::from_vec(
+        (0..28)
+            .map(|i| ((i * 7) % 5) as f32 - 2.0)
+            .collect::<Vec<_>>(),
+        (4, 7),
+        &Device::Cpu,
+    )
+    .unwrap();
+    let lp = candle_nn::ops::log_softmax(&logits, candle_core::D::Minus1).unwrap();
+    ((lp * coef).unwrap().sum_all().unwrap() + values.sqr().unwrap().sum_all().unwrap()).unwrap()
+}
+
+#[test]
+fn gradients_reach_every_parameter_and_match_finite_differences() {
+    let level = LevelConfig::default();
+    for variant in [Variant::Attention, Variant::Baseline] {
+        let cfg = tiny(variant);
+        let params = Params::init(&cfg, 3).unwrap();
+        let net = Net::new(cfg, params.tracked());
+        let grads = loss(&net, &level).backward().unwrap();
+        let mut failures = Vec::new();
+        for (name, var) in &params.vars {
+            let g = grads
+                .get(var.as_tensor())
+                .unwrap_or_else(|| panic!("{name} gets no gradient"));
+            let g = g.flatten_all().unwrap().to_vec1::<f32>().unwrap();
+            assert!(
+                g.iter().any(|x| *x != 0.0),
+                "{variant:?}: gradient of {name} is all zero"
+            );
+            // Central differences on the entry with the largest gradient.
+            let (i, ad) =
+                g.iter().enumerate().fold(
+                    (0, 0f32),
+                    |b, (i, &x)| if x.abs() > b.1.abs() { (i, x) } else { b },
+                );
+            let base = var
+                .as_tensor()
+                .flatten_all()
+                .unwrap()
+                .to_vec1::<f32>()
+                .unwrap();
+            let eval = |delta: f32| {
+                let mut v = base.clone();
+                v[i] += delta;
+                let mut w: BTreeMap<String, Tensor> = params.detached();
+                w.insert(
+                    name.clone(),
+                    Tensor::from_vec(v, var.as_tensor().dims(), &Device::Cpu).unwrap(),
+                );
+                loss(&Net::new(cfg, w), &level).to_scalar::<f32>().unwrap()
+            };
+            let eps = 1e-2;
+            let fd = (eval(eps) - eval(-eps)) / (2.0 * eps);
+            if (fd - ad).abs() > 0.05 * ad.abs().max(fd.abs()) + 2e-3 {
+                failures.push(format!(
+                    "{name}[{i}]: autograd {ad}, finite difference {fd}"
+                ));
+            }
+        }
+        assert!(failures.is_empty(), "{variant:?}:\n{}", failures.join("\n"));
+    }
+}
+
+fn outputs(ckpt: &Checkpoint) -> Vec<Vec<f32>> {
+    let level = LevelConfig::default();
+    let w = level.generate(5).unwrap();
+    let t = groundscope::env::vocab::tokenize(&w.mission).unwrap();
+    let net = Net::new(ckpt.meta.model, ckpt.params.detached());
+    let mem = Memory::zeros(1, ckpt.meta.model.lstm_hidden).unwrap();
+    act(&net, &[w.observe()], &[&t], &mem, false)
+        .unwrap()
+        .logits
+}
+
+fn saved(variant: Variant, dir: &std::path::Path) -> (Checkpoint, std::path::PathBuf) {
+    let cfg = ModelConfig::new(variant);
+    let mut ckpt = Checkpoint::new(
+        cfg,
+        LevelConfig::default(),
+        TrainingState::default(),
+        Params::init(&cfg, 9).unwrap(),
+    );
+    let name = dir.join(variant.name());
+    ckpt.save(&name).unwrap();
+    (ckpt, name)
+}
+
+#[test]
+fn save_then_load_gives_identical_outputs() {
+    let dir = tempfile::tempdir().unwrap();
+    for variant in [Variant::Attention, Variant::Baseline] {
+        let (ckpt, name) = saved(variant, dir.path());
+        let loaded = Checkpoint::load(&name).unwrap();
+        assert_eq!(loaded.meta, ckpt.meta);
+        assert_eq!(outputs(&loaded), outputs(&ckpt));
+    }
+}
+
+#[test]
+fn broken_checkpoints_name_what_is_wrong() {
+    let dir = tempfile::tempdir().unwrap();
+    let (_, name) = saved(Variant::Attention, dir.path());
+    let st = dir.path().join("attention.safetensors");
+    let js = dir.path().join("attention.json");
+    let good_st = std::fs::read(&st).unwrap();
+    let good_js = std::fs::read_to_string(&js).unwrap();
+    let expect_err = |what: &str| {
+        let err = Checkpoint::load(&name).unwrap_err().to_string();
+        assert!(err.contains(what), "expected {what:?} in {err:?}");
+    };
+    // Truncated weights: the hash catches it first.
+    std::fs::write(&st, &good_st[..good_st.len() / 2]).unwrap();
+    expect_err("weights_sha256");
+    // Corrupt weights with a matching hash: safetensors rejects the header.
+    let mut junk = good_st.clone();
+    junk[..8].copy_from_slice(&u64::MAX.to_le_bytes());
+    std::fs::write(&st, &junk).unwrap();
+    let hash: String = {
+        use sha2::Digest as _;
+        sha2::Sha256::digest(&junk)
+            .iter()
+            .map(|b| format!("{b:02x}"))
+            .collect()
+    };
+    let re_hashed = good_js.replace(
+        &serde_json::from_str::<serde_json::Value>(&good_js).unwrap()["weights_sha256"]
+            .as_str()
+            .unwrap()
+            .to_owned(),
+        &hash,
+    );
+    std::fs::write(&js, &re_hashed).unwrap();
+    expect_err("safetensors");
+    std::fs::write(&st, &good_st).unwrap();
+    // A different hidden size: the first mismatching tensor is named.
+    std::fs::write(
+        &js,
+        good_js.replace("\"lstm_hidden\": 128", "\"lstm_hidden\": 64"),
+    )
+    .unwrap();
+    expect_err("shape");
+    // A vocabulary from another build.
+    std::fs::write(&js, good_js.replace("\"purple\"", "\"violet\"")).unwrap();
+    expect_err("vocabulary");
+    // Baseline metadata over attention weights: an unexpected tensor.
+    std::fs::write(
+        &js,
+        good_js.replace("\"variant\": \"attention\"", "\"variant\": \"baseline\""),
+    )
+    .unwrap();
+    expect_err("attention.");
+    // Malformed JSON and a missing file.
+    std::fs::write(&js, &good_js[..good_js.len() / 2]).unwrap();
+    expect_err("line");
+    std::fs::remove_file(&js).unwrap();
+    expect_err("attention.json");
+}
+
+#[test]
+fn traces_are_deterministic_and_maps_are_distributions() {
+    let dir = tempfile::tempdir().unwrap();
+    let (ckpt, _) = saved(Variant::Attention, dir.path());
+    for mode in [ActionMode::Greedy, ActionMode::Sampled] {
+        let spec = EpisodeSpec {
+            level: LevelConfig::default(),
+            seed: 11,
+            mission: None,
+            mode,
+        };
+        let a = run_episode(&ckpt, "x", &spec).unwrap();
+        let b = run_episode(&ckpt, "x", &spec).unwrap();
+        assert_eq!(a.to_json(), b.to_json());
+        for s in &a.steps {
+            let att = s.attention.as_ref().unwrap();
+            assert_eq!(att.words.len(), a.tokens.len());
+            for w in &att.words {
+                let sum: f32 = w.map.iter().flatten().sum();
+                assert!((sum - 1.0).abs() < 1e-4, "{} map sums to {sum}", w.word);
+            }
+            let m: f32 = att.combined.iter().flatten().sum();
+            assert!((m - 1.0).abs() < 1e-4);
+            let ws: f32 = att.words.iter().map(|w| w.weight).sum();
+            assert!((ws - 1.0).abs() < 1e-4);
+        }
+    }
+    let (base, _) = saved(Variant::Baseline, dir.path());
+    let spec = EpisodeSpec {
+        level: LevelConfig::default(),
+        seed: 11,
+        mission: None,
+        mode: ActionMode::Greedy,
+    };
+    assert!(
+        run_episode(&base, "b", &spec)
+            .unwrap()
+            .steps
+            .iter()
+            .all(|s| s.attention.is_none())
+    );
+}
