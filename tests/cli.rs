@@ -1,4 +1,10 @@
 //! The command line: exit codes, one-line errors, no half-written files.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::format_collect,
+    reason = "test helpers fail loudly"
+)]
 
 mod common;
 

@@ -1,4 +1,10 @@
 //! The world against 210 episode dumps of minigrid 3.2.0 (7 levels × 2 done modes × 15 seeds).
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::format_collect,
+    reason = "test helpers fail loudly"
+)]
 
 mod common;
 

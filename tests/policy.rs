@@ -1,4 +1,10 @@
 //! The policy: gradients, checkpoints, traces.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::format_collect,
+    reason = "test helpers fail loudly"
+)]
 
 use std::collections::BTreeMap;
 

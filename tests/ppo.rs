@@ -1,4 +1,10 @@
 //! PPO: learning on a tiny level, determinism, exact resume.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::format_collect,
+    reason = "test helpers fail loudly"
+)]
 
 use groundscope::env::{LevelConfig, TaskSet};
 use groundscope::episode::{ActionMode, EpisodeSpec, run_from};

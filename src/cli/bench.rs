@@ -20,12 +20,23 @@ pub enum BenchCommand {
         #[arg(long, default_value_t = 5_000_000)]
         steps: u64,
     },
+    /// Policy speed, one thread: batched inference steps/s at batch 1 and 256, and training
+    /// forward+backward frames/s on PPO minibatches (256 and 2048 frames, recurrence 4).
+    Policy {
+        /// attention or baseline.
+        #[arg(long, default_value = "attention")]
+        model: String,
+        /// Seconds to spend on each measurement.
+        #[arg(long, default_value_t = 3.0)]
+        secs: f64,
+    },
 }
 
 /// Runs a benchmark.
-pub fn run(cmd: BenchCommand) -> anyhow::Result<ExitStatus> {
+pub fn run(cmd: &BenchCommand) -> anyhow::Result<ExitStatus> {
     match cmd {
-        BenchCommand::Env { steps } => bench_env(steps),
+        BenchCommand::Env { steps } => bench_env(*steps),
+        BenchCommand::Policy { model, secs } => bench_policy(model, *secs),
     }
 }
 
@@ -57,5 +68,73 @@ fn bench_env(steps: u64) -> anyhow::Result<ExitStatus> {
         "elapsed_secs": secs,
     });
     println!("{line}");
+    Ok(ExitStatus::Success)
+}
+
+/// Repeats `f` for about `secs` seconds (after one warm-up call); returns calls per second.
+fn rate(secs: f64, mut f: impl FnMut() -> anyhow::Result<()>) -> anyhow::Result<f64> {
+    f()?;
+    let start = Instant::now();
+    let mut n = 0u64;
+    while start.elapsed().as_secs_f64() < secs {
+        f()?;
+        n += 1;
+    }
+    Ok(n as f64 / start.elapsed().as_secs_f64())
+}
+
+fn bench_policy(model: &str, secs: f64) -> anyhow::Result<ExitStatus> {
+    use groundscope::env::vocab::tokenize;
+    use groundscope::policy::obs::{TokenBatch, patches};
+    use groundscope::policy::ppo::{PpoConfig, ppo_loss};
+    use groundscope::policy::{Memory, ModelConfig, Net, Params, act};
+
+    let threads = std::env::var("RAYON_NUM_THREADS").unwrap_or_else(|_| "default".into());
+    let variant = crate::cli::policy_cmd::parse_variant(model)?;
+    let cfg = ModelConfig::new(variant);
+    let params = Params::init(&cfg, 0)?;
+    let level = LevelConfig::default();
+    let worlds: Vec<_> = (0..2048).map(|s| level.generate(s)).collect::<Result<_, _>>()?;
+    let tokens: Vec<Vec<u32>> = worlds.iter().map(|w| tokenize(&w.mission)).collect::<Result<_, _>>()?;
+    let obs: Vec<_> = worlds.iter().map(groundscope::env::World::observe).collect();
+    let net = Net::new(cfg, params.detached());
+    for batch in [1usize, 256] {
+        let missions: Vec<&[u32]> = tokens[..batch].iter().map(Vec::as_slice).collect();
+        let mem = Memory::zeros(batch, cfg.lstm_hidden)?;
+        let calls = rate(secs, || {
+            act(&net, &obs[..batch], &missions, &mem, false)?;
+            Ok(())
+        })?;
+        println!(
+            "{}",
+            serde_json::json!({"bench": "policy_inference", "model": variant.name(), "batch": batch,
+                "steps_per_sec": (calls * batch as f64).round(), "calls_per_sec": calls, "threads": threads})
+        );
+    }
+    let train_net = Net::new(cfg, params.tracked());
+    let ppo = PpoConfig::default();
+    for frames in [256usize, 2048] {
+        let rec = ppo.recurrence;
+        let n = frames / rec;
+        let missions: Vec<&[u32]> = tokens[..frames].iter().map(Vec::as_slice).collect();
+        let p = patches(&obs[..frames])?;
+        let keep = candle_core::Tensor::ones((rec, n), candle_core::DType::F32, &candle_core::Device::Cpu)?;
+        let mem = Memory::zeros(n, cfg.lstm_hidden)?;
+        let zeros = candle_core::Tensor::zeros(frames, candle_core::DType::F32, &candle_core::Device::Cpu)?;
+        let actions = candle_core::Tensor::zeros((frames, 1), candle_core::DType::U32, &candle_core::Device::Cpu)?;
+        let calls = rate(secs, || {
+            let tb = TokenBatch::new(&missions)?;
+            let mi = train_net.mission_inputs(&tb)?;
+            let (logits, values, _) = train_net.sequence(&p, &mi, &mem, &keep)?;
+            let l = ppo_loss(&logits, &values, &actions, &zeros, &zeros, &zeros, &zeros, &ppo)?;
+            l.total.backward()?;
+            Ok(())
+        })?;
+        println!(
+            "{}",
+            serde_json::json!({"bench": "policy_train_fwd_bwd", "model": variant.name(), "minibatch_frames": frames,
+                "recurrence": rec, "frames_per_sec": (calls * frames as f64).round(), "threads": threads})
+        );
+    }
     Ok(ExitStatus::Success)
 }

@@ -44,7 +44,7 @@ pub enum Command {
 pub fn run(cli: Cli) -> anyhow::Result<ExitStatus> {
     match cli.command {
         Command::Env(cmd) => env_cmd::run(cmd),
-        Command::Bench(cmd) => bench::run(cmd),
+        Command::Bench(cmd) => bench::run(&cmd),
         Command::Train(args) => train::run(&args),
         Command::Init(args) => policy_cmd::init(&args),
         Command::Replay(args) => policy_cmd::replay(&args),

@@ -186,9 +186,8 @@ impl Instruction {
             ["pick", "up", rest @ ..] => (TaskKind::Pickup, rest),
             _ => return Err(bad("it must start with \"go to\" or \"pick up\"")),
         };
-        let rest = match rest {
-            ["the" | "a", rest @ ..] => rest,
-            _ => return Err(bad("an article (\"the\" or \"a\") must follow the verb")),
+        let ["the" | "a", rest @ ..] = rest else {
+            return Err(bad("an article (\"the\" or \"a\") must follow the verb"));
         };
         let (color, rest) = match rest {
             [c, rest @ ..] if Color::from_name(c).is_some() => (Color::from_name(c), rest),

@@ -180,8 +180,8 @@ mod tests {
         let mask = process_vis(&cells);
         for (vx, col) in mask.iter().enumerate() {
             assert!(col[4], "wall at ({vx}, 4) is visible");
-            for vy in 0..4 {
-                assert!(!col[vy], "({vx}, {vy}) behind the wall row is hidden");
+            for (vy, seen) in col.iter().enumerate().take(4) {
+                assert!(!seen, "({vx}, {vy}) behind the wall row is hidden");
             }
         }
     }

@@ -83,10 +83,13 @@ pub fn checkpoint_paths(name: &Path) -> (PathBuf, PathBuf) {
 }
 
 fn sha256_hex(bytes: &[u8]) -> String {
+    use std::fmt::Write as _;
     Sha256::digest(bytes)
         .iter()
-        .map(|b| format!("{b:02x}"))
-        .collect()
+        .fold(String::with_capacity(64), |mut s, b| {
+            let _ = write!(s, "{b:02x}");
+            s
+        })
 }
 
 fn io_err(path: &Path, e: impl std::fmt::Display) -> PolicyError {

@@ -110,7 +110,9 @@ fn draw(spec: &ParamSpec, rng: &mut Pcg64Mcg) -> Vec<f32> {
             let mut v: Vec<f32> = (0..n).map(|_| StandardNormal.sample(rng)).collect();
             for row in v.chunks_mut(cols) {
                 let norm = row.iter().map(|x| x * x).sum::<f32>().sqrt().max(1e-12);
-                row.iter_mut().for_each(|x| *x /= norm);
+                for x in row.iter_mut() {
+                    *x /= norm;
+                }
             }
             v
         }

@@ -91,13 +91,13 @@ impl PpoConfig {
                 "--procs, --frames-per-proc, --epochs and --recurrence must be positive".into(),
             );
         }
-        if self.frames_per_proc % self.recurrence != 0 {
+        if !self.frames_per_proc.is_multiple_of(self.recurrence) {
             return bad(format!(
                 "--frames-per-proc {} is not a multiple of --recurrence {}",
                 self.frames_per_proc, self.recurrence
             ));
         }
-        if self.batch_size % self.recurrence != 0 || self.batch_size == 0 {
+        if !self.batch_size.is_multiple_of(self.recurrence) || self.batch_size == 0 {
             return bad(format!(
                 "--batch-size {} is not a positive multiple of --recurrence {}",
                 self.batch_size, self.recurrence
@@ -358,8 +358,8 @@ impl Trainer {
                 let action = Action::from_index(a).unwrap_or(Action::Done);
                 let outcome = env.world.step(action)?;
                 ro.rewards[i] = outcome.reward as f32;
-                env.h = out.h[p].clone();
-                env.c = out.c[p].clone();
+                env.h.clone_from(&out.h[p]);
+                env.c.clone_from(&out.c[p]);
                 env.ep_return += outcome.reward;
                 env.ep_len += 1;
                 if outcome.terminated || outcome.truncated {
@@ -434,7 +434,9 @@ impl Trainer {
         idx.shuffle(&mut self.state.batch_rng);
         if self.state.batch_num % 2 == 1 {
             idx.retain(|&i| (i + rec) % fpp != 0);
-            idx.iter_mut().for_each(|i| *i += rec / 2);
+            for i in &mut idx {
+                *i += rec / 2;
+            }
         }
         self.state.batch_num += 1;
         idx.chunks(self.ppo.batch_size / rec)

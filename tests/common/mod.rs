@@ -1,4 +1,10 @@
 //! Helpers shared by the integration tests.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::format_collect,
+    reason = "test helpers fail loudly"
+)]
 #![allow(dead_code, reason = "each test binary uses a subset of the helpers")]
 
 use std::path::{Path, PathBuf};
