@@ -94,9 +94,17 @@ fn bench_policy(model: &str, secs: f64) -> anyhow::Result<ExitStatus> {
     let cfg = ModelConfig::new(variant);
     let params = Params::init(&cfg, 0)?;
     let level = LevelConfig::default();
-    let worlds: Vec<_> = (0..2048).map(|s| level.generate(s)).collect::<Result<_, _>>()?;
-    let tokens: Vec<Vec<u32>> = worlds.iter().map(|w| tokenize(&w.mission)).collect::<Result<_, _>>()?;
-    let obs: Vec<_> = worlds.iter().map(groundscope::env::World::observe).collect();
+    let worlds: Vec<_> = (0..2048)
+        .map(|s| level.generate(s))
+        .collect::<Result<_, _>>()?;
+    let tokens: Vec<Vec<u32>> = worlds
+        .iter()
+        .map(|w| tokenize(&w.mission))
+        .collect::<Result<_, _>>()?;
+    let obs: Vec<_> = worlds
+        .iter()
+        .map(groundscope::env::World::observe)
+        .collect();
     let net = Net::new(cfg, params.detached());
     for batch in [1usize, 256] {
         let missions: Vec<&[u32]> = tokens[..batch].iter().map(Vec::as_slice).collect();
@@ -118,15 +126,26 @@ fn bench_policy(model: &str, secs: f64) -> anyhow::Result<ExitStatus> {
         let n = frames / rec;
         let missions: Vec<&[u32]> = tokens[..frames].iter().map(Vec::as_slice).collect();
         let p = patches(&obs[..frames])?;
-        let keep = candle_core::Tensor::ones((rec, n), candle_core::DType::F32, &candle_core::Device::Cpu)?;
+        let keep = candle_core::Tensor::ones(
+            (rec, n),
+            candle_core::DType::F32,
+            &candle_core::Device::Cpu,
+        )?;
         let mem = Memory::zeros(n, cfg.lstm_hidden)?;
-        let zeros = candle_core::Tensor::zeros(frames, candle_core::DType::F32, &candle_core::Device::Cpu)?;
-        let actions = candle_core::Tensor::zeros((frames, 1), candle_core::DType::U32, &candle_core::Device::Cpu)?;
+        let zeros =
+            candle_core::Tensor::zeros(frames, candle_core::DType::F32, &candle_core::Device::Cpu)?;
+        let actions = candle_core::Tensor::zeros(
+            (frames, 1),
+            candle_core::DType::U32,
+            &candle_core::Device::Cpu,
+        )?;
         let calls = rate(secs, || {
             let tb = TokenBatch::new(&missions)?;
             let mi = train_net.mission_inputs(&tb)?;
             let (logits, values, _) = train_net.sequence(&p, &mi, &mem, &keep)?;
-            let l = ppo_loss(&logits, &values, &actions, &zeros, &zeros, &zeros, &zeros, &ppo)?;
+            let l = ppo_loss(
+                &logits, &values, &actions, &zeros, &zeros, &zeros, &zeros, &ppo,
+            )?;
             l.total.backward()?;
             Ok(())
         })?;
