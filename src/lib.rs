@@ -10,5 +10,6 @@
 
 pub mod env;
 pub mod episode;
+pub mod metrics;
 pub mod policy;
 pub mod render;

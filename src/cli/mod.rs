@@ -35,6 +35,18 @@ pub enum Command {
     Replay(policy_cmd::ReplayArgs),
     /// Train a policy with recurrent PPO.
     Train(Box<train::TrainArgs>),
+    /// Plot training curves (mean reward against frames, the paper's Fig. 4) from log.csv files.
+    #[command(
+        after_long_help = "EXAMPLES:\n  groundscope curve runs/attention/log.csv runs/baseline/log.csv --out fig4.png"
+    )]
+    Curve {
+        /// Training logs; each line's label is its run directory's name.
+        #[arg(required = true, value_name = "LOG.csv")]
+        logs: Vec<std::path::PathBuf>,
+        /// Output PNG.
+        #[arg(long, value_name = "FILE")]
+        out: std::path::PathBuf,
+    },
     /// Speed benchmarks that print JSON lines.
     #[command(subcommand)]
     Bench(bench::BenchCommand),
@@ -46,6 +58,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitStatus> {
         Command::Env(cmd) => env_cmd::run(cmd),
         Command::Bench(cmd) => bench::run(&cmd),
         Command::Train(args) => train::run(&args),
+        Command::Curve { logs, out } => curve(&logs, &out),
         Command::Init(args) => policy_cmd::init(&args),
         Command::Replay(args) => policy_cmd::replay(&args),
     }
@@ -66,4 +79,22 @@ pub fn write_atomic(path: &std::path::Path, bytes: &[u8]) -> anyhow::Result<()> 
     tmp.persist(path)
         .map_err(|e| anyhow::anyhow!("writing {}: {}", path.display(), e.error))?;
     Ok(())
+}
+
+fn curve(logs: &[std::path::PathBuf], out: &std::path::Path) -> anyhow::Result<ExitStatus> {
+    use groundscope::metrics::figures::{Curve, learning_curve, read_training_log};
+    let mut curves = Vec::new();
+    for log in logs {
+        let label = log.parent().and_then(|p| p.file_name()).map_or_else(
+            || log.display().to_string(),
+            |n| n.to_string_lossy().into_owned(),
+        );
+        curves.push(Curve {
+            label,
+            points: read_training_log(log)?,
+        });
+    }
+    learning_curve(&curves, "Mean reward during training", out)?;
+    println!("wrote {}", out.display());
+    Ok(ExitStatus::Success)
 }

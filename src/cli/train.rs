@@ -165,6 +165,16 @@ fn save_run(
         &dir.join("resume.json"),
         serde_json::to_string(&resume)?.as_bytes(),
     )?;
+    let points = groundscope::metrics::figures::read_training_log(&dir.join("log.csv"))?;
+    let curve = groundscope::metrics::figures::Curve {
+        label: trainer.model.variant.name().to_owned(),
+        points,
+    };
+    groundscope::metrics::figures::learning_curve(
+        &[curve],
+        "Mean reward during training",
+        &dir.join("curve.png"),
+    )?;
     Ok(())
 }
 
