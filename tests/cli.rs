@@ -358,3 +358,140 @@ fn resumed_training_matches_an_uninterrupted_run() {
         "groundscope-run",
     );
 }
+
+#[test]
+fn eval_writes_a_complete_report_and_gates_on_thresholds() {
+    let dir = tempfile::tempdir().unwrap();
+    let name = dir.path().join("u");
+    assert_eq!(
+        gs(&[
+            "init",
+            "--model",
+            "attention",
+            "--seed",
+            "2",
+            "--out",
+            name.to_str().unwrap()
+        ])
+        .status
+        .code(),
+        Some(0)
+    );
+    let out = dir.path().join("report");
+    let ckpt = name.to_str().unwrap();
+    let args = [
+        "eval",
+        "--checkpoint",
+        ckpt,
+        "--checkpoint",
+        "bundled:baseline",
+        "--sizes",
+        "6,8",
+        "--objects",
+        "2,3",
+        "--seeds",
+        "2",
+        "--episodes",
+        "3",
+        "--quiet",
+        "--out",
+    ];
+    let mut a: Vec<&str> = args.to_vec();
+    a.push(out.to_str().unwrap());
+    let o = gs(&a);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    for f in [
+        "report.json",
+        "report.md",
+        "performance.csv",
+        "accuracy.csv",
+        "failures.json",
+        "fig6_reward.png",
+        "fig6_success.png",
+        "fig7_object_accuracy.png",
+        "fig8_color_accuracy.png",
+    ] {
+        assert!(out.join(f).exists(), "{f} missing");
+    }
+    let report: groundscope::metrics::report::Report =
+        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
+    assert_eq!(report.schema_version, 1);
+    assert_eq!(report.cells.len(), 8);
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
+    let cell = &v["cells"][0];
+    for key in ["checkpoint", "size", "objects", "episodes"] {
+        assert!(cell.get(key).is_some(), "cell lacks {key}");
+    }
+    for key in ["reward", "success", "length"] {
+        assert!(
+            cell[key].get("mean").is_some() && cell[key].get("std").is_some(),
+            "{key}"
+        );
+    }
+    for word in ["object", "color"] {
+        for acc in ["acc", "acc_ng", "acc_bs", "acc_cmb"] {
+            assert!(
+                cell["accuracy"][word][acc].get("mean").is_some(),
+                "accuracy.{word}.{acc}"
+            );
+        }
+    }
+    assert!(
+        v["cells"][7]["accuracy"].is_null(),
+        "no accuracies for the baseline"
+    );
+    // Same inputs, same numbers (apart from the wall time).
+    let out2 = dir.path().join("again");
+    a.pop();
+    a.push(out2.to_str().unwrap());
+    assert_eq!(gs(&a).status.code(), Some(0));
+    let mut r2: groundscope::metrics::report::Report =
+        serde_json::from_str(&std::fs::read_to_string(out2.join("report.json")).unwrap()).unwrap();
+    r2.elapsed_secs = report.elapsed_secs;
+    assert_eq!(r2, report);
+    // Every listed failure replays to the same outcome.
+    let failures: Vec<groundscope::metrics::report::Failure> =
+        serde_json::from_str(&std::fs::read_to_string(out.join("failures.json")).unwrap()).unwrap();
+    if let Some(f) = failures.iter().find(|f| f.kind == "failed") {
+        let o = gs(&[
+            "replay",
+            "--checkpoint",
+            &f.checkpoint,
+            "--size",
+            &f.size.to_string(),
+            "--objects",
+            &f.objects.to_string(),
+            "--seed",
+            &f.seed.to_string(),
+        ]);
+        assert!(
+            stdout(&o).contains(&format!("failure in {} steps", f.length)),
+            "{}",
+            stdout(&o)
+        );
+    }
+    // Thresholds: an impossible one fails with exit 1 and names the metric.
+    a.pop();
+    let out3 = dir.path().join("gate");
+    a.push(out3.to_str().unwrap());
+    a.extend(["--min-success", "1.0"]);
+    let o = gs(&a);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stdout(&o).contains("--min-success"), "{}", stdout(&o));
+    // Bad input: exit 2, no report.
+    let bad = dir.path().join("bad");
+    let b = bad.to_str().unwrap();
+    assert_bad_input(&gs(&["eval", "--out", b, "--alpha", "1.5"]), "--alpha");
+    assert_bad_input(&gs(&["eval", "--out", b, "--episodes", "0"]), "empty");
+    assert_bad_input(&gs(&["eval", "--out", b, "--sizes", "4"]), "room_size");
+    assert_bad_input(
+        &gs(&["eval", "--out", b, "--sizes", "6", "--objects", "40"]),
+        "n_objects",
+    );
+    assert_bad_input(
+        &gs(&["eval", "--out", b, "--checkpoint", "/nonexistent/x"]),
+        "/nonexistent/x.json",
+    );
+    assert!(!bad.exists(), "no partial report");
+}

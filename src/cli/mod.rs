@@ -2,6 +2,7 @@
 
 mod bench;
 mod env_cmd;
+mod eval;
 mod policy_cmd;
 mod train;
 
@@ -33,6 +34,9 @@ pub enum Command {
     Init(policy_cmd::InitArgs),
     /// Run a checkpoint on a level and seed, step by step, and write what it saw and did.
     Replay(policy_cmd::ReplayArgs),
+    /// Evaluate checkpoints over room sizes × object counts: performance, grounding accuracies,
+    /// reports and figures.
+    Eval(Box<eval::EvalArgs>),
     /// Train a policy with recurrent PPO.
     Train(Box<train::TrainArgs>),
     /// Plot training curves (mean reward against frames, the paper's Fig. 4) from log.csv files.
@@ -58,6 +62,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitStatus> {
         Command::Env(cmd) => env_cmd::run(cmd),
         Command::Bench(cmd) => bench::run(&cmd),
         Command::Train(args) => train::run(&args),
+        Command::Eval(args) => eval::run(&args),
         Command::Curve { logs, out } => curve(&logs, &out),
         Command::Init(args) => policy_cmd::init(&args),
         Command::Replay(args) => policy_cmd::replay(&args),

@@ -1,6 +1,6 @@
 //! `groundscope init` and `groundscope replay`.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use anyhow::Context as _;
 use clap::Args;
@@ -56,15 +56,14 @@ pub fn init(args: &InitArgs) -> anyhow::Result<ExitStatus> {
     Ok(ExitStatus::Success)
 }
 
-/// Loads the checkpoint at `path`, or the bundled default when `None`.
-pub fn load_checkpoint(path: Option<&Path>) -> anyhow::Result<(Checkpoint, String)> {
-    let Some(path) = path else {
-        anyhow::bail!(
-            "no bundled checkpoint in this build yet; pass --checkpoint NAME (see `groundscope init`)"
-        );
-    };
-    let ckpt = Checkpoint::load(path)?;
-    Ok((ckpt, path.display().to_string()))
+/// Loads the checkpoint named on the command line, or the bundled attention model.
+pub fn load_checkpoint(spec: Option<&str>) -> anyhow::Result<(Checkpoint, String)> {
+    let spec = spec.map_or_else(
+        || groundscope::policy::bundled::names()[0].clone(),
+        str::to_owned,
+    );
+    let ckpt = groundscope::policy::bundled::load(&spec)?;
+    Ok((ckpt, spec))
 }
 
 /// `groundscope replay`.
@@ -73,9 +72,10 @@ pub fn load_checkpoint(path: Option<&Path>) -> anyhow::Result<(Checkpoint, Strin
     after_long_help = "EXAMPLES:\n  groundscope replay --checkpoint runs/untrained --seed 3 --trace out.json"
 )]
 pub struct ReplayArgs {
-    /// Checkpoint name (NAME, NAME.json or NAME.safetensors).
+    /// Checkpoint: NAME (NAME.json + NAME.safetensors) or bundled:attention / bundled:baseline
+    /// [default: bundled:attention].
     #[arg(long, value_name = "NAME")]
-    pub checkpoint: Option<PathBuf>,
+    pub checkpoint: Option<String>,
     /// Level seed.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,

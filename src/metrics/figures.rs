@@ -13,7 +13,8 @@ static FONT: Once = Once::new();
 /// The bundled font (Bitstream Vera licence, `assets/fonts/LICENSE-DejaVu.txt`).
 const DEJAVU: &[u8] = include_bytes!("../../assets/fonts/DejaVuSans.ttf");
 
-fn register_font() {
+/// Makes the bundled font the `sans-serif` family (once).
+pub fn register_font() {
     FONT.call_once(|| {
         // Registration fails only for an unparsable font, which the bundled one is not.
         let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, DEJAVU);

@@ -2,5 +2,8 @@
 
 pub mod error;
 pub mod figures;
+pub mod grounding;
+pub mod report;
+pub mod sweep;
 
 pub use error::MetricsError;

@@ -172,6 +172,13 @@ impl Checkpoint {
     pub fn load(name: &Path) -> Result<Self, PolicyError> {
         let (st, js) = checkpoint_paths(name);
         let text = std::fs::read_to_string(&js).map_err(|e| io_err(&js, e))?;
+        let bytes = std::fs::read(&st).map_err(|e| io_err(&st, e))?;
+        Self::from_parts(&text, &bytes, &js, &st)
+    }
+
+    /// Checks and builds a checkpoint from the JSON text and the safetensors bytes; the paths
+    /// only label errors.
+    pub fn from_parts(text: &str, bytes: &[u8], js: &Path, st: &Path) -> Result<Self, PolicyError> {
         let bad = |path: &Path, field: &str, reason: String| PolicyError::Checkpoint {
             path: path.to_path_buf(),
             field: field.to_owned(),
@@ -222,9 +229,8 @@ impl Checkpoint {
         }
         meta.level
             .validate()
-            .map_err(|e| bad(&js, "level", e.to_string()))?;
-        let bytes = std::fs::read(&st).map_err(|e| io_err(&st, e))?;
-        let hash = sha256_hex(&bytes);
+            .map_err(|e| bad(js, "level", e.to_string()))?;
+        let hash = sha256_hex(bytes);
         if hash != meta.weights_sha256 {
             return Err(bad(
                 &st,
@@ -236,14 +242,14 @@ impl Checkpoint {
                 ),
             ));
         }
-        let tensors = safetensors::SafeTensors::deserialize(&bytes)
-            .map_err(|e| bad(&st, "safetensors", e.to_string()))?;
+        let tensors = safetensors::SafeTensors::deserialize(bytes)
+            .map_err(|e| bad(st, "safetensors", e.to_string()))?;
         let mut map = BTreeMap::new();
         let specs = param_specs(&meta.model);
         for s in &specs {
             let view = tensors
                 .tensor(&s.name)
-                .map_err(|_| bad(&st, &s.name, "tensor is missing".into()))?;
+                .map_err(|_| bad(st, &s.name, "tensor is missing".into()))?;
             if view.dtype() != safetensors::Dtype::F32 {
                 return Err(bad(
                     &st,
@@ -264,7 +270,7 @@ impl Checkpoint {
                 .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
                 .collect();
             if data.iter().any(|x| !x.is_finite()) {
-                return Err(bad(&st, &s.name, "holds NaN or infinite values".into()));
+                return Err(bad(st, &s.name, "holds NaN or infinite values".into()));
             }
             map.insert(
                 s.name.clone(),

@@ -3,6 +3,7 @@
 
 pub mod adam;
 pub mod attention;
+pub mod bundled;
 pub mod checkpoint;
 pub mod config;
 pub mod error;

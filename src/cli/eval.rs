@@ -1,0 +1,239 @@
+//! `groundscope eval`: the paper's evaluation sweep, grounding accuracies and reports.
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use clap::Args;
+use groundscope::episode::ActionMode;
+use groundscope::metrics::grounding::WordKind;
+use groundscope::metrics::report::{
+    Cell, CellAccuracy, CheckpointInfo, Report, SCHEMA_VERSION, worst_episodes,
+};
+use groundscope::metrics::sweep::{evaluate_cell, grounding, performance};
+use groundscope::policy::{Net, bundled};
+
+use crate::ExitStatus;
+
+/// `groundscope eval`.
+#[derive(Debug, Args)]
+#[command(
+    after_long_help = "EXAMPLES:\n  groundscope eval --out report/\n  groundscope eval --checkpoint runs/att/model --sizes 8,10 --objects 4,6 --seeds 2 --episodes 50 --out quick/ --min-success 0.9"
+)]
+pub struct EvalArgs {
+    /// Checkpoints to evaluate (repeatable): NAME or bundled:attention / bundled:baseline
+    /// [default: both bundled ones].
+    #[arg(long, value_name = "NAME")]
+    pub checkpoint: Vec<String>,
+    /// Report directory: report.json, report.md, CSVs, PNG figures, failures.json.
+    #[arg(long, value_name = "DIR")]
+    pub out: PathBuf,
+    /// Room sizes of the sweep.
+    #[arg(long, value_delimiter = ',', default_value = "8,10,12,14,16")]
+    pub sizes: Vec<usize>,
+    /// Object counts of the sweep.
+    #[arg(long, value_delimiter = ',', default_value = "4,6,8,10")]
+    pub objects: Vec<usize>,
+    /// Evaluation seeds per cell (mean ± std is over these).
+    #[arg(long, default_value_t = 5)]
+    pub seeds: u64,
+    /// Episodes per seed.
+    #[arg(long, default_value_t = 100)]
+    pub episodes: u64,
+    /// Threshold factor α of the grounding accuracies (τ = α / n).
+    #[arg(long, default_value_t = 0.5)]
+    pub alpha: f64,
+    /// Sample actions instead of taking the most probable one.
+    #[arg(long)]
+    pub sample: bool,
+    /// How many worst episodes of each kind to list.
+    #[arg(long, default_value_t = 10)]
+    pub top_k: usize,
+    /// Exit 1 if any cell's mean success rate is below this.
+    #[arg(long, value_name = "X")]
+    pub min_success: Option<f64>,
+    /// Exit 1 if any attention cell's mean object-word acc_ng is below this.
+    #[arg(long, value_name = "X")]
+    pub min_acc_ng: Option<f64>,
+    /// Hide the progress bar.
+    #[arg(long)]
+    pub quiet: bool,
+}
+
+/// Runs `eval`.
+pub fn run(args: &EvalArgs) -> anyhow::Result<ExitStatus> {
+    if !(0.0..=1.0).contains(&args.alpha) {
+        anyhow::bail!("--alpha {} is outside [0, 1]", args.alpha);
+    }
+    if args.sizes.is_empty() || args.objects.is_empty() || args.seeds == 0 || args.episodes == 0 {
+        anyhow::bail!(
+            "the sweep is empty: --sizes, --objects, --seeds and --episodes must each give at least one"
+        );
+    }
+    if args.episodes >= 1_000_000 {
+        anyhow::bail!(
+            "--episodes {} must be below 1000000 (level seeds are seed·10⁶ + episode)",
+            args.episodes
+        );
+    }
+    for (flag, v) in [
+        ("--min-success", args.min_success),
+        ("--min-acc-ng", args.min_acc_ng),
+    ] {
+        if let Some(x) = v
+            && !(0.0..=1.0).contains(&x)
+        {
+            anyhow::bail!("{flag} {x} is outside [0, 1]");
+        }
+    }
+    let specs = if args.checkpoint.is_empty() {
+        bundled::names()
+    } else {
+        args.checkpoint.clone()
+    };
+    let mut ckpts = Vec::new();
+    for s in &specs {
+        ckpts.push((s.clone(), bundled::load(s)?));
+    }
+    // Check every cell's level before running anything: no partial report.
+    let mut cells = Vec::new();
+    for (name, ckpt) in &ckpts {
+        for &size in &args.sizes {
+            for &objects in &args.objects {
+                let mut level = ckpt.meta.level;
+                level.room_size = size;
+                level.n_objects = objects;
+                level
+                    .validate()
+                    .map_err(|e| anyhow::anyhow!("--sizes {size} --objects {objects}: {e}"))?;
+                cells.push((name.clone(), ckpt, level));
+            }
+        }
+    }
+    let mode = if args.sample {
+        ActionMode::Sampled
+    } else {
+        ActionMode::Greedy
+    };
+    let total = cells.len() as u64 * args.seeds * args.episodes;
+    let bar = if args.quiet {
+        indicatif::ProgressBar::hidden()
+    } else {
+        indicatif::ProgressBar::new(total)
+    };
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("{bar:30} {pos}/{len} episodes {msg} ETA {eta}")
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+    );
+    let start = Instant::now();
+    let mut done = 0u64;
+    let mut report_cells = Vec::new();
+    let mut all_eps = Vec::new();
+    for (name, ckpt, level) in &cells {
+        let net = Net::new(ckpt.meta.model, ckpt.params.detached());
+        bar.set_message(format!("{name} S{} N{}", level.room_size, level.n_objects));
+        let eps = evaluate_cell(
+            &net,
+            level,
+            args.seeds,
+            args.episodes,
+            args.alpha,
+            mode,
+            &mut |n| {
+                bar.set_position(done + n);
+            },
+        )?;
+        done += eps.len() as u64;
+        let accuracy = ckpt.meta.model.has_attention().then(|| CellAccuracy {
+            object: grounding(&eps, WordKind::Object),
+            color: grounding(&eps, WordKind::Color),
+            combined: grounding(&eps, WordKind::Combined),
+        });
+        report_cells.push(Cell::new(
+            name,
+            ckpt.meta.model.variant.name(),
+            level.room_size,
+            level.n_objects,
+            eps.len() as u64,
+            performance(&eps),
+            accuracy,
+        ));
+        all_eps.push((name.clone(), level.room_size, level.n_objects, eps));
+    }
+    bar.finish_and_clear();
+    let elapsed = start.elapsed().as_secs_f64();
+    let report = Report {
+        schema_version: SCHEMA_VERSION,
+        groundscope_version: env!("CARGO_PKG_VERSION").into(),
+        alpha: args.alpha,
+        mode: if args.sample { "sampled" } else { "greedy" }.into(),
+        seeds: args.seeds,
+        episodes_per_seed: args.episodes,
+        checkpoints: ckpts
+            .iter()
+            .map(|(n, c)| CheckpointInfo {
+                name: n.clone(),
+                variant: c.meta.model.variant.name().into(),
+                frames: c.meta.training.frames,
+                level: c.meta.level,
+            })
+            .collect(),
+        cells: report_cells,
+        elapsed_secs: elapsed,
+    };
+    let sample = if args.sample { " --sample" } else { "" };
+    let failures = worst_episodes(&all_eps, args.top_k, &|ckpt, size, objects, seed| {
+        format!(
+            "groundscope replay --checkpoint {ckpt} --size {size} --objects {objects} --seed {seed}{sample}"
+        )
+    });
+    report.write(&args.out, &failures)?;
+    println!(
+        "evaluated {total} episodes in {elapsed:.1} s; report in {}",
+        args.out.display()
+    );
+    println!(
+        "{:<22} {:>4} {:>3}  {:>15}  {:>15}  {:>15}",
+        "checkpoint", "S", "N", "reward", "success", "obj acc_ng"
+    );
+    let f = |m: &groundscope::metrics::sweep::MeanStd| match (m.mean, m.std) {
+        (Some(a), Some(b)) => format!("{a:.3} ± {b:.3}"),
+        _ => "–".into(),
+    };
+    let mut failed_checks = Vec::new();
+    for c in &report.cells {
+        let acc_ng = c.accuracy.as_ref().map(|a| a.object.acc_ng);
+        println!(
+            "{:<22} {:>4} {:>3}  {:>15}  {:>15}  {:>15}",
+            c.checkpoint,
+            c.size,
+            c.objects,
+            f(&c.reward),
+            f(&c.success),
+            acc_ng.as_ref().map_or("–".into(), f)
+        );
+        if let (Some(min), Some(s)) = (args.min_success, c.success.mean)
+            && s < min
+        {
+            failed_checks.push(format!(
+                "success {s:.3} < --min-success {min} ({} S{} N{})",
+                c.checkpoint, c.size, c.objects
+            ));
+        }
+        if let (Some(min), Some(a)) = (args.min_acc_ng, acc_ng.and_then(|a| a.mean))
+            && a < min
+        {
+            failed_checks.push(format!(
+                "object acc_ng {a:.3} < --min-acc-ng {min} ({} S{} N{})",
+                c.checkpoint, c.size, c.objects
+            ));
+        }
+    }
+    if failed_checks.is_empty() {
+        Ok(ExitStatus::Success)
+    } else {
+        for f in &failed_checks {
+            println!("check failed: {f}");
+        }
+        Ok(ExitStatus::CheckFailed)
+    }
+}

@@ -1,0 +1,324 @@
+//! The paper's grounding accuracies (§4.2, eqs. 8–11): does a word's attention map cover the
+//! objects the word names? Every formula lives here.
+//!
+//! For a word ω naming a type (key/ball/box) or a colour, its related objects are the objects
+//! visible in the view with that type or colour (the carried object in the agent's own cell
+//! does not count; walls are not objects). A step is evaluated for ω only when n_ω ≥ 1. With
+//! `τ = α / n_ω` and each related object at view cell `(x, y)` (y decreases forward):
+//! - `acc`: `A[y][x] ≥ τ`;
+//! - `acc_ng`: some cell within Chebyshev distance 1 of `(x, y)`, inside the view, is `≥ τ`;
+//! - `acc_bs`: the cell one step forward, `(x, y − 1)`, is `≥ τ` (needs `y > 0`);
+//! - `acc_cmb`: `acc` or `acc_bs` (just `acc` when `y = 0`).
+//!
+//! Each is the fraction of the n_ω objects that hit. Maps are `map[vy][vx]`, agent-up.
+
+use serde::{Deserialize, Serialize};
+
+use crate::env::mission::ObjDesc;
+use crate::env::object::{Color, ObjectKind};
+use crate::env::view::{AGENT_IN_VIEW, Observation, VIEW_SIZE, ViewCell};
+use crate::policy::ViewMap;
+
+/// The four accuracies of one map at one step, each a fraction of the related objects.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Accuracies {
+    /// Hit on the object's own cell.
+    pub acc: f64,
+    /// Hit anywhere in its 3×3 neighbourhood.
+    pub acc_ng: f64,
+    /// Hit on the cell one step forward.
+    pub acc_bs: f64,
+    /// `acc` or `acc_bs`.
+    pub acc_cmb: f64,
+}
+
+impl Accuracies {
+    /// The four values in report order.
+    pub fn values(&self) -> [f64; 4] {
+        [self.acc, self.acc_ng, self.acc_bs, self.acc_cmb]
+    }
+
+    /// Names of the four values, in report order.
+    pub const NAMES: [&'static str; 4] = ["acc", "acc_ng", "acc_bs", "acc_cmb"];
+
+    /// Element-wise sum.
+    pub fn add(&mut self, o: &Self) {
+        self.acc += o.acc;
+        self.acc_ng += o.acc_ng;
+        self.acc_bs += o.acc_bs;
+        self.acc_cmb += o.acc_cmb;
+    }
+
+    /// Element-wise division.
+    pub fn scaled(&self, by: f64) -> Self {
+        Self {
+            acc: self.acc / by,
+            acc_ng: self.acc_ng / by,
+            acc_bs: self.acc_bs / by,
+            acc_cmb: self.acc_cmb / by,
+        }
+    }
+}
+
+/// Visible objects (keys, balls, boxes) in the view that satisfy `pred`, excluding the
+/// agent's own cell.
+pub fn related_objects(
+    obs: &Observation,
+    pred: impl Fn(ObjectKind, Color) -> bool,
+) -> Vec<ViewCell> {
+    let mut out = Vec::new();
+    for vy in 0..VIEW_SIZE {
+        for vx in 0..VIEW_SIZE {
+            if (vx, vy) == AGENT_IN_VIEW {
+                continue;
+            }
+            let [t, c, _] = obs.image[vx][vy];
+            let (Some(kind), Some(color)) = (ObjectKind::from_index(t), Color::from_index(c))
+            else {
+                continue;
+            };
+            if kind.can_pickup() && pred(kind, color) {
+                out.push((vx, vy));
+            }
+        }
+    }
+    out
+}
+
+/// The four accuracies of `map` on `objects` at threshold `α / n`; `None` when there is no
+/// related object (the step is not evaluated).
+pub fn accuracies(map: &ViewMap, objects: &[ViewCell], alpha: f64) -> Option<Accuracies> {
+    if objects.is_empty() {
+        return None;
+    }
+    let n = objects.len() as f64;
+    let tau = alpha / n;
+    let at = |x: i64, y: i64| -> Option<f64> {
+        let r = 0..VIEW_SIZE as i64;
+        (r.contains(&x) && r.contains(&y)).then(|| f64::from(map[y as usize][x as usize]))
+    };
+    let mut hits = Accuracies::default();
+    for &(x, y) in objects {
+        let (x, y) = (x as i64, y as i64);
+        let own = at(x, y).is_some_and(|v| v >= tau);
+        let ng = (-1..=1).any(|dy| (-1..=1).any(|dx| at(x + dx, y + dy).is_some_and(|v| v >= tau)));
+        let bs = y > 0 && at(x, y - 1).is_some_and(|v| v >= tau);
+        hits.acc += f64::from(u8::from(own));
+        hits.acc_ng += f64::from(u8::from(ng));
+        hits.acc_bs += f64::from(u8::from(bs));
+        hits.acc_cmb += f64::from(u8::from(own || bs));
+    }
+    Some(hits.scaled(n))
+}
+
+/// Which kind of mission word a metric is about.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum WordKind {
+    /// The object-type word (key, ball, box): paper Fig. 7.
+    Object,
+    /// The colour word: paper Fig. 8.
+    Color,
+    /// The combined map `M` on the target objects (not in the paper).
+    Combined,
+}
+
+impl WordKind {
+    /// All kinds, in report order.
+    pub const ALL: [Self; 3] = [Self::Object, Self::Color, Self::Combined];
+
+    /// Lowercase name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Object => "object",
+            Self::Color => "color",
+            Self::Combined => "combined",
+        }
+    }
+}
+
+/// The evaluations of one step: for each word kind that was evaluated, its accuracies and the
+/// related objects (view cells) used.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct StepGrounding {
+    /// Per word kind: accuracies and related objects.
+    pub evaluated: Vec<(WordKind, Accuracies, Vec<ViewCell>)>,
+}
+
+/// Evaluates one step: the type word's map, the colour word's map, and `M` on the objects that
+/// match the whole description. `words` are the mission's words with their maps.
+pub fn ground_step(
+    obs: &Observation,
+    desc: &ObjDesc,
+    words: &[(&str, &ViewMap)],
+    combined: &ViewMap,
+    alpha: f64,
+) -> StepGrounding {
+    let mut out = StepGrounding::default();
+    if let Some(kind) = desc.kind
+        && let Some((_, map)) = words.iter().find(|(w, _)| *w == kind.name())
+    {
+        let objs = related_objects(obs, |k, _| k == kind);
+        if let Some(a) = accuracies(map, &objs, alpha) {
+            out.evaluated.push((WordKind::Object, a, objs));
+        }
+    }
+    if let Some(color) = desc.color
+        && let Some((_, map)) = words.iter().find(|(w, _)| *w == color.name())
+    {
+        let objs = related_objects(obs, |_, c| c == color);
+        if let Some(a) = accuracies(map, &objs, alpha) {
+            out.evaluated.push((WordKind::Color, a, objs));
+        }
+    }
+    let targets = related_objects(obs, |k, c| {
+        desc.kind.is_none_or(|d| d == k) && desc.color.is_none_or(|d| d == c)
+    });
+    if let Some(a) = accuracies(combined, &targets, alpha) {
+        out.evaluated.push((WordKind::Combined, a, targets));
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn one_hot(x: usize, y: usize) -> ViewMap {
+        let mut m = [[0.0; 7]; 7];
+        m[y][x] = 1.0;
+        m
+    }
+
+    const UNIFORM: ViewMap = [[1.0 / 49.0; 7]; 7];
+
+    #[test]
+    fn one_hot_on_the_object_hits_everything_but_the_shift() {
+        let a = accuracies(&one_hot(2, 3), &[(2, 3)], 0.5).unwrap();
+        assert_eq!(
+            a,
+            Accuracies {
+                acc: 1.0,
+                acc_ng: 1.0,
+                acc_bs: 0.0,
+                acc_cmb: 1.0
+            }
+        );
+    }
+
+    #[test]
+    fn a_uniform_map_misses_at_alpha_one_half() {
+        let a = accuracies(&UNIFORM, &[(2, 3)], 0.5).unwrap();
+        assert_eq!(a, Accuracies::default());
+        // ... and hits everywhere when α is tiny.
+        let a = accuracies(&UNIFORM, &[(2, 3)], 0.01).unwrap();
+        assert_eq!(a.values(), [1.0; 4]);
+    }
+
+    #[test]
+    fn a_map_shifted_one_cell_forward_hits_bs_ng_and_cmb() {
+        let a = accuracies(&one_hot(2, 2), &[(2, 3)], 0.5).unwrap();
+        assert_eq!(
+            a,
+            Accuracies {
+                acc: 0.0,
+                acc_ng: 1.0,
+                acc_bs: 1.0,
+                acc_cmb: 1.0
+            }
+        );
+    }
+
+    #[test]
+    fn an_object_on_row_zero_has_no_forward_shift() {
+        let mut m = one_hot(4, 0);
+        m[6][0] = 0.9; // far away, irrelevant
+        let a = accuracies(&m, &[(4, 0)], 0.5).unwrap();
+        assert_eq!(
+            a,
+            Accuracies {
+                acc: 1.0,
+                acc_ng: 1.0,
+                acc_bs: 0.0,
+                acc_cmb: 1.0
+            }
+        );
+        let miss = accuracies(&one_hot(5, 1), &[(4, 0)], 0.5).unwrap();
+        assert_eq!(
+            miss,
+            Accuracies {
+                acc: 0.0,
+                acc_ng: 1.0,
+                acc_bs: 0.0,
+                acc_cmb: 0.0
+            }
+        );
+    }
+
+    #[test]
+    fn several_objects_share_the_threshold() {
+        // Two related objects: τ = 0.25; half the mass on each.
+        let mut m = [[0.0; 7]; 7];
+        m[1][1] = 0.3;
+        m[4][5] = 0.2;
+        let a = accuracies(&m, &[(1, 1), (5, 4)], 0.5).unwrap();
+        assert_eq!(a.acc, 0.5, "only the first reaches τ = 0.25");
+        assert_eq!(a.acc_ng, 0.5);
+    }
+
+    #[test]
+    fn steps_without_related_objects_are_not_evaluated() {
+        assert_eq!(accuracies(&UNIFORM, &[], 0.5), None);
+        let obs = Observation {
+            image: [[[1, 0, 0]; 7]; 7],
+        };
+        let desc = ObjDesc {
+            kind: Some(ObjectKind::Key),
+            color: Some(Color::Red),
+            loc: None,
+        };
+        let g = ground_step(
+            &obs,
+            &desc,
+            &[("key", &UNIFORM), ("red", &UNIFORM)],
+            &UNIFORM,
+            0.5,
+        );
+        assert!(g.evaluated.is_empty());
+    }
+
+    #[test]
+    fn the_carried_object_and_walls_are_not_related() {
+        let mut obs = Observation {
+            image: [[[1, 0, 0]; 7]; 7],
+        };
+        obs.image[3][6] = [5, 0, 0]; // carried red key in the agent's cell
+        obs.image[0][0] = [2, 5, 0]; // grey wall
+        obs.image[1][2] = [5, 0, 0]; // red key at vx 1, vy 2
+        assert_eq!(
+            related_objects(&obs, |k, _| k == ObjectKind::Key),
+            vec![(1, 2)]
+        );
+        assert!(related_objects(&obs, |_, c| c == Color::Grey).is_empty());
+        let desc = ObjDesc {
+            kind: Some(ObjectKind::Key),
+            color: Some(Color::Red),
+            loc: None,
+        };
+        let map = one_hot(1, 2);
+        let g = ground_step(
+            &obs,
+            &desc,
+            &[("go", &UNIFORM), ("key", &map), ("red", &UNIFORM)],
+            &map,
+            0.5,
+        );
+        let kinds: Vec<WordKind> = g.evaluated.iter().map(|e| e.0).collect();
+        assert_eq!(
+            kinds,
+            vec![WordKind::Object, WordKind::Color, WordKind::Combined]
+        );
+        assert_eq!(g.evaluated[0].1.acc, 1.0);
+        assert_eq!(g.evaluated[1].1.acc, 0.0);
+    }
+}

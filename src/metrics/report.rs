@@ -1,0 +1,539 @@
+//! Evaluation reports: `report.json` (versioned schema), `report.md`, CSVs, figures and the
+//! list of worst episodes. Everything is written to a temporary directory first and moved into
+//! place only when complete, so a failure leaves no partial report.
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use plotters::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use super::error::MetricsError;
+use super::figures::{SERIES_COLORS, save_rgb};
+use super::grounding::WordKind;
+use super::sweep::{EpisodeSummary, GroundingStats, MeanStd, Performance};
+use crate::env::level::LevelConfig;
+
+/// Version of the `report.json` schema.
+pub const SCHEMA_VERSION: u32 = 1;
+
+/// Accuracies of an attention checkpoint in one cell.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct CellAccuracy {
+    /// The object-type word's map (paper Fig. 7).
+    pub object: GroundingStats,
+    /// The colour word's map (paper Fig. 8).
+    pub color: GroundingStats,
+    /// The combined map `M` on the target objects (ours).
+    pub combined: GroundingStats,
+}
+
+/// One checkpoint × size × objects cell.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Cell {
+    /// Checkpoint name.
+    pub checkpoint: String,
+    /// attention or baseline.
+    pub variant: String,
+    /// Room size.
+    pub size: usize,
+    /// Object count.
+    pub objects: usize,
+    /// Episodes evaluated (seeds × episodes per seed).
+    pub episodes: u64,
+    /// Mean reward.
+    pub reward: MeanStd,
+    /// Success rate.
+    pub success: MeanStd,
+    /// Mean episode length.
+    pub length: MeanStd,
+    /// Mean reward of successful episodes.
+    pub reward_given_success: MeanStd,
+    /// Grounding accuracies (attention checkpoints only).
+    pub accuracy: Option<CellAccuracy>,
+}
+
+impl Cell {
+    /// A cell from its performance and accuracies.
+    pub fn new(
+        checkpoint: &str,
+        variant: &str,
+        size: usize,
+        objects: usize,
+        episodes: u64,
+        perf: Performance,
+        accuracy: Option<CellAccuracy>,
+    ) -> Self {
+        Self {
+            checkpoint: checkpoint.to_owned(),
+            variant: variant.to_owned(),
+            size,
+            objects,
+            episodes,
+            reward: perf.reward,
+            success: perf.success,
+            length: perf.length,
+            reward_given_success: perf.reward_given_success,
+            accuracy,
+        }
+    }
+}
+
+/// A checkpoint as the report lists it.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct CheckpointInfo {
+    /// Name (path or bundled name).
+    pub name: String,
+    /// attention or baseline.
+    pub variant: String,
+    /// Frames it was trained for.
+    pub frames: u64,
+    /// The level it was trained on.
+    pub level: LevelConfig,
+}
+
+/// One of the worst episodes, enough to replay it.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Failure {
+    /// Why it is listed: `failed` or `low_acc_cmb`.
+    pub kind: String,
+    /// Checkpoint name.
+    pub checkpoint: String,
+    /// Room size.
+    pub size: usize,
+    /// Object count.
+    pub objects: usize,
+    /// Level seed (`groundscope replay --seed`).
+    pub seed: u64,
+    /// Mission.
+    pub mission: String,
+    /// Return.
+    pub reward: f64,
+    /// Length.
+    pub length: u32,
+    /// Episode acc_cmb of `M` on the targets, when evaluated.
+    pub acc_cmb: Option<f64>,
+    /// The command that replays it.
+    pub replay: String,
+}
+
+/// `report.json`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Report {
+    /// [`SCHEMA_VERSION`].
+    pub schema_version: u32,
+    /// groundscope version.
+    pub groundscope_version: String,
+    /// Threshold factor α.
+    pub alpha: f64,
+    /// greedy or sampled.
+    pub mode: String,
+    /// Evaluation seeds.
+    pub seeds: u64,
+    /// Episodes per seed.
+    pub episodes_per_seed: u64,
+    /// Checkpoints evaluated.
+    pub checkpoints: Vec<CheckpointInfo>,
+    /// One per checkpoint × size × objects.
+    pub cells: Vec<Cell>,
+    /// Wall time of the sweep.
+    pub elapsed_secs: f64,
+}
+
+/// Picks the K worst episodes of each kind: failures (lowest reward, then longest) and the
+/// lowest acc_cmb of `M` on visible targets.
+pub fn worst_episodes(
+    all: &[(String, usize, usize, Vec<EpisodeSummary>)],
+    k: usize,
+    replay_args: &dyn Fn(&str, usize, usize, u64) -> String,
+) -> Vec<Failure> {
+    let mut failed = Vec::new();
+    let mut low = Vec::new();
+    for (ckpt, size, objects, eps) in all {
+        for e in eps {
+            let acc_cmb = e.grounding.get(&WordKind::Combined).map(|(a, _)| a.acc_cmb);
+            let f = |kind: &str| Failure {
+                kind: kind.to_owned(),
+                checkpoint: ckpt.clone(),
+                size: *size,
+                objects: *objects,
+                seed: e.level_seed,
+                mission: e.mission.clone(),
+                reward: e.reward,
+                length: e.length,
+                acc_cmb,
+                replay: replay_args(ckpt, *size, *objects, e.level_seed),
+            };
+            if !e.success {
+                failed.push(f("failed"));
+            }
+            if acc_cmb.is_some() {
+                low.push(f("low_acc_cmb"));
+            }
+        }
+    }
+    failed.sort_by(|a, b| b.length.cmp(&a.length).then(a.seed.cmp(&b.seed)));
+    low.sort_by(|a, b| {
+        a.acc_cmb
+            .partial_cmp(&b.acc_cmb)
+            .unwrap_or(std::cmp::Ordering::Equal)
+            .then(a.seed.cmp(&b.seed))
+    });
+    failed.truncate(k);
+    low.truncate(k);
+    failed.extend(low);
+    failed
+}
+
+fn fmt(m: &MeanStd) -> String {
+    match (m.mean, m.std) {
+        (Some(a), Some(b)) => format!("{a:.3} ± {b:.3}"),
+        _ => "–".into(),
+    }
+}
+
+fn csv(m: &MeanStd) -> String {
+    match (m.mean, m.std) {
+        (Some(a), Some(b)) => format!("{a:.6},{b:.6}"),
+        _ => ",".into(),
+    }
+}
+
+impl Report {
+    /// `report.md`: the tables.
+    pub fn markdown(&self, failures: &[Failure]) -> String {
+        let mut s = String::new();
+        let _ = writeln!(s, "# groundscope evaluation\n");
+        let _ = writeln!(
+            s,
+            "α = {}, {} actions, {} seeds × {} episodes per cell; mean ± std over seeds. Sweep took {:.1} s.\n",
+            self.alpha, self.mode, self.seeds, self.episodes_per_seed, self.elapsed_secs
+        );
+        for c in &self.checkpoints {
+            let _ = writeln!(
+                s,
+                "- `{}`: {} model, {} training frames, trained on {}",
+                c.name, c.variant, c.frames, c.level
+            );
+        }
+        let _ = writeln!(s, "\n## Task performance (paper Fig. 6)\n");
+        let _ = writeln!(
+            s,
+            "| checkpoint | size | objects | reward | success | length | reward given success |"
+        );
+        let _ = writeln!(s, "|---|---|---|---|---|---|---|");
+        for c in &self.cells {
+            let _ = writeln!(
+                s,
+                "| {} | {} | {} | {} | {} | {} | {} |",
+                c.checkpoint,
+                c.size,
+                c.objects,
+                fmt(&c.reward),
+                fmt(&c.success),
+                fmt(&c.length),
+                fmt(&c.reward_given_success)
+            );
+        }
+        for (kind, title) in [
+            (WordKind::Object, "Object-word maps (paper Fig. 7)"),
+            (WordKind::Color, "Colour-word maps (paper Fig. 8)"),
+            (
+                WordKind::Combined,
+                "Combined map M on the target objects (not in the paper)",
+            ),
+        ] {
+            let _ = writeln!(s, "\n## {title}\n");
+            let _ = writeln!(
+                s,
+                "| checkpoint | size | objects | acc | acc_ng | acc_bs | acc_cmb | evaluated steps | episodes without |"
+            );
+            let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|");
+            for c in &self.cells {
+                let Some(a) = &c.accuracy else { continue };
+                let g = match kind {
+                    WordKind::Object => &a.object,
+                    WordKind::Color => &a.color,
+                    WordKind::Combined => &a.combined,
+                };
+                let _ = writeln!(
+                    s,
+                    "| {} | {} | {} | {} | {} | {} | {} | {} | {} |",
+                    c.checkpoint,
+                    c.size,
+                    c.objects,
+                    fmt(&g.acc),
+                    fmt(&g.acc_ng),
+                    fmt(&g.acc_bs),
+                    fmt(&g.acc_cmb),
+                    g.evaluated_steps,
+                    g.episodes_without
+                );
+            }
+        }
+        let _ = writeln!(s, "\n## Worst episodes\n");
+        let _ = writeln!(
+            s,
+            "| why | checkpoint | size | objects | seed | mission | reward | length | acc_cmb (M) | replay |"
+        );
+        let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|---|");
+        for f in failures {
+            let _ = writeln!(
+                s,
+                "| {} | {} | {} | {} | {} | {} | {:.3} | {} | {} | `{}` |",
+                f.kind,
+                f.checkpoint,
+                f.size,
+                f.objects,
+                f.seed,
+                f.mission,
+                f.reward,
+                f.length,
+                f.acc_cmb.map_or("–".into(), |a| format!("{a:.3}")),
+                f.replay
+            );
+        }
+        s
+    }
+
+    /// `performance.csv`.
+    pub fn performance_csv(&self) -> String {
+        let mut s = String::from(
+            "checkpoint,variant,size,objects,episodes,reward_mean,reward_std,success_mean,success_std,length_mean,length_std,reward_given_success_mean,reward_given_success_std\n",
+        );
+        for c in &self.cells {
+            let _ = writeln!(
+                s,
+                "{},{},{},{},{},{},{},{},{}",
+                c.checkpoint,
+                c.variant,
+                c.size,
+                c.objects,
+                c.episodes,
+                csv(&c.reward),
+                csv(&c.success),
+                csv(&c.length),
+                csv(&c.reward_given_success)
+            );
+        }
+        s
+    }
+
+    /// `accuracy.csv`: one line per attention cell and word kind.
+    pub fn accuracy_csv(&self) -> String {
+        let mut s = String::from(
+            "checkpoint,size,objects,word,acc_mean,acc_std,acc_ng_mean,acc_ng_std,acc_bs_mean,acc_bs_std,acc_cmb_mean,acc_cmb_std,evaluated_steps,episodes_without\n",
+        );
+        for c in &self.cells {
+            let Some(a) = &c.accuracy else { continue };
+            for (kind, g) in [
+                (WordKind::Object, &a.object),
+                (WordKind::Color, &a.color),
+                (WordKind::Combined, &a.combined),
+            ] {
+                let _ = writeln!(
+                    s,
+                    "{},{},{},{},{},{},{},{},{},{}",
+                    c.checkpoint,
+                    c.size,
+                    c.objects,
+                    kind.name(),
+                    csv(&g.acc),
+                    csv(&g.acc_ng),
+                    csv(&g.acc_bs),
+                    csv(&g.acc_cmb),
+                    g.evaluated_steps,
+                    g.episodes_without
+                );
+            }
+        }
+        s
+    }
+
+    /// Writes every file into `dir` (created if needed) via a temporary directory and renames.
+    pub fn write(&self, dir: &Path, failures: &[Failure]) -> Result<(), MetricsError> {
+        let io = |p: &Path, e: std::io::Error| MetricsError::Io {
+            path: p.to_path_buf(),
+            reason: e.to_string(),
+        };
+        std::fs::create_dir_all(dir).map_err(|e| io(dir, e))?;
+        let tmp = tempfile::tempdir_in(dir).map_err(|e| io(dir, e))?;
+        // Plain data with string keys cannot fail to serialise.
+        let files: Vec<(&str, String)> = vec![
+            (
+                "report.json",
+                serde_json::to_string_pretty(self).unwrap_or_default(),
+            ),
+            (
+                "failures.json",
+                serde_json::to_string_pretty(failures).unwrap_or_default(),
+            ),
+            ("report.md", self.markdown(failures)),
+            ("performance.csv", self.performance_csv()),
+            ("accuracy.csv", self.accuracy_csv()),
+        ];
+        for (name, text) in &files {
+            let p = tmp.path().join(name);
+            std::fs::write(&p, text).map_err(|e| io(&p, e))?;
+        }
+        let mut figs = vec!["fig6_reward.png", "fig6_success.png"];
+        self.figure(&tmp.path().join(figs[0]), "Mean reward (Fig. 6)", &|c| {
+            vec![(c.checkpoint.clone(), c.reward)]
+        })?;
+        self.figure(&tmp.path().join(figs[1]), "Success rate (Fig. 6)", &|c| {
+            vec![(c.checkpoint.clone(), c.success)]
+        })?;
+        if self.cells.iter().any(|c| c.accuracy.is_some()) {
+            figs.extend(["fig7_object_accuracy.png", "fig8_color_accuracy.png"]);
+            for (name, kind, title) in [
+                (
+                    figs[2],
+                    WordKind::Object,
+                    "Object-word map accuracy (Fig. 7)",
+                ),
+                (
+                    figs[3],
+                    WordKind::Color,
+                    "Colour-word map accuracy (Fig. 8)",
+                ),
+            ] {
+                self.figure(&tmp.path().join(name), title, &|c| {
+                    let Some(a) = &c.accuracy else {
+                        return Vec::new();
+                    };
+                    let g = if kind == WordKind::Object {
+                        &a.object
+                    } else {
+                        &a.color
+                    };
+                    let prefix = if self
+                        .checkpoints
+                        .iter()
+                        .filter(|k| k.variant == "attention")
+                        .count()
+                        > 1
+                    {
+                        format!("{} ", c.checkpoint)
+                    } else {
+                        String::new()
+                    };
+                    vec![
+                        (format!("{prefix}acc"), g.acc),
+                        (format!("{prefix}acc_ng"), g.acc_ng),
+                        (format!("{prefix}acc_bs"), g.acc_bs),
+                        (format!("{prefix}acc_cmb"), g.acc_cmb),
+                    ]
+                })?;
+            }
+        }
+        let mut names: Vec<&str> = files.iter().map(|(n, _)| *n).collect();
+        names.extend(figs);
+        let kept = tmp.keep();
+        for name in names {
+            let (from, to) = (kept.join(name), dir.join(name));
+            std::fs::rename(&from, &to).map_err(|e| io(&to, e))?;
+        }
+        std::fs::remove_dir(&kept).map_err(|e| io(&kept, e))?;
+        Ok(())
+    }
+
+    /// One PNG: a panel per room size, x = object count, a line (with ±std error bars) per
+    /// series that `series` returns for each cell.
+    fn figure(
+        &self,
+        path: &Path,
+        title: &str,
+        series: &dyn Fn(&Cell) -> Vec<(String, MeanStd)>,
+    ) -> Result<(), MetricsError> {
+        super::figures::register_font();
+        let err = |e: &dyn std::fmt::Display| MetricsError::Io {
+            path: path.to_path_buf(),
+            reason: e.to_string(),
+        };
+        let mut sizes: Vec<usize> = self.cells.iter().map(|c| c.size).collect();
+        sizes.sort_unstable();
+        sizes.dedup();
+        let mut objects: Vec<usize> = self.cells.iter().map(|c| c.objects).collect();
+        objects.sort_unstable();
+        objects.dedup();
+        let (x_lo, x_hi) = (
+            objects.first().copied().unwrap_or(0) as f64 - 0.5,
+            objects.last().copied().unwrap_or(1) as f64 + 0.5,
+        );
+        let panel_w = 340u32;
+        let (w, h) = (panel_w * sizes.len().max(1) as u32, 420u32);
+        let mut buf = vec![0u8; (w * h * 3) as usize];
+        {
+            let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
+            root.fill(&WHITE).map_err(|e| err(&e))?;
+            let root = root
+                .titled(title, ("sans-serif", 22))
+                .map_err(|e| err(&e))?;
+            let panels = root.split_evenly((1, sizes.len().max(1)));
+            for (panel, &size) in panels.iter().zip(&sizes) {
+                let mut chart = ChartBuilder::on(panel)
+                    .caption(format!("{size}×{size} room"), ("sans-serif", 16))
+                    .margin(8)
+                    .x_label_area_size(36)
+                    .y_label_area_size(44)
+                    .build_cartesian_2d(x_lo..x_hi, 0.0..1.05f64)
+                    .map_err(|e| err(&e))?;
+                chart
+                    .configure_mesh()
+                    .x_desc("objects")
+                    .x_labels(objects.len().max(2))
+                    .x_label_formatter(&|x| format!("{x:.0}"))
+                    .label_style(("sans-serif", 12))
+                    .draw()
+                    .map_err(|e| err(&e))?;
+                let mut lines: Vec<(String, Vec<(f64, f64, f64)>)> = Vec::new();
+                for c in self.cells.iter().filter(|c| c.size == size) {
+                    for (label, m) in series(c) {
+                        let (Some(mean), Some(std)) = (m.mean, m.std) else {
+                            continue;
+                        };
+                        match lines.iter_mut().find(|(l, _)| *l == label) {
+                            Some((_, pts)) => pts.push((c.objects as f64, mean, std)),
+                            None => lines.push((label, vec![(c.objects as f64, mean, std)])),
+                        }
+                    }
+                }
+                for (i, (label, pts)) in lines.iter().enumerate() {
+                    let color = SERIES_COLORS[i % SERIES_COLORS.len()];
+                    chart
+                        .draw_series(LineSeries::new(
+                            pts.iter().map(|p| (p.0, p.1)),
+                            color.stroke_width(2),
+                        ))
+                        .map_err(|e| err(&e))?
+                        .label(label.clone())
+                        .legend(move |(x, y)| {
+                            PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2))
+                        });
+                    chart
+                        .draw_series(pts.iter().map(|&(x, m, s)| {
+                            ErrorBar::new_vertical(
+                                x,
+                                (m - s).max(0.0),
+                                m,
+                                (m + s).min(1.05),
+                                color.filled(),
+                                8,
+                            )
+                        }))
+                        .map_err(|e| err(&e))?;
+                }
+                chart
+                    .configure_series_labels()
+                    .position(SeriesLabelPosition::LowerLeft)
+                    .background_style(WHITE.mix(0.85))
+                    .border_style(BLACK)
+                    .label_font(("sans-serif", 12))
+                    .draw()
+                    .map_err(|e| err(&e))?;
+            }
+            root.present().map_err(|e| err(&e))?;
+        }
+        save_rgb(&buf, w, h, path)
+    }
+}

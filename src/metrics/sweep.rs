@@ -1,0 +1,358 @@
+//! Evaluation sweeps: every episode of a (checkpoint, size, objects) cell steps in lockstep
+//! through one batched policy forward per step; per-episode summaries are aggregated as the
+//! paper does (over evaluated steps in an episode, then over episodes, then mean ± std over
+//! evaluation seeds).
+
+use std::collections::BTreeMap;
+
+use rand::SeedableRng as _;
+use rand_pcg::Pcg64Mcg;
+use serde::{Deserialize, Serialize};
+
+use super::error::MetricsError;
+use super::grounding::{Accuracies, WordKind, ground_step};
+use crate::env::level::LevelConfig;
+use crate::env::vocab;
+use crate::env::world::World;
+use crate::episode::{ActionMode, choose};
+use crate::policy::{Memory, Net, PolicyError, act};
+
+/// The level seed of episode `e` of evaluation seed `s`: `s · 1_000_000 + e` (training
+/// seeds start at 2³², so the two never meet). `groundscope replay --seed` takes it.
+pub fn eval_level_seed(eval_seed: u64, episode: u64) -> u64 {
+    eval_seed * 1_000_000 + episode
+}
+
+/// What one evaluated episode produced.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct EpisodeSummary {
+    /// Evaluation seed.
+    pub eval_seed: u64,
+    /// Level seed (replays the episode).
+    pub level_seed: u64,
+    /// Mission text.
+    pub mission: String,
+    /// Whether it succeeded.
+    pub success: bool,
+    /// Its return.
+    pub reward: f64,
+    /// Steps taken.
+    pub length: u32,
+    /// Per word kind: mean accuracies over the evaluated steps, and their number.
+    pub grounding: BTreeMap<WordKind, (Accuracies, u32)>,
+}
+
+/// One running episode of the lockstep batch.
+struct Running {
+    world: World,
+    tokens: Vec<u32>,
+    summary: EpisodeSummary,
+    sums: BTreeMap<WordKind, (Accuracies, u32)>,
+    rng: Pcg64Mcg,
+}
+
+/// Runs `seeds × episodes` episodes of `level` in lockstep; summaries come back in
+/// (seed, episode) order. `progress` is called with the number of finished episodes.
+pub fn evaluate_cell(
+    net: &Net,
+    level: &LevelConfig,
+    seeds: u64,
+    episodes: u64,
+    alpha: f64,
+    mode: ActionMode,
+    progress: &mut dyn FnMut(u64),
+) -> Result<Vec<EpisodeSummary>, MetricsError> {
+    let mut running = Vec::new();
+    for s in 0..seeds {
+        for e in 0..episodes {
+            let level_seed = eval_level_seed(s, e);
+            let world = level.generate(level_seed).map_err(PolicyError::from)?;
+            let tokens = vocab::tokenize(&world.mission).map_err(PolicyError::from)?;
+            running.push(Running {
+                summary: EpisodeSummary {
+                    eval_seed: s,
+                    level_seed,
+                    mission: world.mission.clone(),
+                    success: false,
+                    reward: 0.0,
+                    length: 0,
+                    grounding: BTreeMap::new(),
+                },
+                world,
+                tokens,
+                sums: BTreeMap::new(),
+                rng: Pcg64Mcg::seed_from_u64(level_seed ^ 0x9E37_79B9_7F4A_7C15),
+            });
+        }
+    }
+    let total = running.len();
+    let mut done: Vec<Option<EpisodeSummary>> = vec![None; total];
+    let mut active: Vec<usize> = (0..total).collect();
+    let mut memory = Memory::zeros(total, net.cfg.lstm_hidden)?;
+    let want_traces = net.cfg.has_attention();
+    let mut finished = 0u64;
+    while !active.is_empty() {
+        let obs: Vec<_> = active.iter().map(|&i| running[i].world.observe()).collect();
+        let missions: Vec<&[u32]> = active
+            .iter()
+            .map(|&i| running[i].tokens.as_slice())
+            .collect();
+        let out = act(net, &obs, &missions, &memory, want_traces)?;
+        let mut keep = Vec::with_capacity(active.len());
+        for (row, &i) in active.iter().enumerate() {
+            let r = &mut running[i];
+            if let Some(traces) = &out.traces {
+                let trace = &traces[row];
+                let words: Vec<(&str, &crate::policy::ViewMap)> = trace
+                    .words
+                    .iter()
+                    .map(|w| (w.word.as_str(), &w.map))
+                    .collect();
+                let g = ground_step(
+                    &obs[row],
+                    &r.world.instr.desc,
+                    &words,
+                    &trace.combined,
+                    alpha,
+                );
+                for (kind, acc, _) in g.evaluated {
+                    let e = r.sums.entry(kind).or_default();
+                    e.0.add(&acc);
+                    e.1 += 1;
+                }
+            }
+            let action = choose(&out.probs[row], mode, &mut r.rng);
+            let outcome = r.world.step(action).map_err(PolicyError::from)?;
+            r.summary.length += 1;
+            r.summary.reward += outcome.reward;
+            if outcome.terminated || outcome.truncated {
+                r.summary.success = outcome.reward > 0.0;
+                r.summary.grounding = r
+                    .sums
+                    .iter()
+                    .map(|(k, (sum, n))| (*k, (sum.scaled(f64::from(*n)), *n)))
+                    .collect();
+                done[i] = Some(r.summary.clone());
+                finished += 1;
+            } else {
+                keep.push(row);
+            }
+        }
+        progress(finished);
+        if keep.len() != active.len() {
+            let idx = candle_core::Tensor::from_vec(
+                keep.iter().map(|&r| r as u32).collect::<Vec<u32>>(),
+                keep.len(),
+                &candle_core::Device::Cpu,
+            )
+            .map_err(PolicyError::from)?;
+            memory = Memory {
+                h: out
+                    .memory
+                    .h
+                    .index_select(&idx, 0)
+                    .map_err(PolicyError::from)?,
+                c: out
+                    .memory
+                    .c
+                    .index_select(&idx, 0)
+                    .map_err(PolicyError::from)?,
+            };
+            active = keep.iter().map(|&r| active[r]).collect();
+        } else {
+            memory = out.memory;
+        }
+    }
+    Ok(done.into_iter().flatten().collect())
+}
+
+/// Mean and population standard deviation (numpy's default, ddof = 0).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct MeanStd {
+    /// Mean (null in JSON when nothing was measured).
+    pub mean: Option<f64>,
+    /// Standard deviation.
+    pub std: Option<f64>,
+}
+
+impl MeanStd {
+    /// Over the finite values of `xs`; `None`s when there are none.
+    pub fn of(xs: &[f64]) -> Self {
+        let v: Vec<f64> = xs.iter().copied().filter(|x| x.is_finite()).collect();
+        if v.is_empty() {
+            return Self {
+                mean: None,
+                std: None,
+            };
+        }
+        let n = v.len() as f64;
+        let mean = v.iter().sum::<f64>() / n;
+        let var = v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / n;
+        Self {
+            mean: Some(mean),
+            std: Some(var.sqrt()),
+        }
+    }
+}
+
+fn mean(xs: impl Iterator<Item = f64>) -> f64 {
+    let (s, n) = xs.fold((0.0, 0usize), |(s, n), x| (s + x, n + 1));
+    if n == 0 { f64::NAN } else { s / n as f64 }
+}
+
+/// Task performance of a cell: over episodes per seed, then mean ± std over seeds.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Performance {
+    /// Mean reward.
+    pub reward: MeanStd,
+    /// Success rate.
+    pub success: MeanStd,
+    /// Mean episode length.
+    pub length: MeanStd,
+    /// Mean reward of the successful episodes.
+    pub reward_given_success: MeanStd,
+}
+
+/// Grounding accuracies of one word kind in a cell.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct GroundingStats {
+    /// `acc`.
+    pub acc: MeanStd,
+    /// `acc_ng`.
+    pub acc_ng: MeanStd,
+    /// `acc_bs`.
+    pub acc_bs: MeanStd,
+    /// `acc_cmb`.
+    pub acc_cmb: MeanStd,
+    /// Evaluated steps over all episodes.
+    pub evaluated_steps: u64,
+    /// Episodes with no evaluated step (left out of the averages).
+    pub episodes_without: u64,
+}
+
+/// Splits summaries by evaluation seed, in seed order.
+fn by_seed(eps: &[EpisodeSummary]) -> Vec<Vec<&EpisodeSummary>> {
+    let mut m: BTreeMap<u64, Vec<&EpisodeSummary>> = BTreeMap::new();
+    for e in eps {
+        m.entry(e.eval_seed).or_default().push(e);
+    }
+    m.into_values().collect()
+}
+
+/// Task performance: per seed over its episodes, then mean ± std over seeds.
+pub fn performance(eps: &[EpisodeSummary]) -> Performance {
+    let seeds = by_seed(eps);
+    let per = |f: &dyn Fn(&[&EpisodeSummary]) -> f64| {
+        MeanStd::of(&seeds.iter().map(|s| f(s)).collect::<Vec<_>>())
+    };
+    Performance {
+        reward: per(&|s| mean(s.iter().map(|e| e.reward))),
+        success: per(&|s| mean(s.iter().map(|e| f64::from(u8::from(e.success))))),
+        length: per(&|s| mean(s.iter().map(|e| f64::from(e.length)))),
+        reward_given_success: per(&|s| mean(s.iter().filter(|e| e.success).map(|e| e.reward))),
+    }
+}
+
+/// Grounding accuracies of `kind`: per episode over its evaluated steps (already in the
+/// summaries), then per seed over episodes that had any, then mean ± std over seeds.
+pub fn grounding(eps: &[EpisodeSummary], kind: WordKind) -> GroundingStats {
+    let seeds = by_seed(eps);
+    let per_seed: Vec<[f64; 4]> = seeds
+        .iter()
+        .map(|s| {
+            let vals: Vec<[f64; 4]> = s
+                .iter()
+                .filter_map(|e| e.grounding.get(&kind))
+                .map(|(a, _)| a.values())
+                .collect();
+            std::array::from_fn(|i| mean(vals.iter().map(|v| v[i])))
+        })
+        .collect();
+    let col = |i: usize| MeanStd::of(&per_seed.iter().map(|v| v[i]).collect::<Vec<_>>());
+    GroundingStats {
+        acc: col(0),
+        acc_ng: col(1),
+        acc_bs: col(2),
+        acc_cmb: col(3),
+        evaluated_steps: eps
+            .iter()
+            .filter_map(|e| e.grounding.get(&kind))
+            .map(|(_, n)| u64::from(*n))
+            .sum(),
+        episodes_without: eps
+            .iter()
+            .filter(|e| !e.grounding.contains_key(&kind))
+            .count() as u64,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn ep(seed: u64, success: bool, reward: f64, acc: Option<f64>) -> EpisodeSummary {
+        let mut grounding = BTreeMap::new();
+        if let Some(a) = acc {
+            grounding.insert(
+                WordKind::Object,
+                (
+                    Accuracies {
+                        acc: a,
+                        acc_ng: 1.0,
+                        acc_bs: 0.0,
+                        acc_cmb: a,
+                    },
+                    2,
+                ),
+            );
+        }
+        EpisodeSummary {
+            eval_seed: seed,
+            level_seed: seed,
+            mission: String::new(),
+            success,
+            reward,
+            length: 4,
+            grounding,
+        }
+    }
+
+    #[test]
+    fn aggregation_goes_episodes_then_seeds() {
+        // Seed 0: episodes with acc 1.0 and 0.0 → 0.5; seed 1: one episode with 1.0, one
+        // without evaluated steps → 1.0. Mean over seeds 0.75, population std 0.25.
+        let eps = [
+            ep(0, true, 0.9, Some(1.0)),
+            ep(0, false, 0.0, Some(0.0)),
+            ep(1, true, 0.5, Some(1.0)),
+            ep(1, false, 0.0, None),
+        ];
+        let g = grounding(&eps, WordKind::Object);
+        assert_eq!(
+            g.acc,
+            MeanStd {
+                mean: Some(0.75),
+                std: Some(0.25)
+            }
+        );
+        assert_eq!(g.acc_ng.mean, Some(1.0));
+        assert_eq!(g.evaluated_steps, 6);
+        assert_eq!(g.episodes_without, 1);
+        let p = performance(&eps);
+        assert_eq!(
+            p.success,
+            MeanStd {
+                mean: Some(0.5),
+                std: Some(0.0)
+            }
+        );
+        assert_eq!(p.reward.mean, Some((0.45 + 0.25) / 2.0));
+        assert_eq!(p.reward_given_success.mean, Some((0.9 + 0.5) / 2.0));
+        assert_eq!(grounding(&eps, WordKind::Color).acc.mean, None);
+    }
+
+    #[test]
+    fn eval_seeds_never_reach_training_seeds() {
+        assert!(eval_level_seed(4000, 999_999) < crate::policy::ppo::TRAIN_SEED_OFFSET);
+    }
+}

@@ -1,0 +1,68 @@
+//! Property tests of the world's invariants.
+#![allow(clippy::unwrap_used, reason = "test helpers fail loudly")]
+
+use groundscope::env::level::all_reachable;
+use groundscope::env::{AGENT_IN_VIEW, Action, LevelConfig, ObjectKind, TaskSet};
+use proptest::prelude::*;
+
+fn level() -> impl Strategy<Value = LevelConfig> {
+    (
+        5usize..12,
+        1usize..6,
+        0usize..3,
+        any::<bool>(),
+        any::<bool>(),
+    )
+        .prop_filter_map(
+            "config must fit",
+            |(room_size, n_objects, t, done_required, color_optional)| {
+                let cfg = LevelConfig {
+                    room_size,
+                    n_objects,
+                    tasks: [TaskSet::GoTo, TaskSet::Pickup, TaskSet::Both][t],
+                    done_required,
+                    color_optional,
+                };
+                cfg.validate().is_ok().then_some(cfg)
+            },
+        )
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(200))]
+
+    #[test]
+    fn generation_is_deterministic_and_reachable(cfg in level(), seed in any::<u64>()) {
+        let a = cfg.generate(seed).unwrap();
+        prop_assert_eq!(&a, &cfg.generate(seed).unwrap());
+        prop_assert!(all_reachable(&a.grid, a.agent_pos));
+        let n = a.grid.objects().filter(|(_, o)| o.kind != ObjectKind::Wall).count();
+        prop_assert_eq!(n, cfg.n_objects);
+        prop_assert!(!a.verifier.obj_set.is_empty());
+        prop_assert_eq!(a.max_steps as usize, cfg.room_size * cfg.room_size);
+    }
+
+    #[test]
+    fn random_play_keeps_the_agent_on_free_cells(cfg in level(), seed in any::<u64>(), actions in prop::collection::vec(0usize..7, 1..200)) {
+        let mut w = cfg.generate(seed).unwrap();
+        for a in actions {
+            if w.ended() {
+                prop_assert!(w.step(Action::Left).is_err(), "stepping an ended episode is an error");
+                break;
+            }
+            let out = w.step(Action::from_index(a).unwrap()).unwrap();
+            prop_assert!(w.grid.get(w.agent_pos).is_none(), "agent on an object or wall at {:?}", w.agent_pos);
+            prop_assert!(out.reward >= 0.0 && out.reward <= 1.0);
+            prop_assert_eq!(out.reward > 0.0, out.terminated && out.reward > 0.0);
+            let obs = w.observe();
+            prop_assert_eq!(obs.image.len(), 7);
+            // The agent's own cell is always visible: the carried object or empty.
+            let own = obs.at(AGENT_IN_VIEW);
+            match w.carrying {
+                Some(c) => prop_assert_eq!(own, c.encode()),
+                None => prop_assert_eq!(own, [1, 0, 0]),
+            }
+            prop_assert!(w.step_count <= w.max_steps);
+        }
+    }
+}
