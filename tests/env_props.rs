@@ -58,10 +58,8 @@ proptest! {
             prop_assert_eq!(obs.image.len(), 7);
             // The agent's own cell is always visible: the carried object or empty.
             let own = obs.at(AGENT_IN_VIEW);
-            match w.carrying {
-                Some(c) => prop_assert_eq!(own, c.encode()),
-                None => prop_assert_eq!(own, [1, 0, 0]),
-            }
+            let expected = w.carrying.map_or([1, 0, 0], |c| c.encode());
+            prop_assert_eq!(own, expected);
             prop_assert!(w.step_count <= w.max_steps);
         }
     }

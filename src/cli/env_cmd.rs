@@ -120,7 +120,7 @@ fn show(
         println!("wrote {}", path.display());
     }
     if let Some(path) = snapshot {
-        crate::cli::write_atomic(&path, snap.to_json().as_bytes())?;
+        groundscope::policy::checkpoint::write_atomic(&path, snap.to_json().as_bytes())?;
         println!("wrote {}", path.display());
     }
     Ok(ExitStatus::Success)

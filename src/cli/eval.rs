@@ -154,7 +154,7 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitStatus> {
             level.room_size,
             level.n_objects,
             eps.len() as u64,
-            performance(&eps),
+            &performance(&eps),
             accuracy,
         ));
         all_eps.push((name.clone(), level.room_size, level.n_objects, eps));

@@ -69,23 +69,6 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitStatus> {
     }
 }
 
-/// Writes `bytes` to `path` atomically: a temporary file in the same directory, then a rename,
-/// so that a failure never leaves a half-written file.
-pub fn write_atomic(path: &std::path::Path, bytes: &[u8]) -> anyhow::Result<()> {
-    use std::io::Write as _;
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d,
-        _ => std::path::Path::new("."),
-    };
-    let mut tmp = tempfile::NamedTempFile::new_in(dir)
-        .map_err(|e| anyhow::anyhow!("writing {}: {e}", path.display()))?;
-    tmp.write_all(bytes)
-        .map_err(|e| anyhow::anyhow!("writing {}: {e}", path.display()))?;
-    tmp.persist(path)
-        .map_err(|e| anyhow::anyhow!("writing {}: {}", path.display(), e.error))?;
-    Ok(())
-}
-
 fn curve(logs: &[std::path::PathBuf], out: &std::path::Path) -> anyhow::Result<ExitStatus> {
     use groundscope::metrics::figures::{Curve, learning_curve, read_training_log};
     let mut curves = Vec::new();

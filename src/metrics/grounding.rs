@@ -50,6 +50,7 @@ impl Accuracies {
     }
 
     /// Element-wise division.
+    #[must_use]
     pub fn scaled(&self, by: f64) -> Self {
         Self {
             acc: self.acc / by,

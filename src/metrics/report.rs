@@ -14,6 +14,9 @@ use super::grounding::WordKind;
 use super::sweep::{EpisodeSummary, GroundingStats, MeanStd, Performance};
 use crate::env::level::LevelConfig;
 
+/// A figure point: x, mean, std.
+type Point = (f64, f64, f64);
+
 /// Version of the `report.json` schema.
 pub const SCHEMA_VERSION: u32 = 1;
 
@@ -61,7 +64,7 @@ impl Cell {
         size: usize,
         objects: usize,
         episodes: u64,
-        perf: Performance,
+        perf: &Performance,
         accuracy: Option<CellAccuracy>,
     ) -> Self {
         Self {
@@ -486,7 +489,8 @@ impl Report {
                     .label_style(("sans-serif", 12))
                     .draw()
                     .map_err(|e| err(&e))?;
-                let mut lines: Vec<(String, Vec<(f64, f64, f64)>)> = Vec::new();
+                // (label, [(objects, mean, std)]) per line of the panel.
+                let mut lines: Vec<(String, Vec<Point>)> = Vec::new();
                 for c in self.cells.iter().filter(|c| c.size == size) {
                     for (label, m) in series(c) {
                         let (Some(mean), Some(std)) = (m.mean, m.std) else {

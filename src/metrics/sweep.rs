@@ -139,7 +139,9 @@ pub fn evaluate_cell(
             }
         }
         progress(finished);
-        if keep.len() != active.len() {
+        if keep.len() == active.len() {
+            memory = out.memory;
+        } else {
             let idx = candle_core::Tensor::from_vec(
                 keep.iter().map(|&r| r as u32).collect::<Vec<u32>>(),
                 keep.len(),
@@ -159,8 +161,6 @@ pub fn evaluate_cell(
                     .map_err(PolicyError::from)?,
             };
             active = keep.iter().map(|&r| active[r]).collect();
-        } else {
-            memory = out.memory;
         }
     }
     Ok(done.into_iter().flatten().collect())
@@ -346,8 +346,8 @@ mod tests {
                 std: Some(0.0)
             }
         );
-        assert_eq!(p.reward.mean, Some((0.45 + 0.25) / 2.0));
-        assert_eq!(p.reward_given_success.mean, Some((0.9 + 0.5) / 2.0));
+        assert_eq!(p.reward.mean, Some(f64::midpoint(0.45, 0.25)));
+        assert_eq!(p.reward_given_success.mean, Some(f64::midpoint(0.9, 0.5)));
         assert_eq!(grounding(&eps, WordKind::Color).acc.mean, None);
     }
 

@@ -184,23 +184,23 @@ impl Checkpoint {
             field: field.to_owned(),
             reason,
         };
-        let meta: CheckpointMeta = serde_json::from_str(&text).map_err(|e| {
+        let meta: CheckpointMeta = serde_json::from_str(text).map_err(|e| {
             bad(
-                &js,
+                js,
                 &format!("line {} column {}", e.line(), e.column()),
                 e.to_string(),
             )
         })?;
         if meta.format != FORMAT {
             return Err(bad(
-                &js,
+                js,
                 "format",
                 format!("{:?} is not {FORMAT:?}", meta.format),
             ));
         }
         if meta.format_version != FORMAT_VERSION {
             return Err(bad(
-                &js,
+                js,
                 "format_version",
                 format!(
                     "{} is not supported (this build reads {FORMAT_VERSION})",
@@ -218,7 +218,7 @@ impl Checkpoint {
                 .position(|(a, b)| a != b)
                 .unwrap_or(meta.vocabulary.len().min(VOCABULARY.len()));
             return Err(bad(
-                &js,
+                js,
                 "vocabulary",
                 format!(
                     "differs from this build's at id {first} ({:?} vs {:?}); the checkpoint cannot read these missions",
@@ -233,7 +233,7 @@ impl Checkpoint {
         let hash = sha256_hex(bytes);
         if hash != meta.weights_sha256 {
             return Err(bad(
-                &st,
+                st,
                 "weights_sha256",
                 format!(
                     "file hash {hash} differs from {} recorded in {}",
@@ -252,14 +252,14 @@ impl Checkpoint {
                 .map_err(|_| bad(st, &s.name, "tensor is missing".into()))?;
             if view.dtype() != safetensors::Dtype::F32 {
                 return Err(bad(
-                    &st,
+                    st,
                     &s.name,
                     format!("dtype {:?} is not F32", view.dtype()),
                 ));
             }
             if view.shape() != s.shape.as_slice() {
                 return Err(bad(
-                    &st,
+                    st,
                     &s.name,
                     format!("shape {:?} is not {:?}", view.shape(), s.shape),
                 ));
@@ -279,7 +279,7 @@ impl Checkpoint {
         }
         if let Some(extra) = tensors.names().into_iter().find(|n| !map.contains_key(*n)) {
             return Err(bad(
-                &st,
+                st,
                 extra,
                 format!(
                     "unexpected tensor for a {} model",
