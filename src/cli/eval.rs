@@ -195,10 +195,6 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitStatus> {
         "{:<22} {:>4} {:>3}  {:>15}  {:>15}  {:>15}",
         "checkpoint", "S", "N", "reward", "success", "obj acc_ng"
     );
-    let f = |m: &groundscope::metrics::sweep::MeanStd| match (m.mean, m.std) {
-        (Some(a), Some(b)) => format!("{a:.3} ± {b:.3}"),
-        _ => "–".into(),
-    };
     let mut failed_checks = Vec::new();
     for c in &report.cells {
         let acc_ng = c.accuracy.as_ref().map(|a| a.object.acc_ng);
@@ -207,9 +203,9 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitStatus> {
             c.checkpoint,
             c.size,
             c.objects,
-            f(&c.reward),
-            f(&c.success),
-            acc_ng.as_ref().map_or("–".into(), f)
+            c.reward.to_string(),
+            c.success.to_string(),
+            acc_ng.map_or("–".into(), |a| a.to_string())
         );
         if let (Some(min), Some(s)) = (args.min_success, c.success.mean)
             && s < min

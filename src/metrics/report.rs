@@ -188,13 +188,6 @@ pub fn worst_episodes(
     failed
 }
 
-fn fmt(m: &MeanStd) -> String {
-    match (m.mean, m.std) {
-        (Some(a), Some(b)) => format!("{a:.3} ± {b:.3}"),
-        _ => "–".into(),
-    }
-}
-
 fn csv(m: &MeanStd) -> String {
     match (m.mean, m.std) {
         (Some(a), Some(b)) => format!("{a:.6},{b:.6}"),
@@ -232,10 +225,10 @@ impl Report {
                 c.checkpoint,
                 c.size,
                 c.objects,
-                fmt(&c.reward),
-                fmt(&c.success),
-                fmt(&c.length),
-                fmt(&c.reward_given_success)
+                c.reward,
+                c.success,
+                c.length,
+                c.reward_given_success
             );
         }
         for (kind, title) in [
@@ -265,10 +258,10 @@ impl Report {
                     c.checkpoint,
                     c.size,
                     c.objects,
-                    fmt(&g.acc),
-                    fmt(&g.acc_ng),
-                    fmt(&g.acc_bs),
-                    fmt(&g.acc_cmb),
+                    g.acc,
+                    g.acc_ng,
+                    g.acc_bs,
+                    g.acc_cmb,
                     g.evaluated_steps,
                     g.episodes_without
                 );

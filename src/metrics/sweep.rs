@@ -195,6 +195,16 @@ impl MeanStd {
     }
 }
 
+impl std::fmt::Display for MeanStd {
+    /// `mean ± std` with three decimals, or `–` when nothing was measured.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match (self.mean, self.std) {
+            (Some(m), Some(s)) => write!(f, "{m:.3} ± {s:.3}"),
+            _ => f.write_str("–"),
+        }
+    }
+}
+
 fn mean(xs: impl Iterator<Item = f64>) -> f64 {
     let (s, n) = xs.fold((0.0, 0usize), |(s, n), x| (s + x, n + 1));
     if n == 0 { f64::NAN } else { s / n as f64 }
