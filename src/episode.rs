@@ -25,6 +25,16 @@ pub enum ActionMode {
     Sampled,
 }
 
+impl ActionMode {
+    /// `greedy` or `sampled`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Greedy => "greedy",
+            Self::Sampled => "sampled",
+        }
+    }
+}
+
 /// One step: what the agent saw and attended to, what it did, and what happened.
 #[derive(Clone, Debug)]
 pub struct StepRecord {
@@ -148,12 +158,80 @@ pub fn run_from(
     net: &Net,
     checkpoint: &str,
     spec: &EpisodeSpec,
-    mut world: World,
+    world: World,
 ) -> Result<EpisodeTrace, PolicyError> {
     let tokens = vocab::tokenize(&world.mission)?;
-    let mut rng = Pcg64Mcg::seed_from_u64(spec.seed ^ 0x9E37_79B9_7F4A_7C15);
+    let rng = episode_rng(spec.seed);
+    let memory = Memory::zeros(1, net.cfg.lstm_hidden)?;
+    run_loop(
+        net,
+        checkpoint,
+        spec,
+        world,
+        tokens,
+        memory,
+        rng,
+        Vec::new(),
+    )
+}
+
+/// The action-sampling RNG of an episode.
+fn episode_rng(seed: u64) -> Pcg64Mcg {
+    Pcg64Mcg::seed_from_u64(seed ^ 0x9E37_79B9_7F4A_7C15)
+}
+
+/// Re-runs an episode from an edited state at step `k`: the first `k` steps of `trace` are
+/// kept, their observations are fed again to rebuild the agent's memory (and its sampling RNG
+/// is advanced past them), then the policy runs from `world` — what the agent would have done
+/// had the world looked like that at step `k`.
+pub fn rerun_from(
+    net: &Net,
+    trace: &EpisodeTrace,
+    k: usize,
+    world: World,
+) -> Result<EpisodeTrace, PolicyError> {
+    let k = k.min(trace.steps.len());
+    let prefix = trace.steps[..k].to_vec();
     let mut memory = Memory::zeros(1, net.cfg.lstm_hidden)?;
-    let mut steps = Vec::new();
+    let mut rng = episode_rng(trace.seed);
+    for s in &prefix {
+        let out = policy::act(net, &[s.obs], &[&trace.tokens], &memory, false)?;
+        memory = out.memory;
+        choose(&s.probs, trace.mode, &mut rng);
+    }
+    let spec = EpisodeSpec {
+        level: trace.level,
+        seed: trace.seed,
+        mission: None,
+        mode: trace.mode,
+    };
+    let tokens = vocab::tokenize(&world.mission)?;
+    run_loop(
+        net,
+        &trace.checkpoint,
+        &spec,
+        world,
+        tokens,
+        memory,
+        rng,
+        prefix,
+    )
+}
+
+#[expect(
+    clippy::too_many_arguments,
+    reason = "the whole state of a running episode"
+)]
+fn run_loop(
+    net: &Net,
+    checkpoint: &str,
+    spec: &EpisodeSpec,
+    mut world: World,
+    tokens: Vec<u32>,
+    mut memory: Memory,
+    mut rng: Pcg64Mcg,
+    mut steps: Vec<StepRecord>,
+) -> Result<EpisodeTrace, PolicyError> {
     while !world.ended() {
         let obs = world.observe();
         let out = policy::act(net, &[obs], &[&tokens], &memory, true)?;

@@ -8,8 +8,10 @@
 //! downward; in the agent's 7×7 view the agent sits at `(3, 6)` facing up. Displays show the
 //! view agent-up: row = `vy`, column = `vx`.
 
+pub mod app;
 pub mod env;
 pub mod episode;
 pub mod metrics;
 pub mod policy;
+pub mod record;
 pub mod render;

@@ -495,3 +495,63 @@ fn eval_writes_a_complete_report_and_gates_on_thresholds() {
     );
     assert!(!bad.exists(), "no partial report");
 }
+
+#[test]
+fn replay_records_rerun_and_mcap_and_refuses_bad_destinations() {
+    let dir = tempfile::tempdir().unwrap();
+    let rrd = dir.path().join("two.rrd");
+    let mcap = dir.path().join("two.mcap");
+    let o = gs(&[
+        "replay",
+        "--seed",
+        "3",
+        "--episodes",
+        "2",
+        "--save",
+        rrd.to_str().unwrap(),
+        "--mcap",
+        mcap.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = stdout(&o);
+    assert!(out.contains("seed 3") && out.contains("seed 4"), "{out}");
+    assert!(out.contains("KB/step") && out.contains("steps/s"), "{out}");
+    assert!(std::fs::metadata(&rrd).unwrap().len() > 1000);
+    assert!(std::fs::metadata(&mcap).unwrap().len() > 1000);
+
+    let port = std::net::TcpListener::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port();
+    let url = format!("rerun+http://127.0.0.1:{port}/proxy");
+    let missing = dir.path().join("no/dir/x.rrd");
+    for (args, what) in [
+        (vec!["replay", "--save", "x.txt"], ".rrd"),
+        (vec!["replay", "--mcap", "x.rrd"], ".mcap"),
+        (
+            vec!["replay", "--save", missing.to_str().unwrap()],
+            "no/dir/x.rrd",
+        ),
+        (vec!["replay", "--mission", "go to the pink key"], "pink"),
+        (vec!["replay", "--connect", url.as_str()], "no Rerun viewer"),
+        (vec!["replay", "--episodes", "0"], "--episodes"),
+        (
+            vec!["replay", "--episodes", "2", "--trace", "t.json"],
+            "--trace",
+        ),
+        (
+            vec!["replay", "--checkpoint", "nope/missing"],
+            "nope/missing",
+        ),
+        (vec!["replay", "--size", "70"], "70"),
+    ] {
+        let o = gs(&args);
+        assert_bad_input(&o, what);
+    }
+    let left: Vec<_> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert_eq!(left.len(), 2, "only the two recordings: {left:?}");
+}

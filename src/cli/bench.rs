@@ -30,6 +30,13 @@ pub enum BenchCommand {
         #[arg(long, default_value_t = 3.0)]
         secs: f64,
     },
+    /// Recording speed and size: the bundled attention checkpoint's episodes on consecutive
+    /// seeds written as `.rrd` and as MCAP (episodes are run first and not timed).
+    Record {
+        /// Episodes to record.
+        #[arg(long, default_value_t = 50)]
+        episodes: u64,
+    },
 }
 
 /// Runs a benchmark.
@@ -37,6 +44,7 @@ pub fn run(cmd: &BenchCommand) -> anyhow::Result<ExitStatus> {
     match cmd {
         BenchCommand::Env { steps } => bench_env(*steps),
         BenchCommand::Policy { model, secs } => bench_policy(model, *secs),
+        BenchCommand::Record { episodes } => bench_record(*episodes),
     }
 }
 
@@ -154,6 +162,55 @@ fn bench_policy(model: &str, secs: f64) -> anyhow::Result<ExitStatus> {
             serde_json::json!({"bench": "policy_train_fwd_bwd", "model": variant.name(), "minibatch_frames": frames,
                 "recurrence": rec, "frames_per_sec": (calls * frames as f64).round(), "threads": threads})
         );
+    }
+    Ok(ExitStatus::Success)
+}
+
+fn bench_record(episodes: u64) -> anyhow::Result<ExitStatus> {
+    use groundscope::episode::{ActionMode, EpisodeSpec, run_episode};
+    use groundscope::record::{RerunTargets, record_rerun, write_mcap};
+    let name = groundscope::policy::bundled::names()[0].clone();
+    let ckpt = groundscope::policy::bundled::load(&name)?;
+    let eps = (0..episodes)
+        .map(|seed| {
+            let spec = EpisodeSpec {
+                level: ckpt.meta.level,
+                seed,
+                mission: None,
+                mode: ActionMode::Greedy,
+            };
+            run_episode(&ckpt, &name, &spec)
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    let steps: usize = eps.iter().map(|e| e.steps.len()).sum();
+    let dir = tempfile::tempdir()?;
+    for (format, path) in [
+        ("rrd", dir.path().join("b.rrd")),
+        ("mcap", dir.path().join("b.mcap")),
+    ] {
+        let start = Instant::now();
+        if format == "rrd" {
+            let targets = RerunTargets {
+                save: Some(path.clone()),
+                ..RerunTargets::default()
+            };
+            record_rerun(&eps, &targets, 0.5, None)?;
+        } else {
+            write_mcap(&eps, &path, 0.5, None)?;
+        }
+        let secs = start.elapsed().as_secs_f64();
+        let bytes = std::fs::metadata(&path)?.len();
+        let line = serde_json::json!({
+            "bench": "record",
+            "format": format,
+            "steps_per_sec": (steps as f64 / secs).round(),
+            "bytes_per_step": (bytes as f64 / steps as f64).round(),
+            "episodes": episodes,
+            "steps": steps,
+            "bytes": bytes,
+            "elapsed_secs": secs,
+        });
+        println!("{line}");
     }
     Ok(ExitStatus::Success)
 }

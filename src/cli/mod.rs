@@ -4,7 +4,9 @@ mod bench;
 mod env_cmd;
 mod eval;
 mod policy_cmd;
+mod replay;
 mod train;
+mod view;
 
 use clap::{Parser, Subcommand};
 
@@ -19,21 +21,24 @@ use crate::ExitStatus;
     after_long_help = "EXIT STATUS:\n  0  done\n  1  ran, but a check failed (a replay mismatch, a metric below its threshold)\n  2  error or bad input (one line on stderr naming the file, field or word)"
 )]
 pub struct Cli {
-    /// What to do.
+    /// What to do; without a subcommand, `view` opens the debugger.
     #[command(subcommand)]
-    pub command: Command,
+    pub command: Option<Command>,
 }
 
 /// The subcommands.
 #[derive(Debug, Subcommand)]
 pub enum Command {
+    /// Open the interactive debugger (the default without a subcommand).
+    View(Box<view::ViewArgs>),
     /// Inspect and check the world: `env show`, `env verify`.
     #[command(subcommand)]
     Env(env_cmd::EnvCommand),
     /// Write a freshly, deterministically initialised checkpoint.
     Init(policy_cmd::InitArgs),
-    /// Run a checkpoint on a level and seed, step by step, and write what it saw and did.
-    Replay(policy_cmd::ReplayArgs),
+    /// Run a checkpoint on episodes and show what it saw and attended to: a JSON trace, Rerun
+    /// (`--save`, `--spawn`, `--connect`) and MCAP.
+    Replay(replay::ReplayArgs),
     /// Evaluate checkpoints over room sizes × object counts: performance, grounding accuracies,
     /// reports and figures.
     Eval(Box<eval::EvalArgs>),
@@ -58,14 +63,15 @@ pub enum Command {
 
 /// Runs the parsed command.
 pub fn run(cli: Cli) -> anyhow::Result<ExitStatus> {
-    match cli.command {
+    match cli.command.unwrap_or_else(|| Command::View(Box::default())) {
+        Command::View(args) => view::run(&args),
         Command::Env(cmd) => env_cmd::run(cmd),
         Command::Bench(cmd) => bench::run(&cmd),
         Command::Train(args) => train::run(&args),
         Command::Eval(args) => eval::run(&args),
         Command::Curve { logs, out } => curve(&logs, &out),
         Command::Init(args) => policy_cmd::init(&args),
-        Command::Replay(args) => policy_cmd::replay(&args),
+        Command::Replay(args) => replay::replay(&args),
     }
 }
 

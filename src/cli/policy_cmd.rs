@@ -4,7 +4,6 @@ use std::path::PathBuf;
 
 use anyhow::Context as _;
 use clap::Args;
-use groundscope::episode::{ActionMode, EpisodeSpec, run_episode};
 use groundscope::policy::{Checkpoint, ModelConfig, Params, TrainingState, Variant};
 
 use crate::ExitStatus;
@@ -64,76 +63,4 @@ pub fn load_checkpoint(spec: Option<&str>) -> anyhow::Result<(Checkpoint, String
     );
     let ckpt = groundscope::policy::bundled::load(&spec)?;
     Ok((ckpt, spec))
-}
-
-/// `groundscope replay`.
-#[derive(Debug, Args)]
-#[command(
-    after_long_help = "EXAMPLES:\n  groundscope replay --checkpoint runs/untrained --seed 3 --trace out.json"
-)]
-pub struct ReplayArgs {
-    /// Checkpoint: NAME (NAME.json + NAME.safetensors) or bundled:attention / bundled:baseline
-    /// [default: bundled:attention].
-    #[arg(long, value_name = "NAME")]
-    pub checkpoint: Option<String>,
-    /// Level seed.
-    #[arg(long, default_value_t = 0)]
-    pub seed: u64,
-    /// Replace the generated mission (vocabulary words only).
-    #[arg(long, value_name = "TEXT")]
-    pub mission: Option<String>,
-    /// Sample actions instead of taking the most probable one.
-    #[arg(long)]
-    pub sample: bool,
-    /// Level; defaults to the level the checkpoint was trained on.
-    #[arg(long, value_name = "S")]
-    pub size: Option<usize>,
-    /// Number of objects; defaults to the checkpoint's level.
-    #[arg(long, value_name = "N")]
-    pub objects: Option<usize>,
-    /// Write the episode trace here (JSON).
-    #[arg(long, value_name = "FILE")]
-    pub trace: Option<PathBuf>,
-}
-
-/// Runs `replay`.
-pub fn replay(args: &ReplayArgs) -> anyhow::Result<ExitStatus> {
-    let (ckpt, name) = load_checkpoint(args.checkpoint.as_deref())?;
-    let mut level = ckpt.meta.level;
-    if let Some(s) = args.size {
-        level.room_size = s;
-    }
-    if let Some(n) = args.objects {
-        level.n_objects = n;
-    }
-    level.validate()?;
-    let spec = EpisodeSpec {
-        level,
-        seed: args.seed,
-        mission: args.mission.clone(),
-        mode: if args.sample {
-            ActionMode::Sampled
-        } else {
-            ActionMode::Greedy
-        },
-    };
-    let trace = run_episode(&ckpt, &name, &spec)?;
-    println!(
-        "{} on {level} seed {}: \"{}\" → {} in {} steps, reward {:.3}",
-        ckpt.meta.model.variant.name(),
-        args.seed,
-        trace.mission,
-        if trace.success() {
-            "success"
-        } else {
-            "failure"
-        },
-        trace.steps.len(),
-        trace.total_reward()
-    );
-    if let Some(path) = &args.trace {
-        trace.save_json(path)?;
-        println!("wrote {}", path.display());
-    }
-    Ok(ExitStatus::Success)
 }

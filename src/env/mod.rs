@@ -5,6 +5,7 @@
 //! downward, directions are 0 = right, 1 = down, 2 = left, 3 = up. The agent sees a 7×7 view
 //! in which it stands at `(3, 6)` facing up (see [`view`]).
 
+pub mod edit;
 pub mod error;
 pub mod grid;
 pub mod level;

@@ -86,30 +86,71 @@ pub fn related_objects(
     out
 }
 
+/// Hit or miss of one related object under each of the four criteria.
+#[expect(
+    clippy::struct_excessive_bools,
+    reason = "one flag per criterion of eqs. 8–11"
+)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ObjectHit {
+    /// The object's view cell `(vx, vy)`.
+    pub cell: ViewCell,
+    /// `A[y][x] ≥ τ`.
+    pub acc: bool,
+    /// Some cell of the 3×3 neighbourhood is `≥ τ`.
+    pub acc_ng: bool,
+    /// The cell one step forward is `≥ τ`.
+    pub acc_bs: bool,
+    /// `acc` or `acc_bs`.
+    pub acc_cmb: bool,
+}
+
+/// Hit or miss of each object in `objects` on `map` at threshold `α / n` (n = the number of
+/// objects), in the order given. Every criterion of eqs. 8–11 is decided here only.
+pub fn object_hits(map: &ViewMap, objects: &[ViewCell], alpha: f64) -> Vec<ObjectHit> {
+    let tau = alpha / objects.len().max(1) as f64;
+    let at = |x: i64, y: i64| -> Option<f64> {
+        let r = 0..VIEW_SIZE as i64;
+        (r.contains(&x) && r.contains(&y)).then(|| f64::from(map[y as usize][x as usize]))
+    };
+    objects
+        .iter()
+        .map(|&cell| {
+            let (x, y) = (cell.0 as i64, cell.1 as i64);
+            let acc = at(x, y).is_some_and(|v| v >= tau);
+            let acc_ng =
+                (-1..=1).any(|dy| (-1..=1).any(|dx| at(x + dx, y + dy).is_some_and(|v| v >= tau)));
+            let acc_bs = y > 0 && at(x, y - 1).is_some_and(|v| v >= tau);
+            ObjectHit {
+                cell,
+                acc,
+                acc_ng,
+                acc_bs,
+                acc_cmb: acc || acc_bs,
+            }
+        })
+        .collect()
+}
+
 /// The four accuracies of `map` on `objects` at threshold `α / n`; `None` when there is no
 /// related object (the step is not evaluated).
 pub fn accuracies(map: &ViewMap, objects: &[ViewCell], alpha: f64) -> Option<Accuracies> {
     if objects.is_empty() {
         return None;
     }
-    let n = objects.len() as f64;
-    let tau = alpha / n;
-    let at = |x: i64, y: i64| -> Option<f64> {
-        let r = 0..VIEW_SIZE as i64;
-        (r.contains(&x) && r.contains(&y)).then(|| f64::from(map[y as usize][x as usize]))
-    };
-    let mut hits = Accuracies::default();
-    for &(x, y) in objects {
-        let (x, y) = (x as i64, y as i64);
-        let own = at(x, y).is_some_and(|v| v >= tau);
-        let ng = (-1..=1).any(|dy| (-1..=1).any(|dx| at(x + dx, y + dy).is_some_and(|v| v >= tau)));
-        let bs = y > 0 && at(x, y - 1).is_some_and(|v| v >= tau);
-        hits.acc += f64::from(u8::from(own));
-        hits.acc_ng += f64::from(u8::from(ng));
-        hits.acc_bs += f64::from(u8::from(bs));
-        hits.acc_cmb += f64::from(u8::from(own || bs));
+    Some(accuracies_of_hits(&object_hits(map, objects, alpha)))
+}
+
+/// The fraction of `hits` that hit under each criterion (all zero for no objects).
+pub fn accuracies_of_hits(hits: &[ObjectHit]) -> Accuracies {
+    let mut sum = Accuracies::default();
+    for h in hits {
+        sum.acc += f64::from(u8::from(h.acc));
+        sum.acc_ng += f64::from(u8::from(h.acc_ng));
+        sum.acc_bs += f64::from(u8::from(h.acc_bs));
+        sum.acc_cmb += f64::from(u8::from(h.acc_cmb));
     }
-    Some(hits.scaled(n))
+    sum.scaled(hits.len().max(1) as f64)
 }
 
 /// Which kind of mission word a metric is about.

@@ -1,0 +1,106 @@
+//! The interactive debugger (eframe/egui): step through an episode, see every word's map, the
+//! combined map and the policy's numbers on one step cursor, probe the agent by editing the
+//! world or the mission, compare two checkpoints, and export.
+//!
+//! [`session`] holds the model and the background jobs; [`ui`] draws it.
+
+pub mod gif;
+pub mod session;
+pub mod ui;
+
+use std::path::PathBuf;
+use std::sync::{Arc, Mutex};
+
+use eframe::egui;
+use thiserror::Error;
+
+pub use ui::{Debugger, ScreenshotTarget, StartOptions};
+
+/// Why the debugger could not run.
+#[derive(Debug, Error)]
+pub enum AppError {
+    /// No display to open a window on.
+    #[error(
+        "no display ({0}); the debugger needs a desktop session or X server. Without one, record \
+         the episode instead: `groundscope replay --seed N --save episode.rrd` and open it with \
+         `rerun episode.rrd`, or take a screenshot under Xvfb: `xvfb-run -a groundscope view --screenshot out.png`"
+    )]
+    NoDisplay(String),
+    /// The window or its renderer failed.
+    #[error("the debugger window failed: {0}")]
+    Window(String),
+    /// The headless screenshot failed.
+    #[error("screenshot: {0}")]
+    Screenshot(String),
+}
+
+/// How to open the window.
+#[derive(Clone, Debug)]
+pub struct WindowOptions {
+    /// Inner size in logical pixels.
+    pub size: [f32; 2],
+    /// Render one frame to this PNG and exit.
+    pub screenshot: Option<PathBuf>,
+}
+
+/// Whether a display seems available (X11 or Wayland).
+pub fn display_available() -> Result<(), AppError> {
+    let set = |k: &str| std::env::var_os(k).is_some_and(|v| !v.is_empty());
+    if set("DISPLAY") || set("WAYLAND_DISPLAY") {
+        Ok(())
+    } else {
+        Err(AppError::NoDisplay(
+            "neither DISPLAY nor WAYLAND_DISPLAY is set".into(),
+        ))
+    }
+}
+
+/// Opens the debugger and blocks until its window closes (or, with a screenshot path, until
+/// the picture is written).
+pub fn run(start: &StartOptions, window: &WindowOptions) -> Result<(), AppError> {
+    display_available()?;
+    let outcome: Arc<Mutex<Option<Result<(), String>>>> = Arc::new(Mutex::new(None));
+    let shot = window.screenshot.clone().map(|p| (p, outcome.clone()));
+    let native = eframe::NativeOptions {
+        viewport: egui::ViewportBuilder::default()
+            .with_title("groundscope")
+            .with_inner_size(window.size),
+        renderer: eframe::Renderer::Glow,
+        ..eframe::NativeOptions::default()
+    };
+    let start = start.clone();
+    let result = eframe::run_native(
+        "groundscope",
+        native,
+        Box::new(move |_cc| Ok(Box::new(App(Debugger::new(&start, shot))))),
+    );
+    if let Err(e) = result {
+        let msg = e.to_string();
+        return Err(
+            if msg.to_lowercase().contains("display") || msg.contains("XOpenDisplay") {
+                AppError::NoDisplay(msg)
+            } else {
+                AppError::Window(msg)
+            },
+        );
+    }
+    if window.screenshot.is_some() {
+        let got = outcome.lock().ok().and_then(|mut o| o.take());
+        return match got {
+            Some(Ok(())) => Ok(()),
+            Some(Err(e)) => Err(AppError::Screenshot(e)),
+            None => Err(AppError::Screenshot(
+                "the window closed before the picture was taken".into(),
+            )),
+        };
+    }
+    Ok(())
+}
+
+struct App(Debugger);
+
+impl eframe::App for App {
+    fn ui(&mut self, ui: &mut egui::Ui, _frame: &mut eframe::Frame) {
+        self.0.frame(ui);
+    }
+}

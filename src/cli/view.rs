@@ -1,0 +1,126 @@
+//! `groundscope view` (and `groundscope` with no arguments): the interactive debugger.
+
+use std::path::PathBuf;
+
+use anyhow::Context as _;
+use clap::Args;
+use groundscope::app::{self, StartOptions, WindowOptions};
+
+use crate::ExitStatus;
+
+/// `groundscope view`.
+#[derive(Debug, Args, Default)]
+#[command(
+    after_long_help = "KEYS:\n  ← / →  step back / forward    space  play / pause    Home / End  first / last step\n\n\
+EXAMPLES:\n  groundscope\n  groundscope view --seed 7 --compare bundled:baseline\n  \
+xvfb-run -a groundscope view --screenshot shot.png --seed 3 --step 4 --size 1400x900"
+)]
+pub struct ViewArgs {
+    /// Checkpoint: NAME (NAME.json + NAME.safetensors) or bundled:attention / bundled:baseline
+    /// [default: bundled:attention].
+    #[arg(long, value_name = "NAME")]
+    pub checkpoint: Option<String>,
+    /// A second checkpoint, run on the same seed side by side.
+    #[arg(long, value_name = "NAME")]
+    pub compare: Option<String>,
+    /// Level seed.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Step shown first.
+    #[arg(long, default_value_t = 0, value_name = "K")]
+    pub step: usize,
+    /// Sample actions instead of taking the most probable one.
+    #[arg(long)]
+    pub sample: bool,
+    /// Replace the generated mission (vocabulary words only).
+    #[arg(long, value_name = "TEXT")]
+    pub mission: Option<String>,
+    /// Room size; defaults to the checkpoint's level.
+    #[arg(long, value_name = "S")]
+    pub room_size: Option<usize>,
+    /// Number of objects; defaults to the checkpoint's level.
+    #[arg(long, value_name = "N")]
+    pub objects: Option<usize>,
+    /// Window size in logical pixels.
+    #[arg(long, value_name = "WxH", default_value = "1400x900")]
+    pub size: String,
+    /// Render one frame of the debugger to this PNG and exit (needs a display; use xvfb-run
+    /// on a headless machine).
+    #[arg(long, value_name = "FILE.png")]
+    pub screenshot: Option<PathBuf>,
+}
+
+fn parse_size(s: &str) -> anyhow::Result<[f32; 2]> {
+    let (w, h) = s
+        .split_once(['x', 'X'])
+        .with_context(|| format!("--size {s:?} is not WIDTHxHEIGHT, e.g. 1400x900"))?;
+    let parse = |v: &str| -> anyhow::Result<f32> {
+        let n: u32 = v
+            .trim()
+            .parse()
+            .with_context(|| format!("--size {s:?}: {v:?} is not a whole number of pixels"))?;
+        if !(200..=8192).contains(&n) {
+            anyhow::bail!("--size {s:?}: {n} is outside 200..=8192 pixels");
+        }
+        Ok(n as f32)
+    };
+    Ok([parse(w)?, parse(h)?])
+}
+
+/// Runs `view`.
+pub fn run(args: &ViewArgs) -> anyhow::Result<ExitStatus> {
+    // `groundscope` with no arguments builds `ViewArgs::default()`, whose size is empty.
+    let size = if args.size.is_empty() {
+        [1400.0, 900.0]
+    } else {
+        parse_size(&args.size)?
+    };
+    if let Some(p) = &args.screenshot
+        && p.extension().and_then(|e| e.to_str()) != Some("png")
+    {
+        anyhow::bail!(
+            "--screenshot {}: the file name must end in .png",
+            p.display()
+        );
+    }
+    let checkpoint = args
+        .checkpoint
+        .clone()
+        .unwrap_or_else(|| groundscope::policy::bundled::names()[0].clone());
+    // Load once here so that a bad checkpoint or level is a one-line error, not a window.
+    let ckpt = groundscope::policy::bundled::load(&checkpoint)?;
+    if let Some(c) = &args.compare {
+        groundscope::policy::bundled::load(c)?;
+    }
+    let mut level = ckpt.meta.level;
+    if let Some(s) = args.room_size {
+        level.room_size = s;
+    }
+    if let Some(n) = args.objects {
+        level.n_objects = n;
+    }
+    level.validate()?;
+    if let Some(m) = &args.mission {
+        groundscope::env::Instruction::parse(m)?;
+    }
+    let start = StartOptions {
+        checkpoint,
+        compare: args.compare.clone(),
+        level: Some(level),
+        seed: args.seed,
+        sample: args.sample,
+        step: args.step,
+        mission: args.mission.clone(),
+    };
+    app::run(
+        &start,
+        &WindowOptions {
+            size,
+            screenshot: args.screenshot.clone(),
+        },
+    )?;
+    if let Some(p) = &args.screenshot {
+        println!("wrote {}", p.display());
+    }
+    Ok(ExitStatus::Success)
+}

@@ -1,0 +1,312 @@
+//! Episodes to MCAP, for Foxglove and Lichtblick without plugins: pictures as
+//! `foxglove.RawImage` (JSON encoding, `rgb8`, pixels base64), everything else as JSON messages
+//! with a JSON Schema. Topics:
+//!
+//! | topic | schema | what |
+//! |---|---|---|
+//! | `/world/image` | foxglove.RawImage | the world, visible cells highlighted |
+//! | `/world/attention` | foxglove.RawImage | the world with `M` blended over the view |
+//! | `/view/image` | foxglove.RawImage | the agent's view, agent-up |
+//! | `/attention/words/<i>_<word>` | foxglove.RawImage | word i's map (viridis), related objects framed |
+//! | `/attention/combined` | foxglove.RawImage | `M`, target objects framed |
+//! | `/attention/weights` | groundscope.Weights | words, w, H |
+//! | `/policy` | groundscope.Policy | episode, step, action, probabilities, value, reward |
+//! | `/metrics/grounding` | groundscope.Grounding | per evaluated map: accuracies and hits |
+//! | `/mission` | groundscope.Mission | mission text, seed, episode (first step of each) |
+//!
+//! Frames are frame markers: green = hit on the object's cell (`acc`), yellow = only next to
+//! it, red = miss. Message times are synthetic, 100 ms per step from 0, so a file is a pure
+//! function of its episodes.
+
+use std::collections::BTreeMap;
+use std::io::BufWriter;
+use std::path::Path;
+
+use base64::Engine as _;
+use image::RgbImage;
+use serde_json::{Value, json};
+
+use super::scene::{MapGrounding, StepScene, TILE_PX, action_names, episode_scenes};
+use super::{PendingFile, RecordError, StopFlag, io_err, stopped};
+use crate::episode::{EpisodeTrace, StepRecord};
+use crate::metrics::grounding::accuracies_of_hits;
+use crate::policy::ViewMap;
+use crate::render::{overlay_on_world, render_heatmap};
+
+/// Nanoseconds between two recorded steps (10 steps per second of playback).
+pub const STEP_NS: u64 = 100_000_000;
+
+/// Pixels per view cell in the heat-map images.
+const MAP_CELL_PX: u32 = 8;
+
+const RAW_IMAGE_SCHEMA: &str = r#"{"title":"foxglove.RawImage","description":"A raw image","type":"object","properties":{"timestamp":{"type":"object","title":"time","properties":{"sec":{"type":"integer","minimum":0},"nsec":{"type":"integer","minimum":0,"maximum":999999999}}},"frame_id":{"type":"string"},"width":{"type":"integer","minimum":0},"height":{"type":"integer","minimum":0},"encoding":{"type":"string"},"step":{"type":"integer","minimum":0},"data":{"type":"string","contentEncoding":"base64"}}}"#;
+
+const WEIGHTS_SCHEMA: &str = r#"{"title":"groundscope.Weights","type":"object","properties":{"episode":{"type":"integer"},"step":{"type":"integer"},"words":{"type":"array","items":{"type":"string"}},"weights":{"type":"array","items":{"type":"number"}},"entropies":{"type":"array","items":{"type":"number"}},"w":{"type":"object","additionalProperties":{"type":"number"}}}}"#;
+
+const POLICY_SCHEMA: &str = r#"{"title":"groundscope.Policy","type":"object","properties":{"episode":{"type":"integer"},"step":{"type":"integer"},"action":{"type":"integer"},"action_name":{"type":"string"},"probs":{"type":"object","additionalProperties":{"type":"number"}},"value":{"type":"number"},"reward":{"type":"number"},"terminated":{"type":"boolean"},"truncated":{"type":"boolean"}}}"#;
+
+const GROUNDING_SCHEMA: &str = r#"{"title":"groundscope.Grounding","type":"object","properties":{"episode":{"type":"integer"},"step":{"type":"integer"},"maps":{"type":"object","additionalProperties":{"type":"object","properties":{"word":{"type":["string","null"]},"acc":{"type":"number"},"acc_ng":{"type":"number"},"acc_bs":{"type":"number"},"acc_cmb":{"type":"number"},"hits":{"type":"array"}}}}}}"#;
+
+const MISSION_SCHEMA: &str = r#"{"title":"groundscope.Mission","type":"object","properties":{"episode":{"type":"integer"},"seed":{"type":"integer"},"text":{"type":"string"},"checkpoint":{"type":"string"},"level":{"type":"string"}}}"#;
+
+/// What was written.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct McapStats {
+    /// Steps written, over all episodes.
+    pub steps: usize,
+    /// Messages per topic.
+    pub messages: BTreeMap<String, u64>,
+}
+
+struct Out<W: std::io::Write + std::io::Seek> {
+    w: mcap::Writer<W>,
+    schemas: BTreeMap<&'static str, u16>,
+    channels: BTreeMap<String, u16>,
+    stats: McapStats,
+}
+
+impl<W: std::io::Write + std::io::Seek> Out<W> {
+    fn channel(&mut self, topic: &str, schema: &'static str) -> mcap::McapResult<u16> {
+        if let Some(&id) = self.channels.get(topic) {
+            return Ok(id);
+        }
+        let (name, data) = match schema {
+            "image" => ("foxglove.RawImage", RAW_IMAGE_SCHEMA),
+            "weights" => ("groundscope.Weights", WEIGHTS_SCHEMA),
+            "policy" => ("groundscope.Policy", POLICY_SCHEMA),
+            "grounding" => ("groundscope.Grounding", GROUNDING_SCHEMA),
+            _ => ("groundscope.Mission", MISSION_SCHEMA),
+        };
+        let sid = if let Some(&id) = self.schemas.get(schema) {
+            id
+        } else {
+            let id = self.w.add_schema(name, "jsonschema", data.as_bytes())?;
+            self.schemas.insert(schema, id);
+            id
+        };
+        let id = self.w.add_channel(sid, topic, "json", &BTreeMap::new())?;
+        self.channels.insert(topic.to_owned(), id);
+        Ok(id)
+    }
+
+    fn put(
+        &mut self,
+        topic: &str,
+        schema: &'static str,
+        t: u64,
+        msg: &Value,
+    ) -> mcap::McapResult<()> {
+        let channel_id = self.channel(topic, schema)?;
+        let count = self.stats.messages.entry(topic.to_owned()).or_default();
+        let header = mcap::records::MessageHeader {
+            channel_id,
+            sequence: *count as u32,
+            log_time: t,
+            publish_time: t,
+        };
+        *count += 1;
+        // `Value`s built here have string keys and finite numbers: serialising cannot fail.
+        let bytes = serde_json::to_vec(msg).unwrap_or_default();
+        self.w.write_to_known_channel(&header, &bytes)
+    }
+
+    fn image(&mut self, topic: &str, t: u64, img: &RgbImage) -> mcap::McapResult<()> {
+        let (w, h) = img.dimensions();
+        let msg = json!({
+            "timestamp": {"sec": t / 1_000_000_000, "nsec": t % 1_000_000_000},
+            "frame_id": topic.trim_start_matches('/'),
+            "width": w,
+            "height": h,
+            "encoding": "rgb8",
+            "step": w * 3,
+            "data": base64::engine::general_purpose::STANDARD.encode(img.as_raw()),
+        });
+        self.put(topic, "image", t, &msg)
+    }
+}
+
+/// Frames view cell `cell` of a heat-map image in `color`, two pixels thick.
+fn frame_cell(img: &mut RgbImage, cell: (usize, usize), color: [u8; 3]) {
+    let (x0, y0) = (cell.0 as u32 * MAP_CELL_PX, cell.1 as u32 * MAP_CELL_PX);
+    for d in 0..MAP_CELL_PX {
+        for k in 0..2 {
+            for (x, y) in [
+                (x0 + d, y0 + k),
+                (x0 + d, y0 + MAP_CELL_PX - 1 - k),
+                (x0 + k, y0 + d),
+                (x0 + MAP_CELL_PX - 1 - k, y0 + d),
+            ] {
+                if x < img.width() && y < img.height() {
+                    img.put_pixel(x, y, image::Rgb(color));
+                }
+            }
+        }
+    }
+}
+
+/// A map as a viridis picture on `[0, hi]` with the related objects framed.
+fn map_picture(map: &ViewMap, hi: f32, g: Option<&MapGrounding>) -> RgbImage {
+    let mut img = render_heatmap(map, MAP_CELL_PX, 0.0, hi);
+    for h in g.map(|g| g.hits.as_slice()).unwrap_or_default() {
+        let color = if h.acc {
+            [0, 200, 0]
+        } else if h.acc_ng || h.acc_bs {
+            [240, 200, 0]
+        } else {
+            [230, 0, 0]
+        };
+        frame_cell(&mut img, h.cell, color);
+    }
+    img
+}
+
+fn grounding_json(g: &MapGrounding, words: &[String]) -> Value {
+    let a = accuracies_of_hits(&g.hits);
+    json!({
+        "word": g.word.and_then(|i| words.get(i)),
+        "acc": a.acc, "acc_ng": a.acc_ng, "acc_bs": a.acc_bs, "acc_cmb": a.acc_cmb,
+        "hits": g.hits,
+    })
+}
+
+fn write_step<W: std::io::Write + std::io::Seek>(
+    out: &mut Out<W>,
+    e: usize,
+    step: &StepRecord,
+    scene: &StepScene,
+    t: u64,
+) -> mcap::McapResult<()> {
+    out.image("/world/image", t, &scene.world)?;
+    out.image("/view/image", t, &scene.view)?;
+    let names = action_names();
+    let probs: serde_json::Map<String, Value> = names
+        .iter()
+        .zip(step.probs)
+        .map(|(n, p)| ((*n).to_owned(), json!(p)))
+        .collect();
+    out.put(
+        "/policy",
+        "policy",
+        t,
+        &json!({
+            "episode": e, "step": step.t, "action": step.action as u8,
+            "action_name": step.action.name(), "probs": probs, "value": step.value,
+            "reward": step.reward, "terminated": step.terminated, "truncated": step.truncated,
+        }),
+    )?;
+    let Some(att) = &step.attention else {
+        return Ok(());
+    };
+    let hi = scene.scale_max;
+    let words: Vec<String> = att.words.iter().map(|w| w.word.clone()).collect();
+    for (i, wa) in att.words.iter().enumerate() {
+        let pic = map_picture(&wa.map, hi, scene.hits_of(Some(i)));
+        out.image(&format!("/attention/words/{i}_{}", wa.word), t, &pic)?;
+    }
+    out.image(
+        "/attention/combined",
+        t,
+        &map_picture(&att.combined, hi, scene.hits_of(None)),
+    )?;
+    let mut world = scene.world.clone();
+    overlay_on_world(
+        &mut world,
+        &step.world,
+        &att.combined,
+        TILE_PX,
+        super::scene::OVERLAY_ALPHA,
+        0.0,
+        hi,
+    );
+    out.image("/world/attention", t, &world)?;
+    let w: serde_json::Map<String, Value> = att
+        .words
+        .iter()
+        .enumerate()
+        .map(|(i, a)| (format!("{i}_{}", a.word), json!(a.weight)))
+        .collect();
+    out.put(
+        "/attention/weights",
+        "weights",
+        t,
+        &json!({
+            "episode": e, "step": step.t, "words": words,
+            "weights": att.words.iter().map(|a| a.weight).collect::<Vec<_>>(),
+            "entropies": att.words.iter().map(|a| a.entropy).collect::<Vec<_>>(),
+            "w": w,
+        }),
+    )?;
+    let maps: serde_json::Map<String, Value> = scene
+        .grounding
+        .iter()
+        .map(|g| (g.kind.name().to_owned(), grounding_json(g, &words)))
+        .collect();
+    out.put(
+        "/metrics/grounding",
+        "grounding",
+        t,
+        &json!({"episode": e, "step": step.t, "maps": maps}),
+    )
+}
+
+/// Writes `episodes` to `path` as MCAP (zstd chunks, summary and indexes), atomically: the
+/// file appears only when complete. `stop` aborts between steps and leaves no file.
+pub fn write_mcap(
+    episodes: &[EpisodeTrace],
+    path: &Path,
+    alpha: f64,
+    stop: Option<&StopFlag>,
+) -> Result<McapStats, RecordError> {
+    if episodes.is_empty() {
+        return Err(RecordError::Empty);
+    }
+    let pending = PendingFile::new(path)?;
+    let file = std::fs::File::create(pending.path()).map_err(|e| io_err(path, &e))?;
+    let mcap_err = |e: mcap::McapError| io_err(path, &e);
+    let w = mcap::WriteOptions::new()
+        .profile("")
+        .library(format!("groundscope {}", env!("CARGO_PKG_VERSION")))
+        .create(BufWriter::new(file))
+        .map_err(mcap_err)?;
+    let mut out = Out {
+        w,
+        schemas: BTreeMap::new(),
+        channels: BTreeMap::new(),
+        stats: McapStats::default(),
+    };
+    let mut global = 0u64;
+    for (e, ep) in episodes.iter().enumerate() {
+        let scenes = episode_scenes(ep, alpha);
+        for (step, scene) in ep.steps.iter().zip(&scenes) {
+            if stopped(stop) {
+                return Err(RecordError::Interrupted);
+            }
+            let t = global * STEP_NS;
+            if step.t == 0 {
+                out.put(
+                    "/mission",
+                    "mission",
+                    t,
+                    &json!({"episode": e, "seed": ep.seed, "text": ep.mission,
+                            "checkpoint": ep.checkpoint, "level": ep.level.to_string()}),
+                )
+                .map_err(mcap_err)?;
+            }
+            write_step(&mut out, e, step, scene, t).map_err(mcap_err)?;
+            global += 1;
+        }
+    }
+    out.w.finish().map_err(mcap_err)?;
+    out.w
+        .into_inner()
+        .into_inner()
+        .map_err(|e| io_err(path, &e.error()))?
+        .sync_all()
+        .map_err(|e| io_err(path, &e))?;
+    let stats = McapStats {
+        steps: global as usize,
+        ..out.stats
+    };
+    pending.commit()?;
+    Ok(stats)
+}

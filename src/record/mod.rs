@@ -1,0 +1,115 @@
+//! Sinks that consume episode traces: Rerun (`.rrd` files, a spawned or running viewer) and
+//! MCAP for Foxglove / Lichtblick. They only read [`EpisodeTrace`](crate::episode::EpisodeTrace)s;
+//! nothing here runs the policy.
+//!
+//! Files are written next to their destination under a temporary name and renamed into place
+//! only when complete (footer written), so a failure or Ctrl-C leaves no partial file.
+
+pub mod mcap_sink;
+pub mod rerun_sink;
+pub mod scene;
+
+use std::path::{Path, PathBuf};
+
+use thiserror::Error;
+
+pub use mcap_sink::write_mcap;
+pub use rerun_sink::{RecordStats, RerunTargets, record_rerun};
+pub use scene::{StepScene, episode_scenes};
+
+/// The Rerun SDK version recordings are written with (the crate is pinned to it).
+pub const RERUN_SDK_VERSION: &str = "0.36.3";
+
+/// Everything that can go wrong while recording; errors name the file or URL.
+#[derive(Debug, Error)]
+pub enum RecordError {
+    /// Creating, writing or renaming a file failed.
+    #[error("cannot write {}: {reason}", path.display())]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// What went wrong.
+        reason: String,
+    },
+    /// The Rerun SDK refused (bad URL, spawn failure, ...).
+    #[error("rerun: {0}")]
+    Rerun(String),
+    /// No viewer listens at the URL given to `--connect`.
+    #[error("no Rerun viewer at {url}: {reason} (start one with `rerun`, or use --spawn / --save)")]
+    NoViewer {
+        /// The URL.
+        url: String,
+        /// Why the connection failed.
+        reason: String,
+    },
+    /// The run was interrupted (Ctrl-C); nothing was kept.
+    #[error("interrupted; no recording written")]
+    Interrupted,
+    /// Nothing to record.
+    #[error("no episodes to record")]
+    Empty,
+}
+
+/// A file being written under a temporary name beside its destination; dropped without
+/// [`Self::commit`], it removes itself.
+#[derive(Debug)]
+pub struct PendingFile {
+    tmp: Option<tempfile::TempPath>,
+    dest: PathBuf,
+}
+
+impl PendingFile {
+    /// Reserves a temporary file in `dest`'s directory (which must exist and be writable).
+    pub fn new(dest: &Path) -> Result<Self, RecordError> {
+        let dir = match dest.parent() {
+            Some(d) if !d.as_os_str().is_empty() => d,
+            _ => Path::new("."),
+        };
+        let ext = dest.extension().and_then(|e| e.to_str()).unwrap_or("tmp");
+        let tmp = tempfile::Builder::new()
+            .prefix(".groundscope-")
+            .suffix(&format!(".{ext}.partial"))
+            .tempfile_in(dir)
+            .map_err(|e| io_err(dest, &e))?
+            .into_temp_path();
+        Ok(Self {
+            tmp: Some(tmp),
+            dest: dest.to_path_buf(),
+        })
+    }
+
+    /// Where to write now.
+    pub fn path(&self) -> &Path {
+        self.tmp.as_deref().unwrap_or(&self.dest)
+    }
+
+    /// The final destination.
+    pub fn dest(&self) -> &Path {
+        &self.dest
+    }
+
+    /// Renames the finished file into place.
+    pub fn commit(mut self) -> Result<(), RecordError> {
+        if let Some(tmp) = self.tmp.take() {
+            tmp.persist(&self.dest)
+                .map_err(|e| io_err(&self.dest, &e.error))?;
+        }
+        Ok(())
+    }
+}
+
+/// An I/O error naming `path`.
+pub(crate) fn io_err(path: &Path, e: &dyn std::fmt::Display) -> RecordError {
+    RecordError::Io {
+        path: path.to_path_buf(),
+        reason: e.to_string(),
+    }
+}
+
+/// A flag the recorders poll between steps; set by a Ctrl-C handler.
+pub type StopFlag = std::sync::Arc<std::sync::atomic::AtomicBool>;
+
+/// Whether `stop` has been raised.
+pub(crate) fn stopped(stop: Option<&StopFlag>) -> bool {
+    stop.is_some_and(|s| s.load(std::sync::atomic::Ordering::Relaxed))
+}

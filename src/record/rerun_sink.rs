@@ -1,0 +1,535 @@
+//! Episodes to Rerun 0.36.3: an `.rrd` file, a spawned viewer and/or a running one, all from
+//! one recording stream. Entity paths (DESIGN.md §5):
+//!
+//! | path | archetype | what |
+//! |---|---|---|
+//! | `world/grid` | Image | the world, the agent's visible cells highlighted |
+//! | `world/attention` | Image (RGBA, one pixel per cell, scaled by a static transform) | `M` projected onto the world |
+//! | `view/image` | Image | the agent's view, agent-up |
+//! | `attention/words/<i>_<word>` | DepthImage (7×7, viridis) | word i's map |
+//! | `attention/words/<i>_<word>/label` | Boxes2D | word, weight w and entropy H |
+//! | `attention/words/<i>_<word>/grounding` | Points2D | hit / miss at each related object |
+//! | `attention/combined` (+ `/label`, `/grounding`) | DepthImage, Boxes2D, Points2D | `M` |
+//! | `attention/weights`, `attention/entropy` | BarChart | w and H in word order |
+//! | `attention/legend` | TextDocument | word, w and H as a table |
+//! | `policy/probs` | BarChart | action probabilities (action order in `policy/status`) |
+//! | `policy/value`, `policy/reward` | Scalars | critic value, reward |
+//! | `policy/status` | TextDocument | mission, step, action, probabilities |
+//! | `policy/action` | TextLog | one line per step |
+//! | `metrics/<object\|color\|combined>` | Scalars | acc, acc_ng, acc_bs, acc_cmb of the step |
+//! | `mission`, `meta` | TextDocument | the mission; versions, checkpoint, level (static) |
+//!
+//! Timelines: `step` counts steps across the whole recording (so one scrub bar covers every
+//! episode) and `episode` numbers the episodes.
+
+use std::collections::BTreeSet;
+use std::fmt::Write as _;
+use std::net::{TcpStream, ToSocketAddrs};
+use std::path::PathBuf;
+use std::time::Duration;
+
+use rerun::blueprint::{
+    BarChartView, Blueprint, Grid, Horizontal, Spatial2DView, TextDocumentView, TextLogView,
+    TimePanel, TimeSeriesView, Vertical,
+};
+use rerun::external::re_uri;
+use rerun::sink::{FileSink, GrpcSink, LogSink};
+use rerun::{RecordingStream, RecordingStreamBuilder};
+
+use super::scene::{
+    MapGrounding, StepScene, TILE_PX, action_label, action_names, cell_centre, episode_scenes,
+};
+use super::{PendingFile, RERUN_SDK_VERSION, RecordError, StopFlag, stopped};
+use crate::episode::EpisodeTrace;
+use crate::metrics::grounding::WordKind;
+use crate::policy::ViewMap;
+
+/// Where a recording goes; any combination.
+#[derive(Clone, Debug, Default)]
+pub struct RerunTargets {
+    /// Write an `.rrd` file here.
+    pub save: Option<PathBuf>,
+    /// Start a viewer (`rerun` on PATH) and stream to it.
+    pub spawn: bool,
+    /// Stream to a running viewer, e.g. `rerun+http://127.0.0.1:9876/proxy`.
+    pub connect: Option<String>,
+}
+
+/// What was recorded.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct RecordStats {
+    /// Episodes recorded.
+    pub episodes: usize,
+    /// Steps recorded, over all episodes.
+    pub steps: usize,
+}
+
+fn sdk(e: impl std::fmt::Display) -> RecordError {
+    RecordError::Rerun(e.to_string())
+}
+
+/// `host:port` of a `rerun+http://host:port/proxy` URL, checked by the SDK's own parser.
+fn proxy_uri(url: &str) -> Result<(re_uri::ProxyUri, String), RecordError> {
+    let Ok(re_uri::RedapUri::Proxy(uri)) = url.parse::<re_uri::RedapUri>() else {
+        return Err(RecordError::Rerun(format!(
+            "--connect {url:?} is not a viewer URL like rerun+http://127.0.0.1:9876/proxy"
+        )));
+    };
+    let rest = url.split_once("://").map_or(url, |(_, r)| r);
+    let authority = rest.split('/').next().unwrap_or(rest).to_owned();
+    Ok((uri, authority))
+}
+
+/// Fails unless something accepts TCP connections at `authority` within two seconds: the
+/// gRPC sink itself would silently drop the data.
+fn check_listening(url: &str, authority: &str) -> Result<(), RecordError> {
+    let no_viewer = |reason: String| RecordError::NoViewer {
+        url: url.to_owned(),
+        reason,
+    };
+    let addrs: Vec<_> = authority
+        .to_socket_addrs()
+        .map_err(|e| no_viewer(e.to_string()))?
+        .collect();
+    let mut last = String::from("address did not resolve");
+    for addr in addrs {
+        match TcpStream::connect_timeout(&addr, Duration::from_secs(2)) {
+            Ok(_) => return Ok(()),
+            Err(e) => last = e.to_string(),
+        }
+    }
+    Err(no_viewer(last))
+}
+
+/// The entity path of word `i` of a mission.
+pub fn word_path(i: usize, word: &str) -> String {
+    format!("attention/words/{i}_{word}")
+}
+
+/// The default layout: world and view on the left, the word maps and `M` in the middle with
+/// w and H under them, the policy's numbers and the metrics on the right.
+fn blueprint(word_paths: &[String], attention: bool) -> Blueprint {
+    let left = Vertical::new([
+        Spatial2DView::new("world").with_origin("/world").into(),
+        Spatial2DView::new("agent view").with_origin("/view").into(),
+    ]);
+    let mut right = vec![
+        TextDocumentView::new("status")
+            .with_origin("/policy/status")
+            .into(),
+        BarChartView::new("action probabilities")
+            .with_origin("/policy/probs")
+            .into(),
+        TimeSeriesView::new("value and reward")
+            .with_origin("/policy")
+            .with_contents(["/policy/value", "/policy/reward"])
+            .into(),
+        TextLogView::new("actions")
+            .with_origin("/policy/action")
+            .into(),
+    ];
+    if !attention {
+        return Blueprint::new(Horizontal::new([left.into(), Vertical::new(right).into()]))
+            .with_time_panel(TimePanel::new().with_timeline("step"));
+    }
+    right.push(
+        TimeSeriesView::new("grounding (this step)")
+            .with_origin("/metrics")
+            .into(),
+    );
+    let mut maps: Vec<_> = word_paths
+        .iter()
+        .map(|p| {
+            let name = p.rsplit('/').next().unwrap_or(p);
+            Spatial2DView::new(name).with_origin(format!("/{p}")).into()
+        })
+        .collect();
+    maps.push(
+        Spatial2DView::new("combined M")
+            .with_origin("/attention/combined")
+            .into(),
+    );
+    let middle = Vertical::new([
+        Grid::new(maps).into(),
+        Horizontal::new([
+            BarChartView::new("weights w")
+                .with_origin("/attention/weights")
+                .into(),
+            BarChartView::new("entropies H")
+                .with_origin("/attention/entropy")
+                .into(),
+            TextDocumentView::new("words")
+                .with_origin("/attention/legend")
+                .into(),
+        ])
+        .into(),
+    ])
+    .with_row_shares([3.0, 1.0]);
+    Blueprint::new(
+        Horizontal::new([left.into(), middle.into(), Vertical::new(right).into()])
+            .with_column_shares([1.0, 2.0, 1.0]),
+    )
+    .with_time_panel(TimePanel::new().with_timeline("step"))
+}
+
+/// Streams `episodes` to the targets and finalises them: the `.rrd` gets its footer and is
+/// renamed into place only when everything was written. `stop` aborts between steps.
+pub fn record_rerun(
+    episodes: &[EpisodeTrace],
+    targets: &RerunTargets,
+    alpha: f64,
+    stop: Option<&StopFlag>,
+) -> Result<RecordStats, RecordError> {
+    let first = episodes.first().ok_or(RecordError::Empty)?;
+    let attention = episodes.iter().any(|e| e.variant.name() == "attention");
+    let word_paths: Vec<String> = episodes
+        .iter()
+        .flat_map(|e| {
+            e.words()
+                .into_iter()
+                .enumerate()
+                .map(|(i, w)| word_path(i, w))
+                .collect::<Vec<_>>()
+        })
+        .collect::<BTreeSet<_>>()
+        .into_iter()
+        .collect();
+
+    // Check every destination before anything is written.
+    let pending = targets.save.as_deref().map(PendingFile::new).transpose()?;
+    let connect = targets
+        .connect
+        .as_deref()
+        .map(|url| {
+            let (uri, authority) = proxy_uri(url)?;
+            check_listening(url, &authority)?;
+            Ok::<_, RecordError>(uri)
+        })
+        .transpose()?;
+    let mut sinks: Vec<Box<dyn LogSink>> = Vec::new();
+    if let Some(p) = &pending {
+        let sink = FileSink::new(p.path()).map_err(|e| super::io_err(p.dest(), &e))?;
+        sinks.push(Box::new(sink));
+    }
+    if let Some(uri) = connect {
+        sinks.push(Box::new(GrpcSink::new(uri)));
+    }
+    if targets.spawn {
+        let info = rerun::spawn(&rerun::SpawnOptions::default()).map_err(sdk)?;
+        let (uri, _) = proxy_uri(&format!("rerun+http://127.0.0.1:{}/proxy", info.port))?;
+        sinks.push(Box::new(GrpcSink::new(uri)));
+    }
+    if sinks.is_empty() {
+        return Err(RecordError::Rerun(
+            "no destination: give --save FILE.rrd, --spawn or --connect URL".into(),
+        ));
+    }
+
+    let name = if episodes.len() == 1 {
+        format!("{} seed {}", first.mission, first.seed)
+    } else {
+        format!("{} episodes from seed {}", episodes.len(), first.seed)
+    };
+    let rec = RecordingStreamBuilder::new("groundscope")
+        .recording_name(name)
+        .enabled(true)
+        .with_blueprint(blueprint(&word_paths, attention))
+        .set_sinks(sinks)
+        .map_err(sdk)?;
+    // Recordings of the same episodes then differ only in row ids.
+    rec.set_log_time_enabled(false);
+
+    let result = log_all(&rec, episodes, alpha, stop);
+    rec.flush_blocking().map_err(sdk)?;
+    // The last handle: dropping it finalises the file sink (footer) and closes the streams.
+    drop(rec);
+    let stats = result?;
+    if let Some(p) = pending {
+        p.commit()?;
+    }
+    Ok(stats)
+}
+
+fn log_all(
+    rec: &RecordingStream,
+    episodes: &[EpisodeTrace],
+    alpha: f64,
+    stop: Option<&StopFlag>,
+) -> Result<RecordStats, RecordError> {
+    let first = &episodes[0];
+    log_static(rec, first, episodes.len())?;
+    let mut global = 0i64;
+    for (e, ep) in episodes.iter().enumerate() {
+        let scenes = episode_scenes(ep, alpha);
+        for (step, scene) in ep.steps.iter().zip(&scenes) {
+            if stopped(stop) {
+                return Err(RecordError::Interrupted);
+            }
+            rec.set_time_sequence("step", global);
+            if episodes.len() > 1 {
+                rec.set_time_sequence("episode", e as i64);
+            }
+            if step.t == 0 && episodes.len() > 1 {
+                rec.log("mission", &rerun::TextDocument::new(ep.mission.as_str()))
+                    .map_err(sdk)?;
+            }
+            log_step(rec, ep, e, step, scene)?;
+            global += 1;
+        }
+    }
+    Ok(RecordStats {
+        episodes: episodes.len(),
+        steps: global as usize,
+    })
+}
+
+fn log_static(rec: &RecordingStream, first: &EpisodeTrace, n: usize) -> Result<(), RecordError> {
+    let meta = format!(
+        "# groundscope recording\n\n\
+         | | |\n|---|---|\n\
+         | groundscope | {} |\n| Rerun SDK | {RERUN_SDK_VERSION} |\n\
+         | checkpoint | {} |\n| model | {} |\n| level | {} |\n| episodes | {n} (seeds from {}) |\n| actions | {} |\n",
+        env!("CARGO_PKG_VERSION"),
+        first.checkpoint,
+        first.variant.name(),
+        first.level,
+        first.seed,
+        first.mode.name(),
+    );
+    rec.log_static("meta", &rerun::TextDocument::from_markdown(meta))
+        .map_err(sdk)?;
+    if n == 1 {
+        rec.log_static("mission", &rerun::TextDocument::new(first.mission.as_str()))
+            .map_err(sdk)?;
+    }
+    // The overlay has one pixel per world cell; scaling it by the tile size lays it over the
+    // world render.
+    let s = TILE_PX as f32;
+    rec.log_static(
+        "world/attention",
+        &rerun::Transform3D::from_scale((s, s, 1.0)),
+    )
+    .map_err(sdk)?;
+    rec.log_static(
+        "policy/value",
+        &rerun::SeriesLines::new()
+            .with_names(["value"])
+            .with_colors([[31, 119, 180]]),
+    )
+    .map_err(sdk)?;
+    rec.log_static(
+        "policy/reward",
+        &rerun::SeriesLines::new()
+            .with_names(["reward"])
+            .with_colors([[44, 160, 44]]),
+    )
+    .map_err(sdk)?;
+    for kind in WordKind::ALL {
+        rec.log_static(
+            format!("metrics/{}", kind.name()),
+            &rerun::SeriesPoints::new().with_names(
+                crate::metrics::grounding::Accuracies::NAMES
+                    .map(|a| format!("{} {a}", kind.name())),
+            ),
+        )
+        .map_err(sdk)?;
+    }
+    Ok(())
+}
+
+/// A 7×7 map as a colour-mapped depth image on `[0, hi]`.
+fn map_image(map: &ViewMap, hi: f32) -> rerun::DepthImage {
+    let bytes: Vec<u8> = map.iter().flatten().flat_map(|v| v.to_le_bytes()).collect();
+    rerun::DepthImage::from_data_type_and_bytes(bytes, [7, 7], rerun::ChannelDatatype::F32)
+        .with_colormap(rerun::components::Colormap::Viridis)
+        .with_depth_range([0.0, f64::from(hi)])
+}
+
+/// Hit/miss markers at the related objects: green when the map is at or above the threshold
+/// on the object's cell (`acc`), yellow when only next to it (`acc_ng` or `acc_bs`), red for
+/// a miss.
+fn grounding_points(g: &MapGrounding) -> rerun::Points2D {
+    let colors: Vec<[u8; 3]> = g
+        .hits
+        .iter()
+        .map(|h| {
+            if h.acc {
+                [0, 200, 0]
+            } else if h.acc_ng || h.acc_bs {
+                [240, 200, 0]
+            } else {
+                [230, 0, 0]
+            }
+        })
+        .collect();
+    let labels: Vec<String> = g
+        .hits
+        .iter()
+        .map(|h| {
+            let m = |b: bool| if b { "hit" } else { "miss" };
+            format!(
+                "{} acc {} · ng {} · bs {} · cmb {}",
+                g.kind.name(),
+                m(h.acc),
+                m(h.acc_ng),
+                m(h.acc_bs),
+                m(h.acc_cmb)
+            )
+        })
+        .collect();
+    rerun::Points2D::new(g.hits.iter().map(|h| cell_centre(h.cell)))
+        .with_colors(colors)
+        .with_radii([0.22])
+        .with_labels(labels)
+        .with_show_labels(false)
+}
+
+fn label_box(text: String) -> rerun::Boxes2D {
+    rerun::Boxes2D::from_mins_and_sizes([(0.0, 0.0)], [(7.0, 7.0)])
+        .with_labels([text])
+        .with_show_labels(true)
+        .with_colors([[255, 255, 255]])
+}
+
+fn log_step(
+    rec: &RecordingStream,
+    ep: &EpisodeTrace,
+    episode: usize,
+    step: &crate::episode::StepRecord,
+    scene: &StepScene,
+) -> Result<(), RecordError> {
+    let (w, h) = scene.world.dimensions();
+    rec.log(
+        "world/grid",
+        &rerun::Image::from_rgb24(scene.world.as_raw().as_slice(), [w, h]),
+    )
+    .map_err(sdk)?;
+    let (vw, vh) = scene.view.dimensions();
+    rec.log(
+        "view/image",
+        &rerun::Image::from_rgb24(scene.view.as_raw().as_slice(), [vw, vh]),
+    )
+    .map_err(sdk)?;
+
+    let names = action_names();
+    rec.log("policy/probs", &rerun::BarChart::new(step.probs.to_vec()))
+        .map_err(sdk)?;
+    rec.log(
+        "policy/value",
+        &rerun::Scalars::single(f64::from(step.value)),
+    )
+    .map_err(sdk)?;
+    rec.log("policy/reward", &rerun::Scalars::single(step.reward))
+        .map_err(sdk)?;
+    rec.log(
+        "policy/action",
+        &rerun::TextLog::new(format!(
+            "episode {episode} step {}: {} (value {:.3}, reward {:.3})",
+            step.t,
+            action_label(step),
+            step.value,
+            step.reward
+        )),
+    )
+    .map_err(sdk)?;
+    let mut status = format!(
+        "**{}**\n\nepisode {episode} (seed {}) · step {} of {} · {}\n\n\
+         action **{}** · value {:.3} · reward {:.3}\n\n| action | p |\n|---|---|\n",
+        ep.mission,
+        ep.seed,
+        step.t,
+        ep.steps.len(),
+        if ep.success() { "success" } else { "failure" },
+        action_label(step),
+        step.value,
+        step.reward,
+    );
+    for (i, (n, p)) in names.iter().zip(step.probs).enumerate() {
+        let mark = if i == step.action as usize {
+            " ◀"
+        } else {
+            ""
+        };
+        let _ = writeln!(status, "| {i} {n} | {p:.3}{mark} |");
+    }
+    rec.log("policy/status", &rerun::TextDocument::from_markdown(status))
+        .map_err(sdk)?;
+
+    let Some(att) = &step.attention else {
+        return Ok(());
+    };
+    let hi = scene.scale_max;
+    let mut legend = String::from("| # | word | w | H |\n|---|---|---|---|\n");
+    for (i, wa) in att.words.iter().enumerate() {
+        let path = word_path(i, &wa.word);
+        rec.log(path.as_str(), &map_image(&wa.map, hi))
+            .map_err(sdk)?;
+        rec.log(
+            format!("{path}/label"),
+            &label_box(format!(
+                "{} · w {:.2} · H {:.2}",
+                wa.word, wa.weight, wa.entropy
+            )),
+        )
+        .map_err(sdk)?;
+        log_grounding(rec, &format!("{path}/grounding"), scene.hits_of(Some(i)))?;
+        let _ = writeln!(
+            legend,
+            "| {i} | {} | {:.3} | {:.3} |",
+            wa.word, wa.weight, wa.entropy
+        );
+    }
+    rec.log("attention/combined", &map_image(&att.combined, hi))
+        .map_err(sdk)?;
+    rec.log(
+        "attention/combined/label",
+        &label_box(format!("M · colour scale 0–{hi:.2}")),
+    )
+    .map_err(sdk)?;
+    log_grounding(rec, "attention/combined/grounding", scene.hits_of(None))?;
+    rec.log(
+        "attention/weights",
+        &rerun::BarChart::new(att.words.iter().map(|w| w.weight).collect::<Vec<f32>>()),
+    )
+    .map_err(sdk)?;
+    rec.log(
+        "attention/entropy",
+        &rerun::BarChart::new(att.words.iter().map(|w| w.entropy).collect::<Vec<f32>>()),
+    )
+    .map_err(sdk)?;
+    rec.log(
+        "attention/legend",
+        &rerun::TextDocument::from_markdown(legend),
+    )
+    .map_err(sdk)?;
+    if let Some(overlay) = &scene.overlay {
+        let (ow, oh) = overlay.dimensions();
+        rec.log(
+            "world/attention",
+            &rerun::Image::from_rgba32(overlay.as_raw().as_slice(), [ow, oh]).with_draw_order(10.0),
+        )
+        .map_err(sdk)?;
+    }
+    for g in &scene.grounding {
+        let v = crate::metrics::grounding::accuracies_of_hits(&g.hits);
+        rec.log(
+            format!("metrics/{}", g.kind.name()),
+            &rerun::Scalars::new(v.values()),
+        )
+        .map_err(sdk)?;
+    }
+    Ok(())
+}
+
+/// Logs the markers of a map, or clears them when the map was not evaluated at this step.
+fn log_grounding(
+    rec: &RecordingStream,
+    path: &str,
+    g: Option<&MapGrounding>,
+) -> Result<(), RecordError> {
+    match g {
+        Some(g) => rec.log(path, &grounding_points(g)),
+        None => rec.log(path, &rerun::Clear::flat()),
+    }
+    .map_err(sdk)
+}

@@ -1,0 +1,165 @@
+//! What one step of an episode shows, computed once from its [`StepRecord`] and shared by every
+//! sink (Rerun, MCAP, the debugger): the pictures, the maps with their colour scale, and the
+//! grounding hits and misses at each related object.
+
+use image::{RgbImage, RgbaImage};
+
+use crate::env::mission::ObjDesc;
+use crate::env::view::ViewCell;
+use crate::env::world::{Action, World};
+use crate::episode::{EpisodeTrace, StepRecord};
+use crate::metrics::grounding::{ObjectHit, WordKind, ground_step, object_hits};
+use crate::policy::ViewMap;
+use crate::render::{colorize, render_view, render_world};
+
+/// Pixels per world or view cell in recorded pictures: small enough for ≤ 20 KB a step,
+/// large enough to tell a key from a ball.
+pub const TILE_PX: u32 = 16;
+
+/// Opacity of an attention map projected onto the world.
+pub const OVERLAY_ALPHA: f32 = 0.6;
+
+/// The grounding of one map at one step: which word kind it is about and, for each related
+/// object in view, whether the map hits it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MapGrounding {
+    /// Object word, colour word, or the combined map on the targets.
+    pub kind: WordKind,
+    /// Index of the word in the mission (`None` for the combined map `M`).
+    pub word: Option<usize>,
+    /// One entry per related object.
+    pub hits: Vec<ObjectHit>,
+}
+
+/// Everything a sink shows for one step.
+#[derive(Clone, Debug)]
+pub struct StepScene {
+    /// The world with the agent's visible cells highlighted.
+    pub world: RgbImage,
+    /// The agent's view, agent-up.
+    pub view: RgbImage,
+    /// The combined map `M` projected onto the world, one RGBA pixel per world cell
+    /// (transparent outside the view); `None` for the baseline.
+    pub overlay: Option<RgbaImage>,
+    /// The upper end of the colour scale shared by all maps of this step (the largest value of
+    /// any word map or `M`); the lower end is 0.
+    pub scale_max: f32,
+    /// Hits and misses, per evaluated map.
+    pub grounding: Vec<MapGrounding>,
+}
+
+impl StepScene {
+    /// Computes the scene of `step` of an episode whose target description is `desc`.
+    pub fn new(step: &StepRecord, desc: &ObjDesc, alpha: f64) -> Self {
+        let world = render_world(&step.world, TILE_PX, true);
+        let view = render_view(&step.obs, TILE_PX);
+        let (overlay, scale_max, grounding) = match &step.attention {
+            Some(att) => {
+                let scale_max = att
+                    .words
+                    .iter()
+                    .flat_map(|w| w.map.iter().flatten())
+                    .chain(att.combined.iter().flatten())
+                    .fold(f32::EPSILON, |m, &v| m.max(v));
+                let overlay = attention_layer(&step.world, &att.combined, scale_max);
+                let words: Vec<(&str, &ViewMap)> = att
+                    .words
+                    .iter()
+                    .map(|w| (w.word.as_str(), &w.map))
+                    .collect();
+                let g = ground_step(&step.obs, desc, &words, &att.combined, alpha);
+                let grounding = g
+                    .evaluated
+                    .into_iter()
+                    .map(|(kind, _, objects)| {
+                        let (word, map) = match kind {
+                            WordKind::Combined => (None, &att.combined),
+                            WordKind::Object => {
+                                word_map(att, desc.kind.map(crate::env::ObjectKind::name))
+                            }
+                            WordKind::Color => {
+                                word_map(att, desc.color.map(crate::env::Color::name))
+                            }
+                        };
+                        MapGrounding {
+                            kind,
+                            word,
+                            hits: object_hits(map, &objects, alpha),
+                        }
+                    })
+                    .collect();
+                (Some(overlay), scale_max, grounding)
+            }
+            None => (None, 1.0, Vec::new()),
+        };
+        Self {
+            world,
+            view,
+            overlay,
+            scale_max,
+            grounding,
+        }
+    }
+
+    /// The hits of the map of word `i` (`None`: of `M`), if that map was evaluated.
+    pub fn hits_of(&self, word: Option<usize>) -> Option<&MapGrounding> {
+        self.grounding.iter().find(|g| g.word == word)
+    }
+}
+
+/// The index and map of the first mission word spelled `name`.
+fn word_map<'a>(
+    att: &'a crate::policy::AttentionTrace,
+    name: Option<&str>,
+) -> (Option<usize>, &'a ViewMap) {
+    name.and_then(|n| att.words.iter().position(|w| w.word == n))
+        .map_or((None, &att.combined), |i| (Some(i), &att.words[i].map))
+}
+
+/// A view map projected onto the world grid: one RGBA pixel per world cell, the map's viridis
+/// colour at [`OVERLAY_ALPHA`] on the cells the view covers, transparent elsewhere. Scale the
+/// image by the tile size to lay it over a world render.
+pub fn attention_layer(world: &World, map: &ViewMap, scale_max: f32) -> RgbaImage {
+    let (w, h) = (world.grid.width() as u32, world.grid.height() as u32);
+    let mut img = RgbaImage::new(w, h);
+    let a = (OVERLAY_ALPHA * 255.0).round() as u8;
+    for (vy, row) in map.iter().enumerate() {
+        for (vx, &value) in row.iter().enumerate() {
+            let (x, y) = crate::env::world_from_view(world.agent_pos, world.agent_dir, (vx, vy));
+            if world.grid.contains((x, y)) {
+                let [r, g, b] = colorize(value, 0.0, scale_max);
+                img.put_pixel(x as u32, y as u32, image::Rgba([r, g, b, a]));
+            }
+        }
+    }
+    img
+}
+
+/// The scenes of every step of an episode (each step grounded on its own instruction, which
+/// a probing edit may have changed).
+pub fn episode_scenes(trace: &EpisodeTrace, alpha: f64) -> Vec<StepScene> {
+    trace
+        .steps
+        .iter()
+        .map(|s| StepScene::new(s, &s.world.instr.desc, alpha))
+        .collect()
+}
+
+/// Centre of view cell `(vx, vy)` in a 7×7 map image with one unit per cell.
+pub fn cell_centre(cell: ViewCell) -> (f32, f32) {
+    (cell.0 as f32 + 0.5, cell.1 as f32 + 0.5)
+}
+
+/// `"forward 0.91"`: an action and its probability.
+pub fn action_label(step: &StepRecord) -> String {
+    format!(
+        "{} {:.2}",
+        step.action.name(),
+        step.probs.get(step.action as usize).copied().unwrap_or(0.0)
+    )
+}
+
+/// Action names in index order.
+pub fn action_names() -> [&'static str; Action::COUNT] {
+    std::array::from_fn(|i| Action::from_index(i).map_or("?", Action::name))
+}

@@ -1,0 +1,328 @@
+//! Recordings read back: `.rrd` through Rerun's own decoder, MCAP through the `mcap` reader.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::format_collect,
+    reason = "tests fail loudly"
+)]
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::Path;
+use std::sync::Arc;
+use std::sync::atomic::AtomicBool;
+
+use groundscope::episode::{ActionMode, EpisodeSpec, EpisodeTrace, run_episode};
+use groundscope::policy::bundled;
+use groundscope::record::{RecordError, RerunTargets, record_rerun, write_mcap};
+use rerun::external::re_log_encoding::DecoderApp;
+use rerun::log::{Chunk, LogMsg};
+
+fn episodes(model: &str, seeds: std::ops::Range<u64>) -> Vec<EpisodeTrace> {
+    let spec_name = format!("bundled:{model}");
+    let ckpt = bundled::load(&spec_name).unwrap();
+    seeds
+        .map(|seed| {
+            let spec = EpisodeSpec {
+                level: ckpt.meta.level,
+                seed,
+                mission: None,
+                mode: ActionMode::Greedy,
+            };
+            run_episode(&ckpt, &spec_name, &spec).unwrap()
+        })
+        .collect()
+}
+
+/// What a decoded recording holds: rows per (entity, component), the store version, and the
+/// values of every `Scalars` entity in row order.
+#[derive(Debug, Default, PartialEq)]
+struct Decoded {
+    rows: BTreeMap<(String, String), usize>,
+    static_entities: BTreeSet<String>,
+    versions: BTreeSet<String>,
+    scalars: BTreeMap<String, Vec<Vec<f64>>>,
+    blueprints: usize,
+}
+
+fn decode(path: &Path) -> Decoded {
+    let file = std::io::BufReader::new(std::fs::File::open(path).unwrap());
+    let mut out = Decoded::default();
+    let scalar = rerun::Scalars::descriptor_scalars().component;
+    for msg in DecoderApp::decode_lazy(file) {
+        match msg.unwrap() {
+            LogMsg::SetStoreInfo(info) => {
+                if info.info.store_id.kind() == rerun::StoreKind::Blueprint {
+                    out.blueprints += 1;
+                }
+                if let Some(v) = info.info.store_version {
+                    out.versions.insert(v.to_string());
+                }
+            }
+            LogMsg::ArrowMsg(store, arrow) if store.kind() == rerun::StoreKind::Recording => {
+                let chunk = Chunk::from_arrow_msg(&arrow).unwrap();
+                let entity = chunk.entity_path().to_string();
+                if chunk.is_static() {
+                    out.static_entities.insert(entity.clone());
+                }
+                for desc in chunk.component_descriptors() {
+                    *out.rows
+                        .entry((entity.clone(), desc.component.to_string()))
+                        .or_default() += chunk.num_rows();
+                }
+                // Sort rows by the step timeline so values compare in step order.
+                let chunk = chunk.sorted_by_timeline_if_unsorted(&"step".into());
+                for s in chunk.iter_component::<rerun::components::Scalar>(scalar) {
+                    out.scalars
+                        .entry(entity.clone())
+                        .or_default()
+                        .push(s.as_slice().iter().map(|v| v.0.0).collect());
+                }
+            }
+            _ => {}
+        }
+    }
+    out
+}
+
+fn rows(d: &Decoded, entity: &str, component: &str) -> usize {
+    d.rows
+        .get(&(entity.to_owned(), component.to_owned()))
+        .copied()
+        .unwrap_or(0)
+}
+
+#[test]
+fn rrd_holds_every_step_at_the_documented_entity_paths() {
+    let eps = episodes("attention", 3..5);
+    let steps: usize = eps.iter().map(|e| e.steps.len()).sum();
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("two.rrd");
+    let targets = RerunTargets {
+        save: Some(path.clone()),
+        ..RerunTargets::default()
+    };
+    let stats = record_rerun(&eps, &targets, 0.5, None).unwrap();
+    assert_eq!(stats.steps, steps);
+    assert_eq!(stats.episodes, 2);
+    // Only the finished file is left in the directory.
+    let names: Vec<_> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name().into_string().unwrap())
+        .collect();
+    assert_eq!(names, ["two.rrd"]);
+
+    let d = decode(&path);
+    assert!(d.versions.contains("0.36.3"), "{:?}", d.versions);
+    assert!(d.blueprints > 0, "a default blueprint is written");
+    for entity in [
+        "/world/grid",
+        "/view/image",
+        "/policy/probs",
+        "/policy/value",
+        "/policy/reward",
+        "/policy/status",
+    ] {
+        let n: usize = d
+            .rows
+            .iter()
+            .filter(|((e, _), _)| e == entity)
+            .map(|(_, n)| *n)
+            .max()
+            .unwrap_or(0);
+        assert_eq!(n, steps, "{entity} should have one row per step");
+    }
+    assert_eq!(rows(&d, "/world/grid", "Image:buffer"), steps);
+    assert_eq!(rows(&d, "/attention/combined", "DepthImage:buffer"), steps);
+    assert_eq!(rows(&d, "/attention/weights", "BarChart:values"), steps);
+    assert_eq!(rows(&d, "/world/attention", "Image:buffer"), steps);
+    for (e, ep) in eps.iter().enumerate() {
+        for (i, w) in ep.words().iter().enumerate() {
+            let path = format!("/attention/words/{i}_{w}");
+            assert!(
+                rows(&d, &path, "DepthImage:buffer") >= ep.steps.len(),
+                "episode {e}: {path} is missing"
+            );
+            assert!(rows(&d, &format!("{path}/label"), "Boxes2D:half_sizes") > 0);
+        }
+    }
+    for entity in ["/meta", "/world/attention"] {
+        assert!(d.static_entities.contains(entity), "{entity} is static");
+    }
+    // Values against the traces, in step order.
+    let values: Vec<f64> = eps
+        .iter()
+        .flat_map(|e| e.steps.iter().map(|s| f64::from(s.value)))
+        .collect();
+    let logged: Vec<f64> = d.scalars["/policy/value"].iter().map(|v| v[0]).collect();
+    assert_eq!(logged, values);
+    let rewards: Vec<f64> = eps
+        .iter()
+        .flat_map(|e| e.steps.iter().map(|s| s.reward))
+        .collect();
+    let logged: Vec<f64> = d.scalars["/policy/reward"].iter().map(|v| v[0]).collect();
+    assert_eq!(logged, rewards);
+}
+
+#[test]
+fn rrd_of_the_same_episodes_decodes_identically() {
+    let eps = episodes("attention", 7..8);
+    let dir = tempfile::tempdir().unwrap();
+    let decoded: Vec<Decoded> = ["a.rrd", "b.rrd"]
+        .iter()
+        .map(|name| {
+            let path = dir.path().join(name);
+            let targets = RerunTargets {
+                save: Some(path.clone()),
+                ..RerunTargets::default()
+            };
+            record_rerun(&eps, &targets, 0.5, None).unwrap();
+            decode(&path)
+        })
+        .collect();
+    assert_eq!(decoded[0], decoded[1]);
+}
+
+#[test]
+fn baseline_recordings_have_no_attention_entities() {
+    let eps = episodes("baseline", 1..2);
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("b.rrd");
+    let targets = RerunTargets {
+        save: Some(path.clone()),
+        ..RerunTargets::default()
+    };
+    record_rerun(&eps, &targets, 0.5, None).unwrap();
+    let d = decode(&path);
+    assert_eq!(rows(&d, "/world/grid", "Image:buffer"), eps[0].steps.len());
+    assert!(
+        !d.rows.keys().any(|(e, _)| e.starts_with("/attention/")),
+        "{:?}",
+        d.rows.keys().collect::<Vec<_>>()
+    );
+}
+
+#[test]
+fn recording_failures_leave_no_file() {
+    let eps = episodes("attention", 3..4);
+    let dir = tempfile::tempdir().unwrap();
+    // Interrupted before the first step.
+    let stop = Arc::new(AtomicBool::new(true));
+    let path = dir.path().join("x.rrd");
+    let targets = RerunTargets {
+        save: Some(path.clone()),
+        ..RerunTargets::default()
+    };
+    let err = record_rerun(&eps, &targets, 0.5, Some(&stop)).unwrap_err();
+    assert!(matches!(err, RecordError::Interrupted), "{err}");
+    let err = write_mcap(&eps, &dir.path().join("x.mcap"), 0.5, Some(&stop)).unwrap_err();
+    assert!(matches!(err, RecordError::Interrupted), "{err}");
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+    // A directory that does not exist.
+    let missing = dir.path().join("no/such/dir/x.rrd");
+    let targets = RerunTargets {
+        save: Some(missing.clone()),
+        ..RerunTargets::default()
+    };
+    let err = record_rerun(&eps, &targets, 0.5, None).unwrap_err();
+    assert!(err.to_string().contains("no/such/dir/x.rrd"), "{err}");
+    // No viewer listening: a free port, found by binding and releasing it.
+    let port = std::net::TcpListener::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port();
+    let targets = RerunTargets {
+        connect: Some(format!("rerun+http://127.0.0.1:{port}/proxy")),
+        save: Some(path.clone()),
+        ..RerunTargets::default()
+    };
+    let err = record_rerun(&eps, &targets, 0.5, None).unwrap_err();
+    assert!(matches!(err, RecordError::NoViewer { .. }), "{err}");
+    let targets = RerunTargets {
+        connect: Some("http://nonsense".into()),
+        ..RerunTargets::default()
+    };
+    assert!(record_rerun(&eps, &targets, 0.5, None).is_err());
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+}
+
+#[test]
+fn mcap_has_foxglove_topics_and_one_message_per_step() {
+    let eps = episodes("attention", 3..5);
+    let steps: usize = eps.iter().map(|e| e.steps.len()).sum();
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("two.mcap");
+    let stats = write_mcap(&eps, &path, 0.5, None).unwrap();
+    assert_eq!(stats.steps, steps);
+    let bytes = std::fs::read(&path).unwrap();
+    assert!(
+        mcap::read::Summary::read(&bytes).unwrap().is_some(),
+        "summary"
+    );
+    let mut counts: BTreeMap<String, usize> = BTreeMap::new();
+    let mut schemas: BTreeMap<String, String> = BTreeMap::new();
+    let mut values = Vec::new();
+    let mut last_time = 0;
+    for msg in mcap::MessageStream::new(&bytes).unwrap() {
+        let msg = msg.unwrap();
+        let topic = msg.channel.topic.clone();
+        assert_eq!(msg.channel.message_encoding, "json");
+        let schema = msg.channel.schema.as_ref().unwrap();
+        assert_eq!(schema.encoding, "jsonschema");
+        schemas.insert(topic.clone(), schema.name.clone());
+        *counts.entry(topic.clone()).or_default() += 1;
+        assert!(msg.log_time >= last_time, "messages in time order");
+        last_time = msg.log_time;
+        let v: serde_json::Value = serde_json::from_slice(&msg.data).unwrap();
+        if topic == "/policy" {
+            values.push(v["value"].as_f64().unwrap() as f32);
+        }
+        if schema.name == "foxglove.RawImage" {
+            let (w, h) = (v["width"].as_u64().unwrap(), v["height"].as_u64().unwrap());
+            assert_eq!(v["encoding"], "rgb8");
+            let data = base64::Engine::decode(
+                &base64::engine::general_purpose::STANDARD,
+                v["data"].as_str().unwrap(),
+            )
+            .unwrap();
+            assert_eq!(data.len() as u64, w * h * 3, "{topic}");
+        }
+    }
+    for topic in [
+        "/world/image",
+        "/world/attention",
+        "/view/image",
+        "/attention/combined",
+        "/attention/weights",
+        "/policy",
+    ] {
+        assert_eq!(counts.get(topic).copied(), Some(steps), "{topic}");
+    }
+    assert_eq!(counts["/mission"], 2);
+    assert_eq!(schemas["/world/image"], "foxglove.RawImage");
+    assert_eq!(schemas["/policy"], "groundscope.Policy");
+    let word_topics = counts
+        .keys()
+        .filter(|t| t.starts_with("/attention/words/"))
+        .count();
+    assert!(word_topics >= eps[0].words().len());
+    let expected: Vec<f32> = eps
+        .iter()
+        .flat_map(|e| e.steps.iter().map(|s| s.value))
+        .collect();
+    assert_eq!(values, expected);
+    // Synthetic times make the messages a pure function of the episodes (the mcap crate
+    // orders the summary's schema and channel records by hash, so bytes may differ there).
+    let again = dir.path().join("again.mcap");
+    write_mcap(&eps, &again, 0.5, None).unwrap();
+    let messages = |b: &[u8]| -> Vec<(String, u64, Vec<u8>)> {
+        mcap::MessageStream::new(b)
+            .unwrap()
+            .map(|m| {
+                let m = m.unwrap();
+                (m.channel.topic.clone(), m.log_time, m.data.to_vec())
+            })
+            .collect()
+    };
+    assert!(messages(&std::fs::read(&again).unwrap()) == messages(&bytes));
+}
