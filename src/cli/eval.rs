@@ -1,6 +1,8 @@
 //! `groundscope eval`: the paper's evaluation sweep, grounding accuracies and reports.
 
 use std::path::PathBuf;
+use std::sync::Mutex;
+use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 use std::time::Instant;
 
 use clap::Args;
@@ -9,7 +11,7 @@ use groundscope::metrics::grounding::WordKind;
 use groundscope::metrics::report::{
     Cell, CellAccuracy, CheckpointInfo, Report, SCHEMA_VERSION, worst_episodes,
 };
-use groundscope::metrics::sweep::{evaluate_cell, grounding, performance};
+use groundscope::metrics::sweep::{EpisodeSummary, evaluate_cell, grounding, performance};
 use groundscope::policy::{Net, bundled};
 
 use crate::ExitStatus;
@@ -57,6 +59,9 @@ pub struct EvalArgs {
     /// Hide the progress bar.
     #[arg(long)]
     pub quiet: bool,
+    /// Worker threads; each evaluates whole cells (default: one per core).
+    #[arg(long, value_name = "N")]
+    pub jobs: Option<usize>,
 }
 
 /// Runs `eval`.
@@ -125,24 +130,60 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitStatus> {
             .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
     );
     let start = Instant::now();
-    let mut done = 0u64;
+    let jobs = args
+        .jobs
+        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, usize::from))
+        .clamp(1, cells.len().max(1));
+    // Largest rooms first: they take longest, so the workers finish together.
+    let mut order: Vec<usize> = (0..cells.len()).collect();
+    order.sort_by_key(|&i| std::cmp::Reverse((cells[i].2.room_size, cells[i].2.n_objects)));
+    let next = AtomicUsize::new(0);
+    let progress = AtomicU64::new(0);
+    let results: Vec<Mutex<Option<anyhow::Result<Vec<EpisodeSummary>>>>> =
+        cells.iter().map(|_| Mutex::new(None)).collect();
+    std::thread::scope(|scope| {
+        for _ in 0..jobs {
+            scope.spawn(|| {
+                loop {
+                    let k = next.fetch_add(1, Ordering::Relaxed);
+                    let Some(&i) = order.get(k) else { break };
+                    let (name, ckpt, level) = &cells[i];
+                    let net = Net::new(ckpt.meta.model, ckpt.params.detached());
+                    bar.set_message(format!("{name} S{} N{}", level.room_size, level.n_objects));
+                    let mut last = 0u64;
+                    let r = evaluate_cell(
+                        &net,
+                        level,
+                        args.seeds,
+                        args.episodes,
+                        args.alpha,
+                        mode,
+                        &mut |n| {
+                            let d = n.saturating_sub(last);
+                            last = n;
+                            bar.set_position(progress.fetch_add(d, Ordering::Relaxed) + d);
+                        },
+                    )
+                    .map_err(anyhow::Error::from);
+                    if let Ok(mut slot) = results[i].lock() {
+                        *slot = Some(r);
+                    }
+                    if matches!(results[i].lock().as_deref(), Ok(Some(Err(_)))) {
+                        // Stop the other workers early; the error is reported below.
+                        next.store(order.len(), Ordering::Relaxed);
+                    }
+                }
+            });
+        }
+    });
     let mut report_cells = Vec::new();
     let mut all_eps = Vec::new();
-    for (name, ckpt, level) in &cells {
-        let net = Net::new(ckpt.meta.model, ckpt.params.detached());
-        bar.set_message(format!("{name} S{} N{}", level.room_size, level.n_objects));
-        let eps = evaluate_cell(
-            &net,
-            level,
-            args.seeds,
-            args.episodes,
-            args.alpha,
-            mode,
-            &mut |n| {
-                bar.set_position(done + n);
-            },
-        )?;
-        done += eps.len() as u64;
+    for ((name, ckpt, level), slot) in cells.iter().zip(results) {
+        let eps = slot
+            .into_inner()
+            .ok()
+            .flatten()
+            .unwrap_or_else(|| Err(anyhow::anyhow!("evaluation stopped early")))?;
         let accuracy = ckpt.meta.model.has_attention().then(|| CellAccuracy {
             object: grounding(&eps, WordKind::Object),
             color: grounding(&eps, WordKind::Color),
