@@ -137,45 +137,7 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitStatus> {
     // Largest rooms first: they take longest, so the workers finish together.
     let mut order: Vec<usize> = (0..cells.len()).collect();
     order.sort_by_key(|&i| std::cmp::Reverse((cells[i].2.room_size, cells[i].2.n_objects)));
-    let next = AtomicUsize::new(0);
-    let progress = AtomicU64::new(0);
-    let results: Vec<Mutex<Option<anyhow::Result<Vec<EpisodeSummary>>>>> =
-        cells.iter().map(|_| Mutex::new(None)).collect();
-    std::thread::scope(|scope| {
-        for _ in 0..jobs {
-            scope.spawn(|| {
-                loop {
-                    let k = next.fetch_add(1, Ordering::Relaxed);
-                    let Some(&i) = order.get(k) else { break };
-                    let (name, ckpt, level) = &cells[i];
-                    let net = Net::new(ckpt.meta.model, ckpt.params.detached());
-                    bar.set_message(format!("{name} S{} N{}", level.room_size, level.n_objects));
-                    let mut last = 0u64;
-                    let r = evaluate_cell(
-                        &net,
-                        level,
-                        args.seeds,
-                        args.episodes,
-                        args.alpha,
-                        mode,
-                        &mut |n| {
-                            let d = n.saturating_sub(last);
-                            last = n;
-                            bar.set_position(progress.fetch_add(d, Ordering::Relaxed) + d);
-                        },
-                    )
-                    .map_err(anyhow::Error::from);
-                    if let Ok(mut slot) = results[i].lock() {
-                        *slot = Some(r);
-                    }
-                    if matches!(results[i].lock().as_deref(), Ok(Some(Err(_)))) {
-                        // Stop the other workers early; the error is reported below.
-                        next.store(order.len(), Ordering::Relaxed);
-                    }
-                }
-            });
-        }
-    });
+    let results = run_cells(&cells, &order, jobs, args, mode, &bar);
     let mut report_cells = Vec::new();
     let mut all_eps = Vec::new();
     for ((name, ckpt, level), slot) in cells.iter().zip(results) {
@@ -273,4 +235,61 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitStatus> {
         }
         Ok(ExitStatus::CheckFailed)
     }
+}
+
+/// Cell results, in `cells` order.
+type CellResults = Vec<Mutex<Option<anyhow::Result<Vec<EpisodeSummary>>>>>;
+
+/// Evaluates `cells` in the given order on `jobs` worker threads.
+fn run_cells(
+    cells: &[(
+        String,
+        &groundscope::policy::Checkpoint,
+        groundscope::env::LevelConfig,
+    )],
+    order: &[usize],
+    jobs: usize,
+    args: &EvalArgs,
+    mode: ActionMode,
+    bar: &indicatif::ProgressBar,
+) -> CellResults {
+    let next = AtomicUsize::new(0);
+    let progress = AtomicU64::new(0);
+    let results: CellResults = cells.iter().map(|_| Mutex::new(None)).collect();
+    std::thread::scope(|scope| {
+        for _ in 0..jobs {
+            scope.spawn(|| {
+                loop {
+                    let k = next.fetch_add(1, Ordering::Relaxed);
+                    let Some(&i) = order.get(k) else { break };
+                    let (name, ckpt, level) = &cells[i];
+                    let net = Net::new(ckpt.meta.model, ckpt.params.detached());
+                    bar.set_message(format!("{name} S{} N{}", level.room_size, level.n_objects));
+                    let mut last = 0u64;
+                    let r = evaluate_cell(
+                        &net,
+                        level,
+                        args.seeds,
+                        args.episodes,
+                        args.alpha,
+                        mode,
+                        &mut |n| {
+                            let d = n.saturating_sub(last);
+                            last = n;
+                            bar.set_position(progress.fetch_add(d, Ordering::Relaxed) + d);
+                        },
+                    )
+                    .map_err(anyhow::Error::from);
+                    if let Ok(mut slot) = results[i].lock() {
+                        *slot = Some(r);
+                    }
+                    if matches!(results[i].lock().as_deref(), Ok(Some(Err(_)))) {
+                        // Stop the other workers early; the error is reported below.
+                        next.store(order.len(), Ordering::Relaxed);
+                    }
+                }
+            });
+        }
+    });
+    results
 }
