@@ -11,6 +11,7 @@
 pub mod app;
 pub mod env;
 pub mod episode;
+pub mod files;
 pub mod metrics;
 pub mod policy;
 pub mod record;

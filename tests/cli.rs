@@ -518,6 +518,12 @@ fn replay_records_rerun_and_mcap_and_refuses_bad_destinations() {
     assert!(out.contains("KB/step") && out.contains("steps/s"), "{out}");
     assert!(std::fs::metadata(&rrd).unwrap().len() > 1000);
     assert!(std::fs::metadata(&mcap).unwrap().len() > 1000);
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt as _;
+        let mode = std::fs::metadata(&rrd).unwrap().permissions().mode();
+        assert_eq!(mode & 0o777, 0o644, "recordings are readable like any file");
+    }
 
     let port = std::net::TcpListener::bind("127.0.0.1:0")
         .unwrap()

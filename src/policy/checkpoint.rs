@@ -108,6 +108,7 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), PolicyError> {
     };
     let mut tmp = tempfile::NamedTempFile::new_in(dir).map_err(|e| io_err(path, e))?;
     tmp.write_all(bytes).map_err(|e| io_err(path, e))?;
+    crate::files::make_shareable(tmp.path()).map_err(|e| io_err(path, e))?;
     tmp.persist(path).map_err(|e| io_err(path, e.error))?;
     Ok(())
 }

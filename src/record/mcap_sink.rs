@@ -89,28 +89,44 @@ impl<W: std::io::Write + std::io::Seek> Out<W> {
         Ok(id)
     }
 
-    fn put(
-        &mut self,
-        topic: &str,
-        schema: &'static str,
-        t: u64,
-        msg: &Value,
-    ) -> mcap::McapResult<()> {
-        let channel_id = self.channel(topic, schema)?;
-        let count = self.stats.messages.entry(topic.to_owned()).or_default();
+    fn put(&mut self, msg: &Msg) -> mcap::McapResult<()> {
+        let channel_id = self.channel(&msg.topic, msg.schema)?;
+        let count = self.stats.messages.entry(msg.topic.clone()).or_default();
         let header = mcap::records::MessageHeader {
             channel_id,
             sequence: *count as u32,
-            log_time: t,
-            publish_time: t,
+            log_time: msg.t,
+            publish_time: msg.t,
         };
         *count += 1;
+        self.w.write_to_known_channel(&header, &msg.bytes)
+    }
+}
+
+/// One message, serialised: built on the worker thread, written on the writer's.
+struct Msg {
+    topic: String,
+    schema: &'static str,
+    t: u64,
+    bytes: Vec<u8>,
+}
+
+/// The messages of one episode, in write order.
+#[derive(Default)]
+struct Msgs(Vec<Msg>);
+
+impl Msgs {
+    fn json(&mut self, topic: &str, schema: &'static str, t: u64, msg: &Value) {
         // `Value`s built here have string keys and finite numbers: serialising cannot fail.
-        let bytes = serde_json::to_vec(msg).unwrap_or_default();
-        self.w.write_to_known_channel(&header, &bytes)
+        self.0.push(Msg {
+            topic: topic.to_owned(),
+            schema,
+            t,
+            bytes: serde_json::to_vec(msg).unwrap_or_default(),
+        });
     }
 
-    fn image(&mut self, topic: &str, t: u64, img: &RgbImage) -> mcap::McapResult<()> {
+    fn image(&mut self, topic: &str, t: u64, img: &RgbImage) {
         let (w, h) = img.dimensions();
         let msg = json!({
             "timestamp": {"sec": t / 1_000_000_000, "nsec": t % 1_000_000_000},
@@ -121,7 +137,7 @@ impl<W: std::io::Write + std::io::Seek> Out<W> {
             "step": w * 3,
             "data": base64::engine::general_purpose::STANDARD.encode(img.as_raw()),
         });
-        self.put(topic, "image", t, &msg)
+        self.json(topic, "image", t, &msg);
     }
 }
 
@@ -169,22 +185,16 @@ fn grounding_json(g: &MapGrounding, words: &[String]) -> Value {
     })
 }
 
-fn write_step<W: std::io::Write + std::io::Seek>(
-    out: &mut Out<W>,
-    e: usize,
-    step: &StepRecord,
-    scene: &StepScene,
-    t: u64,
-) -> mcap::McapResult<()> {
-    out.image("/world/image", t, &scene.world)?;
-    out.image("/view/image", t, &scene.view)?;
+fn step_messages(out: &mut Msgs, e: usize, step: &StepRecord, scene: &StepScene, t: u64) {
+    out.image("/world/image", t, &scene.world);
+    out.image("/view/image", t, &scene.view);
     let names = action_names();
     let probs: serde_json::Map<String, Value> = names
         .iter()
         .zip(step.probs)
         .map(|(n, p)| ((*n).to_owned(), json!(p)))
         .collect();
-    out.put(
+    out.json(
         "/policy",
         "policy",
         t,
@@ -193,21 +203,21 @@ fn write_step<W: std::io::Write + std::io::Seek>(
             "action_name": step.action.name(), "probs": probs, "value": step.value,
             "reward": step.reward, "terminated": step.terminated, "truncated": step.truncated,
         }),
-    )?;
+    );
     let Some(att) = &step.attention else {
-        return Ok(());
+        return;
     };
     let hi = scene.scale_max;
     let words: Vec<String> = att.words.iter().map(|w| w.word.clone()).collect();
     for (i, wa) in att.words.iter().enumerate() {
         let pic = map_picture(&wa.map, hi, scene.hits_of(Some(i)));
-        out.image(&format!("/attention/words/{i}_{}", wa.word), t, &pic)?;
+        out.image(&format!("/attention/words/{i}_{}", wa.word), t, &pic);
     }
     out.image(
         "/attention/combined",
         t,
         &map_picture(&att.combined, hi, scene.hits_of(None)),
-    )?;
+    );
     let mut world = scene.world.clone();
     overlay_on_world(
         &mut world,
@@ -218,14 +228,14 @@ fn write_step<W: std::io::Write + std::io::Seek>(
         0.0,
         hi,
     );
-    out.image("/world/attention", t, &world)?;
+    out.image("/world/attention", t, &world);
     let w: serde_json::Map<String, Value> = att
         .words
         .iter()
         .enumerate()
         .map(|(i, a)| (format!("{i}_{}", a.word), json!(a.weight)))
         .collect();
-    out.put(
+    out.json(
         "/attention/weights",
         "weights",
         t,
@@ -235,18 +245,18 @@ fn write_step<W: std::io::Write + std::io::Seek>(
             "entropies": att.words.iter().map(|a| a.entropy).collect::<Vec<_>>(),
             "w": w,
         }),
-    )?;
+    );
     let maps: serde_json::Map<String, Value> = scene
         .grounding
         .iter()
         .map(|g| (g.kind.name().to_owned(), grounding_json(g, &words)))
         .collect();
-    out.put(
+    out.json(
         "/metrics/grounding",
         "grounding",
         t,
         &json!({"episode": e, "step": step.t, "maps": maps}),
-    )
+    );
 }
 
 /// Writes `episodes` to `path` as MCAP (zstd chunks, summary and indexes), atomically: the
@@ -274,28 +284,45 @@ pub fn write_mcap(
         channels: BTreeMap::new(),
         stats: McapStats::default(),
     };
-    let mut global = 0u64;
-    for (e, ep) in episodes.iter().enumerate() {
-        let scenes = episode_scenes(ep, alpha);
-        for (step, scene) in ep.steps.iter().zip(&scenes) {
+    // Pictures and messages are built one episode ahead on a second thread; this one
+    // compresses and writes.
+    std::thread::scope(|scope| {
+        let (tx, rx) = std::sync::mpsc::sync_channel::<Msgs>(1);
+        scope.spawn(move || {
+            let mut global = 0u64;
+            for (e, ep) in episodes.iter().enumerate() {
+                let mut msgs = Msgs::default();
+                for (step, scene) in ep.steps.iter().zip(episode_scenes(ep, alpha)) {
+                    let t = global * STEP_NS;
+                    if step.t == 0 {
+                        msgs.json(
+                            "/mission",
+                            "mission",
+                            t,
+                            &json!({"episode": e, "seed": ep.seed, "text": ep.mission,
+                                    "checkpoint": ep.checkpoint, "level": ep.level.to_string()}),
+                        );
+                    }
+                    step_messages(&mut msgs, e, step, &scene, t);
+                    global += 1;
+                }
+                if stopped(stop) || tx.send(msgs).is_err() {
+                    break;
+                }
+            }
+        });
+        for _ in episodes {
             if stopped(stop) {
                 return Err(RecordError::Interrupted);
             }
-            let t = global * STEP_NS;
-            if step.t == 0 {
-                out.put(
-                    "/mission",
-                    "mission",
-                    t,
-                    &json!({"episode": e, "seed": ep.seed, "text": ep.mission,
-                            "checkpoint": ep.checkpoint, "level": ep.level.to_string()}),
-                )
-                .map_err(mcap_err)?;
+            let msgs = rx.recv().map_err(|_| RecordError::Interrupted)?;
+            for m in &msgs.0 {
+                out.put(m).map_err(mcap_err)?;
             }
-            write_step(&mut out, e, step, scene, t).map_err(mcap_err)?;
-            global += 1;
         }
-    }
+        Ok(())
+    })?;
+    let global: usize = episodes.iter().map(|e| e.steps.len()).sum();
     out.w.finish().map_err(mcap_err)?;
     out.w
         .into_inner()
@@ -304,7 +331,7 @@ pub fn write_mcap(
         .sync_all()
         .map_err(|e| io_err(path, &e))?;
     let stats = McapStats {
-        steps: global as usize,
+        steps: global,
         ..out.stats
     };
     pending.commit()?;

@@ -91,6 +91,7 @@ impl PendingFile {
     /// Renames the finished file into place.
     pub fn commit(mut self) -> Result<(), RecordError> {
         if let Some(tmp) = self.tmp.take() {
+            crate::files::make_shareable(&tmp).map_err(|e| io_err(&self.dest, &e))?;
             tmp.persist(&self.dest)
                 .map_err(|e| io_err(&self.dest, &e.error))?;
         }

@@ -259,24 +259,36 @@ fn log_all(
     let first = &episodes[0];
     log_static(rec, first, episodes.len())?;
     let mut global = 0i64;
-    for (e, ep) in episodes.iter().enumerate() {
-        let scenes = episode_scenes(ep, alpha);
-        for (step, scene) in ep.steps.iter().zip(&scenes) {
-            if stopped(stop) {
-                return Err(RecordError::Interrupted);
+    // Pictures are computed one episode ahead on a second thread while this one logs.
+    std::thread::scope(|scope| {
+        let (tx, rx) = std::sync::mpsc::sync_channel(1);
+        scope.spawn(move || {
+            for ep in episodes {
+                if tx.send(episode_scenes(ep, alpha)).is_err() {
+                    break;
+                }
             }
-            rec.set_time_sequence("step", global);
-            if episodes.len() > 1 {
-                rec.set_time_sequence("episode", e as i64);
+        });
+        for (e, ep) in episodes.iter().enumerate() {
+            let scenes = rx.recv().map_err(sdk)?;
+            for (step, scene) in ep.steps.iter().zip(&scenes) {
+                if stopped(stop) {
+                    return Err(RecordError::Interrupted);
+                }
+                rec.set_time_sequence("step", global);
+                if episodes.len() > 1 {
+                    rec.set_time_sequence("episode", e as i64);
+                }
+                if step.t == 0 && episodes.len() > 1 {
+                    rec.log("mission", &rerun::TextDocument::new(ep.mission.as_str()))
+                        .map_err(sdk)?;
+                }
+                log_step(rec, ep, e, step, scene)?;
+                global += 1;
             }
-            if step.t == 0 && episodes.len() > 1 {
-                rec.log("mission", &rerun::TextDocument::new(ep.mission.as_str()))
-                    .map_err(sdk)?;
-            }
-            log_step(rec, ep, e, step, scene)?;
-            global += 1;
         }
-    }
+        Ok(())
+    })?;
     Ok(RecordStats {
         episodes: episodes.len(),
         steps: global as usize,

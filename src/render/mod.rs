@@ -102,6 +102,7 @@ pub fn save_png(img: &RgbImage, path: &Path) -> Result<(), RenderError> {
         out.flush().map_err(io)?;
     }
     // Dropping `tmp` on any error above deletes it.
+    crate::files::make_shareable(tmp.path()).map_err(io)?;
     tmp.persist(path).map_err(|e| io(e.error))?;
     Ok(())
 }
