@@ -561,3 +561,47 @@ fn replay_records_rerun_and_mcap_and_refuses_bad_destinations() {
         .collect();
     assert_eq!(left.len(), 2, "only the two recordings: {left:?}");
 }
+
+#[test]
+fn eval_exports_each_listed_failure_as_a_recording() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("report");
+    let o = gs(&[
+        "eval",
+        "--sizes",
+        "8",
+        "--objects",
+        "4",
+        "--seeds",
+        "1",
+        "--episodes",
+        "10",
+        "--top-k",
+        "1",
+        "--export-failures",
+        "--quiet",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let failures: Vec<serde_json::Value> =
+        serde_json::from_str(&std::fs::read_to_string(out.join("failures.json")).unwrap()).unwrap();
+    let mut recorded: Vec<String> = std::fs::read_dir(out.join("failures"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().into_string().unwrap())
+        .collect();
+    recorded.sort();
+    assert_eq!(recorded.len(), failures.len(), "{recorded:?}");
+    for f in &failures {
+        let name = format!(
+            "{}-{}-S8-N4-seed{}.rrd",
+            f["kind"].as_str().unwrap(),
+            f["checkpoint"]
+                .as_str()
+                .unwrap()
+                .trim_start_matches("bundled:"),
+            f["seed"]
+        );
+        assert!(recorded.contains(&name), "{name} not in {recorded:?}");
+    }
+}

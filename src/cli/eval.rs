@@ -5,6 +5,7 @@ use std::sync::Mutex;
 use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 use std::time::Instant;
 
+use anyhow::Context as _;
 use clap::Args;
 use groundscope::episode::ActionMode;
 use groundscope::metrics::grounding::WordKind;
@@ -59,6 +60,9 @@ pub struct EvalArgs {
     /// Hide the progress bar.
     #[arg(long)]
     pub quiet: bool,
+    /// Also record each listed failure as a Rerun recording in DIR/failures/.
+    #[arg(long)]
+    pub export_failures: bool,
     /// Worker threads; each evaluates whole cells (default: one per core).
     #[arg(long, value_name = "N")]
     pub jobs: Option<usize>,
@@ -190,6 +194,19 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitStatus> {
         )
     });
     report.write(&args.out, &failures)?;
+    if args.export_failures {
+        let n = export_failures(
+            &failures,
+            &ckpts,
+            &args.out.join("failures"),
+            mode,
+            args.alpha,
+        )?;
+        println!(
+            "recorded {n} failures in {}",
+            args.out.join("failures").display()
+        );
+    }
     println!(
         "evaluated {total} episodes in {elapsed:.1} s; report in {}",
         args.out.display()
@@ -292,4 +309,56 @@ fn run_cells(
         }
     });
     results
+}
+
+/// Replays every failure (the same level, seed and action mode as in the sweep) and records
+/// it as `DIR/<kind>-<checkpoint>-S<size>-N<objects>-seed<seed>.rrd`.
+fn export_failures(
+    failures: &[groundscope::metrics::report::Failure],
+    ckpts: &[(String, groundscope::policy::Checkpoint)],
+    dir: &std::path::Path,
+    mode: ActionMode,
+    alpha: f64,
+) -> anyhow::Result<usize> {
+    use groundscope::episode::{EpisodeSpec, run_episode};
+    use groundscope::record::{RerunTargets, record_rerun};
+    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    for f in failures {
+        let Some((name, ckpt)) = ckpts.iter().find(|(n, _)| *n == f.checkpoint) else {
+            continue;
+        };
+        let mut level = ckpt.meta.level;
+        level.room_size = f.size;
+        level.n_objects = f.objects;
+        let spec = EpisodeSpec {
+            level,
+            seed: f.seed,
+            mission: None,
+            mode,
+        };
+        let trace = run_episode(ckpt, name, &spec)?;
+        let short: String = name
+            .rsplit(['/', ':'])
+            .next()
+            .unwrap_or(name)
+            .chars()
+            .map(|c| {
+                if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
+                    c
+                } else {
+                    '_'
+                }
+            })
+            .collect();
+        let path = dir.join(format!(
+            "{}-{short}-S{}-N{}-seed{}.rrd",
+            f.kind, f.size, f.objects, f.seed
+        ));
+        let targets = RerunTargets {
+            save: Some(path),
+            ..RerunTargets::default()
+        };
+        record_rerun(std::slice::from_ref(&trace), &targets, alpha, None)?;
+    }
+    Ok(failures.len())
 }
