@@ -79,6 +79,8 @@ pub struct Debugger {
     selected_word: usize,
     overlay: Overlay,
     selected_cell: Option<Pos>,
+    /// An object picked up with "move object…": the next click on the world moves it there.
+    moving_from: Option<Pos>,
     edit_color: Color,
     edit_kind: ObjectKind,
     jobs: Vec<Job>,
@@ -158,6 +160,7 @@ impl Debugger {
             selected_word: 0,
             overlay: Overlay::Combined,
             selected_cell: None,
+            moving_from: None,
             edit_color: Color::Red,
             edit_kind: ObjectKind::Ball,
             jobs: Vec::new(),
@@ -648,6 +651,9 @@ impl Debugger {
             };
             let resp = resp.clone().on_hover_text_at_pointer(text);
             if resp.clicked() && !compared {
+                if let Some(from) = self.moving_from.take() {
+                    self.probe(&Edit::MoveObject(from, p));
+                }
                 self.selected_cell = Some(p);
             }
         }
@@ -836,7 +842,17 @@ impl Debugger {
             if ui.button("remove object").clicked() {
                 self.probe(&Edit::Remove(sel));
             }
+            if ui
+                .button("move object…")
+                .on_hover_text("then click the cell to move it to")
+                .clicked()
+            {
+                self.moving_from = Some(sel);
+            }
         });
+        if let Some(from) = self.moving_from {
+            ui.label(format!("click the cell to move the object at {from:?} to"));
+        }
         ui.horizontal_wrapped(|ui| {
             egui::ComboBox::from_id_salt("kind")
                 .selected_text(self.edit_kind.name())
