@@ -8,32 +8,15 @@ use image::{Delay, Frame, RgbaImage, imageops};
 
 use crate::episode::EpisodeTrace;
 use crate::record::PendingFile;
-use crate::record::scene::{OVERLAY_ALPHA, TILE_PX};
-use crate::render::{overlay_on_world, render_view, render_world};
+use crate::record::scene::{StepScene, TILE_PX, episode_scenes, world_with_overlay};
 
 /// Milliseconds each step is shown.
 const FRAME_MS: u32 = 250;
 
 /// One frame: the world (with `M` for attention models) and the view, side by side.
-pub fn frame(step: &crate::episode::StepRecord) -> RgbaImage {
-    let mut world = render_world(&step.world, TILE_PX, true);
-    if let Some(att) = &step.attention {
-        let hi = att
-            .combined
-            .iter()
-            .flatten()
-            .fold(f32::EPSILON, |m, &v| m.max(v));
-        overlay_on_world(
-            &mut world,
-            &step.world,
-            &att.combined,
-            TILE_PX,
-            OVERLAY_ALPHA,
-            0.0,
-            hi,
-        );
-    }
-    let view = render_view(&step.obs, TILE_PX);
+pub fn frame(step: &crate::episode::StepRecord, scene: &StepScene) -> RgbaImage {
+    let world = world_with_overlay(step, scene);
+    let view = &scene.view;
     let gap = TILE_PX / 2;
     let (w, h) = (
         world.width() + gap + view.width(),
@@ -48,7 +31,7 @@ pub fn frame(step: &crate::episode::StepRecord) -> RgbaImage {
     );
     imageops::replace(
         &mut out,
-        &image::DynamicImage::ImageRgb8(view).to_rgba8(),
+        &image::DynamicImage::ImageRgb8(view.clone()).to_rgba8(),
         i64::from(w - TILE_PX * 7),
         0,
     );
@@ -60,6 +43,7 @@ pub fn frame(step: &crate::episode::StepRecord) -> RgbaImage {
 pub fn write_gif(
     trace: &EpisodeTrace,
     path: &Path,
+    alpha: f64,
     done: &AtomicUsize,
     stop: &AtomicBool,
 ) -> Result<(), String> {
@@ -69,12 +53,13 @@ pub fn write_gif(
     let mut enc = GifEncoder::new_with_speed(std::io::BufWriter::new(file), 10);
     enc.set_repeat(Repeat::Infinite)
         .map_err(|e| format!("{}: {e}", path.display()))?;
-    for (i, step) in trace.steps.iter().enumerate() {
+    let scenes = episode_scenes(trace, alpha);
+    for (i, (step, scene)) in trace.steps.iter().zip(&scenes).enumerate() {
         if stop.load(Ordering::Relaxed) {
             return Err("export cancelled".into());
         }
         enc.encode_frame(Frame::from_parts(
-            frame(step),
+            frame(step, scene),
             0,
             0,
             Delay::from_numer_denom_ms(FRAME_MS, 1),

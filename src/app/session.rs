@@ -252,7 +252,7 @@ pub fn start_export(shown: &Shown, what: Export, alpha: f64, stop: Arc<AtomicBoo
             Export::Mcap(p) => write_mcap(eps, p, alpha, Some(&stop))
                 .map(|_| format!("wrote {}", p.display()))
                 .map_err(|e| e.to_string()),
-            Export::Gif(p) => super::gif::write_gif(&trace, p, done, &stop)
+            Export::Gif(p) => super::gif::write_gif(&trace, p, alpha, done, &stop)
                 .map(|()| format!("wrote {}", p.display())),
         };
         done.store(total, Ordering::Relaxed);

@@ -115,13 +115,7 @@ fn c32(rgb: [u8; 3]) -> Color32 {
 }
 
 fn hit_color(h: &ObjectHit) -> Color32 {
-    if h.acc {
-        Color32::from_rgb(0, 200, 0)
-    } else if h.acc_ng || h.acc_bs {
-        Color32::from_rgb(240, 200, 0)
-    } else {
-        Color32::from_rgb(230, 0, 0)
-    }
+    c32(crate::record::scene::hit_color(h))
 }
 
 impl Debugger {

@@ -297,12 +297,12 @@ fn run_cells(
                         },
                     )
                     .map_err(anyhow::Error::from);
-                    if let Ok(mut slot) = results[i].lock() {
-                        *slot = Some(r);
-                    }
-                    if matches!(results[i].lock().as_deref(), Ok(Some(Err(_)))) {
+                    if r.is_err() {
                         // Stop the other workers early; the error is reported below.
                         next.store(order.len(), Ordering::Relaxed);
+                    }
+                    if let Ok(mut slot) = results[i].lock() {
+                        *slot = Some(r);
                     }
                 }
             });

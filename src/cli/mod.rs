@@ -92,3 +92,15 @@ fn curve(logs: &[std::path::PathBuf], out: &std::path::Path) -> anyhow::Result<E
     println!("wrote {}", out.display());
     Ok(ExitStatus::Success)
 }
+
+/// Fails unless `path` ends in `.ext`, naming the flag.
+pub(crate) fn check_extension(path: &std::path::Path, ext: &str, flag: &str) -> anyhow::Result<()> {
+    if path.extension().and_then(|e| e.to_str()) == Some(ext) {
+        Ok(())
+    } else {
+        anyhow::bail!(
+            "{flag} {}: the file name must end in .{ext}",
+            path.display()
+        )
+    }
+}

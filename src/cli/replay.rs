@@ -1,7 +1,7 @@
 //! `groundscope replay`: run a checkpoint on episodes and write what it saw and did — a JSON
 //! trace, Rerun (file, spawned or running viewer) and/or MCAP.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
@@ -12,6 +12,7 @@ use groundscope::episode::{ActionMode, EpisodeSpec, EpisodeTrace, run_episode};
 use groundscope::record::{RerunTargets, StopFlag, record_rerun, write_mcap};
 
 use crate::ExitStatus;
+use crate::cli::check_extension;
 use crate::cli::policy_cmd::load_checkpoint;
 
 /// The default `--connect` URL: a viewer on this machine.
@@ -65,17 +66,6 @@ pub struct ReplayArgs {
     /// Threshold fraction α of the grounding hit/miss marks (τ = α / n).
     #[arg(long, default_value_t = 0.5)]
     pub alpha: f64,
-}
-
-fn check_extension(path: &Path, ext: &str, flag: &str) -> anyhow::Result<()> {
-    if path.extension().and_then(|e| e.to_str()) == Some(ext) {
-        Ok(())
-    } else {
-        anyhow::bail!(
-            "{flag} {}: the file name must end in .{ext}",
-            path.display()
-        )
-    }
 }
 
 /// Runs `replay`.

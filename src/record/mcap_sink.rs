@@ -26,12 +26,14 @@ use base64::Engine as _;
 use image::RgbImage;
 use serde_json::{Value, json};
 
-use super::scene::{MapGrounding, StepScene, TILE_PX, action_names, episode_scenes};
+use super::scene::{
+    MapGrounding, StepScene, action_names, episode_scenes, hit_color, world_with_overlay,
+};
 use super::{PendingFile, RecordError, StopFlag, io_err, stopped};
 use crate::episode::{EpisodeTrace, StepRecord};
 use crate::metrics::grounding::accuracies_of_hits;
 use crate::policy::ViewMap;
-use crate::render::{overlay_on_world, render_heatmap};
+use crate::render::render_heatmap;
 
 /// Nanoseconds between two recorded steps (10 steps per second of playback).
 pub const STEP_NS: u64 = 100_000_000;
@@ -164,14 +166,7 @@ fn frame_cell(img: &mut RgbImage, cell: (usize, usize), color: [u8; 3]) {
 fn map_picture(map: &ViewMap, hi: f32, g: Option<&MapGrounding>) -> RgbImage {
     let mut img = render_heatmap(map, MAP_CELL_PX, 0.0, hi);
     for h in g.map(|g| g.hits.as_slice()).unwrap_or_default() {
-        let color = if h.acc {
-            [0, 200, 0]
-        } else if h.acc_ng || h.acc_bs {
-            [240, 200, 0]
-        } else {
-            [230, 0, 0]
-        };
-        frame_cell(&mut img, h.cell, color);
+        frame_cell(&mut img, h.cell, hit_color(h));
     }
     img
 }
@@ -218,17 +213,7 @@ fn step_messages(out: &mut Msgs, e: usize, step: &StepRecord, scene: &StepScene,
         t,
         &map_picture(&att.combined, hi, scene.hits_of(None)),
     );
-    let mut world = scene.world.clone();
-    overlay_on_world(
-        &mut world,
-        &step.world,
-        &att.combined,
-        TILE_PX,
-        super::scene::OVERLAY_ALPHA,
-        0.0,
-        hi,
-    );
-    out.image("/world/attention", t, &world);
+    out.image("/world/attention", t, &world_with_overlay(step, scene));
     let w: serde_json::Map<String, Value> = att
         .words
         .iter()

@@ -38,6 +38,7 @@ use rerun::{RecordingStream, RecordingStreamBuilder};
 
 use super::scene::{
     MapGrounding, StepScene, TILE_PX, action_label, action_names, cell_centre, episode_scenes,
+    hit_color,
 };
 use super::{PendingFile, RERUN_SDK_VERSION, RecordError, StopFlag, stopped};
 use crate::episode::EpisodeTrace;
@@ -361,19 +362,7 @@ fn map_image(map: &ViewMap, hi: f32) -> rerun::DepthImage {
 /// on the object's cell (`acc`), yellow when only next to it (`acc_ng` or `acc_bs`), red for
 /// a miss.
 fn grounding_points(g: &MapGrounding) -> rerun::Points2D {
-    let colors: Vec<[u8; 3]> = g
-        .hits
-        .iter()
-        .map(|h| {
-            if h.acc {
-                [0, 200, 0]
-            } else if h.acc_ng || h.acc_bs {
-                [240, 200, 0]
-            } else {
-                [230, 0, 0]
-            }
-        })
-        .collect();
+    let colors: Vec<[u8; 3]> = g.hits.iter().map(hit_color).collect();
     let labels: Vec<String> = g
         .hits
         .iter()

@@ -10,7 +10,8 @@ use crate::env::world::{Action, World};
 use crate::episode::{EpisodeTrace, StepRecord};
 use crate::metrics::grounding::{ObjectHit, WordKind, ground_step, object_hits};
 use crate::policy::ViewMap;
-use crate::render::{colorize, render_view, render_world};
+use crate::render::palette::{GROUNDING_HIT, GROUNDING_MISS, GROUNDING_NEAR, Rgb};
+use crate::render::{colorize, overlay_on_world, render_view, render_world};
 
 /// Pixels per world or view cell in recorded pictures: small enough for ≤ 20 KB a step,
 /// large enough to tell a key from a ball.
@@ -133,6 +134,35 @@ pub fn attention_layer(world: &World, map: &ViewMap, scale_max: f32) -> RgbaImag
         }
     }
     img
+}
+
+/// The colour of an object's grounding mark: hit on its cell, only near it, or a miss.
+pub fn hit_color(h: &ObjectHit) -> Rgb {
+    if h.acc {
+        GROUNDING_HIT
+    } else if h.acc_ng || h.acc_bs {
+        GROUNDING_NEAR
+    } else {
+        GROUNDING_MISS
+    }
+}
+
+/// The scene's world picture with `M` blended over the view's cells on the step's shared
+/// colour scale (the plain picture for the baseline).
+pub fn world_with_overlay(step: &StepRecord, scene: &StepScene) -> RgbImage {
+    let mut world = scene.world.clone();
+    if let Some(att) = &step.attention {
+        overlay_on_world(
+            &mut world,
+            &step.world,
+            &att.combined,
+            TILE_PX,
+            OVERLAY_ALPHA,
+            0.0,
+            scene.scale_max,
+        );
+    }
+    world
 }
 
 /// The scenes of every step of an episode (each step grounded on its own instruction, which

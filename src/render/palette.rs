@@ -28,6 +28,15 @@ pub const HIGHLIGHT_TOWARDS: Rgb = [255, 255, 255];
 /// Weight of [`HIGHLIGHT_TOWARDS`] in a highlighted pixel.
 pub const HIGHLIGHT_ALPHA: f64 = 0.30;
 
+/// Grounding mark: the map is at or above the threshold on the object's cell (`acc`).
+pub const GROUNDING_HIT: Rgb = [0, 200, 0];
+
+/// Grounding mark: the map reaches the threshold only next to the object (`acc_ng`/`acc_bs`).
+pub const GROUNDING_NEAR: Rgb = [240, 200, 0];
+
+/// Grounding mark: a miss.
+pub const GROUNDING_MISS: Rgb = [230, 0, 0];
+
 /// Shade of a locked door's panel relative to its frame.
 pub const LOCKED_DOOR_SHADE: f64 = 0.45;
 
