@@ -360,6 +360,72 @@ fn resumed_training_matches_an_uninterrupted_run() {
 }
 
 #[test]
+fn init_starts_a_new_run_from_trained_weights() {
+    let dir = tempfile::tempdir().unwrap();
+    let parent = dir.path().join("parent");
+    assert_eq!(train(&parent, "128", &[]).status.code(), Some(0));
+    let child = dir.path().join("child");
+    let init = parent.join("model");
+    let o = train(
+        &child,
+        "256",
+        &["--init", init.to_str().unwrap(), "--entropy-coef", "0.001"],
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let meta = |d: &Path| -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(d.join("model.json")).unwrap()).unwrap()
+    };
+    // 128 frames = 2 updates of 64 in the parent, then 2 more here.
+    assert_eq!(meta(&parent)["training"]["updates"], 2);
+    assert_eq!(meta(&child)["training"]["frames"], 256);
+    assert_eq!(meta(&child)["training"]["updates"], 4);
+    assert_ne!(
+        meta(&parent)["weights_sha256"],
+        meta(&child)["weights_sha256"]
+    );
+    let updates = |d: &Path| -> Vec<String> {
+        std::fs::read_to_string(d.join("log.csv"))
+            .unwrap()
+            .lines()
+            .skip(1)
+            .map(|l| l.split(',').next().unwrap().to_owned())
+            .collect()
+    };
+    assert_eq!(
+        updates(&child),
+        ["1", "2", "3", "4"],
+        "the parent's rows come first"
+    );
+    let parent_log = std::fs::read_to_string(parent.join("log.csv")).unwrap();
+    let child_log = std::fs::read_to_string(child.join("log.csv")).unwrap();
+    assert!(child_log.starts_with(&parent_log));
+    // The child resumes like any run; --init with --resume, or of the other model, is refused.
+    let o = train(&child, "320", &["--resume"]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert_eq!(meta(&child)["training"]["updates"], 5);
+    assert_bad_input(
+        &train(
+            &child,
+            "384",
+            &["--resume", "--init", init.to_str().unwrap()],
+        ),
+        "--init",
+    );
+    let o = gs(&[
+        "train",
+        "--model",
+        "baseline",
+        "--init",
+        init.to_str().unwrap(),
+        "--out",
+        dir.path().join("b").to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert_bad_input(&o, "attention");
+    assert!(!dir.path().join("b").join("model.json").exists());
+}
+
+#[test]
 fn eval_writes_a_complete_report_and_gates_on_thresholds() {
     let dir = tempfile::tempdir().unwrap();
     let name = dir.path().join("u");

@@ -40,6 +40,11 @@ pub struct TrainArgs {
     /// Continue the run in --out exactly where it stopped (weights, Adam, RNGs, environments).
     #[arg(long)]
     pub resume: bool,
+    /// Start a new run from this checkpoint's weights (NAME or bundled:NAME) with the
+    /// hyper-parameters given here: fresh Adam and RNG streams, frame and update counts
+    /// continued from the checkpoint, network sizes taken from it.
+    #[arg(long, value_name = "NAME", conflicts_with = "resume")]
+    pub init: Option<String>,
     /// Save a checkpoint every this many updates.
     #[arg(long, default_value_t = 10)]
     pub save_interval: u64,
@@ -224,6 +229,61 @@ fn resume_run(args: &TrainArgs, model: ModelConfig) -> anyhow::Result<(Trainer, 
     Ok((trainer, resume.seed))
 }
 
+/// `--init NAME`: a new trainer on NAME's weights, refusing a checkpoint of the other model.
+fn warm_start(
+    name: &str,
+    variant: groundscope::policy::Variant,
+    level: groundscope::env::level::LevelConfig,
+    ppo: PpoConfig,
+    seed: u64,
+) -> anyhow::Result<Trainer> {
+    let ckpt =
+        groundscope::policy::bundled::load(name).with_context(|| format!("--init {name}"))?;
+    if ckpt.meta.model.variant != variant {
+        anyhow::bail!(
+            "--init: {name} is a {} model, not {}",
+            ckpt.meta.model.variant.name(),
+            variant.name()
+        );
+    }
+    Ok(Trainer::warm_start(
+        ckpt.meta.model,
+        level,
+        ppo,
+        ckpt.params,
+        seed,
+        ckpt.meta.training.frames,
+        ckpt.meta.training.updates,
+    )?)
+}
+
+/// The rows of the `log.csv` beside checkpoint `name` up to `updates`, so a warm-started
+/// run's log and learning curve start at frame 0. Empty when there is no such log.
+fn parent_log_rows(name: &str, updates: u64) -> String {
+    if name.starts_with(groundscope::policy::bundled::PREFIX) {
+        return String::new();
+    }
+    let dir = Path::new(name).parent().unwrap_or(Path::new("."));
+    let Ok(text) = std::fs::read_to_string(dir.join("log.csv")) else {
+        return String::new();
+    };
+    let mut lines = text.lines();
+    if lines.next() != Some(LOG_HEADER) {
+        return String::new();
+    }
+    let mut rows = String::new();
+    for line in lines {
+        match line.split(',').next().and_then(|u| u.parse::<u64>().ok()) {
+            Some(u) if u <= updates => {
+                rows.push_str(line);
+                rows.push('\n');
+            }
+            _ => break,
+        }
+    }
+    rows
+}
+
 /// Runs `train`.
 pub fn run(args: &TrainArgs) -> anyhow::Result<ExitStatus> {
     let variant = parse_variant(&args.model)?;
@@ -248,9 +308,17 @@ pub fn run(args: &TrainArgs) -> anyhow::Result<ExitStatus> {
         let level = args.level.config()?;
         let ppo = ppo_config(args);
         ppo.validate()?;
-        let params = Params::init(&model, args.seed)?;
-        let trainer = Trainer::new(model, level, ppo, params, args.seed)?;
-        write_atomic(&log_path, format!("{LOG_HEADER}\n").as_bytes())?;
+        let trainer = if let Some(name) = &args.init {
+            warm_start(name, variant, level, ppo, args.seed)?
+        } else {
+            let params = Params::init(&model, args.seed)?;
+            Trainer::new(model, level, ppo, params, args.seed)?
+        };
+        let mut log = format!("{LOG_HEADER}\n");
+        if let Some(name) = &args.init {
+            log.push_str(&parent_log_rows(name, trainer.state.updates));
+        }
+        write_atomic(&log_path, log.as_bytes())?;
         (trainer, args.seed)
     };
     let mut log_file = std::fs::OpenOptions::new()

@@ -29,6 +29,10 @@ use crate::env::world::{Action, World};
 /// Level seeds used in training are `TRAIN_SEED_OFFSET + k`.
 pub const TRAIN_SEED_OFFSET: u64 = 1 << 32;
 
+/// A warm-started run's level seeds start this far past its parent's frame count, which is
+/// more than any parent's number of environments.
+const WARM_START_SEED_GAP: u64 = 1 << 16;
+
 /// PPO hyper-parameters (torch-ac's defaults).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -265,6 +269,30 @@ impl Trainer {
                 envs,
             },
         })
+    }
+
+    /// A new run that starts from trained weights (`train --init`): fresh Adam moments and
+    /// RNG streams, but the frame and update counters continue from `frames` / `updates`, so
+    /// budgets and logs count the parent run's frames too. Level seeds start past any the
+    /// parent can have used: it started at most `frames + procs` episodes.
+    pub fn warm_start(
+        model: ModelConfig,
+        level: LevelConfig,
+        ppo: PpoConfig,
+        params: Params,
+        seed: u64,
+        frames: u64,
+        updates: u64,
+    ) -> Result<Self, PolicyError> {
+        let mut trainer = Self::new(model, level, ppo, params, seed)?;
+        let first = frames + WARM_START_SEED_GAP;
+        for (k, slot) in trainer.state.envs.iter_mut().enumerate() {
+            *slot = new_slot(&level, first + k as u64, model.lstm_hidden)?;
+        }
+        trainer.state.next_seed = first + ppo.procs as u64;
+        trainer.state.frames = frames;
+        trainer.state.updates = updates;
+        Ok(trainer)
     }
 
     /// Collects one rollout and runs the PPO epochs on it.
