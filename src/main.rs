@@ -9,8 +9,8 @@ static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
 
 use std::process::ExitCode;
 
-use clap::Parser as _;
 use clap::error::ErrorKind;
+use clap::{CommandFactory as _, FromArgMatches as _};
 
 /// How a run ended; `main` alone turns it into the process exit code.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -22,11 +22,15 @@ pub enum ExitStatus {
 }
 
 fn main() -> ExitCode {
-    let args = match cli::Cli::try_parse() {
+    let matches = match cli::Cli::command().try_get_matches() {
+        Ok(m) => m,
+        Err(err) => return usage_error(&err),
+    };
+    let args = match cli::Cli::from_arg_matches(&matches) {
         Ok(args) => args,
         Err(err) => return usage_error(&err),
     };
-    match cli::run(args) {
+    match cli::run(args, &matches) {
         Ok(ExitStatus::Success) => ExitCode::SUCCESS,
         Ok(ExitStatus::CheckFailed) => ExitCode::from(1),
         Err(err) => {

@@ -349,6 +349,21 @@ fn resumed_training_matches_an_uninterrupted_run() {
     assert_bad_input(&gs(&args), "attention");
     args.retain(|a| *a != "--resume");
     assert_bad_input(&gs(&args), "--resume");
+    // Flags given with --resume must agree with the run; flags left out take its values.
+    let before = std::fs::read(split.join("model.safetensors")).unwrap();
+    assert_bad_input(
+        &train(&split, "320", &["--resume", "--lr", "0.5"]),
+        "--lr 0.001",
+    );
+    assert_bad_input(
+        &train(&split, "320", &["--resume", "--always-color"]),
+        "--always-color",
+    );
+    assert_eq!(
+        std::fs::read(split.join("model.safetensors")).unwrap(),
+        before,
+        "a refused resume leaves the run alone"
+    );
     assert_bad_input(
         &train(&dir.path().join("x"), "64", &["--recurrence", "3"]),
         "--recurrence",

@@ -62,12 +62,12 @@ pub enum Command {
 }
 
 /// Runs the parsed command.
-pub fn run(cli: Cli) -> anyhow::Result<ExitStatus> {
+pub fn run(cli: Cli, matches: &clap::ArgMatches) -> anyhow::Result<ExitStatus> {
     match cli.command.unwrap_or_else(|| Command::View(Box::default())) {
         Command::View(args) => view::run(&args),
         Command::Env(cmd) => env_cmd::run(cmd),
         Command::Bench(cmd) => bench::run(&cmd),
-        Command::Train(args) => train::run(&args),
+        Command::Train(args) => train::run(&args, matches.subcommand_matches("train")),
         Command::Eval(args) => eval::run(&args),
         Command::Curve { logs, out } => curve(&logs, &out),
         Command::Init(args) => policy_cmd::init(&args),

@@ -9,7 +9,9 @@ use std::time::Instant;
 
 use anyhow::Context as _;
 use candle_core::{Device, Tensor};
+use clap::ArgMatches;
 use clap::Args;
+use clap::parser::ValueSource;
 use groundscope::policy::checkpoint::{checkpoint_paths, write_atomic};
 use groundscope::policy::ppo::{PpoConfig, Trainer, UpdateLog};
 use groundscope::policy::{Checkpoint, ModelConfig, Params, TrainingState};
@@ -183,7 +185,11 @@ fn save_run(
     Ok(())
 }
 
-fn resume_run(args: &TrainArgs, model: ModelConfig) -> anyhow::Result<(Trainer, u64)> {
+fn resume_run(
+    args: &TrainArgs,
+    matches: Option<&ArgMatches>,
+    model: ModelConfig,
+) -> anyhow::Result<(Trainer, u64)> {
     let dir = &args.out;
     let ckpt = Checkpoint::load(&dir.join("model"))
         .with_context(|| format!("resuming from {}", dir.display()))?;
@@ -207,6 +213,13 @@ fn resume_run(args: &TrainArgs, model: ModelConfig) -> anyhow::Result<(Trainer, 
             ckpt.meta.training.updates
         );
     }
+    let saved = Fixed {
+        ppo: resume.ppo,
+        level: ckpt.meta.level,
+        hidden: ckpt.meta.model.lstm_hidden,
+        seed: resume.seed,
+    };
+    saved.check_given(args, matches, "--resume", dir)?;
     let mut trainer = Trainer::new(
         ckpt.meta.model,
         ckpt.meta.level,
@@ -229,13 +242,15 @@ fn resume_run(args: &TrainArgs, model: ModelConfig) -> anyhow::Result<(Trainer, 
     Ok((trainer, resume.seed))
 }
 
-/// `--init NAME`: a new trainer on NAME's weights, refusing a checkpoint of the other model.
+/// `--init NAME`: a new trainer on NAME's weights, refusing a checkpoint of the other model
+/// or a `--hidden` that differs from its size.
 fn warm_start(
     name: &str,
     variant: groundscope::policy::Variant,
     level: groundscope::env::level::LevelConfig,
     ppo: PpoConfig,
-    seed: u64,
+    args: &TrainArgs,
+    matches: Option<&ArgMatches>,
 ) -> anyhow::Result<Trainer> {
     let ckpt =
         groundscope::policy::bundled::load(name).with_context(|| format!("--init {name}"))?;
@@ -246,15 +261,142 @@ fn warm_start(
             variant.name()
         );
     }
+    if given(matches, "hidden") && args.hidden != ckpt.meta.model.lstm_hidden {
+        anyhow::bail!(
+            "--init: {name} has hidden size {}, not --hidden {}",
+            ckpt.meta.model.lstm_hidden,
+            args.hidden
+        );
+    }
     Ok(Trainer::warm_start(
         ckpt.meta.model,
         level,
         ppo,
         ckpt.params,
-        seed,
+        args.seed,
         ckpt.meta.training.frames,
         ckpt.meta.training.updates,
     )?)
+}
+
+/// Whether flag `id` was given on the command line rather than left at its default.
+fn given(matches: Option<&ArgMatches>, id: &str) -> bool {
+    matches.is_some_and(|m| m.value_source(id) == Some(ValueSource::CommandLine))
+}
+
+/// What a run fixes at its start. On `--resume` a flag left out takes the run's value, and a
+/// flag given with another value is an error rather than silently ignored.
+struct Fixed {
+    ppo: PpoConfig,
+    level: groundscope::env::level::LevelConfig,
+    hidden: usize,
+    seed: u64,
+}
+
+impl Fixed {
+    fn check_given(
+        &self,
+        args: &TrainArgs,
+        matches: Option<&ArgMatches>,
+        how: &str,
+        dir: &Path,
+    ) -> anyhow::Result<()> {
+        let (now, run) = (ppo_config(args), &self.ppo);
+        let a = &args.level;
+        let l = &self.level;
+        let pairs: [(&str, String, String); 18] = [
+            ("procs", now.procs.to_string(), run.procs.to_string()),
+            (
+                "frames_per_proc",
+                now.frames_per_proc.to_string(),
+                run.frames_per_proc.to_string(),
+            ),
+            ("epochs", now.epochs.to_string(), run.epochs.to_string()),
+            (
+                "batch_size",
+                now.batch_size.to_string(),
+                run.batch_size.to_string(),
+            ),
+            (
+                "recurrence",
+                now.recurrence.to_string(),
+                run.recurrence.to_string(),
+            ),
+            ("lr", now.lr.to_string(), run.lr.to_string()),
+            (
+                "adam_eps",
+                now.adam_eps.to_string(),
+                run.adam_eps.to_string(),
+            ),
+            (
+                "discount",
+                now.discount.to_string(),
+                run.discount.to_string(),
+            ),
+            (
+                "gae_lambda",
+                now.gae_lambda.to_string(),
+                run.gae_lambda.to_string(),
+            ),
+            (
+                "entropy_coef",
+                now.entropy_coef.to_string(),
+                run.entropy_coef.to_string(),
+            ),
+            (
+                "value_loss_coef",
+                now.value_loss_coef.to_string(),
+                run.value_loss_coef.to_string(),
+            ),
+            (
+                "max_grad_norm",
+                now.max_grad_norm.to_string(),
+                run.max_grad_norm.to_string(),
+            ),
+            (
+                "clip_eps",
+                now.clip_eps.to_string(),
+                run.clip_eps.to_string(),
+            ),
+            ("hidden", args.hidden.to_string(), self.hidden.to_string()),
+            ("seed", args.seed.to_string(), self.seed.to_string()),
+            ("size", a.size.to_string(), l.room_size.to_string()),
+            ("objects", a.objects.to_string(), l.n_objects.to_string()),
+            (
+                "tasks",
+                task_name(&a.tasks),
+                format!("{:?}", l.tasks).to_lowercase(),
+            ),
+        ];
+        for (id, now, run) in pairs {
+            if given(matches, id) && now != run {
+                anyhow::bail!(
+                    "{how}: the run in {} was started with --{} {run}, not {now}; leave the flag out to keep the run's value",
+                    dir.display(),
+                    id.replace('_', "-")
+                );
+            }
+        }
+        for (id, on) in [
+            ("no_done", !l.done_required),
+            ("always_color", !l.color_optional),
+        ] {
+            if given(matches, id) && !on {
+                anyhow::bail!(
+                    "{how}: the run in {} was started without --{}",
+                    dir.display(),
+                    id.replace('_', "-")
+                );
+            }
+        }
+        Ok(())
+    }
+}
+
+/// `--tasks` as the run files spell it, so `both` and its aliases compare equal.
+fn task_name(given: &str) -> String {
+    groundscope::env::TaskSet::parse(given)
+        .map_or_else(|_| given.to_owned(), |t| format!("{t:?}").to_lowercase())
 }
 
 /// The rows of the `log.csv` beside checkpoint `name` up to `updates`, so a warm-started
@@ -285,7 +427,7 @@ fn parent_log_rows(name: &str, updates: u64) -> String {
 }
 
 /// Runs `train`.
-pub fn run(args: &TrainArgs) -> anyhow::Result<ExitStatus> {
+pub fn run(args: &TrainArgs, matches: Option<&ArgMatches>) -> anyhow::Result<ExitStatus> {
     let variant = parse_variant(&args.model)?;
     let mut model = ModelConfig::new(variant);
     model.lstm_hidden = args.hidden;
@@ -297,7 +439,7 @@ pub fn run(args: &TrainArgs) -> anyhow::Result<ExitStatus> {
     drop(probe);
     let log_path = args.out.join("log.csv");
     let (mut trainer, seed) = if args.resume {
-        resume_run(args, model)?
+        resume_run(args, matches, model)?
     } else {
         if args.out.join("resume.json").exists() {
             anyhow::bail!(
@@ -309,7 +451,7 @@ pub fn run(args: &TrainArgs) -> anyhow::Result<ExitStatus> {
         let ppo = ppo_config(args);
         ppo.validate()?;
         let trainer = if let Some(name) = &args.init {
-            warm_start(name, variant, level, ppo, args.seed)?
+            warm_start(name, variant, level, ppo, args, matches)?
         } else {
             let params = Params::init(&model, args.seed)?;
             Trainer::new(model, level, ppo, params, args.seed)?
