@@ -95,3 +95,49 @@ fn losses_are_deterministic_for_a_seed() {
         format!("{:?}", trainer(5, ppo).update().unwrap())
     );
 }
+
+#[test]
+fn update_threads_share_a_minibatch_without_changing_the_maths() {
+    let ppo = |update_threads| PpoConfig {
+        procs: 4,
+        frames_per_proc: 16,
+        batch_size: 32,
+        update_threads,
+        ..PpoConfig::default()
+    };
+    let (mut one, mut two, mut again) =
+        (trainer(5, ppo(1)), trainer(5, ppo(2)), trainer(5, ppo(2)));
+    for _ in 0..3 {
+        let (l1, l2, l3) = (
+            one.update().unwrap(),
+            two.update().unwrap(),
+            again.update().unwrap(),
+        );
+        // Two shards sum the same gradient in another order: equal up to rounding...
+        for (x, y) in [
+            (l1.policy_loss, l2.policy_loss),
+            (l1.value_loss, l2.value_loss),
+            (l1.entropy, l2.entropy),
+            (l1.grad_norm, l2.grad_norm),
+        ] {
+            assert!((x - y).abs() < 1e-4 * (1.0 + x.abs()), "{x} vs {y}");
+        }
+        // ...and a fixed thread count is deterministic.
+        assert_eq!(format!("{l2:?}"), format!("{l3:?}"));
+    }
+    for (name, v) in &one.params.vars {
+        let a: Vec<f32> = v.as_tensor().flatten_all().unwrap().to_vec1().unwrap();
+        let b: Vec<f32> = two.params.vars[name]
+            .as_tensor()
+            .flatten_all()
+            .unwrap()
+            .to_vec1()
+            .unwrap();
+        let diff = a
+            .iter()
+            .zip(&b)
+            .map(|(x, y)| (x - y).abs())
+            .fold(0.0, f32::max);
+        assert!(diff < 1e-3, "{name} moved apart by {diff}");
+    }
+}

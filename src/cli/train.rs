@@ -91,6 +91,10 @@ pub struct TrainArgs {
     /// PPO clip epsilon.
     #[arg(long, default_value_t = PpoConfig::default().clip_eps)]
     pub clip_eps: f64,
+    /// Threads sharing each minibatch's forward and backward pass (use the cores the rollout
+    /// leaves idle; results depend on the count, not on timing).
+    #[arg(long, default_value_t = PpoConfig::default().update_threads)]
+    pub update_threads: usize,
     /// Hidden size of the LSTM and GRU (smaller trains faster; the paper's default is 128).
     #[arg(long, default_value_t = 128)]
     pub hidden: usize,
@@ -125,6 +129,7 @@ fn ppo_config(a: &TrainArgs) -> PpoConfig {
         value_loss_coef: a.value_loss_coef,
         max_grad_norm: a.max_grad_norm,
         clip_eps: a.clip_eps,
+        update_threads: a.update_threads,
     }
 }
 
@@ -304,7 +309,7 @@ impl Fixed {
         let (now, run) = (ppo_config(args), &self.ppo);
         let a = &args.level;
         let l = &self.level;
-        let pairs: [(&str, String, String); 18] = [
+        let pairs: [(&str, String, String); 19] = [
             ("procs", now.procs.to_string(), run.procs.to_string()),
             (
                 "frames_per_proc",
@@ -357,6 +362,11 @@ impl Fixed {
                 "clip_eps",
                 now.clip_eps.to_string(),
                 run.clip_eps.to_string(),
+            ),
+            (
+                "update_threads",
+                now.update_threads.to_string(),
+                run.update_threads.to_string(),
             ),
             ("hidden", args.hidden.to_string(), self.hidden.to_string()),
             ("seed", args.seed.to_string(), self.seed.to_string()),

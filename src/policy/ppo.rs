@@ -9,6 +9,7 @@
 
 use std::collections::BTreeMap;
 
+use candle_core::backprop::GradStore;
 use candle_core::{D, DType, Device, Tensor};
 use rand::seq::SliceRandom as _;
 use rand::{Rng as _, SeedableRng as _};
@@ -63,6 +64,15 @@ pub struct PpoConfig {
     pub max_grad_norm: f64,
     /// PPO clip ε (ratio and value).
     pub clip_eps: f64,
+    /// Threads that share each minibatch's forward and backward pass, each on its share of
+    /// the sequences; their gradients are summed in shard order, so a run is deterministic
+    /// for a given count (runs saved before the flag existed used 1).
+    #[serde(default = "one_thread")]
+    pub update_threads: usize,
+}
+
+fn one_thread() -> usize {
+    1
 }
 
 impl Default for PpoConfig {
@@ -81,6 +91,7 @@ impl Default for PpoConfig {
             value_loss_coef: 0.5,
             max_grad_norm: 0.5,
             clip_eps: 0.2,
+            update_threads: 1,
         }
     }
 }
@@ -89,10 +100,15 @@ impl PpoConfig {
     /// Checks the divisibility torch-ac asserts, naming the flag.
     pub fn validate(&self) -> Result<(), PolicyError> {
         let bad = |m: String| Err(PolicyError::Input(m));
-        if self.procs == 0 || self.frames_per_proc == 0 || self.epochs == 0 || self.recurrence == 0
+        if self.procs == 0
+            || self.frames_per_proc == 0
+            || self.epochs == 0
+            || self.recurrence == 0
+            || self.update_threads == 0
         {
             return bad(
-                "--procs, --frames-per-proc, --epochs and --recurrence must be positive".into(),
+                "--procs, --frames-per-proc, --epochs, --recurrence and --update-threads must be positive"
+                    .into(),
             );
         }
         if !self.frames_per_proc.is_multiple_of(self.recurrence) {
@@ -473,71 +489,50 @@ impl Trainer {
     }
 
     fn optimise(&mut self, ro: &mut Rollout) -> Result<UpdateLog, PolicyError> {
-        let rec = self.ppo.recurrence;
-        let hid = self.model.lstm_hidden;
         let net = Net::new(self.model, self.params.tracked());
         let mut log = UpdateLog::default();
         let mut n_batches = 0.0;
         for _ in 0..self.ppo.epochs {
             for starts in self.batch_starts() {
-                let n = starts.len();
-                // Frames of the minibatch, t-major: row k·n + j is frame starts[j] + k.
-                let rows: Vec<usize> = (0..rec)
-                    .flat_map(|k| starts.iter().map(move |&s| s + k))
-                    .collect();
-                let obs_b: Vec<Observation> = rows.iter().map(|&i| ro.obs[i]).collect();
-                let missions: Vec<&[u32]> = rows.iter().map(|&i| ro.tokens[i].as_slice()).collect();
-                let tb = TokenBatch::new(&missions)?;
-                let patches = obs::patches(&obs_b)?;
-                let gather = |v: &[f32]| -> Result<Tensor, PolicyError> {
-                    let d: Vec<f32> = rows.iter().map(|&i| v[i]).collect();
-                    Ok(Tensor::from_vec(d, rows.len(), &Device::Cpu)?)
+                let per = starts.len().div_ceil(self.ppo.update_threads);
+                let parts: Vec<&[usize]> = starts.chunks(per).collect();
+                let outs: Vec<(GradStore, ShardOut)> = if let [only] = parts.as_slice() {
+                    vec![shard_step(&net, ro, only, &self.ppo)?]
+                } else {
+                    let ro_ref: &Rollout = ro;
+                    let (net, ppo) = (&net, &self.ppo);
+                    std::thread::scope(|scope| {
+                        let handles: Vec<_> = parts
+                            .iter()
+                            .map(|part| scope.spawn(move || shard_step(net, ro_ref, part, ppo)))
+                            .collect();
+                        handles
+                            .into_iter()
+                            .map(|h| {
+                                h.join().map_err(|_| {
+                                    PolicyError::Input("an update thread panicked".into())
+                                })?
+                            })
+                            .collect::<Result<Vec<_>, PolicyError>>()
+                    })?
                 };
-                let keep = gather(&ro.masks)?.reshape((rec, n))?;
-                let h0: Vec<f32> = starts
-                    .iter()
-                    .flat_map(|&s| ro.h[s].iter().copied())
-                    .collect();
-                let c0: Vec<f32> = starts
-                    .iter()
-                    .flat_map(|&s| ro.c[s].iter().copied())
-                    .collect();
-                let mem0 = Memory {
-                    h: Tensor::from_vec(h0, (n, hid), &Device::Cpu)?,
-                    c: Tensor::from_vec(c0, (n, hid), &Device::Cpu)?,
-                };
-                let mission = net.mission_inputs(&tb)?;
-                let (logits, values, mems) = net.sequence(&patches, &mission, &mem0, &keep)?;
-                // Refresh the stored memories inside each chunk, as torch-ac does.
-                for (k, m) in mems.iter().enumerate().take(rec - 1) {
-                    let hs = m.h.to_vec2::<f32>()?;
-                    let cs = m.c.to_vec2::<f32>()?;
-                    for (j, &s) in starts.iter().enumerate() {
-                        ro.h[s + k + 1].clone_from(&hs[j]);
-                        ro.c[s + k + 1].clone_from(&cs[j]);
+                let (stores, outs): (Vec<GradStore>, Vec<ShardOut>) = outs.into_iter().unzip();
+                let mut grads = self.merge_grads(stores, &outs, starts.len())?;
+                for (part, out) in parts.iter().zip(&outs) {
+                    // Refresh the stored memories inside each chunk, as torch-ac does.
+                    for (k, (hs, cs)) in out.mems.iter().enumerate() {
+                        for (j, &s) in part.iter().enumerate() {
+                            ro.h[s + k + 1].clone_from(&hs[j]);
+                            ro.c[s + k + 1].clone_from(&cs[j]);
+                        }
                     }
+                    let w = part.len() as f64 / starts.len() as f64;
+                    log.policy_loss += w * out.policy;
+                    log.value_loss += w * out.value;
+                    log.entropy += w * out.entropy;
                 }
-                let actions = Tensor::from_vec(
-                    rows.iter().map(|&i| ro.actions[i]).collect::<Vec<u32>>(),
-                    (rows.len(), 1),
-                    &Device::Cpu,
-                )?;
-                let losses = ppo_loss(
-                    &logits,
-                    &values,
-                    &actions,
-                    &gather(&ro.logps)?,
-                    &gather(&ro.values)?,
-                    &gather(&ro.advantages)?,
-                    &gather(&ro.returns)?,
-                    &self.ppo,
-                )?;
-                let mut grads = losses.total.backward()?;
                 let norm = clip_grad_norm(&mut grads, &self.params.vars, self.ppo.max_grad_norm)?;
                 self.adam.step(&self.params.vars, &grads)?;
-                log.policy_loss += f64::from(losses.policy.to_scalar::<f32>()?);
-                log.value_loss += f64::from(losses.value.to_scalar::<f32>()?);
-                log.entropy += f64::from(losses.entropy.to_scalar::<f32>()?);
                 log.grad_norm += norm;
                 n_batches += 1.0;
             }
@@ -547,6 +542,45 @@ impl Trainer {
         log.entropy /= n_batches;
         log.grad_norm /= n_batches;
         Ok(log)
+    }
+
+    /// The minibatch gradient from its shards: each shard's loss is a mean over its frames,
+    /// so the whole minibatch's is their sum weighted by share, added in shard order.
+    fn merge_grads(
+        &self,
+        stores: Vec<GradStore>,
+        outs: &[ShardOut],
+        n: usize,
+    ) -> Result<GradStore, PolicyError> {
+        let mut it = stores.into_iter().zip(outs);
+        let Some((mut merged, first)) = it.next() else {
+            return Err(PolicyError::Input("empty minibatch".into()));
+        };
+        if outs.len() == 1 {
+            return Ok(merged);
+        }
+        let w0 = first.sequences as f64 / n as f64;
+        for v in self.params.vars.values() {
+            if let Some(g) = merged.get(v.as_tensor()) {
+                let g = (g * w0)?;
+                merged.insert(v.as_tensor(), g);
+            }
+        }
+        for (grads, out) in it {
+            let w = out.sequences as f64 / n as f64;
+            for v in self.params.vars.values() {
+                let Some(g) = grads.get(v.as_tensor()) else {
+                    continue;
+                };
+                let g = (g * w)?;
+                let sum = match merged.get(v.as_tensor()) {
+                    Some(acc) => (acc + g)?,
+                    None => g,
+                };
+                merged.insert(v.as_tensor(), sum);
+            }
+        }
+        Ok(merged)
     }
 
     /// Serialises the run state (RNG streams, environments, counters) as JSON.
@@ -627,6 +661,85 @@ fn new_slot(level: &LevelConfig, k: u64, hidden: usize) -> Result<EnvSlot, Polic
         ep_return: 0.0,
         ep_len: 0,
     })
+}
+
+/// What one shard of a minibatch gives back besides its gradient: its mean losses and the memories
+/// it computed at chunk steps 1..rec (for torch-ac's in-place refresh).
+struct ShardOut {
+    sequences: usize,
+    policy: f64,
+    value: f64,
+    entropy: f64,
+    mems: Vec<(Vec<Vec<f32>>, Vec<Vec<f32>>)>,
+}
+
+/// Forward and backward of the sequences starting at `starts` (read-only on the rollout, so
+/// shards can run on threads side by side).
+fn shard_step(
+    net: &Net,
+    ro: &Rollout,
+    starts: &[usize],
+    ppo: &PpoConfig,
+) -> Result<(GradStore, ShardOut), PolicyError> {
+    let rec = ppo.recurrence;
+    let hid = net.cfg.lstm_hidden;
+    let n = starts.len();
+    // Frames of the shard, t-major: row k·n + j is frame starts[j] + k.
+    let rows: Vec<usize> = (0..rec)
+        .flat_map(|k| starts.iter().map(move |&s| s + k))
+        .collect();
+    let obs_b: Vec<Observation> = rows.iter().map(|&i| ro.obs[i]).collect();
+    let missions: Vec<&[u32]> = rows.iter().map(|&i| ro.tokens[i].as_slice()).collect();
+    let tb = TokenBatch::new(&missions)?;
+    let patches = obs::patches(&obs_b)?;
+    let gather = |v: &[f32]| -> Result<Tensor, PolicyError> {
+        let d: Vec<f32> = rows.iter().map(|&i| v[i]).collect();
+        Ok(Tensor::from_vec(d, rows.len(), &Device::Cpu)?)
+    };
+    let keep = gather(&ro.masks)?.reshape((rec, n))?;
+    let h0: Vec<f32> = starts
+        .iter()
+        .flat_map(|&s| ro.h[s].iter().copied())
+        .collect();
+    let c0: Vec<f32> = starts
+        .iter()
+        .flat_map(|&s| ro.c[s].iter().copied())
+        .collect();
+    let mem0 = Memory {
+        h: Tensor::from_vec(h0, (n, hid), &Device::Cpu)?,
+        c: Tensor::from_vec(c0, (n, hid), &Device::Cpu)?,
+    };
+    let mission = net.mission_inputs(&tb)?;
+    let (logits, values, mems) = net.sequence(&patches, &mission, &mem0, &keep)?;
+    let mems = mems
+        .iter()
+        .take(rec - 1)
+        .map(|m| Ok((m.h.to_vec2::<f32>()?, m.c.to_vec2::<f32>()?)))
+        .collect::<Result<Vec<_>, PolicyError>>()?;
+    let actions = Tensor::from_vec(
+        rows.iter().map(|&i| ro.actions[i]).collect::<Vec<u32>>(),
+        (rows.len(), 1),
+        &Device::Cpu,
+    )?;
+    let losses = ppo_loss(
+        &logits,
+        &values,
+        &actions,
+        &gather(&ro.logps)?,
+        &gather(&ro.values)?,
+        &gather(&ro.advantages)?,
+        &gather(&ro.returns)?,
+        ppo,
+    )?;
+    let grads = losses.total.backward()?;
+    let out = ShardOut {
+        sequences: n,
+        policy: f64::from(losses.policy.to_scalar::<f32>()?),
+        value: f64::from(losses.value.to_scalar::<f32>()?),
+        entropy: f64::from(losses.entropy.to_scalar::<f32>()?),
+        mems,
+    };
+    Ok((grads, out))
 }
 
 /// The terms of the PPO loss for one minibatch.
