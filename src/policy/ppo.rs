@@ -663,6 +663,9 @@ fn new_slot(level: &LevelConfig, k: u64, hidden: usize) -> Result<EnvSlot, Polic
     })
 }
 
+/// One chunk step's LSTM `h` and `c` rows on the host, one row per sequence.
+type HostMemory = (Vec<Vec<f32>>, Vec<Vec<f32>>);
+
 /// What one shard of a minibatch gives back besides its gradient: its mean losses and the memories
 /// it computed at chunk steps 1..rec (for torch-ac's in-place refresh).
 struct ShardOut {
@@ -670,7 +673,7 @@ struct ShardOut {
     policy: f64,
     value: f64,
     entropy: f64,
-    mems: Vec<(Vec<Vec<f32>>, Vec<Vec<f32>>)>,
+    mems: Vec<HostMemory>,
 }
 
 /// Forward and backward of the sequences starting at `starts` (read-only on the rollout, so
