@@ -22,6 +22,7 @@ pub enum ExitStatus {
 }
 
 fn main() -> ExitCode {
+    one_candle_thread_by_default();
     let matches = match cli::Cli::command().try_get_matches() {
         Ok(m) => m,
         Err(err) => return usage_error(&err),
@@ -57,4 +58,22 @@ fn usage_error(err: &clap::Error) -> ExitCode {
     let message = first.strip_prefix("error: ").unwrap_or(first);
     eprintln!("groundscope: {message} (see --help)");
     ExitCode::from(2)
+}
+
+/// groundscope parallelises explicitly (`eval --jobs`, `train --update-threads`, the app's
+/// worker). candle's own threads — rayon for matmuls, a spinning barrier pool for large
+/// element-wise ops — fight those workers for the cores (the default sweep took 71 s instead of
+/// 31 s) and give nothing on this model's batch sizes, so both default to 1 unless the user
+/// sets `RAYON_NUM_THREADS` / `CANDLE_NUM_THREADS`.
+#[expect(
+    unsafe_code,
+    reason = "set_var before any other thread exists; candle reads these variables lazily"
+)]
+fn one_candle_thread_by_default() {
+    for var in ["RAYON_NUM_THREADS", "CANDLE_NUM_THREADS"] {
+        if std::env::var_os(var).is_none() {
+            // SAFETY: the first statement of `main`, while this is the only thread.
+            unsafe { std::env::set_var(var, "1") };
+        }
+    }
 }

@@ -309,6 +309,12 @@ fn resumed_training_matches_an_uninterrupted_run() {
     let split = dir.path().join("split");
     assert_eq!(train(&straight, "256", &[]).status.code(), Some(0));
     assert_eq!(train(&split, "128", &[]).status.code(), Some(0));
+    // As if the run had been killed after logging update 3 but before checkpointing it.
+    let log_path = split.join("log.csv");
+    let text = std::fs::read_to_string(&log_path).unwrap();
+    let last = text.lines().last().unwrap();
+    let ghost = format!("3{}\n", &last[last.find(',').unwrap()..]);
+    std::fs::write(&log_path, text + &ghost).unwrap();
     let o = train(&split, "256", &["--resume"]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     for f in ["model.safetensors", "optimizer.safetensors"] {

@@ -24,7 +24,7 @@ use crate::cli::policy_cmd::parse_variant;
 /// `groundscope train`.
 #[derive(Debug, Args)]
 #[command(
-    after_long_help = "EXAMPLES:\n  RAYON_NUM_THREADS=1 groundscope train --model attention --out runs/att --frames 5000000\n  RAYON_NUM_THREADS=1 groundscope train --model attention --out runs/att --frames 8000000 --resume"
+    after_long_help = "EXAMPLES:\n  groundscope train --model attention --out runs/att --frames 5000000\n  groundscope train --model attention --out runs/att --frames 8000000 --resume\n  groundscope train --model attention --out runs/att2 --init runs/att/model --entropy-coef 0.001 --frames 9000000"
 )]
 pub struct TrainArgs {
     /// attention or baseline.
@@ -416,7 +416,14 @@ fn parent_log_rows(name: &str, updates: u64) -> String {
         return String::new();
     }
     let dir = Path::new(name).parent().unwrap_or(Path::new("."));
-    let Ok(text) = std::fs::read_to_string(dir.join("log.csv")) else {
+    log_rows_upto(&dir.join("log.csv"), updates)
+}
+
+/// The rows of training log `path` for updates `1..=updates` (none when it is missing or not
+/// a training log). A run killed between checkpoints has logged updates its checkpoint does
+/// not hold; `--resume` does them again, so their first rows are dropped.
+fn log_rows_upto(path: &Path, updates: u64) -> String {
+    let Ok(text) = std::fs::read_to_string(path) else {
         return String::new();
     };
     let mut lines = text.lines();
@@ -449,7 +456,10 @@ pub fn run(args: &TrainArgs, matches: Option<&ArgMatches>) -> anyhow::Result<Exi
     drop(probe);
     let log_path = args.out.join("log.csv");
     let (mut trainer, seed) = if args.resume {
-        resume_run(args, matches, model)?
+        let (trainer, seed) = resume_run(args, matches, model)?;
+        let rows = log_rows_upto(&log_path, trainer.state.updates);
+        write_atomic(&log_path, format!("{LOG_HEADER}\n{rows}").as_bytes())?;
+        (trainer, seed)
     } else {
         if args.out.join("resume.json").exists() {
             anyhow::bail!(
