@@ -470,17 +470,16 @@ pub fn run(args: &TrainArgs, matches: Option<&ArgMatches>) -> anyhow::Result<Exi
         let level = args.level.config()?;
         let ppo = ppo_config(args);
         ppo.validate()?;
-        let trainer = if let Some(name) = &args.init {
-            warm_start(name, variant, level, ppo, args, matches)?
+        let (trainer, parent_rows) = if let Some(name) = &args.init {
+            let trainer = warm_start(name, variant, level, ppo, args, matches)?;
+            let rows = parent_log_rows(name, trainer.state.updates);
+            (trainer, rows)
         } else {
             let params = Params::init(&model, args.seed)?;
-            Trainer::new(model, level, ppo, params, args.seed)?
+            let trainer = Trainer::new(model, level, ppo, params, args.seed)?;
+            (trainer, String::new())
         };
-        let mut log = format!("{LOG_HEADER}\n");
-        if let Some(name) = &args.init {
-            log.push_str(&parent_log_rows(name, trainer.state.updates));
-        }
-        write_atomic(&log_path, log.as_bytes())?;
+        write_atomic(&log_path, format!("{LOG_HEADER}\n{parent_rows}").as_bytes())?;
         (trainer, args.seed)
     };
     let mut log_file = std::fs::OpenOptions::new()

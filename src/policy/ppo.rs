@@ -516,9 +516,14 @@ impl Trainer {
                             .collect::<Result<Vec<_>, PolicyError>>()
                     })?
                 };
+                // Each shard's loss is a mean over its frames: its share of the minibatch.
+                let shares: Vec<f64> = parts
+                    .iter()
+                    .map(|p| p.len() as f64 / starts.len() as f64)
+                    .collect();
                 let (stores, outs): (Vec<GradStore>, Vec<ShardOut>) = outs.into_iter().unzip();
-                let mut grads = self.merge_grads(stores, &outs, starts.len())?;
-                for (part, out) in parts.iter().zip(&outs) {
+                let mut grads = self.merge_grads(stores, &shares)?;
+                for ((part, out), w) in parts.iter().zip(&outs).zip(&shares) {
                     // Refresh the stored memories inside each chunk, as torch-ac does.
                     for (k, (hs, cs)) in out.mems.iter().enumerate() {
                         for (j, &s) in part.iter().enumerate() {
@@ -526,7 +531,6 @@ impl Trainer {
                             ro.c[s + k + 1].clone_from(&cs[j]);
                         }
                     }
-                    let w = part.len() as f64 / starts.len() as f64;
                     log.policy_loss += w * out.policy;
                     log.value_loss += w * out.value;
                     log.entropy += w * out.entropy;
@@ -544,39 +548,36 @@ impl Trainer {
         Ok(log)
     }
 
-    /// The minibatch gradient from its shards: each shard's loss is a mean over its frames,
-    /// so the whole minibatch's is their sum weighted by share, added in shard order.
+    /// The minibatch gradient from its shards' gradients, `Σ share_k · g_k` added in shard
+    /// order (one shard: its gradient as it is).
     fn merge_grads(
         &self,
         stores: Vec<GradStore>,
-        outs: &[ShardOut],
-        n: usize,
+        shares: &[f64],
     ) -> Result<GradStore, PolicyError> {
-        let mut it = stores.into_iter().zip(outs);
-        let Some((mut merged, first)) = it.next() else {
+        let mut stores = stores.into_iter();
+        let Some(mut merged) = stores.next() else {
             return Err(PolicyError::Input("empty minibatch".into()));
         };
-        if outs.len() == 1 {
+        let rest: Vec<GradStore> = stores.collect();
+        if rest.is_empty() {
             return Ok(merged);
         }
-        let w0 = first.sequences as f64 / n as f64;
         for v in self.params.vars.values() {
-            if let Some(g) = merged.get(v.as_tensor()) {
-                let g = (g * w0)?;
-                merged.insert(v.as_tensor(), g);
+            let mut sum = merged
+                .get(v.as_tensor())
+                .map(|g| g * shares[0])
+                .transpose()?;
+            for (grads, &w) in rest.iter().zip(&shares[1..]) {
+                if let Some(g) = grads.get(v.as_tensor()) {
+                    let g = (g * w)?;
+                    sum = Some(match sum {
+                        Some(acc) => (acc + g)?,
+                        None => g,
+                    });
+                }
             }
-        }
-        for (grads, out) in it {
-            let w = out.sequences as f64 / n as f64;
-            for v in self.params.vars.values() {
-                let Some(g) = grads.get(v.as_tensor()) else {
-                    continue;
-                };
-                let g = (g * w)?;
-                let sum = match merged.get(v.as_tensor()) {
-                    Some(acc) => (acc + g)?,
-                    None => g,
-                };
+            if let Some(sum) = sum {
                 merged.insert(v.as_tensor(), sum);
             }
         }
@@ -669,7 +670,6 @@ type HostMemory = (Vec<Vec<f32>>, Vec<Vec<f32>>);
 /// What one shard of a minibatch gives back besides its gradient: its mean losses and the memories
 /// it computed at chunk steps 1..rec (for torch-ac's in-place refresh).
 struct ShardOut {
-    sequences: usize,
     policy: f64,
     value: f64,
     entropy: f64,
@@ -736,7 +736,6 @@ fn shard_step(
     )?;
     let grads = losses.total.backward()?;
     let out = ShardOut {
-        sequences: n,
         policy: f64::from(losses.policy.to_scalar::<f32>()?),
         value: f64::from(losses.value.to_scalar::<f32>()?),
         entropy: f64::from(losses.entropy.to_scalar::<f32>()?),
