@@ -723,8 +723,11 @@ impl Debugger {
             ui.label("baseline model: no attention maps");
             return;
         };
-        let side =
-            ((ui.available_width() - 20.0) / (att.words.len() + 1) as f32).clamp(70.0, 170.0);
+        // One row for every word map plus M: the gaps between the panels come off the width
+        // first, or the last panel (M) is cut at the window's edge.
+        let panels = (att.words.len() + 1) as f32;
+        let gaps = ui.spacing().item_spacing.x * (panels - 1.0);
+        let side = ((ui.available_width() - gaps - 4.0) / panels).clamp(70.0, 170.0);
         ui.horizontal_wrapped(|ui| {
             for (i, w) in att.words.iter().enumerate() {
                 ui.vertical(|ui| {
