@@ -777,7 +777,7 @@ impl Debugger {
         let values: Vec<f32> = att.words.iter().map(|w| w.weight).collect();
         bars(ui, &labels, &values, Some(self.selected_word));
         for g in &scene.grounding {
-            let a = crate::metrics::grounding::accuracies_of_hits(&g.hits);
+            let a = &g.accuracies;
             ui.label(format!(
                 "{}: {} related object(s) · acc {:.2} · ng {:.2} · bs {:.2} · cmb {:.2}",
                 g.kind.name(),

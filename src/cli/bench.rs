@@ -169,8 +169,7 @@ fn bench_policy(model: &str, secs: f64) -> anyhow::Result<ExitStatus> {
 fn bench_record(episodes: u64) -> anyhow::Result<ExitStatus> {
     use groundscope::episode::{ActionMode, EpisodeSpec, run_episode};
     use groundscope::record::{RerunTargets, record_rerun, write_mcap};
-    let name = groundscope::policy::bundled::names()[0].clone();
-    let ckpt = groundscope::policy::bundled::load(&name)?;
+    let (ckpt, name) = crate::cli::policy_cmd::load_checkpoint(None)?;
     let eps = (0..episodes)
         .map(|seed| {
             let spec = EpisodeSpec {

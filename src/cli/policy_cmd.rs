@@ -64,3 +64,21 @@ pub fn load_checkpoint(spec: Option<&str>) -> anyhow::Result<(Checkpoint, String
     let ckpt = groundscope::policy::bundled::load(&spec)?;
     Ok((ckpt, spec))
 }
+
+/// The checkpoint's training level with the room size and object count given on the command
+/// line, checked.
+pub fn level_with(
+    ckpt: &Checkpoint,
+    size: Option<usize>,
+    objects: Option<usize>,
+) -> anyhow::Result<groundscope::env::LevelConfig> {
+    let mut level = ckpt.meta.level;
+    if let Some(s) = size {
+        level.room_size = s;
+    }
+    if let Some(n) = objects {
+        level.n_objects = n;
+    }
+    level.validate()?;
+    Ok(level)
+}

@@ -13,7 +13,7 @@ use groundscope::record::{RerunTargets, StopFlag, record_rerun, write_mcap};
 
 use crate::ExitStatus;
 use crate::cli::check_extension;
-use crate::cli::policy_cmd::load_checkpoint;
+use crate::cli::policy_cmd::{level_with, load_checkpoint};
 
 /// The default `--connect` URL: a viewer on this machine.
 const DEFAULT_VIEWER_URL: &str = "rerun+http://127.0.0.1:9876/proxy";
@@ -86,14 +86,7 @@ pub fn replay(args: &ReplayArgs) -> anyhow::Result<ExitStatus> {
         check_extension(p, "mcap", "--mcap")?;
     }
     let (ckpt, name) = load_checkpoint(args.checkpoint.as_deref())?;
-    let mut level = ckpt.meta.level;
-    if let Some(s) = args.size {
-        level.room_size = s;
-    }
-    if let Some(n) = args.objects {
-        level.n_objects = n;
-    }
-    level.validate()?;
+    let level = level_with(&ckpt, args.size, args.objects)?;
     let mode = if args.sample {
         ActionMode::Sampled
     } else {

@@ -7,6 +7,8 @@ use clap::Args;
 use groundscope::app::{self, StartOptions, WindowOptions};
 
 use crate::ExitStatus;
+use crate::cli::check_extension;
+use crate::cli::policy_cmd::{level_with, load_checkpoint};
 
 /// `groundscope view`.
 #[derive(Debug, Args, Default)]
@@ -75,31 +77,15 @@ pub fn run(args: &ViewArgs) -> anyhow::Result<ExitStatus> {
     } else {
         parse_size(&args.size)?
     };
-    if let Some(p) = &args.screenshot
-        && p.extension().and_then(|e| e.to_str()) != Some("png")
-    {
-        anyhow::bail!(
-            "--screenshot {}: the file name must end in .png",
-            p.display()
-        );
+    if let Some(p) = &args.screenshot {
+        check_extension(p, "png", "--screenshot")?;
     }
-    let checkpoint = args
-        .checkpoint
-        .clone()
-        .unwrap_or_else(|| groundscope::policy::bundled::names()[0].clone());
     // Load once here so that a bad checkpoint or level is a one-line error, not a window.
-    let ckpt = groundscope::policy::bundled::load(&checkpoint)?;
+    let (ckpt, checkpoint) = load_checkpoint(args.checkpoint.as_deref())?;
     if let Some(c) = &args.compare {
         groundscope::policy::bundled::load(c)?;
     }
-    let mut level = ckpt.meta.level;
-    if let Some(s) = args.room_size {
-        level.room_size = s;
-    }
-    if let Some(n) = args.objects {
-        level.n_objects = n;
-    }
-    level.validate()?;
+    let level = level_with(&ckpt, args.room_size, args.objects)?;
     if let Some(m) = &args.mission {
         groundscope::env::Instruction::parse(m)?;
     }

@@ -179,16 +179,29 @@ impl WordKind {
     }
 }
 
-/// The evaluations of one step: for each word kind that was evaluated, its accuracies and the
-/// related objects (view cells) used.
+/// One map evaluated at one step.
+#[derive(Clone, Debug, PartialEq)]
+pub struct EvaluatedMap {
+    /// Object word, colour word, or `M` on the targets.
+    pub kind: WordKind,
+    /// Index of the map's word in the mission (`None` for `M`).
+    pub word: Option<usize>,
+    /// The four accuracies over [`Self::hits`].
+    pub accuracies: Accuracies,
+    /// Hit or miss of each related object in view.
+    pub hits: Vec<ObjectHit>,
+}
+
+/// The evaluations of one step: one entry per word kind that was evaluated.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct StepGrounding {
-    /// Per word kind: accuracies and related objects.
-    pub evaluated: Vec<(WordKind, Accuracies, Vec<ViewCell>)>,
+    /// Per word kind: the map's word, its accuracies and each related object's hit.
+    pub evaluated: Vec<EvaluatedMap>,
 }
 
 /// Evaluates one step: the type word's map, the colour word's map, and `M` on the objects that
-/// match the whole description. `words` are the mission's words with their maps.
+/// match the whole description. `words` are the mission's words with their maps (the first
+/// word spelled like the description's type or colour is the one evaluated).
 pub fn ground_step(
     obs: &Observation,
     desc: &ObjDesc,
@@ -197,28 +210,34 @@ pub fn ground_step(
     alpha: f64,
 ) -> StepGrounding {
     let mut out = StepGrounding::default();
+    let mut evaluate = |kind: WordKind, word: Option<usize>, map: &ViewMap, objs: &[ViewCell]| {
+        if !objs.is_empty() {
+            let hits = object_hits(map, objs, alpha);
+            out.evaluated.push(EvaluatedMap {
+                kind,
+                word,
+                accuracies: accuracies_of_hits(&hits),
+                hits,
+            });
+        }
+    };
+    let find = |name: &str| words.iter().position(|(w, _)| *w == name);
     if let Some(kind) = desc.kind
-        && let Some((_, map)) = words.iter().find(|(w, _)| *w == kind.name())
+        && let Some(i) = find(kind.name())
     {
         let objs = related_objects(obs, |k, _| k == kind);
-        if let Some(a) = accuracies(map, &objs, alpha) {
-            out.evaluated.push((WordKind::Object, a, objs));
-        }
+        evaluate(WordKind::Object, Some(i), words[i].1, &objs);
     }
     if let Some(color) = desc.color
-        && let Some((_, map)) = words.iter().find(|(w, _)| *w == color.name())
+        && let Some(i) = find(color.name())
     {
         let objs = related_objects(obs, |_, c| c == color);
-        if let Some(a) = accuracies(map, &objs, alpha) {
-            out.evaluated.push((WordKind::Color, a, objs));
-        }
+        evaluate(WordKind::Color, Some(i), words[i].1, &objs);
     }
     let targets = related_objects(obs, |k, c| {
         desc.kind.is_none_or(|d| d == k) && desc.color.is_none_or(|d| d == c)
     });
-    if let Some(a) = accuracies(combined, &targets, alpha) {
-        out.evaluated.push((WordKind::Combined, a, targets));
-    }
+    evaluate(WordKind::Combined, None, combined, &targets);
     out
 }
 
@@ -355,12 +374,12 @@ mod tests {
             &map,
             0.5,
         );
-        let kinds: Vec<WordKind> = g.evaluated.iter().map(|e| e.0).collect();
+        let kinds: Vec<WordKind> = g.evaluated.iter().map(|e| e.kind).collect();
         assert_eq!(
             kinds,
             vec![WordKind::Object, WordKind::Color, WordKind::Combined]
         );
-        assert_eq!(g.evaluated[0].1.acc, 1.0);
-        assert_eq!(g.evaluated[1].1.acc, 0.0);
+        assert_eq!(g.evaluated[0].accuracies.acc, 1.0);
+        assert_eq!(g.evaluated[1].accuracies.acc, 0.0);
     }
 }

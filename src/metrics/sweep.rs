@@ -115,9 +115,9 @@ pub fn evaluate_cell(
                     &trace.combined,
                     alpha,
                 );
-                for (kind, acc, _) in g.evaluated {
-                    let e = r.sums.entry(kind).or_default();
-                    e.0.add(&acc);
+                for m in g.evaluated {
+                    let e = r.sums.entry(m.kind).or_default();
+                    e.0.add(&m.accuracies);
                     e.1 += 1;
                 }
             }

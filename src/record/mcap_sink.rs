@@ -26,12 +26,10 @@ use base64::Engine as _;
 use image::RgbImage;
 use serde_json::{Value, json};
 
-use super::scene::{
-    MapGrounding, StepScene, action_names, episode_scenes, hit_color, world_with_overlay,
-};
+use super::scene::{StepScene, action_names, episode_scenes, hit_color, world_with_overlay};
 use super::{PendingFile, RecordError, StopFlag, io_err, stopped};
 use crate::episode::{EpisodeTrace, StepRecord};
-use crate::metrics::grounding::accuracies_of_hits;
+use crate::metrics::grounding::EvaluatedMap;
 use crate::policy::ViewMap;
 use crate::render::render_heatmap;
 
@@ -163,7 +161,7 @@ fn frame_cell(img: &mut RgbImage, cell: (usize, usize), color: [u8; 3]) {
 }
 
 /// A map as a viridis picture on `[0, hi]` with the related objects framed.
-fn map_picture(map: &ViewMap, hi: f32, g: Option<&MapGrounding>) -> RgbImage {
+fn map_picture(map: &ViewMap, hi: f32, g: Option<&EvaluatedMap>) -> RgbImage {
     let mut img = render_heatmap(map, MAP_CELL_PX, 0.0, hi);
     for h in g.map(|g| g.hits.as_slice()).unwrap_or_default() {
         frame_cell(&mut img, h.cell, hit_color(h));
@@ -171,8 +169,8 @@ fn map_picture(map: &ViewMap, hi: f32, g: Option<&MapGrounding>) -> RgbImage {
     img
 }
 
-fn grounding_json(g: &MapGrounding, words: &[String]) -> Value {
-    let a = accuracies_of_hits(&g.hits);
+fn grounding_json(g: &EvaluatedMap, words: &[String]) -> Value {
+    let a = &g.accuracies;
     json!({
         "word": g.word.and_then(|i| words.get(i)),
         "acc": a.acc, "acc_ng": a.acc_ng, "acc_bs": a.acc_bs, "acc_cmb": a.acc_cmb,

@@ -37,12 +37,11 @@ use rerun::sink::{FileSink, GrpcSink, LogSink};
 use rerun::{RecordingStream, RecordingStreamBuilder};
 
 use super::scene::{
-    MapGrounding, StepScene, TILE_PX, action_label, action_names, cell_centre, episode_scenes,
-    hit_color,
+    StepScene, TILE_PX, action_label, action_names, cell_centre, episode_scenes, hit_color,
 };
 use super::{PendingFile, RERUN_SDK_VERSION, RecordError, StopFlag, stopped};
 use crate::episode::EpisodeTrace;
-use crate::metrics::grounding::WordKind;
+use crate::metrics::grounding::{EvaluatedMap, WordKind};
 use crate::policy::ViewMap;
 
 /// Where a recording goes; any combination.
@@ -361,7 +360,7 @@ fn map_image(map: &ViewMap, hi: f32) -> rerun::DepthImage {
 /// Hit/miss markers at the related objects: green when the map is at or above the threshold
 /// on the object's cell (`acc`), yellow when only next to it (`acc_ng` or `acc_bs`), red for
 /// a miss.
-fn grounding_points(g: &MapGrounding) -> rerun::Points2D {
+fn grounding_points(g: &EvaluatedMap) -> rerun::Points2D {
     let colors: Vec<[u8; 3]> = g.hits.iter().map(hit_color).collect();
     let labels: Vec<String> = g
         .hits
@@ -512,10 +511,9 @@ fn log_step(
         .map_err(sdk)?;
     }
     for g in &scene.grounding {
-        let v = crate::metrics::grounding::accuracies_of_hits(&g.hits);
         rec.log(
             format!("metrics/{}", g.kind.name()),
-            &rerun::Scalars::new(v.values()),
+            &rerun::Scalars::new(g.accuracies.values()),
         )
         .map_err(sdk)?;
     }
@@ -526,7 +524,7 @@ fn log_step(
 fn log_grounding(
     rec: &RecordingStream,
     path: &str,
-    g: Option<&MapGrounding>,
+    g: Option<&EvaluatedMap>,
 ) -> Result<(), RecordError> {
     match g {
         Some(g) => rec.log(path, &grounding_points(g)),

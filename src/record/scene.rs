@@ -8,7 +8,7 @@ use crate::env::mission::ObjDesc;
 use crate::env::view::ViewCell;
 use crate::env::world::{Action, World};
 use crate::episode::{EpisodeTrace, StepRecord};
-use crate::metrics::grounding::{ObjectHit, WordKind, ground_step, object_hits};
+use crate::metrics::grounding::{EvaluatedMap, ObjectHit, ground_step};
 use crate::policy::ViewMap;
 use crate::render::palette::{GROUNDING_HIT, GROUNDING_MISS, GROUNDING_NEAR, Rgb};
 use crate::render::{colorize, overlay_on_world, render_view, render_world};
@@ -19,18 +19,6 @@ pub const TILE_PX: u32 = 16;
 
 /// Opacity of an attention map projected onto the world.
 pub const OVERLAY_ALPHA: f32 = 0.6;
-
-/// The grounding of one map at one step: which word kind it is about and, for each related
-/// object in view, whether the map hits it.
-#[derive(Clone, Debug, PartialEq)]
-pub struct MapGrounding {
-    /// Object word, colour word, or the combined map on the targets.
-    pub kind: WordKind,
-    /// Index of the word in the mission (`None` for the combined map `M`).
-    pub word: Option<usize>,
-    /// One entry per related object.
-    pub hits: Vec<ObjectHit>,
-}
 
 /// Everything a sink shows for one step.
 #[derive(Clone, Debug)]
@@ -46,7 +34,7 @@ pub struct StepScene {
     /// any word map or `M`); the lower end is 0.
     pub scale_max: f32,
     /// Hits and misses, per evaluated map.
-    pub grounding: Vec<MapGrounding>,
+    pub grounding: Vec<EvaluatedMap>,
 }
 
 impl StepScene {
@@ -68,27 +56,8 @@ impl StepScene {
                     .iter()
                     .map(|w| (w.word.as_str(), &w.map))
                     .collect();
-                let g = ground_step(&step.obs, desc, &words, &att.combined, alpha);
-                let grounding = g
-                    .evaluated
-                    .into_iter()
-                    .map(|(kind, _, objects)| {
-                        let (word, map) = match kind {
-                            WordKind::Combined => (None, &att.combined),
-                            WordKind::Object => {
-                                word_map(att, desc.kind.map(crate::env::ObjectKind::name))
-                            }
-                            WordKind::Color => {
-                                word_map(att, desc.color.map(crate::env::Color::name))
-                            }
-                        };
-                        MapGrounding {
-                            kind,
-                            word,
-                            hits: object_hits(map, &objects, alpha),
-                        }
-                    })
-                    .collect();
+                let grounding =
+                    ground_step(&step.obs, desc, &words, &att.combined, alpha).evaluated;
                 (Some(overlay), scale_max, grounding)
             }
             None => (None, 1.0, Vec::new()),
@@ -103,18 +72,9 @@ impl StepScene {
     }
 
     /// The hits of the map of word `i` (`None`: of `M`), if that map was evaluated.
-    pub fn hits_of(&self, word: Option<usize>) -> Option<&MapGrounding> {
+    pub fn hits_of(&self, word: Option<usize>) -> Option<&EvaluatedMap> {
         self.grounding.iter().find(|g| g.word == word)
     }
-}
-
-/// The index and map of the first mission word spelled `name`.
-fn word_map<'a>(
-    att: &'a crate::policy::AttentionTrace,
-    name: Option<&str>,
-) -> (Option<usize>, &'a ViewMap) {
-    name.and_then(|n| att.words.iter().position(|w| w.word == n))
-        .map_or((None, &att.combined), |i| (Some(i), &att.words[i].map))
 }
 
 /// A view map projected onto the world grid: one RGBA pixel per world cell, the map's viridis
