@@ -1,6 +1,14 @@
-//! Small file-system helpers shared by every writer.
+//! Small file-system helpers shared by every writer: the one place where outputs are made
+//! durable and atomic.
+//!
+//! A regular file (or a path that does not exist yet) is replaced atomically: the bytes go to a
+//! temporary file beside it, are flushed to disk, and the temporary file is renamed over the
+//! destination, whose directory is then flushed too; a crash at any instant leaves the old file
+//! or the new one, complete. A symlink is followed and its target replaced, so the link stays a
+//! link. Anything else (a character device, a FIFO) is written in place and never replaced.
 
-use std::path::Path;
+use std::io::Write as _;
+use std::path::{Path, PathBuf};
 
 /// Gives a finished temporary file (which `tempfile` creates with mode 0600) the mode of a
 /// normally created file, 0644, before it is renamed into place.
@@ -15,4 +23,138 @@ pub fn make_shareable(path: &Path) -> std::io::Result<()> {
         let _ = path;
         Ok(())
     }
+}
+
+/// How an output path is to be written.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum OutputKind {
+    /// A regular file or a new path: write a temporary file beside this path and rename it.
+    Replace(PathBuf),
+    /// A device, FIFO or other special file: write into it directly.
+    InPlace(PathBuf),
+}
+
+/// Decides how `path` is written (symlinks resolved to their final target).
+pub fn output_kind(path: &Path) -> std::io::Result<OutputKind> {
+    match std::fs::metadata(path) {
+        Ok(meta) if meta.is_file() => Ok(OutputKind::Replace(resolve(path)?)),
+        Ok(meta) if meta.is_dir() => Err(std::io::Error::new(
+            std::io::ErrorKind::IsADirectory,
+            "is a directory",
+        )),
+        Ok(_) => Ok(OutputKind::InPlace(path.to_path_buf())),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+            // A dangling symlink: create its target rather than replacing the link.
+            match std::fs::read_link(path) {
+                Ok(target) => {
+                    let base = path.parent().unwrap_or(Path::new("."));
+                    Ok(OutputKind::Replace(base.join(target)))
+                }
+                Err(_) => Ok(OutputKind::Replace(path.to_path_buf())),
+            }
+        }
+        Err(e) => Err(e),
+    }
+}
+
+fn resolve(path: &Path) -> std::io::Result<PathBuf> {
+    if std::fs::symlink_metadata(path)?.file_type().is_symlink() {
+        std::fs::canonicalize(path)
+    } else {
+        Ok(path.to_path_buf())
+    }
+}
+
+/// The directory a path lives in (`.` for a bare file name).
+pub fn parent_dir(path: &Path) -> &Path {
+    match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    }
+}
+
+/// Flushes a directory's entries (a rename in it) to disk.
+pub fn sync_dir(dir: &Path) -> std::io::Result<()> {
+    #[cfg(unix)]
+    {
+        std::fs::File::open(dir)?.sync_all()
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = dir;
+        Ok(())
+    }
+}
+
+/// Writes `bytes` to `path` as the module doc says: atomically and durably for regular files,
+/// in place for special files. On error nothing new is left beside `path`.
+pub fn write_output(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    match output_kind(path)? {
+        OutputKind::InPlace(p) => {
+            let mut f = std::fs::OpenOptions::new().write(true).open(&p)?;
+            f.write_all(bytes)?;
+            f.flush()
+        }
+        OutputKind::Replace(p) => {
+            let dir = parent_dir(&p);
+            let mut tmp = tempfile::Builder::new()
+                .prefix(".groundscope-")
+                .suffix(".tmp")
+                .tempfile_in(dir)?;
+            tmp.write_all(bytes)?;
+            tmp.as_file().sync_all()?;
+            make_shareable(tmp.path())?;
+            tmp.persist(&p).map_err(|e| e.error)?;
+            sync_dir(dir)
+        }
+    }
+}
+
+/// Renames a finished temporary file onto `dest` durably (data flushed first, then the
+/// directory), the way [`write_output`] does for bytes already in memory.
+pub fn commit_temp(tmp: tempfile::TempPath, dest: &Path) -> std::io::Result<()> {
+    std::fs::File::open(&tmp)?.sync_all()?;
+    make_shareable(&tmp)?;
+    tmp.persist(dest).map_err(|e| e.error)?;
+    sync_dir(parent_dir(dest))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn regular_files_are_replaced_and_symlinks_kept() {
+        let dir = tempfile::tempdir().unwrap();
+        let target = dir.path().join("real.txt");
+        std::fs::write(&target, b"old").unwrap();
+        let link = dir.path().join("link.txt");
+        std::os::unix::fs::symlink(&target, &link).unwrap();
+        write_output(&link, b"new").unwrap();
+        assert!(
+            std::fs::symlink_metadata(&link)
+                .unwrap()
+                .file_type()
+                .is_symlink()
+        );
+        assert_eq!(std::fs::read(&target).unwrap(), b"new");
+        let names: Vec<_> = std::fs::read_dir(dir.path()).unwrap().collect();
+        assert_eq!(names.len(), 2, "no temporary file is left");
+    }
+
+    #[test]
+    fn special_files_are_written_in_place_and_report_their_errors() {
+        // /dev/full is a character device whose writes fail with ENOSPC.
+        let err = write_output(Path::new("/dev/full"), b"x").unwrap_err();
+        assert_eq!(err.raw_os_error(), Some(28));
+        write_output(Path::new("/dev/null"), b"x").unwrap();
+        assert!(
+            std::fs::metadata("/dev/null")
+                .unwrap()
+                .file_type()
+                .is_char_device()
+        );
+    }
+
+    use std::os::unix::fs::FileTypeExt as _;
 }

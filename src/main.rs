@@ -23,6 +23,39 @@ pub enum ExitStatus {
 
 fn main() -> ExitCode {
     one_candle_thread_by_default();
+    // `println!` panics when stdout is closed or full. Those panics are not bugs: they are
+    // turned into ripgrep's behaviour (a broken pipe ends quietly with 0, a full disk is a
+    // one-line error with 2) after unwinding, which removes any temporary output files.
+    let default_hook = std::panic::take_hook();
+    std::panic::set_hook(Box::new(move |info| {
+        if stdout_failure(info.payload()).is_none() {
+            default_hook(info);
+        }
+    }));
+    match std::panic::catch_unwind(run) {
+        Ok(code) => code,
+        Err(payload) => match stdout_failure(payload.as_ref()) {
+            Some(reason) if reason.contains("Broken pipe") => ExitCode::SUCCESS,
+            Some(reason) => {
+                eprintln!("groundscope: writing to standard output: {reason}");
+                ExitCode::from(2)
+            }
+            None => ExitCode::from(101),
+        },
+    }
+}
+
+/// The I/O error of a panic raised by `print!` on a failing stdout, if it is one.
+fn stdout_failure(payload: &(dyn std::any::Any + Send)) -> Option<String> {
+    let text = payload
+        .downcast_ref::<String>()
+        .map(String::as_str)
+        .or_else(|| payload.downcast_ref::<&str>().copied())?;
+    text.strip_prefix("failed printing to stdout: ")
+        .map(str::to_owned)
+}
+
+fn run() -> ExitCode {
     let matches = match cli::Cli::command().try_get_matches() {
         Ok(m) => m,
         Err(err) => return usage_error(&err),

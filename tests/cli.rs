@@ -296,6 +296,10 @@ fn train(dir: &Path, frames: &str, extra: &[&str]) -> Output {
         "16",
         "--save-interval",
         "1",
+        "--eval-interval",
+        "2",
+        "--eval-episodes",
+        "4",
         "--quiet",
     ];
     args.extend_from_slice(extra);
@@ -317,7 +321,10 @@ fn resumed_training_matches_an_uninterrupted_run() {
     std::fs::write(&log_path, text + &ghost).unwrap();
     let o = train(&split, "256", &["--resume"]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
-    for f in ["model.safetensors", "optimizer.safetensors"] {
+    for f in [
+        "model.safetensors",
+        "checkpoints/update-00000004/optimizer.safetensors",
+    ] {
         assert_eq!(
             std::fs::read(straight.join(f)).unwrap(),
             std::fs::read(split.join(f)).unwrap(),
@@ -342,6 +349,17 @@ fn resumed_training_matches_an_uninterrupted_run() {
         log(&split),
         "same losses apart from timing columns"
     );
+    // The tracked evaluation runs at updates 2 and 4 in both, with the same results.
+    let evals = |d: &Path| -> Vec<String> {
+        std::fs::read_to_string(d.join("eval_log.csv"))
+            .unwrap()
+            .lines()
+            .map(|l| l.rsplit_once(',').unwrap().0.to_owned())
+            .collect()
+    };
+    assert_eq!(evals(&straight), evals(&split));
+    assert_eq!(evals(&straight).len(), 3, "{:?}", evals(&straight));
+    assert!(evals(&straight)[2].starts_with("4,256,4,"));
     // A resume directory from another model, and a fresh run over an existing one.
     let mut args = vec![
         "train",

@@ -323,6 +323,7 @@ fn export_failures(
     use groundscope::episode::{EpisodeSpec, run_episode};
     use groundscope::record::{RerunTargets, record_rerun};
     std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    let mut recorded = 0;
     for f in failures {
         let Some((name, ckpt)) = ckpts.iter().find(|(n, _)| *n == f.checkpoint) else {
             continue;
@@ -337,10 +338,11 @@ fn export_failures(
             mode,
         };
         let trace = run_episode(ckpt, name, &spec)?;
+        // The whole name, so two checkpoints called `model` in different runs do not share
+        // file names.
         let short: String = name
-            .rsplit(['/', ':'])
-            .next()
-            .unwrap_or(name)
+            .trim_start_matches("bundled:")
+            .trim_start_matches("./")
             .chars()
             .map(|c| {
                 if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
@@ -359,6 +361,7 @@ fn export_failures(
             ..RerunTargets::default()
         };
         record_rerun(std::slice::from_ref(&trace), &targets, alpha, None)?;
+        recorded += 1;
     }
-    Ok(failures.len())
+    Ok(recorded)
 }

@@ -5,6 +5,7 @@ mod env_cmd;
 mod eval;
 mod policy_cmd;
 mod replay;
+mod run_dir;
 mod train;
 mod view;
 

@@ -1,6 +1,5 @@
 //! `groundscope train`: recurrent PPO with checkpoints, resume, logs and Ctrl-C handling.
 
-use std::collections::BTreeMap;
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -8,18 +7,18 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
 use anyhow::Context as _;
-use candle_core::{Device, Tensor};
 use clap::ArgMatches;
 use clap::Args;
 use clap::parser::ValueSource;
-use groundscope::policy::checkpoint::{checkpoint_paths, write_atomic};
+use groundscope::metrics::tracking::EVAL_LOG_HEADER;
+use groundscope::policy::checkpoint::write_atomic;
 use groundscope::policy::ppo::{PpoConfig, Trainer, UpdateLog};
-use groundscope::policy::{Checkpoint, ModelConfig, Params, TrainingState};
-use serde::{Deserialize, Serialize};
+use groundscope::policy::{ModelConfig, Net, Params, TrainingState};
 
 use crate::ExitStatus;
 use crate::cli::env_cmd::LevelArgs;
 use crate::cli::policy_cmd::parse_variant;
+use crate::cli::run_dir;
 
 /// `groundscope train`.
 #[derive(Debug, Args)]
@@ -95,21 +94,26 @@ pub struct TrainArgs {
     /// leaves idle; results depend on the count, not on timing).
     #[arg(long, default_value_t = PpoConfig::default().update_threads)]
     pub update_threads: usize,
+    /// Multiply rewards by this for GAE and the value loss (BabyAI: 20); logs stay unscaled.
+    #[arg(long, default_value_t = PpoConfig::default().reward_scale)]
+    pub reward_scale: f64,
+    /// Normalise each rollout's advantages to mean 0, standard deviation 1.
+    #[arg(long)]
+    pub normalize_advantages: bool,
+    /// Evaluate greedily on the held-out validation levels every this many updates and append
+    /// the result to eval_log.csv (0: never).
+    #[arg(long, default_value_t = 50)]
+    pub eval_interval: u64,
+    /// Held-out validation episodes per evaluation (level seeds 2^31 + e, never trained on and
+    /// not among `eval`'s test seeds).
+    #[arg(long, default_value_t = 200)]
+    pub eval_episodes: u64,
     /// Hidden size of the LSTM and GRU (smaller trains faster; the paper's default is 128).
     #[arg(long, default_value_t = 128)]
     pub hidden: usize,
     /// Hide the progress bar (log lines only).
     #[arg(long)]
     pub quiet: bool,
-}
-
-/// `resume.json`: what `--resume` needs besides the weights and the optimizer tensors.
-#[derive(Serialize, Deserialize)]
-struct ResumeFile {
-    ppo: PpoConfig,
-    seed: u64,
-    adam_step: u64,
-    updates: u64,
 }
 
 const LOG_HEADER: &str = "update,frames,fps,episodes,success_rate,mean_reward,mean_length,policy_loss,value_loss,entropy,grad_norm,elapsed_secs";
@@ -130,121 +134,83 @@ fn ppo_config(a: &TrainArgs) -> PpoConfig {
         max_grad_norm: a.max_grad_norm,
         clip_eps: a.clip_eps,
         update_threads: a.update_threads,
+        reward_scale: a.reward_scale,
+        normalize_advantages: a.normalize_advantages,
     }
 }
 
-fn save_run(
+/// The training state recorded with a checkpoint: `last` is the newest update's log (a run
+/// resumed with nothing left to do keeps the metrics `keep` it had).
+fn training_state(
     trainer: &Trainer,
-    dir: &Path,
     seed: u64,
     last: Option<&UpdateLog>,
-) -> anyhow::Result<()> {
-    let training = TrainingState {
+    keep: Option<&TrainingState>,
+) -> TrainingState {
+    let finite = |x: f64| Some(x).filter(|x| x.is_finite());
+    TrainingState {
         frames: trainer.state.frames,
         updates: trainer.state.updates,
-        success_rate: last.map(|l| l.success_rate).filter(|x| x.is_finite()),
-        mean_reward: last.map(|l| l.mean_reward).filter(|x| x.is_finite()),
+        success_rate: last.map_or_else(
+            || keep.and_then(|k| k.success_rate),
+            |l| finite(l.success_rate),
+        ),
+        mean_reward: last.map_or_else(
+            || keep.and_then(|k| k.mean_reward),
+            |l| finite(l.mean_reward),
+        ),
         seed,
-    };
-    let mut ckpt = Checkpoint::new(
-        trainer.model,
-        trainer.level,
-        training,
-        trainer.params.clone(),
-    );
-    ckpt.save(&dir.join("model"))?;
-    let opt = trainer.optimizer_tensors();
-    let (opt_path, _) = checkpoint_paths(&dir.join("optimizer"));
-    let tmp = tempfile::NamedTempFile::new_in(dir)?;
-    candle_core::safetensors::save(
-        &opt.into_iter().collect::<std::collections::HashMap<_, _>>(),
-        tmp.path(),
-    )?;
-    tmp.persist(&opt_path)
-        .map_err(|e| anyhow::anyhow!("writing {}: {}", opt_path.display(), e.error))?;
-    let resume = ResumeFile {
-        ppo: trainer.ppo,
-        seed,
-        adam_step: trainer.adam.step,
-        updates: trainer.state.updates,
-    };
-    // RNG states are u128s, which serde_json::Value cannot hold: the run state gets a file.
-    write_atomic(
-        &dir.join("run_state.json"),
-        trainer.state_json()?.as_bytes(),
-    )?;
-    write_atomic(
-        &dir.join("resume.json"),
-        serde_json::to_string(&resume)?.as_bytes(),
-    )?;
-    let points = groundscope::metrics::figures::read_training_log(&dir.join("log.csv"))?;
-    let curve = groundscope::metrics::figures::Curve {
-        label: trainer.model.variant.name().to_owned(),
-        points,
-    };
-    groundscope::metrics::figures::learning_curve(
-        &[curve],
-        "Mean reward during training",
-        &dir.join("curve.png"),
-    )?;
+    }
+}
+
+/// Saves a generation and redraws the run's learning curve (a figure: its failure is
+/// reported, not fatal, since the checkpoint is already safe).
+fn save_run(trainer: &Trainer, dir: &Path, training: TrainingState) -> anyhow::Result<()> {
+    run_dir::save(trainer, dir, training.seed, training)?;
+    let drawn = groundscope::metrics::figures::read_training_log(&dir.join("log.csv"))
+        .map_err(anyhow::Error::from)
+        .and_then(|points| {
+            let curve = groundscope::metrics::figures::Curve {
+                label: trainer.model.variant.name().to_owned(),
+                points,
+            };
+            groundscope::metrics::figures::learning_curve(
+                &[curve],
+                "Mean reward during training",
+                &dir.join("curve.png"),
+            )
+            .map_err(anyhow::Error::from)
+        });
+    if let Err(e) = drawn {
+        eprintln!("groundscope: {}: {e:#}", dir.join("curve.png").display());
+    }
     Ok(())
 }
 
+/// `--resume`: the newest complete checkpoint of the run, refusing flags that contradict it.
 fn resume_run(
     args: &TrainArgs,
     matches: Option<&ArgMatches>,
-    model: ModelConfig,
-) -> anyhow::Result<(Trainer, u64)> {
+    variant: groundscope::policy::Variant,
+) -> anyhow::Result<(Trainer, u64, TrainingState)> {
     let dir = &args.out;
-    let ckpt = Checkpoint::load(&dir.join("model"))
-        .with_context(|| format!("resuming from {}", dir.display()))?;
-    if ckpt.meta.model.variant != model.variant {
+    let (trainer, info) = run_dir::load_latest(dir)?;
+    if info.variant != variant && given(matches, "model") {
         anyhow::bail!(
             "--resume: {} holds a {} model, not {}",
             dir.display(),
-            ckpt.meta.model.variant.name(),
-            model.variant.name()
-        );
-    }
-    let text = std::fs::read_to_string(dir.join("resume.json"))
-        .with_context(|| format!("reading {}", dir.join("resume.json").display()))?;
-    let resume: ResumeFile = serde_json::from_str(&text)
-        .with_context(|| format!("reading {}", dir.join("resume.json").display()))?;
-    if resume.updates != ckpt.meta.training.updates {
-        anyhow::bail!(
-            "--resume: {} is at update {} but model.json at update {}; the run directory is inconsistent",
-            dir.display(),
-            resume.updates,
-            ckpt.meta.training.updates
+            info.variant.name(),
+            variant.name()
         );
     }
     let saved = Fixed {
-        ppo: resume.ppo,
-        level: ckpt.meta.level,
-        hidden: ckpt.meta.model.lstm_hidden,
-        seed: resume.seed,
+        ppo: info.ppo,
+        level: info.level,
+        hidden: info.hidden,
+        seed: info.seed,
     };
     saved.check_given(args, matches, "--resume", dir)?;
-    let mut trainer = Trainer::new(
-        ckpt.meta.model,
-        ckpt.meta.level,
-        resume.ppo,
-        ckpt.params,
-        resume.seed,
-    )?;
-    let state_path = dir.join("run_state.json");
-    let state = std::fs::read_to_string(&state_path)
-        .with_context(|| format!("reading {}", state_path.display()))?;
-    trainer
-        .restore_state(&state)
-        .with_context(|| format!("reading {}", state_path.display()))?;
-    let (opt_path, _) = checkpoint_paths(&dir.join("optimizer"));
-    let opt: BTreeMap<String, Tensor> = candle_core::safetensors::load(&opt_path, &Device::Cpu)
-        .with_context(|| format!("reading {}", opt_path.display()))?
-        .into_iter()
-        .collect();
-    trainer.restore_optimizer(&opt, resume.adam_step)?;
-    Ok((trainer, resume.seed))
+    Ok((trainer, info.seed, info.training))
 }
 
 /// `--init NAME`: a new trainer on NAME's weights, refusing a checkpoint of the other model
@@ -309,7 +275,17 @@ impl Fixed {
         let (now, run) = (ppo_config(args), &self.ppo);
         let a = &args.level;
         let l = &self.level;
-        let pairs: [(&str, String, String); 19] = [
+        let pairs: [(&str, String, String); 21] = [
+            (
+                "reward_scale",
+                now.reward_scale.to_string(),
+                run.reward_scale.to_string(),
+            ),
+            (
+                "normalize_advantages",
+                now.normalize_advantages.to_string(),
+                run.normalize_advantages.to_string(),
+            ),
             ("procs", now.procs.to_string(), run.procs.to_string()),
             (
                 "frames_per_proc",
@@ -411,23 +387,23 @@ fn task_name(given: &str) -> String {
 
 /// The rows of the `log.csv` beside checkpoint `name` up to `updates`, so a warm-started
 /// run's log and learning curve start at frame 0. Empty when there is no such log.
-fn parent_log_rows(name: &str, updates: u64) -> String {
+fn parent_log_rows(name: &str, file: &str, header: &str, updates: u64) -> String {
     if name.starts_with(groundscope::policy::bundled::PREFIX) {
         return String::new();
     }
     let dir = Path::new(name).parent().unwrap_or(Path::new("."));
-    log_rows_upto(&dir.join("log.csv"), updates)
+    log_rows_upto(&dir.join(file), header, updates)
 }
 
 /// The rows of training log `path` for updates `1..=updates` (none when it is missing or not
 /// a training log). A run killed between checkpoints has logged updates its checkpoint does
 /// not hold; `--resume` does them again, so their first rows are dropped.
-fn log_rows_upto(path: &Path, updates: u64) -> String {
+fn log_rows_upto(path: &Path, header: &str, updates: u64) -> String {
     let Ok(text) = std::fs::read_to_string(path) else {
         return String::new();
     };
     let mut lines = text.lines();
-    if lines.next() != Some(LOG_HEADER) {
+    if lines.next() != Some(header) {
         return String::new();
     }
     let mut rows = String::new();
@@ -449,19 +425,32 @@ pub fn run(args: &TrainArgs, matches: Option<&ArgMatches>) -> anyhow::Result<Exi
     let mut model = ModelConfig::new(variant);
     model.lstm_hidden = args.hidden;
     model.gru_hidden = args.hidden;
+    if args.save_interval == 0 {
+        anyhow::bail!("--save-interval 0: must be at least 1 update");
+    }
+    if !args.resume {
+        // Everything a new run can get wrong is refused before its directory is made.
+        model.validate()?;
+        ppo_config(args).validate()?;
+        args.level.config()?;
+    }
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating {}", args.out.display()))?;
     let probe = tempfile::NamedTempFile::new_in(&args.out)
         .with_context(|| format!("{} is not writable", args.out.display()))?;
     drop(probe);
     let log_path = args.out.join("log.csv");
-    let (mut trainer, seed) = if args.resume {
-        let (trainer, seed) = resume_run(args, matches, model)?;
-        let rows = log_rows_upto(&log_path, trainer.state.updates);
+    let eval_path = args.out.join("eval_log.csv");
+    let (mut trainer, seed, kept) = if args.resume {
+        let (trainer, seed, kept) = resume_run(args, matches, variant)?;
+        let u = trainer.state.updates;
+        let rows = log_rows_upto(&log_path, LOG_HEADER, u);
         write_atomic(&log_path, format!("{LOG_HEADER}\n{rows}").as_bytes())?;
-        (trainer, seed)
+        let rows = log_rows_upto(&eval_path, EVAL_LOG_HEADER, u);
+        write_atomic(&eval_path, format!("{EVAL_LOG_HEADER}\n{rows}").as_bytes())?;
+        (trainer, seed, Some(kept))
     } else {
-        if args.out.join("resume.json").exists() {
+        if run_dir::holds_run(&args.out) {
             anyhow::bail!(
                 "{} already holds a run; pass --resume to continue it or choose another --out",
                 args.out.display()
@@ -469,27 +458,40 @@ pub fn run(args: &TrainArgs, matches: Option<&ArgMatches>) -> anyhow::Result<Exi
         }
         let level = args.level.config()?;
         let ppo = ppo_config(args);
-        ppo.validate()?;
-        let (trainer, parent_rows) = if let Some(name) = &args.init {
+        let (trainer, parent_rows, parent_evals) = if let Some(name) = &args.init {
             let trainer = warm_start(name, variant, level, ppo, args, matches)?;
-            let rows = parent_log_rows(name, trainer.state.updates);
-            (trainer, rows)
+            let u = trainer.state.updates;
+            (
+                trainer,
+                parent_log_rows(name, "log.csv", LOG_HEADER, u),
+                parent_log_rows(name, "eval_log.csv", EVAL_LOG_HEADER, u),
+            )
         } else {
             let params = Params::init(&model, args.seed)?;
             let trainer = Trainer::new(model, level, ppo, params, args.seed)?;
-            (trainer, String::new())
+            (trainer, String::new(), String::new())
         };
         write_atomic(&log_path, format!("{LOG_HEADER}\n{parent_rows}").as_bytes())?;
-        (trainer, args.seed)
+        write_atomic(
+            &eval_path,
+            format!("{EVAL_LOG_HEADER}\n{parent_evals}").as_bytes(),
+        )?;
+        (trainer, args.seed, None)
     };
-    let mut log_file = std::fs::OpenOptions::new()
-        .append(true)
-        .open(&log_path)
-        .with_context(|| format!("opening {}", log_path.display()))?;
+    let open_append = |path: &Path| {
+        std::fs::OpenOptions::new()
+            .append(true)
+            .open(path)
+            .with_context(|| format!("opening {}", path.display()))
+    };
+    let mut log_file = open_append(&log_path)?;
+    let mut eval_file = open_append(&eval_path)?;
     let stop = Arc::new(AtomicBool::new(false));
     {
         let stop = Arc::clone(&stop);
-        // A second handler cannot be installed in tests that call run twice; ignore that case.
+        // Ctrl-C, SIGTERM and SIGHUP (ctrlc's `termination` feature) all stop after the
+        // current update and save. A second handler cannot be installed in tests that call
+        // run twice; ignore that case.
         let _ = ctrlc::set_handler(move || stop.store(true, Ordering::SeqCst));
     }
     let bar = if args.quiet {
@@ -544,12 +546,45 @@ pub fn run(args: &TrainArgs, matches: Option<&ArgMatches>) -> anyhow::Result<Exi
                 log.update, log.frames, log.success_rate, log.mean_reward, log.entropy
             );
         }
+        if args.eval_interval > 0 && log.update % args.eval_interval == 0 {
+            let net = Net::new(trainer.model, trainer.params.detached());
+            let row = groundscope::metrics::tracking::track(
+                &net,
+                &trainer.level,
+                args.eval_episodes,
+                log.update,
+                log.frames,
+            )?;
+            writeln!(eval_file, "{}", row.csv_row())?;
+            if args.quiet {
+                println!(
+                    "eval update {} frames {} greedy success {:.3} object acc_ng {:.3} colour acc_ng {:.3} ({:.1} s)",
+                    row.update,
+                    row.frames,
+                    row.greedy_success,
+                    row.object.1,
+                    row.color.1,
+                    row.eval_secs
+                );
+            }
+        }
         if log.update % args.save_interval == 0 {
-            save_run(&trainer, &args.out, seed, Some(&log))?;
+            save_run(
+                &trainer,
+                &args.out,
+                training_state(&trainer, seed, Some(&log), None),
+            )?;
         }
         last = Some(log);
     }
-    save_run(&trainer, &args.out, seed, last.as_ref())?;
+    // A resumed run with nothing left to do keeps its checkpoint as it is.
+    if last.is_some() || kept.is_none() {
+        save_run(
+            &trainer,
+            &args.out,
+            training_state(&trainer, seed, last.as_ref(), kept.as_ref()),
+        )?;
+    }
     bar.finish_and_clear();
     let why = if stop.load(Ordering::SeqCst) {
         "interrupted; saved"

@@ -37,6 +37,14 @@ impl Grid {
         self.height as usize
     }
 
+    /// Whether the dimensions are a room this crate can hold (1..=256 per side) and the cell
+    /// vector has one entry per cell: what a deserialised grid must be checked for.
+    pub fn is_consistent(&self) -> bool {
+        (1..=256).contains(&self.width)
+            && (1..=256).contains(&self.height)
+            && self.cells.len() == (self.width * self.height) as usize
+    }
+
     /// Whether `pos` lies inside the grid.
     #[inline]
     pub fn contains(&self, (x, y): Pos) -> bool {

@@ -205,6 +205,50 @@ impl World {
         })
     }
 
+    /// Checks a world read from a file (a training run's state) for what every method relies
+    /// on: a consistent grid, the agent on an enterable cell inside it, a step count within a
+    /// positive horizon, and verifier positions inside the grid. Names the first bad field.
+    pub fn validate(&self) -> Result<(), EnvError> {
+        let bad = |field: &str, reason: String| {
+            Err(EnvError::InvalidState {
+                field: field.into(),
+                reason,
+            })
+        };
+        if !self.grid.is_consistent() {
+            return bad(
+                "grid",
+                format!(
+                    "a {}×{} grid needs 1..=256 cells a side and one entry per cell",
+                    self.grid.width(),
+                    self.grid.height()
+                ),
+            );
+        }
+        check_pose(&self.grid, self.agent_pos, self.agent_dir)?;
+        if self.max_steps == 0 {
+            return bad("max_steps", "must be at least 1".into());
+        }
+        if self.step_count > self.max_steps {
+            return bad(
+                "step_count",
+                format!("{} is past max_steps {}", self.step_count, self.max_steps),
+            );
+        }
+        if self.verifier.obj_set.is_empty() {
+            return bad("verifier.obj_set", "no target object".into());
+        }
+        if let Some(p) = self
+            .verifier
+            .obj_poss
+            .iter()
+            .find(|p| !self.grid.contains(**p))
+        {
+            return bad("verifier.obj_poss", format!("{p:?} is outside the grid"));
+        }
+        Ok(())
+    }
+
     /// Replaces the instruction (a mission override at step 0): targets are re-resolved at
     /// the current pose and the verifier restarts. Errors if no object matches.
     pub fn set_instruction(&mut self, instr: Instruction) -> Result<(), EnvError> {

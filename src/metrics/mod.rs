@@ -5,5 +5,6 @@ pub mod figures;
 pub mod grounding;
 pub mod report;
 pub mod sweep;
+pub mod tracking;
 
 pub use error::MetricsError;

@@ -423,6 +423,16 @@ impl Report {
             }
         }
         let mut names: Vec<&str> = files.iter().map(|(n, _)| *n).collect();
+        // A directory reused from an evaluation with attention checkpoints must not keep
+        // that run's accuracy figures beside this run's report.
+        for stale in ["fig7_object_accuracy.png", "fig8_color_accuracy.png"] {
+            if !figs.contains(&stale) {
+                let p = dir.join(stale);
+                if p.exists() {
+                    std::fs::remove_file(&p).map_err(|e| io(&p, e))?;
+                }
+            }
+        }
         names.extend(figs);
         let kept = tmp.keep();
         for name in names {

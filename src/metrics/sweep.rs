@@ -62,10 +62,25 @@ pub fn evaluate_cell(
     mode: ActionMode,
     progress: &mut dyn FnMut(u64),
 ) -> Result<Vec<EpisodeSummary>, MetricsError> {
+    let plan: Vec<(u64, u64)> = (0..seeds)
+        .flat_map(|s| (0..episodes).map(move |e| (s, eval_level_seed(s, e))))
+        .collect();
+    evaluate_episodes(net, level, &plan, alpha, mode, progress)
+}
+
+/// Runs one episode per `(eval_seed, level_seed)` of `plan` in lockstep; summaries come back
+/// in plan order.
+pub fn evaluate_episodes(
+    net: &Net,
+    level: &LevelConfig,
+    plan: &[(u64, u64)],
+    alpha: f64,
+    mode: ActionMode,
+    progress: &mut dyn FnMut(u64),
+) -> Result<Vec<EpisodeSummary>, MetricsError> {
     let mut running = Vec::new();
-    for s in 0..seeds {
-        for e in 0..episodes {
-            let level_seed = eval_level_seed(s, e);
+    for &(s, level_seed) in plan {
+        {
             let world = level.generate(level_seed).map_err(PolicyError::from)?;
             let tokens = vocab::tokenize(&world.mission).map_err(PolicyError::from)?;
             running.push(Running {

@@ -99,17 +99,84 @@ fn io_err(path: &Path, e: impl std::fmt::Display) -> PolicyError {
     }
 }
 
-/// Writes `bytes` to `path` via a temporary file in the same directory and a rename.
+/// Writes `bytes` to `path` atomically and durably (see [`crate::files`]).
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), PolicyError> {
+    crate::files::write_output(path, bytes).map_err(|e| io_err(path, e))
+}
+
+/// The name of the copy of the previous weights kept while a checkpoint is being replaced.
+fn prev_weights_path(st: &Path) -> PathBuf {
+    let mut s = st.as_os_str().to_owned();
+    s.push(".prev");
+    PathBuf::from(s)
+}
+
+/// What identifies one version of a file: its inode and modification time.
+fn file_stamp(path: &Path) -> Option<(u64, std::time::SystemTime)> {
+    let meta = std::fs::metadata(path).ok()?;
+    #[cfg(unix)]
+    let ino = std::os::unix::fs::MetadataExt::ino(&meta);
+    #[cfg(not(unix))]
+    let ino = meta.len();
+    Some((ino, meta.modified().ok()?))
+}
+
+fn is_hash_mismatch(err: &PolicyError) -> bool {
+    matches!(err, PolicyError::Checkpoint { field, .. } if field == "weights_sha256")
+}
+
+/// How often and how long [`Checkpoint::load`] re-reads a pair caught in the middle of being
+/// replaced by another process (about two seconds in all).
+const LOAD_TRIES: u32 = 40;
+const LOAD_RETRY_PAUSE: std::time::Duration = std::time::Duration::from_millis(50);
+
+/// Writes the two files of a checkpoint so that a reader or a crash at any instant sees the old
+/// checkpoint or the new one, complete. The JSON is the commit point: both new files are
+/// written and flushed under temporary names first; the old weights are kept as
+/// `NAME.safetensors.prev` (a hard link) while the new weights are renamed into place and the
+/// JSON after them; then the copy is removed. Between the two renames the JSON still names the
+/// old weights, which [`Checkpoint::load`] finds in the `.prev` copy. On an error before the
+/// switch the old checkpoint is untouched; if the JSON cannot be renamed, the old weights are
+/// put back.
+fn save_pair(st: &Path, js: &Path, weights: &[u8], json: &[u8]) -> Result<(), PolicyError> {
     use std::io::Write as _;
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d,
-        _ => Path::new("."),
+    for p in [st, js] {
+        if std::fs::symlink_metadata(p).is_ok_and(|m| !m.is_file()) {
+            return Err(io_err(p, "is not a regular file; refusing to replace it"));
+        }
+    }
+    let dir = crate::files::parent_dir(st);
+    let temp = |path: &Path, bytes: &[u8]| -> Result<tempfile::TempPath, PolicyError> {
+        let mut f = tempfile::Builder::new()
+            .prefix(".groundscope-")
+            .suffix(".tmp")
+            .tempfile_in(dir)
+            .map_err(|e| io_err(path, e))?;
+        f.write_all(bytes).map_err(|e| io_err(path, e))?;
+        f.as_file().sync_all().map_err(|e| io_err(path, e))?;
+        crate::files::make_shareable(f.path()).map_err(|e| io_err(path, e))?;
+        Ok(f.into_temp_path())
     };
-    let mut tmp = tempfile::NamedTempFile::new_in(dir).map_err(|e| io_err(path, e))?;
-    tmp.write_all(bytes).map_err(|e| io_err(path, e))?;
-    crate::files::make_shareable(tmp.path()).map_err(|e| io_err(path, e))?;
-    tmp.persist(path).map_err(|e| io_err(path, e.error))?;
+    let tmp_w = temp(st, weights)?;
+    let tmp_j = temp(js, json)?;
+    let prev = prev_weights_path(st);
+    let had_old = st.exists();
+    if had_old {
+        let _ = std::fs::remove_file(&prev);
+        std::fs::hard_link(st, &prev).map_err(|e| io_err(&prev, e))?;
+        crate::files::sync_dir(dir).map_err(|e| io_err(dir, e))?;
+    }
+    tmp_w.persist(st).map_err(|e| io_err(st, e.error))?;
+    if let Err(e) = tmp_j.persist(js) {
+        if had_old {
+            let _ = std::fs::rename(&prev, st);
+        }
+        return Err(io_err(js, e.error));
+    }
+    crate::files::sync_dir(dir).map_err(|e| io_err(dir, e))?;
+    if had_old {
+        let _ = std::fs::remove_file(&prev);
+    }
     Ok(())
 }
 
@@ -157,24 +224,54 @@ impl Checkpoint {
         }
     }
 
-    /// Writes `NAME.safetensors` then `NAME.json`, each atomically.
+    /// Writes `NAME.safetensors` and `NAME.json` as one atomic unit (see `save_pair`).
     pub fn save(&mut self, name: &Path) -> Result<(), PolicyError> {
         let (st, js) = checkpoint_paths(name);
+        let text = name.to_string_lossy();
+        if text.ends_with('/') || name.file_name().is_none_or(|s| s == "." || s == "..") {
+            return Err(io_err(
+                name,
+                "is not a checkpoint name (give a file name, e.g. runs/model)",
+            ));
+        }
         let bytes = weights_bytes(&self.params)?;
         self.meta.weights_sha256 = sha256_hex(&bytes);
         let json = serde_json::to_string_pretty(&self.meta)
             .map_err(|e| PolicyError::Input(format!("serialising checkpoint metadata: {e}")))?;
-        write_atomic(&st, &bytes)?;
-        write_atomic(&js, json.as_bytes())?;
-        Ok(())
+        save_pair(&st, &js, &bytes, json.as_bytes())
     }
 
-    /// Loads and checks a checkpoint.
+    /// Loads and checks a checkpoint. A pair caught between its two renames by
+    /// [`Checkpoint::save`] in another process (the JSON still naming the previous weights) is
+    /// read from the kept previous weights or read again, so a reader never fails on a
+    /// checkpoint being rewritten.
     pub fn load(name: &Path) -> Result<Self, PolicyError> {
         let (st, js) = checkpoint_paths(name);
-        let text = std::fs::read_to_string(&js).map_err(|e| io_err(&js, e))?;
-        let bytes = std::fs::read(&st).map_err(|e| io_err(&st, e))?;
-        Self::from_parts(&text, &bytes, &js, &st)
+        let mut tries = 0;
+        loop {
+            let before = (file_stamp(&js), file_stamp(&st));
+            let text = std::fs::read_to_string(&js).map_err(|e| io_err(&js, e))?;
+            let bytes = std::fs::read(&st).map_err(|e| io_err(&st, e))?;
+            match Self::from_parts(&text, &bytes, &js, &st) {
+                Err(err @ PolicyError::Checkpoint { .. }) if is_hash_mismatch(&err) => {
+                    let prev = prev_weights_path(&st);
+                    if let Ok(old) = std::fs::read(&prev)
+                        && let Ok(ckpt) = Self::from_parts(&text, &old, &js, &st)
+                    {
+                        return Ok(ckpt);
+                    }
+                    // Only a pair that changed while it was read is read again; a pair that
+                    // stands still is reported at once.
+                    let moving = prev.exists() || before != (file_stamp(&js), file_stamp(&st));
+                    if !moving || tries >= LOAD_TRIES {
+                        return Err(err);
+                    }
+                    tries += 1;
+                    std::thread::sleep(LOAD_RETRY_PAUSE);
+                }
+                other => return other,
+            }
+        }
     }
 
     /// Checks and builds a checkpoint from the JSON text and the safetensors bytes; the paths
@@ -231,6 +328,9 @@ impl Checkpoint {
         meta.level
             .validate()
             .map_err(|e| bad(js, "level", e.to_string()))?;
+        meta.model
+            .validate()
+            .map_err(|e| bad(js, "model", e.to_string()))?;
         let hash = sha256_hex(bytes);
         if hash != meta.weights_sha256 {
             return Err(bad(

@@ -65,6 +65,32 @@ impl ModelConfig {
         }
     }
 
+    /// The largest size accepted for any dimension: well past the paper's (128) and small
+    /// enough that a network always fits in memory (an LSTM of 1,024 over 49·256 inputs is
+    /// about 55M parameters).
+    pub const MAX_SIZE: usize = 1024;
+    /// The largest number of convolution channels (the LSTM input is 49 times this).
+    pub const MAX_CHANNELS: usize = 256;
+
+    /// Checks every size is positive and bounded, naming the field.
+    pub fn validate(&self) -> Result<(), super::PolicyError> {
+        for (name, v, max) in [
+            ("conv_channels", self.conv_channels, Self::MAX_CHANNELS),
+            ("word_dim", self.word_dim, Self::MAX_SIZE),
+            ("key_dim", self.key_dim, Self::MAX_SIZE),
+            ("lstm_hidden", self.lstm_hidden, Self::MAX_SIZE),
+            ("gru_hidden", self.gru_hidden, Self::MAX_SIZE),
+            ("head_hidden", self.head_hidden, Self::MAX_SIZE),
+        ] {
+            if v == 0 || v > max {
+                return Err(super::PolicyError::Input(format!(
+                    "model size {name} = {v} must be in 1..={max}"
+                )));
+            }
+        }
+        Ok(())
+    }
+
     /// Whether the network has the attention module.
     pub fn has_attention(&self) -> bool {
         self.variant == Variant::Attention

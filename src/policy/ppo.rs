@@ -34,6 +34,9 @@ pub const TRAIN_SEED_OFFSET: u64 = 1 << 32;
 /// more than any parent's number of environments.
 const WARM_START_SEED_GAP: u64 = 1 << 16;
 
+/// The longest mission a run state may hold (BabyAI's local missions have at most 9 words).
+const MAX_STATE_TOKENS: usize = 64;
+
 /// PPO hyper-parameters (torch-ac's defaults).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -69,10 +72,22 @@ pub struct PpoConfig {
     /// for a given count (runs saved before the flag existed used 1).
     #[serde(default = "one_thread")]
     pub update_threads: usize,
+    /// Rewards are multiplied by this before GAE and the value loss (BabyAI uses 20, which
+    /// makes the entropy bonus 20× weaker relative to the returns); logs stay unscaled.
+    #[serde(default = "unit_scale")]
+    pub reward_scale: f64,
+    /// Normalise the advantages of each rollout to mean 0 and standard deviation 1 before the
+    /// epochs (over the whole rollout, so the result does not depend on `update_threads`).
+    #[serde(default)]
+    pub normalize_advantages: bool,
 }
 
 fn one_thread() -> usize {
     1
+}
+
+fn unit_scale() -> f64 {
+    1.0
 }
 
 impl Default for PpoConfig {
@@ -92,6 +107,8 @@ impl Default for PpoConfig {
             max_grad_norm: 0.5,
             clip_eps: 0.2,
             update_threads: 1,
+            reward_scale: 1.0,
+            normalize_advantages: false,
         }
     }
 }
@@ -129,6 +146,7 @@ impl PpoConfig {
             ("--gae-lambda", self.gae_lambda),
             ("--clip-eps", self.clip_eps),
             ("--max-grad-norm", self.max_grad_norm),
+            ("--reward-scale", self.reward_scale),
         ] {
             if !(v.is_finite() && v > 0.0) {
                 return bad(format!("{name} {v} must be a positive number"));
@@ -401,7 +419,7 @@ impl Trainer {
                 ro.c[i].clone_from(&env.c);
                 let action = Action::from_index(a).unwrap_or(Action::Done);
                 let outcome = env.world.step(action)?;
-                ro.rewards[i] = outcome.reward as f32;
+                ro.rewards[i] = (outcome.reward * self.ppo.reward_scale) as f32;
                 env.h.clone_from(&out.h[p]);
                 env.c.clone_from(&out.c[p]);
                 env.ep_return += outcome.reward;
@@ -441,6 +459,9 @@ impl Trainer {
                 ro.advantages[i] = next_adv;
                 ro.returns[i] = ro.values[i] + next_adv;
             }
+        }
+        if self.ppo.normalize_advantages {
+            normalize(&mut ro.advantages);
         }
         Ok((ro, stats))
     }
@@ -590,16 +611,70 @@ impl Trainer {
             .map_err(|e| PolicyError::Input(format!("serialising run state: {e}")))
     }
 
-    /// Restores a run state written by [`Trainer::state_json`].
+    /// Restores a run state written by [`Trainer::state_json`], checking every field a later
+    /// update relies on; errors name the field (`envs[3].world.agent_pos`, ...).
     pub fn restore_state(&mut self, json: &str) -> Result<(), PolicyError> {
         let st: RunState = serde_json::from_str(json)
             .map_err(|e| PolicyError::Input(format!("reading run state: {e}")))?;
-        if st.envs.len() != self.ppo.procs
-            || st.envs.iter().any(|e| e.h.len() != self.model.lstm_hidden)
-        {
-            return Err(PolicyError::Input(
-                "the run state was written with another --procs or model size".into(),
+        let bad = |field: String, reason: String| PolicyError::Input(format!("{field}: {reason}"));
+        if st.envs.len() != self.ppo.procs {
+            return Err(bad(
+                "envs".into(),
+                format!(
+                    "{} environments, the run has --procs {}",
+                    st.envs.len(),
+                    self.ppo.procs
+                ),
             ));
+        }
+        let hid = self.model.lstm_hidden;
+        for (k, e) in st.envs.iter().enumerate() {
+            if e.h.len() != hid || e.c.len() != hid {
+                return Err(bad(
+                    format!("envs[{k}].h"),
+                    format!(
+                        "memory of length {}/{}, the model has {hid}",
+                        e.h.len(),
+                        e.c.len()
+                    ),
+                ));
+            }
+            if e.h.iter().chain(&e.c).any(|x| !x.is_finite()) {
+                return Err(bad(
+                    format!("envs[{k}].h"),
+                    "holds NaN or infinite values".into(),
+                ));
+            }
+            if e.tokens.is_empty()
+                || e.tokens.len() > MAX_STATE_TOKENS
+                || e.tokens
+                    .iter()
+                    .any(|&t| t == 0 || t as usize >= vocab::VOCABULARY.len())
+            {
+                return Err(bad(
+                    format!("envs[{k}].tokens"),
+                    format!(
+                        "must be 1..={} ids in 1..{}",
+                        MAX_STATE_TOKENS,
+                        vocab::VOCABULARY.len()
+                    ),
+                ));
+            }
+            if e.mask != 0.0 && e.mask != 1.0 {
+                return Err(bad(
+                    format!("envs[{k}].mask"),
+                    format!("{} is not 0 or 1", e.mask),
+                ));
+            }
+            e.world
+                .validate()
+                .map_err(|err| bad(format!("envs[{k}].world"), err.to_string()))?;
+            if e.world.ended() {
+                return Err(bad(
+                    format!("envs[{k}].world"),
+                    "the episode has ended".into(),
+                ));
+            }
         }
         self.state = st;
         Ok(())
@@ -640,6 +715,21 @@ impl Trainer {
         }
         self.adam.step = step;
         Ok(())
+    }
+}
+
+/// `x ← (x − mean) / (std + 1e-8)`, the population statistics taken in f64.
+fn normalize(xs: &mut [f32]) {
+    let n = xs.len().max(1) as f64;
+    let mean = xs.iter().map(|&x| f64::from(x)).sum::<f64>() / n;
+    let var = xs
+        .iter()
+        .map(|&x| (f64::from(x) - mean).powi(2))
+        .sum::<f64>()
+        / n;
+    let scale = 1.0 / (var.sqrt() + 1e-8);
+    for x in xs {
+        *x = ((f64::from(*x) - mean) * scale) as f32;
     }
 }
 

@@ -1,0 +1,138 @@
+//! Grounding tracked during training (`train --eval-interval`): a fixed held-out set of greedy
+//! episodes on the training level, evaluated every few updates and appended to
+//! `eval_log.csv`, so a recipe can be chosen on data that is neither trained on nor the final
+//! test set.
+
+use serde::{Deserialize, Serialize};
+
+use super::error::MetricsError;
+use super::grounding::WordKind;
+use super::sweep::{evaluate_episodes, grounding, performance};
+use crate::env::level::LevelConfig;
+use crate::episode::ActionMode;
+use crate::policy::Net;
+
+/// Level seeds of the tracked set are `VALIDATION_SEED_BASE + e`: past every evaluation seed
+/// (`s · 1,000,000 + e` for the few thousand `s` a sweep uses) and below the training seeds
+/// (from 2³²).
+pub const VALIDATION_SEED_BASE: u64 = 1 << 31;
+
+/// The `eval_log.csv` header.
+pub const EVAL_LOG_HEADER: &str = "update,frames,episodes,greedy_success,mean_reward,mean_length,object_acc,object_acc_ng,color_acc,color_acc_ng,combined_acc,combined_acc_ng,eval_secs";
+
+/// One row of `eval_log.csv`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct TrackedEval {
+    /// Updates done when it was measured.
+    pub update: u64,
+    /// Frames trained on.
+    pub frames: u64,
+    /// Episodes evaluated.
+    pub episodes: u64,
+    /// Greedy success rate.
+    pub greedy_success: f64,
+    /// Mean reward.
+    pub mean_reward: f64,
+    /// Mean episode length.
+    pub mean_length: f64,
+    /// Object-word `acc` and `acc_ng` (NaN for a baseline or when never evaluated).
+    pub object: (f64, f64),
+    /// Colour-word `acc` and `acc_ng`.
+    pub color: (f64, f64),
+    /// `M` on the targets, `acc` and `acc_ng`.
+    pub combined: (f64, f64),
+    /// Wall time of the evaluation.
+    pub eval_secs: f64,
+}
+
+impl TrackedEval {
+    /// The CSV row (no newline); NaNs are written as empty fields.
+    pub fn csv_row(&self) -> String {
+        let f = |x: f64| {
+            if x.is_finite() {
+                format!("{x:.4}")
+            } else {
+                String::new()
+            }
+        };
+        format!(
+            "{},{},{},{},{},{},{},{},{},{},{},{},{:.2}",
+            self.update,
+            self.frames,
+            self.episodes,
+            f(self.greedy_success),
+            f(self.mean_reward),
+            f(self.mean_length),
+            f(self.object.0),
+            f(self.object.1),
+            f(self.color.0),
+            f(self.color.1),
+            f(self.combined.0),
+            f(self.combined.1),
+            self.eval_secs
+        )
+    }
+}
+
+/// Evaluates `net` greedily on the first `episodes` held-out levels of `level`.
+pub fn track(
+    net: &Net,
+    level: &LevelConfig,
+    episodes: u64,
+    update: u64,
+    frames: u64,
+) -> Result<TrackedEval, MetricsError> {
+    let start = std::time::Instant::now();
+    let plan: Vec<(u64, u64)> = (0..episodes)
+        .map(|e| (0, VALIDATION_SEED_BASE + e))
+        .collect();
+    let eps = evaluate_episodes(net, level, &plan, 0.5, ActionMode::Greedy, &mut |_| {})?;
+    let perf = performance(&eps);
+    let nan = f64::NAN;
+    let acc = |kind| {
+        let g = grounding(&eps, kind);
+        (g.acc.mean.unwrap_or(nan), g.acc_ng.mean.unwrap_or(nan))
+    };
+    Ok(TrackedEval {
+        update,
+        frames,
+        episodes,
+        greedy_success: perf.success.mean.unwrap_or(nan),
+        mean_reward: perf.reward.mean.unwrap_or(nan),
+        mean_length: perf.length.mean.unwrap_or(nan),
+        object: acc(WordKind::Object),
+        color: acc(WordKind::Color),
+        combined: acc(WordKind::Combined),
+        eval_secs: start.elapsed().as_secs_f64(),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rows_match_the_header_and_leave_nan_empty() {
+        let row = TrackedEval {
+            update: 3,
+            frames: 6144,
+            episodes: 10,
+            greedy_success: 0.5,
+            mean_reward: 0.25,
+            mean_length: 30.0,
+            object: (0.1, 0.2),
+            color: (f64::NAN, f64::NAN),
+            combined: (0.3, 0.4),
+            eval_secs: 1.5,
+        }
+        .csv_row();
+        assert_eq!(row.split(',').count(), EVAL_LOG_HEADER.split(',').count());
+        assert!(row.contains(",0.2000,,,0.3000,"), "{row}");
+    }
+
+    #[test]
+    fn validation_seeds_meet_neither_test_nor_training_seeds() {
+        assert!(VALIDATION_SEED_BASE > super::super::sweep::eval_level_seed(2000, 999_999));
+        assert!(VALIDATION_SEED_BASE + 1_000_000 < crate::policy::ppo::TRAIN_SEED_OFFSET);
+    }
+}
