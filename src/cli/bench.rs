@@ -43,8 +43,18 @@ pub enum BenchCommand {
 pub fn run(cmd: &BenchCommand) -> anyhow::Result<ExitStatus> {
     match cmd {
         BenchCommand::Env { steps } => bench_env(*steps),
-        BenchCommand::Policy { model, secs } => bench_policy(model, *secs),
-        BenchCommand::Record { episodes } => bench_record(*episodes),
+        BenchCommand::Policy { model, secs } => {
+            if !(secs.is_finite() && *secs > 0.0 && *secs <= 3600.0) {
+                anyhow::bail!("--secs {secs}: must be a number of seconds in (0, 3600]");
+            }
+            bench_policy(model, *secs)
+        }
+        BenchCommand::Record { episodes } => {
+            if !(1..=10_000).contains(episodes) {
+                anyhow::bail!("--episodes {episodes}: must be in 1..=10000");
+            }
+            bench_record(*episodes)
+        }
     }
 }
 

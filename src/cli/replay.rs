@@ -68,10 +68,17 @@ pub struct ReplayArgs {
     pub alpha: f64,
 }
 
+/// The most episodes one `replay` holds and records.
+const MAX_EPISODES: u64 = 1000;
+
 /// Runs `replay`.
 pub fn replay(args: &ReplayArgs) -> anyhow::Result<ExitStatus> {
-    if args.episodes == 0 {
-        anyhow::bail!("--episodes must be at least 1");
+    if args.episodes == 0 || args.episodes > MAX_EPISODES {
+        // Episodes are kept in memory until they are recorded (about 1 MB each at worst).
+        anyhow::bail!(
+            "--episodes {}: must be in 1..={MAX_EPISODES} (record more as several files)",
+            args.episodes
+        );
     }
     if args.trace.is_some() && args.episodes > 1 {
         anyhow::bail!("--trace writes one episode; drop --episodes or use --save / --mcap");
@@ -119,10 +126,6 @@ pub fn replay(args: &ReplayArgs) -> anyhow::Result<ExitStatus> {
         );
         episodes.push(trace);
     }
-    if let (Some(path), [trace]) = (&args.trace, episodes.as_slice()) {
-        trace.save_json(path)?;
-        println!("wrote {}", path.display());
-    }
     let stop: StopFlag = Arc::new(AtomicBool::new(false));
     let wants_record = args.save.is_some() || args.spawn || args.connect.is_some();
     if wants_record || args.mcap.is_some() {
@@ -130,6 +133,8 @@ pub fn replay(args: &ReplayArgs) -> anyhow::Result<ExitStatus> {
         // A second handler cannot be installed in the same process (tests call `run` once).
         let _ = ctrlc::set_handler(move || s.store(true, Ordering::Relaxed));
     }
+    // All outputs or none: a later output that fails removes the ones this run wrote.
+    let mut written = Written(Vec::new());
     if wants_record {
         let targets = RerunTargets {
             save: args.save.clone(),
@@ -140,6 +145,7 @@ pub fn replay(args: &ReplayArgs) -> anyhow::Result<ExitStatus> {
         let stats = record_rerun(&episodes, &targets, args.alpha, Some(&stop))?;
         let secs = t0.elapsed().as_secs_f64();
         if let Some(p) = &args.save {
+            written.0.push(p.clone());
             let bytes = std::fs::metadata(p).map_or(0, |m| m.len());
             println!(
                 "wrote {} ({} episodes, {} steps, {bytes} bytes = {:.1} KB/step, {:.0} steps/s)",
@@ -157,6 +163,7 @@ pub fn replay(args: &ReplayArgs) -> anyhow::Result<ExitStatus> {
     if let Some(path) = &args.mcap {
         let t0 = Instant::now();
         let stats = write_mcap(&episodes, path, args.alpha, Some(&stop))?;
+        written.0.push(path.clone());
         let secs = t0.elapsed().as_secs_f64();
         let bytes = std::fs::metadata(path).map_or(0, |m| m.len());
         println!(
@@ -168,5 +175,23 @@ pub fn replay(args: &ReplayArgs) -> anyhow::Result<ExitStatus> {
             stats.steps as f64 / secs.max(1e-9)
         );
     }
+    if let (Some(path), [trace]) = (&args.trace, episodes.as_slice()) {
+        trace.save_json(path)?;
+        println!("wrote {}", path.display());
+    }
+    written.0.clear();
     Ok(ExitStatus::Success)
+}
+
+/// Files written by this run, removed again if it ends with an error before clearing them.
+struct Written(Vec<PathBuf>);
+
+impl Drop for Written {
+    fn drop(&mut self) {
+        for p in &self.0 {
+            if std::fs::metadata(p).is_ok_and(|m| m.is_file()) {
+                let _ = std::fs::remove_file(p);
+            }
+        }
+    }
 }

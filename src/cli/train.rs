@@ -434,8 +434,30 @@ pub fn run(args: &TrainArgs, matches: Option<&ArgMatches>) -> anyhow::Result<Exi
         ppo_config(args).validate()?;
         args.level.config()?;
     }
+    let created = !args.out.exists();
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating {}", args.out.display()))?;
+    let result = train_in(args, matches, variant, model);
+    if result.is_err() && !args.resume && !run_dir::holds_run(&args.out) {
+        // A new run that failed before its first checkpoint leaves nothing behind.
+        for f in ["log.csv", "eval_log.csv", "curve.png"] {
+            let _ = std::fs::remove_file(args.out.join(f));
+        }
+        let _ = std::fs::remove_dir(args.out.join("checkpoints"));
+        if created {
+            let _ = std::fs::remove_dir(&args.out);
+        }
+    }
+    result
+}
+
+/// `train` once its run directory exists.
+fn train_in(
+    args: &TrainArgs,
+    matches: Option<&ArgMatches>,
+    variant: groundscope::policy::Variant,
+    model: ModelConfig,
+) -> anyhow::Result<ExitStatus> {
     let probe = tempfile::NamedTempFile::new_in(&args.out)
         .with_context(|| format!("{} is not writable", args.out.display()))?;
     drop(probe);

@@ -165,7 +165,11 @@ fn decode_cell(v: &[i64], id: u32, field: &str) -> Result<Cell, EnvError> {
         .ok_or_else(|| invalid(field, "unknown colour"))?;
     let state = u8_in(*s, 2, || format!("{field}[2]"))?;
     match kind {
-        ObjectKind::Empty | ObjectKind::Unseen => Ok(None),
+        ObjectKind::Empty => Ok(None),
+        ObjectKind::Unseen => Err(invalid(
+            field,
+            "type 0 (unseen) only appears in observations, not in a world grid",
+        )),
         ObjectKind::Agent => Err(invalid(field, "the agent is not stored in the grid")),
         ObjectKind::Door => {
             let state = [DoorState::Open, DoorState::Closed, DoorState::Locked][usize::from(state)];
@@ -500,12 +504,59 @@ pub struct Mismatch {
     pub what: String,
 }
 
+/// Checks that an observation image in a dump is 7×7 cells of three codes each, every code
+/// in MiniGrid's ranges, so that a malformed dump is bad input rather than a mismatch.
+fn check_image(image: &[Vec<Vec<i64>>], field: &str) -> Result<(), EnvError> {
+    if image.len() != 7 || image.iter().any(|col| col.len() != 7) {
+        return Err(invalid(field, "an observation image must be 7×7 cells"));
+    }
+    for (x, col) in image.iter().enumerate() {
+        for (y, cell) in col.iter().enumerate() {
+            let f = || format!("{field}[{x}][{y}]");
+            let [t, c, s] = cell.as_slice() else {
+                return Err(invalid(
+                    f(),
+                    format!("expected 3 codes, got {}", cell.len()),
+                ));
+            };
+            u8_in(*t, 10, f)?;
+            u8_in(*c, 5, f)?;
+            u8_in(*s, 2, f)?;
+        }
+    }
+    Ok(())
+}
+
 /// Replays a dump's actions from its initial state and compares every observation, reward,
 /// flag, pose, carried object and changed grid; returns the first mismatch, or the number
 /// of steps checked. Invalid dumps are errors.
 pub fn verify_dump(snap: &Snapshot) -> Result<Result<usize, Mismatch>, EnvError> {
     let mut world = snap.to_world()?;
     if let Some(obs) = &snap.initial_obs {
+        check_image(&obs.image, "initial_obs.image")?;
+    }
+    for (i, s) in snap.steps.iter().enumerate() {
+        check_image(&s.image, &format!("steps[{i}].image"))?;
+    }
+    if let Some(obs) = &snap.initial_obs {
+        if obs.direction != i64::from(world.agent_dir) {
+            return Ok(Err(Mismatch {
+                step: 0,
+                what: format!(
+                    "initial_obs.direction: expected {}, got {}",
+                    obs.direction, world.agent_dir
+                ),
+            }));
+        }
+        if obs.mission != world.mission {
+            return Ok(Err(Mismatch {
+                step: 0,
+                what: format!(
+                    "initial_obs.mission: expected {:?}, got {:?}",
+                    obs.mission, world.mission
+                ),
+            }));
+        }
         let got = obs_to_i64(&world.observe());
         if got != obs.image {
             return Ok(Err(Mismatch {
@@ -563,6 +614,12 @@ pub fn verify_dump(snap: &Snapshot) -> Result<Result<usize, Mismatch>, EnvError>
             return mismatch(format!(
                 "agent pose: expected {:?} dir {}, got {pos:?} dir {}",
                 s.agent_pos, s.agent_dir, world.agent_dir
+            ));
+        }
+        if s.direction != i64::from(world.agent_dir) {
+            return mismatch(format!(
+                "observation direction: expected {}, got {}",
+                s.direction, world.agent_dir
             ));
         }
         if i64::from(world.step_count) != s.step_count {

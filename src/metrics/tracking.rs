@@ -17,6 +17,9 @@ use crate::policy::Net;
 /// (from 2³²).
 pub const VALIDATION_SEED_BASE: u64 = 1 << 31;
 
+// A million validation episodes stay below the training seeds.
+const _: () = assert!(VALIDATION_SEED_BASE + 1_000_000 < crate::policy::ppo::TRAIN_SEED_OFFSET);
+
 /// The `eval_log.csv` header.
 pub const EVAL_LOG_HEADER: &str = "update,frames,episodes,greedy_success,mean_reward,mean_length,object_acc,object_acc_ng,color_acc,color_acc_ng,combined_acc,combined_acc_ng,eval_secs";
 
@@ -133,6 +136,5 @@ mod tests {
     #[test]
     fn validation_seeds_meet_neither_test_nor_training_seeds() {
         assert!(VALIDATION_SEED_BASE > super::super::sweep::eval_level_seed(2000, 999_999));
-        assert!(VALIDATION_SEED_BASE + 1_000_000 < crate::policy::ppo::TRAIN_SEED_OFFSET);
     }
 }

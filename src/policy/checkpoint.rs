@@ -228,7 +228,7 @@ impl Checkpoint {
     pub fn save(&mut self, name: &Path) -> Result<(), PolicyError> {
         let (st, js) = checkpoint_paths(name);
         let text = name.to_string_lossy();
-        if text.ends_with('/') || name.file_name().is_none_or(|s| s == "." || s == "..") {
+        if matches!(text.rsplit('/').next(), None | Some("" | "." | "..")) {
             return Err(io_err(
                 name,
                 "is not a checkpoint name (give a file name, e.g. runs/model)",

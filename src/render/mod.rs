@@ -22,7 +22,6 @@ pub mod tiles;
 pub mod view;
 pub mod world;
 
-use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 
 use image::codecs::png::PngEncoder;
@@ -64,47 +63,26 @@ pub enum RenderError {
     },
 }
 
-/// Writes `img` as a PNG at `path`, atomically: the picture is written to a temporary file in
-/// the same directory and renamed over `path`, so readers never see a half-written file and
-/// a failure leaves no file behind.
+/// Writes `img` as a PNG at `path` (see [`crate::files::write_output`]): a regular file is
+/// replaced atomically, so readers never see a half-written file and a failure leaves no file
+/// behind; a device or FIFO is written in place; a symlink keeps pointing where it did.
 pub fn save_png(img: &RgbImage, path: &Path) -> Result<(), RenderError> {
-    let io = |error| RenderError::Io {
+    let mut bytes = Vec::new();
+    PngEncoder::new(&mut bytes)
+        .write_image(
+            img.as_raw(),
+            img.width(),
+            img.height(),
+            ExtendedColorType::Rgb8,
+        )
+        .map_err(|error| RenderError::Encode {
+            path: path.to_path_buf(),
+            error,
+        })?;
+    crate::files::write_output(path, &bytes).map_err(|error| RenderError::Io {
         path: path.to_path_buf(),
         error,
-    };
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d,
-        _ => Path::new("."),
-    };
-    let mut builder = tempfile::Builder::new();
-    builder.prefix(".groundscope-").suffix(".png.tmp");
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::PermissionsExt;
-        // Temporary files are created 0600; a saved picture should get the permissions of
-        // any file the user creates (the umask still applies).
-        builder.permissions(std::fs::Permissions::from_mode(0o666));
-    }
-    let mut tmp = builder.tempfile_in(dir).map_err(io)?;
-    {
-        let mut out = BufWriter::new(tmp.as_file_mut());
-        PngEncoder::new(&mut out)
-            .write_image(
-                img.as_raw(),
-                img.width(),
-                img.height(),
-                ExtendedColorType::Rgb8,
-            )
-            .map_err(|error| RenderError::Encode {
-                path: path.to_path_buf(),
-                error,
-            })?;
-        out.flush().map_err(io)?;
-    }
-    // Dropping `tmp` on any error above deletes it.
-    crate::files::make_shareable(tmp.path()).map_err(io)?;
-    tmp.persist(path).map_err(|e| io(e.error))?;
-    Ok(())
+    })
 }
 
 /// A small known world for the module's tests.

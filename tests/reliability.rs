@@ -1,0 +1,364 @@
+//! Bad and hostile inputs across the command line: one-line errors with exit 2, no panics, no
+//! leftovers, outputs that never replace what they should write into.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    reason = "test helpers fail loudly"
+)]
+
+mod common;
+
+use std::os::unix::fs::FileTypeExt as _;
+use std::path::Path;
+use std::process::{Command, Output, Stdio};
+
+fn gs(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_groundscope"))
+        .args(args)
+        .output()
+        .expect("the binary runs")
+}
+
+fn assert_bad_input(o: &Output, what: &str) {
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "stderr: {err}");
+    assert_eq!(err.trim_end().lines().count(), 1, "one line: {err}");
+    assert!(
+        err.starts_with("groundscope: ") && err.contains(what),
+        "expected {what:?} in {err:?}"
+    );
+}
+
+fn entries(dir: &Path) -> Vec<String> {
+    let mut v: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    v.sort();
+    v
+}
+
+const TINY_RUN: [&str; 14] = [
+    "--size",
+    "5",
+    "--objects",
+    "1",
+    "--tasks",
+    "goto",
+    "--procs",
+    "2",
+    "--frames-per-proc",
+    "8",
+    "--batch-size",
+    "8",
+    "--hidden",
+    "8",
+];
+
+fn train(dir: &Path, extra: &[&str]) -> Output {
+    let mut args = vec!["train", "--out", dir.to_str().unwrap(), "--quiet"];
+    // The tiny run's flags, less those `extra` sets itself.
+    for pair in TINY_RUN.chunks(2) {
+        if !extra.contains(&pair[0]) {
+            args.extend_from_slice(pair);
+        }
+    }
+    args.extend_from_slice(extra);
+    gs(&args)
+}
+
+#[test]
+fn bad_training_settings_are_refused_before_anything_is_written() {
+    let tmp = tempfile::tempdir().unwrap();
+    let run = tmp.path().join("run");
+    for (flags, what) in [
+        (&["--save-interval", "0"][..], "--save-interval"),
+        (&["--procs", "0"][..], "--procs"),
+        (&["--hidden", "0"][..], "lstm_hidden"),
+        (&["--hidden", "100000"][..], "lstm_hidden"),
+        (&["--reward-scale", "0"][..], "--reward-scale"),
+        (&["--objects", "90", "--size", "16"][..], "n_objects"),
+    ] {
+        assert_bad_input(&train(&run, flags), what);
+        assert!(!run.exists(), "{flags:?} left {run:?} behind");
+    }
+}
+
+#[test]
+fn a_resume_with_nothing_to_do_keeps_the_checkpoint_as_it_is() {
+    let tmp = tempfile::tempdir().unwrap();
+    let run = tmp.path().join("run");
+    assert_eq!(train(&run, &["--frames", "32"]).status.code(), Some(0));
+    let before = std::fs::read(run.join("model.json")).unwrap();
+    let o = train(&run, &["--frames", "16", "--resume"]);
+    assert_eq!(o.status.code(), Some(0));
+    assert_eq!(std::fs::read(run.join("model.json")).unwrap(), before);
+    let meta: serde_json::Value = serde_json::from_slice(&before).unwrap();
+    assert!(
+        meta["training"]["success_rate"].is_number() || meta["training"]["success_rate"].is_null()
+    );
+    assert_eq!(meta["training"]["updates"], 2);
+}
+
+#[test]
+fn sigterm_and_sighup_stop_training_with_a_saved_checkpoint() {
+    for signal in ["TERM", "HUP"] {
+        let tmp = tempfile::tempdir().unwrap();
+        let run = tmp.path().join("run");
+        let mut child = Command::new(env!("CARGO_BIN_EXE_groundscope"))
+            .args(["train", "--out", run.to_str().unwrap(), "--quiet"])
+            .args(TINY_RUN)
+            .args(["--frames", "100000000", "--save-interval", "1000000"])
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        // Wait until it trains (its log has rows), then signal it.
+        let deadline = std::time::Instant::now() + std::time::Duration::from_secs(20);
+        while std::fs::read_to_string(run.join("log.csv")).map_or(true, |t| t.lines().count() < 3) {
+            assert!(std::time::Instant::now() < deadline, "no training");
+            std::thread::sleep(std::time::Duration::from_millis(20));
+        }
+        let pid = child.id().to_string();
+        let status = Command::new("kill")
+            .args([&format!("-{signal}"), &pid])
+            .status()
+            .unwrap();
+        assert!(status.success());
+        let out = child.wait_with_output().unwrap();
+        assert_eq!(out.status.code(), Some(0), "SIG{signal}");
+        assert!(String::from_utf8_lossy(&out.stdout).contains("interrupted; saved"));
+        let meta: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(run.join("model.json")).unwrap()).unwrap();
+        assert!(
+            meta["training"]["updates"].as_u64().unwrap() >= 2,
+            "SIG{signal}"
+        );
+    }
+}
+
+#[test]
+fn init_refuses_names_that_are_not_files_and_keeps_an_old_checkpoint() {
+    let tmp = tempfile::tempdir().unwrap();
+    for name in [".", "..", "dir/"] {
+        let out = tmp.path().join(name);
+        assert_bad_input(
+            &gs(&[
+                "init",
+                "--model",
+                "attention",
+                "--seed",
+                "1",
+                "--out",
+                out.to_str().unwrap(),
+            ]),
+            "not a checkpoint name",
+        );
+    }
+    assert!(entries(tmp.path()).is_empty(), "{:?}", entries(tmp.path()));
+    let name = tmp.path().join("m");
+    let init = |seed: &str| {
+        gs(&[
+            "init",
+            "--model",
+            "attention",
+            "--seed",
+            seed,
+            "--out",
+            name.to_str().unwrap(),
+        ])
+    };
+    assert_eq!(init("1").status.code(), Some(0));
+    let old = std::fs::read(tmp.path().join("m.json")).unwrap();
+    // A JSON that cannot be replaced (a directory in its place) leaves the old weights.
+    let weights = std::fs::read(tmp.path().join("m.safetensors")).unwrap();
+    std::fs::remove_file(tmp.path().join("m.json")).unwrap();
+    std::fs::create_dir(tmp.path().join("m.json")).unwrap();
+    assert_bad_input(&init("2"), "m.json");
+    assert_eq!(
+        std::fs::read(tmp.path().join("m.safetensors")).unwrap(),
+        weights
+    );
+    assert_eq!(entries(tmp.path()), ["m.json", "m.safetensors"]);
+    std::fs::remove_dir(tmp.path().join("m.json")).unwrap();
+    std::fs::write(tmp.path().join("m.json"), &old).unwrap();
+}
+
+#[test]
+fn outputs_write_into_devices_and_through_symlinks_without_replacing_them() {
+    let tmp = tempfile::tempdir().unwrap();
+    // A FIFO stands for a device: it must stay a FIFO and receive the bytes.
+    let fifo = tmp.path().join("fifo.json");
+    assert!(
+        Command::new("mkfifo")
+            .arg(&fifo)
+            .status()
+            .unwrap()
+            .success()
+    );
+    let reader = {
+        let fifo = fifo.clone();
+        std::thread::spawn(move || std::fs::read(fifo).unwrap())
+    };
+    let o = gs(&[
+        "env",
+        "show",
+        "--seed",
+        "3",
+        "--snapshot",
+        fifo.to_str().unwrap(),
+    ]);
+    assert_eq!(
+        o.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let bytes = reader.join().unwrap();
+    assert!(serde_json::from_slice::<serde_json::Value>(&bytes).is_ok());
+    assert!(
+        std::fs::symlink_metadata(&fifo)
+            .unwrap()
+            .file_type()
+            .is_fifo()
+    );
+    // A full device is an error, exit 2.
+    assert_bad_input(
+        &gs(&["env", "show", "--seed", "3", "--png", "/dev/full"]),
+        "/dev/full",
+    );
+    // A symlink stays a link; its target gets the picture.
+    let target = tmp.path().join("real.png");
+    std::fs::write(&target, b"old").unwrap();
+    let link = tmp.path().join("link.png");
+    std::os::unix::fs::symlink(&target, &link).unwrap();
+    let o = gs(&[
+        "env",
+        "show",
+        "--seed",
+        "3",
+        "--png",
+        link.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(0));
+    assert!(
+        std::fs::symlink_metadata(&link)
+            .unwrap()
+            .file_type()
+            .is_symlink()
+    );
+    assert!(std::fs::read(&target).unwrap().starts_with(b"\x89PNG"));
+    assert_eq!(entries(tmp.path()), ["fifo.json", "link.png", "real.png"]);
+}
+
+#[test]
+fn a_closed_or_full_stdout_ends_cleanly() {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_groundscope"))
+        .args(["replay", "--seed", "0", "--episodes", "50"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    // Read one line, then close the pipe like `head -1`.
+    let mut stdout = child.stdout.take().unwrap();
+    let mut first = [0u8; 16];
+    std::io::Read::read_exact(&mut stdout, &mut first).unwrap();
+    drop(stdout);
+    let out = child.wait_with_output().unwrap();
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(
+        out.stderr.is_empty(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let full = Command::new(env!("CARGO_BIN_EXE_groundscope"))
+        .args(["env", "show", "--seed", "3"])
+        .stdout(
+            std::fs::OpenOptions::new()
+                .write(true)
+                .open("/dev/full")
+                .unwrap(),
+        )
+        .output()
+        .unwrap();
+    assert_bad_input(&full, "standard output");
+}
+
+#[test]
+fn unbounded_work_is_refused() {
+    assert_bad_input(&gs(&["bench", "policy", "--secs", "inf"]), "--secs");
+    assert_bad_input(
+        &gs(&["replay", "--episodes", "1000000000", "--save", "x.rrd"]),
+        "--episodes",
+    );
+    assert!(!Path::new("x.rrd").exists());
+}
+
+#[test]
+fn replay_writes_all_outputs_or_none() {
+    let tmp = tempfile::tempdir().unwrap();
+    let rrd = tmp.path().join("x.rrd");
+    let trace = tmp.path().join("t.json");
+    let o = gs(&[
+        "replay",
+        "--seed",
+        "1",
+        "--save",
+        rrd.to_str().unwrap(),
+        "--trace",
+        trace.to_str().unwrap(),
+        "--mcap",
+        "/nonexistent/dir/x.mcap",
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(entries(tmp.path()).is_empty(), "{:?}", entries(tmp.path()));
+}
+
+#[test]
+fn env_verify_compares_directions_and_missions_and_rejects_malformed_images() {
+    let tmp = tempfile::tempdir().unwrap();
+    let src = std::fs::read_to_string(&common::fixtures("minigrid")[0]).unwrap();
+    let write = |name: &str, v: &serde_json::Value| {
+        let p = tmp.path().join(name);
+        std::fs::write(&p, v.to_string()).unwrap();
+        p.display().to_string()
+    };
+    let base: serde_json::Value = serde_json::from_str(&src).unwrap();
+    assert!(!base["steps"].as_array().unwrap().is_empty());
+    for (name, edit) in [
+        (
+            "dir.json",
+            &(|v: &mut serde_json::Value| v["steps"][0]["direction"] = 1000.into())
+                as &dyn Fn(&mut serde_json::Value),
+        ),
+        ("idir.json", &|v| {
+            let d = v["initial_obs"]["direction"].as_i64().unwrap();
+            v["initial_obs"]["direction"] = ((d + 1) % 4).into();
+        }),
+        ("imission.json", &|v| {
+            v["initial_obs"]["mission"] = "go to the red ball".into();
+        }),
+    ] {
+        let mut v = base.clone();
+        edit(&mut v);
+        let o = gs(&["env", "verify", &write(name, &v)]);
+        assert_eq!(o.status.code(), Some(1), "{name} is a mismatch");
+    }
+    let mut v = base.clone();
+    v["steps"][0]["image"][2][3] = serde_json::json!([-1, 0, 0]);
+    assert_bad_input(
+        &gs(&["env", "verify", &write("code.json", &v)]),
+        "steps[0].image[2][3]",
+    );
+    let mut v = base.clone();
+    v["steps"][0]["image"] = serde_json::json!([[[1, 0, 0]]]);
+    assert_bad_input(&gs(&["env", "verify", &write("len.json", &v)]), "7×7");
+    let mut v = base;
+    v["grid"][2][3] = serde_json::json!([0, 0, 0]);
+    assert_bad_input(&gs(&["env", "verify", &write("unseen.json", &v)]), "unseen");
+}
