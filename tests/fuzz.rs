@@ -123,7 +123,9 @@ fn hide_big_integers(text: &str) -> (String, Vec<String>) {
         }
         if !run.is_empty() {
             if run.len() > 18 {
-                out.push_str(&format!("\"__big{}__\"", big.len()));
+                out += "\"__big";
+                out += &big.len().to_string();
+                out += "__\"";
                 big.push(std::mem::take(&mut run));
             } else {
                 out.push_str(&std::mem::take(&mut run));

@@ -105,7 +105,7 @@ fn sigterm_and_sighup_stop_training_with_a_saved_checkpoint() {
     for signal in ["TERM", "HUP"] {
         let tmp = tempfile::tempdir().unwrap();
         let run = tmp.path().join("run");
-        let mut child = Command::new(env!("CARGO_BIN_EXE_groundscope"))
+        let child = Command::new(env!("CARGO_BIN_EXE_groundscope"))
             .args(["train", "--out", run.to_str().unwrap(), "--quiet"])
             .args(TINY_RUN)
             .args(["--frames", "100000000", "--save-interval", "1000000"])

@@ -45,9 +45,12 @@ pub enum Command {
     Eval(Box<eval::EvalArgs>),
     /// Train a policy with recurrent PPO.
     Train(Box<train::TrainArgs>),
-    /// Plot training curves (mean reward against frames, the paper's Fig. 4) from log.csv files.
+    /// Plot training curves (mean reward against frames, the paper's Fig. 4) from log.csv files;
+    /// runs whose directory names differ only in a seed suffix (`-s2`, `_seed3`) are drawn as
+    /// one mean ± std band. Where an eval_log.csv sits beside a log, OUT_grounding.png shows
+    /// grounding emerge (held-out greedy success and acc_ng against frames).
     #[command(
-        after_long_help = "EXAMPLES:\n  groundscope curve runs/attention/log.csv runs/baseline/log.csv --out fig4.png"
+        after_long_help = "EXAMPLES:\n  groundscope curve runs/attention/log.csv runs/baseline/log.csv --out fig4.png\n  groundscope curve runs/att-s1/log.csv runs/att-s2/log.csv runs/att-s3/log.csv --out att.png"
     )]
     Curve {
         /// Training logs; each line's label is its run directory's name.
@@ -77,20 +80,95 @@ pub fn run(cli: Cli, matches: &clap::ArgMatches) -> anyhow::Result<ExitStatus> {
 }
 
 fn curve(logs: &[std::path::PathBuf], out: &std::path::Path) -> anyhow::Result<ExitStatus> {
+    use groundscope::metrics::bands::{band, band_panels, read_columns, recipe_of};
     use groundscope::metrics::figures::{Curve, learning_curve, read_training_log};
-    let mut curves = Vec::new();
+    check_extension(out, "png", "--out")?;
+    // Runs of one recipe (names differing only in a seed suffix) become one band.
+    let mut groups: Vec<(String, Vec<std::path::PathBuf>)> = Vec::new();
     for log in logs {
-        let label = log.parent().and_then(|p| p.file_name()).map_or_else(
+        let run = log.parent().and_then(|p| p.file_name()).map_or_else(
             || log.display().to_string(),
             |n| n.to_string_lossy().into_owned(),
         );
-        curves.push(Curve {
-            label,
-            points: read_training_log(log)?,
-        });
+        let recipe = recipe_of(&run);
+        match groups.iter_mut().find(|g| g.0 == recipe) {
+            Some(g) => g.1.push(log.clone()),
+            None => groups.push((recipe, vec![log.clone()])),
+        }
     }
-    learning_curve(&curves, "Mean reward during training", out)?;
+    if groups.iter().all(|g| g.1.len() == 1) {
+        let mut curves = Vec::new();
+        for (label, paths) in &groups {
+            curves.push(Curve {
+                label: label.clone(),
+                points: read_training_log(&paths[0])?,
+            });
+        }
+        learning_curve(&curves, "Mean reward during training", out)?;
+    } else {
+        let mut bands = Vec::new();
+        for (label, paths) in &groups {
+            let runs = paths
+                .iter()
+                .map(|p| read_training_log(p))
+                .collect::<Result<Vec<_>, _>>()?;
+            bands.push(band(&format!("{label} (n={})", paths.len()), &runs, 100));
+        }
+        band_panels(
+            &[("mean training reward".into(), bands)],
+            "Mean reward during training (mean ± std over seeds)",
+            out,
+        )?;
+    }
     println!("wrote {}", out.display());
+    // Grounding emergence, from the tracked evaluations beside the logs.
+    let metrics = [
+        ("greedy_success", "greedy success (held-out)"),
+        ("object_acc_ng", "object-word acc_ng"),
+        ("color_acc_ng", "colour-word acc_ng"),
+        ("combined_acc_ng", "M on targets, acc_ng"),
+    ];
+    let mut panels: Vec<(String, Vec<groundscope::metrics::bands::Band>)> = metrics
+        .iter()
+        .map(|m| (m.1.to_owned(), Vec::new()))
+        .collect();
+    let mut any = false;
+    for (label, paths) in &groups {
+        let evals: Vec<std::path::PathBuf> = paths
+            .iter()
+            .map(|p| p.with_file_name("eval_log.csv"))
+            .filter(|p| p.exists())
+            .collect();
+        if evals.is_empty() {
+            continue;
+        }
+        any = true;
+        let mut names = vec!["frames"];
+        names.extend(metrics.iter().map(|m| m.0));
+        let tables = evals
+            .iter()
+            .map(|p| read_columns(p, &names))
+            .collect::<Result<Vec<_>, _>>()?;
+        for (k, panel) in panels.iter_mut().enumerate() {
+            let runs: Vec<Vec<(f64, f64)>> = tables
+                .iter()
+                .map(|rows| rows.iter().map(|r| (r[0], r[k + 1])).collect())
+                .collect();
+            panel
+                .1
+                .push(band(&format!("{label} (n={})", evals.len()), &runs, 50));
+        }
+    }
+    if any {
+        let stem = out.with_extension("");
+        let g = std::path::PathBuf::from(format!("{}_grounding.png", stem.display()));
+        band_panels(
+            &panels,
+            "Grounding emergence (tracked held-out evaluation)",
+            &g,
+        )?;
+        println!("wrote {}", g.display());
+    }
     Ok(ExitStatus::Success)
 }
 

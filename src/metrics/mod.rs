@@ -1,5 +1,6 @@
 //! Metrics and reports: the paper's grounding accuracies, evaluation sweeps, figures.
 
+pub mod bands;
 pub mod error;
 pub mod figures;
 pub mod grounding;

@@ -1,0 +1,270 @@
+//! Several training runs of one recipe drawn as a mean ± std band, and the grounding-emergence
+//! figure (accuracies of the tracked held-out evaluation against frames, `eval_log.csv`).
+
+use std::path::Path;
+
+use plotters::prelude::*;
+
+use super::error::MetricsError;
+use super::figures::{SERIES_COLORS, register_font, save_rgb};
+
+/// A recipe's runs reduced to one line: `(frames, mean, std over runs, runs)` per bin.
+#[derive(Clone, Debug)]
+pub struct Band {
+    /// Legend label (the recipe: run names less their seed suffix).
+    pub label: String,
+    /// Points in frame order.
+    pub points: Vec<(f64, f64, f64, usize)>,
+}
+
+/// The recipe a run directory belongs to: its name without a trailing seed suffix
+/// (`babyai-s2`, `att_seed3`, `x-seed1` → `babyai`, `att`, `x`).
+pub fn recipe_of(run: &str) -> String {
+    for sep in ["-seed", "_seed", "-s", "_s"] {
+        if let Some(i) = run.rfind(sep) {
+            let tail = &run[i + sep.len()..];
+            if !tail.is_empty() && tail.bytes().all(|b| b.is_ascii_digit()) {
+                return run[..i].to_owned();
+            }
+        }
+    }
+    run.to_owned()
+}
+
+/// Reduces runs (each a list of `(frames, y)`) to a band: each run is averaged within `bins`
+/// equal frame intervals up to the longest run, then mean and population std are taken over
+/// the runs that reached that interval.
+pub fn band(label: &str, runs: &[Vec<(f64, f64)>], bins: usize) -> Band {
+    let x_max = runs
+        .iter()
+        .flat_map(|r| r.iter().map(|p| p.0))
+        .fold(0.0f64, f64::max);
+    let bins = bins.max(1);
+    let width = (x_max / bins as f64).max(1.0);
+    let mut points = Vec::new();
+    for b in 0..bins {
+        let (lo, hi) = (b as f64 * width, (b + 1) as f64 * width);
+        let per_run: Vec<f64> = runs
+            .iter()
+            .filter_map(|r| {
+                let ys: Vec<f64> = r
+                    .iter()
+                    .filter(|p| p.0 > lo && p.0 <= hi && p.1.is_finite())
+                    .map(|p| p.1)
+                    .collect();
+                (!ys.is_empty()).then(|| ys.iter().sum::<f64>() / ys.len() as f64)
+            })
+            .collect();
+        if per_run.is_empty() {
+            continue;
+        }
+        let n = per_run.len() as f64;
+        let mean = per_run.iter().sum::<f64>() / n;
+        let std = (per_run.iter().map(|y| (y - mean).powi(2)).sum::<f64>() / n).sqrt();
+        points.push((f64::midpoint(lo, hi), mean, std, per_run.len()));
+    }
+    Band {
+        label: label.to_owned(),
+        points,
+    }
+}
+
+/// Reads columns of a CSV log as numbers, one row per line; an empty field is NaN (a metric
+/// that was not measured). Names the file, line and column of anything else.
+pub fn read_columns(path: &Path, names: &[&str]) -> Result<Vec<Vec<f64>>, MetricsError> {
+    let io = |e: std::io::Error| MetricsError::Io {
+        path: path.to_path_buf(),
+        reason: e.to_string(),
+    };
+    let text = std::fs::read_to_string(path).map_err(io)?;
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap_or_default().split(',').collect();
+    let cols = names
+        .iter()
+        .map(|name| {
+            header
+                .iter()
+                .position(|h| h == name)
+                .ok_or_else(|| MetricsError::Format {
+                    path: path.to_path_buf(),
+                    field: (*name).to_owned(),
+                    reason: "column missing from the header".into(),
+                })
+        })
+        .collect::<Result<Vec<usize>, _>>()?;
+    let mut rows = Vec::new();
+    for (i, line) in lines.enumerate() {
+        let cells: Vec<&str> = line.split(',').collect();
+        let row = cols
+            .iter()
+            .map(|&c| match cells.get(c) {
+                Some(&"") => Ok(f64::NAN),
+                Some(v) => v.parse::<f64>().map_err(|_| ()),
+                None => Err(()),
+            })
+            .collect::<Result<Vec<f64>, ()>>()
+            .map_err(|()| MetricsError::Format {
+                path: path.to_path_buf(),
+                field: format!("line {}", i + 2),
+                reason: "a value is missing or not a number".into(),
+            })?;
+        rows.push(row);
+    }
+    Ok(rows)
+}
+
+/// Draws one panel per `(title, y label, bands)` side by side: each band a mean line with a
+/// shaded ±std region (no region where a recipe has one run).
+pub fn band_panels(
+    panels: &[(String, Vec<Band>)],
+    title: &str,
+    path: &Path,
+) -> Result<(), MetricsError> {
+    register_font();
+    let err = |e: &dyn std::fmt::Display| MetricsError::Io {
+        path: path.to_path_buf(),
+        reason: e.to_string(),
+    };
+    let panel_w = 460u32;
+    let (w, h) = (panel_w * panels.len().max(1) as u32, 460u32);
+    let mut buf = vec![0u8; (w * h * 3) as usize];
+    {
+        let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| err(&e))?;
+        let root = root
+            .titled(title, ("sans-serif", 22))
+            .map_err(|e| err(&e))?;
+        let areas = root.split_evenly((1, panels.len().max(1)));
+        for ((name, bands), area) in panels.iter().zip(areas) {
+            let x_max = bands
+                .iter()
+                .flat_map(|b| b.points.iter().map(|p| p.0))
+                .fold(1.0f64, f64::max);
+            let mut chart = ChartBuilder::on(&area)
+                .caption(name, ("sans-serif", 17))
+                .margin(10)
+                .x_label_area_size(40)
+                .y_label_area_size(48)
+                .build_cartesian_2d(0.0..x_max * 1.02, 0.0..1.0f64)
+                .map_err(|e| err(&e))?;
+            chart
+                .configure_mesh()
+                .x_desc("frames")
+                .x_label_formatter(&|x| format!("{:.1}M", x / 1e6))
+                .label_style(("sans-serif", 13))
+                .draw()
+                .map_err(|e| err(&e))?;
+            for (i, b) in bands.iter().enumerate() {
+                let color = SERIES_COLORS[i % SERIES_COLORS.len()];
+                let pts: Vec<&(f64, f64, f64, usize)> =
+                    b.points.iter().filter(|p| p.1.is_finite()).collect();
+                if pts.iter().any(|p| p.3 > 1) {
+                    let mut poly: Vec<(f64, f64)> =
+                        pts.iter().map(|p| (p.0, (p.1 + p.2).min(1.0))).collect();
+                    poly.extend(pts.iter().rev().map(|p| (p.0, (p.1 - p.2).max(0.0))));
+                    chart
+                        .draw_series(std::iter::once(Polygon::new(poly, color.mix(0.2).filled())))
+                        .map_err(|e| err(&e))?;
+                }
+                chart
+                    .draw_series(LineSeries::new(
+                        pts.iter().map(|p| (p.0, p.1)),
+                        color.stroke_width(3),
+                    ))
+                    .map_err(|e| err(&e))?
+                    .label(b.label.clone())
+                    .legend(move |(x, y)| {
+                        PathElement::new(vec![(x, y), (x + 24, y)], color.stroke_width(3))
+                    });
+            }
+            chart
+                .configure_series_labels()
+                .position(SeriesLabelPosition::LowerRight)
+                .background_style(WHITE.mix(0.85))
+                .border_style(BLACK)
+                .label_font(("sans-serif", 14))
+                .draw()
+                .map_err(|e| err(&e))?;
+        }
+        root.present().map_err(|e| err(&e))?;
+    }
+    save_rgb(&buf, w, h, path)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn recipes_drop_seed_suffixes_only() {
+        assert_eq!(recipe_of("babyai-s2"), "babyai");
+        assert_eq!(recipe_of("att_seed3"), "att");
+        assert_eq!(recipe_of("x20-seed11"), "x20");
+        assert_eq!(recipe_of("att-fast5M"), "att-fast5M");
+        assert_eq!(recipe_of("runs-s"), "runs-s");
+    }
+
+    #[test]
+    fn bands_average_within_bins_then_across_runs() {
+        let a = vec![(1.0, 0.0), (2.0, 0.2), (3.0, 0.4), (4.0, 0.6)];
+        let b = vec![(1.0, 1.0), (2.0, 1.0), (3.0, 1.0)];
+        let band = band("r", &[a, b], 2);
+        // Bin 1 (0, 2]: run a 0.1, run b 1.0; bin 2 (2, 4]: run a 0.5, run b 1.0.
+        assert_eq!(band.points.len(), 2);
+        let (x, m, s, n) = band.points[0];
+        assert_eq!((x, n), (1.0, 2));
+        assert!((m - 0.55).abs() < 1e-12 && (s - 0.45).abs() < 1e-12);
+        let (_, m, s, n) = band.points[1];
+        assert_eq!(n, 2);
+        assert!((m - 0.75).abs() < 1e-12 && (s - 0.25).abs() < 1e-12);
+    }
+
+    #[test]
+    fn empty_fields_read_as_nan_and_bad_ones_are_named() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("eval_log.csv");
+        std::fs::write(&p, "frames,acc\n10,0.5\n20,\n").unwrap();
+        let rows = read_columns(&p, &["frames", "acc"]).unwrap();
+        assert_eq!(rows[0], vec![10.0, 0.5]);
+        assert!(rows[1][1].is_nan());
+        std::fs::write(&p, "frames,acc\n10,x\n").unwrap();
+        let e = read_columns(&p, &["frames", "acc"])
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("line 2"), "{e}");
+        let e = read_columns(&p, &["frames", "nope"])
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("nope"), "{e}");
+    }
+
+    #[test]
+    fn panels_draw_a_band_for_several_runs() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("g.png");
+        let runs: Vec<Vec<(f64, f64)>> = (0..3)
+            .map(|k| {
+                (1..=40)
+                    .map(|i| (i as f64 * 1e5, 0.02 * i as f64 - 0.05 * k as f64 + 0.1))
+                    .collect()
+            })
+            .collect();
+        let b = band("recipe", &runs, 20);
+        band_panels(&[("success".into(), vec![b])], "t", &p).unwrap();
+        let img = image::open(&p).unwrap().to_rgb8();
+        assert_eq!(img.dimensions(), (460, 460));
+        let c = SERIES_COLORS[0];
+        assert!(
+            img.pixels().any(|px| px.0 == [c.0, c.1, c.2]),
+            "the mean line is drawn"
+        );
+        // The band is the line colour at 20% over white.
+        let shade = |v: u8| (f64::from(v) * 0.2 + 255.0 * 0.8).round() as u8;
+        let tint = [shade(c.0), shade(c.1), shade(c.2)];
+        let near = img
+            .pixels()
+            .filter(|px| px.0.iter().zip(tint).all(|(a, b)| a.abs_diff(b) <= 2))
+            .count();
+        assert!(near > 200, "the band is shaded ({near} px)");
+    }
+}
