@@ -8,16 +8,10 @@
 
 mod common;
 
-use std::path::Path;
-use std::process::{Command, Output};
+use common::{assert_bad_input, gs};
 
-fn gs(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_groundscope"))
-        .args(args)
-        .env("RAYON_NUM_THREADS", "1")
-        .output()
-        .expect("the binary runs")
-}
+use std::path::Path;
+use std::process::Output;
 
 fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
@@ -25,17 +19,6 @@ fn stderr(o: &Output) -> String {
 
 fn stdout(o: &Output) -> String {
     String::from_utf8_lossy(&o.stdout).into_owned()
-}
-
-/// Exit code 2 and a single `groundscope: …` line that mentions `what`.
-fn assert_bad_input(o: &Output, what: &str) {
-    let err = stderr(o);
-    assert_eq!(o.status.code(), Some(2), "stderr: {err}");
-    assert_eq!(err.trim_end().lines().count(), 1, "one line: {err}");
-    assert!(
-        err.starts_with("groundscope: ") && err.contains(what),
-        "expected {what:?} in {err:?}"
-    );
 }
 
 #[test]

@@ -8,26 +8,11 @@
 
 mod common;
 
+use common::{assert_bad_input, gs};
+
 use std::os::unix::fs::FileTypeExt as _;
 use std::path::Path;
 use std::process::{Command, Output, Stdio};
-
-fn gs(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_groundscope"))
-        .args(args)
-        .output()
-        .expect("the binary runs")
-}
-
-fn assert_bad_input(o: &Output, what: &str) {
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(o.status.code(), Some(2), "stderr: {err}");
-    assert_eq!(err.trim_end().lines().count(), 1, "one line: {err}");
-    assert!(
-        err.starts_with("groundscope: ") && err.contains(what),
-        "expected {what:?} in {err:?}"
-    );
-}
 
 fn entries(dir: &Path) -> Vec<String> {
     let mut v: Vec<String> = std::fs::read_dir(dir)

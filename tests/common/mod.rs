@@ -8,6 +8,27 @@
 #![allow(dead_code, reason = "each test binary uses a subset of the helpers")]
 
 use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+/// Runs the groundscope binary with `args` (one candle thread, as CI).
+pub fn gs(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_groundscope"))
+        .args(args)
+        .env("RAYON_NUM_THREADS", "1")
+        .output()
+        .expect("the binary runs")
+}
+
+/// Exit code 2 and a single `groundscope: …` line that mentions `what`.
+pub fn assert_bad_input(o: &Output, what: &str) {
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "stderr: {err}");
+    assert_eq!(err.trim_end().lines().count(), 1, "one line: {err}");
+    assert!(
+        err.starts_with("groundscope: ") && err.contains(what),
+        "expected {what:?} in {err:?}"
+    );
+}
 
 /// The fixture files of `tests/fixtures/<set>`, sorted.
 pub fn fixtures(set: &str) -> Vec<PathBuf> {
