@@ -7,6 +7,8 @@
     reason = "test helpers fail loudly"
 )]
 
+mod common;
+
 use std::path::Path;
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
@@ -22,20 +24,9 @@ fn start(dir: &Path, frames: u64, resume: bool) -> Child {
         dir.to_str().unwrap(),
         "--frames",
         &frames.to_string(),
-        "--size",
-        "5",
-        "--objects",
-        "1",
-        "--tasks",
-        "goto",
-        "--procs",
-        "2",
-        "--frames-per-proc",
-        "8",
-        "--batch-size",
-        "8",
-        "--hidden",
-        "8",
+    ])
+    .args(common::TINY_RUN)
+    .args([
         "--save-interval",
         "1",
         "--eval-interval",

@@ -8,7 +8,7 @@
 
 mod common;
 
-use common::{assert_bad_input, gs};
+use common::{TINY_RUN, assert_bad_input, gs};
 
 use std::os::unix::fs::FileTypeExt as _;
 use std::path::Path;
@@ -22,23 +22,6 @@ fn entries(dir: &Path) -> Vec<String> {
     v.sort();
     v
 }
-
-const TINY_RUN: [&str; 14] = [
-    "--size",
-    "5",
-    "--objects",
-    "1",
-    "--tasks",
-    "goto",
-    "--procs",
-    "2",
-    "--frames-per-proc",
-    "8",
-    "--batch-size",
-    "8",
-    "--hidden",
-    "8",
-];
 
 fn train(dir: &Path, extra: &[&str]) -> Output {
     let mut args = vec!["train", "--out", dir.to_str().unwrap(), "--quiet"];

@@ -63,12 +63,8 @@ fn generations(run: &Path) -> Vec<(u64, PathBuf)> {
 }
 
 /// Saves the trainer as a new generation of `run` and publishes it as `RUN/model`.
-pub fn save(
-    trainer: &Trainer,
-    run: &Path,
-    seed: u64,
-    training: TrainingState,
-) -> anyhow::Result<()> {
+pub fn save(trainer: &Trainer, run: &Path, training: TrainingState) -> anyhow::Result<()> {
+    let seed = training.seed;
     let parent = checkpoints_dir(run);
     std::fs::create_dir_all(&parent).with_context(|| format!("creating {}", parent.display()))?;
     remove_stale(&parent, ".saving-");

@@ -166,7 +166,7 @@ fn training_state(
 /// Saves a generation and redraws the run's learning curve (a figure: its failure is
 /// reported, not fatal, since the checkpoint is already safe).
 fn save_run(trainer: &Trainer, dir: &Path, training: TrainingState) -> anyhow::Result<()> {
-    run_dir::save(trainer, dir, training.seed, training)?;
+    run_dir::save(trainer, dir, training)?;
     let drawn = groundscope::metrics::figures::read_training_log(&dir.join("log.csv"))
         .map_err(anyhow::Error::from)
         .and_then(|points| {

@@ -60,3 +60,22 @@ pub fn for_each_fixture(set: &str, check: impl Fn(&Path) -> Result<(), String>) 
     );
     n
 }
+
+/// A training run small enough to take milliseconds an update (S5N1, go to, 2 × 8 frames,
+/// hidden 8): flag and value pairs.
+pub const TINY_RUN: [&str; 14] = [
+    "--size",
+    "5",
+    "--objects",
+    "1",
+    "--tasks",
+    "goto",
+    "--procs",
+    "2",
+    "--frames-per-proc",
+    "8",
+    "--batch-size",
+    "8",
+    "--hidden",
+    "8",
+];
