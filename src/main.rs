@@ -23,6 +23,7 @@ pub enum ExitStatus {
 
 fn main() -> ExitCode {
     one_candle_thread_by_default();
+    file_size_limit_is_an_error();
     // `println!` panics when stdout is closed or full. Those panics are not bugs: they are
     // turned into ripgrep's behaviour (a broken pipe ends quietly with 0, a full disk is a
     // one-line error with 2) after unwinding, which removes any temporary output files.
@@ -110,3 +111,21 @@ fn one_candle_thread_by_default() {
         }
     }
 }
+
+/// Under `ulimit -f` a write past the limit raises SIGXFSZ, whose default action kills the
+/// process with temporary files left behind. Ignored, the write fails with EFBIG instead and
+/// is reported like any other write error (one line, exit 2, nothing left over).
+#[cfg(unix)]
+#[expect(
+    unsafe_code,
+    reason = "signal() with SIG_IGN before any other thread exists"
+)]
+fn file_size_limit_is_an_error() {
+    // SAFETY: ignoring a signal installs no handler code; called while single-threaded.
+    unsafe {
+        libc::signal(libc::SIGXFSZ, libc::SIG_IGN);
+    }
+}
+
+#[cfg(not(unix))]
+fn file_size_limit_is_an_error() {}

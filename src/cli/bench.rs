@@ -17,7 +17,7 @@ pub enum BenchCommand {
     /// observation included.
     Env {
         /// Steps to time.
-        #[arg(long, default_value_t = 5_000_000)]
+        #[arg(long, default_value_t = 5_000_000, allow_negative_numbers = true)]
         steps: u64,
     },
     /// Policy speed, one thread: batched inference steps/s at batch 1 and 256, and training
@@ -27,14 +27,14 @@ pub enum BenchCommand {
         #[arg(long, default_value = "attention")]
         model: String,
         /// Seconds to spend on each measurement.
-        #[arg(long, default_value_t = 3.0)]
+        #[arg(long, default_value_t = 3.0, allow_negative_numbers = true)]
         secs: f64,
     },
     /// Recording speed and size: the bundled attention checkpoint's episodes on consecutive
     /// seeds written as `.rrd` and as MCAP (episodes are run first and not timed).
     Record {
         /// Episodes to record.
-        #[arg(long, default_value_t = 50)]
+        #[arg(long, default_value_t = 50, allow_negative_numbers = true)]
         episodes: u64,
     },
 }

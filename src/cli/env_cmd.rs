@@ -12,10 +12,20 @@ use crate::ExitStatus;
 #[derive(Clone, Debug, Args)]
 pub struct LevelArgs {
     /// Room side S, walls included (the paper trains on 8).
-    #[arg(long, value_name = "S", default_value_t = 8)]
+    #[arg(
+        long,
+        value_name = "S",
+        default_value_t = 8,
+        allow_negative_numbers = true
+    )]
     pub size: usize,
     /// Number of objects N (the paper trains on 4).
-    #[arg(long, value_name = "N", default_value_t = 4)]
+    #[arg(
+        long,
+        value_name = "N",
+        default_value_t = 4,
+        allow_negative_numbers = true
+    )]
     pub objects: usize,
     /// Task kinds: goto, pickup or both.
     #[arg(long, value_name = "KINDS", default_value = "both")]

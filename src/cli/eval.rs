@@ -31,31 +31,41 @@ pub struct EvalArgs {
     #[arg(long, value_name = "DIR")]
     pub out: PathBuf,
     /// Room sizes of the sweep.
-    #[arg(long, value_delimiter = ',', default_value = "8,10,12,14,16")]
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "8,10,12,14,16",
+        allow_negative_numbers = true
+    )]
     pub sizes: Vec<usize>,
     /// Object counts of the sweep.
-    #[arg(long, value_delimiter = ',', default_value = "4,6,8,10")]
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "4,6,8,10",
+        allow_negative_numbers = true
+    )]
     pub objects: Vec<usize>,
     /// Evaluation seeds per cell (mean ± std is over these).
-    #[arg(long, default_value_t = 5)]
+    #[arg(long, default_value_t = 5, allow_negative_numbers = true)]
     pub seeds: u64,
     /// Episodes per seed.
-    #[arg(long, default_value_t = 100)]
+    #[arg(long, default_value_t = 100, allow_negative_numbers = true)]
     pub episodes: u64,
     /// Threshold factor α of the grounding accuracies (τ = α / n).
-    #[arg(long, default_value_t = 0.5)]
+    #[arg(long, default_value_t = 0.5, allow_negative_numbers = true)]
     pub alpha: f64,
     /// Sample actions instead of taking the most probable one.
     #[arg(long)]
     pub sample: bool,
     /// How many worst episodes of each kind to list.
-    #[arg(long, default_value_t = 10)]
+    #[arg(long, default_value_t = 10, allow_negative_numbers = true)]
     pub top_k: usize,
     /// Exit 1 if any cell's mean success rate is below this.
-    #[arg(long, value_name = "X")]
+    #[arg(long, value_name = "X", allow_negative_numbers = true)]
     pub min_success: Option<f64>,
     /// Exit 1 if any attention cell's mean object-word acc_ng is below this.
-    #[arg(long, value_name = "X")]
+    #[arg(long, value_name = "X", allow_negative_numbers = true)]
     pub min_acc_ng: Option<f64>,
     /// Hide the progress bar.
     #[arg(long)]
@@ -64,7 +74,7 @@ pub struct EvalArgs {
     #[arg(long)]
     pub export_failures: bool,
     /// Worker threads; each evaluates whole cells (default: one per core).
-    #[arg(long, value_name = "N")]
+    #[arg(long, value_name = "N", allow_negative_numbers = true)]
     pub jobs: Option<usize>,
 }
 

@@ -19,7 +19,7 @@ pub struct InitArgs {
     #[arg(long, value_name = "MODEL", default_value = "attention")]
     pub model: String,
     /// Initialisation seed (same seed → identical bytes).
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = 0, allow_negative_numbers = true)]
     pub seed: u64,
     /// Checkpoint name: writes NAME.safetensors and NAME.json.
     #[arg(long, value_name = "NAME")]

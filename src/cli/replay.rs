@@ -8,8 +8,11 @@ use std::time::Instant;
 
 use anyhow::Context as _;
 use clap::Args;
-use groundscope::episode::{ActionMode, EpisodeSpec, EpisodeTrace, run_episode};
-use groundscope::record::{RerunTargets, StopFlag, record_rerun, write_mcap};
+use groundscope::env::vocab::{tokenize, word};
+use groundscope::episode::{ActionMode, EpisodeSpec, EpisodeTrace, initial_world, run_episode};
+use groundscope::record::{
+    McapRecorder, RecordError, RerunRecorder, RerunTargets, StopFlag, episode_scenes, word_paths,
+};
 
 use crate::ExitStatus;
 use crate::cli::check_extension;
@@ -31,10 +34,15 @@ pub struct ReplayArgs {
     #[arg(long, value_name = "NAME")]
     pub checkpoint: Option<String>,
     /// Level seed (of the first episode).
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = 0, allow_negative_numbers = true)]
     pub seed: u64,
     /// Number of episodes, on consecutive seeds from --seed.
-    #[arg(long, default_value_t = 1, value_name = "K")]
+    #[arg(
+        long,
+        default_value_t = 1,
+        value_name = "K",
+        allow_negative_numbers = true
+    )]
     pub episodes: u64,
     /// Replace the generated mission (vocabulary words only).
     #[arg(long, value_name = "TEXT")]
@@ -43,10 +51,10 @@ pub struct ReplayArgs {
     #[arg(long)]
     pub sample: bool,
     /// Room size; defaults to the level the checkpoint was trained on.
-    #[arg(long, value_name = "S")]
+    #[arg(long, value_name = "S", allow_negative_numbers = true)]
     pub size: Option<usize>,
     /// Number of objects; defaults to the checkpoint's level.
-    #[arg(long, value_name = "N")]
+    #[arg(long, value_name = "N", allow_negative_numbers = true)]
     pub objects: Option<usize>,
     /// Write the episode trace here (JSON; one episode only).
     #[arg(long, value_name = "FILE")]
@@ -64,21 +72,15 @@ pub struct ReplayArgs {
     #[arg(long, value_name = "FILE.mcap")]
     pub mcap: Option<PathBuf>,
     /// Threshold fraction α of the grounding hit/miss marks (τ = α / n).
-    #[arg(long, default_value_t = 0.5)]
+    #[arg(long, default_value_t = 0.5, allow_negative_numbers = true)]
     pub alpha: f64,
 }
 
-/// The most episodes one `replay` holds and records.
-const MAX_EPISODES: u64 = 1000;
-
-/// Runs `replay`.
+/// Runs `replay`. Episodes are streamed: each is run, printed and recorded while the next
+/// one runs, so memory does not grow with `--episodes`.
 pub fn replay(args: &ReplayArgs) -> anyhow::Result<ExitStatus> {
-    if args.episodes == 0 || args.episodes > MAX_EPISODES {
-        // Episodes are kept in memory until they are recorded (about 1 MB each at worst).
-        anyhow::bail!(
-            "--episodes {}: must be in 1..={MAX_EPISODES} (record more as several files)",
-            args.episodes
-        );
+    if args.episodes == 0 {
+        anyhow::bail!("--episodes 0: give at least one episode");
     }
     if args.trace.is_some() && args.episodes > 1 {
         anyhow::bail!("--trace writes one episode; drop --episodes or use --save / --mcap");
@@ -92,6 +94,12 @@ pub fn replay(args: &ReplayArgs) -> anyhow::Result<ExitStatus> {
     if let Some(p) = &args.mcap {
         check_extension(p, "mcap", "--mcap")?;
     }
+    let stop: StopFlag = Arc::new(AtomicBool::new(false));
+    {
+        let s = stop.clone();
+        // A second handler cannot be installed in the same process (tests call `run` once).
+        let _ = ctrlc::set_handler(move || s.store(true, Ordering::Relaxed));
+    }
     let (ckpt, name) = load_checkpoint(args.checkpoint.as_deref())?;
     let level = level_with(&ckpt, args.size, args.objects)?;
     let mode = if args.sample {
@@ -103,52 +111,109 @@ pub fn replay(args: &ReplayArgs) -> anyhow::Result<ExitStatus> {
         .seed
         .checked_add(args.episodes - 1)
         .context("--seed + --episodes overflows")?;
-    let mut episodes: Vec<EpisodeTrace> = Vec::new();
-    for seed in args.seed..=last {
-        let spec = EpisodeSpec {
-            level,
-            seed,
-            mission: args.mission.clone(),
-            mode,
-        };
-        let trace = run_episode(&ckpt, &name, &spec)?;
-        println!(
-            "{} on {level} seed {seed}: \"{}\" → {} in {} steps, reward {:.3}",
-            ckpt.meta.model.variant.name(),
-            trace.mission,
-            if trace.success() {
-                "success"
-            } else {
-                "failure"
-            },
-            trace.steps.len(),
-            trace.total_reward()
-        );
-        episodes.push(trace);
+    let spec = |seed| EpisodeSpec {
+        level,
+        seed,
+        mission: args.mission.clone(),
+        mode,
+    };
+    let wants_rerun = args.save.is_some() || args.spawn || args.connect.is_some();
+    let n = usize::try_from(args.episodes).context("--episodes is too large")?;
+    // The blueprint shows one view per word map of the whole recording: the missions come
+    // from the levels alone, without running the policy.
+    let mut paths = Vec::new();
+    if wants_rerun && ckpt.meta.model.variant.name() == "attention" {
+        let mut missions = std::collections::BTreeSet::new();
+        for seed in args.seed..=last {
+            if stop.load(Ordering::Relaxed) {
+                return Err(RecordError::Interrupted.into());
+            }
+            missions.insert(initial_world(&spec(seed))?.mission);
+        }
+        let words = missions
+            .iter()
+            .map(|m| tokenize(m).map(|t| t.iter().map(|&i| word(i).unwrap_or("?")).collect()))
+            .collect::<Result<Vec<Vec<&str>>, _>>()?;
+        paths = word_paths(words);
     }
-    let stop: StopFlag = Arc::new(AtomicBool::new(false));
-    let wants_record = args.save.is_some() || args.spawn || args.connect.is_some();
-    if wants_record || args.mcap.is_some() {
-        let s = stop.clone();
-        // A second handler cannot be installed in the same process (tests call `run` once).
-        let _ = ctrlc::set_handler(move || s.store(true, Ordering::Relaxed));
+    // Destinations that can be checked before any work are checked now.
+    let mut mcap = args.mcap.as_deref().map(McapRecorder::create).transpose()?;
+    let mut rerun: Option<RerunRecorder> = None;
+    let targets = RerunTargets {
+        save: args.save.clone(),
+        spawn: args.spawn,
+        connect: args.connect.clone(),
+    };
+    let recording = wants_rerun || mcap.is_some();
+    let t0 = Instant::now();
+    let mut kept: Option<EpisodeTrace> = None;
+    std::thread::scope(|scope| -> anyhow::Result<()> {
+        let (tx, rx) = std::sync::mpsc::sync_channel(1);
+        let stop_worker = &stop;
+        let (ckpt, name, alpha, spec) = (&ckpt, &name, args.alpha, &spec);
+        scope.spawn(move || {
+            for seed in args.seed..=last {
+                if stop_worker.load(Ordering::Relaxed) {
+                    break;
+                }
+                let item = run_episode(ckpt, name, &spec(seed)).map(|trace| {
+                    let scenes = if recording {
+                        episode_scenes(&trace, alpha)
+                    } else {
+                        Vec::new()
+                    };
+                    (trace, scenes)
+                });
+                let failed = item.is_err();
+                if tx.send(item).is_err() || failed {
+                    break;
+                }
+            }
+        });
+        for item in rx {
+            let (trace, scenes) = item?;
+            println!(
+                "{} on {level} seed {}: \"{}\" → {} in {} steps, reward {:.3}",
+                ckpt.meta.model.variant.name(),
+                trace.seed,
+                trace.mission,
+                if trace.success() {
+                    "success"
+                } else {
+                    "failure"
+                },
+                trace.steps.len(),
+                trace.total_reward()
+            );
+            if wants_rerun {
+                let r = match &mut rerun {
+                    Some(r) => r,
+                    None => rerun.insert(RerunRecorder::start(&targets, &trace, n, &paths)?),
+                };
+                r.push(&trace, &scenes, Some(&stop))?;
+            }
+            if let Some(m) = &mut mcap {
+                m.push(&trace, &scenes, Some(&stop))?;
+            }
+            if args.trace.is_some() {
+                kept = Some(trace);
+            }
+        }
+        Ok(())
+    })?;
+    if stop.load(Ordering::Relaxed) {
+        return Err(RecordError::Interrupted.into());
     }
     // All outputs or none: a later output that fails removes the ones this run wrote.
     let mut written = Written(Vec::new());
-    if wants_record {
-        let targets = RerunTargets {
-            save: args.save.clone(),
-            spawn: args.spawn,
-            connect: args.connect.clone(),
-        };
-        let t0 = Instant::now();
-        let stats = record_rerun(&episodes, &targets, args.alpha, Some(&stop))?;
+    if let Some(r) = rerun {
+        let stats = r.finish()?;
         let secs = t0.elapsed().as_secs_f64();
         if let Some(p) = &args.save {
             written.0.push(p.clone());
             let bytes = std::fs::metadata(p).map_or(0, |m| m.len());
             println!(
-                "wrote {} ({} episodes, {} steps, {bytes} bytes = {:.1} KB/step, {:.0} steps/s)",
+                "wrote {} ({} episodes, {} steps, {bytes} bytes = {:.1} KB/step, {:.0} steps/s with the policy)",
                 p.display(),
                 stats.episodes,
                 stats.steps,
@@ -160,22 +225,19 @@ pub fn replay(args: &ReplayArgs) -> anyhow::Result<ExitStatus> {
             println!("streamed {} steps to the Rerun viewer", stats.steps);
         }
     }
-    if let Some(path) = &args.mcap {
-        let t0 = Instant::now();
-        let stats = write_mcap(&episodes, path, args.alpha, Some(&stop))?;
+    if let (Some(m), Some(path)) = (mcap, &args.mcap) {
+        let stats = m.finish()?;
         written.0.push(path.clone());
-        let secs = t0.elapsed().as_secs_f64();
         let bytes = std::fs::metadata(path).map_or(0, |m| m.len());
         println!(
-            "wrote {} ({} steps on {} topics, {bytes} bytes = {:.1} KB/step, {:.0} steps/s)",
+            "wrote {} ({} steps on {} topics, {bytes} bytes = {:.1} KB/step)",
             path.display(),
             stats.steps,
             stats.messages.len(),
             bytes as f64 / 1000.0 / stats.steps.max(1) as f64,
-            stats.steps as f64 / secs.max(1e-9)
         );
     }
-    if let (Some(path), [trace]) = (&args.trace, episodes.as_slice()) {
+    if let (Some(path), Some(trace)) = (&args.trace, &kept) {
         trace.save_json(path)?;
         println!("wrote {}", path.display());
     }

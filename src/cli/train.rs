@@ -33,10 +33,10 @@ pub struct TrainArgs {
     #[arg(long, value_name = "DIR")]
     pub out: PathBuf,
     /// Train until this many frames in total (a resumed run counts its earlier frames).
-    #[arg(long, default_value_t = 5_000_000)]
+    #[arg(long, default_value_t = 5_000_000, allow_negative_numbers = true)]
     pub frames: u64,
     /// Seed of the initial weights and of the sampling / shuffling streams.
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = 1, allow_negative_numbers = true)]
     pub seed: u64,
     /// Continue the run in --out exactly where it stopped (weights, Adam, RNGs, environments).
     #[arg(long)]
@@ -47,69 +47,69 @@ pub struct TrainArgs {
     #[arg(long, value_name = "NAME", conflicts_with = "resume")]
     pub init: Option<String>,
     /// Save a checkpoint every this many updates.
-    #[arg(long, default_value_t = 10)]
+    #[arg(long, default_value_t = 10, allow_negative_numbers = true)]
     pub save_interval: u64,
     #[command(flatten)]
     pub level: LevelArgs,
     /// Environments stepped together.
-    #[arg(long, default_value_t = PpoConfig::default().procs)]
+    #[arg(long, default_value_t = PpoConfig::default().procs, allow_negative_numbers = true)]
     pub procs: usize,
     /// Frames per environment per update.
-    #[arg(long, default_value_t = PpoConfig::default().frames_per_proc)]
+    #[arg(long, default_value_t = PpoConfig::default().frames_per_proc, allow_negative_numbers = true)]
     pub frames_per_proc: usize,
     /// PPO epochs per update.
-    #[arg(long, default_value_t = PpoConfig::default().epochs)]
+    #[arg(long, default_value_t = PpoConfig::default().epochs, allow_negative_numbers = true)]
     pub epochs: usize,
     /// Frames per minibatch.
-    #[arg(long, default_value_t = PpoConfig::default().batch_size)]
+    #[arg(long, default_value_t = PpoConfig::default().batch_size, allow_negative_numbers = true)]
     pub batch_size: usize,
     /// BPTT chunk length.
-    #[arg(long, default_value_t = PpoConfig::default().recurrence)]
+    #[arg(long, default_value_t = PpoConfig::default().recurrence, allow_negative_numbers = true)]
     pub recurrence: usize,
     /// Adam learning rate.
-    #[arg(long, default_value_t = PpoConfig::default().lr)]
+    #[arg(long, default_value_t = PpoConfig::default().lr, allow_negative_numbers = true)]
     pub lr: f64,
     /// Adam epsilon.
-    #[arg(long, default_value_t = PpoConfig::default().adam_eps)]
+    #[arg(long, default_value_t = PpoConfig::default().adam_eps, allow_negative_numbers = true)]
     pub adam_eps: f64,
     /// Discount factor.
-    #[arg(long, default_value_t = PpoConfig::default().discount)]
+    #[arg(long, default_value_t = PpoConfig::default().discount, allow_negative_numbers = true)]
     pub discount: f64,
     /// GAE lambda.
-    #[arg(long, default_value_t = PpoConfig::default().gae_lambda)]
+    #[arg(long, default_value_t = PpoConfig::default().gae_lambda, allow_negative_numbers = true)]
     pub gae_lambda: f64,
     /// Entropy bonus coefficient.
-    #[arg(long, default_value_t = PpoConfig::default().entropy_coef)]
+    #[arg(long, default_value_t = PpoConfig::default().entropy_coef, allow_negative_numbers = true)]
     pub entropy_coef: f64,
     /// Value loss coefficient.
-    #[arg(long, default_value_t = PpoConfig::default().value_loss_coef)]
+    #[arg(long, default_value_t = PpoConfig::default().value_loss_coef, allow_negative_numbers = true)]
     pub value_loss_coef: f64,
     /// Gradient-norm clip.
-    #[arg(long, default_value_t = PpoConfig::default().max_grad_norm)]
+    #[arg(long, default_value_t = PpoConfig::default().max_grad_norm, allow_negative_numbers = true)]
     pub max_grad_norm: f64,
     /// PPO clip epsilon.
-    #[arg(long, default_value_t = PpoConfig::default().clip_eps)]
+    #[arg(long, default_value_t = PpoConfig::default().clip_eps, allow_negative_numbers = true)]
     pub clip_eps: f64,
     /// Threads sharing each minibatch's forward and backward pass (use the cores the rollout
     /// leaves idle; results depend on the count, not on timing).
-    #[arg(long, default_value_t = PpoConfig::default().update_threads)]
+    #[arg(long, default_value_t = PpoConfig::default().update_threads, allow_negative_numbers = true)]
     pub update_threads: usize,
     /// Multiply rewards by this for GAE and the value loss (BabyAI: 20); logs stay unscaled.
-    #[arg(long, default_value_t = PpoConfig::default().reward_scale)]
+    #[arg(long, default_value_t = PpoConfig::default().reward_scale, allow_negative_numbers = true)]
     pub reward_scale: f64,
     /// Normalise each rollout's advantages to mean 0, standard deviation 1.
     #[arg(long)]
     pub normalize_advantages: bool,
     /// Evaluate greedily on the held-out validation levels every this many updates and append
     /// the result to eval_log.csv (0: never).
-    #[arg(long, default_value_t = 50)]
+    #[arg(long, default_value_t = 50, allow_negative_numbers = true)]
     pub eval_interval: u64,
     /// Held-out validation episodes per evaluation (level seeds 2^31 + e, never trained on and
     /// not among `eval`'s test seeds).
-    #[arg(long, default_value_t = 200)]
+    #[arg(long, default_value_t = 200, allow_negative_numbers = true)]
     pub eval_episodes: u64,
     /// Hidden size of the LSTM and GRU (smaller trains faster; the paper's default is 128).
-    #[arg(long, default_value_t = 128)]
+    #[arg(long, default_value_t = 128, allow_negative_numbers = true)]
     pub hidden: usize,
     /// Hide the progress bar (log lines only).
     #[arg(long)]

@@ -26,10 +26,15 @@ pub struct ViewArgs {
     #[arg(long, value_name = "NAME")]
     pub compare: Option<String>,
     /// Level seed.
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = 0, allow_negative_numbers = true)]
     pub seed: u64,
     /// Step shown first.
-    #[arg(long, default_value_t = 0, value_name = "K")]
+    #[arg(
+        long,
+        default_value_t = 0,
+        value_name = "K",
+        allow_negative_numbers = true
+    )]
     pub step: usize,
     /// Sample actions instead of taking the most probable one.
     #[arg(long)]
@@ -38,10 +43,10 @@ pub struct ViewArgs {
     #[arg(long, value_name = "TEXT")]
     pub mission: Option<String>,
     /// Room size; defaults to the checkpoint's level.
-    #[arg(long, value_name = "S")]
+    #[arg(long, value_name = "S", allow_negative_numbers = true)]
     pub room_size: Option<usize>,
     /// Number of objects; defaults to the checkpoint's level.
-    #[arg(long, value_name = "N")]
+    #[arg(long, value_name = "N", allow_negative_numbers = true)]
     pub objects: Option<usize>,
     /// Window size in logical pixels.
     #[arg(long, value_name = "WxH", default_value = "1400x900")]

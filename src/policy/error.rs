@@ -8,8 +8,10 @@ use thiserror::Error;
 #[derive(Debug, Error)]
 pub enum PolicyError {
     /// A tensor operation failed (a shape bug, or out of memory).
+    // Not `#[from]`: that would make candle's error the source too, and a `{:#}` chain would
+    // print its text twice.
     #[error("tensor operation failed: {0}")]
-    Tensor(#[from] candle_core::Error),
+    Tensor(candle_core::Error),
     /// A checkpoint file could not be read or written.
     #[error("{path}: {reason}")]
     Io {
@@ -34,4 +36,22 @@ pub enum PolicyError {
     /// Inputs that do not fit together (batch sizes, sequence lengths).
     #[error("invalid input: {0}")]
     Input(String),
+}
+
+impl From<candle_core::Error> for PolicyError {
+    fn from(e: candle_core::Error) -> Self {
+        Self::Tensor(e)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::PolicyError;
+
+    #[test]
+    fn a_candle_error_is_printed_once_in_an_error_chain() {
+        let e: PolicyError = candle_core::Error::Msg("shape mismatch 7".into()).into();
+        let text = format!("{:#}", anyhow::Error::from(e));
+        assert_eq!(text.matches("shape mismatch 7").count(), 1, "{text}");
+    }
 }

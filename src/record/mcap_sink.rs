@@ -242,8 +242,35 @@ fn step_messages(out: &mut Msgs, e: usize, step: &StepRecord, scene: &StepScene,
     );
 }
 
+/// The cause of an MCAP error: for an I/O error the OS's message ("No space left on
+/// device"), not mcap's generic one.
+fn cause(e: &mcap::McapError) -> String {
+    std::error::Error::source(e).map_or_else(|| e.to_string(), ToString::to_string)
+}
+
+/// The messages of episode number `e`, whose first step is recording step `global`.
+fn episode_messages(e: usize, ep: &EpisodeTrace, scenes: &[StepScene], global: u64) -> Msgs {
+    let mut msgs = Msgs::default();
+    for (i, (step, scene)) in ep.steps.iter().zip(scenes).enumerate() {
+        let t = (global + i as u64) * STEP_NS;
+        if step.t == 0 {
+            msgs.json(
+                "/mission",
+                "mission",
+                t,
+                &json!({"episode": e, "seed": ep.seed, "text": ep.mission,
+                        "checkpoint": ep.checkpoint, "level": ep.level.to_string()}),
+            );
+        }
+        step_messages(&mut msgs, e, step, scene, t);
+    }
+    msgs
+}
+
 /// Writes `episodes` to `path` as MCAP (zstd chunks, summary and indexes), atomically: the
-/// file appears only when complete. `stop` aborts between steps and leaves no file.
+/// file appears only when complete. `stop` aborts between episodes and leaves no file.
+/// Messages are built one episode ahead on a second thread while this one compresses and
+/// writes.
 pub fn write_mcap(
     episodes: &[EpisodeTrace],
     path: &Path,
@@ -253,70 +280,123 @@ pub fn write_mcap(
     if episodes.is_empty() {
         return Err(RecordError::Empty);
     }
-    let pending = PendingFile::new(path)?;
-    let file = std::fs::File::create(pending.path()).map_err(|e| io_err(path, &e))?;
-    let mcap_err = |e: mcap::McapError| io_err(path, &e);
-    let w = mcap::WriteOptions::new()
-        .profile("")
-        .library(format!("groundscope {}", env!("CARGO_PKG_VERSION")))
-        .create(BufWriter::new(file))
-        .map_err(mcap_err)?;
-    let mut out = Out {
-        w,
-        schemas: BTreeMap::new(),
-        channels: BTreeMap::new(),
-        stats: McapStats::default(),
-    };
-    // Pictures and messages are built one episode ahead on a second thread; this one
-    // compresses and writes.
+    let mut recorder = McapRecorder::create(path)?;
     std::thread::scope(|scope| {
         let (tx, rx) = std::sync::mpsc::sync_channel::<Msgs>(1);
         scope.spawn(move || {
             let mut global = 0u64;
             for (e, ep) in episodes.iter().enumerate() {
-                let mut msgs = Msgs::default();
-                for (step, scene) in ep.steps.iter().zip(episode_scenes(ep, alpha)) {
-                    let t = global * STEP_NS;
-                    if step.t == 0 {
-                        msgs.json(
-                            "/mission",
-                            "mission",
-                            t,
-                            &json!({"episode": e, "seed": ep.seed, "text": ep.mission,
-                                    "checkpoint": ep.checkpoint, "level": ep.level.to_string()}),
-                        );
-                    }
-                    step_messages(&mut msgs, e, step, &scene, t);
-                    global += 1;
-                }
+                let msgs = episode_messages(e, ep, &episode_scenes(ep, alpha), global);
+                global += ep.steps.len() as u64;
                 if stopped(stop) || tx.send(msgs).is_err() {
                     break;
                 }
             }
         });
-        for _ in episodes {
+        for ep in episodes {
             if stopped(stop) {
                 return Err(RecordError::Interrupted);
             }
             let msgs = rx.recv().map_err(|_| RecordError::Interrupted)?;
-            for m in &msgs.0 {
-                out.put(m).map_err(mcap_err)?;
-            }
+            recorder.write(&msgs, ep.steps.len())?;
         }
         Ok(())
     })?;
-    let global: usize = episodes.iter().map(|e| e.steps.len()).sum();
-    out.w.finish().map_err(mcap_err)?;
-    out.w
-        .into_inner()
-        .into_inner()
-        .map_err(|e| io_err(path, &e.error()))?
-        .sync_all()
+    recorder.finish()
+}
+
+/// An MCAP file being written episode by episode, so that no more than one episode need be
+/// held in memory ([`write_mcap`] for episodes already in memory).
+pub struct McapRecorder {
+    pending: PendingFile,
+    out: Out<BufWriter<std::fs::File>>,
+    /// The destination is a device or FIFO: MCAP needs a seekable file, so the recording
+    /// goes to this anonymous spool file and is copied into the destination at the end.
+    spooled: bool,
+    pushed: usize,
+    steps: u64,
+}
+
+impl McapRecorder {
+    /// Opens the destination (a temporary file beside it) and writes the MCAP header.
+    pub fn create(path: &Path) -> Result<Self, RecordError> {
+        let pending = PendingFile::new(path)?;
+        let spooled = pending.in_place();
+        let file = if spooled {
+            tempfile::tempfile()
+        } else {
+            std::fs::File::create(pending.path())
+        }
         .map_err(|e| io_err(path, &e))?;
-    let stats = McapStats {
-        steps: global,
-        ..out.stats
-    };
-    pending.commit()?;
-    Ok(stats)
+        let w = mcap::WriteOptions::new()
+            .profile("")
+            .library(format!("groundscope {}", env!("CARGO_PKG_VERSION")))
+            .create(BufWriter::new(file))
+            .map_err(|e| io_err(path, &cause(&e)))?;
+        Ok(Self {
+            pending,
+            out: Out {
+                w,
+                schemas: BTreeMap::new(),
+                channels: BTreeMap::new(),
+                stats: McapStats::default(),
+            },
+            spooled,
+            pushed: 0,
+            steps: 0,
+        })
+    }
+
+    /// Writes one episode with its step scenes ([`episode_scenes`]); fails with
+    /// [`RecordError::Interrupted`] once `stop` is raised.
+    pub fn push(
+        &mut self,
+        ep: &EpisodeTrace,
+        scenes: &[StepScene],
+        stop: Option<&StopFlag>,
+    ) -> Result<(), RecordError> {
+        if stopped(stop) {
+            return Err(RecordError::Interrupted);
+        }
+        let msgs = episode_messages(self.pushed, ep, scenes, self.steps);
+        self.write(&msgs, ep.steps.len())
+    }
+
+    fn write(&mut self, msgs: &Msgs, steps: usize) -> Result<(), RecordError> {
+        let dest = self.pending.dest();
+        for m in &msgs.0 {
+            self.out.put(m).map_err(|e| io_err(dest, &cause(&e)))?;
+        }
+        self.pushed += 1;
+        self.steps += steps as u64;
+        Ok(())
+    }
+
+    /// Writes the summary and indexes and puts the file in place (fsync + rename, or a copy
+    /// into a device or FIFO).
+    pub fn finish(mut self) -> Result<McapStats, RecordError> {
+        let dest = self.pending.dest().to_path_buf();
+        let err = |e: &dyn std::fmt::Display| io_err(&dest, e);
+        self.out.w.finish().map_err(|e| err(&cause(&e)))?;
+        let mut file = self
+            .out
+            .w
+            .into_inner()
+            .into_inner()
+            .map_err(|e| err(&e.error()))?;
+        if self.spooled {
+            use std::io::Seek as _;
+            file.rewind().map_err(|e| err(&e))?;
+            let mut target = std::fs::OpenOptions::new()
+                .write(true)
+                .open(self.pending.path())
+                .map_err(|e| err(&e))?;
+            std::io::copy(&mut file, &mut target).map_err(|e| err(&e))?;
+        }
+        self.pending.commit()?;
+        Ok(McapStats {
+            steps: self.steps as usize,
+            ..self.out.stats
+        })
+    }
 }

@@ -7,15 +7,16 @@
 
 pub mod mcap_sink;
 pub mod rerun_sink;
+mod rrd_file;
 pub mod scene;
 
 use std::path::{Path, PathBuf};
 
 use thiserror::Error;
 
-pub use mcap_sink::write_mcap;
-pub use rerun_sink::{RecordStats, RerunTargets, record_rerun};
-pub use scene::{StepScene, episode_scenes};
+pub use mcap_sink::{McapRecorder, write_mcap};
+pub use rerun_sink::{RecordStats, RerunRecorder, RerunTargets, record_rerun, word_paths};
+pub use scene::{StepScene, episode_scenes, with_scenes};
 
 /// The Rerun SDK version recordings are written with (the crate is pinned to it).
 pub const RERUN_SDK_VERSION: &str = "0.36.3";
@@ -50,50 +51,63 @@ pub enum RecordError {
     Empty,
 }
 
-/// A file being written under a temporary name beside its destination; dropped without
-/// [`Self::commit`], it removes itself.
+/// A recording's destination. A regular file (or a new path) is written under a temporary
+/// name beside it and renamed into place by [`Self::commit`]; dropped without it, the
+/// temporary file removes itself. A device or FIFO is written directly and never replaced
+/// (see [`crate::files`]); a symlink is followed.
 #[derive(Debug)]
 pub struct PendingFile {
     tmp: Option<tempfile::TempPath>,
+    /// Where the finished file goes (a symlink resolved to its target).
+    target: PathBuf,
+    /// The path the user gave, for messages.
     dest: PathBuf,
 }
 
 impl PendingFile {
-    /// Reserves a temporary file in `dest`'s directory (which must exist and be writable).
+    /// Reserves a temporary file beside `dest` (whose directory must exist and be writable),
+    /// or nothing when `dest` is a special file.
     pub fn new(dest: &Path) -> Result<Self, RecordError> {
-        let dir = match dest.parent() {
-            Some(d) if !d.as_os_str().is_empty() => d,
-            _ => Path::new("."),
+        let kind = crate::files::output_kind(dest).map_err(|e| io_err(dest, &e))?;
+        let (tmp, target) = match kind {
+            crate::files::OutputKind::InPlace(p) => (None, p),
+            crate::files::OutputKind::Replace(target) => {
+                let ext = dest.extension().and_then(|e| e.to_str()).unwrap_or("tmp");
+                let tmp = tempfile::Builder::new()
+                    .prefix(".groundscope-")
+                    .suffix(&format!(".{ext}.partial"))
+                    .tempfile_in(crate::files::parent_dir(&target))
+                    .map_err(|e| io_err(dest, &e))?
+                    .into_temp_path();
+                (Some(tmp), target)
+            }
         };
-        let ext = dest.extension().and_then(|e| e.to_str()).unwrap_or("tmp");
-        let tmp = tempfile::Builder::new()
-            .prefix(".groundscope-")
-            .suffix(&format!(".{ext}.partial"))
-            .tempfile_in(dir)
-            .map_err(|e| io_err(dest, &e))?
-            .into_temp_path();
         Ok(Self {
-            tmp: Some(tmp),
+            tmp,
+            target,
             dest: dest.to_path_buf(),
         })
     }
 
     /// Where to write now.
     pub fn path(&self) -> &Path {
-        self.tmp.as_deref().unwrap_or(&self.dest)
+        self.tmp.as_deref().unwrap_or(&self.target)
     }
 
-    /// The final destination.
+    /// Whether the destination is a special file written in place (no temporary file).
+    pub fn in_place(&self) -> bool {
+        self.tmp.is_none()
+    }
+
+    /// The destination as given.
     pub fn dest(&self) -> &Path {
         &self.dest
     }
 
-    /// Renames the finished file into place.
+    /// Flushes the finished file to disk and renames it into place.
     pub fn commit(mut self) -> Result<(), RecordError> {
         if let Some(tmp) = self.tmp.take() {
-            crate::files::make_shareable(&tmp).map_err(|e| io_err(&self.dest, &e))?;
-            tmp.persist(&self.dest)
-                .map_err(|e| io_err(&self.dest, &e.error))?;
+            crate::files::commit_temp(tmp, &self.target).map_err(|e| io_err(&self.dest, &e))?;
         }
         Ok(())
     }

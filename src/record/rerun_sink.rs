@@ -33,12 +33,11 @@ use rerun::blueprint::{
     TimePanel, TimeSeriesView, Vertical,
 };
 use rerun::external::re_uri;
-use rerun::sink::{FileSink, GrpcSink, LogSink};
+use rerun::sink::{GrpcSink, LogSink};
 use rerun::{RecordingStream, RecordingStreamBuilder};
 
-use super::scene::{
-    StepScene, TILE_PX, action_label, action_names, cell_centre, episode_scenes, hit_color,
-};
+use super::rrd_file::RrdWriter;
+use super::scene::{StepScene, TILE_PX, action_label, action_names, cell_centre, hit_color};
 use super::{PendingFile, RERUN_SDK_VERSION, RecordError, StopFlag, stopped};
 use crate::episode::EpisodeTrace;
 use crate::metrics::grounding::{EvaluatedMap, WordKind};
@@ -172,20 +171,13 @@ fn blueprint(word_paths: &[String], attention: bool) -> Blueprint {
     .with_time_panel(TimePanel::new().with_timeline("step"))
 }
 
-/// Streams `episodes` to the targets and finalises them: the `.rrd` gets its footer and is
-/// renamed into place only when everything was written. `stop` aborts between steps.
-pub fn record_rerun(
-    episodes: &[EpisodeTrace],
-    targets: &RerunTargets,
-    alpha: f64,
-    stop: Option<&StopFlag>,
-) -> Result<RecordStats, RecordError> {
-    let first = episodes.first().ok_or(RecordError::Empty)?;
-    let attention = episodes.iter().any(|e| e.variant.name() == "attention");
-    let word_paths: Vec<String> = episodes
-        .iter()
-        .flat_map(|e| {
-            e.words()
+/// The word-map entity paths of a recording of these missions (each a list of words), in
+/// a stable order; the blueprint shows one view per path.
+pub fn word_paths<'a>(missions: impl IntoIterator<Item = Vec<&'a str>>) -> Vec<String> {
+    missions
+        .into_iter()
+        .flat_map(|words| {
+            words
                 .into_iter()
                 .enumerate()
                 .map(|(i, w)| word_path(i, w))
@@ -193,106 +185,187 @@ pub fn record_rerun(
         })
         .collect::<BTreeSet<_>>()
         .into_iter()
-        .collect();
-
-    // Check every destination before anything is written.
-    let pending = targets.save.as_deref().map(PendingFile::new).transpose()?;
-    let connect = targets
-        .connect
-        .as_deref()
-        .map(|url| {
-            let (uri, authority) = proxy_uri(url)?;
-            check_listening(url, &authority)?;
-            Ok::<_, RecordError>(uri)
-        })
-        .transpose()?;
-    let mut sinks: Vec<Box<dyn LogSink>> = Vec::new();
-    if let Some(p) = &pending {
-        let sink = FileSink::new(p.path()).map_err(|e| super::io_err(p.dest(), &e))?;
-        sinks.push(Box::new(sink));
-    }
-    if let Some(uri) = connect {
-        sinks.push(Box::new(GrpcSink::new(uri)));
-    }
-    if targets.spawn {
-        let info = rerun::spawn(&rerun::SpawnOptions::default()).map_err(sdk)?;
-        let (uri, _) = proxy_uri(&format!("rerun+http://127.0.0.1:{}/proxy", info.port))?;
-        sinks.push(Box::new(GrpcSink::new(uri)));
-    }
-    if sinks.is_empty() {
-        return Err(RecordError::Rerun(
-            "no destination: give --save FILE.rrd, --spawn or --connect URL".into(),
-        ));
-    }
-
-    let name = if episodes.len() == 1 {
-        format!("{} seed {}", first.mission, first.seed)
-    } else {
-        format!("{} episodes from seed {}", episodes.len(), first.seed)
-    };
-    let rec = RecordingStreamBuilder::new("groundscope")
-        .recording_name(name)
-        .enabled(true)
-        .with_blueprint(blueprint(&word_paths, attention))
-        .set_sinks(sinks)
-        .map_err(sdk)?;
-    // Recordings of the same episodes then differ only in row ids.
-    rec.set_log_time_enabled(false);
-
-    let result = log_all(&rec, episodes, alpha, stop);
-    rec.flush_blocking().map_err(sdk)?;
-    // The last handle: dropping it finalises the file sink (footer) and closes the streams.
-    drop(rec);
-    let stats = result?;
-    if let Some(p) = pending {
-        p.commit()?;
-    }
-    Ok(stats)
+        .collect()
 }
 
-fn log_all(
-    rec: &RecordingStream,
+/// Records `episodes` to the targets and finalises them: the `.rrd` gets its footer and is
+/// renamed into place only when everything was written. `stop` aborts between steps. Step
+/// pictures are computed one episode ahead on a second thread.
+pub fn record_rerun(
     episodes: &[EpisodeTrace],
+    targets: &RerunTargets,
     alpha: f64,
     stop: Option<&StopFlag>,
 ) -> Result<RecordStats, RecordError> {
-    let first = &episodes[0];
-    log_static(rec, first, episodes.len())?;
-    let mut global = 0i64;
-    // Pictures are computed one episode ahead on a second thread while this one logs.
-    std::thread::scope(|scope| {
-        let (tx, rx) = std::sync::mpsc::sync_channel(1);
-        scope.spawn(move || {
-            for ep in episodes {
-                if tx.send(episode_scenes(ep, alpha)).is_err() {
-                    break;
-                }
-            }
-        });
-        for (e, ep) in episodes.iter().enumerate() {
-            let scenes = rx.recv().map_err(sdk)?;
-            for (step, scene) in ep.steps.iter().zip(&scenes) {
-                if stopped(stop) {
-                    return Err(RecordError::Interrupted);
-                }
-                rec.set_time_sequence("step", global);
-                if episodes.len() > 1 {
-                    rec.set_time_sequence("episode", e as i64);
-                }
-                if step.t == 0 && episodes.len() > 1 {
-                    rec.log("mission", &rerun::TextDocument::new(ep.mission.as_str()))
-                        .map_err(sdk)?;
-                }
-                log_step(rec, ep, e, step, scene)?;
-                global += 1;
-            }
-        }
-        Ok(())
+    let first = episodes.first().ok_or(RecordError::Empty)?;
+    let paths = word_paths(episodes.iter().map(EpisodeTrace::words));
+    let mut recorder = RerunRecorder::start(targets, first, episodes.len(), &paths)?;
+    super::scene::with_scenes(episodes, alpha, |ep, scenes| {
+        recorder.push(ep, scenes, stop)
     })?;
-    Ok(RecordStats {
-        episodes: episodes.len(),
-        steps: global as usize,
-    })
+    recorder.finish()
+}
+
+/// A recording being streamed episode by episode, so that no more than one episode need be
+/// held in memory ([`record_rerun`] for episodes already in memory).
+pub struct RerunRecorder {
+    rec: RecordingStream,
+    file: Option<(PendingFile, RrdWriter)>,
+    connect: Option<String>,
+    episodes: usize,
+    pushed: usize,
+    global: i64,
+}
+
+impl RerunRecorder {
+    /// Checks every destination, opens the stream and logs the static parts. `first` is the
+    /// first episode (its checkpoint, level and seed go into the recording's metadata),
+    /// `episodes` how many will be pushed, `word_paths` the word maps of all of them
+    /// ([`word_paths`]).
+    pub fn start(
+        targets: &RerunTargets,
+        first: &EpisodeTrace,
+        episodes: usize,
+        word_paths: &[String],
+    ) -> Result<Self, RecordError> {
+        let pending = targets.save.as_deref().map(PendingFile::new).transpose()?;
+        let connect = targets
+            .connect
+            .as_deref()
+            .map(|url| {
+                let (uri, authority) = proxy_uri(url)?;
+                check_listening(url, &authority)?;
+                Ok::<_, RecordError>(uri)
+            })
+            .transpose()?;
+        let mut sinks: Vec<Box<dyn LogSink>> = Vec::new();
+        let mut file = None;
+        if let Some(p) = pending {
+            let (sink, writer) =
+                super::rrd_file::create(p.path()).map_err(|e| super::io_err(p.dest(), &e))?;
+            sinks.push(Box::new(sink));
+            file = Some((p, writer));
+        }
+        if let Some(uri) = connect {
+            sinks.push(Box::new(GrpcSink::new(uri)));
+        }
+        if targets.spawn {
+            sinks.push(Box::new(GrpcSink::new(spawn_viewer()?)));
+        }
+        if sinks.is_empty() {
+            return Err(RecordError::Rerun(
+                "no destination: give --save FILE.rrd, --spawn or --connect URL".into(),
+            ));
+        }
+        let name = if episodes == 1 {
+            format!("{} seed {}", first.mission, first.seed)
+        } else {
+            format!("{episodes} episodes from seed {}", first.seed)
+        };
+        let attention = first.variant.name() == "attention";
+        let rec = RecordingStreamBuilder::new("groundscope")
+            .recording_name(name)
+            .enabled(true)
+            .with_blueprint(blueprint(word_paths, attention))
+            .set_sinks(sinks)
+            .map_err(sdk)?;
+        // Recordings of the same episodes then differ only in row ids.
+        rec.set_log_time_enabled(false);
+        log_static(&rec, first, episodes)?;
+        Ok(Self {
+            rec,
+            file,
+            connect: targets.connect.clone(),
+            episodes,
+            pushed: 0,
+            global: 0,
+        })
+    }
+
+    /// Logs one episode with its step scenes
+    /// ([`episode_scenes`](super::scene::episode_scenes)). Fails at once if the file
+    /// has already failed (a full disk), or with [`RecordError::Interrupted`] once `stop`.
+    pub fn push(
+        &mut self,
+        ep: &EpisodeTrace,
+        scenes: &[StepScene],
+        stop: Option<&StopFlag>,
+    ) -> Result<(), RecordError> {
+        if let Some((p, w)) = &self.file
+            && let Some(e) = w.failed()
+        {
+            return Err(super::io_err(p.dest(), &e));
+        }
+        let e = self.pushed;
+        let rec = &self.rec;
+        for (step, scene) in ep.steps.iter().zip(scenes) {
+            if stopped(stop) {
+                return Err(RecordError::Interrupted);
+            }
+            rec.set_time_sequence("step", self.global);
+            if self.episodes > 1 {
+                rec.set_time_sequence("episode", e as i64);
+            }
+            if step.t == 0 && self.episodes > 1 {
+                rec.log("mission", &rerun::TextDocument::new(ep.mission.as_str()))
+                    .map_err(sdk)?;
+            }
+            log_step(rec, ep, e, step, scene)?;
+            self.global += 1;
+        }
+        self.pushed += 1;
+        Ok(())
+    }
+
+    /// Flushes every destination and finishes the file (footer, fsync, rename into place).
+    pub fn finish(self) -> Result<RecordStats, RecordError> {
+        let flushed = self.rec.flush_blocking();
+        // The last handle: dropping it closes the streams.
+        drop(self.rec);
+        let pending = match self.file {
+            Some((p, writer)) => {
+                writer.finish().map_err(|e| super::io_err(p.dest(), &e))?;
+                Some(p)
+            }
+            None => None,
+        };
+        flushed.map_err(|e| match &self.connect {
+            // The file is fine, so a failed flush is the viewer's.
+            Some(url) => RecordError::NoViewer {
+                url: url.clone(),
+                reason: format!(
+                    "it did not take the stream ({})",
+                    first_line(&e.to_string())
+                ),
+            },
+            None => sdk(e),
+        })?;
+        if let Some(p) = pending {
+            p.commit()?;
+        }
+        Ok(RecordStats {
+            episodes: self.pushed,
+            steps: self.global as usize,
+        })
+    }
+}
+
+fn first_line(text: &str) -> &str {
+    text.lines().next().unwrap_or(text).trim()
+}
+
+/// Starts `rerun` from PATH and returns the address it listens on.
+fn spawn_viewer() -> Result<re_uri::ProxyUri, RecordError> {
+    let on_path = std::env::var_os("PATH")
+        .is_some_and(|paths| std::env::split_paths(&paths).any(|d| d.join("rerun").is_file()));
+    if !on_path {
+        return Err(RecordError::Rerun(format!(
+            "--spawn: no `rerun` viewer on PATH (install it with `pip install rerun-sdk=={RERUN_SDK_VERSION}`, or write a file with --save)"
+        )));
+    }
+    let info = rerun::spawn(&rerun::SpawnOptions::default())
+        .map_err(|e| RecordError::Rerun(format!("--spawn: {}", first_line(&e.to_string()))))?;
+    Ok(proxy_uri(&format!("rerun+http://127.0.0.1:{}/proxy", info.port))?.0)
 }
 
 fn log_static(rec: &RecordingStream, first: &EpisodeTrace, n: usize) -> Result<(), RecordError> {

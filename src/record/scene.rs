@@ -135,6 +135,29 @@ pub fn episode_scenes(trace: &EpisodeTrace, alpha: f64) -> Vec<StepScene> {
         .collect()
 }
 
+/// Calls `f` on each episode with its scenes, computing the scenes of the next episode on a
+/// second thread meanwhile; stops at the first error.
+pub fn with_scenes<E>(
+    episodes: &[EpisodeTrace],
+    alpha: f64,
+    mut f: impl FnMut(&EpisodeTrace, &[StepScene]) -> Result<(), E>,
+) -> Result<(), E> {
+    std::thread::scope(|scope| {
+        let (tx, rx) = std::sync::mpsc::sync_channel(1);
+        scope.spawn(move || {
+            for ep in episodes {
+                if tx.send(episode_scenes(ep, alpha)).is_err() {
+                    break;
+                }
+            }
+        });
+        for (ep, scenes) in episodes.iter().zip(rx) {
+            f(ep, &scenes)?;
+        }
+        Ok(())
+    })
+}
+
 /// Centre of view cell `(vx, vy)` in a 7×7 map image with one unit per cell.
 pub fn cell_centre(cell: ViewCell) -> (f32, f32) {
     (cell.0 as f32 + 0.5, cell.1 as f32 + 0.5)
