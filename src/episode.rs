@@ -58,6 +58,32 @@ pub struct StepRecord {
     pub terminated: bool,
     /// The action reached `max_steps`.
     pub truncated: bool,
+    /// Faithfulness measures of this step, when asked for
+    /// ([`crate::metrics::faithfulness::annotate`]).
+    pub faithfulness: Option<StepFaithfulness>,
+}
+
+/// What `replay --faithfulness` measures at a step (README, "Faithfulness").
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct StepFaithfulness {
+    /// Δ of each view cell when it alone is replaced by empty floor, agent-up like the maps
+    /// (0 for cells not replaced).
+    pub occlusion: crate::policy::ViewMap,
+    /// Spearman ρ of `M` and Δ over the 48 cells other than the agent's; `None` when either
+    /// is constant, and for the baseline.
+    pub rank_correlation: Option<f64>,
+    /// One-step interventions on `M` by name: the total-variation distance of the action
+    /// distributions and whether the most probable action changed.
+    pub interventions: std::collections::BTreeMap<String, InterventionOutcome>,
+}
+
+/// The effect of one intervention on one step's action distribution.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct InterventionOutcome {
+    /// Total-variation distance to the unperturbed distribution.
+    pub tv: f64,
+    /// The most probable action changed.
+    pub flip: bool,
 }
 
 /// A whole episode.
@@ -176,7 +202,7 @@ pub fn run_from(
 }
 
 /// The action-sampling RNG of an episode.
-fn episode_rng(seed: u64) -> Pcg64Mcg {
+pub fn episode_rng(seed: u64) -> Pcg64Mcg {
     Pcg64Mcg::seed_from_u64(seed ^ 0x9E37_79B9_7F4A_7C15)
 }
 
@@ -255,6 +281,7 @@ fn run_loop(
             reward: outcome.reward,
             terminated: outcome.terminated,
             truncated: outcome.truncated,
+            faithfulness: None,
         });
     }
     Ok(EpisodeTrace {
@@ -296,6 +323,8 @@ struct StepJson<'a> {
     terminated: bool,
     truncated: bool,
     attention: Option<&'a AttentionTrace>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    faithfulness: Option<&'a StepFaithfulness>,
 }
 
 /// JSON form of a trace (README documents it).
@@ -354,6 +383,7 @@ impl EpisodeTrace {
                     terminated: s.terminated,
                     truncated: s.truncated,
                     attention: s.attention.as_ref(),
+                    faithfulness: s.faithfulness.as_ref(),
                 })
                 .collect(),
         };

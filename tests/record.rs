@@ -326,3 +326,29 @@ fn mcap_has_foxglove_topics_and_one_message_per_step() {
     };
     assert!(messages(&std::fs::read(&again).unwrap()) == messages(&bytes));
 }
+
+#[test]
+fn faithfulness_annotations_are_recorded_beside_the_maps() {
+    let mut eps = episodes("attention", 3..4);
+    let ckpt = bundled::load("bundled:attention").unwrap();
+    let net = groundscope::policy::Net::new(ckpt.meta.model, ckpt.params.detached());
+    groundscope::metrics::faithfulness::annotate(&net, &mut eps[0]).unwrap();
+    let steps = eps[0].steps.len();
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("f.rrd");
+    let targets = RerunTargets {
+        save: Some(path.clone()),
+        ..RerunTargets::default()
+    };
+    record_rerun(&eps, &targets, 0.5, None).unwrap();
+    let d = decode(&path);
+    assert_eq!(
+        rows(&d, "/faithfulness/occlusion", "DepthImage:buffer"),
+        steps
+    );
+    assert_eq!(
+        d.scalars["/faithfulness/interventions/uniform"].len(),
+        steps
+    );
+    assert!(!d.scalars["/faithfulness/rank_correlation"].is_empty());
+}

@@ -3,6 +3,7 @@
 mod bench;
 mod env_cmd;
 mod eval;
+mod faithfulness;
 mod policy_cmd;
 mod replay;
 mod run_dir;
@@ -43,6 +44,10 @@ pub enum Command {
     /// Evaluate checkpoints over room sizes × object counts: performance, grounding accuracies,
     /// reports and figures.
     Eval(Box<eval::EvalArgs>),
+    /// Test whether the attention explains the behaviour: occlusion, deletion/insertion,
+    /// interventions on M, closed-loop re-runs, counterfactual worlds, localisation; each
+    /// beside its control.
+    Faithfulness(Box<faithfulness::FaithfulnessArgs>),
     /// Train a policy with recurrent PPO.
     Train(Box<train::TrainArgs>),
     /// Plot training curves (mean reward against frames, the paper's Fig. 4) from log.csv files;
@@ -73,6 +78,7 @@ pub fn run(cli: Cli, matches: &clap::ArgMatches) -> anyhow::Result<ExitStatus> {
         Command::Bench(cmd) => bench::run(&cmd),
         Command::Train(args) => train::run(&args, matches.subcommand_matches("train")),
         Command::Eval(args) => eval::run(&args),
+        Command::Faithfulness(args) => faithfulness::run(&args),
         Command::Curve { logs, out } => curve(&logs, &out),
         Command::Init(args) => policy_cmd::init(&args),
         Command::Replay(args) => replay::replay(&args),

@@ -10,6 +10,8 @@ use anyhow::Context as _;
 use clap::Args;
 use groundscope::env::vocab::{tokenize, word};
 use groundscope::episode::{ActionMode, EpisodeSpec, EpisodeTrace, initial_world, run_episode};
+use groundscope::metrics::faithfulness::annotate;
+use groundscope::policy::Net;
 use groundscope::record::{
     McapRecorder, RecordError, RerunRecorder, RerunTargets, StopFlag, episode_scenes, word_paths,
 };
@@ -71,6 +73,10 @@ pub struct ReplayArgs {
     /// Write the episodes as MCAP (Foxglove / Lichtblick).
     #[arg(long, value_name = "FILE.mcap")]
     pub mcap: Option<PathBuf>,
+    /// Add faithfulness measures to every step: occlusion Δ (7×7), ρ(M, Δ) and one-step
+    /// interventions on M (in the trace, the `.rrd` and the MCAP; see README).
+    #[arg(long)]
+    pub faithfulness: bool,
     /// Threshold fraction α of the grounding hit/miss marks (τ = α / n).
     #[arg(long, default_value_t = 0.5, allow_negative_numbers = true)]
     pub alpha: f64,
@@ -151,19 +157,29 @@ pub fn replay(args: &ReplayArgs) -> anyhow::Result<ExitStatus> {
         let (tx, rx) = std::sync::mpsc::sync_channel(1);
         let stop_worker = &stop;
         let (ckpt, name, alpha, spec) = (&ckpt, &name, args.alpha, &spec);
+        let faithful = args
+            .faithfulness
+            .then(|| Net::new(ckpt.meta.model, ckpt.params.detached()));
         scope.spawn(move || {
             for seed in args.seed..=last {
                 if stop_worker.load(Ordering::Relaxed) {
                     break;
                 }
-                let item = run_episode(ckpt, name, &spec(seed)).map(|trace| {
-                    let scenes = if recording {
-                        episode_scenes(&trace, alpha)
-                    } else {
-                        Vec::new()
-                    };
-                    (trace, scenes)
-                });
+                let item = run_episode(ckpt, name, &spec(seed))
+                    .and_then(|mut trace| {
+                        if let Some(net) = &faithful {
+                            annotate(net, &mut trace)?;
+                        }
+                        Ok(trace)
+                    })
+                    .map(|trace| {
+                        let scenes = if recording {
+                            episode_scenes(&trace, alpha)
+                        } else {
+                            Vec::new()
+                        };
+                        (trace, scenes)
+                    });
                 let failed = item.is_err();
                 if tx.send(item).is_err() || failed {
                     break;

@@ -67,6 +67,18 @@ pub struct AttentionOut {
     pub f: Tensor,
 }
 
+/// A change made to the attention inside a forward pass, for faithfulness tests: `M` is a
+/// causal point of the network (it multiplies the features), so the layers after it see the
+/// changed `M` while everything before it (maps, entropies) stays as computed.
+#[derive(Clone, Debug)]
+pub enum Intervention {
+    /// Replace `M` by these maps, (B, 49), each row summing to 1.
+    SetM(Tensor),
+    /// Multiply the word weights `w` by these factors, (B, m), and renormalise each row to
+    /// sum to 1 (a factor 0 removes a word from `M`).
+    ScaleWeights(Tensor),
+}
+
 /// Eqs. 3–7 and the filter, given queries, keys, the word mask and the cell features `Õ`.
 pub fn attend(
     q: &Tensor,
@@ -74,10 +86,29 @@ pub fn attend(
     mask: &Tensor,
     o: &Tensor,
 ) -> Result<AttentionOut, PolicyError> {
+    attend_with(q, kc, mask, o, None)
+}
+
+/// [`attend`] with an optional [`Intervention`] applied to `w` or `M` before the filter.
+pub fn attend_with(
+    q: &Tensor,
+    kc: &Tensor,
+    mask: &Tensor,
+    o: &Tensor,
+    intervention: Option<&Intervention>,
+) -> Result<AttentionOut, PolicyError> {
     let a = attention_maps(q, kc)?;
     let h = entropies(&a)?;
-    let w = word_weights(&h, mask)?;
-    let m = combined_map(&w, &a)?;
+    let mut w = word_weights(&h, mask)?;
+    if let Some(Intervention::ScaleWeights(factors)) = intervention {
+        let scaled = (&w * factors)?;
+        let total = scaled.sum_keepdim(D::Minus1)?.clamp(TINY, f64::MAX)?;
+        w = scaled.broadcast_div(&total)?;
+    }
+    let m = match intervention {
+        Some(Intervention::SetM(m)) => m.clone(),
+        _ => combined_map(&w, &a)?,
+    };
     let f = filter_features(o, &m)?;
     Ok(AttentionOut { a, h, w, m, f })
 }

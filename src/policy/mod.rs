@@ -15,6 +15,7 @@ pub mod trace;
 
 use candle_core::{Device, Tensor};
 
+pub use attention::Intervention;
 pub use checkpoint::{Checkpoint, CheckpointMeta, TrainingState, checkpoint_paths};
 pub use config::{ModelConfig, Variant};
 pub use error::PolicyError;
@@ -50,6 +51,19 @@ pub fn act(
     memory: &Memory,
     with_traces: bool,
 ) -> Result<ActOutput, PolicyError> {
+    act_with(net, obs, missions, memory, with_traces, None)
+}
+
+/// [`act`] with an [`Intervention`] on the attention: the returned traces show the changed
+/// weights and `M`.
+pub fn act_with(
+    net: &Net,
+    obs: &[Observation],
+    missions: &[&[u32]],
+    memory: &Memory,
+    with_traces: bool,
+    intervention: Option<&Intervention>,
+) -> Result<ActOutput, PolicyError> {
     if obs.len() != missions.len() || memory.h.dim(0)? != obs.len() {
         return Err(PolicyError::Input(format!(
             "batch sizes differ: {} observations, {} missions, {} memories",
@@ -61,7 +75,7 @@ pub fn act(
     let tb = TokenBatch::new(missions)?;
     let mission = net.mission_inputs(&tb)?;
     let patches = obs::patches(obs)?;
-    let (logits, values, memory, vis) = net.step(&patches, &mission, memory)?;
+    let (logits, values, memory, vis) = net.step_with(&patches, &mission, memory, intervention)?;
     let traces = match (&vis.attention, with_traces) {
         (Some(att), true) => Some(trace::extract(att, missions)?),
         _ => None,

@@ -11,7 +11,7 @@ use std::collections::BTreeMap;
 
 use candle_core::{D, DType, Device, Tensor};
 
-use super::attention::{AttentionOut, attend};
+use super::attention::{AttentionOut, Intervention, attend_with};
 use super::config::ModelConfig;
 use super::error::PolicyError;
 use super::obs::{N_CELLS, PATCH, TokenBatch};
@@ -140,6 +140,16 @@ impl Net {
     /// The visual path for B frames: `Õ`, then (attention variant) `Kc`, A, H, w, M and `F`.
     /// `q` is (B, L, d_k) and `mask` (B, L), both gathered per frame.
     pub fn visual(&self, o: &Tensor, q: Option<(&Tensor, &Tensor)>) -> Result<Visual, PolicyError> {
+        self.visual_with(o, q, None)
+    }
+
+    /// [`Self::visual`] with an [`Intervention`] on the attention (ignored by the baseline).
+    pub fn visual_with(
+        &self,
+        o: &Tensor,
+        q: Option<(&Tensor, &Tensor)>,
+        intervention: Option<&Intervention>,
+    ) -> Result<Visual, PolicyError> {
         let (b, n, k) = o.dims3()?;
         match q {
             Some((q, mask)) if self.cfg.has_attention() => {
@@ -148,7 +158,7 @@ impl Net {
                     o.reshape((b * n, k))?
                         .matmul(&wk.t()?)?
                         .reshape((b, n, self.cfg.key_dim))?;
-                let out = attend(q, &kc, mask, o)?;
+                let out = attend_with(q, &kc, mask, o, intervention)?;
                 Ok(Visual {
                     x: out.f.reshape((b, n * k))?,
                     attention: Some(out),
@@ -214,8 +224,23 @@ impl Net {
         mission: &MissionInputs,
         mem: &Memory,
     ) -> Result<(Tensor, Tensor, Memory, Visual), PolicyError> {
+        self.step_with(patches, mission, mem, None)
+    }
+
+    /// [`Self::step`] with an [`Intervention`] on the attention.
+    pub fn step_with(
+        &self,
+        patches: &Tensor,
+        mission: &MissionInputs,
+        mem: &Memory,
+        intervention: Option<&Intervention>,
+    ) -> Result<(Tensor, Tensor, Memory, Visual), PolicyError> {
         let o = self.cells(patches)?;
-        let vis = self.visual(&o, mission.queries.as_ref().map(|(q, m)| (q, m)))?;
+        let vis = self.visual_with(
+            &o,
+            mission.queries.as_ref().map(|(q, m)| (q, m)),
+            intervention,
+        )?;
         let gx = self.lstm_input(&vis.x)?;
         let mem = self.lstm_cell(&gx, mem)?;
         let (logits, values) = self.heads(&mem.h, &mission.text)?;

@@ -13,6 +13,8 @@
 //! | `/policy` | groundscope.Policy | episode, step, action, probabilities, value, reward |
 //! | `/metrics/grounding` | groundscope.Grounding | per evaluated map: accuracies and hits |
 //! | `/mission` | groundscope.Mission | mission text, seed, episode (first step of each) |
+//! | `/faithfulness/occlusion` | foxglove.RawImage | occlusion Δ (viridis on [0, 1]), with `replay --faithfulness` |
+//! | `/faithfulness` | groundscope.Faithfulness | Δ, ρ(M, Δ), one-step interventions, with `replay --faithfulness` |
 //!
 //! Frames are frame markers: green = hit on the object's cell (`acc`), yellow = only next to
 //! it, red = miss. Message times are synthetic, 100 ms per step from 0, so a file is a pure
@@ -47,6 +49,8 @@ const POLICY_SCHEMA: &str = r#"{"title":"groundscope.Policy","type":"object","pr
 
 const GROUNDING_SCHEMA: &str = r#"{"title":"groundscope.Grounding","type":"object","properties":{"episode":{"type":"integer"},"step":{"type":"integer"},"maps":{"type":"object","additionalProperties":{"type":"object","properties":{"word":{"type":["string","null"]},"acc":{"type":"number"},"acc_ng":{"type":"number"},"acc_bs":{"type":"number"},"acc_cmb":{"type":"number"},"hits":{"type":"array"}}}}}}"#;
 
+const FAITHFULNESS_SCHEMA: &str = r#"{"title":"groundscope.Faithfulness","type":"object","properties":{"episode":{"type":"integer"},"step":{"type":"integer"},"occlusion":{"type":"array","items":{"type":"array","items":{"type":"number"}}},"rank_correlation":{"type":["number","null"]},"interventions":{"type":"object","additionalProperties":{"type":"object","properties":{"tv":{"type":"number"},"flip":{"type":"boolean"}}}}}}"#;
+
 const MISSION_SCHEMA: &str = r#"{"title":"groundscope.Mission","type":"object","properties":{"episode":{"type":"integer"},"seed":{"type":"integer"},"text":{"type":"string"},"checkpoint":{"type":"string"},"level":{"type":"string"}}}"#;
 
 /// What was written.
@@ -75,6 +79,7 @@ impl<W: std::io::Write + std::io::Seek> Out<W> {
             "weights" => ("groundscope.Weights", WEIGHTS_SCHEMA),
             "policy" => ("groundscope.Policy", POLICY_SCHEMA),
             "grounding" => ("groundscope.Grounding", GROUNDING_SCHEMA),
+            "faithfulness" => ("groundscope.Faithfulness", FAITHFULNESS_SCHEMA),
             _ => ("groundscope.Mission", MISSION_SCHEMA),
         };
         let sid = if let Some(&id) = self.schemas.get(schema) {
@@ -197,6 +202,20 @@ fn step_messages(out: &mut Msgs, e: usize, step: &StepRecord, scene: &StepScene,
             "reward": step.reward, "terminated": step.terminated, "truncated": step.truncated,
         }),
     );
+    if let Some(f) = &step.faithfulness {
+        out.image(
+            "/faithfulness/occlusion",
+            t,
+            &map_picture(&f.occlusion, 1.0, None),
+        );
+        out.json(
+            "/faithfulness",
+            "faithfulness",
+            t,
+            &json!({"episode": e, "step": step.t, "occlusion": f.occlusion,
+                    "rank_correlation": f.rank_correlation, "interventions": f.interventions}),
+        );
+    }
     let Some(att) = &step.attention else {
         return;
     };

@@ -17,6 +17,8 @@
 //! | `policy/status` | TextDocument | mission, step, action, probabilities |
 //! | `policy/action` | TextLog | one line per step |
 //! | `metrics/<object\|color\|combined>` | Scalars | acc, acc_ng, acc_bs, acc_cmb of the step |
+//! | `faithfulness/occlusion` | DepthImage (7×7, viridis on [0, 1]) | occlusion Δ (`replay --faithfulness`) |
+//! | `faithfulness/rank_correlation`, `faithfulness/interventions/<name>` | Scalars | ρ(M, Δ); TV distance of each one-step intervention |
 //! | `mission`, `meta` | TextDocument | the mission; versions, checkpoint, level (static) |
 //!
 //! Timelines: `step` counts steps across the whole recording (so one scrub bar covers every
@@ -107,7 +109,7 @@ pub fn word_path(i: usize, word: &str) -> String {
 
 /// The default layout: world and view on the left, the word maps and `M` in the middle with
 /// w and H under them, the policy's numbers and the metrics on the right.
-fn blueprint(word_paths: &[String], attention: bool) -> Blueprint {
+fn blueprint(word_paths: &[String], attention: bool, faithfulness: bool) -> Blueprint {
     let left = Vertical::new([
         Spatial2DView::new("world").with_origin("/world").into(),
         Spatial2DView::new("agent view").with_origin("/view").into(),
@@ -148,6 +150,18 @@ fn blueprint(word_paths: &[String], attention: bool) -> Blueprint {
             .with_origin("/attention/combined")
             .into(),
     );
+    if faithfulness {
+        maps.push(
+            Spatial2DView::new("occlusion Δ")
+                .with_origin("/faithfulness/occlusion")
+                .into(),
+        );
+        right.push(
+            TimeSeriesView::new("faithfulness: ρ(M, Δ), intervention TV")
+                .with_origin("/faithfulness")
+                .into(),
+        );
+    }
     let middle = Vertical::new([
         Grid::new(maps).into(),
         Horizontal::new([
@@ -266,7 +280,11 @@ impl RerunRecorder {
         let rec = RecordingStreamBuilder::new("groundscope")
             .recording_name(name)
             .enabled(true)
-            .with_blueprint(blueprint(word_paths, attention))
+            .with_blueprint(blueprint(
+                word_paths,
+                attention,
+                first.steps.iter().any(|s| s.faithfulness.is_some()),
+            ))
             .set_sinks(sinks)
             .map_err(sdk)?;
         // Recordings of the same episodes then differ only in row ids.
@@ -464,6 +482,31 @@ fn label_box(text: String) -> rerun::Boxes2D {
         .with_colors([[255, 255, 255]])
 }
 
+/// Occlusion Δ as a depth image beside the maps (on [0, 1], the range of a total-variation
+/// distance) and ρ and the intervention effects as scalars.
+fn log_faithfulness(
+    rec: &RecordingStream,
+    f: &crate::episode::StepFaithfulness,
+) -> Result<(), RecordError> {
+    rec.log("faithfulness/occlusion", &map_image(&f.occlusion, 1.0))
+        .map_err(sdk)?;
+    if let Some(rho) = f.rank_correlation {
+        rec.log(
+            "faithfulness/rank_correlation",
+            &rerun::Scalars::single(rho),
+        )
+        .map_err(sdk)?;
+    }
+    for (name, e) in &f.interventions {
+        rec.log(
+            format!("faithfulness/interventions/{name}"),
+            &rerun::Scalars::single(e.tv),
+        )
+        .map_err(sdk)?;
+    }
+    Ok(())
+}
+
 fn log_step(
     rec: &RecordingStream,
     ep: &EpisodeTrace,
@@ -484,6 +527,9 @@ fn log_step(
     )
     .map_err(sdk)?;
 
+    if let Some(f) = &step.faithfulness {
+        log_faithfulness(rec, f)?;
+    }
     let names = action_names();
     rec.log("policy/probs", &rerun::BarChart::new(step.probs.to_vec()))
         .map_err(sdk)?;

@@ -1,0 +1,271 @@
+//! `groundscope faithfulness`: does the attention explain the behaviour? Occlusion,
+//! deletion/insertion, interventions on `M`, closed-loop re-runs, counterfactual worlds and
+//! localisation, each beside its control; see README, "Faithfulness".
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::Context as _;
+use clap::{Args, ValueEnum};
+use groundscope::episode::ActionMode;
+use groundscope::metrics::faithfulness::report::{
+    CheckpointFaithfulness, FaithfulnessReport, SCHEMA_VERSION, steps_csv,
+};
+use groundscope::metrics::faithfulness::{self, EpisodeResult, Parts, figures, summarise};
+use groundscope::metrics::sweep::eval_level_seed;
+use groundscope::policy::{Net, bundled};
+
+use crate::ExitStatus;
+
+/// The parts of the analysis.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum Part {
+    /// Per step: occlusion, deletion/insertion, one-step interventions, localisation.
+    Steps,
+    /// Whole episodes with an intervention at every step (attention only).
+    ClosedLoop,
+    /// Counterfactual worlds edited at the start (attention only: they track M).
+    Counterfactuals,
+}
+
+/// `groundscope faithfulness`.
+#[derive(Debug, Args)]
+#[command(after_long_help = "EXAMPLES:\n  \
+    groundscope faithfulness --out faith\n  \
+    groundscope faithfulness --checkpoint runs/att/model --sizes 10 --objects 6 --out faith10\n  \
+    groundscope faithfulness --checkpoint bundled:baseline --out faith-baseline")]
+pub struct FaithfulnessArgs {
+    /// Checkpoints (repeatable) [default: bundled:attention].
+    #[arg(long, value_name = "NAME")]
+    pub checkpoint: Vec<String>,
+    /// Output directory.
+    #[arg(long, value_name = "DIR")]
+    pub out: PathBuf,
+    /// Room sizes.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "8",
+        allow_negative_numbers = true
+    )]
+    pub sizes: Vec<usize>,
+    /// Object counts.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "4",
+        allow_negative_numbers = true
+    )]
+    pub objects: Vec<usize>,
+    /// Evaluation seeds (mean ± std is over these).
+    #[arg(long, default_value_t = 5, allow_negative_numbers = true)]
+    pub seeds: u64,
+    /// Episodes per seed.
+    #[arg(long, default_value_t = 100, allow_negative_numbers = true)]
+    pub episodes: u64,
+    /// Sample actions instead of taking the most probable one.
+    #[arg(long)]
+    pub sample: bool,
+    /// Parts to compute [default: all for attention checkpoints, steps for baselines].
+    #[arg(long, value_delimiter = ',', value_enum)]
+    pub parts: Vec<Part>,
+    /// Worker threads [default: the number of cores].
+    #[arg(long, allow_negative_numbers = true)]
+    pub jobs: Option<usize>,
+    /// Hide the progress bar.
+    #[arg(long)]
+    pub quiet: bool,
+}
+
+/// Runs `faithfulness`.
+pub fn run(args: &FaithfulnessArgs) -> anyhow::Result<ExitStatus> {
+    if args.seeds == 0 || args.episodes == 0 {
+        anyhow::bail!("--seeds and --episodes must be at least 1");
+    }
+    if args.episodes >= 1_000_000 || args.seeds > 1000 {
+        anyhow::bail!("--episodes must be below 1000000 and --seeds at most 1000");
+    }
+    if args.jobs == Some(0) {
+        anyhow::bail!("--jobs 0: give at least one worker");
+    }
+    let specs = if args.checkpoint.is_empty() {
+        vec![bundled::names()[0].clone()]
+    } else {
+        args.checkpoint.clone()
+    };
+    let mut cells = Vec::new();
+    for spec in &specs {
+        let ckpt = bundled::load(spec)?;
+        let attention = ckpt.meta.model.has_attention();
+        let parts = if args.parts.is_empty() {
+            Parts {
+                steps: true,
+                closed_loop: attention,
+                counterfactuals: attention,
+                attention,
+            }
+        } else {
+            let wants = |p| args.parts.contains(&p);
+            if !attention {
+                let refused: Vec<&str> = [
+                    (Part::ClosedLoop, "closed-loop"),
+                    (Part::Counterfactuals, "counterfactuals"),
+                ]
+                .into_iter()
+                .filter(|(p, _)| wants(*p))
+                .map(|(_, n)| n)
+                .collect();
+                if !refused.is_empty() {
+                    anyhow::bail!(
+                        "--parts {}: need attention maps, and {spec} is a baseline (it gets occlusion and deletion only)",
+                        refused.join(",")
+                    );
+                }
+            }
+            Parts {
+                steps: wants(Part::Steps),
+                closed_loop: wants(Part::ClosedLoop),
+                counterfactuals: wants(Part::Counterfactuals),
+                attention,
+            }
+        };
+        for &size in &args.sizes {
+            for &objects in &args.objects {
+                let mut level = ckpt.meta.level;
+                level.room_size = size;
+                level.n_objects = objects;
+                level
+                    .validate()
+                    .map_err(|e| anyhow::anyhow!("--sizes {size} --objects {objects}: {e}"))?;
+                cells.push((
+                    spec.clone(),
+                    Net::new(ckpt.meta.model, ckpt.params.detached()),
+                    level,
+                    parts,
+                ));
+            }
+        }
+    }
+    // Fail on an unwritable directory before the work, and write nothing partial after it.
+    let staging = Staging::new(&args.out)?;
+    let mode = if args.sample {
+        ActionMode::Sampled
+    } else {
+        ActionMode::Greedy
+    };
+    let plan: Vec<(u64, u64)> = (0..args.seeds)
+        .flat_map(|s| (0..args.episodes).map(move |e| (s, eval_level_seed(s, e))))
+        .collect();
+    let jobs = args
+        .jobs
+        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, usize::from));
+    let bar = if args.quiet {
+        indicatif::ProgressBar::hidden()
+    } else {
+        indicatif::ProgressBar::new((plan.len() * cells.len()) as u64)
+    };
+    let start = Instant::now();
+    let mut entries: Vec<CheckpointFaithfulness> = Vec::new();
+    let mut all: Vec<(String, Vec<EpisodeResult>)> = Vec::new();
+    for (i, (name, net, level, parts)) in cells.iter().enumerate() {
+        let offset = (i * plan.len()) as u64;
+        let eps = faithfulness::run(net, level, &plan, mode, *parts, jobs, &|done| {
+            bar.set_position(offset + done as u64);
+        })?;
+        let mut entry = summarise(name, net.cfg.variant.name(), &eps);
+        entry.level = level.to_string();
+        entries.push(entry);
+        all.push((format!("{name} {level}"), eps));
+    }
+    bar.finish_and_clear();
+    let report = FaithfulnessReport {
+        schema_version: SCHEMA_VERSION,
+        level: cells
+            .iter()
+            .map(|c| c.2.to_string())
+            .collect::<std::collections::BTreeSet<_>>()
+            .into_iter()
+            .collect::<Vec<_>>()
+            .join(", "),
+        seeds: args.seeds,
+        episodes_per_seed: args.episodes,
+        actions: mode.name(),
+        seconds: start.elapsed().as_secs_f64(),
+        checkpoints: entries,
+    };
+    staging.write(
+        "faithfulness.json",
+        serde_json::to_string_pretty(&report)?.as_bytes(),
+    )?;
+    staging.write("faithfulness.md", report.markdown().as_bytes())?;
+    let rows: Vec<(String, &[EpisodeResult])> =
+        all.iter().map(|(n, e)| (n.clone(), e.as_slice())).collect();
+    staging.write("faithfulness_steps.csv", steps_csv(&rows).as_bytes())?;
+    for (i, c) in report.checkpoints.iter().enumerate() {
+        let suffix = if report.checkpoints.len() == 1 {
+            String::new()
+        } else {
+            format!("_{i}")
+        };
+        figures::deletion_curves(c, &staging.path(&format!("deletion{suffix}.png")))?;
+        if c.variant == "attention" {
+            figures::rho_distribution(c, &staging.path(&format!("rank_correlation{suffix}.png")))?;
+            figures::effects(c, &staging.path(&format!("effects{suffix}.png")))?;
+        }
+    }
+    let written = staging.commit()?;
+    print!("{}", report.markdown());
+    println!("wrote {} files to {}", written, args.out.display());
+    Ok(ExitStatus::Success)
+}
+
+/// Output files are written into a hidden directory inside DIR and moved into place only
+/// when all of them are complete; dropped before that, it removes itself.
+struct Staging {
+    dir: Option<tempfile::TempDir>,
+    out: PathBuf,
+}
+
+impl Staging {
+    fn new(out: &Path) -> anyhow::Result<Self> {
+        std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
+        let dir = tempfile::Builder::new()
+            .prefix(".groundscope-faithfulness-")
+            .tempdir_in(out)
+            .with_context(|| format!("cannot write into {}", out.display()))?;
+        Ok(Self {
+            dir: Some(dir),
+            out: out.to_path_buf(),
+        })
+    }
+
+    fn path(&self, name: &str) -> PathBuf {
+        self.dir
+            .as_ref()
+            .map_or_else(|| self.out.join(name), |d| d.path().join(name))
+    }
+
+    fn write(&self, name: &str, bytes: &[u8]) -> anyhow::Result<()> {
+        let p = self.path(name);
+        std::fs::write(&p, bytes)
+            .with_context(|| format!("cannot write {}", self.out.join(name).display()))
+    }
+
+    /// Moves every file into DIR (replacing older ones) and returns how many.
+    fn commit(mut self) -> anyhow::Result<usize> {
+        let Some(dir) = self.dir.take() else {
+            return Ok(0);
+        };
+        let mut n = 0;
+        for entry in std::fs::read_dir(dir.path())? {
+            let entry = entry?;
+            let dest = self.out.join(entry.file_name());
+            groundscope::files::make_shareable(&entry.path())?;
+            std::fs::rename(entry.path(), &dest)
+                .with_context(|| format!("cannot write {}", dest.display()))?;
+            n += 1;
+        }
+        groundscope::files::sync_dir(&self.out)?;
+        Ok(n)
+    }
+}

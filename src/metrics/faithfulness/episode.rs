@@ -1,0 +1,470 @@
+//! One episode: the unperturbed rollout with every step analysed ([`super::step`]), whole
+//! episodes re-run with an intervention at every step (closed loop), and counterfactual
+//! worlds edited at the start.
+
+use std::collections::BTreeMap;
+
+use candle_core::{Device, Tensor};
+use rand::Rng as _;
+use rand::SeedableRng as _;
+use rand_pcg::Pcg64Mcg;
+
+use super::step::{StepInput, StepResult, analyse, cell_index, steered};
+use crate::env::grid::Pos;
+use crate::env::level::{LevelConfig, all_reachable};
+use crate::env::object::{Color, ObjectKind, WorldObj};
+use crate::env::view::Observation;
+use crate::env::vocab;
+use crate::env::world::{Action, World};
+use crate::episode::{ActionMode, choose, episode_rng};
+use crate::metrics::grounding::related_objects;
+use crate::policy::obs::N_CELLS;
+use crate::policy::{ActOutput, Intervention, Memory, Net, PolicyError, act_with};
+
+/// Interventions applied at every step of a closed-loop re-run, in report order.
+pub const CLOSED_LOOP: [&str; 5] = [
+    "none",
+    "uniform",
+    "steered",
+    "color_word_zero",
+    "object_word_zero",
+];
+
+/// Counterfactual edits of the initial world, in report order.
+pub const COUNTERFACTUALS: [&str; 4] = [
+    "recolor_target",
+    "move_target",
+    "add_twin",
+    "mission_color_to_distractor",
+];
+
+/// Which parts to compute.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[expect(
+    clippy::struct_excessive_bools,
+    reason = "one switch per part of the report"
+)]
+pub struct Parts {
+    /// Occlusion, deletion/insertion, one-step interventions, localisation (per step).
+    pub steps: bool,
+    /// Closed-loop re-runs (attention model only).
+    pub closed_loop: bool,
+    /// Counterfactual worlds.
+    pub counterfactuals: bool,
+    /// The model has attention (interventions on `M`, localisation).
+    pub attention: bool,
+}
+
+/// What a rollout did.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Rollout {
+    /// The episode succeeded.
+    pub success: bool,
+    /// The agent picked up, or declared done at, an object the mission does not name.
+    pub distractor: bool,
+    /// Steps with a target in view.
+    pub target_visible_steps: u32,
+    /// Of those, steps where argmax `M` lies on a target.
+    pub tracking_steps: u32,
+}
+
+/// A counterfactual's outcome: the edited episode, or why the edit was impossible.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Counterfactual {
+    /// The edited world's episode.
+    Ran(Rollout),
+    /// The edit could not be made in this world.
+    Skipped(String),
+}
+
+/// Everything measured on one episode.
+#[derive(Clone, Debug, PartialEq)]
+pub struct EpisodeResult {
+    /// Evaluation seed.
+    pub eval_seed: u64,
+    /// Level seed.
+    pub level_seed: u64,
+    /// Mission.
+    pub mission: String,
+    /// The unperturbed episode.
+    pub rollout: Rollout,
+    /// Analysed steps (those with at least one object in view).
+    pub steps: Vec<StepResult>,
+    /// Closed-loop re-runs by intervention; missing where the mission has no such word.
+    pub closed_loop: BTreeMap<&'static str, Rollout>,
+    /// Counterfactuals by edit.
+    pub counterfactuals: BTreeMap<&'static str, Counterfactual>,
+}
+
+/// How a closed-loop rollout changes the attention at each step.
+#[derive(Clone, Debug)]
+enum Loop {
+    None,
+    Uniform,
+    Steered,
+    ZeroWord(usize),
+}
+
+/// Per-step state of the unperturbed rollout that the step analysis needs.
+struct Visit {
+    memory: Memory,
+    obs: Observation,
+    out: ActOutput,
+    action: usize,
+}
+
+/// Cells of visible targets (objects matching the instruction).
+fn target_cells(world: &World, obs: &Observation) -> Vec<usize> {
+    let desc = world.instr.desc;
+    related_objects(obs, |k, c| {
+        desc.kind.is_none_or(|d| d == k) && desc.color.is_none_or(|d| d == c)
+    })
+    .into_iter()
+    .map(cell_index)
+    .collect()
+}
+
+fn argmax_m(out: &ActOutput) -> Option<usize> {
+    let m = &out.traces.as_ref()?.first()?.combined;
+    let flat: Vec<f64> = m.iter().flatten().map(|x| f64::from(*x)).collect();
+    Some(super::measures::argmax(&flat))
+}
+
+/// Runs `world` to its end with `how` applied at every step; `visits` collects the steps for
+/// the analysis when given (unperturbed runs only).
+fn rollout(
+    net: &Net,
+    mut world: World,
+    seed: u64,
+    mode: ActionMode,
+    how: &Loop,
+    mut visits: Option<&mut Vec<Visit>>,
+) -> Result<Rollout, PolicyError> {
+    let tokens = vocab::tokenize(&world.mission)?;
+    let missions = [tokens.as_slice()];
+    let mut memory = Memory::zeros(1, net.cfg.lstm_hidden)?;
+    let mut rng = episode_rng(seed);
+    let mut r = Rollout::default();
+    let attention = net.cfg.has_attention();
+    while !world.ended() {
+        let obs = world.observe();
+        let iv = match how {
+            Loop::None => None,
+            Loop::Uniform => Some(Intervention::SetM(Tensor::full(
+                1f32 / N_CELLS as f32,
+                (1, N_CELLS),
+                &Device::Cpu,
+            )?)),
+            Loop::ZeroWord(i) => {
+                let mut f = vec![1f32; tokens.len()];
+                f[*i] = 0.0;
+                Some(Intervention::ScaleWeights(Tensor::from_vec(
+                    f,
+                    (1, tokens.len()),
+                    &Device::Cpu,
+                )?))
+            }
+            Loop::Steered => {
+                let base = act_with(net, &[obs], &missions, &memory, true, None)?;
+                let targets = related_objects(&obs, |k, c| {
+                    let d = world.instr.desc;
+                    d.kind.is_none_or(|x| x == k) && d.color.is_none_or(|x| x == c)
+                });
+                let objects = related_objects(&obs, |_, _| true);
+                base.traces
+                    .as_ref()
+                    .and_then(|t| t.first())
+                    .and_then(|t| {
+                        let m: Vec<f64> =
+                            t.combined.iter().flatten().map(|x| f64::from(*x)).collect();
+                        steered(&m, &targets, &objects)
+                    })
+                    .map(|s| {
+                        let v: Vec<f32> = s.iter().map(|x| *x as f32).collect();
+                        Tensor::from_vec(v, (1, N_CELLS), &Device::Cpu).map(Intervention::SetM)
+                    })
+                    .transpose()?
+            }
+        };
+        let out = act_with(net, &[obs], &missions, &memory, attention, iv.as_ref())?;
+        let probs = out.probs.first().cloned().unwrap_or_default();
+        let action = choose(&probs, mode, &mut rng);
+        let targets = target_cells(&world, &obs);
+        if !targets.is_empty() {
+            r.target_visible_steps += 1;
+            if argmax_m(&out).is_some_and(|j| targets.contains(&j)) {
+                r.tracking_steps += 1;
+            }
+        }
+        if matches!(action, Action::Pickup | Action::Done)
+            && let Some(obj) = world.grid.get_or_wall(world.front_pos())
+            && obj.kind.can_pickup()
+            && !world.instr.desc.matches(&obj)
+        {
+            r.distractor = true;
+        }
+        let next_memory = out.memory.clone();
+        if let Some(v) = visits.as_deref_mut() {
+            v.push(Visit {
+                memory: memory.clone(),
+                obs,
+                out,
+                action: action as usize,
+            });
+        }
+        memory = next_memory;
+        let outcome = world.step(action)?;
+        if outcome.terminated && outcome.reward > 0.0 {
+            r.success = true;
+        }
+    }
+    Ok(r)
+}
+
+/// Free interior cells of `world` other than the agent's, in scan order.
+fn free_cells(world: &World) -> Vec<Pos> {
+    let (w, h) = (world.grid.width() as i32, world.grid.height() as i32);
+    (1..h - 1)
+        .flat_map(|y| (1..w - 1).map(move |x| (x, y)))
+        .filter(|&p| world.grid.get(p).is_none() && p != world.agent_pos)
+        .collect()
+}
+
+/// A world like `world` with `grid` and the instruction's colour replaced, targets resolved
+/// again; `Err` with the reason when it is not a valid start.
+fn rebuilt(
+    world: &World,
+    grid: crate::env::grid::Grid,
+    color: Option<Color>,
+    next_id: u32,
+) -> Result<World, String> {
+    let mut instr = world.instr.clone();
+    instr.desc.color = color;
+    if !all_reachable(&grid, world.agent_pos) {
+        return Err("the edit leaves an object unreachable".into());
+    }
+    World::new(
+        grid,
+        world.agent_pos,
+        world.agent_dir,
+        world.carrying,
+        instr,
+        world.max_steps,
+        world.done_actions,
+        next_id,
+    )
+    .map_err(|e| e.to_string())
+}
+
+/// Colours no object of `kind` has in `world`.
+fn unused_colors(world: &World, kind: ObjectKind) -> Vec<Color> {
+    Color::ALL
+        .into_iter()
+        .filter(|c| {
+            !world
+                .grid
+                .objects()
+                .any(|(_, o)| o.kind == kind && o.color == *c)
+        })
+        .collect()
+}
+
+/// Applies counterfactual `name` to the initial `world`.
+fn counterfactual(name: &str, world: &World, rng: &mut Pcg64Mcg) -> Result<World, String> {
+    let Some(&target_pos) = world.verifier.obj_poss.first() else {
+        return Err("the mission names no object".into());
+    };
+    let Some(target) = world.grid.get(target_pos) else {
+        return Err("the target is not on the grid".into());
+    };
+    let desc = world.instr.desc;
+    let pick = |v: &[Pos], rng: &mut Pcg64Mcg| -> Option<Pos> {
+        (!v.is_empty()).then(|| v[rng.random_range(0..v.len())])
+    };
+    let mut grid = world.grid.clone();
+    match name {
+        "recolor_target" => {
+            // The named object changes colour, and so does the mission where it names one.
+            let colors = unused_colors(world, target.kind);
+            let Some(&c) = colors.get(rng.random_range(0..colors.len().max(1))) else {
+                return Err("every colour is taken by an object of the target's type".into());
+            };
+            grid.set(target_pos, Some(WorldObj { color: c, ..target }));
+            rebuilt(world, grid, desc.color.map(|_| c), world.next_id)
+        }
+        "move_target" => {
+            let cells = free_cells(world);
+            let Some(to) = pick(&cells, rng) else {
+                return Err("no free cell".into());
+            };
+            grid.set(target_pos, None);
+            grid.set(to, Some(target));
+            rebuilt(world, grid, desc.color, world.next_id)
+        }
+        "add_twin" => {
+            if desc.color.is_none() {
+                return Err("the mission names no colour, so a twin would be a target".into());
+            }
+            let colors = unused_colors(world, target.kind);
+            let Some(&c) = colors.first() else {
+                return Err("every colour is taken by an object of the target's type".into());
+            };
+            let Some(at) = pick(&free_cells(world), rng) else {
+                return Err("no free cell".into());
+            };
+            grid.set(at, Some(WorldObj::new(target.kind, c, world.next_id)));
+            rebuilt(world, grid, desc.color, world.next_id + 1)
+        }
+        _ => {
+            // "mission_color_to_distractor": name another object of the target's type.
+            let others: Vec<Color> = world
+                .grid
+                .objects()
+                .filter(|(_, o)| o.kind == target.kind && !desc.matches(o))
+                .map(|(_, o)| o.color)
+                .collect();
+            let Some(&c) = others.first() else {
+                return Err("no object of the target's type in another colour".into());
+            };
+            rebuilt(world, grid, Some(c), world.next_id)
+        }
+    }
+}
+
+/// Runs and analyses one episode of `level` at `level_seed`.
+pub fn analyse_episode(
+    net: &Net,
+    level: &LevelConfig,
+    eval_seed: u64,
+    level_seed: u64,
+    mode: ActionMode,
+    parts: Parts,
+) -> Result<EpisodeResult, PolicyError> {
+    let world = level.generate(level_seed)?;
+    let tokens = vocab::tokenize(&world.mission)?;
+    let mut rng = Pcg64Mcg::seed_from_u64(level_seed ^ 0xFA17_4F11);
+    let mut visits = Vec::new();
+    let base = rollout(
+        net,
+        world.clone(),
+        level_seed,
+        mode,
+        &Loop::None,
+        Some(&mut visits),
+    )?;
+    let mut steps = Vec::new();
+    if parts.steps {
+        for v in &visits {
+            if related_objects(&v.obs, |_, _| true).is_empty() {
+                continue;
+            }
+            let probs = v.out.probs.first().cloned().unwrap_or_default();
+            let input = StepInput {
+                net,
+                tokens: &tokens,
+                memory: &v.memory,
+                obs: v.obs,
+                desc: world.instr.desc,
+                probs: &probs,
+                action: v.action,
+                attention: v.out.traces.as_ref().and_then(|t| t.first()),
+            };
+            steps.push(analyse(&input, &mut rng)?);
+        }
+    }
+    let mut closed_loop = BTreeMap::new();
+    if parts.closed_loop && parts.attention {
+        let position = |word: Option<&str>| -> Option<usize> {
+            let id = vocab::tokenize(word?).ok()?.first().copied()?;
+            tokens.iter().position(|t| *t == id)
+        };
+        let desc = world.instr.desc;
+        for name in CLOSED_LOOP {
+            let how = match name {
+                "none" => Some(Loop::None),
+                "uniform" => Some(Loop::Uniform),
+                "steered" => Some(Loop::Steered),
+                "color_word_zero" => position(desc.color.map(Color::name)).map(Loop::ZeroWord),
+                _ => position(desc.kind.map(ObjectKind::name)).map(Loop::ZeroWord),
+            };
+            if let Some(how) = how {
+                let r = match how {
+                    Loop::None => base,
+                    _ => rollout(net, world.clone(), level_seed, mode, &how, None)?,
+                };
+                closed_loop.insert(name, r);
+            }
+        }
+    }
+    let mut counterfactuals = BTreeMap::new();
+    if parts.counterfactuals {
+        for name in COUNTERFACTUALS {
+            let outcome = match counterfactual(name, &world, &mut rng) {
+                Ok(edited) => {
+                    Counterfactual::Ran(rollout(net, edited, level_seed, mode, &Loop::None, None)?)
+                }
+                Err(reason) => Counterfactual::Skipped(reason),
+            };
+            counterfactuals.insert(name, outcome);
+        }
+    }
+    Ok(EpisodeResult {
+        eval_seed,
+        level_seed,
+        mission: world.mission.clone(),
+        rollout: base,
+        steps,
+        closed_loop,
+        counterfactuals,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn counterfactual_worlds_are_valid_starts() {
+        let level = LevelConfig::default();
+        let mut made = BTreeMap::<&str, usize>::new();
+        for seed in 0..40 {
+            let world = level.generate(seed).unwrap();
+            let mut rng = Pcg64Mcg::seed_from_u64(seed);
+            for name in COUNTERFACTUALS {
+                let Ok(edited) = counterfactual(name, &world, &mut rng) else {
+                    continue;
+                };
+                *made.entry(name).or_default() += 1;
+                edited.validate().unwrap();
+                assert!(all_reachable(&edited.grid, edited.agent_pos));
+                assert!(!edited.verifier.obj_poss.is_empty(), "{name}: a target");
+                let desc = edited.instr.desc;
+                match name {
+                    // The twin differs in colour, so exactly the old targets still match.
+                    "add_twin" => assert_eq!(
+                        edited.verifier.obj_poss.len(),
+                        world.verifier.obj_poss.len()
+                    ),
+                    "mission_color_to_distractor" => {
+                        assert_ne!(desc.color, world.instr.desc.color);
+                        assert!(
+                            edited
+                                .verifier
+                                .obj_poss
+                                .iter()
+                                .all(|p| { !world.verifier.obj_poss.contains(p) })
+                        );
+                    }
+                    "move_target" => assert_eq!(desc, world.instr.desc),
+                    _ => {}
+                }
+            }
+        }
+        for name in COUNTERFACTUALS {
+            assert!(
+                made.get(name).copied().unwrap_or(0) >= 5,
+                "{name}: {made:?}"
+            );
+        }
+    }
+}

@@ -1,0 +1,590 @@
+//! Aggregation of episode results into `faithfulness.json` (schema in README), with a
+//! Markdown table and a per-step CSV. Every value is paired with its control.
+
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+
+use serde::Serialize;
+
+use super::episode::{CLOSED_LOOP, COUNTERFACTUALS, Counterfactual, EpisodeResult, Rollout};
+use super::step::{CURVE_POINTS, Curves, INTERVENTIONS, StepResult};
+use crate::metrics::grounding::WordKind;
+use crate::metrics::sweep::MeanStd;
+
+/// Version of `faithfulness.json`.
+pub const SCHEMA_VERSION: u32 = 1;
+
+/// Bins of the rank-correlation histogram over [−1, 1].
+pub const RHO_BINS: usize = 20;
+
+/// A measure beside its control.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Paired {
+    /// The measure.
+    pub value: MeanStd,
+    /// Its control or chance level.
+    pub control: MeanStd,
+    /// What the control is.
+    pub control_is: &'static str,
+}
+
+/// Occlusion results.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Occlusion {
+    /// Spearman ρ(M, Δ) over the 49 cells; control: a randomly permuted M.
+    pub rank_correlation: Option<Paired>,
+    /// Analysed steps where M or Δ was constant (left out of ρ).
+    pub constant_steps: usize,
+    /// argmax M = argmax Δ; control: permuted M.
+    pub argmax_agreement: Option<Paired>,
+    /// With ≥ 2 objects in view: the object with the largest M is the one whose occlusion
+    /// changes the action distribution most; control: permuted M.
+    pub object_agreement: Option<Paired>,
+    /// The chance of picking that object at random (1 / objects in view).
+    pub object_random_pick: MeanStd,
+    /// With the target and ≥ 1 other object in view: occluding the target changes the
+    /// action distribution most (attention-free; the baseline has it too).
+    pub target_most_effective: Paired,
+}
+
+/// Normalised AUCs of deletion or insertion, and the mean curves for the figure.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Aucs {
+    /// Objects in decreasing-M order (attention model).
+    pub by_m: Option<MeanStd>,
+    /// Random orders (the control).
+    pub random: MeanStd,
+    /// Decreasing-Δ order (the oracle).
+    pub oracle: MeanStd,
+    /// Mean curves over all analysed steps, [`CURVE_POINTS`] points from 0 to 1 of the
+    /// objects removed (or inserted), relative to the unperturbed probability.
+    pub curves: BTreeMap<&'static str, Vec<f64>>,
+}
+
+/// A one-step intervention on M.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct InterventionEffect {
+    /// Total-variation distance of the action distributions.
+    pub tv: MeanStd,
+    /// Rate at which the most probable action changes.
+    pub flip_rate: MeanStd,
+    /// Steps where it was possible.
+    pub steps: usize,
+}
+
+/// A closed-loop re-run.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ClosedLoop {
+    /// Success rate.
+    pub success: MeanStd,
+    /// Rate of episodes that picked up or declared done at an object the mission does not
+    /// name.
+    pub distractor: MeanStd,
+    /// Episodes run.
+    pub episodes: usize,
+}
+
+/// One counterfactual edit.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct CounterfactualEffect {
+    /// Episodes whose world could be edited.
+    pub ran: usize,
+    /// Episodes skipped, by reason.
+    pub skipped: BTreeMap<String, usize>,
+    /// Steps with the named object in view where argmax M is on it: edited vs unedited.
+    pub tracking: Paired,
+    /// Success on the edited task vs the unedited one (same episodes).
+    pub success: Paired,
+}
+
+/// Localisation of one word kind's map.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct LocalisationStats {
+    /// argmax of the map on a related object; chance: a uniform map.
+    pub pointing_game: Paired,
+    /// Σ of the map over related cells.
+    pub relevance_mass: Paired,
+    /// Fraction of the top-n cells that are related (n = related cells).
+    pub rank_accuracy: Paired,
+}
+
+/// Everything measured for one checkpoint.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct CheckpointFaithfulness {
+    /// The checkpoint.
+    pub checkpoint: String,
+    /// attention or baseline.
+    pub variant: String,
+    /// The level (set by the caller).
+    pub level: String,
+    /// Episodes analysed.
+    pub episodes: usize,
+    /// Steps analysed (at least one object in view).
+    pub analysed_steps: usize,
+    /// Success of the unperturbed episodes.
+    pub success: MeanStd,
+    /// Occlusion.
+    pub occlusion: Occlusion,
+    /// Deletion (objects removed one by one).
+    pub deletion: Aucs,
+    /// Insertion (objects put back into an emptied view).
+    pub insertion: Aucs,
+    /// One-step interventions on M by name.
+    pub interventions: BTreeMap<&'static str, InterventionEffect>,
+    /// Closed-loop re-runs by intervention.
+    pub closed_loop: BTreeMap<&'static str, ClosedLoop>,
+    /// Counterfactual edits.
+    pub counterfactuals: BTreeMap<&'static str, CounterfactualEffect>,
+    /// Localisation per word kind.
+    pub localisation: BTreeMap<WordKind, LocalisationStats>,
+    /// Histogram of per-step ρ over [−1, 1] ([`RHO_BINS`] bins): measured and permuted.
+    pub rho_histogram: BTreeMap<&'static str, Vec<usize>>,
+}
+
+/// The whole report.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct FaithfulnessReport {
+    /// [`SCHEMA_VERSION`].
+    pub schema_version: u32,
+    /// The level.
+    pub level: String,
+    /// Evaluation seeds.
+    pub seeds: u64,
+    /// Episodes per seed.
+    pub episodes_per_seed: u64,
+    /// greedy or sampled.
+    pub actions: &'static str,
+    /// Wall time in seconds.
+    pub seconds: f64,
+    /// One entry per checkpoint.
+    pub checkpoints: Vec<CheckpointFaithfulness>,
+}
+
+/// Mean ± std over seeds of per-seed means of per-episode means of `f`'s values (an episode
+/// without values does not count; nor does a seed without episodes).
+fn agg(eps: &[EpisodeResult], f: impl Fn(&EpisodeResult) -> Vec<f64>) -> MeanStd {
+    let mut per_seed: BTreeMap<u64, Vec<f64>> = BTreeMap::new();
+    for e in eps {
+        let v: Vec<f64> = f(e).into_iter().filter(|x| x.is_finite()).collect();
+        if !v.is_empty() {
+            per_seed
+                .entry(e.eval_seed)
+                .or_default()
+                .push(v.iter().sum::<f64>() / v.len() as f64);
+        }
+    }
+    let means: Vec<f64> = per_seed
+        .values()
+        .map(|v| v.iter().sum::<f64>() / v.len() as f64)
+        .collect();
+    MeanStd::of(&means)
+}
+
+fn steps_agg(eps: &[EpisodeResult], f: impl Fn(&StepResult) -> Option<f64>) -> MeanStd {
+    agg(eps, |e| e.steps.iter().filter_map(&f).collect())
+}
+
+fn flag(b: bool) -> f64 {
+    f64::from(u8::from(b))
+}
+
+fn paired(
+    eps: &[EpisodeResult],
+    value: impl Fn(&StepResult) -> Option<f64>,
+    control: impl Fn(&StepResult) -> Option<f64>,
+    control_is: &'static str,
+) -> Paired {
+    Paired {
+        value: steps_agg(eps, value),
+        control: steps_agg(eps, control),
+        control_is,
+    }
+}
+
+fn some_if(measured: bool, p: Paired) -> Option<Paired> {
+    measured.then_some(p)
+}
+
+fn aucs(eps: &[EpisodeResult], pick: impl Fn(&StepResult) -> &Curves) -> Aucs {
+    let auc = |which: fn(&Curves) -> &Option<(Vec<f64>, f64)>| {
+        steps_agg(eps, |s| which(pick(s)).as_ref().map(|c| c.1))
+    };
+    let mut curves = BTreeMap::new();
+    let kinds: [(&'static str, fn(&Curves) -> &Option<(Vec<f64>, f64)>); 3] = [
+        ("by_m", |c| &c.by_m),
+        ("random", |c| &c.random),
+        ("oracle", |c| &c.oracle),
+    ];
+    for (name, which) in kinds {
+        let all: Vec<&Vec<f64>> = eps
+            .iter()
+            .flat_map(|e| &e.steps)
+            .filter_map(|s| which(pick(s)).as_ref().map(|c| &c.0))
+            .collect();
+        if !all.is_empty() {
+            let mean = (0..CURVE_POINTS)
+                .map(|i| all.iter().map(|c| c[i]).sum::<f64>() / all.len() as f64)
+                .collect();
+            curves.insert(name, mean);
+        }
+    }
+    let any_m = eps
+        .iter()
+        .flat_map(|e| &e.steps)
+        .any(|s| pick(s).by_m.is_some());
+    Aucs {
+        by_m: any_m.then(|| auc(|c| &c.by_m)),
+        random: auc(|c| &c.random),
+        oracle: auc(|c| &c.oracle),
+        curves,
+    }
+}
+
+fn histogram(values: impl Iterator<Item = f64>) -> Vec<usize> {
+    let mut bins = vec![0; RHO_BINS];
+    for v in values {
+        let b = (((v + 1.0) / 2.0) * RHO_BINS as f64).floor() as isize;
+        bins[b.clamp(0, RHO_BINS as isize - 1) as usize] += 1;
+    }
+    bins
+}
+
+fn rollout_rate(r: Option<&Rollout>, f: impl Fn(&Rollout) -> f64) -> Vec<f64> {
+    r.map(f).into_iter().collect()
+}
+
+fn tracking(r: &Rollout) -> f64 {
+    if r.target_visible_steps == 0 {
+        f64::NAN
+    } else {
+        f64::from(r.tracking_steps) / f64::from(r.target_visible_steps)
+    }
+}
+
+/// Aggregates the episodes of one checkpoint.
+pub fn summarise(checkpoint: &str, variant: &str, eps: &[EpisodeResult]) -> CheckpointFaithfulness {
+    let steps: Vec<&StepResult> = eps.iter().flat_map(|e| &e.steps).collect();
+    let attention = variant == "attention";
+    let has = |f: &dyn Fn(&StepResult) -> bool| steps.iter().any(|s| f(s));
+    let occlusion = Occlusion {
+        rank_correlation: some_if(
+            attention,
+            paired(
+                eps,
+                |s| s.rank_correlation,
+                |s| s.chance_rank_correlation,
+                "permuted M",
+            ),
+        ),
+        constant_steps: if attention {
+            steps
+                .iter()
+                .filter(|s| s.rank_correlation.is_none())
+                .count()
+        } else {
+            0
+        },
+        argmax_agreement: some_if(
+            attention,
+            paired(
+                eps,
+                |s| s.argmax_agreement.map(flag),
+                |s| s.chance_argmax_agreement.map(flag),
+                "permuted M",
+            ),
+        ),
+        object_agreement: some_if(
+            attention,
+            paired(
+                eps,
+                |s| s.object_agreement.map(flag),
+                |s| s.chance_object_agreement.map(flag),
+                "permuted M",
+            ),
+        ),
+        object_random_pick: steps_agg(eps, |s| s.random_pick),
+        target_most_effective: paired(
+            eps,
+            |s| s.target_most_effective.map(flag),
+            |s| s.target_most_effective.and(s.random_pick),
+            "a random object in view",
+        ),
+    };
+    let mut interventions = BTreeMap::new();
+    for name in INTERVENTIONS {
+        if has(&|s| s.interventions.contains_key(name)) {
+            interventions.insert(
+                name,
+                InterventionEffect {
+                    tv: steps_agg(eps, |s| s.interventions.get(name).map(|e| e.tv)),
+                    flip_rate: steps_agg(eps, |s| s.interventions.get(name).map(|e| flag(e.flip))),
+                    steps: steps
+                        .iter()
+                        .filter(|s| s.interventions.contains_key(name))
+                        .count(),
+                },
+            );
+        }
+    }
+    let mut closed_loop = BTreeMap::new();
+    for name in CLOSED_LOOP {
+        let n = eps
+            .iter()
+            .filter(|e| e.closed_loop.contains_key(name))
+            .count();
+        if n > 0 {
+            closed_loop.insert(
+                name,
+                ClosedLoop {
+                    success: agg(eps, |e| {
+                        rollout_rate(e.closed_loop.get(name), |r| flag(r.success))
+                    }),
+                    distractor: agg(eps, |e| {
+                        rollout_rate(e.closed_loop.get(name), |r| flag(r.distractor))
+                    }),
+                    episodes: n,
+                },
+            );
+        }
+    }
+    let mut counterfactuals = BTreeMap::new();
+    for name in COUNTERFACTUALS {
+        let ran = |e: &EpisodeResult| match e.counterfactuals.get(name) {
+            Some(Counterfactual::Ran(r)) => Some(*r),
+            _ => None,
+        };
+        let n_ran = eps.iter().filter(|e| ran(e).is_some()).count();
+        let mut skipped = BTreeMap::new();
+        for e in eps {
+            if let Some(Counterfactual::Skipped(why)) = e.counterfactuals.get(name) {
+                *skipped.entry(why.clone()).or_default() += 1;
+            }
+        }
+        if n_ran + skipped.values().sum::<usize>() == 0 {
+            continue;
+        }
+        // Controls are the same episodes unedited.
+        counterfactuals.insert(
+            name,
+            CounterfactualEffect {
+                ran: n_ran,
+                skipped,
+                tracking: Paired {
+                    value: agg(eps, |e| ran(e).map(|r| tracking(&r)).into_iter().collect()),
+                    control: agg(eps, |e| {
+                        ran(e).map(|_| tracking(&e.rollout)).into_iter().collect()
+                    }),
+                    control_is: "the same episodes unedited",
+                },
+                success: Paired {
+                    value: agg(eps, |e| {
+                        ran(e).map(|r| flag(r.success)).into_iter().collect()
+                    }),
+                    control: agg(eps, |e| {
+                        ran(e)
+                            .map(|_| flag(e.rollout.success))
+                            .into_iter()
+                            .collect()
+                    }),
+                    control_is: "the same episodes unedited",
+                },
+            },
+        );
+    }
+    let mut localisation = BTreeMap::new();
+    for kind in WordKind::ALL {
+        if !has(&|s| s.localisation.contains_key(&kind)) {
+            continue;
+        }
+        let l = |f: fn(&super::measures::Localisation) -> f64| {
+            move |s: &StepResult| s.localisation.get(&kind).map(f)
+        };
+        let chance = l(|x| x.chance);
+        localisation.insert(
+            kind,
+            LocalisationStats {
+                pointing_game: paired(eps, l(|x| x.pointing_game), chance, "a uniform map"),
+                relevance_mass: paired(eps, l(|x| x.relevance_mass), chance, "a uniform map"),
+                rank_accuracy: paired(eps, l(|x| x.rank_accuracy), chance, "a uniform map"),
+            },
+        );
+    }
+    let mut rho_histogram = BTreeMap::new();
+    if attention {
+        rho_histogram.insert(
+            "measured",
+            histogram(steps.iter().filter_map(|s| s.rank_correlation)),
+        );
+        rho_histogram.insert(
+            "permuted",
+            histogram(steps.iter().filter_map(|s| s.chance_rank_correlation)),
+        );
+    }
+    CheckpointFaithfulness {
+        checkpoint: checkpoint.to_owned(),
+        variant: variant.to_owned(),
+        level: String::new(),
+        episodes: eps.len(),
+        analysed_steps: steps.len(),
+        success: agg(eps, |e| vec![flag(e.rollout.success)]),
+        occlusion,
+        deletion: aucs(eps, |s| &s.deletion),
+        insertion: aucs(eps, |s| &s.insertion),
+        interventions,
+        closed_loop,
+        counterfactuals,
+        localisation,
+        rho_histogram,
+    }
+}
+
+fn row(out: &mut String, what: &str, p: &Paired) {
+    let _ = writeln!(
+        out,
+        "| {what} | {} | {} ({}) |",
+        p.value, p.control, p.control_is
+    );
+}
+
+impl FaithfulnessReport {
+    /// The report as Markdown: one table per checkpoint, every measure beside its control.
+    pub fn markdown(&self) -> String {
+        let mut out = format!(
+            "# Faithfulness\n\nLevel {}, {} seeds × {} episodes, {} actions; mean ± std over seeds. {:.1} s.\n",
+            self.level, self.seeds, self.episodes_per_seed, self.actions, self.seconds
+        );
+        for c in &self.checkpoints {
+            let _ = write!(
+                out,
+                "\n## {} ({}, {})\n\n{} episodes, {} analysed steps, success {}.\n\n| measure | value | control |\n|---|---|---|\n",
+                c.checkpoint, c.variant, c.level, c.episodes, c.analysed_steps, c.success
+            );
+            let o = &c.occlusion;
+            if let Some(p) = &o.rank_correlation {
+                row(&mut out, "occlusion: Spearman ρ(M, Δ)", p);
+            }
+            if let Some(p) = &o.argmax_agreement {
+                row(&mut out, "occlusion: argmax M = argmax Δ", p);
+            }
+            if let Some(p) = &o.object_agreement {
+                row(&mut out, "occlusion: top-M object = top-Δ object", p);
+            }
+            row(
+                &mut out,
+                "occlusion: the target is the top-Δ object",
+                &o.target_most_effective,
+            );
+            for (name, a) in [("deletion", &c.deletion), ("insertion", &c.insertion)] {
+                let dir = if name == "deletion" {
+                    "lower"
+                } else {
+                    "higher"
+                };
+                if let Some(m) = &a.by_m {
+                    let _ = writeln!(
+                        out,
+                        "| {name} AUC, M order ({dir} = more faithful) | {m} | random {} · Δ oracle {} |",
+                        a.random, a.oracle
+                    );
+                } else {
+                    let _ = writeln!(
+                        out,
+                        "| {name} AUC, Δ oracle order | {} | random {} |",
+                        a.oracle, a.random
+                    );
+                }
+            }
+            for (name, e) in &c.interventions {
+                let _ = writeln!(
+                    out,
+                    "| one step, M {name}: TV distance / action flips | {} / {} | unchanged M: 0 / 0 ({} steps) |",
+                    e.tv, e.flip_rate, e.steps
+                );
+            }
+            let none = c.closed_loop.get("none");
+            for (name, l) in &c.closed_loop {
+                if *name == "none" {
+                    continue;
+                }
+                let _ = writeln!(
+                    out,
+                    "| closed loop, {name}: success / distractor | {} / {} | unmodified {} / {} |",
+                    l.success,
+                    l.distractor,
+                    none.map_or(MeanStd::of(&[]), |n| n.success),
+                    none.map_or(MeanStd::of(&[]), |n| n.distractor)
+                );
+            }
+            for (name, cf) in &c.counterfactuals {
+                let skipped: usize = cf.skipped.values().sum();
+                let _ = writeln!(
+                    out,
+                    "| counterfactual {name} ({} run, {skipped} skipped): argmax M tracks the named object | {} | {} ({}) |",
+                    cf.ran, cf.tracking.value, cf.tracking.control, cf.tracking.control_is
+                );
+                row(
+                    &mut out,
+                    &format!("counterfactual {name}: success"),
+                    &cf.success,
+                );
+            }
+            for (kind, l) in &c.localisation {
+                let k = kind.name();
+                row(
+                    &mut out,
+                    &format!("{k} map: pointing game"),
+                    &l.pointing_game,
+                );
+                row(
+                    &mut out,
+                    &format!("{k} map: relevance mass"),
+                    &l.relevance_mass,
+                );
+                row(
+                    &mut out,
+                    &format!("{k} map: relevance rank accuracy"),
+                    &l.rank_accuracy,
+                );
+            }
+        }
+        out
+    }
+}
+
+/// One CSV row per analysed step of every checkpoint.
+pub fn steps_csv(rows: &[(String, &[EpisodeResult])]) -> String {
+    let mut out = String::from(
+        "checkpoint,eval_seed,level_seed,step,rank_correlation,chance_rank_correlation,argmax_agreement,object_agreement,target_most_effective,deletion_auc_m,deletion_auc_random,deletion_auc_oracle,insertion_auc_m,insertion_auc_random,insertion_auc_oracle,tv_uniform,tv_permuted,tv_steered\n",
+    );
+    let num = |x: Option<f64>| x.map_or(String::new(), |v| format!("{v:.6}"));
+    let b = |x: Option<bool>| x.map_or(String::new(), |v| u8::from(v).to_string());
+    let auc = |c: &Option<(Vec<f64>, f64)>| num(c.as_ref().map(|c| c.1));
+    for (name, eps) in rows {
+        for e in *eps {
+            for (i, s) in e.steps.iter().enumerate() {
+                let tv = |n: &str| num(s.interventions.get(n).map(|e| e.tv));
+                let _ = writeln!(
+                    out,
+                    "{name},{},{},{i},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+                    e.eval_seed,
+                    e.level_seed,
+                    num(s.rank_correlation),
+                    num(s.chance_rank_correlation),
+                    b(s.argmax_agreement),
+                    b(s.object_agreement),
+                    b(s.target_most_effective),
+                    auc(&s.deletion.by_m),
+                    auc(&s.deletion.random),
+                    auc(&s.deletion.oracle),
+                    auc(&s.insertion.by_m),
+                    auc(&s.insertion.random),
+                    auc(&s.insertion.oracle),
+                    tv("uniform"),
+                    tv("permuted"),
+                    tv("steered"),
+                );
+            }
+        }
+    }
+    out
+}

@@ -1,0 +1,288 @@
+//! Faithfulness: interventions that change nothing reproduce the episode, no-op
+//! counterfactuals reproduce the trace, occlusion is zero where nothing is replaced, the
+//! command writes a complete report or none, and `replay --faithfulness` annotates traces and
+//! recordings.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    reason = "test helpers fail loudly"
+)]
+
+mod common;
+
+use candle_core::{Device, Tensor};
+use common::{assert_bad_input, gs};
+use groundscope::env::edit::{Edit, apply};
+use groundscope::episode::{ActionMode, EpisodeSpec, initial_world, run_episode, run_from};
+use groundscope::metrics::faithfulness::annotate;
+use groundscope::metrics::faithfulness::step::{StepInput, analyse, cell_index, occludable};
+use groundscope::policy::{Intervention, Memory, Net, act, act_with, bundled};
+use rand::SeedableRng as _;
+
+fn attention_net() -> (groundscope::policy::Checkpoint, Net) {
+    let ckpt = bundled::load("bundled:attention").unwrap();
+    let net = Net::new(ckpt.meta.model, ckpt.params.detached());
+    (ckpt, net)
+}
+
+fn spec(level: groundscope::env::LevelConfig, seed: u64) -> EpisodeSpec {
+    EpisodeSpec {
+        level,
+        seed,
+        mission: None,
+        mode: ActionMode::Greedy,
+    }
+}
+
+#[test]
+fn identity_interventions_reproduce_the_step() {
+    let (ckpt, net) = attention_net();
+    let world = ckpt.meta.level.generate(7).unwrap();
+    let tokens = groundscope::env::vocab::tokenize(&world.mission).unwrap();
+    let obs = world.observe();
+    let mem = Memory::zeros(1, net.cfg.lstm_hidden).unwrap();
+    let base = act(&net, &[obs], &[&tokens], &mem, true).unwrap();
+    let m: Vec<f32> = base.traces.as_ref().unwrap()[0]
+        .combined
+        .iter()
+        .flatten()
+        .copied()
+        .collect();
+    // M set to itself: bit for bit the same step.
+    let same = Intervention::SetM(Tensor::from_vec(m, (1, 49), &Device::Cpu).unwrap());
+    let out = act_with(&net, &[obs], &[&tokens], &mem, true, Some(&same)).unwrap();
+    assert_eq!(out.probs, base.probs);
+    assert_eq!(out.values, base.values);
+    // Every word weight scaled by 1: the same up to the renormalisation's rounding.
+    let ones = Intervention::ScaleWeights(
+        Tensor::ones((1, tokens.len()), candle_core::DType::F32, &Device::Cpu).unwrap(),
+    );
+    let out = act_with(&net, &[obs], &[&tokens], &mem, true, Some(&ones)).unwrap();
+    for (a, b) in out.probs[0].iter().zip(&base.probs[0]) {
+        assert!((a - b).abs() < 1e-6, "{a} vs {b}");
+    }
+    // A weight set to 0 does change M.
+    let mut f = vec![1f32; tokens.len()];
+    f[tokens.len() - 1] = 0.0;
+    let zero =
+        Intervention::ScaleWeights(Tensor::from_vec(f, (1, tokens.len()), &Device::Cpu).unwrap());
+    let out = act_with(&net, &[obs], &[&tokens], &mem, true, Some(&zero)).unwrap();
+    let w = &out.traces.unwrap()[0].words;
+    assert_eq!(w.last().unwrap().weight, 0.0);
+    assert!((w.iter().map(|x| x.weight).sum::<f32>() - 1.0).abs() < 1e-5);
+}
+
+#[test]
+fn a_no_op_counterfactual_reproduces_the_trace_exactly() {
+    let (ckpt, net) = attention_net();
+    for seed in [2, 5, 11] {
+        let s = spec(ckpt.meta.level, seed);
+        let original = run_episode(&ckpt, "bundled:attention", &s).unwrap();
+        let world = initial_world(&s).unwrap();
+        let target = world.verifier.obj_poss[0];
+        let color = world.grid.get(target).unwrap().color;
+        let edited = apply(&world, &Edit::Recolor(target, color)).unwrap();
+        let again = run_from(&net, "bundled:attention", &s, edited).unwrap();
+        assert_eq!(again.to_json(), original.to_json(), "seed {seed}");
+    }
+}
+
+#[test]
+fn occlusion_is_zero_where_nothing_is_replaced_and_annotation_is_deterministic() {
+    let (ckpt, net) = attention_net();
+    let mut trace = run_episode(&ckpt, "bundled:attention", &spec(ckpt.meta.level, 4)).unwrap();
+    let step = &trace.steps[0];
+    let mem = Memory::zeros(1, net.cfg.lstm_hidden).unwrap();
+    let input = StepInput {
+        net: &net,
+        tokens: &trace.tokens,
+        memory: &mem,
+        obs: step.obs,
+        desc: step.world.instr.desc,
+        probs: &step.probs,
+        action: step.action as usize,
+        attention: step.attention.as_ref(),
+    };
+    let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(1);
+    let r = analyse(&input, &mut rng).unwrap();
+    let replaced: Vec<usize> = occludable(&step.obs).into_iter().map(cell_index).collect();
+    assert!(!replaced.is_empty());
+    for (j, d) in r.occlusion.iter().enumerate() {
+        assert!((0.0..=1.0).contains(d), "Δ is a total-variation distance");
+        if !replaced.contains(&j) {
+            assert_eq!(*d, 0.0, "cell {j} was not replaced");
+        }
+    }
+    assert!(r.occlusion.iter().any(|d| *d > 0.0));
+    annotate(&net, &mut trace).unwrap();
+    let first = trace.to_json();
+    annotate(&net, &mut trace).unwrap();
+    assert_eq!(trace.to_json(), first);
+    let f = trace.steps[0].faithfulness.as_ref().unwrap();
+    let flat: Vec<f64> = f
+        .occlusion
+        .iter()
+        .flatten()
+        .map(|x| f64::from(*x))
+        .collect();
+    // The annotation of step 0 (zero memory) is the analysis above.
+    for (a, b) in flat.iter().zip(&r.occlusion) {
+        assert!((a - b).abs() < 1e-6);
+    }
+    assert!(f.interventions.contains_key("uniform") && f.interventions.contains_key("permuted"));
+}
+
+#[test]
+fn the_command_writes_a_complete_report_with_controls() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("f");
+    let o = gs(&[
+        "faithfulness",
+        "--seeds",
+        "2",
+        "--episodes",
+        "3",
+        "--quiet",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(
+        o.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let mut names: Vec<String> = std::fs::read_dir(&out)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().into_string().unwrap())
+        .collect();
+    names.sort();
+    assert_eq!(
+        names,
+        [
+            "deletion.png",
+            "effects.png",
+            "faithfulness.json",
+            "faithfulness.md",
+            "faithfulness_steps.csv",
+            "rank_correlation.png"
+        ]
+    );
+    let j: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("faithfulness.json")).unwrap()).unwrap();
+    assert_eq!(j["schema_version"], 1);
+    let c = &j["checkpoints"][0];
+    assert_eq!(c["episodes"], 6);
+    for key in ["rank_correlation", "argmax_agreement", "object_agreement"] {
+        let p = &c["occlusion"][key];
+        assert!(p["value"]["mean"].is_number(), "{key}: {p}");
+        assert!(p["control"]["mean"].is_number(), "{key} has its control");
+    }
+    for kind in ["object", "combined"] {
+        let l = &c["localisation"][kind]["pointing_game"];
+        assert!(l["value"]["mean"].as_f64().unwrap() > l["control"]["mean"].as_f64().unwrap());
+    }
+    assert!(c["closed_loop"]["uniform"]["success"]["mean"].is_number());
+    assert!(c["deletion"]["random"]["mean"].is_number());
+    let csv = std::fs::read_to_string(out.join("faithfulness_steps.csv")).unwrap();
+    assert_eq!(
+        csv.lines().count() - 1,
+        c["analysed_steps"].as_u64().unwrap() as usize
+    );
+}
+
+#[test]
+fn baselines_get_occlusion_only_and_bad_outputs_leave_nothing() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("b");
+    let o = gs(&[
+        "faithfulness",
+        "--checkpoint",
+        "bundled:baseline",
+        "--parts",
+        "steps,closed-loop",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_bad_input(&o, "--parts closed-loop");
+    assert!(!out.exists());
+    let o = gs(&[
+        "faithfulness",
+        "--checkpoint",
+        "bundled:baseline",
+        "--seeds",
+        "1",
+        "--episodes",
+        "2",
+        "--quiet",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(
+        o.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let j: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("faithfulness.json")).unwrap()).unwrap();
+    let c = &j["checkpoints"][0];
+    assert!(c["occlusion"]["rank_correlation"].is_null());
+    assert!(c["occlusion"]["target_most_effective"]["value"]["mean"].is_number());
+    assert!(c["closed_loop"].as_object().unwrap().is_empty());
+    // A directory that cannot be written: one line, exit 2, nothing behind.
+    let file = tmp.path().join("plain");
+    std::fs::write(&file, b"x").unwrap();
+    let o = gs(&[
+        "faithfulness",
+        "--seeds",
+        "1",
+        "--episodes",
+        "1",
+        "--out",
+        file.join("sub").to_str().unwrap(),
+    ]);
+    assert_bad_input(&o, "plain");
+}
+
+#[test]
+fn replay_adds_faithfulness_to_the_trace_and_the_recordings() {
+    let tmp = tempfile::tempdir().unwrap();
+    let trace = tmp.path().join("t.json");
+    let mcap = tmp.path().join("t.mcap");
+    let o = gs(&[
+        "replay",
+        "--seed",
+        "3",
+        "--faithfulness",
+        "--trace",
+        trace.to_str().unwrap(),
+        "--mcap",
+        mcap.to_str().unwrap(),
+    ]);
+    assert_eq!(
+        o.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let j: serde_json::Value = serde_json::from_slice(&std::fs::read(&trace).unwrap()).unwrap();
+    for s in j["steps"].as_array().unwrap() {
+        let f = &s["faithfulness"];
+        assert_eq!(f["occlusion"].as_array().unwrap().len(), 7);
+        assert!(f["interventions"]["uniform"]["tv"].is_number());
+    }
+    let bytes = std::fs::read(&mcap).unwrap();
+    let summary = mcap::Summary::read(&bytes).unwrap().unwrap();
+    let topics: Vec<&str> = summary
+        .channels
+        .values()
+        .map(|c| c.topic.as_str())
+        .collect();
+    assert!(topics.contains(&"/faithfulness") && topics.contains(&"/faithfulness/occlusion"));
+    // Without the flag the trace has no such field.
+    let plain = tmp.path().join("p.json");
+    gs(&["replay", "--seed", "3", "--trace", plain.to_str().unwrap()]);
+    let j: serde_json::Value = serde_json::from_slice(&std::fs::read(&plain).unwrap()).unwrap();
+    assert!(j["steps"][0].get("faithfulness").is_none());
+}
