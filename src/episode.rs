@@ -198,6 +198,40 @@ pub fn run_from(
         memory,
         rng,
         Vec::new(),
+        None,
+    )
+}
+
+/// Chooses an intervention on the attention for the step about to be taken, from the world,
+/// its observation, the mission's tokens and the memory before the step.
+pub type Intervene<'a> = &'a dyn Fn(
+    &World,
+    &Observation,
+    &[u32],
+    &Memory,
+) -> Result<Option<policy::Intervention>, PolicyError>;
+
+/// [`run_from`] with an intervention on the attention at every step (closed-loop probes;
+/// see `metrics::faithfulness`). The trace shows the changed weights and `M`.
+pub fn run_from_with(
+    net: &Net,
+    checkpoint: &str,
+    spec: &EpisodeSpec,
+    world: World,
+    intervene: Intervene<'_>,
+) -> Result<EpisodeTrace, PolicyError> {
+    let tokens = vocab::tokenize(&world.mission)?;
+    let memory = Memory::zeros(1, net.cfg.lstm_hidden)?;
+    run_loop(
+        net,
+        checkpoint,
+        spec,
+        world,
+        tokens,
+        memory,
+        episode_rng(spec.seed),
+        Vec::new(),
+        Some(intervene),
     )
 }
 
@@ -241,6 +275,7 @@ pub fn rerun_from(
         memory,
         rng,
         prefix,
+        None,
     )
 }
 
@@ -257,10 +292,15 @@ fn run_loop(
     mut memory: Memory,
     mut rng: Pcg64Mcg,
     mut steps: Vec<StepRecord>,
+    intervene: Option<Intervene<'_>>,
 ) -> Result<EpisodeTrace, PolicyError> {
     while !world.ended() {
         let obs = world.observe();
-        let out = policy::act(net, &[obs], &[&tokens], &memory, true)?;
+        let iv = match intervene {
+            Some(f) => f(&world, &obs, &tokens, &memory)?,
+            None => None,
+        };
+        let out = policy::act_with(net, &[obs], &[&tokens], &memory, true, iv.as_ref())?;
         memory = out.memory;
         let probs_v = out.probs.into_iter().next().unwrap_or_default();
         let mut probs = [0.0; Action::COUNT];

@@ -105,3 +105,37 @@ fn bad_view_arguments_are_one_line_errors() {
         assert!(err.contains(what), "{args:?}: expected {what:?} in {err}");
     }
 }
+
+#[test]
+fn the_faithfulness_view_adds_the_occlusion_map() {
+    let dir = tempfile::tempdir().unwrap();
+    let purple = |with: bool| {
+        let shot = dir.path().join(format!("f{with}.png"));
+        let mut args = vec![
+            "view",
+            "--screenshot",
+            shot.to_str().unwrap(),
+            "--seed",
+            "3",
+            "--step",
+            "1",
+            "--size",
+            "1400x1100",
+        ];
+        if with {
+            args.push("--faithfulness");
+        }
+        let o = xvfb_screenshot(&args);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let img = image::open(&shot).unwrap().to_rgb8();
+        // Viridis' dark end, in the central panel.
+        img.enumerate_pixels()
+            .filter(|(x, _, p)| *x > 450 && p.0[2] > 60 && p.0[0] < 80 && p.0[1] < 40)
+            .count()
+    };
+    let (without, with) = (purple(false), purple(true));
+    assert!(
+        with > without + 2000,
+        "one more 7×7 map: {without} → {with} dark viridis pixels"
+    );
+}

@@ -4,6 +4,7 @@
 //!
 //! [`session`] holds the model and the background jobs; [`ui`] draws it.
 
+pub mod faithful;
 pub mod gif;
 pub mod session;
 pub mod ui;

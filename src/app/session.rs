@@ -9,7 +9,8 @@ use std::sync::mpsc::{Receiver, channel};
 
 use crate::env::edit::{Edit, apply};
 use crate::env::level::LevelConfig;
-use crate::episode::{ActionMode, EpisodeSpec, EpisodeTrace, rerun_from, run_from};
+use crate::episode::{ActionMode, EpisodeSpec, EpisodeTrace, rerun_from, run_from, run_from_with};
+use crate::metrics::faithfulness::episode::{Loop, intervention};
 use crate::policy::{Checkpoint, Net, bundled};
 use crate::record::{RerunTargets, StepScene, episode_scenes, record_rerun, write_mcap};
 
@@ -211,6 +212,32 @@ pub fn start_probe(
     ))
 }
 
+/// Re-runs the episode of `shown` from its start with `how` applied to the attention at
+/// every step (M uniform, steered onto a distractor, a word's weight zeroed).
+pub fn start_attention_probe(agent: &Agent, shown: &Shown, how: Loop, alpha: f64) -> Job {
+    let net = agent.net.clone();
+    let trace = shown.trace.clone();
+    Job::spawn(format!("re-running with {how:?}"), 0, move |_| {
+        let world = trace
+            .steps
+            .first()
+            .map_or_else(|| trace.final_world.clone(), |s| s.world.clone());
+        let spec = EpisodeSpec {
+            level: trace.level,
+            seed: trace.seed,
+            mission: None,
+            mode: trace.mode,
+        };
+        let run = run_from_with(&net, &trace.checkpoint, &spec, world, &|w, o, t, m| {
+            intervention(&net, how, w, o, t, m)
+        });
+        match run {
+            Ok(t) => JobResult::Probed(Box::new(Shown::new(t, alpha)), 0),
+            Err(e) => JobResult::Failed(e.to_string()),
+        }
+    })
+}
+
 /// Starts an export of `shown`; `stop` cancels it.
 pub fn start_export(shown: &Shown, what: Export, alpha: f64, stop: Arc<AtomicBool>) -> Job {
     let trace = shown.trace.clone();
@@ -402,6 +429,26 @@ mod tests {
         )
         .unwrap_err();
         assert!(err.contains("pink"), "{err}");
+    }
+
+    #[test]
+    fn attention_probes_rerun_the_episode_with_m_changed_at_every_step() {
+        let (agent, s) = shown(3);
+        let JobResult::Probed(p, k) = start_attention_probe(&agent, &s, Loop::Uniform, 0.5).wait()
+        else {
+            panic!("probe failed")
+        };
+        assert_eq!(k, 0);
+        for step in &p.trace.steps {
+            let m = &step.attention.as_ref().unwrap().combined;
+            assert!(m.iter().flatten().all(|v| (v - 1.0 / 49.0).abs() < 1e-6));
+        }
+        // With no change at all the probe is the episode itself.
+        let JobResult::Probed(same, _) = start_attention_probe(&agent, &s, Loop::None, 0.5).wait()
+        else {
+            panic!("probe failed")
+        };
+        assert_eq!(same.trace.to_json(), s.trace.to_json());
     }
 
     #[test]

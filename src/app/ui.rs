@@ -16,8 +16,8 @@ use egui::{
 };
 
 use super::session::{
-    Agent, Cursor, Export, Job, JobResult, Request, Shown, failure_step, next_miss, start_episodes,
-    start_export, start_probe,
+    Agent, Cursor, Export, Job, JobResult, Request, Shown, failure_step, next_miss,
+    start_attention_probe, start_episodes, start_export, start_probe,
 };
 use crate::env::edit::Edit;
 use crate::env::level::{LevelConfig, TaskSet};
@@ -49,6 +49,8 @@ pub struct StartOptions {
     pub step: usize,
     /// Mission override.
     pub mission: Option<String>,
+    /// Open with the faithfulness view shown.
+    pub faithfulness: bool,
 }
 
 /// Where a headless screenshot goes and where its outcome is reported.
@@ -99,6 +101,9 @@ pub struct Debugger {
     shot_rx: Receiver<(Arc<ColorImage>, PathBuf, bool)>,
     /// A screenshot has been requested and not yet received.
     shot_pending: bool,
+    /// Show the faithfulness view (occlusion, interventions, probes).
+    show_faithfulness: bool,
+    faithfulness: super::faithful::FaithfulnessView,
 }
 
 fn rgb_texture(ctx: &egui::Context, name: &str, img: &image::RgbImage) -> TextureHandle {
@@ -171,6 +176,8 @@ impl Debugger {
             shot_tx,
             shot_rx,
             shot_pending: false,
+            show_faithfulness: opts.faithfulness,
+            faithfulness: super::faithful::FaithfulnessView::default(),
         };
         me.run_episode(opts.mission.clone());
         me
@@ -654,7 +661,7 @@ impl Debugger {
     }
 
     /// A 7×7 heat map with grounding marks; returns the response (click selects).
-    fn heat_map(
+    pub(super) fn heat_map(
         ui: &mut egui::Ui,
         map: &ViewMap,
         hi: f32,
@@ -956,6 +963,23 @@ impl Debugger {
                 Self::policy_panel(ui, step, &shown);
                 ui.separator();
                 self.attention_panel(ui, step, scene);
+                ui.separator();
+                ui.checkbox(
+                    &mut self.show_faithfulness,
+                    "faithfulness: does this step's behaviour depend on M?",
+                );
+                if self.show_faithfulness
+                    && let Some(agent) = self.agent.clone()
+                {
+                    let side = (ui.available_width() / 4.0).clamp(90.0, 170.0);
+                    let asked =
+                        self.faithfulness
+                            .show(ui, &agent, &shown, i, self.generation, side);
+                    if let Some(how) = asked {
+                        self.jobs
+                            .push(start_attention_probe(&agent, &shown, how, self.alpha));
+                    }
+                }
             });
         });
         self.maybe_screenshot(&ctx);

@@ -55,6 +55,9 @@ pub struct ViewArgs {
     /// on a headless machine).
     #[arg(long, value_name = "FILE.png")]
     pub screenshot: Option<PathBuf>,
+    /// Open with the faithfulness view (occlusion map, ρ, interventions, probes) shown.
+    #[arg(long)]
+    pub faithfulness: bool,
 }
 
 fn parse_size(s: &str) -> anyhow::Result<[f32; 2]> {
@@ -102,6 +105,7 @@ pub fn run(args: &ViewArgs) -> anyhow::Result<ExitStatus> {
         sample: args.sample,
         step: args.step,
         mission: args.mission.clone(),
+        faithfulness: args.faithfulness,
     };
     app::run(
         &start,

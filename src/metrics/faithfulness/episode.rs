@@ -97,12 +97,80 @@ pub struct EpisodeResult {
 }
 
 /// How a closed-loop rollout changes the attention at each step.
-#[derive(Clone, Debug)]
-enum Loop {
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Loop {
+    /// No change.
     None,
+    /// `M` uniform.
     Uniform,
+    /// `M` steered onto the nearest distractor ([`steered`]) where one is in view.
     Steered,
+    /// The weight of the word at this position set to 0 and the rest renormalised.
     ZeroWord(usize),
+}
+
+/// The intervention `how` makes at a step, given the world, its observation, the mission's
+/// tokens and the memory before the step (steering needs one unperturbed forward to know
+/// `M`). The one definition used by closed-loop runs here and the debugger's probes.
+pub fn intervention(
+    net: &Net,
+    how: Loop,
+    world: &World,
+    obs: &Observation,
+    tokens: &[u32],
+    memory: &Memory,
+) -> Result<Option<Intervention>, PolicyError> {
+    Ok(match how {
+        Loop::None => None,
+        Loop::Uniform => Some(Intervention::SetM(Tensor::full(
+            1f32 / N_CELLS as f32,
+            (1, N_CELLS),
+            &Device::Cpu,
+        )?)),
+        Loop::ZeroWord(i) => {
+            let mut f = vec![1f32; tokens.len()];
+            if let Some(x) = f.get_mut(i) {
+                *x = 0.0;
+            }
+            Some(Intervention::ScaleWeights(Tensor::from_vec(
+                f,
+                (1, tokens.len()),
+                &Device::Cpu,
+            )?))
+        }
+        Loop::Steered => {
+            let base = act_with(net, &[*obs], &[tokens], memory, true, None)?;
+            let d = world.instr.desc;
+            let targets = related_objects(obs, |k, c| {
+                d.kind.is_none_or(|x| x == k) && d.color.is_none_or(|x| x == c)
+            });
+            let objects = related_objects(obs, |_, _| true);
+            base.traces
+                .as_ref()
+                .and_then(|t| t.first())
+                .and_then(|t| {
+                    let m: Vec<f64> = t.combined.iter().flatten().map(|x| f64::from(*x)).collect();
+                    steered(&m, &targets, &objects)
+                })
+                .map(|s| {
+                    let v: Vec<f32> = s.iter().map(|x| *x as f32).collect();
+                    Tensor::from_vec(v, (1, N_CELLS), &Device::Cpu).map(Intervention::SetM)
+                })
+                .transpose()?
+        }
+    })
+}
+
+/// The position of the mission's colour word (`color`) or object word, if it has one.
+pub fn word_position(world: &World, tokens: &[u32], color: bool) -> Option<usize> {
+    let desc = world.instr.desc;
+    let word = if color {
+        desc.color.map(Color::name)
+    } else {
+        desc.kind.map(ObjectKind::name)
+    }?;
+    let id = vocab::tokenize(word).ok()?.first().copied()?;
+    tokens.iter().position(|t| *t == id)
 }
 
 /// Per-step state of the unperturbed rollout that the step analysis needs.
@@ -148,44 +216,7 @@ fn rollout(
     let attention = net.cfg.has_attention();
     while !world.ended() {
         let obs = world.observe();
-        let iv = match how {
-            Loop::None => None,
-            Loop::Uniform => Some(Intervention::SetM(Tensor::full(
-                1f32 / N_CELLS as f32,
-                (1, N_CELLS),
-                &Device::Cpu,
-            )?)),
-            Loop::ZeroWord(i) => {
-                let mut f = vec![1f32; tokens.len()];
-                f[*i] = 0.0;
-                Some(Intervention::ScaleWeights(Tensor::from_vec(
-                    f,
-                    (1, tokens.len()),
-                    &Device::Cpu,
-                )?))
-            }
-            Loop::Steered => {
-                let base = act_with(net, &[obs], &missions, &memory, true, None)?;
-                let targets = related_objects(&obs, |k, c| {
-                    let d = world.instr.desc;
-                    d.kind.is_none_or(|x| x == k) && d.color.is_none_or(|x| x == c)
-                });
-                let objects = related_objects(&obs, |_, _| true);
-                base.traces
-                    .as_ref()
-                    .and_then(|t| t.first())
-                    .and_then(|t| {
-                        let m: Vec<f64> =
-                            t.combined.iter().flatten().map(|x| f64::from(*x)).collect();
-                        steered(&m, &targets, &objects)
-                    })
-                    .map(|s| {
-                        let v: Vec<f32> = s.iter().map(|x| *x as f32).collect();
-                        Tensor::from_vec(v, (1, N_CELLS), &Device::Cpu).map(Intervention::SetM)
-                    })
-                    .transpose()?
-            }
-        };
+        let iv = intervention(net, *how, &world, &obs, &tokens, &memory)?;
         let out = act_with(net, &[obs], &missions, &memory, attention, iv.as_ref())?;
         let probs = out.probs.first().cloned().unwrap_or_default();
         let action = choose(&probs, mode, &mut rng);
@@ -374,18 +405,13 @@ pub fn analyse_episode(
     }
     let mut closed_loop = BTreeMap::new();
     if parts.closed_loop && parts.attention {
-        let position = |word: Option<&str>| -> Option<usize> {
-            let id = vocab::tokenize(word?).ok()?.first().copied()?;
-            tokens.iter().position(|t| *t == id)
-        };
-        let desc = world.instr.desc;
         for name in CLOSED_LOOP {
             let how = match name {
                 "none" => Some(Loop::None),
                 "uniform" => Some(Loop::Uniform),
                 "steered" => Some(Loop::Steered),
-                "color_word_zero" => position(desc.color.map(Color::name)).map(Loop::ZeroWord),
-                _ => position(desc.kind.map(ObjectKind::name)).map(Loop::ZeroWord),
+                "color_word_zero" => word_position(&world, &tokens, true).map(Loop::ZeroWord),
+                _ => word_position(&world, &tokens, false).map(Loop::ZeroWord),
             };
             if let Some(how) = how {
                 let r = match how {

@@ -82,38 +82,79 @@ pub fn run(
 pub fn annotate(net: &Net, trace: &mut EpisodeTrace) -> Result<(), PolicyError> {
     let tokens = trace.tokens.clone();
     let mut memory = Memory::zeros(1, net.cfg.lstm_hidden)?;
-    let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(trace.seed ^ 0xFA17_4F11);
+    let mut rng = annotation_rng(trace);
     for s in &mut trace.steps {
-        let input = step::StepInput {
-            net,
-            tokens: &tokens,
-            memory: &memory,
-            obs: s.obs,
-            desc: s.world.instr.desc,
-            probs: &s.probs,
-            action: s.action as usize,
-            attention: s.attention.as_ref(),
-        };
-        let r = step::analyse(&input, &mut rng)?;
-        let occlusion: Vec<f32> = r.occlusion.iter().map(|x| *x as f32).collect();
-        s.faithfulness = Some(StepFaithfulness {
-            occlusion: to_map(&occlusion),
-            rank_correlation: r.rank_correlation,
-            interventions: r
-                .interventions
-                .iter()
-                .map(|(k, e)| {
-                    (
-                        (*k).to_owned(),
-                        InterventionOutcome {
-                            tv: e.tv,
-                            flip: e.flip,
-                        },
-                    )
-                })
-                .collect(),
-        });
+        s.faithfulness = Some(step_faithfulness(net, s, &tokens, &memory, &mut rng)?);
         memory = act(net, &[s.obs], &[&tokens], &memory, false)?.memory;
     }
     Ok(())
+}
+
+/// The measures of step `k` alone (the debugger's on-demand view): the memory is rebuilt
+/// from steps `0..k`. Equal to what [`annotate`] gives step `k` except for the permutation
+/// drawn for the `permuted` intervention.
+pub fn annotate_step(
+    net: &Net,
+    trace: &EpisodeTrace,
+    k: usize,
+) -> Result<StepFaithfulness, PolicyError> {
+    let Some(step) = trace.steps.get(k) else {
+        return Err(PolicyError::Input(format!(
+            "step {k} is past the end of the episode ({} steps)",
+            trace.steps.len()
+        )));
+    };
+    let mut memory = Memory::zeros(1, net.cfg.lstm_hidden)?;
+    for s in &trace.steps[..k] {
+        memory = act(net, &[s.obs], &[&trace.tokens], &memory, false)?.memory;
+    }
+    step_faithfulness(
+        net,
+        step,
+        &trace.tokens,
+        &memory,
+        &mut annotation_rng(trace),
+    )
+}
+
+fn annotation_rng(trace: &EpisodeTrace) -> rand_pcg::Pcg64Mcg {
+    rand_pcg::Pcg64Mcg::seed_from_u64(trace.seed ^ 0xFA17_4F11)
+}
+
+fn step_faithfulness(
+    net: &Net,
+    s: &crate::episode::StepRecord,
+    tokens: &[u32],
+    memory: &Memory,
+    rng: &mut rand_pcg::Pcg64Mcg,
+) -> Result<StepFaithfulness, PolicyError> {
+    let input = step::StepInput {
+        net,
+        tokens,
+        memory,
+        obs: s.obs,
+        desc: s.world.instr.desc,
+        probs: &s.probs,
+        action: s.action as usize,
+        attention: s.attention.as_ref(),
+    };
+    let r = step::analyse(&input, rng)?;
+    let occlusion: Vec<f32> = r.occlusion.iter().map(|x| *x as f32).collect();
+    Ok(StepFaithfulness {
+        occlusion: to_map(&occlusion),
+        rank_correlation: r.rank_correlation,
+        interventions: r
+            .interventions
+            .iter()
+            .map(|(k, e)| {
+                (
+                    (*k).to_owned(),
+                    InterventionOutcome {
+                        tv: e.tv,
+                        flip: e.flip,
+                    },
+                )
+            })
+            .collect(),
+    })
 }

@@ -1,0 +1,106 @@
+//! The debugger's faithfulness view for the current step: the occlusion map beside `M` with
+//! their rank correlation, the one-step interventions' effects on the action distribution,
+//! and probes that re-run the episode with the attention changed at every step.
+
+use std::time::Instant;
+
+use eframe::egui;
+
+use super::session::{Agent, Shown};
+use super::ui::Debugger;
+use crate::episode::StepFaithfulness;
+use crate::metrics::faithfulness::episode::{Loop, word_position};
+
+/// The measures of one step, computed when first shown and kept until the step or the
+/// episode changes.
+#[derive(Default)]
+pub struct FaithfulnessView {
+    /// Episode generation and step of `result`.
+    key: Option<(u64, usize)>,
+    result: Option<Result<(StepFaithfulness, f64), String>>,
+}
+
+impl FaithfulnessView {
+    /// Draws the view for step `k` of `shown`; returns a probe the user asked for.
+    pub fn show(
+        &mut self,
+        ui: &mut egui::Ui,
+        agent: &Agent,
+        shown: &Shown,
+        k: usize,
+        generation: u64,
+        side: f32,
+    ) -> Option<Loop> {
+        if self.key != Some((generation, k)) {
+            let t0 = Instant::now();
+            let r = crate::metrics::faithfulness::annotate_step(&agent.net, &shown.trace, k)
+                .map_err(|e| e.to_string());
+            let ms = t0.elapsed().as_secs_f64() * 1000.0;
+            self.result = Some(r.map(|f| (f, ms)));
+            self.key = Some((generation, k));
+        }
+        match &self.result {
+            Some(Ok((f, ms))) => {
+                ui.horizontal(|ui| {
+                    ui.vertical(|ui| {
+                        ui.label(egui::RichText::new("occlusion Δ").strong());
+                        let hi = f
+                            .occlusion
+                            .iter()
+                            .flatten()
+                            .fold(1e-6f32, |a, b| a.max(*b));
+                        ui.label(format!("scale 0–{hi:.3}"));
+                        Debugger::heat_map(ui, &f.occlusion, hi, &[], side, false).on_hover_text(
+                            "how much the action distribution changes (total variation) when this cell alone becomes empty floor",
+                        );
+                    });
+                    ui.vertical(|ui| {
+                        ui.label(match f.rank_correlation {
+                            Some(r) => format!("Spearman ρ(M, Δ) = {r:.3}"),
+                            None => "ρ(M, Δ): undefined (M or Δ constant)".to_owned(),
+                        });
+                        ui.label(format!("computed in {ms:.0} ms"));
+                        ui.add_space(4.0);
+                        ui.label("one step with M changed:");
+                        for (name, e) in &f.interventions {
+                            ui.label(format!(
+                                "{name}: TV {:.3}{}",
+                                e.tv,
+                                if e.flip { " · best action flips" } else { "" }
+                            ));
+                        }
+                    });
+                });
+            }
+            Some(Err(e)) => {
+                ui.label(format!("faithfulness: {e}"));
+            }
+            None => {}
+        }
+        let mut probe = None;
+        if shown.trace.variant.name() != "attention" {
+            return None;
+        }
+        ui.horizontal_wrapped(|ui| {
+            ui.label("re-run the episode with, at every step:");
+            if ui.button("M uniform").clicked() {
+                probe = Some(Loop::Uniform);
+            }
+            if ui.button("M steered to a distractor").clicked() {
+                probe = Some(Loop::Steered);
+            }
+            let first = shown.trace.steps.first();
+            for (color, label) in [(true, "colour word w = 0"), (false, "object word w = 0")] {
+                let at = first.and_then(|s| word_position(&s.world, &shown.trace.tokens, color));
+                if ui
+                    .add_enabled(at.is_some(), egui::Button::new(label))
+                    .clicked()
+                    && let Some(i) = at
+                {
+                    probe = Some(Loop::ZeroWord(i));
+                }
+            }
+        });
+        probe
+    }
+}
