@@ -325,3 +325,34 @@ fn env_verify_compares_directions_and_missions_and_rejects_malformed_images() {
     v["grid"][2][3] = serde_json::json!([0, 0, 0]);
     assert_bad_input(&gs(&["env", "verify", &write("unseen.json", &v)]), "unseen");
 }
+
+#[test]
+fn bench_train_reports_every_phase() {
+    let o = gs(&["bench", "train", "--frames", "2048"]);
+    assert_eq!(
+        o.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(j["bench"], "train");
+    assert_eq!(j["frames"], 2048);
+    let phases = j["phase_seconds"].as_object().unwrap();
+    for p in [
+        "rollout_env",
+        "rollout_encode",
+        "rollout_forward",
+        "gae",
+        "update_encode",
+        "update_forward",
+        "update_backward",
+        "optimizer",
+    ] {
+        assert!(phases[p].as_f64().unwrap() >= 0.0, "{p}");
+    }
+    // The phases account for nearly all of the time.
+    let timed: f64 = phases.values().map(|v| v.as_f64().unwrap()).sum();
+    assert!(timed > 0.8 * j["seconds"].as_f64().unwrap());
+    assert_bad_input(&gs(&["bench", "train", "--frames", "10"]), "--frames");
+}

@@ -30,6 +30,20 @@ pub enum BenchCommand {
         #[arg(long, default_value_t = 3.0, allow_negative_numbers = true)]
         secs: f64,
     },
+    /// PPO training end to end from a fresh network on the paper's level, with the wall time
+    /// of each phase (rollout: env, encoding, forward; GAE; update: encoding, forward,
+    /// backward, optimizer), as one JSON line.
+    Train {
+        /// attention or baseline.
+        #[arg(long, default_value = "attention")]
+        model: String,
+        /// Frames to train (whole updates of 2,048 frames).
+        #[arg(long, default_value_t = 40_960, allow_negative_numbers = true)]
+        frames: u64,
+        /// Threads for the update (`train --update-threads`).
+        #[arg(long, default_value_t = 1, allow_negative_numbers = true)]
+        update_threads: usize,
+    },
     /// Recording speed and size: the bundled attention checkpoint's episodes on consecutive
     /// seeds written as `.rrd` and as MCAP (episodes are run first and not timed).
     Record {
@@ -43,6 +57,11 @@ pub enum BenchCommand {
 pub fn run(cmd: &BenchCommand) -> anyhow::Result<ExitStatus> {
     match cmd {
         BenchCommand::Env { steps } => bench_env(*steps),
+        BenchCommand::Train {
+            model,
+            frames,
+            update_threads,
+        } => bench_train(model, *frames, *update_threads),
         BenchCommand::Policy { model, secs } => {
             if !(secs.is_finite() && *secs > 0.0 && *secs <= 3600.0) {
                 anyhow::bail!("--secs {secs}: must be a number of seconds in (0, 3600]");
@@ -173,6 +192,48 @@ fn bench_policy(model: &str, secs: f64) -> anyhow::Result<ExitStatus> {
                 "recurrence": rec, "frames_per_sec": (calls * frames as f64).round(), "threads": threads})
         );
     }
+    Ok(ExitStatus::Success)
+}
+
+fn bench_train(model: &str, frames: u64, update_threads: usize) -> anyhow::Result<ExitStatus> {
+    use groundscope::policy::ppo::{PpoConfig, Trainer};
+    use groundscope::policy::{ModelConfig, Params};
+
+    if !(2048..=10_000_000).contains(&frames) {
+        anyhow::bail!("--frames {frames}: must be in 2048..=10000000");
+    }
+    if !(1..=64).contains(&update_threads) {
+        anyhow::bail!("--update-threads {update_threads}: must be in 1..=64");
+    }
+    let variant = crate::cli::policy_cmd::parse_variant(model)?;
+    let cfg = ModelConfig::new(variant);
+    let ppo = PpoConfig {
+        update_threads,
+        ..PpoConfig::default()
+    };
+    let mut trainer = Trainer::new(cfg, LevelConfig::default(), ppo, Params::init(&cfg, 0)?, 0)?;
+    let start = Instant::now();
+    while trainer.state.frames < frames {
+        trainer.update()?;
+    }
+    let total = start.elapsed().as_secs_f64();
+    let mut phases = serde_json::Map::new();
+    let mut timed = 0.0;
+    for (name, secs) in trainer.times.named() {
+        timed += secs;
+        phases.insert(
+            name.to_owned(),
+            serde_json::json!((secs * 1000.0).round() / 1000.0),
+        );
+    }
+    let threads = std::env::var("RAYON_NUM_THREADS").unwrap_or_else(|_| "default".into());
+    println!(
+        "{}",
+        serde_json::json!({"bench": "train", "model": variant.name(), "frames": trainer.state.frames,
+            "frames_per_sec": (trainer.state.frames as f64 / total).round(), "seconds": total,
+            "phase_seconds": phases, "untimed_seconds": total - timed,
+            "update_threads": update_threads, "candle_threads": threads})
+    );
     Ok(ExitStatus::Success)
 }
 

@@ -16,12 +16,12 @@ use rand::{Rng as _, SeedableRng as _};
 use rand_pcg::Pcg64Mcg;
 use serde::{Deserialize, Serialize};
 
+use super::ModelConfig;
 use super::adam::{Adam, AdamConfig, clip_grad_norm};
 use super::error::PolicyError;
 use super::model::{Memory, Net, log_probs};
 use super::obs::{self, TokenBatch};
 use super::params::Params;
-use super::{ModelConfig, act};
 use crate::env::level::LevelConfig;
 use crate::env::view::Observation;
 use crate::env::vocab;
@@ -244,6 +244,61 @@ pub struct Trainer {
     pub adam: Adam,
     /// Progress and RNG streams.
     pub state: RunState,
+    /// Wall time per phase, summed over the updates of this process (not saved).
+    pub times: PhaseTimes,
+}
+
+/// Seconds spent in each phase of training (`groundscope bench train`). With
+/// `--update-threads` above 1 the update phases add up the shards' threads.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct PhaseTimes {
+    /// Environment steps, observations and rollout bookkeeping.
+    pub rollout_env: f64,
+    /// Encoding the rollout's inputs: im2col patches, token batches, memory tensors.
+    pub rollout_encode: f64,
+    /// The rollout's batched forward passes (and reading their outputs back).
+    pub rollout_forward: f64,
+    /// Advantages and returns (GAE).
+    pub gae: f64,
+    /// Encoding the minibatches' inputs (patches, gathers).
+    pub update_encode: f64,
+    /// Minibatch forward passes and losses.
+    pub update_forward: f64,
+    /// Backward passes.
+    pub update_backward: f64,
+    /// Merging shard gradients, clipping and Adam.
+    pub optimizer: f64,
+}
+
+impl PhaseTimes {
+    /// The phases by name, in order.
+    pub fn named(&self) -> [(&'static str, f64); 8] {
+        [
+            ("rollout_env", self.rollout_env),
+            ("rollout_encode", self.rollout_encode),
+            ("rollout_forward", self.rollout_forward),
+            ("gae", self.gae),
+            ("update_encode", self.update_encode),
+            ("update_forward", self.update_forward),
+            ("update_backward", self.update_backward),
+            ("optimizer", self.optimizer),
+        ]
+    }
+
+    fn add(&mut self, o: &Self) {
+        self.rollout_env += o.rollout_env;
+        self.rollout_encode += o.rollout_encode;
+        self.rollout_forward += o.rollout_forward;
+        self.gae += o.gae;
+        self.update_encode += o.update_encode;
+        self.update_forward += o.update_forward;
+        self.update_backward += o.update_backward;
+        self.optimizer += o.optimizer;
+    }
+}
+
+fn secs(t: std::time::Instant) -> f64 {
+    t.elapsed().as_secs_f64()
 }
 
 /// Rollout buffers, proc-major.
@@ -302,6 +357,7 @@ impl Trainer {
                 batch_num: 0,
                 envs,
             },
+            times: PhaseTimes::default(),
         })
     }
 
@@ -396,6 +452,7 @@ impl Trainer {
         let mut stats = EpisodeStats::default();
         for t in 0..t_n {
             let out = self.act_all(&net)?;
+            let env_t = std::time::Instant::now();
             let st = &mut self.state;
             for (p, env) in st.envs.iter_mut().enumerate() {
                 let i = p * t_n + t;
@@ -441,9 +498,11 @@ impl Trainer {
                     env.mask = 1.0;
                 }
             }
+            self.times.rollout_env += secs(env_t);
         }
         // Bootstrap values with the memory the next step would use.
         let last = self.act_all(&net)?;
+        let gae_t = std::time::Instant::now();
         let (gamma, lambda) = (self.ppo.discount as f32, self.ppo.gae_lambda as f32);
         for p in 0..p_n {
             let mut next_adv = 0.0;
@@ -463,11 +522,13 @@ impl Trainer {
         if self.ppo.normalize_advantages {
             normalize(&mut ro.advantages);
         }
+        self.times.gae += secs(gae_t);
         Ok((ro, stats))
     }
 
     /// One gradient-free step for every environment with its masked memory.
-    fn act_all(&self, net: &Net) -> Result<ActAll, PolicyError> {
+    fn act_all(&mut self, net: &Net) -> Result<ActAll, PolicyError> {
+        let encode_t = std::time::Instant::now();
         let hid = self.model.lstm_hidden;
         let envs = &self.state.envs;
         let obs: Vec<Observation> = envs.iter().map(|e| e.world.observe()).collect();
@@ -482,13 +543,22 @@ impl Trainer {
             h: Tensor::from_vec(h, (envs.len(), hid), &Device::Cpu)?,
             c: Tensor::from_vec(c, (envs.len(), hid), &Device::Cpu)?,
         };
-        let out = act(net, &obs, &missions, &mem, false)?;
-        Ok(ActAll {
-            probs: out.probs,
-            values: out.values,
-            h: out.memory.h.to_vec2::<f32>()?,
-            c: out.memory.c.to_vec2::<f32>()?,
-        })
+        // `act`'s steps, split so that encoding and the forward pass are timed apart.
+        let tb = TokenBatch::new(&missions)?;
+        let patches = obs::patches(&obs)?;
+        let encoded = secs(encode_t);
+        let forward_t = std::time::Instant::now();
+        let mission = net.mission_inputs(&tb)?;
+        let (logits, values, memory, _) = net.step(&patches, &mission, &mem)?;
+        let out = ActAll {
+            probs: super::model::probs_host(&logits)?,
+            values: values.to_vec1::<f32>()?,
+            h: memory.h.to_vec2::<f32>()?,
+            c: memory.c.to_vec2::<f32>()?,
+        };
+        self.times.rollout_encode += encoded;
+        self.times.rollout_forward += secs(forward_t);
+        Ok(out)
     }
 
     /// torch-ac's `_get_batches_starting_indexes`.
@@ -543,6 +613,7 @@ impl Trainer {
                     .map(|p| p.len() as f64 / starts.len() as f64)
                     .collect();
                 let (stores, outs): (Vec<GradStore>, Vec<ShardOut>) = outs.into_iter().unzip();
+                let opt_t = std::time::Instant::now();
                 let mut grads = self.merge_grads(stores, &shares)?;
                 for ((part, out), w) in parts.iter().zip(&outs).zip(&shares) {
                     // Refresh the stored memories inside each chunk, as torch-ac does.
@@ -555,9 +626,11 @@ impl Trainer {
                     log.policy_loss += w * out.policy;
                     log.value_loss += w * out.value;
                     log.entropy += w * out.entropy;
+                    self.times.add(&out.times);
                 }
                 let norm = clip_grad_norm(&mut grads, &self.params.vars, self.ppo.max_grad_norm)?;
                 self.adam.step(&self.params.vars, &grads)?;
+                self.times.optimizer += secs(opt_t);
                 log.grad_norm += norm;
                 n_batches += 1.0;
             }
@@ -764,6 +837,7 @@ struct ShardOut {
     value: f64,
     entropy: f64,
     mems: Vec<HostMemory>,
+    times: PhaseTimes,
 }
 
 /// Forward and backward of the sequences starting at `starts` (read-only on the rollout, so
@@ -774,6 +848,7 @@ fn shard_step(
     starts: &[usize],
     ppo: &PpoConfig,
 ) -> Result<(GradStore, ShardOut), PolicyError> {
+    let encode_t = std::time::Instant::now();
     let rec = ppo.recurrence;
     let hid = net.cfg.lstm_hidden;
     let n = starts.len();
@@ -802,6 +877,11 @@ fn shard_step(
         h: Tensor::from_vec(h0, (n, hid), &Device::Cpu)?,
         c: Tensor::from_vec(c0, (n, hid), &Device::Cpu)?,
     };
+    let mut times = PhaseTimes {
+        update_encode: secs(encode_t),
+        ..PhaseTimes::default()
+    };
+    let forward_t = std::time::Instant::now();
     let mission = net.mission_inputs(&tb)?;
     let (logits, values, mems) = net.sequence(&patches, &mission, &mem0, &keep)?;
     let mems = mems
@@ -824,8 +904,12 @@ fn shard_step(
         &gather(&ro.returns)?,
         ppo,
     )?;
+    times.update_forward = secs(forward_t);
+    let backward_t = std::time::Instant::now();
     let grads = losses.total.backward()?;
+    times.update_backward = secs(backward_t);
     let out = ShardOut {
+        times,
         policy: f64::from(losses.policy.to_scalar::<f32>()?),
         value: f64::from(losses.value.to_scalar::<f32>()?),
         entropy: f64::from(losses.entropy.to_scalar::<f32>()?),
