@@ -65,6 +65,10 @@ enum Overlay {
 }
 
 /// The debugger.
+#[expect(
+    clippy::struct_excessive_bools,
+    reason = "independent UI toggles and flags of one window"
+)]
 pub struct Debugger {
     agent: Option<Agent>,
     compare_agent: Option<Agent>,

@@ -70,7 +70,10 @@ pub fn normalised_auc(curve: &[f64], reference: f64) -> Option<f64> {
         return None;
     }
     let n = (curve.len() - 1) as f64;
-    let area: f64 = curve.windows(2).map(|w| (w[0] + w[1]) / 2.0 / n).sum();
+    let area: f64 = curve
+        .windows(2)
+        .map(|w| f64::midpoint(w[0], w[1]) / n)
+        .sum();
     Some(area / reference)
 }
 

@@ -205,12 +205,13 @@ fn some_if(measured: bool, p: Paired) -> Option<Paired> {
     measured.then_some(p)
 }
 
+/// One of the three curves of a [`Curves`].
+type CurveOf = fn(&Curves) -> &Option<(Vec<f64>, f64)>;
+
 fn aucs(eps: &[EpisodeResult], pick: impl Fn(&StepResult) -> &Curves) -> Aucs {
-    let auc = |which: fn(&Curves) -> &Option<(Vec<f64>, f64)>| {
-        steps_agg(eps, |s| which(pick(s)).as_ref().map(|c| c.1))
-    };
+    let auc = |which: CurveOf| steps_agg(eps, |s| which(pick(s)).as_ref().map(|c| c.1));
     let mut curves = BTreeMap::new();
-    let kinds: [(&'static str, fn(&Curves) -> &Option<(Vec<f64>, f64)>); 3] = [
+    let kinds: [(&'static str, CurveOf); 3] = [
         ("by_m", |c| &c.by_m),
         ("random", |c| &c.random),
         ("oracle", |c| &c.oracle),
@@ -243,7 +244,7 @@ fn aucs(eps: &[EpisodeResult], pick: impl Fn(&StepResult) -> &Curves) -> Aucs {
 fn histogram(values: impl Iterator<Item = f64>) -> Vec<usize> {
     let mut bins = vec![0; RHO_BINS];
     for v in values {
-        let b = (((v + 1.0) / 2.0) * RHO_BINS as f64).floor() as isize;
+        let b = (f64::midpoint(v, 1.0) * RHO_BINS as f64).floor() as isize;
         bins[b.clamp(0, RHO_BINS as isize - 1) as usize] += 1;
     }
     bins

@@ -141,7 +141,7 @@ fn with_cells(
     cells: &[ViewCell],
     value: impl Fn(ViewCell) -> [u8; 3],
 ) -> Observation {
-    let mut o = obs.clone();
+    let mut o = *obs;
     for &c in cells {
         o.image[c.0][c.1] = value(c);
     }
@@ -178,7 +178,7 @@ pub fn occlusion(input: &StepInput<'_>) -> Result<Vec<f64>, PolicyError> {
 }
 
 /// The cells of objects matching `desc` among `objects`.
-fn targets_among(obs: &Observation, desc: &ObjDesc) -> Vec<ViewCell> {
+fn targets_among(obs: &Observation, desc: ObjDesc) -> Vec<ViewCell> {
     related_objects(obs, |k, c| {
         desc.kind.is_none_or(|d| d == k) && desc.color.is_none_or(|d| d == c)
     })
@@ -212,11 +212,14 @@ pub fn steered(m: &[f64], targets: &[ViewCell], objects: &[ViewCell]) -> Option<
 /// Probability of the chosen action along each order of `objects`: deletion removes them one
 /// by one from the observation; insertion puts them back one by one into a view emptied of
 /// all of them. One forward for every order of both.
+/// Deletion and insertion curves, one per order.
+type CurvePair = (Vec<Vec<f64>>, Vec<Vec<f64>>);
+
 fn curves(
     input: &StepInput<'_>,
     objects: &[ViewCell],
     orders: &[Vec<ViewCell>],
-) -> Result<(Vec<Vec<f64>>, Vec<Vec<f64>>), PolicyError> {
+) -> Result<CurvePair, PolicyError> {
     let empty = with_cells(&input.obs, objects, |_| EMPTY_FLOOR);
     let mut batch = Vec::new();
     for order in orders {
@@ -268,7 +271,7 @@ fn mean_of(curves: &[Vec<f64>]) -> Vec<f64> {
 /// chance control and the random deletion orders.
 pub fn analyse(input: &StepInput<'_>, rng: &mut Pcg64Mcg) -> Result<StepResult, PolicyError> {
     let objects = related_objects(&input.obs, |_, _| true);
-    let targets = targets_among(&input.obs, &input.desc);
+    let targets = targets_among(&input.obs, input.desc);
     let delta = occlusion(input)?;
     let mut r = StepResult {
         random_pick: (objects.len() >= 2).then(|| 1.0 / objects.len() as f64),
@@ -353,7 +356,7 @@ pub fn analyse(input: &StepInput<'_>, rng: &mut Pcg64Mcg) -> Result<StepResult, 
             .flat_map(|(_, v)| v.iter().map(|x| *x as f32))
             .collect();
         let set = Tensor::from_vec(rows, (named.len(), N_CELLS), &Device::Cpu)?;
-        let batch = vec![input.obs.clone(); named.len()];
+        let batch = vec![input.obs; named.len()];
         let probs = forward(input, &batch, Some(&Intervention::SetM(set)))?;
         let top = |p: &[f32]| argmax(&p.iter().map(|x| f64::from(*x)).collect::<Vec<_>>());
         for ((name, _), p) in named.iter().zip(&probs) {
@@ -405,7 +408,7 @@ pub fn localise(
     {
         out.insert(WordKind::Color, l);
     }
-    if let Some(l) = localisation(&flat(&att.combined), &cells(targets_among(obs, desc))) {
+    if let Some(l) = localisation(&flat(&att.combined), &cells(targets_among(obs, *desc))) {
         out.insert(WordKind::Combined, l);
     }
     out
