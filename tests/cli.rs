@@ -529,6 +529,18 @@ fn eval_writes_a_complete_report_and_gates_on_thresholds() {
         v["cells"][7]["accuracy"].is_null(),
         "no accuracies for the baseline"
     );
+    // Failure classes: one per failed episode; baselines cannot be judged on grounding.
+    for c in &report.cells {
+        let failed = c.episodes - (c.success.mean.unwrap() * c.episodes as f64).round() as u64;
+        assert_eq!(c.failure_classes.values().sum::<u64>(), failed, "{c:?}");
+    }
+    assert!(v["cells"][0]["failure_classes"].get("grounding").is_some());
+    assert!(v["cells"][7]["failure_classes"].get("grounding").is_none());
+    assert!(
+        v["cells"][7]["failure_classes"]
+            .get("turning_in_place")
+            .is_some()
+    );
     // Same inputs, same numbers (apart from the wall time).
     let out2 = dir.path().join("again");
     a.pop();
@@ -541,6 +553,9 @@ fn eval_writes_a_complete_report_and_gates_on_thresholds() {
     // Every listed failure replays to the same outcome.
     let failures: Vec<groundscope::metrics::report::Failure> =
         serde_json::from_str(&std::fs::read_to_string(out.join("failures.json")).unwrap()).unwrap();
+    for f in failures.iter().filter(|f| f.kind == "failed") {
+        assert!(f.class.is_some() && f.counterfactual.is_some(), "{f:?}");
+    }
     if let Some(f) = failures.iter().find(|f| f.kind == "failed") {
         let o = gs(&[
             "replay",

@@ -542,6 +542,23 @@ impl Debugger {
                 {
                     self.cursor.step = i;
                 }
+                // Why it failed: the class `eval` gives the same episode (README,
+                // Evaluation); a few steps of work, cheap enough for every frame.
+                if let Some(d) =
+                    crate::metrics::failure::Evidence::from_trace(&shown.trace, self.alpha)
+                        .diagnose()
+                {
+                    ui.label(
+                        egui::RichText::new(format!("failed: {}", d.class.name()))
+                            .color(Color32::from_rgb(230, 120, 90)),
+                    )
+                    .on_hover_text(format!(
+                        "target in view at {} step(s); M on it at {}",
+                        d.target_visible_steps,
+                        d.m_on_target_steps
+                            .map_or_else(|| "– (no M)".to_owned(), |n| n.to_string())
+                    ));
+                }
             }
         });
         ui.horizontal(|ui| {

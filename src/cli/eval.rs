@@ -7,7 +7,8 @@ use std::time::Instant;
 
 use anyhow::Context as _;
 use clap::Args;
-use groundscope::episode::ActionMode;
+use groundscope::episode::{ActionMode, EpisodeSpec};
+use groundscope::metrics::failure::{class_counts, counterfactual};
 use groundscope::metrics::grounding::WordKind;
 use groundscope::metrics::report::{
     Cell, CellAccuracy, CheckpointInfo, Report, SCHEMA_VERSION, worst_episodes,
@@ -165,15 +166,22 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitStatus> {
             color: grounding(&eps, WordKind::Color),
             combined: grounding(&eps, WordKind::Combined),
         });
-        report_cells.push(Cell::new(
-            name,
-            ckpt.meta.model.variant.name(),
-            level.room_size,
-            level.n_objects,
-            eps.len() as u64,
-            &performance(&eps),
-            accuracy,
-        ));
+        let classes = class_counts(
+            eps.iter().filter_map(|e| e.failure.as_ref()),
+            ckpt.meta.model.has_attention(),
+        );
+        report_cells.push(
+            Cell::new(
+                name,
+                ckpt.meta.model.variant.name(),
+                level.room_size,
+                level.n_objects,
+                eps.len() as u64,
+                &performance(&eps),
+                accuracy,
+            )
+            .with_failure_classes(classes),
+        );
         all_eps.push((name.clone(), level.room_size, level.n_objects, eps));
     }
     bar.finish_and_clear();
@@ -198,11 +206,12 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitStatus> {
         elapsed_secs: elapsed,
     };
     let sample = if args.sample { " --sample" } else { "" };
-    let failures = worst_episodes(&all_eps, args.top_k, &|ckpt, size, objects, seed| {
+    let mut failures = worst_episodes(&all_eps, args.top_k, &|ckpt, size, objects, seed| {
         format!(
             "groundscope replay --checkpoint {ckpt} --size {size} --objects {objects} --seed {seed}{sample}"
         )
     });
+    add_counterfactuals(&mut failures, &ckpts, mode)?;
     report.write(&args.out, &failures)?;
     if args.export_failures {
         let n = export_failures(
@@ -321,6 +330,35 @@ fn run_cells(
     results
 }
 
+/// Fills in the counterfactual verdict of every listed failed episode: its level seed re-run
+/// (same checkpoint, mission and action mode) with the non-target objects removed.
+fn add_counterfactuals(
+    failures: &mut [groundscope::metrics::report::Failure],
+    ckpts: &[(String, groundscope::policy::Checkpoint)],
+    mode: ActionMode,
+) -> anyhow::Result<()> {
+    for f in failures.iter_mut().filter(|f| f.class.is_some()) {
+        let Some((name, ckpt)) = ckpts.iter().find(|(n, _)| *n == f.checkpoint) else {
+            continue;
+        };
+        let mut level = ckpt.meta.level;
+        level.room_size = f.size;
+        level.n_objects = f.objects;
+        let spec = EpisodeSpec {
+            level,
+            seed: f.seed,
+            mission: None,
+            mode,
+        };
+        let net = Net::new(ckpt.meta.model, ckpt.params.detached());
+        f.counterfactual = Some(
+            counterfactual(&net, name, &spec)
+                .with_context(|| format!("counterfactual of {name} seed {}", f.seed))?,
+        );
+    }
+    Ok(())
+}
+
 /// Replays every failure (the same level, seed and action mode as in the sweep) and records
 /// it as `DIR/<kind>-<checkpoint>-S<size>-N<objects>-seed<seed>.rrd`.
 fn export_failures(
@@ -330,7 +368,7 @@ fn export_failures(
     mode: ActionMode,
     alpha: f64,
 ) -> anyhow::Result<usize> {
-    use groundscope::episode::{EpisodeSpec, run_episode};
+    use groundscope::episode::run_episode;
     use groundscope::record::{RerunTargets, record_rerun};
     std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     let mut recorded = 0;

@@ -2,6 +2,7 @@
 
 pub mod bands;
 pub mod error;
+pub mod failure;
 pub mod faithfulness;
 pub mod figures;
 pub mod grounding;

@@ -2,6 +2,7 @@
 //! list of worst episodes. Everything is written to a temporary directory first and moved into
 //! place only when complete, so a failure leaves no partial report.
 
+use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -9,6 +10,7 @@ use plotters::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use super::error::MetricsError;
+use super::failure::{Counterfactual, FailureClass};
 use super::figures::{SERIES_COLORS, save_rgb};
 use super::grounding::WordKind;
 use super::sweep::{EpisodeSummary, GroundingStats, MeanStd, Performance};
@@ -54,6 +56,10 @@ pub struct Cell {
     pub reward_given_success: MeanStd,
     /// Grounding accuracies (attention checkpoints only).
     pub accuracy: Option<CellAccuracy>,
+    /// Failed episodes per failure class (they sum to the failures); `grounding` is absent
+    /// for baselines, which have no `M` to decide it.
+    #[serde(default)]
+    pub failure_classes: BTreeMap<FailureClass, u64>,
 }
 
 impl Cell {
@@ -78,7 +84,15 @@ impl Cell {
             length: perf.length,
             reward_given_success: perf.reward_given_success,
             accuracy,
+            failure_classes: BTreeMap::new(),
         }
+    }
+
+    /// The cell with its failure-class counts ([`super::failure::class_counts`]).
+    #[must_use]
+    pub fn with_failure_classes(mut self, counts: BTreeMap<FailureClass, u64>) -> Self {
+        self.failure_classes = counts;
+        self
     }
 }
 
@@ -118,6 +132,19 @@ pub struct Failure {
     pub acc_cmb: Option<f64>,
     /// The command that replays it.
     pub replay: String,
+    /// Its failure class (`None` for a successful episode listed for its low acc_cmb).
+    #[serde(default)]
+    pub class: Option<FailureClass>,
+    /// Steps with a target in view (failed episodes only).
+    #[serde(default)]
+    pub target_visible_steps: Option<u32>,
+    /// Of those, steps with `M` on a target (failed episodes of attention models only).
+    #[serde(default)]
+    pub m_on_target_steps: Option<u32>,
+    /// The same seed re-run without the non-target objects (failed episodes only; filled in
+    /// by the caller, which holds the networks).
+    #[serde(default)]
+    pub counterfactual: Option<Counterfactual>,
 }
 
 /// `report.json`.
@@ -166,6 +193,10 @@ pub fn worst_episodes(
                 length: e.length,
                 acc_cmb,
                 replay: replay_args(ckpt, *size, *objects, e.level_seed),
+                class: e.failure.map(|d| d.class),
+                target_visible_steps: e.failure.map(|d| d.target_visible_steps),
+                m_on_target_steps: e.failure.and_then(|d| d.m_on_target_steps),
+                counterfactual: None,
             };
             if !e.success {
                 failed.push(f("failed"));
@@ -267,16 +298,17 @@ impl Report {
                 );
             }
         }
+        self.failure_table(&mut s);
         let _ = writeln!(s, "\n## Worst episodes\n");
         let _ = writeln!(
             s,
-            "| why | checkpoint | size | objects | seed | mission | reward | length | acc_cmb (M) | replay |"
+            "| why | checkpoint | size | objects | seed | mission | reward | length | acc_cmb (M) | class | without distractors | replay |"
         );
-        let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|---|");
+        let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|---|---|---|");
         for f in failures {
             let _ = writeln!(
                 s,
-                "| {} | {} | {} | {} | {} | {} | {:.3} | {} | {} | `{}` |",
+                "| {} | {} | {} | {} | {} | {} | {:.3} | {} | {} | {} | {} | `{}` |",
                 f.kind,
                 f.checkpoint,
                 f.size,
@@ -286,10 +318,52 @@ impl Report {
                 f.reward,
                 f.length,
                 f.acc_cmb.map_or("–".into(), |a| format!("{a:.3}")),
+                f.class.map_or("–", FailureClass::name),
+                f.counterfactual.map_or("–".into(), |c| format!(
+                    "{} ({} removed, {} steps)",
+                    if c.success { "succeeds" } else { "fails" },
+                    c.distractors_removed,
+                    c.length
+                )),
                 f.replay
             );
         }
         s
+    }
+
+    /// The failure-class table of `report.md`: one row per cell, `–` where a class cannot be
+    /// decided (grounding for baselines).
+    fn failure_table(&self, s: &mut String) {
+        let _ = writeln!(s, "\n## Failure classes\n");
+        let mut header = String::from("| checkpoint | size | objects | failed |");
+        for c in FailureClass::ALL {
+            let _ = write!(header, " {} |", c.name().replace('_', " "));
+        }
+        let _ = writeln!(s, "{header}");
+        let _ = writeln!(
+            s,
+            "|---|---|---|---|{}",
+            "---|".repeat(FailureClass::ALL.len())
+        );
+        for c in &self.cells {
+            let _ = write!(
+                s,
+                "| {} | {} | {} | {} |",
+                c.checkpoint,
+                c.size,
+                c.objects,
+                c.failure_classes.values().sum::<u64>()
+            );
+            for k in FailureClass::ALL {
+                match c.failure_classes.get(&k) {
+                    Some(n) => {
+                        let _ = write!(s, " {n} |");
+                    }
+                    None => s.push_str(" – |"),
+                }
+            }
+            s.push('\n');
+        }
     }
 
     /// `performance.csv`.

@@ -10,6 +10,7 @@ use rand_pcg::Pcg64Mcg;
 use serde::{Deserialize, Serialize};
 
 use super::error::MetricsError;
+use super::failure::{Diagnosis, Evidence, StepFacts};
 use super::grounding::{Accuracies, WordKind, ground_step};
 use crate::env::level::LevelConfig;
 use crate::env::vocab;
@@ -40,6 +41,9 @@ pub struct EpisodeSummary {
     pub length: u32,
     /// Per word kind: mean accuracies over the evaluated steps, and their number.
     pub grounding: BTreeMap<WordKind, (Accuracies, u32)>,
+    /// Why it failed (`None` for a success); see [`super::failure`].
+    #[serde(default)]
+    pub failure: Option<Diagnosis>,
 }
 
 /// One running episode of the lockstep batch.
@@ -48,6 +52,7 @@ struct Running {
     tokens: Vec<u32>,
     summary: EpisodeSummary,
     sums: BTreeMap<WordKind, (Accuracies, u32)>,
+    evidence: Evidence,
     rng: Pcg64Mcg,
 }
 
@@ -92,10 +97,12 @@ pub fn evaluate_episodes(
                     reward: 0.0,
                     length: 0,
                     grounding: BTreeMap::new(),
+                    failure: None,
                 },
                 world,
                 tokens,
                 sums: BTreeMap::new(),
+                evidence: Evidence::default(),
                 rng: Pcg64Mcg::seed_from_u64(level_seed ^ 0x9E37_79B9_7F4A_7C15),
             });
         }
@@ -116,6 +123,11 @@ pub fn evaluate_episodes(
         let mut keep = Vec::with_capacity(active.len());
         for (row, &i) in active.iter().enumerate() {
             let r = &mut running[i];
+            let combined = out
+                .traces
+                .as_ref()
+                .and_then(|t| t.get(row))
+                .map(|t| t.combined);
             if let Some(traces) = &out.traces {
                 let trace = &traces[row];
                 let words: Vec<(&str, &crate::policy::ViewMap)> = trace
@@ -137,7 +149,21 @@ pub fn evaluate_episodes(
                 }
             }
             let action = choose(&out.probs[row], mode, &mut r.rng);
+            // The failure classifier reads the world before the action, as a trace records it.
+            let before = r.world.clone();
             let outcome = r.world.step(action).map_err(PolicyError::from)?;
+            r.evidence.push(
+                &StepFacts {
+                    world: &before,
+                    obs: &obs[row],
+                    combined: combined.as_ref(),
+                    action,
+                    reward: outcome.reward,
+                    terminated: outcome.terminated,
+                    truncated: outcome.truncated,
+                },
+                alpha,
+            );
             r.summary.length += 1;
             r.summary.reward += outcome.reward;
             if outcome.terminated || outcome.truncated {
@@ -147,6 +173,7 @@ pub fn evaluate_episodes(
                     .iter()
                     .map(|(k, (sum, n))| (*k, (sum.scaled(f64::from(*n)), *n)))
                     .collect();
+                r.summary.failure = r.evidence.diagnose();
                 done[i] = Some(r.summary.clone());
                 finished += 1;
             } else {
@@ -339,6 +366,7 @@ mod tests {
             reward,
             length: 4,
             grounding,
+            failure: None,
         }
     }
 

@@ -1,0 +1,377 @@
+//! Failure classes: why an evaluated episode failed. The one place the classes are defined.
+//!
+//! Every failed episode gets exactly one class, decided in this order:
+//! 1. [`FailureClass::TargetNeverVisible`]: at no step was a target object in the agent's
+//!    7×7 view. "Visible" uses the observation the policy saw: a view cell other than the
+//!    agent's own whose encoding is not "unseen" (so occluded cells do not count) and whose
+//!    world cell holds an object of the verifier's target set.
+//! 2. [`FailureClass::Grounding`]: the target was visible but the combined map `M` missed it.
+//!    At each step with a visible target, `M` is "on the target" when `acc_cmb` (the grounding
+//!    criterion of [`super::grounding::object_hits`], τ = α / the number of visible targets)
+//!    hits at least one visible target; `M` missed the target when it was on it at fewer than
+//!    half of those steps. Needs `M`: never assigned to a baseline.
+//! 3. [`FailureClass::WrongObject`]: the episode terminated without success on a `done` or
+//!    `pickup` while the cell in front held a key/ball/box outside the target set, or while the
+//!    agent carried one.
+//! 4. [`FailureClass::TurningInPlace`]: the episode was truncated at the step limit and its
+//!    last [`TURN_WINDOW`] actions were all `left`/`right` turns.
+//! 5. [`FailureClass::Other`]: everything else (wandering to the limit, `done` in front of
+//!    nothing, ...).
+//!
+//! Without `M` (a baseline checkpoint) rule 2 is skipped: a baseline failure with the target
+//! visible is classed by rules 3–5 only, so its counts never contain `grounding`.
+//!
+//! Why `acc_cmb` and the majority of visible steps: `acc_cmb` is the criterion the report
+//! already ranks `M` by (worst episodes) and accepts the one-cell-forward offset trained maps
+//! show (`acc_bs`); one step alone is noisy — the last step a target is visible is typically
+//! the step it leaves the view's edge while the agent turns — while the majority of visible
+//! steps says whether `M` tracked the target while the agent could act on it. Ties count as
+//! "on the target", so `grounding` is claimed only when `M` missed more often than it hit.
+//!
+//! The counterfactual verdict re-runs a failed episode's level seed with every non-target
+//! key/ball/box removed from the initial world ([`without_distractors`], [`counterfactual`]):
+//! does the agent succeed once nothing can distract it?
+
+use std::collections::BTreeMap;
+
+use serde::{Deserialize, Serialize};
+
+use super::error::MetricsError;
+use super::grounding::object_hits;
+use crate::env::EnvError;
+use crate::env::edit::{Edit, apply};
+use crate::env::view::{AGENT_IN_VIEW, Observation, VIEW_SIZE, ViewCell, world_from_view};
+use crate::env::world::{Action, World};
+use crate::episode::{EpisodeSpec, EpisodeTrace, initial_world, run_from};
+use crate::policy::{Net, PolicyError, ViewMap};
+
+/// How many final actions of a truncated episode must all be turns for
+/// [`FailureClass::TurningInPlace`]: two full rotations, longer than any useful scan.
+pub const TURN_WINDOW: usize = 8;
+
+/// Why a failed episode failed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum FailureClass {
+    /// No target object was ever in view.
+    TargetNeverVisible,
+    /// A target was in view but `M` was on it at fewer than half of those steps.
+    Grounding,
+    /// `done`/`pickup` ended the episode at a non-target object.
+    WrongObject,
+    /// Truncated while only turning left/right for the last [`TURN_WINDOW`] actions.
+    TurningInPlace,
+    /// None of the above.
+    Other,
+}
+
+impl FailureClass {
+    /// Every class, in report order.
+    pub const ALL: [Self; 5] = [
+        Self::TargetNeverVisible,
+        Self::Grounding,
+        Self::WrongObject,
+        Self::TurningInPlace,
+        Self::Other,
+    ];
+
+    /// The name used in `report.json`, `report.md` and `failures.json`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::TargetNeverVisible => "target_never_visible",
+            Self::Grounding => "grounding",
+            Self::WrongObject => "wrong_object",
+            Self::TurningInPlace => "turning_in_place",
+            Self::Other => "other",
+        }
+    }
+
+    /// Whether the class can be decided for a model with (`with_m`) or without `M`.
+    pub fn decidable(self, with_m: bool) -> bool {
+        with_m || self != Self::Grounding
+    }
+}
+
+impl std::fmt::Display for FailureClass {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// What the key/ball/box in front of (or carried by) the agent was, relative to the targets.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Relation {
+    /// No key, ball or box.
+    Nothing,
+    /// One of the verifier's targets.
+    Target,
+    /// A key, ball or box outside the target set.
+    NonTarget,
+}
+
+/// How the episode ended (its last step).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Ending {
+    /// The last action earned a positive reward.
+    pub success: bool,
+    /// The last action ended the task.
+    pub terminated: bool,
+    /// The last action reached the step limit.
+    pub truncated: bool,
+    /// The last action.
+    pub action: Action,
+    /// The cell in front before the last action.
+    pub front: Relation,
+    /// The carried object before the last action.
+    pub carried: Relation,
+}
+
+/// One step as the classifier reads it (a [`crate::episode::StepRecord`] or a sweep step).
+#[derive(Clone, Copy, Debug)]
+pub struct StepFacts<'a> {
+    /// The world before the action.
+    pub world: &'a World,
+    /// The observation the policy saw.
+    pub obs: &'a Observation,
+    /// The combined map `M` (`None` without attention).
+    pub combined: Option<&'a ViewMap>,
+    /// The action taken.
+    pub action: Action,
+    /// Reward the action earned.
+    pub reward: f64,
+    /// The action ended the task.
+    pub terminated: bool,
+    /// The action reached the step limit.
+    pub truncated: bool,
+}
+
+/// What an episode showed, accumulated step by step; [`Evidence::diagnose`] classifies it.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Evidence {
+    /// Steps seen.
+    pub steps: u32,
+    /// Steps with a target visible.
+    pub target_visible_steps: u32,
+    /// Of those, the steps where `M` was available.
+    pub m_steps: u32,
+    /// Of those, the steps where `M` was on a visible target (`acc_cmb`).
+    pub m_on_target_steps: u32,
+    /// The last [`TURN_WINDOW`] actions, oldest first.
+    pub recent_actions: Vec<Action>,
+    /// The last step, once the episode ended.
+    pub ending: Option<Ending>,
+}
+
+/// The class of one failed episode and the counts it rests on.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Diagnosis {
+    /// The failure class.
+    pub class: FailureClass,
+    /// Steps with a target in view.
+    pub target_visible_steps: u32,
+    /// Of those, steps with `M` on a target (`None` when `M` was never evaluated: a
+    /// baseline, or no visible target).
+    pub m_on_target_steps: Option<u32>,
+}
+
+/// View cells (not the agent's own) showing one of `world`'s targets in `obs`. Cells the
+/// observation marks unseen (occluded, or outside the grid) never count.
+pub fn visible_targets(world: &World, obs: &Observation) -> Vec<ViewCell> {
+    let targets = &world.verifier.obj_set;
+    let mut out = Vec::new();
+    for vy in 0..VIEW_SIZE {
+        for vx in 0..VIEW_SIZE {
+            if (vx, vy) == AGENT_IN_VIEW || !obs.visible((vx, vy)) {
+                continue;
+            }
+            let pos = world_from_view(world.agent_pos, world.agent_dir, (vx, vy));
+            if world
+                .grid
+                .get(pos)
+                .is_some_and(|o| o.kind.can_pickup() && targets.contains(&o.id))
+            {
+                out.push((vx, vy));
+            }
+        }
+    }
+    out
+}
+
+/// Where a key/ball/box stands relative to `world`'s targets.
+fn relation(world: &World, obj: Option<crate::env::object::WorldObj>) -> Relation {
+    match obj {
+        Some(o) if o.kind.can_pickup() => {
+            if world.verifier.obj_set.contains(&o.id) {
+                Relation::Target
+            } else {
+                Relation::NonTarget
+            }
+        }
+        _ => Relation::Nothing,
+    }
+}
+
+impl Evidence {
+    /// Adds one step; `alpha` is the threshold factor of the grounding criterion.
+    pub fn push(&mut self, step: &StepFacts<'_>, alpha: f64) {
+        self.steps = self.steps.saturating_add(1);
+        let cells = visible_targets(step.world, step.obs);
+        if !cells.is_empty() {
+            self.target_visible_steps += 1;
+            if let Some(m) = step.combined {
+                self.m_steps += 1;
+                if object_hits(m, &cells, alpha).iter().any(|h| h.acc_cmb) {
+                    self.m_on_target_steps += 1;
+                }
+            }
+        }
+        if self.recent_actions.len() == TURN_WINDOW {
+            self.recent_actions.remove(0);
+        }
+        self.recent_actions.push(step.action);
+        if step.terminated || step.truncated {
+            let w = step.world;
+            self.ending = Some(Ending {
+                success: step.reward > 0.0,
+                terminated: step.terminated,
+                truncated: step.truncated,
+                action: step.action,
+                front: relation(w, w.grid.get(w.front_pos())),
+                carried: relation(w, w.carrying),
+            });
+        }
+    }
+
+    /// The evidence of a whole trace.
+    pub fn from_trace(trace: &EpisodeTrace, alpha: f64) -> Self {
+        let mut e = Self::default();
+        for s in &trace.steps {
+            e.push(
+                &StepFacts {
+                    world: &s.world,
+                    obs: &s.obs,
+                    combined: s.attention.as_ref().map(|a| &a.combined),
+                    action: s.action,
+                    reward: s.reward,
+                    terminated: s.terminated,
+                    truncated: s.truncated,
+                },
+                alpha,
+            );
+        }
+        e
+    }
+
+    /// The failure class, or `None` for a successful episode. An episode with no recorded
+    /// ending (empty or unfinished) counts as failed: rules 3 and 4 need an ending, so it
+    /// falls to rules 1, 2 or 5.
+    pub fn diagnose(&self) -> Option<Diagnosis> {
+        if self.ending.is_some_and(|e| e.success) {
+            return None;
+        }
+        let with_m = self.m_steps > 0;
+        let class = if self.target_visible_steps == 0 {
+            FailureClass::TargetNeverVisible
+        } else if with_m && 2 * self.m_on_target_steps < self.m_steps {
+            FailureClass::Grounding
+        } else {
+            match self.ending {
+                Some(e)
+                    if e.terminated
+                        && matches!(e.action, Action::Done | Action::Pickup)
+                        && (e.front == Relation::NonTarget || e.carried == Relation::NonTarget) =>
+                {
+                    FailureClass::WrongObject
+                }
+                Some(e)
+                    if e.truncated
+                        && self.recent_actions.len() == TURN_WINDOW
+                        && self
+                            .recent_actions
+                            .iter()
+                            .all(|a| matches!(a, Action::Left | Action::Right)) =>
+                {
+                    FailureClass::TurningInPlace
+                }
+                _ => FailureClass::Other,
+            }
+        };
+        Some(Diagnosis {
+            class,
+            target_visible_steps: self.target_visible_steps,
+            m_on_target_steps: with_m.then_some(self.m_on_target_steps),
+        })
+    }
+}
+
+/// Counts of each class over `failures`: every class decidable for a model with or without
+/// `M` is present (zero included); `grounding` is absent without `M` (not decidable, which
+/// is not zero). The counts sum to the number of diagnoses given.
+pub fn class_counts<'a>(
+    failures: impl IntoIterator<Item = &'a Diagnosis>,
+    with_m: bool,
+) -> BTreeMap<FailureClass, u64> {
+    let mut counts: BTreeMap<FailureClass, u64> = FailureClass::ALL
+        .iter()
+        .filter(|c| c.decidable(with_m))
+        .map(|&c| (c, 0))
+        .collect();
+    for d in failures {
+        *counts.entry(d.class).or_default() += 1;
+    }
+    counts
+}
+
+/// The counterfactual verdict: the same level seed, mission and action mode, with every
+/// non-target key/ball/box removed from the initial world.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Counterfactual {
+    /// Objects removed.
+    pub distractors_removed: u32,
+    /// Whether the re-run succeeded.
+    pub success: bool,
+    /// Its return.
+    pub reward: f64,
+    /// Its length.
+    pub length: u32,
+}
+
+/// `world` with every key, ball and box that is not a target removed (through
+/// [`crate::env::edit`], so the result is a consistent world with the same targets), and the
+/// number removed.
+pub fn without_distractors(world: &World) -> Result<(World, u32), EnvError> {
+    let targets = &world.verifier.obj_set;
+    let distractors: Vec<_> = world
+        .grid
+        .objects()
+        .filter(|(_, o)| o.kind.can_pickup() && !targets.contains(&o.id))
+        .map(|(p, _)| p)
+        .collect();
+    let mut edited = world.clone();
+    for &p in &distractors {
+        edited = apply(&edited, &Edit::Remove(p))?;
+    }
+    Ok((edited, u32::try_from(distractors.len()).unwrap_or(u32::MAX)))
+}
+
+/// Re-runs `spec` on `net` from its initial world without distractors. Deterministic: the
+/// same checkpoint and spec give the same verdict (greedy, or sampled with the episode's own
+/// seeded RNG, as [`run_from`] does).
+pub fn counterfactual(
+    net: &Net,
+    checkpoint: &str,
+    spec: &EpisodeSpec,
+) -> Result<Counterfactual, MetricsError> {
+    let world = initial_world(spec)?;
+    let (world, removed) = without_distractors(&world).map_err(PolicyError::from)?;
+    let trace = run_from(net, checkpoint, spec, world)?;
+    Ok(Counterfactual {
+        distractors_removed: removed,
+        success: trace.success(),
+        reward: trace.total_reward(),
+        length: u32::try_from(trace.steps.len()).unwrap_or(u32::MAX),
+    })
+}
+
+#[cfg(test)]
+mod tests;
