@@ -186,8 +186,18 @@ pub fn run_from(
     spec: &EpisodeSpec,
     world: World,
 ) -> Result<EpisodeTrace, PolicyError> {
+    run_fresh(net, checkpoint, spec, world, None)
+}
+
+/// An episode from `world` with a fresh memory and sampling RNG.
+fn run_fresh(
+    net: &Net,
+    checkpoint: &str,
+    spec: &EpisodeSpec,
+    world: World,
+    intervene: Option<Intervene<'_>>,
+) -> Result<EpisodeTrace, PolicyError> {
     let tokens = vocab::tokenize(&world.mission)?;
-    let rng = episode_rng(spec.seed);
     let memory = Memory::zeros(1, net.cfg.lstm_hidden)?;
     run_loop(
         net,
@@ -196,9 +206,9 @@ pub fn run_from(
         world,
         tokens,
         memory,
-        rng,
+        episode_rng(spec.seed),
         Vec::new(),
-        None,
+        intervene,
     )
 }
 
@@ -220,19 +230,7 @@ pub fn run_from_with(
     world: World,
     intervene: Intervene<'_>,
 ) -> Result<EpisodeTrace, PolicyError> {
-    let tokens = vocab::tokenize(&world.mission)?;
-    let memory = Memory::zeros(1, net.cfg.lstm_hidden)?;
-    run_loop(
-        net,
-        checkpoint,
-        spec,
-        world,
-        tokens,
-        memory,
-        episode_rng(spec.seed),
-        Vec::new(),
-        Some(intervene),
-    )
+    run_fresh(net, checkpoint, spec, world, Some(intervene))
 }
 
 /// The action-sampling RNG of an episode.

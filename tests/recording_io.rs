@@ -9,21 +9,11 @@
 
 mod common;
 
-use common::{assert_bad_input, gs};
+use common::{assert_bad_input, entries, gs};
 
 use std::os::unix::fs::FileTypeExt as _;
-use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
-
-fn entries(dir: &Path) -> Vec<String> {
-    let mut v: Vec<String> = std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .collect();
-    v.sort();
-    v
-}
 
 fn bin() -> Command {
     let mut c = Command::new(env!("CARGO_BIN_EXE_groundscope"));

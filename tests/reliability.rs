@@ -8,20 +8,11 @@
 
 mod common;
 
-use common::{TINY_RUN, assert_bad_input, gs};
+use common::{TINY_RUN, assert_bad_input, entries, gs};
 
 use std::os::unix::fs::FileTypeExt as _;
 use std::path::Path;
 use std::process::{Command, Output, Stdio};
-
-fn entries(dir: &Path) -> Vec<String> {
-    let mut v: Vec<String> = std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .collect();
-    v.sort();
-    v
-}
 
 fn train(dir: &Path, extra: &[&str]) -> Output {
     let mut args = vec!["train", "--out", dir.to_str().unwrap(), "--quiet"];

@@ -19,6 +19,16 @@ pub fn gs(args: &[&str]) -> Output {
         .expect("the binary runs")
 }
 
+/// The names in `dir`, sorted.
+pub fn entries(dir: &Path) -> Vec<String> {
+    let mut v: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    v.sort();
+    v
+}
+
 /// Exit code 2 and a single `groundscope: …` line that mentions `what`.
 pub fn assert_bad_input(o: &Output, what: &str) {
     let err = String::from_utf8_lossy(&o.stderr);
