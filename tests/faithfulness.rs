@@ -243,6 +243,9 @@ fn baselines_get_occlusion_only_and_bad_outputs_leave_nothing() {
         file.join("sub").to_str().unwrap(),
     ]);
     assert_bad_input(&o, "plain");
+    let o = gs(&["faithfulness", "--out", file.to_str().unwrap()]);
+    assert_bad_input(&o, "not a directory");
+    assert_eq!(std::fs::read(&file).unwrap(), b"x");
 }
 
 #[test]

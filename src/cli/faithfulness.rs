@@ -228,6 +228,9 @@ struct Staging {
 
 impl Staging {
     fn new(out: &Path) -> anyhow::Result<Self> {
+        if out.exists() && !out.is_dir() {
+            anyhow::bail!("--out {}: not a directory", out.display());
+        }
         std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
         let dir = tempfile::Builder::new()
             .prefix(".groundscope-faithfulness-")
