@@ -7,6 +7,7 @@ pub mod bundled;
 pub mod checkpoint;
 pub mod config;
 pub mod error;
+pub mod fused;
 pub mod model;
 pub mod obs;
 pub mod params;

@@ -177,14 +177,28 @@ impl Net {
             .broadcast_add(self.p("lstm.bias_ih_l0")?)?)
     }
 
-    /// One LSTM step from the projected input `gx` (B, 4H).
-    pub fn lstm_cell(&self, gx: &Tensor, mem: &Memory) -> Result<Memory, PolicyError> {
-        let hd = self.cfg.lstm_hidden;
-        let g = (gx
+    /// The gate pre-activations of an LSTM step: `gx + h W_hhᵀ + b_hh`, (B, 4H).
+    fn lstm_preactivations(&self, gx: &Tensor, mem: &Memory) -> Result<Tensor, PolicyError> {
+        Ok((gx
             + mem
                 .h
                 .matmul(&self.p("lstm.weight_hh_l0")?.t()?)?
-                .broadcast_add(self.p("lstm.bias_hh_l0")?)?)?;
+                .broadcast_add(self.p("lstm.bias_hh_l0")?)?)?)
+    }
+
+    /// One LSTM step from the projected input `gx` (B, 4H); the gates run as one fused op
+    /// with a hand-written backward ([`super::fused::lstm_gates`]).
+    pub fn lstm_cell(&self, gx: &Tensor, mem: &Memory) -> Result<Memory, PolicyError> {
+        let g = self.lstm_preactivations(gx, mem)?;
+        let (h, c) = super::fused::lstm_gates(&g, &mem.c)?;
+        Ok(Memory { h, c })
+    }
+
+    /// [`Self::lstm_cell`] built from candle's own ops and autograd: the reference the fused
+    /// gates are tested against.
+    pub fn lstm_cell_reference(&self, gx: &Tensor, mem: &Memory) -> Result<Memory, PolicyError> {
+        let hd = self.cfg.lstm_hidden;
+        let g = self.lstm_preactivations(gx, mem)?;
         let ifo = candle_nn::ops::sigmoid(&g)?;
         let i = ifo.narrow(1, 0, hd)?;
         let f = ifo.narrow(1, hd, hd)?;

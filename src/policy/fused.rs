@@ -1,0 +1,157 @@
+//! Fused kernels with hand-written backward passes, where candle's per-op overhead dominates
+//! this model's small tensors (issue #16). Each has a composite reference built from candle
+//! ops in [`super::model`]; tests compare outputs and gradients.
+
+use candle_core::{CpuStorage, CustomOp2, CustomOp3, Layout, Result, Shape, Tensor};
+
+/// The element-wise part of one LSTM step, PyTorch's gate order (i, f, g, o): from the gate
+/// pre-activations `g` (B, 4H) and the previous cell state `c` (B, H), the new `[h, c]` as one
+/// (B, 2H) tensor.
+pub struct LstmGates;
+
+/// Its backward: from `g`, `c` and the gradient of `[h, c]`, the gradients `[dg, dc]` as one
+/// (B, 5H) tensor.
+struct LstmGatesBackward;
+
+#[inline]
+fn sigmoid(x: f32) -> f32 {
+    1.0 / (1.0 + (-x).exp())
+}
+
+fn f32_slice<'a>(s: &'a CpuStorage, l: &Layout, what: &str) -> Result<&'a [f32]> {
+    let CpuStorage::F32(v) = s else {
+        return Err(candle_core::Error::Msg(format!(
+            "lstm gates: {what} must be f32"
+        )));
+    };
+    match l.contiguous_offsets() {
+        Some((a, b)) => Ok(&v[a..b]),
+        None => Err(candle_core::Error::Msg(format!(
+            "lstm gates: {what} must be contiguous"
+        ))),
+    }
+}
+
+fn dims(l1: &Layout, l2: &Layout) -> Result<(usize, usize)> {
+    let (b, h4) = l1.shape().dims2()?;
+    let (b2, h) = l2.shape().dims2()?;
+    if b != b2 || h4 != 4 * h {
+        return Err(candle_core::Error::Msg(format!(
+            "lstm gates: shapes {:?} and {:?} do not fit (B, 4H) and (B, H)",
+            l1.shape(),
+            l2.shape()
+        )));
+    }
+    Ok((b, h))
+}
+
+impl CustomOp2 for LstmGates {
+    fn name(&self) -> &'static str {
+        "lstm-gates"
+    }
+
+    fn cpu_fwd(
+        &self,
+        s1: &CpuStorage,
+        l1: &Layout,
+        s2: &CpuStorage,
+        l2: &Layout,
+    ) -> Result<(CpuStorage, Shape)> {
+        let (b, h) = dims(l1, l2)?;
+        let (g, c) = (f32_slice(s1, l1, "g")?, f32_slice(s2, l2, "c")?);
+        let mut out = vec![0f32; b * 2 * h];
+        for r in 0..b {
+            let gr = &g[r * 4 * h..(r + 1) * 4 * h];
+            let cr = &c[r * h..(r + 1) * h];
+            let (oh, oc) = out[r * 2 * h..(r + 1) * 2 * h].split_at_mut(h);
+            for k in 0..h {
+                let i = sigmoid(gr[k]);
+                let f = sigmoid(gr[h + k]);
+                let gg = gr[2 * h + k].tanh();
+                let o = sigmoid(gr[3 * h + k]);
+                let cn = f * cr[k] + i * gg;
+                oc[k] = cn;
+                oh[k] = o * cn.tanh();
+            }
+        }
+        Ok((CpuStorage::F32(out), Shape::from((b, 2 * h))))
+    }
+
+    fn bwd(
+        &self,
+        g: &Tensor,
+        c: &Tensor,
+        _res: &Tensor,
+        grad: &Tensor,
+    ) -> Result<(Option<Tensor>, Option<Tensor>)> {
+        let h = c.dim(1)?;
+        let both = g.contiguous()?.apply_op3_no_bwd(
+            &c.contiguous()?,
+            &grad.contiguous()?,
+            &LstmGatesBackward,
+        )?;
+        Ok((
+            Some(both.narrow(1, 0, 4 * h)?),
+            Some(both.narrow(1, 4 * h, h)?),
+        ))
+    }
+}
+
+impl CustomOp3 for LstmGatesBackward {
+    fn name(&self) -> &'static str {
+        "lstm-gates-backward"
+    }
+
+    fn cpu_fwd(
+        &self,
+        s1: &CpuStorage,
+        l1: &Layout,
+        s2: &CpuStorage,
+        l2: &Layout,
+        s3: &CpuStorage,
+        l3: &Layout,
+    ) -> Result<(CpuStorage, Shape)> {
+        let (b, h) = dims(l1, l2)?;
+        let (g, c) = (f32_slice(s1, l1, "g")?, f32_slice(s2, l2, "c")?);
+        let d = f32_slice(s3, l3, "gradient")?;
+        if d.len() != b * 2 * h {
+            return Err(candle_core::Error::Msg(
+                "lstm gates: the gradient is not (B, 2H)".into(),
+            ));
+        }
+        let mut out = vec![0f32; b * 5 * h];
+        for r in 0..b {
+            let gr = &g[r * 4 * h..(r + 1) * 4 * h];
+            let cr = &c[r * h..(r + 1) * h];
+            let (dh, dc_out) = d[r * 2 * h..(r + 1) * 2 * h].split_at(h);
+            let (dg, dc_prev) = out[r * 5 * h..(r + 1) * 5 * h].split_at_mut(4 * h);
+            for k in 0..h {
+                let i = sigmoid(gr[k]);
+                let f = sigmoid(gr[h + k]);
+                let gg = gr[2 * h + k].tanh();
+                let o = sigmoid(gr[3 * h + k]);
+                let cn = f * cr[k] + i * gg;
+                let tc = cn.tanh();
+                let dc = dc_out[k] + dh[k] * o * (1.0 - tc * tc);
+                dg[k] = dc * gg * i * (1.0 - i);
+                dg[h + k] = dc * cr[k] * f * (1.0 - f);
+                dg[2 * h + k] = dc * i * (1.0 - gg * gg);
+                dg[3 * h + k] = dh[k] * tc * o * (1.0 - o);
+                dc_prev[k] = dc * f;
+            }
+        }
+        Ok((CpuStorage::F32(out), Shape::from((b, 5 * h))))
+    }
+}
+
+/// `[h, c]` of an LSTM step from gate pre-activations `g` (B, 4H) and the cell state `c`
+/// (B, H), fused, with its backward.
+pub fn lstm_gates(g: &Tensor, c: &Tensor) -> Result<(Tensor, Tensor)> {
+    let h = c.dim(1)?;
+    let both = g.contiguous()?.apply_op2(&c.contiguous()?, LstmGates)?;
+    // Contiguous copies: memories are row-selected (`index_select`) and matmul'd downstream.
+    Ok((
+        both.narrow(1, 0, h)?.contiguous()?,
+        both.narrow(1, h, h)?.contiguous()?,
+    ))
+}

@@ -1,0 +1,87 @@
+//! The fused LSTM gates against the composite reference built from candle ops: outputs and
+//! gradients (inputs, memory and weights) agree to 1e-5 relative.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    reason = "test helpers fail loudly"
+)]
+
+use candle_core::{Device, Tensor, Var};
+use groundscope::policy::{Memory, ModelConfig, Net, Params, Variant};
+use rand::{Rng as _, SeedableRng as _};
+
+fn random(rng: &mut rand_pcg::Pcg64Mcg, shape: (usize, usize), scale: f32) -> Tensor {
+    let v: Vec<f32> = (0..shape.0 * shape.1)
+        .map(|_| rng.random_range(-scale..scale))
+        .collect();
+    Tensor::from_vec(v, shape, &Device::Cpu).unwrap()
+}
+
+fn close(a: &Tensor, b: &Tensor, what: &str) {
+    let a: Vec<f32> = a.flatten_all().unwrap().to_vec1().unwrap();
+    let b: Vec<f32> = b.flatten_all().unwrap().to_vec1().unwrap();
+    assert_eq!(a.len(), b.len(), "{what}");
+    let scale = b.iter().fold(0f32, |m, x| m.max(x.abs())).max(1e-12);
+    for (x, y) in a.iter().zip(&b) {
+        assert!(
+            (x - y).abs() <= 1e-5 * scale,
+            "{what}: {x} vs {y} (scale {scale})"
+        );
+    }
+}
+
+#[test]
+fn fused_lstm_gates_match_the_autograd_reference() {
+    let cfg = ModelConfig::new(Variant::Attention);
+    let params = Params::init(&cfg, 3).unwrap();
+    let net = Net::new(cfg, params.tracked());
+    let hid = cfg.lstm_hidden;
+    let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(7);
+    let b = 9;
+    // Large pre-activations too, where the sigmoids and tanh saturate.
+    let gx = Var::from_tensor(&random(&mut rng, (b, 4 * hid), 4.0)).unwrap();
+    let h0 = Var::from_tensor(&random(&mut rng, (b, hid), 1.0)).unwrap();
+    let c0 = Var::from_tensor(&random(&mut rng, (b, hid), 2.0)).unwrap();
+    let wh = random(&mut rng, (b, hid), 1.0);
+    let wc = random(&mut rng, (b, hid), 1.0);
+    let mem = Memory {
+        h: h0.as_tensor().clone(),
+        c: c0.as_tensor().clone(),
+    };
+    let run = |fused: bool| {
+        let m = if fused {
+            net.lstm_cell(gx.as_tensor(), &mem).unwrap()
+        } else {
+            net.lstm_cell_reference(gx.as_tensor(), &mem).unwrap()
+        };
+        // Two steps, so that the gradient flows through a fused output back into the op.
+        let m2 = if fused {
+            net.lstm_cell(gx.as_tensor(), &m).unwrap()
+        } else {
+            net.lstm_cell_reference(gx.as_tensor(), &m).unwrap()
+        };
+        let loss = ((&m2.h * &wh).unwrap().sum_all().unwrap()
+            + (&m2.c * &wc).unwrap().sum_all().unwrap())
+        .unwrap();
+        (m2, loss.backward().unwrap())
+    };
+    let (mf, gf) = run(true);
+    let (mr, gr) = run(false);
+    close(&mf.h, &mr.h, "h");
+    close(&mf.c, &mr.c, "c");
+    for (name, v) in [("gx", &gx), ("h0", &h0), ("c0", &c0)] {
+        close(
+            gf.get(v.as_tensor()).unwrap(),
+            gr.get(v.as_tensor()).unwrap(),
+            name,
+        );
+    }
+    for name in ["lstm.weight_hh_l0", "lstm.bias_hh_l0"] {
+        let w = params.vars.get(name).unwrap();
+        close(
+            gf.get(w.as_tensor()).unwrap(),
+            gr.get(w.as_tensor()).unwrap(),
+            name,
+        );
+    }
+}
