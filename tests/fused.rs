@@ -85,3 +85,62 @@ fn fused_lstm_gates_match_the_autograd_reference() {
         );
     }
 }
+
+#[test]
+fn fused_attention_matches_the_autograd_reference() {
+    use groundscope::policy::attention::{attend, scores};
+    use groundscope::policy::fused_attention::attention_filter;
+    let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(11);
+    let (b, m, dk, k) = (5, 6, 8, 16);
+    let q = Var::from_tensor(
+        &random(&mut rng, (b * m, dk), 3.0)
+            .reshape((b, m, dk))
+            .unwrap(),
+    )
+    .unwrap();
+    let kc = Var::from_tensor(
+        &random(&mut rng, (b * 49, dk), 3.0)
+            .reshape((b, 49, dk))
+            .unwrap(),
+    )
+    .unwrap();
+    let o = Var::from_tensor(
+        &random(&mut rng, (b * 49, k), 1.0)
+            .reshape((b, 49, k))
+            .unwrap(),
+    )
+    .unwrap();
+    // Frames with 6, 4 and 1 real words (padding masked out).
+    let mut mask = vec![0f32; b * m];
+    for (r, n) in [6usize, 4, 1, 5, 3].iter().enumerate() {
+        for i in 0..*n {
+            mask[r * m + i] = 1.0;
+        }
+    }
+    let mask = Tensor::from_vec(mask, (b, m), &Device::Cpu).unwrap();
+    let weights = random(&mut rng, (b * 49, k), 1.0)
+        .reshape((b, 49, k))
+        .unwrap();
+    let run = |fused: bool| {
+        let f = if fused {
+            let s = scores(q.as_tensor(), kc.as_tensor()).unwrap();
+            attention_filter(&s, &mask, o.as_tensor()).unwrap()
+        } else {
+            attend(q.as_tensor(), kc.as_tensor(), &mask, o.as_tensor())
+                .unwrap()
+                .f
+        };
+        let loss = (&f * &weights).unwrap().sum_all().unwrap();
+        (f, loss.backward().unwrap())
+    };
+    let (ff, gf) = run(true);
+    let (fr, gr) = run(false);
+    close(&ff, &fr, "F");
+    for (name, v) in [("q", &q), ("kc", &kc), ("o", &o)] {
+        close(
+            gf.get(v.as_tensor()).unwrap(),
+            gr.get(v.as_tensor()).unwrap(),
+            name,
+        );
+    }
+}

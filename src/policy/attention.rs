@@ -20,11 +20,15 @@ use super::obs::N_CELLS;
 /// Smallest probability fed to `ln`, so that `0 · ln 0` evaluates to `0 · ln(tiny) = 0`.
 const TINY: f64 = 1e-30;
 
+/// Eq. 3: the scaled scores `Q Kcᵀ / √d_k`, (B, m, 49).
+pub fn scores(q: &Tensor, kc: &Tensor) -> Result<Tensor, PolicyError> {
+    let d_k = q.dim(D::Minus1)? as f64;
+    Ok((q.matmul(&kc.transpose(1, 2)?.contiguous()?)? / d_k.sqrt())?)
+}
+
 /// Eq. 3–4: `A = softmax_rows(Q Kcᵀ / √d_k)`, (B, m, 49).
 pub fn attention_maps(q: &Tensor, kc: &Tensor) -> Result<Tensor, PolicyError> {
-    let d_k = q.dim(D::Minus1)? as f64;
-    let scores = (q.matmul(&kc.transpose(1, 2)?.contiguous()?)? / d_k.sqrt())?;
-    Ok(candle_nn::ops::softmax(&scores, D::Minus1)?)
+    Ok(candle_nn::ops::softmax(&scores(q, kc)?, D::Minus1)?)
 }
 
 /// Eq. 5: `H_i = −Σ_j A_ij ln A_ij` (nats), (B, m).

@@ -8,6 +8,7 @@ pub mod checkpoint;
 pub mod config;
 pub mod error;
 pub mod fused;
+pub mod fused_attention;
 pub mod model;
 pub mod obs;
 pub mod params;

@@ -171,6 +171,30 @@ impl Net {
         }
     }
 
+    /// The visual path for training: `F` only, through the fused attention op
+    /// ([`super::fused_attention::attention_filter`], same maths as [`Self::visual`] with its
+    /// own backward); the baseline's path is unchanged.
+    pub fn visual_features(
+        &self,
+        o: &Tensor,
+        q: Option<(&Tensor, &Tensor)>,
+    ) -> Result<Tensor, PolicyError> {
+        let (b, n, k) = o.dims3()?;
+        match q {
+            Some((q, mask)) if self.cfg.has_attention() => {
+                let wk = self.p("attention.k.weight")?;
+                let kc =
+                    o.reshape((b * n, k))?
+                        .matmul(&wk.t()?)?
+                        .reshape((b, n, self.cfg.key_dim))?;
+                let s = super::attention::scores(q, &kc)?;
+                let f = super::fused_attention::attention_filter(&s, mask, o)?;
+                Ok(f.reshape((b, n * k))?)
+            }
+            _ => Ok(o.reshape((b, n * k))?),
+        }
+    }
+
     /// The LSTM input projection for all frames at once: `x W_ihᵀ + b_ih`, (B, 4H).
     pub fn lstm_input(&self, x: &Tensor) -> Result<Tensor, PolicyError> {
         Ok(x.matmul(&self.p("lstm.weight_ih_l0")?.t()?)?
@@ -273,8 +297,8 @@ impl Net {
     ) -> Result<(Tensor, Tensor, Vec<Memory>), PolicyError> {
         let (t_len, n) = keep.dims2()?;
         let o = self.cells(patches)?;
-        let vis = self.visual(&o, mission.queries.as_ref().map(|(q, m)| (q, m)))?;
-        let gx = self.lstm_input(&vis.x)?;
+        let x = self.visual_features(&o, mission.queries.as_ref().map(|(q, m)| (q, m)))?;
+        let gx = self.lstm_input(&x)?;
         let mut mem = mem0.clone();
         let mut hs = Vec::with_capacity(t_len);
         let mut mems = Vec::with_capacity(t_len);

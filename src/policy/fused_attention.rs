@@ -1,0 +1,243 @@
+//! The attention block after the query–key product, fused for training: from the scaled
+//! scores `S = Q Kcᵀ / √d_k` (B, m, 49), the word mask (B, m) and the cell features `Õ`
+//! (B, 49, K), the filtered features `F` (B, 49, K) — eqs. 4–7 and the filter of
+//! [`super::attention`] in one CPU op with a hand-written backward. The composite version in
+//! `attention.rs` stays the definition (and computes the traces); `tests/fused.rs` compares.
+
+use candle_core::{CpuStorage, CustomOp3, Layout, Result, Shape, Tensor};
+
+use super::obs::N_CELLS;
+
+/// Smallest probability fed to `ln`, as in `attention.rs`.
+const TINY: f32 = 1e-30;
+
+struct AttentionFilter;
+
+/// Its backward: from `S`, the mask, `Õ` and `dF`, returns `[dS (m·49) | dÕ (49·K)]` per
+/// frame as one (B, m·49 + 49·K) tensor.
+struct AttentionFilterBackward {
+    m: usize,
+    k: usize,
+}
+
+fn slice<'a>(s: &'a CpuStorage, l: &Layout, what: &str) -> Result<&'a [f32]> {
+    let CpuStorage::F32(v) = s else {
+        return Err(candle_core::Error::Msg(format!(
+            "attention: {what} must be f32"
+        )));
+    };
+    l.contiguous_offsets()
+        .map(|(a, b)| &v[a..b])
+        .ok_or_else(|| candle_core::Error::Msg(format!("attention: {what} must be contiguous")))
+}
+
+/// Per frame: maps `a` (m × 49), weights `w` (m) and `M` (49) from the scores and mask.
+fn maps(s: &[f32], mask: &[f32], a: &mut [f32], w: &mut [f32], m_out: &mut [f32]) {
+    let m = mask.len();
+    let mut neg_h = vec![0f32; m];
+    for i in 0..m {
+        let row = &s[i * N_CELLS..(i + 1) * N_CELLS];
+        let ar = &mut a[i * N_CELLS..(i + 1) * N_CELLS];
+        let max = row.iter().fold(f32::NEG_INFINITY, |x, y| x.max(*y));
+        let mut z = 0f32;
+        for (o, x) in ar.iter_mut().zip(row) {
+            *o = (x - max).exp();
+            z += *o;
+        }
+        let mut h = 0f32;
+        for o in ar.iter_mut() {
+            *o /= z;
+            h -= *o * o.clamp(TINY, 1.0).ln();
+        }
+        // Padding: −1e9 before the softmax, as `word_weights`.
+        neg_h[i] = -h * mask[i] + (mask[i] - 1.0) * 1e9;
+    }
+    let max = neg_h.iter().fold(f32::NEG_INFINITY, |x, y| x.max(*y));
+    let mut z = 0f32;
+    for (o, x) in w.iter_mut().zip(&neg_h) {
+        *o = (x - max).exp();
+        z += *o;
+    }
+    for o in w.iter_mut() {
+        *o /= z;
+    }
+    m_out.fill(0.0);
+    for i in 0..m {
+        for j in 0..N_CELLS {
+            m_out[j] += w[i] * a[i * N_CELLS + j];
+        }
+    }
+}
+
+fn shapes(l1: &Layout, l2: &Layout, l3: &Layout) -> Result<(usize, usize, usize)> {
+    let (b, m, n) = l1.shape().dims3()?;
+    let (b2, m2) = l2.shape().dims2()?;
+    let (b3, n3, k) = l3.shape().dims3()?;
+    if n != N_CELLS || n3 != N_CELLS || b2 != b || b3 != b || m2 != m {
+        return Err(candle_core::Error::Msg(format!(
+            "attention: shapes {:?}, {:?}, {:?} do not fit (B, m, 49), (B, m), (B, 49, K)",
+            l1.shape(),
+            l2.shape(),
+            l3.shape()
+        )));
+    }
+    Ok((b, m, k))
+}
+
+impl CustomOp3 for AttentionFilter {
+    fn name(&self) -> &'static str {
+        "attention-filter"
+    }
+
+    fn cpu_fwd(
+        &self,
+        s1: &CpuStorage,
+        l1: &Layout,
+        s2: &CpuStorage,
+        l2: &Layout,
+        s3: &CpuStorage,
+        l3: &Layout,
+    ) -> Result<(CpuStorage, Shape)> {
+        let (b, m, k) = shapes(l1, l2, l3)?;
+        let (s, mask, o) = (
+            slice(s1, l1, "S")?,
+            slice(s2, l2, "mask")?,
+            slice(s3, l3, "O")?,
+        );
+        let mut out = vec![0f32; b * N_CELLS * k];
+        let (mut a, mut w, mut mm) = (vec![0f32; m * N_CELLS], vec![0f32; m], vec![0f32; N_CELLS]);
+        let scale = N_CELLS as f32;
+        for r in 0..b {
+            maps(
+                &s[r * m * N_CELLS..(r + 1) * m * N_CELLS],
+                &mask[r * m..(r + 1) * m],
+                &mut a,
+                &mut w,
+                &mut mm,
+            );
+            for (j, mj) in mm.iter().enumerate() {
+                let f = mj * scale;
+                let base = (r * N_CELLS + j) * k;
+                for (dst, x) in out[base..base + k].iter_mut().zip(&o[base..base + k]) {
+                    *dst = x * f;
+                }
+            }
+        }
+        Ok((CpuStorage::F32(out), Shape::from((b, N_CELLS, k))))
+    }
+
+    fn bwd(
+        &self,
+        s: &Tensor,
+        mask: &Tensor,
+        o: &Tensor,
+        _res: &Tensor,
+        grad: &Tensor,
+    ) -> Result<(Option<Tensor>, Option<Tensor>, Option<Tensor>)> {
+        let (b, m, _) = s.dims3()?;
+        let k = o.dim(2)?;
+        // The gradient and O travel together as one input of the backward op.
+        let og = Tensor::cat(&[o.contiguous()?, grad.contiguous()?], 2)?;
+        let both = s.contiguous()?.apply_op3_no_bwd(
+            &mask.contiguous()?,
+            &og,
+            &AttentionFilterBackward { m, k },
+        )?;
+        let ds = both.narrow(1, 0, m * N_CELLS)?.reshape((b, m, N_CELLS))?;
+        let d_o = both
+            .narrow(1, m * N_CELLS, N_CELLS * k)?
+            .reshape((b, N_CELLS, k))?;
+        Ok((Some(ds), None, Some(d_o)))
+    }
+}
+
+impl CustomOp3 for AttentionFilterBackward {
+    fn name(&self) -> &'static str {
+        "attention-filter-backward"
+    }
+
+    fn cpu_fwd(
+        &self,
+        s1: &CpuStorage,
+        l1: &Layout,
+        s2: &CpuStorage,
+        l2: &Layout,
+        s3: &CpuStorage,
+        l3: &Layout,
+    ) -> Result<(CpuStorage, Shape)> {
+        let (m, k) = (self.m, self.k);
+        let (b, m1, _) = l1.shape().dims3()?;
+        if m1 != m || l3.shape().dims3()? != (b, N_CELLS, 2 * k) {
+            return Err(candle_core::Error::Msg("attention backward: shapes".into()));
+        }
+        let (s, mask, og) = (
+            slice(s1, l1, "S")?,
+            slice(s2, l2, "mask")?,
+            slice(s3, l3, "O|dF")?,
+        );
+        let width = m * N_CELLS + N_CELLS * k;
+        let mut out = vec![0f32; b * width];
+        let (mut a, mut w, mut mm) = (vec![0f32; m * N_CELLS], vec![0f32; m], vec![0f32; N_CELLS]);
+        let scale = N_CELLS as f32;
+        let mut dm = [0f32; N_CELLS];
+        let mut da = vec![0f32; m * N_CELLS];
+        for r in 0..b {
+            let sr = &s[r * m * N_CELLS..(r + 1) * m * N_CELLS];
+            let maskr = &mask[r * m..(r + 1) * m];
+            maps(sr, maskr, &mut a, &mut w, &mut mm);
+            let (ds, d_o) = out[r * width..(r + 1) * width].split_at_mut(m * N_CELLS);
+            // F_j = 49·M_j·O_j.
+            for j in 0..N_CELLS {
+                let base = (r * N_CELLS + j) * 2 * k;
+                let (oj, dfj) = og[base..base + 2 * k].split_at(k);
+                let mut acc = 0f32;
+                for c in 0..k {
+                    d_o[j * k + c] = scale * mm[j] * dfj[c];
+                    acc += dfj[c] * oj[c];
+                }
+                dm[j] = scale * acc;
+            }
+            // M = Σ_i w_i A_i.
+            let mut dw = vec![0f32; m];
+            for i in 0..m {
+                for j in 0..N_CELLS {
+                    dw[i] += dm[j] * a[i * N_CELLS + j];
+                    da[i * N_CELLS + j] = w[i] * dm[j];
+                }
+            }
+            // w = softmax(−H·mask + (mask − 1)·1e9).
+            let dot: f32 = w.iter().zip(&dw).map(|(x, y)| x * y).sum();
+            for i in 0..m {
+                let dz = w[i] * (dw[i] - dot);
+                let dh = -dz * maskr[i];
+                // H_i = −Σ_j A_ij ln clamp(A_ij): ∂H/∂A = −(ln A + 1) where A ≥ TINY.
+                for j in 0..N_CELLS {
+                    let x = a[i * N_CELLS + j];
+                    let dh_da = if x >= TINY {
+                        -(x.ln() + 1.0)
+                    } else {
+                        -TINY.ln()
+                    };
+                    da[i * N_CELLS + j] += dh * dh_da;
+                }
+            }
+            // A_i = softmax(S_i).
+            for i in 0..m {
+                let ai = &a[i * N_CELLS..(i + 1) * N_CELLS];
+                let dai = &da[i * N_CELLS..(i + 1) * N_CELLS];
+                let dot: f32 = ai.iter().zip(dai).map(|(x, y)| x * y).sum();
+                for j in 0..N_CELLS {
+                    ds[i * N_CELLS + j] = ai[j] * (dai[j] - dot);
+                }
+            }
+        }
+        Ok((CpuStorage::F32(out), Shape::from((b, width))))
+    }
+}
+
+/// `F` (B, 49, K) from the scaled scores (B, m, 49), the word mask (B, m) and `Õ` (B, 49, K).
+pub fn attention_filter(scores: &Tensor, mask: &Tensor, o: &Tensor) -> Result<Tensor> {
+    scores
+        .contiguous()?
+        .apply_op3(&mask.contiguous()?, &o.contiguous()?, AttentionFilter)
+}
