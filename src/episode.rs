@@ -122,10 +122,7 @@ impl EpisodeTrace {
 
     /// The mission's words.
     pub fn words(&self) -> Vec<&'static str> {
-        self.tokens
-            .iter()
-            .map(|&t| vocab::word(t).unwrap_or("?"))
-            .collect()
+        vocab::words(&self.tokens)
     }
 }
 

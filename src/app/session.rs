@@ -10,6 +10,7 @@ use std::sync::mpsc::{Receiver, channel};
 use crate::env::edit::{Edit, apply};
 use crate::env::level::LevelConfig;
 use crate::episode::{ActionMode, EpisodeSpec, EpisodeTrace, rerun_from, run_from, run_from_with};
+use crate::metrics::failure::{Diagnosis, Evidence};
 use crate::metrics::faithfulness::episode::{Loop, intervention};
 use crate::policy::{Checkpoint, Net, bundled};
 use crate::record::{RerunTargets, StepScene, episode_scenes, record_rerun, write_mcap};
@@ -45,14 +46,18 @@ pub struct Shown {
     pub trace: Arc<EpisodeTrace>,
     /// One scene per step.
     pub scenes: Arc<Vec<StepScene>>,
+    /// Why the episode failed, as `eval` classifies it (`None` for a success).
+    pub failure: Option<Diagnosis>,
 }
 
 impl Shown {
     fn new(trace: EpisodeTrace, alpha: f64) -> Self {
         let scenes = episode_scenes(&trace, alpha);
+        let failure = Evidence::from_trace(&trace, alpha).diagnose();
         Self {
             trace: Arc::new(trace),
             scenes: Arc::new(scenes),
+            failure,
         }
     }
 

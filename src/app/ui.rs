@@ -543,11 +543,8 @@ impl Debugger {
                     self.cursor.step = i;
                 }
                 // Why it failed: the class `eval` gives the same episode (README,
-                // Evaluation); a few steps of work, cheap enough for every frame.
-                if let Some(d) =
-                    crate::metrics::failure::Evidence::from_trace(&shown.trace, self.alpha)
-                        .diagnose()
-                {
+                // Evaluation).
+                if let Some(d) = &shown.failure {
                     ui.label(
                         egui::RichText::new(format!("failed: {}", d.class.name()))
                             .color(Color32::from_rgb(230, 120, 90)),

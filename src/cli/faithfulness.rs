@@ -263,7 +263,6 @@ impl Staging {
         for entry in std::fs::read_dir(dir.path())? {
             let entry = entry?;
             let dest = self.out.join(entry.file_name());
-            groundscope::files::make_shareable(&entry.path())?;
             std::fs::rename(entry.path(), &dest)
                 .with_context(|| format!("cannot write {}", dest.display()))?;
             n += 1;

@@ -8,7 +8,7 @@ use std::time::Instant;
 
 use anyhow::Context as _;
 use clap::Args;
-use groundscope::env::vocab::{tokenize, word};
+use groundscope::env::vocab::{tokenize, words};
 use groundscope::episode::{ActionMode, EpisodeSpec, EpisodeTrace, initial_world, run_episode};
 use groundscope::metrics::faithfulness::annotate;
 use groundscope::policy::Net;
@@ -138,7 +138,7 @@ pub fn replay(args: &ReplayArgs) -> anyhow::Result<ExitStatus> {
         }
         let words = missions
             .iter()
-            .map(|m| tokenize(m).map(|t| t.iter().map(|&i| word(i).unwrap_or("?")).collect()))
+            .map(|m| tokenize(m).map(|t| words(&t)))
             .collect::<Result<Vec<Vec<&str>>, _>>()?;
         paths = word_paths(words);
     }

@@ -33,6 +33,11 @@ pub fn word(id: u32) -> Option<&'static str> {
     VOCABULARY.get(id as usize).copied()
 }
 
+/// The words of a token sequence (`?` for an id outside the vocabulary).
+pub fn words(tokens: &[u32]) -> Vec<&'static str> {
+    tokens.iter().map(|&t| word(t).unwrap_or("?")).collect()
+}
+
 /// BabyAI's split: lowercase, then maximal runs of `a`–`z` (everything else separates).
 pub fn split_words(mission: &str) -> Vec<String> {
     let lower = mission.to_lowercase();

@@ -198,7 +198,7 @@ pub fn visible_targets(world: &World, obs: &Observation) -> Vec<ViewCell> {
 }
 
 /// Where a key/ball/box stands relative to `world`'s targets.
-fn relation(world: &World, obj: Option<crate::env::object::WorldObj>) -> Relation {
+pub fn relation(world: &World, obj: Option<crate::env::object::WorldObj>) -> Relation {
     match obj {
         Some(o) if o.kind.can_pickup() => {
             if world.verifier.obj_set.contains(&o.id) {

@@ -234,11 +234,21 @@ pub fn ground_step(
         let objs = related_objects(obs, |_, c| c == color);
         evaluate(WordKind::Color, Some(i), words[i].1, &objs);
     }
-    let targets = related_objects(obs, |k, c| {
-        desc.kind.is_none_or(|d| d == k) && desc.color.is_none_or(|d| d == c)
-    });
-    evaluate(WordKind::Combined, None, combined, &targets);
+    evaluate(
+        WordKind::Combined,
+        None,
+        combined,
+        &target_objects(obs, *desc),
+    );
     out
+}
+
+/// The visible objects matching the whole description (type and colour): the targets `M`
+/// is evaluated on.
+pub fn target_objects(obs: &Observation, desc: ObjDesc) -> Vec<ViewCell> {
+    related_objects(obs, |k, c| {
+        desc.kind.is_none_or(|d| d == k) && desc.color.is_none_or(|d| d == c)
+    })
 }
 
 #[cfg(test)]

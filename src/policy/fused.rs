@@ -18,18 +18,14 @@ fn sigmoid(x: f32) -> f32 {
     1.0 / (1.0 + (-x).exp())
 }
 
-fn f32_slice<'a>(s: &'a CpuStorage, l: &Layout, what: &str) -> Result<&'a [f32]> {
+/// The f32 values of a contiguous storage; `what` names the op and input in errors.
+pub(super) fn f32_slice<'a>(s: &'a CpuStorage, l: &Layout, what: &str) -> Result<&'a [f32]> {
     let CpuStorage::F32(v) = s else {
-        return Err(candle_core::Error::Msg(format!(
-            "lstm gates: {what} must be f32"
-        )));
+        return Err(candle_core::Error::Msg(format!("{what} must be f32")));
     };
-    match l.contiguous_offsets() {
-        Some((a, b)) => Ok(&v[a..b]),
-        None => Err(candle_core::Error::Msg(format!(
-            "lstm gates: {what} must be contiguous"
-        ))),
-    }
+    l.contiguous_offsets()
+        .map(|(a, b)| &v[a..b])
+        .ok_or_else(|| candle_core::Error::Msg(format!("{what} must be contiguous")))
 }
 
 fn dims(l1: &Layout, l2: &Layout) -> Result<(usize, usize)> {
@@ -58,7 +54,10 @@ impl CustomOp2 for LstmGates {
         l2: &Layout,
     ) -> Result<(CpuStorage, Shape)> {
         let (b, h) = dims(l1, l2)?;
-        let (g, c) = (f32_slice(s1, l1, "g")?, f32_slice(s2, l2, "c")?);
+        let (g, c) = (
+            f32_slice(s1, l1, "lstm gates: g")?,
+            f32_slice(s2, l2, "lstm gates: c")?,
+        );
         let mut out = vec![0f32; b * 2 * h];
         for r in 0..b {
             let gr = &g[r * 4 * h..(r + 1) * 4 * h];
@@ -112,8 +111,11 @@ impl CustomOp3 for LstmGatesBackward {
         l3: &Layout,
     ) -> Result<(CpuStorage, Shape)> {
         let (b, h) = dims(l1, l2)?;
-        let (g, c) = (f32_slice(s1, l1, "g")?, f32_slice(s2, l2, "c")?);
-        let d = f32_slice(s3, l3, "gradient")?;
+        let (g, c) = (
+            f32_slice(s1, l1, "lstm gates: g")?,
+            f32_slice(s2, l2, "lstm gates: c")?,
+        );
+        let d = f32_slice(s3, l3, "lstm gates: gradient")?;
         if d.len() != b * 2 * h {
             return Err(candle_core::Error::Msg(
                 "lstm gates: the gradient is not (B, 2H)".into(),

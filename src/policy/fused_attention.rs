@@ -6,6 +6,7 @@
 
 use candle_core::{CpuStorage, CustomOp3, Layout, Result, Shape, Tensor};
 
+use super::fused::f32_slice as slice;
 use super::obs::N_CELLS;
 
 /// Smallest probability fed to `ln`, as in `attention.rs`.
@@ -18,17 +19,6 @@ struct AttentionFilter;
 struct AttentionFilterBackward {
     m: usize,
     k: usize,
-}
-
-fn slice<'a>(s: &'a CpuStorage, l: &Layout, what: &str) -> Result<&'a [f32]> {
-    let CpuStorage::F32(v) = s else {
-        return Err(candle_core::Error::Msg(format!(
-            "attention: {what} must be f32"
-        )));
-    };
-    l.contiguous_offsets()
-        .map(|(a, b)| &v[a..b])
-        .ok_or_else(|| candle_core::Error::Msg(format!("attention: {what} must be contiguous")))
 }
 
 /// Per frame: maps `a` (m × 49), weights `w` (m) and `M` (49) from the scores and mask.
@@ -100,9 +90,9 @@ impl CustomOp3 for AttentionFilter {
     ) -> Result<(CpuStorage, Shape)> {
         let (b, m, k) = shapes(l1, l2, l3)?;
         let (s, mask, o) = (
-            slice(s1, l1, "S")?,
-            slice(s2, l2, "mask")?,
-            slice(s3, l3, "O")?,
+            slice(s1, l1, "attention: S")?,
+            slice(s2, l2, "attention: mask")?,
+            slice(s3, l3, "attention: O")?,
         );
         let mut out = vec![0f32; b * N_CELLS * k];
         let (mut a, mut w, mut mm) = (vec![0f32; m * N_CELLS], vec![0f32; m], vec![0f32; N_CELLS]);
@@ -171,9 +161,9 @@ impl CustomOp3 for AttentionFilterBackward {
             return Err(candle_core::Error::Msg("attention backward: shapes".into()));
         }
         let (s, mask, og) = (
-            slice(s1, l1, "S")?,
-            slice(s2, l2, "mask")?,
-            slice(s3, l3, "O|dF")?,
+            slice(s1, l1, "attention: S")?,
+            slice(s2, l2, "attention: mask")?,
+            slice(s3, l3, "attention: O|dF")?,
         );
         let width = m * N_CELLS + N_CELLS * k;
         let mut out = vec![0f32; b * width];

@@ -74,10 +74,47 @@ pub fn act_with(
             memory.h.dim(0)?
         )));
     }
-    let tb = TokenBatch::new(missions)?;
-    let mission = net.mission_inputs(&tb)?;
-    let patches = obs::patches(obs)?;
-    let (logits, values, memory, vis) = net.step_with(&patches, &mission, memory, intervention)?;
+    act_encoded(
+        net,
+        &Encoded::new(obs, missions)?,
+        missions,
+        memory,
+        with_traces,
+        intervention,
+    )
+}
+
+/// A batch's inputs encoded on the host: token batch and im2col patches.
+pub struct Encoded {
+    /// The missions, deduplicated.
+    pub tokens: TokenBatch,
+    /// The observations' patches, (B·49, PATCH).
+    pub patches: Tensor,
+}
+
+impl Encoded {
+    /// Encodes observations and missions (the same length).
+    pub fn new(obs: &[Observation], missions: &[&[u32]]) -> Result<Self, PolicyError> {
+        Ok(Self {
+            tokens: TokenBatch::new(missions)?,
+            patches: obs::patches(obs)?,
+        })
+    }
+}
+
+/// The forward half of [`act_with`], from inputs already encoded (so callers can time the
+/// two apart); `missions` name the words of the traces.
+pub fn act_encoded(
+    net: &Net,
+    enc: &Encoded,
+    missions: &[&[u32]],
+    memory: &Memory,
+    with_traces: bool,
+    intervention: Option<&Intervention>,
+) -> Result<ActOutput, PolicyError> {
+    let mission = net.mission_inputs(&enc.tokens)?;
+    let (logits, values, memory, vis) =
+        net.step_with(&enc.patches, &mission, memory, intervention)?;
     let traces = match (&vis.attention, with_traces) {
         (Some(att), true) => Some(trace::extract(att, missions)?),
         _ => None,

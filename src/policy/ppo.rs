@@ -543,18 +543,15 @@ impl Trainer {
             h: Tensor::from_vec(h, (envs.len(), hid), &Device::Cpu)?,
             c: Tensor::from_vec(c, (envs.len(), hid), &Device::Cpu)?,
         };
-        // `act`'s steps, split so that encoding and the forward pass are timed apart.
-        let tb = TokenBatch::new(&missions)?;
-        let patches = obs::patches(&obs)?;
+        let enc = super::Encoded::new(&obs, &missions)?;
         let encoded = secs(encode_t);
         let forward_t = std::time::Instant::now();
-        let mission = net.mission_inputs(&tb)?;
-        let (logits, values, memory, _) = net.step(&patches, &mission, &mem)?;
+        let out = super::act_encoded(net, &enc, &missions, &mem, false, None)?;
         let out = ActAll {
-            probs: super::model::probs_host(&logits)?,
-            values: values.to_vec1::<f32>()?,
-            h: memory.h.to_vec2::<f32>()?,
-            c: memory.c.to_vec2::<f32>()?,
+            probs: out.probs,
+            values: out.values,
+            h: out.memory.h.to_vec2::<f32>()?,
+            c: out.memory.c.to_vec2::<f32>()?,
         };
         self.times.rollout_encode += encoded;
         self.times.rollout_forward += secs(forward_t);

@@ -9,6 +9,7 @@ use rand::Rng as _;
 use rand::SeedableRng as _;
 use rand_pcg::Pcg64Mcg;
 
+use super::measures::{argmax, flat};
 use super::step::{StepInput, StepResult, analyse, cell_index, steered};
 use crate::env::grid::Pos;
 use crate::env::level::{LevelConfig, all_reachable};
@@ -17,7 +18,8 @@ use crate::env::view::Observation;
 use crate::env::vocab;
 use crate::env::world::{Action, World};
 use crate::episode::{ActionMode, choose, episode_rng};
-use crate::metrics::grounding::related_objects;
+use crate::metrics::failure::{Relation, relation};
+use crate::metrics::grounding::{related_objects, target_objects};
 use crate::policy::obs::N_CELLS;
 use crate::policy::{ActOutput, Intervention, Memory, Net, PolicyError, act_with};
 
@@ -140,18 +142,12 @@ pub fn intervention(
         }
         Loop::Steered => {
             let base = act_with(net, &[*obs], &[tokens], memory, true, None)?;
-            let d = world.instr.desc;
-            let targets = related_objects(obs, |k, c| {
-                d.kind.is_none_or(|x| x == k) && d.color.is_none_or(|x| x == c)
-            });
+            let targets = target_objects(obs, world.instr.desc);
             let objects = related_objects(obs, |_, _| true);
             base.traces
                 .as_ref()
                 .and_then(|t| t.first())
-                .and_then(|t| {
-                    let m: Vec<f64> = t.combined.iter().flatten().map(|x| f64::from(*x)).collect();
-                    steered(&m, &targets, &objects)
-                })
+                .and_then(|t| steered(&flat(&t.combined), &targets, &objects))
                 .map(|s| {
                     let v: Vec<f32> = s.iter().map(|x| *x as f32).collect();
                     Tensor::from_vec(v, (1, N_CELLS), &Device::Cpu).map(Intervention::SetM)
@@ -181,21 +177,8 @@ struct Visit {
     action: usize,
 }
 
-/// Cells of visible targets (objects matching the instruction).
-fn target_cells(world: &World, obs: &Observation) -> Vec<usize> {
-    let desc = world.instr.desc;
-    related_objects(obs, |k, c| {
-        desc.kind.is_none_or(|d| d == k) && desc.color.is_none_or(|d| d == c)
-    })
-    .into_iter()
-    .map(cell_index)
-    .collect()
-}
-
 fn argmax_m(out: &ActOutput) -> Option<usize> {
-    let m = &out.traces.as_ref()?.first()?.combined;
-    let flat: Vec<f64> = m.iter().flatten().map(|x| f64::from(*x)).collect();
-    Some(super::measures::argmax(&flat))
+    Some(argmax(&flat(&out.traces.as_ref()?.first()?.combined)))
 }
 
 /// Runs `world` to its end with `how` applied at every step; `visits` collects the steps for
@@ -220,7 +203,10 @@ fn rollout(
         let out = act_with(net, &[obs], &missions, &memory, attention, iv.as_ref())?;
         let probs = out.probs.first().cloned().unwrap_or_default();
         let action = choose(&probs, mode, &mut rng);
-        let targets = target_cells(&world, &obs);
+        let targets: Vec<usize> = target_objects(&obs, world.instr.desc)
+            .into_iter()
+            .map(cell_index)
+            .collect();
         if !targets.is_empty() {
             r.target_visible_steps += 1;
             if argmax_m(&out).is_some_and(|j| targets.contains(&j)) {
@@ -228,9 +214,7 @@ fn rollout(
             }
         }
         if matches!(action, Action::Pickup | Action::Done)
-            && let Some(obj) = world.grid.get_or_wall(world.front_pos())
-            && obj.kind.can_pickup()
-            && !world.instr.desc.matches(&obj)
+            && relation(&world, world.grid.get(world.front_pos())) == Relation::NonTarget
         {
             r.distractor = true;
         }

@@ -2,6 +2,11 @@
 //!
 //! Maps and effects are 49-vectors in agent-up order (`j = vy·7 + vx`, as the policy's maps).
 
+/// A 7×7 map as 49 values in agent-up order.
+pub fn flat(map: &crate::policy::ViewMap) -> Vec<f64> {
+    map.iter().flatten().map(|x| f64::from(*x)).collect()
+}
+
 /// `Δ = ½ Σ_a |p(a) − q(a)|`: the total-variation distance of two action distributions.
 pub fn total_variation(p: &[f32], q: &[f32]) -> f64 {
     0.5 * p

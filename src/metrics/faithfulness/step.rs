@@ -10,11 +10,12 @@ use rand_pcg::Pcg64Mcg;
 use serde::{Deserialize, Serialize};
 
 use super::measures::{
-    Localisation, argmax, localisation, normalised_auc, rank_correlation, resample, total_variation,
+    Localisation, argmax, flat, localisation, normalised_auc, rank_correlation, resample,
+    total_variation,
 };
 use crate::env::mission::ObjDesc;
 use crate::env::view::{AGENT_IN_VIEW, Observation, VIEW_SIZE, ViewCell};
-use crate::metrics::grounding::{WordKind, related_objects};
+use crate::metrics::grounding::{WordKind, related_objects, target_objects};
 use crate::policy::obs::N_CELLS;
 use crate::policy::{AttentionTrace, Intervention, Memory, Net, PolicyError, act_with};
 
@@ -177,13 +178,6 @@ pub fn occlusion(input: &StepInput<'_>) -> Result<Vec<f64>, PolicyError> {
     Ok(delta)
 }
 
-/// The cells of objects matching `desc` among `objects`.
-fn targets_among(obs: &Observation, desc: ObjDesc) -> Vec<ViewCell> {
-    related_objects(obs, |k, c| {
-        desc.kind.is_none_or(|d| d == k) && desc.color.is_none_or(|d| d == c)
-    })
-}
-
 /// `M` steered onto a distractor: each target cell's mass moves to the nearest visible
 /// non-target object (Chebyshev distance, then index order). `None` without a visible
 /// target or distractor.
@@ -271,7 +265,7 @@ fn mean_of(curves: &[Vec<f64>]) -> Vec<f64> {
 /// chance control and the random deletion orders.
 pub fn analyse(input: &StepInput<'_>, rng: &mut Pcg64Mcg) -> Result<StepResult, PolicyError> {
     let objects = related_objects(&input.obs, |_, _| true);
-    let targets = targets_among(&input.obs, input.desc);
+    let targets = target_objects(&input.obs, input.desc);
     let delta = occlusion(input)?;
     let mut r = StepResult {
         random_pick: (objects.len() >= 2).then(|| 1.0 / objects.len() as f64),
@@ -282,9 +276,7 @@ pub fn analyse(input: &StepInput<'_>, rng: &mut Pcg64Mcg) -> Result<StepResult, 
     if !targets.is_empty() && objects.len() >= 2 {
         r.target_most_effective = best_object(&delta).map(|b| targets.contains(&b));
     }
-    let m: Option<Vec<f64>> = input
-        .attention
-        .map(|a| a.combined.iter().flatten().map(|x| f64::from(*x)).collect());
+    let m: Option<Vec<f64>> = input.attention.map(|a| flat(&a.combined));
     let mut permuted = None;
     if let Some(m) = &m {
         let mut perm: Vec<usize> = (0..N_CELLS).collect();
@@ -384,9 +376,6 @@ pub fn localise(
     desc: &ObjDesc,
     att: &AttentionTrace,
 ) -> BTreeMap<WordKind, Localisation> {
-    let flat = |m: &crate::policy::ViewMap| -> Vec<f64> {
-        m.iter().flatten().map(|x| f64::from(*x)).collect()
-    };
     let cells = |v: Vec<ViewCell>| -> Vec<usize> { v.into_iter().map(cell_index).collect() };
     let find = |name: &str| att.words.iter().find(|w| w.word == name);
     let mut out = BTreeMap::new();
@@ -408,7 +397,7 @@ pub fn localise(
     {
         out.insert(WordKind::Color, l);
     }
-    if let Some(l) = localisation(&flat(&att.combined), &cells(targets_among(obs, *desc))) {
+    if let Some(l) = localisation(&flat(&att.combined), &cells(target_objects(obs, *desc))) {
         out.insert(WordKind::Combined, l);
     }
     out
