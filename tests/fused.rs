@@ -144,3 +144,59 @@ fn fused_attention_matches_the_autograd_reference() {
         );
     }
 }
+
+#[test]
+fn sparse_conv_matches_the_dense_patch_gemm() {
+    use groundscope::env::view::Observation;
+    use groundscope::policy::obs::{CellCodes, patches};
+    let cfg = ModelConfig::new(Variant::Attention);
+    let params = Params::init(&cfg, 5).unwrap();
+    let net = Net::new(cfg, params.tracked());
+    let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(11);
+    // Random views, codes out of range included (they clamp like the encoder's).
+    let obs: Vec<Observation> = (0..13)
+        .map(|_| {
+            let mut o = Observation {
+                image: [[[0; 3]; 7]; 7],
+            };
+            for col in &mut o.image {
+                for cell in col.iter_mut() {
+                    *cell = [
+                        rng.random_range(0..12),
+                        rng.random_range(0..7),
+                        rng.random_range(0..4),
+                    ];
+                }
+            }
+            o
+        })
+        .collect();
+    let k = cfg.conv_channels;
+    let weights = random(&mut rng, (13 * 49, k), 1.0)
+        .reshape((13, 49, k))
+        .unwrap();
+    let run = |sparse: bool| {
+        let o = if sparse {
+            net.cells(&CellCodes::new(&obs)).unwrap()
+        } else {
+            net.cells_reference(&patches(&obs).unwrap()).unwrap()
+        };
+        let loss = (&o * &weights).unwrap().sum_all().unwrap();
+        (o, loss.backward().unwrap())
+    };
+    let (os, gs) = run(true);
+    let (od, gd) = run(false);
+    assert_eq!(os.dims(), &[13, 49, k]);
+    close(&os, &od, "cells");
+    // Some cells are clamped by the ReLU, so its gradient mask is exercised.
+    let zeros = os.flatten_all().unwrap().to_vec1::<f32>().unwrap();
+    assert!(zeros.contains(&0.0) && zeros.iter().any(|x| *x > 0.0));
+    for name in ["encoder.conv.weight", "encoder.conv.bias"] {
+        let w = params.vars.get(name).unwrap();
+        close(
+            gs.get(w.as_tensor()).unwrap(),
+            gd.get(w.as_tensor()).unwrap(),
+            name,
+        );
+    }
+}

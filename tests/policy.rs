@@ -11,7 +11,7 @@ use std::collections::BTreeMap;
 use candle_core::{Device, Tensor};
 use groundscope::env::LevelConfig;
 use groundscope::episode::{ActionMode, EpisodeSpec, run_episode};
-use groundscope::policy::obs::{TokenBatch, patches};
+use groundscope::policy::obs::{CellCodes, TokenBatch};
 use groundscope::policy::{
     Checkpoint, Memory, ModelConfig, Net, Params, TrainingState, Variant, act,
 };
@@ -59,7 +59,7 @@ fn loss(net: &Net, level: &LevelConfig) -> Tensor {
     };
     let keep = Tensor::from_vec(vec![1f32, 1., 1., 0.], (2, 2), &Device::Cpu).unwrap();
     let (logits, values, _) = net
-        .sequence(&patches(&obs).unwrap(), &mi, &mem0, &keep)
+        .sequence(&CellCodes::new(&obs), &mi, &mem0, &keep)
         .unwrap();
     let coef = Tensor::from_vec(
         (0..28)

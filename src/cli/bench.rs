@@ -122,7 +122,7 @@ fn rate(secs: f64, mut f: impl FnMut() -> anyhow::Result<()>) -> anyhow::Result<
 
 fn bench_policy(model: &str, secs: f64) -> anyhow::Result<ExitStatus> {
     use groundscope::env::vocab::tokenize;
-    use groundscope::policy::obs::{TokenBatch, patches};
+    use groundscope::policy::obs::{CellCodes, TokenBatch};
     use groundscope::policy::ppo::{PpoConfig, ppo_loss};
     use groundscope::policy::{Memory, ModelConfig, Net, Params, act};
 
@@ -162,7 +162,7 @@ fn bench_policy(model: &str, secs: f64) -> anyhow::Result<ExitStatus> {
         let rec = ppo.recurrence;
         let n = frames / rec;
         let missions: Vec<&[u32]> = tokens[..frames].iter().map(Vec::as_slice).collect();
-        let p = patches(&obs[..frames])?;
+        let p = CellCodes::new(&obs[..frames]);
         let keep = candle_core::Tensor::ones(
             (rec, n),
             candle_core::DType::F32,

@@ -9,6 +9,7 @@ pub mod config;
 pub mod error;
 pub mod fused;
 pub mod fused_attention;
+pub mod fused_conv;
 pub mod model;
 pub mod obs;
 pub mod params;
@@ -84,12 +85,12 @@ pub fn act_with(
     )
 }
 
-/// A batch's inputs encoded on the host: token batch and im2col patches.
+/// A batch's inputs encoded on the host: token batch and cell codes.
 pub struct Encoded {
     /// The missions, deduplicated.
     pub tokens: TokenBatch,
-    /// The observations' patches, (B·49, PATCH).
-    pub patches: Tensor,
+    /// The observations' cell codes.
+    pub codes: obs::CellCodes,
 }
 
 impl Encoded {
@@ -97,7 +98,7 @@ impl Encoded {
     pub fn new(obs: &[Observation], missions: &[&[u32]]) -> Result<Self, PolicyError> {
         Ok(Self {
             tokens: TokenBatch::new(missions)?,
-            patches: obs::patches(obs)?,
+            codes: obs::CellCodes::new(obs),
         })
     }
 }
@@ -114,7 +115,7 @@ pub fn act_encoded(
 ) -> Result<ActOutput, PolicyError> {
     let mission = net.mission_inputs(&enc.tokens)?;
     let (logits, values, memory, vis) =
-        net.step_with(&enc.patches, &mission, memory, intervention)?;
+        net.step_with(&enc.codes, &mission, memory, intervention)?;
     let traces = match (&vis.attention, with_traces) {
         (Some(att), true) => Some(trace::extract(att, missions)?),
         _ => None,

@@ -14,7 +14,7 @@ use candle_core::{D, DType, Device, Tensor};
 use super::attention::{AttentionOut, Intervention, attend_with};
 use super::config::ModelConfig;
 use super::error::PolicyError;
-use super::obs::{N_CELLS, PATCH, TokenBatch};
+use super::obs::{CellCodes, N_CELLS, PATCH, TokenBatch};
 use crate::env::world::Action;
 
 /// The network's weights plus its config; cheap to clone (tensors share storage).
@@ -78,8 +78,18 @@ impl Net {
         Ok(x.matmul(&w.t()?)?.broadcast_add(b)?)
     }
 
-    /// `Õ = ReLU(Conv3×3(O))` for B frames from their patches (B·49, PATCH): (B, 49, K).
-    pub fn cells(&self, patches: &Tensor) -> Result<Tensor, PolicyError> {
+    /// `Õ = ReLU(Conv3×3(O))` for the B frames of `codes`: (B, 49, K), through the sparse
+    /// op of [`super::fused_conv`].
+    pub fn cells(&self, codes: &CellCodes) -> Result<Tensor, PolicyError> {
+        let k = self.cfg.conv_channels;
+        let w = self.p("encoder.conv.weight")?.reshape((k, PATCH))?;
+        let b = self.p("encoder.conv.bias")?;
+        Ok(super::fused_conv::conv_codes(codes, &w, b)?)
+    }
+
+    /// [`Self::cells`] as a dense GEMM over the im2col patches (B·49, PATCH) with candle's
+    /// autograd: the reference the sparse op is tested against.
+    pub fn cells_reference(&self, patches: &Tensor) -> Result<Tensor, PolicyError> {
         let k = self.cfg.conv_channels;
         let w = self.p("encoder.conv.weight")?.reshape((k, PATCH))?;
         let b = self.p("encoder.conv.bias")?;
@@ -258,22 +268,22 @@ impl Net {
     /// One step for B frames: returns logits, values, the new memory and the visual outputs.
     pub fn step(
         &self,
-        patches: &Tensor,
+        codes: &CellCodes,
         mission: &MissionInputs,
         mem: &Memory,
     ) -> Result<(Tensor, Tensor, Memory, Visual), PolicyError> {
-        self.step_with(patches, mission, mem, None)
+        self.step_with(codes, mission, mem, None)
     }
 
     /// [`Self::step`] with an [`Intervention`] on the attention.
     pub fn step_with(
         &self,
-        patches: &Tensor,
+        codes: &CellCodes,
         mission: &MissionInputs,
         mem: &Memory,
         intervention: Option<&Intervention>,
     ) -> Result<(Tensor, Tensor, Memory, Visual), PolicyError> {
-        let o = self.cells(patches)?;
+        let o = self.cells(codes)?;
         let vis = self.visual_with(
             &o,
             mission.queries.as_ref().map(|(q, m)| (q, m)),
@@ -285,18 +295,18 @@ impl Net {
         Ok((logits, values, mem, vis))
     }
 
-    /// A recurrent sequence for training: `patches` hold T·n frames in t-major order
+    /// A recurrent sequence for training: `codes` hold T·n frames in t-major order
     /// (row = t·n + j), `keep` is (T, n) with 0 where an episode starts at step t.
     /// Returns logits (T·n, 7), values (T·n,) and the memory after every step.
     pub fn sequence(
         &self,
-        patches: &Tensor,
+        codes: &CellCodes,
         mission: &MissionInputs,
         mem0: &Memory,
         keep: &Tensor,
     ) -> Result<(Tensor, Tensor, Vec<Memory>), PolicyError> {
         let (t_len, n) = keep.dims2()?;
-        let o = self.cells(patches)?;
+        let o = self.cells(codes)?;
         let x = self.visual_features(&o, mission.queries.as_ref().map(|(q, m)| (q, m)))?;
         let gx = self.lstm_input(&x)?;
         let mut mem = mem0.clone();

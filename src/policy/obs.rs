@@ -59,6 +59,45 @@ pub fn push_patches(obs: &Observation, out: &mut Vec<f32>) {
     }
 }
 
+/// The one-hot codes set in every cell of a batch of views: 3 per cell (object type, colour,
+/// state, as indices into the [`CELL_CODES`]), cells in the order of [`push_patches`]. The
+/// compact form of the patches that [`super::fused_conv`] reads: 147 bytes per frame instead
+/// of 35 KB; cheap to clone.
+#[derive(Clone, Debug)]
+pub struct CellCodes {
+    frames: usize,
+    codes: std::sync::Arc<[u8]>,
+}
+
+impl CellCodes {
+    /// The codes of `obs`.
+    pub fn new(obs: &[Observation]) -> Self {
+        let mut codes = Vec::with_capacity(obs.len() * N_CELLS * 3);
+        for o in obs {
+            for vy in 0..VIEW_SIZE {
+                for vx in 0..VIEW_SIZE {
+                    // Indices below CELL_CODES (< 20), so they fit a byte.
+                    codes.extend(self::codes(o.image[vx][vy]).map(|c| c as u8));
+                }
+            }
+        }
+        Self {
+            frames: obs.len(),
+            codes: codes.into(),
+        }
+    }
+
+    /// Number of frames.
+    pub fn frames(&self) -> usize {
+        self.frames
+    }
+
+    /// `frames × 49 × 3` code indices, frame-major, then cell `j = vy·7 + vx`.
+    pub fn as_slice(&self) -> &[u8] {
+        &self.codes
+    }
+}
+
 /// Patches of a batch of observations as a `(B·49, PATCH)` tensor.
 pub fn patches(obs: &[Observation]) -> Result<Tensor, PolicyError> {
     let mut data = Vec::with_capacity(obs.len() * N_CELLS * PATCH);
@@ -149,6 +188,20 @@ mod tests {
         let top_left = &p[..PATCH];
         assert!((0..CELL_CODES).all(|c| top_left[c * 9] == 0.0 && top_left[c * 9 + 1] == 0.0));
         assert_eq!(p.iter().sum::<f32>() as usize, 3 * (49 * 9 - 4 * 7 * 3 + 4));
+    }
+
+    #[test]
+    fn cell_codes_match_the_patch_centres() {
+        let mut obs = Observation {
+            image: [[[1, 0, 0]; 7]; 7],
+        };
+        obs.image[2][4] = [6, 3, 1];
+        let codes = CellCodes::new(&[obs, obs]);
+        assert_eq!(codes.frames(), 2);
+        assert_eq!(codes.as_slice().len(), 2 * 49 * 3);
+        let at = (4 * 7 + 2) * 3;
+        assert_eq!(&codes.as_slice()[at..at + 3], &[6, 14, 18]);
+        assert_eq!(&codes.as_slice()[..3], &[1, 11, 17]);
     }
 
     #[test]

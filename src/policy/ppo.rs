@@ -254,13 +254,13 @@ pub struct Trainer {
 pub struct PhaseTimes {
     /// Environment steps, observations and rollout bookkeeping.
     pub rollout_env: f64,
-    /// Encoding the rollout's inputs: im2col patches, token batches, memory tensors.
+    /// Encoding the rollout's inputs: cell codes, token batches, memory tensors.
     pub rollout_encode: f64,
     /// The rollout's batched forward passes (and reading their outputs back).
     pub rollout_forward: f64,
     /// Advantages and returns (GAE).
     pub gae: f64,
-    /// Encoding the minibatches' inputs (patches, gathers).
+    /// Encoding the minibatches' inputs (cell codes, gathers).
     pub update_encode: f64,
     /// Minibatch forward passes and losses.
     pub update_forward: f64,
@@ -856,7 +856,7 @@ fn shard_step(
     let obs_b: Vec<Observation> = rows.iter().map(|&i| ro.obs[i]).collect();
     let missions: Vec<&[u32]> = rows.iter().map(|&i| ro.tokens[i].as_slice()).collect();
     let tb = TokenBatch::new(&missions)?;
-    let patches = obs::patches(&obs_b)?;
+    let codes = obs::CellCodes::new(&obs_b);
     let gather = |v: &[f32]| -> Result<Tensor, PolicyError> {
         let d: Vec<f32> = rows.iter().map(|&i| v[i]).collect();
         Ok(Tensor::from_vec(d, rows.len(), &Device::Cpu)?)
@@ -880,7 +880,7 @@ fn shard_step(
     };
     let forward_t = std::time::Instant::now();
     let mission = net.mission_inputs(&tb)?;
-    let (logits, values, mems) = net.sequence(&patches, &mission, &mem0, &keep)?;
+    let (logits, values, mems) = net.sequence(&codes, &mission, &mem0, &keep)?;
     let mems = mems
         .iter()
         .take(rec - 1)

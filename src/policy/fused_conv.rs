@@ -1,0 +1,193 @@
+//! The first layer, `Õ = ReLU(Conv3×3(O) + b)`, computed from the codes set in each cell
+//! instead of the one-hot im2col patches (issue #16). A patch has 180 entries of which at
+//! most 27 are 1, so the dense GEMM did 6.7× the necessary work and built 35 KB of patches
+//! per frame; here each output cell adds the ≤ 27 weight columns its codes select. The
+//! backward scatters into the same columns (the input is a constant and needs no gradient).
+//! [`super::model::Net::cells_reference`] keeps the dense version; `tests/fused.rs` compares.
+
+use candle_core::{CpuStorage, CustomOp2, Layout, Result, Shape, Tensor};
+
+use super::fused::f32_slice as slice;
+use super::obs::{CellCodes, N_CELLS, PATCH};
+use crate::env::view::VIEW_SIZE;
+
+/// The forward op: inputs the weight (K, PATCH) and bias (K); output (B, 49, K).
+struct ConvCodes {
+    codes: CellCodes,
+}
+
+/// Its backward: inputs the output `Õ` (B, 49, K) and its gradient; output
+/// `[dW (K·PATCH) | db (K)]` as one vector.
+struct ConvCodesBackward {
+    codes: CellCodes,
+}
+
+/// The patch columns feeding output cell `cell`, `(column, …)` with `column = c·9 + ky·3 + kx`
+/// as in [`super::obs::push_patches`], passed to `f` one at a time.
+#[inline]
+fn for_each_column(codes: &[u8], cell: usize, mut f: impl FnMut(usize)) {
+    let v = VIEW_SIZE as isize;
+    let (ny, nx) = ((cell / VIEW_SIZE) as isize, (cell % VIEW_SIZE) as isize);
+    for ky in 0..3isize {
+        let vy = ny + ky - 1;
+        if !(0..v).contains(&vy) {
+            continue;
+        }
+        for kx in 0..3isize {
+            let vx = nx + kx - 1;
+            if !(0..v).contains(&vx) {
+                continue;
+            }
+            let src = (vy * v + vx) as usize * 3;
+            let offset = (ky * 3 + kx) as usize;
+            for &c in &codes[src..src + 3] {
+                f(usize::from(c) * 9 + offset);
+            }
+        }
+    }
+}
+
+fn kernel_width(l1: &Layout, l2: &Layout) -> Result<usize> {
+    let (k, patch) = l1.shape().dims2()?;
+    let k2 = l2.shape().dims1()?;
+    if patch != PATCH || k2 != k {
+        return Err(candle_core::Error::Msg(format!(
+            "conv codes: shapes {:?} and {:?} do not fit (K, {PATCH}) and (K)",
+            l1.shape(),
+            l2.shape()
+        )));
+    }
+    Ok(k)
+}
+
+impl CustomOp2 for ConvCodes {
+    fn name(&self) -> &'static str {
+        "conv-codes"
+    }
+
+    fn cpu_fwd(
+        &self,
+        s1: &CpuStorage,
+        l1: &Layout,
+        s2: &CpuStorage,
+        l2: &Layout,
+    ) -> Result<(CpuStorage, Shape)> {
+        let k = kernel_width(l1, l2)?;
+        let (w, b) = (slice(s1, l1, "conv: weight")?, slice(s2, l2, "conv: bias")?);
+        // Transposed so that each patch column's K weights are adjacent.
+        let mut wt = vec![0f32; PATCH * k];
+        for (ki, row) in w.chunks_exact(PATCH).enumerate() {
+            for (col, x) in row.iter().enumerate() {
+                wt[col * k + ki] = *x;
+            }
+        }
+        let frames = self.codes.frames();
+        let codes = self.codes.as_slice();
+        let mut out = vec![0f32; frames * N_CELLS * k];
+        for f in 0..frames {
+            let fc = &codes[f * N_CELLS * 3..(f + 1) * N_CELLS * 3];
+            for cell in 0..N_CELLS {
+                let acc = &mut out[(f * N_CELLS + cell) * k..(f * N_CELLS + cell + 1) * k];
+                acc.copy_from_slice(b);
+                for_each_column(fc, cell, |col| {
+                    for (a, x) in acc.iter_mut().zip(&wt[col * k..(col + 1) * k]) {
+                        *a += x;
+                    }
+                });
+                for a in acc.iter_mut() {
+                    *a = a.max(0.0);
+                }
+            }
+        }
+        Ok((CpuStorage::F32(out), Shape::from((frames, N_CELLS, k))))
+    }
+
+    fn bwd(
+        &self,
+        w: &Tensor,
+        _b: &Tensor,
+        res: &Tensor,
+        grad: &Tensor,
+    ) -> Result<(Option<Tensor>, Option<Tensor>)> {
+        let k = w.dim(0)?;
+        let both = res.contiguous()?.apply_op2_no_bwd(
+            &grad.contiguous()?,
+            &ConvCodesBackward {
+                codes: self.codes.clone(),
+            },
+        )?;
+        Ok((
+            Some(both.narrow(0, 0, k * PATCH)?.reshape((k, PATCH))?),
+            Some(both.narrow(0, k * PATCH, k)?),
+        ))
+    }
+}
+
+impl CustomOp2 for ConvCodesBackward {
+    fn name(&self) -> &'static str {
+        "conv-codes-backward"
+    }
+
+    fn cpu_fwd(
+        &self,
+        s1: &CpuStorage,
+        l1: &Layout,
+        s2: &CpuStorage,
+        l2: &Layout,
+    ) -> Result<(CpuStorage, Shape)> {
+        let frames = self.codes.frames();
+        let (b, n, k) = l1.shape().dims3()?;
+        if b != frames || n != N_CELLS || l2.shape() != l1.shape() {
+            return Err(candle_core::Error::Msg(format!(
+                "conv codes: output {:?} and gradient {:?} do not fit ({frames}, 49, K)",
+                l1.shape(),
+                l2.shape()
+            )));
+        }
+        let (o, d) = (
+            slice(s1, l1, "conv: output")?,
+            slice(s2, l2, "conv: gradient")?,
+        );
+        let codes = self.codes.as_slice();
+        let mut dwt = vec![0f32; PATCH * k];
+        let mut db = vec![0f32; k];
+        let mut dpre = vec![0f32; k];
+        for f in 0..frames {
+            let fc = &codes[f * N_CELLS * 3..(f + 1) * N_CELLS * 3];
+            for cell in 0..N_CELLS {
+                let at = (f * N_CELLS + cell) * k;
+                // ReLU: no gradient where the output was clamped to 0.
+                for ((p, g), y) in dpre.iter_mut().zip(&d[at..at + k]).zip(&o[at..at + k]) {
+                    *p = if *y > 0.0 { *g } else { 0.0 };
+                }
+                for (a, p) in db.iter_mut().zip(&dpre) {
+                    *a += p;
+                }
+                for_each_column(fc, cell, |col| {
+                    for (a, p) in dwt[col * k..(col + 1) * k].iter_mut().zip(&dpre) {
+                        *a += p;
+                    }
+                });
+            }
+        }
+        let mut out = vec![0f32; k * PATCH + k];
+        for col in 0..PATCH {
+            for ki in 0..k {
+                out[ki * PATCH + col] = dwt[col * k + ki];
+            }
+        }
+        out[k * PATCH..].copy_from_slice(&db);
+        Ok((CpuStorage::F32(out), Shape::from(k * PATCH + k)))
+    }
+}
+
+/// `ReLU(Conv3×3(O) + b)` for the frames of `codes`, from the weight (K, PATCH) and bias (K):
+/// (B, 49, K), with its backward to the weight and bias.
+pub fn conv_codes(codes: &CellCodes, weight: &Tensor, bias: &Tensor) -> Result<Tensor> {
+    weight.contiguous()?.apply_op2(
+        &bias.contiguous()?,
+        ConvCodes {
+            codes: codes.clone(),
+        },
+    )
+}
