@@ -88,7 +88,7 @@ fn fused_lstm_gates_match_the_autograd_reference() {
 
 #[test]
 fn fused_attention_matches_the_autograd_reference() {
-    use groundscope::policy::attention::{attend, scores};
+    use groundscope::policy::attention::{attend, keyed_queries};
     use groundscope::policy::fused_attention::attention_filter;
     let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(11);
     let (b, m, dk, k) = (5, 6, 8, 16);
@@ -98,12 +98,8 @@ fn fused_attention_matches_the_autograd_reference() {
             .unwrap(),
     )
     .unwrap();
-    let kc = Var::from_tensor(
-        &random(&mut rng, (b * 49, dk), 3.0)
-            .reshape((b, 49, dk))
-            .unwrap(),
-    )
-    .unwrap();
+    // W_k (d_k, K): the keys Kc = Õ W_kᵀ of the reference are formed from it.
+    let wk = Var::from_tensor(&random(&mut rng, (dk, k), 1.5)).unwrap();
     let o = Var::from_tensor(
         &random(&mut rng, (b * 49, k), 1.0)
             .reshape((b, 49, k))
@@ -123,12 +119,18 @@ fn fused_attention_matches_the_autograd_reference() {
         .unwrap();
     let run = |fused: bool| {
         let f = if fused {
-            let s = scores(q.as_tensor(), kc.as_tensor()).unwrap();
-            attention_filter(&s, &mask, o.as_tensor()).unwrap()
+            let qk = keyed_queries(q.as_tensor(), wk.as_tensor()).unwrap();
+            attention_filter(&qk, &mask, o.as_tensor()).unwrap()
         } else {
-            attend(q.as_tensor(), kc.as_tensor(), &mask, o.as_tensor())
+            let kc = o
+                .as_tensor()
+                .reshape((b * 49, k))
                 .unwrap()
-                .f
+                .matmul(&wk.as_tensor().t().unwrap())
+                .unwrap()
+                .reshape((b, 49, dk))
+                .unwrap();
+            attend(q.as_tensor(), &kc, &mask, o.as_tensor()).unwrap().f
         };
         let loss = (&f * &weights).unwrap().sum_all().unwrap();
         (f, loss.backward().unwrap())
@@ -136,7 +138,7 @@ fn fused_attention_matches_the_autograd_reference() {
     let (ff, gf) = run(true);
     let (fr, gr) = run(false);
     close(&ff, &fr, "F");
-    for (name, v) in [("q", &q), ("kc", &kc), ("o", &o)] {
+    for (name, v) in [("q", &q), ("w_k", &wk), ("o", &o)] {
         close(
             gf.get(v.as_tensor()).unwrap(),
             gr.get(v.as_tensor()).unwrap(),
@@ -198,5 +200,63 @@ fn sparse_conv_matches_the_dense_patch_gemm() {
             gd.get(w.as_tensor()).unwrap(),
             name,
         );
+    }
+}
+
+#[test]
+fn training_sequence_matches_step_by_step_acting() {
+    use groundscope::env::{LevelConfig, vocab::tokenize};
+    use groundscope::policy::obs::{CellCodes, TokenBatch};
+    // The training path (sparse conv, keyed queries, fused attention and gates) against the
+    // acting path (the composite attention of attention.rs), on real views and missions with
+    // an episode start inside the sequence.
+    for variant in [Variant::Attention, Variant::Baseline] {
+        let cfg = ModelConfig::new(variant);
+        let net = Net::new(cfg, Params::init(&cfg, 2).unwrap().detached());
+        let level = LevelConfig::default();
+        let (t_len, n) = (3, 4);
+        let worlds: Vec<_> = (0..t_len * n)
+            .map(|s| level.generate(s as u64).unwrap())
+            .collect();
+        let obs: Vec<_> = worlds.iter().map(|w| w.observe()).collect();
+        let tokens: Vec<Vec<u32>> = worlds
+            .iter()
+            .map(|w| tokenize(&w.mission).unwrap())
+            .collect();
+        let missions: Vec<&[u32]> = tokens.iter().map(Vec::as_slice).collect();
+        let mut keep = vec![1f32; t_len * n];
+        keep[n + 2] = 0.0;
+        let keep_t = Tensor::from_vec(keep.clone(), (t_len, n), &Device::Cpu).unwrap();
+        let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(3);
+        let mem0 = Memory {
+            h: random(&mut rng, (n, cfg.lstm_hidden), 0.5),
+            c: random(&mut rng, (n, cfg.lstm_hidden), 0.5),
+        };
+        let (logits, values, _) = net
+            .sequence(
+                &CellCodes::new(&obs),
+                &TokenBatch::new(&missions).unwrap(),
+                &mem0,
+                &keep_t,
+            )
+            .unwrap();
+        let mut mem = mem0;
+        for t in 0..t_len {
+            let rows = t * n..(t + 1) * n;
+            let keep_row = Tensor::from_vec(keep[rows.clone()].to_vec(), n, &Device::Cpu).unwrap();
+            let mi = net
+                .mission_inputs(&TokenBatch::new(&missions[rows.clone()]).unwrap())
+                .unwrap();
+            let (l, v, m, _) = net
+                .step(
+                    &CellCodes::new(&obs[rows]),
+                    &mi,
+                    &mem.masked(&keep_row).unwrap(),
+                )
+                .unwrap();
+            close(&l, &logits.narrow(0, t * n, n).unwrap(), "logits");
+            close(&v, &values.narrow(0, t * n, n).unwrap(), "values");
+            mem = m;
+        }
     }
 }

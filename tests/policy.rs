@@ -37,7 +37,6 @@ fn loss(net: &Net, level: &LevelConfig) -> Tensor {
     let obs = [w1.observe(), w2.observe(), w2.observe(), w1.observe()];
     let missions: Vec<&[u32]> = vec![&t1, &t2, &t1, &t2];
     let tb = TokenBatch::new(&missions).unwrap();
-    let mi = net.mission_inputs(&tb).unwrap();
     let hid = net.cfg.lstm_hidden;
     let mem0 = Memory {
         h: Tensor::from_vec(
@@ -59,7 +58,7 @@ fn loss(net: &Net, level: &LevelConfig) -> Tensor {
     };
     let keep = Tensor::from_vec(vec![1f32, 1., 1., 0.], (2, 2), &Device::Cpu).unwrap();
     let (logits, values, _) = net
-        .sequence(&CellCodes::new(&obs), &mi, &mem0, &keep)
+        .sequence(&CellCodes::new(&obs), &tb, &mem0, &keep)
         .unwrap();
     let coef = Tensor::from_vec(
         (0..28)

@@ -178,8 +178,7 @@ fn bench_policy(model: &str, secs: f64) -> anyhow::Result<ExitStatus> {
         )?;
         let calls = rate(secs, || {
             let tb = TokenBatch::new(&missions)?;
-            let mi = train_net.mission_inputs(&tb)?;
-            let (logits, values, _) = train_net.sequence(&p, &mi, &mem, &keep)?;
+            let (logits, values, _) = train_net.sequence(&p, &tb, &mem, &keep)?;
             let l = ppo_loss(
                 &logits, &values, &actions, &zeros, &zeros, &zeros, &zeros, &ppo,
             )?;

@@ -26,6 +26,18 @@ pub fn scores(q: &Tensor, kc: &Tensor) -> Result<Tensor, PolicyError> {
     Ok((q.matmul(&kc.transpose(1, 2)?.contiguous()?)? / d_k.sqrt())?)
 }
 
+/// Eq. 3 regrouped for the fused training path: since `Kc = Õ W_kᵀ`,
+/// `Q Kcᵀ / √d_k = (Q W_k / √d_k) Õᵀ`; this returns `Q W_k / √d_k`, (…, m, K), for `q`
+/// (…, m, d_k) and `W_k` (d_k, K). Computed once per distinct mission, it spares the keys of
+/// every cell of every frame.
+pub fn keyed_queries(q: &Tensor, wk: &Tensor) -> Result<Tensor, PolicyError> {
+    let d_k = q.dim(D::Minus1)?;
+    let (rows, k) = (q.elem_count() / d_k, wk.dim(1)?);
+    let mut dims = q.dims().to_vec();
+    *dims.last_mut().unwrap_or(&mut 0) = k;
+    Ok((q.reshape((rows, d_k))?.matmul(wk)? / (d_k as f64).sqrt())?.reshape(dims)?)
+}
+
 /// Eq. 3–4: `A = softmax_rows(Q Kcᵀ / √d_k)`, (B, m, 49).
 pub fn attention_maps(q: &Tensor, kc: &Tensor) -> Result<Tensor, PolicyError> {
     Ok(candle_nn::ops::softmax(&scores(q, kc)?, D::Minus1)?)

@@ -1,8 +1,10 @@
-//! The attention block after the query–key product, fused for training: from the scaled
-//! scores `S = Q Kcᵀ / √d_k` (B, m, 49), the word mask (B, m) and the cell features `Õ`
-//! (B, 49, K), the filtered features `F` (B, 49, K) — eqs. 4–7 and the filter of
-//! [`super::attention`] in one CPU op with a hand-written backward. The composite version in
-//! `attention.rs` stays the definition (and computes the traces); `tests/fused.rs` compares.
+//! The attention block, fused for training: from the keyed queries `Q̂ = Q W_k / √d_k`
+//! (B, m, K, see [`super::attention::keyed_queries`]), the word mask (B, m) and the cell
+//! features `Õ` (B, 49, K), the filtered features `F` (B, 49, K) — the scores
+//! `S = Q̂ Õᵀ = Q Kcᵀ / √d_k`, eqs. 4–7 and the filter of [`super::attention`] in one CPU op
+//! with a hand-written backward. The cells' keys `Kc` are never formed. The composite version
+//! in `attention.rs` stays the definition (and computes the traces); `tests/fused.rs`
+//! compares.
 
 use candle_core::{CpuStorage, CustomOp3, Layout, Result, Shape, Tensor};
 
@@ -14,8 +16,8 @@ const TINY: f32 = 1e-30;
 
 struct AttentionFilter;
 
-/// Its backward: from `S`, the mask, `Õ` and `dF`, returns `[dS (m·49) | dÕ (49·K)]` per
-/// frame as one (B, m·49 + 49·K) tensor.
+/// Its backward: from `Q̂`, the mask, `Õ` and `dF`, returns `[dQ̂ (m·K) | dÕ (49·K)]` per
+/// frame as one (B, m·K + 49·K) tensor.
 struct AttentionFilterBackward {
     m: usize,
     k: usize,
@@ -59,13 +61,22 @@ fn maps(s: &[f32], mask: &[f32], a: &mut [f32], w: &mut [f32], m_out: &mut [f32]
     }
 }
 
+/// Per frame: `S = Q̂ Õᵀ` (m × 49) from `Q̂` (m × K) and `Õ` (49 × K).
+fn scores(qk: &[f32], o: &[f32], k: usize, s: &mut [f32]) {
+    for (si, qi) in s.chunks_exact_mut(N_CELLS).zip(qk.chunks_exact(k)) {
+        for (sij, oj) in si.iter_mut().zip(o.chunks_exact(k)) {
+            *sij = qi.iter().zip(oj).map(|(x, y)| x * y).sum();
+        }
+    }
+}
+
 fn shapes(l1: &Layout, l2: &Layout, l3: &Layout) -> Result<(usize, usize, usize)> {
-    let (b, m, n) = l1.shape().dims3()?;
+    let (b, m, k1) = l1.shape().dims3()?;
     let (b2, m2) = l2.shape().dims2()?;
     let (b3, n3, k) = l3.shape().dims3()?;
-    if n != N_CELLS || n3 != N_CELLS || b2 != b || b3 != b || m2 != m {
+    if k1 != k || n3 != N_CELLS || b2 != b || b3 != b || m2 != m {
         return Err(candle_core::Error::Msg(format!(
-            "attention: shapes {:?}, {:?}, {:?} do not fit (B, m, 49), (B, m), (B, 49, K)",
+            "attention: shapes {:?}, {:?}, {:?} do not fit (B, m, K), (B, m), (B, 49, K)",
             l1.shape(),
             l2.shape(),
             l3.shape()
@@ -89,22 +100,23 @@ impl CustomOp3 for AttentionFilter {
         l3: &Layout,
     ) -> Result<(CpuStorage, Shape)> {
         let (b, m, k) = shapes(l1, l2, l3)?;
-        let (s, mask, o) = (
-            slice(s1, l1, "attention: S")?,
+        let (qk, mask, o) = (
+            slice(s1, l1, "attention: Q̂")?,
             slice(s2, l2, "attention: mask")?,
             slice(s3, l3, "attention: O")?,
         );
         let mut out = vec![0f32; b * N_CELLS * k];
         let (mut a, mut w, mut mm) = (vec![0f32; m * N_CELLS], vec![0f32; m], vec![0f32; N_CELLS]);
+        let mut s = vec![0f32; m * N_CELLS];
         let scale = N_CELLS as f32;
         for r in 0..b {
-            maps(
-                &s[r * m * N_CELLS..(r + 1) * m * N_CELLS],
-                &mask[r * m..(r + 1) * m],
-                &mut a,
-                &mut w,
-                &mut mm,
+            scores(
+                &qk[r * m * k..(r + 1) * m * k],
+                &o[r * N_CELLS * k..(r + 1) * N_CELLS * k],
+                k,
+                &mut s,
             );
+            maps(&s, &mask[r * m..(r + 1) * m], &mut a, &mut w, &mut mm);
             for (j, mj) in mm.iter().enumerate() {
                 let f = mj * scale;
                 let base = (r * N_CELLS + j) * k;
@@ -118,26 +130,25 @@ impl CustomOp3 for AttentionFilter {
 
     fn bwd(
         &self,
-        s: &Tensor,
+        qk: &Tensor,
         mask: &Tensor,
         o: &Tensor,
         _res: &Tensor,
         grad: &Tensor,
     ) -> Result<(Option<Tensor>, Option<Tensor>, Option<Tensor>)> {
-        let (b, m, _) = s.dims3()?;
-        let k = o.dim(2)?;
+        let (b, m, k) = qk.dims3()?;
         // The gradient and O travel together as one input of the backward op.
         let og = Tensor::cat(&[o.contiguous()?, grad.contiguous()?], 2)?;
-        let both = s.contiguous()?.apply_op3_no_bwd(
+        let both = qk.contiguous()?.apply_op3_no_bwd(
             &mask.contiguous()?,
             &og,
             &AttentionFilterBackward { m, k },
         )?;
-        let ds = both.narrow(1, 0, m * N_CELLS)?.reshape((b, m, N_CELLS))?;
+        let dqk = both.narrow(1, 0, m * k)?.reshape((b, m, k))?;
         let d_o = both
-            .narrow(1, m * N_CELLS, N_CELLS * k)?
+            .narrow(1, m * k, N_CELLS * k)?
             .reshape((b, N_CELLS, k))?;
-        Ok((Some(ds), None, Some(d_o)))
+        Ok((Some(dqk), None, Some(d_o)))
     }
 }
 
@@ -156,26 +167,34 @@ impl CustomOp3 for AttentionFilterBackward {
         l3: &Layout,
     ) -> Result<(CpuStorage, Shape)> {
         let (m, k) = (self.m, self.k);
-        let (b, m1, _) = l1.shape().dims3()?;
-        if m1 != m || l3.shape().dims3()? != (b, N_CELLS, 2 * k) {
+        let (b, m1, k1) = l1.shape().dims3()?;
+        if m1 != m || k1 != k || l3.shape().dims3()? != (b, N_CELLS, 2 * k) {
             return Err(candle_core::Error::Msg("attention backward: shapes".into()));
         }
-        let (s, mask, og) = (
-            slice(s1, l1, "attention: S")?,
+        let (qk, mask, og) = (
+            slice(s1, l1, "attention: Q̂")?,
             slice(s2, l2, "attention: mask")?,
             slice(s3, l3, "attention: O|dF")?,
         );
-        let width = m * N_CELLS + N_CELLS * k;
+        let width = m * k + N_CELLS * k;
         let mut out = vec![0f32; b * width];
         let (mut a, mut w, mut mm) = (vec![0f32; m * N_CELLS], vec![0f32; m], vec![0f32; N_CELLS]);
         let scale = N_CELLS as f32;
         let mut dm = [0f32; N_CELLS];
         let mut da = vec![0f32; m * N_CELLS];
+        let mut ds = vec![0f32; m * N_CELLS];
+        let mut oj_all = vec![0f32; N_CELLS * k];
+        let mut dw = vec![0f32; m];
         for r in 0..b {
-            let sr = &s[r * m * N_CELLS..(r + 1) * m * N_CELLS];
+            let qr = &qk[r * m * k..(r + 1) * m * k];
             let maskr = &mask[r * m..(r + 1) * m];
-            maps(sr, maskr, &mut a, &mut w, &mut mm);
-            let (ds, d_o) = out[r * width..(r + 1) * width].split_at_mut(m * N_CELLS);
+            for j in 0..N_CELLS {
+                let base = (r * N_CELLS + j) * 2 * k;
+                oj_all[j * k..(j + 1) * k].copy_from_slice(&og[base..base + k]);
+            }
+            scores(qr, &oj_all, k, &mut ds);
+            maps(&ds, maskr, &mut a, &mut w, &mut mm);
+            let (dqk, d_o) = out[r * width..(r + 1) * width].split_at_mut(m * k);
             // F_j = 49·M_j·O_j.
             for j in 0..N_CELLS {
                 let base = (r * N_CELLS + j) * 2 * k;
@@ -188,7 +207,7 @@ impl CustomOp3 for AttentionFilterBackward {
                 dm[j] = scale * acc;
             }
             // M = Σ_i w_i A_i.
-            let mut dw = vec![0f32; m];
+            dw.fill(0.0);
             for i in 0..m {
                 for j in 0..N_CELLS {
                     dw[i] += dm[j] * a[i * N_CELLS + j];
@@ -220,14 +239,32 @@ impl CustomOp3 for AttentionFilterBackward {
                     ds[i * N_CELLS + j] = ai[j] * (dai[j] - dot);
                 }
             }
+            // S = Q̂ Õᵀ: dQ̂ = dS Õ, dÕ += dSᵀ Q̂.
+            for i in 0..m {
+                let dsi = &ds[i * N_CELLS..(i + 1) * N_CELLS];
+                let dqi = &mut dqk[i * k..(i + 1) * k];
+                dqi.fill(0.0);
+                for (dsij, oj) in dsi.iter().zip(oj_all.chunks_exact(k)) {
+                    for (d, x) in dqi.iter_mut().zip(oj) {
+                        *d += dsij * x;
+                    }
+                }
+                let qi = &qr[i * k..(i + 1) * k];
+                for (dsij, doj) in dsi.iter().zip(d_o.chunks_exact_mut(k)) {
+                    for (d, x) in doj.iter_mut().zip(qi) {
+                        *d += dsij * x;
+                    }
+                }
+            }
         }
         Ok((CpuStorage::F32(out), Shape::from((b, width))))
     }
 }
 
-/// `F` (B, 49, K) from the scaled scores (B, m, 49), the word mask (B, m) and `Õ` (B, 49, K).
-pub fn attention_filter(scores: &Tensor, mask: &Tensor, o: &Tensor) -> Result<Tensor> {
-    scores
+/// `F` (B, 49, K) from the keyed queries `Q̂` (B, m, K), the word mask (B, m) and `Õ`
+/// (B, 49, K).
+pub fn attention_filter(keyed: &Tensor, mask: &Tensor, o: &Tensor) -> Result<Tensor> {
+    keyed
         .contiguous()?
         .apply_op3(&mask.contiguous()?, &o.contiguous()?, AttentionFilter)
 }

@@ -183,26 +183,39 @@ impl Net {
 
     /// The visual path for training: `F` only, through the fused attention op
     /// ([`super::fused_attention::attention_filter`], same maths as [`Self::visual`] with its
-    /// own backward); the baseline's path is unchanged.
+    /// own backward). `keyed` is the per-frame `Q̂ = Q W_k / √d_k` (B, L, K) and mask (B, L);
+    /// the baseline's path is unchanged.
     pub fn visual_features(
         &self,
         o: &Tensor,
-        q: Option<(&Tensor, &Tensor)>,
+        keyed: Option<(&Tensor, &Tensor)>,
     ) -> Result<Tensor, PolicyError> {
         let (b, n, k) = o.dims3()?;
-        match q {
-            Some((q, mask)) if self.cfg.has_attention() => {
-                let wk = self.p("attention.k.weight")?;
-                let kc =
-                    o.reshape((b * n, k))?
-                        .matmul(&wk.t()?)?
-                        .reshape((b, n, self.cfg.key_dim))?;
-                let s = super::attention::scores(q, &kc)?;
-                let f = super::fused_attention::attention_filter(&s, mask, o)?;
+        match keyed {
+            Some((qk, mask)) if self.cfg.has_attention() => {
+                let f = super::fused_attention::attention_filter(qk, mask, o)?;
                 Ok(f.reshape((b, n * k))?)
             }
             _ => Ok(o.reshape((b, n * k))?),
         }
+    }
+
+    /// The mission inputs of the training path: text codes per frame and, for attention, the
+    /// keyed queries `Q̂` ([`super::attention::keyed_queries`], computed per distinct mission)
+    /// and the mask, gathered per frame.
+    pub fn mission_inputs_keyed(&self, tb: &TokenBatch) -> Result<MissionInputs, PolicyError> {
+        let emb = self.embed(tb)?;
+        let text = self.encode_text(tb, &emb)?.index_select(&tb.index, 0)?;
+        let queries = if self.cfg.has_attention() {
+            let wk = self.p("attention.k.weight")?;
+            let qk = super::attention::keyed_queries(&self.queries(&emb)?, wk)?
+                .index_select(&tb.index, 0)?;
+            let mask = tb.mask.index_select(&tb.index, 0)?;
+            Some((qk, mask))
+        } else {
+            None
+        };
+        Ok(MissionInputs { text, queries })
     }
 
     /// The LSTM input projection for all frames at once: `x W_ihᵀ + b_ih`, (B, 4H).
@@ -296,16 +309,17 @@ impl Net {
     }
 
     /// A recurrent sequence for training: `codes` hold T·n frames in t-major order
-    /// (row = t·n + j), `keep` is (T, n) with 0 where an episode starts at step t.
-    /// Returns logits (T·n, 7), values (T·n,) and the memory after every step.
+    /// (row = t·n + j), `tb` their missions, `keep` is (T, n) with 0 where an episode starts
+    /// at step t. Returns logits (T·n, 7), values (T·n,) and the memory after every step.
     pub fn sequence(
         &self,
         codes: &CellCodes,
-        mission: &MissionInputs,
+        tb: &TokenBatch,
         mem0: &Memory,
         keep: &Tensor,
     ) -> Result<(Tensor, Tensor, Vec<Memory>), PolicyError> {
         let (t_len, n) = keep.dims2()?;
+        let mission = self.mission_inputs_keyed(tb)?;
         let o = self.cells(codes)?;
         let x = self.visual_features(&o, mission.queries.as_ref().map(|(q, m)| (q, m)))?;
         let gx = self.lstm_input(&x)?;

@@ -879,8 +879,7 @@ fn shard_step(
         ..PhaseTimes::default()
     };
     let forward_t = std::time::Instant::now();
-    let mission = net.mission_inputs(&tb)?;
-    let (logits, values, mems) = net.sequence(&codes, &mission, &mem0, &keep)?;
+    let (logits, values, mems) = net.sequence(&codes, &tb, &mem0, &keep)?;
     let mems = mems
         .iter()
         .take(rec - 1)
