@@ -218,7 +218,10 @@ fn training_sequence_matches_step_by_step_acting() {
         let worlds: Vec<_> = (0..t_len * n)
             .map(|s| level.generate(s as u64).unwrap())
             .collect();
-        let obs: Vec<_> = worlds.iter().map(|w| w.observe()).collect();
+        let obs: Vec<_> = worlds
+            .iter()
+            .map(groundscope::env::World::observe)
+            .collect();
         let tokens: Vec<Vec<u32>> = worlds
             .iter()
             .map(|w| tokenize(&w.mission).unwrap())
