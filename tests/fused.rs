@@ -263,3 +263,79 @@ fn training_sequence_matches_step_by_step_acting() {
         }
     }
 }
+
+#[test]
+fn fused_lstm_sequence_matches_the_stepped_reference() {
+    use groundscope::policy::fused_sequence::lstm_sequence;
+    let cfg = ModelConfig::new(Variant::Attention);
+    let params = Params::init(&cfg, 4).unwrap();
+    let net = Net::new(cfg, params.tracked());
+    let hid = cfg.lstm_hidden;
+    let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(9);
+    let (t_len, n) = (5, 3);
+    let gx = Var::from_tensor(&random(&mut rng, (t_len * n, 4 * hid), 3.0)).unwrap();
+    let h0 = Var::from_tensor(&random(&mut rng, (n, hid), 1.0)).unwrap();
+    let c0 = Var::from_tensor(&random(&mut rng, (n, hid), 2.0)).unwrap();
+    // Episode starts at (t 0, seq 1), (t 2, seq 0) and (t 4, seq 2).
+    let mut keep = vec![1f32; t_len * n];
+    for at in [1, 2 * n, 4 * n + 2] {
+        keep[at] = 0.0;
+    }
+    let keep = Tensor::from_vec(keep, (t_len, n), &Device::Cpu).unwrap();
+    let wh = random(&mut rng, (t_len * n, hid), 1.0);
+    let wc = random(&mut rng, (n, hid), 1.0);
+    let w_hh = params.vars.get("lstm.weight_hh_l0").unwrap();
+    let b_hh = params.vars.get("lstm.bias_hh_l0").unwrap();
+    let run = |fused: bool| {
+        let (hs, c_last) = if fused {
+            let gxb = gx.as_tensor().broadcast_add(b_hh.as_tensor()).unwrap();
+            let out = lstm_sequence(
+                &gxb,
+                w_hh.as_tensor(),
+                h0.as_tensor(),
+                c0.as_tensor(),
+                &keep,
+            )
+            .unwrap();
+            let last = out.narrow(0, (t_len - 1) * n, n).unwrap();
+            (
+                out.narrow(1, 0, hid).unwrap(),
+                last.narrow(1, hid, hid).unwrap(),
+            )
+        } else {
+            let mut mem = Memory {
+                h: h0.as_tensor().clone(),
+                c: c0.as_tensor().clone(),
+            };
+            let mut hs = Vec::new();
+            for t in 0..t_len {
+                let masked = mem.masked(&keep.get(t).unwrap()).unwrap();
+                mem = net
+                    .lstm_cell_reference(&gx.as_tensor().narrow(0, t * n, n).unwrap(), &masked)
+                    .unwrap();
+                hs.push(mem.h.clone());
+            }
+            (Tensor::cat(&hs, 0).unwrap(), mem.c)
+        };
+        let loss = ((&hs * &wh).unwrap().sum_all().unwrap()
+            + (&c_last * &wc).unwrap().sum_all().unwrap())
+        .unwrap();
+        (hs, loss.backward().unwrap())
+    };
+    let (hf, gf) = run(true);
+    let (hr, gr) = run(false);
+    close(&hf, &hr, "h");
+    for (name, v) in [
+        ("gx", &gx),
+        ("h0", &h0),
+        ("c0", &c0),
+        ("W_hh", w_hh),
+        ("b_hh", b_hh),
+    ] {
+        close(
+            gf.get(v.as_tensor()).unwrap(),
+            gr.get(v.as_tensor()).unwrap(),
+            name,
+        );
+    }
+}

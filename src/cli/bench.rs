@@ -20,7 +20,8 @@ pub enum BenchCommand {
         #[arg(long, default_value_t = 5_000_000, allow_negative_numbers = true)]
         steps: u64,
     },
-    /// Policy speed, one thread: batched inference steps/s at batch 1 and 256, and training
+    /// Policy speed, one thread: batched inference steps/s at batch 1, 16 (a rollout step) and
+    /// 256, and training
     /// forward+backward frames/s on PPO minibatches (256 and 2048 frames, recurrence 4).
     Policy {
         /// attention or baseline.
@@ -143,7 +144,7 @@ fn bench_policy(model: &str, secs: f64) -> anyhow::Result<ExitStatus> {
         .map(groundscope::env::World::observe)
         .collect();
     let net = Net::new(cfg, params.detached());
-    for batch in [1usize, 256] {
+    for batch in [1usize, 16, 256] {
         let missions: Vec<&[u32]> = tokens[..batch].iter().map(Vec::as_slice).collect();
         let mem = Memory::zeros(batch, cfg.lstm_hidden)?;
         let calls = rate(secs, || {

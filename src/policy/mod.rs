@@ -10,6 +10,7 @@ pub mod error;
 pub mod fused;
 pub mod fused_attention;
 pub mod fused_conv;
+pub mod fused_sequence;
 pub mod model;
 pub mod obs;
 pub mod params;

@@ -322,17 +322,27 @@ impl Net {
         let mission = self.mission_inputs_keyed(tb)?;
         let o = self.cells(codes)?;
         let x = self.visual_features(&o, mission.queries.as_ref().map(|(q, m)| (q, m)))?;
-        let gx = self.lstm_input(&x)?;
-        let mut mem = mem0.clone();
-        let mut hs = Vec::with_capacity(t_len);
-        let mut mems = Vec::with_capacity(t_len);
-        for t in 0..t_len {
-            let masked = mem.masked(&keep.get(t)?)?;
-            mem = self.lstm_cell(&gx.narrow(0, t * n, n)?, &masked)?;
-            hs.push(mem.h.clone());
-            mems.push(mem.clone());
-        }
-        let (logits, values) = self.heads(&Tensor::cat(&hs, 0)?, &mission.text)?;
+        let hd = self.cfg.lstm_hidden;
+        let gx = self
+            .lstm_input(&x)?
+            .broadcast_add(self.p("lstm.bias_hh_l0")?)?;
+        let out = super::fused_sequence::lstm_sequence(
+            &gx,
+            self.p("lstm.weight_hh_l0")?,
+            &mem0.h,
+            &mem0.c,
+            keep,
+        )?;
+        let mems = (0..t_len)
+            .map(|t| {
+                let rows = out.narrow(0, t * n, n)?;
+                Ok(Memory {
+                    h: rows.narrow(1, 0, hd)?,
+                    c: rows.narrow(1, hd, hd)?,
+                })
+            })
+            .collect::<Result<Vec<_>, PolicyError>>()?;
+        let (logits, values) = self.heads(&out.narrow(1, 0, hd)?, &mission.text)?;
         Ok((logits, values, mems))
     }
 

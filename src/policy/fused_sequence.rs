@@ -1,0 +1,224 @@
+//! A whole recurrent chunk of LSTM steps as one op for training (issue #16). Step by step,
+//! candle's autograd records a narrow of the input projection, the memory masking, a matmul
+//! and the gates per step, and the backward of each narrow materialises a zero-padded copy of
+//! the full input gradient: work that grows with the square of the recurrence. Here the
+//! forward runs the steps on the host (the recurrent product through candle's matmul) and a
+//! hand-written backward through time returns the gradients of the projected inputs, `W_hh`
+//! and the initial memory at once. [`super::model::Net::lstm_cell_reference`] stepped in a
+//! loop is the reference; `tests/fused.rs` compares.
+
+use std::sync::Arc;
+
+use candle_core::{CpuStorage, CustomOp3, Device, Layout, Result, Shape, Tensor};
+
+use super::fused::f32_slice as slice;
+
+#[inline]
+fn sigmoid(x: f32) -> f32 {
+    1.0 / (1.0 + (-x).exp())
+}
+
+/// The op: inputs `gx` (T·n, 4H, both biases included), `W_hh` (4H, H) and `[h0 | c0]`
+/// (n, 2H); output per frame `[h | c | g]` (T·n, 6H) with `g` the gate pre-activations,
+/// kept for the backward.
+struct LstmSequence {
+    /// (T·n) 1 where the memory carries over into step t, 0 where an episode starts.
+    keep: Arc<[f32]>,
+    n: usize,
+}
+
+/// `x · W_hhᵀ` for `x` (rows, H) on the host through candle's matmul.
+fn times_w_t(x: &[f32], rows: usize, w: &Tensor) -> Result<Vec<f32>> {
+    let h = w.dim(1)?;
+    Tensor::from_slice(x, (rows, h), &Device::Cpu)?
+        .matmul(&w.t()?)?
+        .flatten_all()?
+        .to_vec1()
+}
+
+impl CustomOp3 for LstmSequence {
+    fn name(&self) -> &'static str {
+        "lstm-sequence"
+    }
+
+    fn cpu_fwd(
+        &self,
+        s1: &CpuStorage,
+        l1: &Layout,
+        s2: &CpuStorage,
+        l2: &Layout,
+        s3: &CpuStorage,
+        l3: &Layout,
+    ) -> Result<(CpuStorage, Shape)> {
+        let (tn, h4) = l1.shape().dims2()?;
+        let h = h4 / 4;
+        let n = self.n;
+        if h4 != 4 * h
+            || l2.shape().dims2()? != (h4, h)
+            || l3.shape().dims2()? != (n, 2 * h)
+            || n == 0
+            || tn % n != 0
+            || self.keep.len() != tn
+        {
+            return Err(candle_core::Error::Msg(format!(
+                "lstm sequence: shapes {:?}, {:?}, {:?} do not fit (T·{n}, 4H), (4H, H), ({n}, 2H)",
+                l1.shape(),
+                l2.shape(),
+                l3.shape()
+            )));
+        }
+        let gx = slice(s1, l1, "lstm sequence: gx")?;
+        let w = Tensor::from_slice(slice(s2, l2, "lstm sequence: W_hh")?, (h4, h), &Device::Cpu)?;
+        let hc0 = slice(s3, l3, "lstm sequence: memory")?;
+        let width = 6 * h;
+        let mut out = vec![0f32; tn * width];
+        let mut hm = vec![0f32; n * h];
+        let mut cm = vec![0f32; n * h];
+        for t in 0..tn / n {
+            for j in 0..n {
+                let keep = self.keep[t * n + j];
+                let (hp, cp) = if t == 0 {
+                    (
+                        &hc0[j * 2 * h..j * 2 * h + h],
+                        &hc0[j * 2 * h + h..(j + 1) * 2 * h],
+                    )
+                } else {
+                    let r = ((t - 1) * n + j) * width;
+                    (&out[r..r + h], &out[r + h..r + 2 * h])
+                };
+                for k in 0..h {
+                    hm[j * h + k] = keep * hp[k];
+                    cm[j * h + k] = keep * cp[k];
+                }
+            }
+            let rec = times_w_t(&hm, n, &w)?;
+            for j in 0..n {
+                let row = t * n + j;
+                let (hcg, _) = out[row * width..].split_at_mut(width);
+                let (hc, g) = hcg.split_at_mut(2 * h);
+                for (k, gk) in g.iter_mut().enumerate() {
+                    *gk = gx[row * h4 + k] + rec[j * h4 + k];
+                }
+                let (ho, co) = hc.split_at_mut(h);
+                for k in 0..h {
+                    let i = sigmoid(g[k]);
+                    let f = sigmoid(g[h + k]);
+                    let gg = g[2 * h + k].tanh();
+                    let o = sigmoid(g[3 * h + k]);
+                    let c = f * cm[j * h + k] + i * gg;
+                    co[k] = c;
+                    ho[k] = o * c.tanh();
+                }
+            }
+        }
+        Ok((CpuStorage::F32(out), Shape::from((tn, width))))
+    }
+
+    fn bwd(
+        &self,
+        _gx: &Tensor,
+        w: &Tensor,
+        hc0: &Tensor,
+        res: &Tensor,
+        grad: &Tensor,
+    ) -> Result<(Option<Tensor>, Option<Tensor>, Option<Tensor>)> {
+        let (tn, width) = res.dims2()?;
+        let (h, n) = (width / 6, self.n);
+        let h4 = 4 * h;
+        let res: Vec<f32> = res.flatten_all()?.to_vec1()?;
+        let grad: Vec<f32> = grad.flatten_all()?.to_vec1()?;
+        let hc0: Vec<f32> = hc0.flatten_all()?.to_vec1()?;
+        let w = w.contiguous()?;
+        let prev = |t: usize, j: usize| -> (&[f32], &[f32]) {
+            if t == 0 {
+                (
+                    &hc0[j * 2 * h..j * 2 * h + h],
+                    &hc0[j * 2 * h + h..(j + 1) * 2 * h],
+                )
+            } else {
+                let r = ((t - 1) * n + j) * width;
+                (&res[r..r + h], &res[r + h..r + 2 * h])
+            }
+        };
+        let mut dg_all = vec![0f32; tn * h4];
+        // The previous steps' masked h, the right operand of dW_hh = Σ_t dg_tᵀ h_{t−1}.
+        let mut h_prev = vec![0f32; tn * h];
+        let mut dh_carry = vec![0f32; n * h];
+        let mut dc_carry = vec![0f32; n * h];
+        let mut dc_prev = vec![0f32; n * h];
+        for t in (0..tn / n).rev() {
+            for j in 0..n {
+                let row = t * n + j;
+                let keep = self.keep[row];
+                let (hp, cp) = prev(t, j);
+                let g = &res[row * width + 2 * h..(row + 1) * width];
+                let c_new = &res[row * width + h..row * width + 2 * h];
+                let d = &grad[row * width..row * width + 2 * h];
+                let dg = &mut dg_all[row * h4..(row + 1) * h4];
+                for k in 0..h {
+                    h_prev[row * h + k] = keep * hp[k];
+                    let i = sigmoid(g[k]);
+                    let f = sigmoid(g[h + k]);
+                    let gg = g[2 * h + k].tanh();
+                    let o = sigmoid(g[3 * h + k]);
+                    let tc = c_new[k].tanh();
+                    let dh = d[k] + dh_carry[j * h + k];
+                    let dc = d[h + k] + dc_carry[j * h + k] + dh * o * (1.0 - tc * tc);
+                    dg[k] = dc * gg * i * (1.0 - i);
+                    dg[h + k] = dc * keep * cp[k] * f * (1.0 - f);
+                    dg[2 * h + k] = dc * i * (1.0 - gg * gg);
+                    dg[3 * h + k] = dh * tc * o * (1.0 - o);
+                    dc_prev[j * h + k] = keep * dc * f;
+                }
+            }
+            let dg_t =
+                Tensor::from_slice(&dg_all[t * n * h4..(t + 1) * n * h4], (n, h4), &Device::Cpu)?;
+            let dhm: Vec<f32> = dg_t.matmul(&w)?.flatten_all()?.to_vec1()?;
+            for j in 0..n {
+                let keep = self.keep[t * n + j];
+                for k in 0..h {
+                    dh_carry[j * h + k] = keep * dhm[j * h + k];
+                }
+            }
+            dc_carry.copy_from_slice(&dc_prev);
+        }
+        let dg = Tensor::from_vec(dg_all, (tn, h4), &Device::Cpu)?;
+        let dw = dg
+            .t()?
+            .matmul(&Tensor::from_vec(h_prev, (tn, h), &Device::Cpu)?)?;
+        let mut dhc0 = vec![0f32; n * 2 * h];
+        for j in 0..n {
+            dhc0[j * 2 * h..j * 2 * h + h].copy_from_slice(&dh_carry[j * h..(j + 1) * h]);
+            dhc0[j * 2 * h + h..(j + 1) * 2 * h].copy_from_slice(&dc_carry[j * h..(j + 1) * h]);
+        }
+        Ok((
+            Some(dg),
+            Some(dw),
+            Some(Tensor::from_vec(dhc0, (n, 2 * h), &Device::Cpu)?),
+        ))
+    }
+}
+
+/// Runs T LSTM steps of n sequences: `gx` (T·n, 4H) the projected inputs with both biases,
+/// t-major; `w_hh` (4H, H); `h0`, `c0` (n, H); `keep` (T, n), 0 where step t starts an
+/// episode (the memory is zeroed before that step). Returns `[h | c | g]` per frame
+/// (T·n, 6H): the new memory and the gate pre-activations.
+pub fn lstm_sequence(
+    gx: &Tensor,
+    w_hh: &Tensor,
+    h0: &Tensor,
+    c0: &Tensor,
+    keep: &Tensor,
+) -> Result<Tensor> {
+    let n = keep.dim(1)?;
+    let keep: Vec<f32> = keep.flatten_all()?.to_vec1()?;
+    let hc0 = Tensor::cat(&[h0, c0], 1)?;
+    gx.contiguous()?.apply_op3(
+        &w_hh.contiguous()?,
+        &hc0,
+        LstmSequence {
+            keep: keep.into(),
+            n,
+        },
+    )
+}
