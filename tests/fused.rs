@@ -259,6 +259,17 @@ fn training_sequence_matches_step_by_step_acting() {
                 .unwrap();
             close(&l, &logits.narrow(0, t * n, n).unwrap(), "logits");
             close(&v, &values.narrow(0, t * n, n).unwrap(), "values");
+            // The rollout's untraced step takes the training path one step at a time.
+            let (lu, vu, mu) = net
+                .step_untraced(
+                    &CellCodes::new(&obs[t * n..(t + 1) * n]),
+                    &TokenBatch::new(&missions[t * n..(t + 1) * n]).unwrap(),
+                    &mem.masked(&keep_row).unwrap(),
+                )
+                .unwrap();
+            close(&lu, &l, "untraced logits");
+            close(&vu, &v, "untraced values");
+            close(&mu.c, &m.c, "untraced memory");
             mem = m;
         }
     }

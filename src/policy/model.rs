@@ -308,6 +308,24 @@ impl Net {
         Ok((logits, values, mem, vis))
     }
 
+    /// One step for B frames through the training path's fused ops (sparse conv, keyed
+    /// queries, fused attention): logits, values and the new memory, no attention tensors.
+    /// The trainer's rollouts use it; everything that shows or replays an episode uses
+    /// [`Self::step_with`], whose rounding it does not share.
+    pub fn step_untraced(
+        &self,
+        codes: &CellCodes,
+        tb: &TokenBatch,
+        mem: &Memory,
+    ) -> Result<(Tensor, Tensor, Memory), PolicyError> {
+        let mission = self.mission_inputs_keyed(tb)?;
+        let o = self.cells(codes)?;
+        let x = self.visual_features(&o, mission.queries.as_ref().map(|(q, m)| (q, m)))?;
+        let mem = self.lstm_cell(&self.lstm_input(&x)?, mem)?;
+        let (logits, values) = self.heads(&mem.h, &mission.text)?;
+        Ok((logits, values, mem))
+    }
+
     /// A recurrent sequence for training: `codes` hold T·n frames in t-major order
     /// (row = t·n + j), `tb` their missions, `keep` is (T, n) with 0 where an episode starts
     /// at step t. Returns logits (T·n, 7), values (T·n,) and the memory after every step.

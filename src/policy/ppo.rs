@@ -546,12 +546,12 @@ impl Trainer {
         let enc = super::Encoded::new(&obs, &missions)?;
         let encoded = secs(encode_t);
         let forward_t = std::time::Instant::now();
-        let out = super::act_encoded(net, &enc, &missions, &mem, false, None)?;
+        let (logits, values, memory) = net.step_untraced(&enc.codes, &enc.tokens, &mem)?;
         let out = ActAll {
-            probs: out.probs,
-            values: out.values,
-            h: out.memory.h.to_vec2::<f32>()?,
-            c: out.memory.c.to_vec2::<f32>()?,
+            probs: super::model::probs_host(&logits)?,
+            values: values.to_vec1::<f32>()?,
+            h: memory.h.to_vec2::<f32>()?,
+            c: memory.c.to_vec2::<f32>()?,
         };
         self.times.rollout_encode += encoded;
         self.times.rollout_forward += secs(forward_t);
