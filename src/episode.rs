@@ -249,8 +249,9 @@ pub fn rerun_from(
     let prefix = trace.steps[..k].to_vec();
     let mut memory = Memory::zeros(1, net.cfg.lstm_hidden)?;
     let mut rng = episode_rng(trace.seed);
+    let mission = policy::episode_mission(net, &trace.tokens)?;
     for s in &prefix {
-        let out = policy::act(net, &[s.obs], &[&trace.tokens], &memory, false)?;
+        let out = policy::act_episode(net, s.obs, &trace.tokens, &mission, &memory, false, None)?;
         memory = out.memory;
         choose(&s.probs, trace.mode, &mut rng);
     }
@@ -289,13 +290,14 @@ fn run_loop(
     mut steps: Vec<StepRecord>,
     intervene: Option<Intervene<'_>>,
 ) -> Result<EpisodeTrace, PolicyError> {
+    let mission = policy::episode_mission(net, &tokens)?;
     while !world.ended() {
         let obs = world.observe();
         let iv = match intervene {
             Some(f) => f(&world, &obs, &tokens, &memory)?,
             None => None,
         };
-        let out = policy::act_with(net, &[obs], &[&tokens], &memory, true, iv.as_ref())?;
+        let out = policy::act_episode(net, obs, &tokens, &mission, &memory, true, iv.as_ref())?;
         memory = out.memory;
         let probs_v = out.probs.into_iter().next().unwrap_or_default();
         let mut probs = [0.0; Action::COUNT];

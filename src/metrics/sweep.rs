@@ -16,7 +16,9 @@ use crate::env::level::LevelConfig;
 use crate::env::vocab;
 use crate::env::world::World;
 use crate::episode::{ActionMode, choose};
-use crate::policy::{Memory, Net, PolicyError, act};
+use candle_core::{Device, Tensor};
+
+use crate::policy::{Memory, Net, PolicyError, TokenBatch, act_missions};
 
 /// The level seed of episode `e` of evaluation seed `s`: `s · 1_000_000 + e` (training
 /// seeds start at 2³², so the two never meet). `groundscope replay --seed` takes it.
@@ -112,6 +114,9 @@ pub fn evaluate_episodes(
     let mut active: Vec<usize> = (0..total).collect();
     let mut memory = Memory::zeros(total, net.cfg.lstm_hidden)?;
     let want_traces = net.cfg.has_attention();
+    // Missions are fixed per episode: their GRU codes and queries are computed once.
+    let all: Vec<&[u32]> = running.iter().map(|r| r.tokens.as_slice()).collect();
+    let mission_all = net.mission_inputs(&TokenBatch::new(&all)?)?;
     let mut finished = 0u64;
     while !active.is_empty() {
         let obs: Vec<_> = active.iter().map(|&i| running[i].world.observe()).collect();
@@ -119,7 +124,10 @@ pub fn evaluate_episodes(
             .iter()
             .map(|&i| running[i].tokens.as_slice())
             .collect();
-        let out = act(net, &obs, &missions, &memory, want_traces)?;
+        let rows: Vec<u32> = active.iter().map(|&i| i as u32).collect();
+        let rows = Tensor::from_vec(rows, active.len(), &Device::Cpu).map_err(PolicyError::from)?;
+        let mission = mission_all.select(&rows)?;
+        let out = act_missions(net, &obs, &missions, &mission, &memory, want_traces)?;
         let mut keep = Vec::with_capacity(active.len());
         for (row, &i) in active.iter().enumerate() {
             let r = &mut running[i];

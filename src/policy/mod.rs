@@ -115,8 +115,84 @@ pub fn act_encoded(
     intervention: Option<&Intervention>,
 ) -> Result<ActOutput, PolicyError> {
     let mission = net.mission_inputs(&enc.tokens)?;
-    let (logits, values, memory, vis) =
-        net.step_with(&enc.codes, &mission, memory, intervention)?;
+    act_prepared(
+        net,
+        &enc.codes,
+        &mission,
+        missions,
+        memory,
+        with_traces,
+        intervention,
+    )
+}
+
+/// The mission's inputs (text code, queries) of a single episode, computed once: they do not
+/// change while it runs, and computing them is most of a batch-1 step (the GRU).
+pub fn episode_mission(net: &Net, tokens: &[u32]) -> Result<MissionInputs, PolicyError> {
+    net.mission_inputs(&TokenBatch::new(&[tokens])?)
+}
+
+/// [`act_with`] for one environment whose mission inputs come from [`episode_mission`]: the
+/// same numbers as recomputing them, without the recomputation.
+pub fn act_episode(
+    net: &Net,
+    obs: Observation,
+    tokens: &[u32],
+    mission: &MissionInputs,
+    memory: &Memory,
+    with_traces: bool,
+    intervention: Option<&Intervention>,
+) -> Result<ActOutput, PolicyError> {
+    act_prepared(
+        net,
+        &obs::CellCodes::new(&[obs]),
+        mission,
+        &[tokens],
+        memory,
+        with_traces,
+        intervention,
+    )
+}
+
+/// [`act`] for B environments whose mission inputs were computed beforehand (once for many
+/// steps, then [`MissionInputs::select`]ed): the same numbers as recomputing them.
+pub fn act_missions(
+    net: &Net,
+    obs: &[Observation],
+    missions: &[&[u32]],
+    mission: &MissionInputs,
+    memory: &Memory,
+    with_traces: bool,
+) -> Result<ActOutput, PolicyError> {
+    if obs.len() != missions.len() || mission.text.dim(0)? != obs.len() {
+        return Err(PolicyError::Input(format!(
+            "batch sizes differ: {} observations, {} missions, {} mission inputs",
+            obs.len(),
+            missions.len(),
+            mission.text.dim(0)?
+        )));
+    }
+    act_prepared(
+        net,
+        &obs::CellCodes::new(obs),
+        mission,
+        missions,
+        memory,
+        with_traces,
+        None,
+    )
+}
+
+fn act_prepared(
+    net: &Net,
+    codes: &obs::CellCodes,
+    mission: &MissionInputs,
+    missions: &[&[u32]],
+    memory: &Memory,
+    with_traces: bool,
+    intervention: Option<&Intervention>,
+) -> Result<ActOutput, PolicyError> {
+    let (logits, values, memory, vis) = net.step_with(codes, mission, memory, intervention)?;
     let traces = match (&vis.attention, with_traces) {
         (Some(att), true) => Some(trace::extract(att, missions)?),
         _ => None,

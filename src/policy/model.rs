@@ -379,6 +379,19 @@ pub struct MissionInputs {
     pub queries: Option<(Tensor, Tensor)>,
 }
 
+impl MissionInputs {
+    /// The rows `rows` (u32 indices), e.g. the environments still running.
+    pub fn select(&self, rows: &Tensor) -> Result<Self, PolicyError> {
+        Ok(Self {
+            text: self.text.index_select(rows, 0)?,
+            queries: match &self.queries {
+                Some((q, m)) => Some((q.index_select(rows, 0)?, m.index_select(rows, 0)?)),
+                None => None,
+            },
+        })
+    }
+}
+
 /// Softmax probabilities of logits on the host, row by row.
 pub fn probs_host(logits: &Tensor) -> Result<Vec<Vec<f32>>, PolicyError> {
     Ok(candle_nn::ops::softmax_last_dim(logits)?.to_vec2::<f32>()?)
