@@ -21,8 +21,8 @@ pub enum BenchCommand {
         steps: u64,
     },
     /// Policy speed, one thread: batched inference steps/s at batch 1, 16 (a rollout step) and
-    /// 256, and training
-    /// forward+backward frames/s on PPO minibatches (256 and 2048 frames, recurrence 4).
+    /// 256, and training forward+backward frames/s on PPO minibatches (256 and 2048 frames,
+    /// `--recurrence`).
     Policy {
         /// attention or baseline.
         #[arg(long, default_value = "attention")]
@@ -30,6 +30,9 @@ pub enum BenchCommand {
         /// Seconds to spend on each measurement.
         #[arg(long, default_value_t = 3.0, allow_negative_numbers = true)]
         secs: f64,
+        /// BPTT chunk length of the training minibatches (`train --recurrence`).
+        #[arg(long, default_value_t = 4, allow_negative_numbers = true)]
+        recurrence: usize,
     },
     /// PPO training end to end from a fresh network on the paper's level, with the wall time
     /// of each phase (rollout: env, encoding, forward; GAE; update: encoding, forward,
@@ -63,11 +66,18 @@ pub fn run(cmd: &BenchCommand) -> anyhow::Result<ExitStatus> {
             frames,
             update_threads,
         } => bench_train(model, *frames, *update_threads),
-        BenchCommand::Policy { model, secs } => {
+        BenchCommand::Policy {
+            model,
+            secs,
+            recurrence,
+        } => {
             if !(secs.is_finite() && *secs > 0.0 && *secs <= 3600.0) {
                 anyhow::bail!("--secs {secs}: must be a number of seconds in (0, 3600]");
             }
-            bench_policy(model, *secs)
+            if !matches!(recurrence, 1 | 2 | 4 | 8 | 16 | 32 | 64 | 128 | 256) {
+                anyhow::bail!("--recurrence {recurrence}: must be a power of two in 1..=256");
+            }
+            bench_policy(model, *secs, *recurrence)
         }
         BenchCommand::Record { episodes } => {
             if !(1..=10_000).contains(episodes) {
@@ -121,7 +131,7 @@ fn rate(secs: f64, mut f: impl FnMut() -> anyhow::Result<()>) -> anyhow::Result<
     Ok(n as f64 / start.elapsed().as_secs_f64())
 }
 
-fn bench_policy(model: &str, secs: f64) -> anyhow::Result<ExitStatus> {
+fn bench_policy(model: &str, secs: f64, rec: usize) -> anyhow::Result<ExitStatus> {
     use groundscope::env::vocab::tokenize;
     use groundscope::policy::obs::{CellCodes, TokenBatch};
     use groundscope::policy::ppo::{PpoConfig, ppo_loss};
@@ -160,7 +170,6 @@ fn bench_policy(model: &str, secs: f64) -> anyhow::Result<ExitStatus> {
     let train_net = Net::new(cfg, params.tracked());
     let ppo = PpoConfig::default();
     for frames in [256usize, 2048] {
-        let rec = ppo.recurrence;
         let n = frames / rec;
         let missions: Vec<&[u32]> = tokens[..frames].iter().map(Vec::as_slice).collect();
         let p = CellCodes::new(&obs[..frames]);
