@@ -251,6 +251,10 @@ fn a_closed_or_full_stdout_ends_cleanly() {
 #[test]
 fn unbounded_work_is_refused() {
     assert_bad_input(&gs(&["bench", "policy", "--secs", "inf"]), "--secs");
+    assert_bad_input(
+        &gs(&["bench", "policy", "--recurrence", "3"]),
+        "--recurrence",
+    );
 }
 
 #[test]
