@@ -7,10 +7,12 @@
 //! (row = k·n + j for step k of sequence j). Training level seeds start at
 //! [`TRAIN_SEED_OFFSET`], so evaluation seeds (small integers) are never trained on.
 
-use std::collections::BTreeMap;
+mod config;
+mod loss;
+mod state;
 
 use candle_core::backprop::GradStore;
-use candle_core::{D, DType, Device, Tensor};
+use candle_core::{Device, Tensor};
 use rand::seq::SliceRandom as _;
 use rand::{Rng as _, SeedableRng as _};
 use rand_pcg::Pcg64Mcg;
@@ -19,13 +21,16 @@ use serde::{Deserialize, Serialize};
 use super::ModelConfig;
 use super::adam::{Adam, AdamConfig, clip_grad_norm};
 use super::error::PolicyError;
-use super::model::{Memory, Net, log_probs};
-use super::obs::{self, TokenBatch};
+use super::model::{Memory, Net};
 use super::params::Params;
 use crate::env::level::LevelConfig;
 use crate::env::view::Observation;
 use crate::env::vocab;
 use crate::env::world::{Action, World};
+
+pub use config::PpoConfig;
+pub use loss::{PpoLosses, ppo_loss, tensor_to_vec};
+use loss::{ShardOut, shard_step};
 
 /// Level seeds used in training are `TRAIN_SEED_OFFSET + k`.
 pub const TRAIN_SEED_OFFSET: u64 = 1 << 32;
@@ -36,130 +41,6 @@ const WARM_START_SEED_GAP: u64 = 1 << 16;
 
 /// The longest mission a run state may hold (BabyAI's local missions have at most 9 words).
 const MAX_STATE_TOKENS: usize = 64;
-
-/// PPO hyper-parameters (torch-ac's defaults).
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct PpoConfig {
-    /// Environments stepped together.
-    pub procs: usize,
-    /// Frames per environment per update.
-    pub frames_per_proc: usize,
-    /// Epochs over each rollout.
-    pub epochs: usize,
-    /// Frames per minibatch.
-    pub batch_size: usize,
-    /// BPTT chunk length.
-    pub recurrence: usize,
-    /// Adam learning rate.
-    pub lr: f64,
-    /// Adam ε.
-    pub adam_eps: f64,
-    /// Discount γ.
-    pub discount: f64,
-    /// GAE λ.
-    pub gae_lambda: f64,
-    /// Entropy bonus coefficient.
-    pub entropy_coef: f64,
-    /// Value loss coefficient.
-    pub value_loss_coef: f64,
-    /// Gradient-norm clip.
-    pub max_grad_norm: f64,
-    /// PPO clip ε (ratio and value).
-    pub clip_eps: f64,
-    /// Threads that share each minibatch's forward and backward pass, each on its share of
-    /// the sequences; their gradients are summed in shard order, so a run is deterministic
-    /// for a given count (runs saved before the flag existed used 1).
-    #[serde(default = "one_thread")]
-    pub update_threads: usize,
-    /// Rewards are multiplied by this before GAE and the value loss (BabyAI uses 20, which
-    /// makes the entropy bonus 20× weaker relative to the returns); logs stay unscaled.
-    #[serde(default = "unit_scale")]
-    pub reward_scale: f64,
-    /// Normalise the advantages of each rollout to mean 0 and standard deviation 1 before the
-    /// epochs (over the whole rollout, so the result does not depend on `update_threads`).
-    #[serde(default)]
-    pub normalize_advantages: bool,
-}
-
-fn one_thread() -> usize {
-    1
-}
-
-fn unit_scale() -> f64 {
-    1.0
-}
-
-impl Default for PpoConfig {
-    fn default() -> Self {
-        Self {
-            procs: 16,
-            frames_per_proc: 128,
-            epochs: 4,
-            batch_size: 256,
-            recurrence: 4,
-            lr: 1e-3,
-            adam_eps: 1e-8,
-            discount: 0.99,
-            gae_lambda: 0.95,
-            entropy_coef: 0.01,
-            value_loss_coef: 0.5,
-            max_grad_norm: 0.5,
-            clip_eps: 0.2,
-            update_threads: 1,
-            reward_scale: 1.0,
-            normalize_advantages: false,
-        }
-    }
-}
-
-impl PpoConfig {
-    /// Checks the divisibility torch-ac asserts, naming the flag.
-    pub fn validate(&self) -> Result<(), PolicyError> {
-        let bad = |m: String| Err(PolicyError::Input(m));
-        if self.procs == 0
-            || self.frames_per_proc == 0
-            || self.epochs == 0
-            || self.recurrence == 0
-            || self.update_threads == 0
-        {
-            return bad(
-                "--procs, --frames-per-proc, --epochs, --recurrence and --update-threads must be positive"
-                    .into(),
-            );
-        }
-        if !self.frames_per_proc.is_multiple_of(self.recurrence) {
-            return bad(format!(
-                "--frames-per-proc {} is not a multiple of --recurrence {}",
-                self.frames_per_proc, self.recurrence
-            ));
-        }
-        if !self.batch_size.is_multiple_of(self.recurrence) || self.batch_size == 0 {
-            return bad(format!(
-                "--batch-size {} is not a positive multiple of --recurrence {}",
-                self.batch_size, self.recurrence
-            ));
-        }
-        for (name, v) in [
-            ("--lr", self.lr),
-            ("--discount", self.discount),
-            ("--gae-lambda", self.gae_lambda),
-            ("--clip-eps", self.clip_eps),
-            ("--max-grad-norm", self.max_grad_norm),
-            ("--reward-scale", self.reward_scale),
-        ] {
-            if !(v.is_finite() && v > 0.0) {
-                return bad(format!("{name} {v} must be a positive number"));
-            }
-        }
-        Ok(())
-    }
-
-    /// Frames collected per update.
-    pub fn frames_per_update(&self) -> usize {
-        self.procs * self.frames_per_proc
-    }
-}
 
 /// One environment slot of the rollout.
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -674,118 +555,6 @@ impl Trainer {
         }
         Ok(merged)
     }
-
-    /// Serialises the run state (RNG streams, environments, counters) as JSON.
-    pub fn state_json(&self) -> Result<String, PolicyError> {
-        serde_json::to_string(&self.state)
-            .map_err(|e| PolicyError::Input(format!("serialising run state: {e}")))
-    }
-
-    /// Restores a run state written by [`Trainer::state_json`], checking every field a later
-    /// update relies on; errors name the field (`envs[3].world.agent_pos`, ...).
-    pub fn restore_state(&mut self, json: &str) -> Result<(), PolicyError> {
-        let st: RunState = serde_json::from_str(json)
-            .map_err(|e| PolicyError::Input(format!("reading run state: {e}")))?;
-        let bad = |field: String, reason: String| PolicyError::Input(format!("{field}: {reason}"));
-        if st.envs.len() != self.ppo.procs {
-            return Err(bad(
-                "envs".into(),
-                format!(
-                    "{} environments, the run has --procs {}",
-                    st.envs.len(),
-                    self.ppo.procs
-                ),
-            ));
-        }
-        let hid = self.model.lstm_hidden;
-        for (k, e) in st.envs.iter().enumerate() {
-            if e.h.len() != hid || e.c.len() != hid {
-                return Err(bad(
-                    format!("envs[{k}].h"),
-                    format!(
-                        "memory of length {}/{}, the model has {hid}",
-                        e.h.len(),
-                        e.c.len()
-                    ),
-                ));
-            }
-            if e.h.iter().chain(&e.c).any(|x| !x.is_finite()) {
-                return Err(bad(
-                    format!("envs[{k}].h"),
-                    "holds NaN or infinite values".into(),
-                ));
-            }
-            if e.tokens.is_empty()
-                || e.tokens.len() > MAX_STATE_TOKENS
-                || e.tokens
-                    .iter()
-                    .any(|&t| t == 0 || t as usize >= vocab::VOCABULARY.len())
-            {
-                return Err(bad(
-                    format!("envs[{k}].tokens"),
-                    format!(
-                        "must be 1..={} ids in 1..{}",
-                        MAX_STATE_TOKENS,
-                        vocab::VOCABULARY.len()
-                    ),
-                ));
-            }
-            if e.mask != 0.0 && e.mask != 1.0 {
-                return Err(bad(
-                    format!("envs[{k}].mask"),
-                    format!("{} is not 0 or 1", e.mask),
-                ));
-            }
-            e.world
-                .validate()
-                .map_err(|err| bad(format!("envs[{k}].world"), err.to_string()))?;
-            if e.world.ended() {
-                return Err(bad(
-                    format!("envs[{k}].world"),
-                    "the episode has ended".into(),
-                ));
-            }
-        }
-        self.state = st;
-        Ok(())
-    }
-
-    /// Adam's moments and step as named tensors (for the resume file).
-    pub fn optimizer_tensors(&self) -> BTreeMap<String, Tensor> {
-        let mut out = BTreeMap::new();
-        for (k, (m, v)) in &self.adam.moments {
-            out.insert(format!("m.{k}"), m.clone());
-            out.insert(format!("v.{k}"), v.clone());
-        }
-        out
-    }
-
-    /// Restores Adam's moments and step.
-    pub fn restore_optimizer(
-        &mut self,
-        tensors: &BTreeMap<String, Tensor>,
-        step: u64,
-    ) -> Result<(), PolicyError> {
-        for (k, (m, v)) in &mut self.adam.moments {
-            let (Some(tm), Some(tv)) = (
-                tensors.get(&format!("m.{k}")),
-                tensors.get(&format!("v.{k}")),
-            ) else {
-                return Err(PolicyError::Input(format!(
-                    "optimizer state lacks the moments of {k}"
-                )));
-            };
-            if tm.dims() != m.dims() || tv.dims() != v.dims() {
-                return Err(PolicyError::Input(format!(
-                    "optimizer moments of {k} have the wrong shape"
-                )));
-            }
-            *m = tm.clone();
-            *v = tv.clone();
-        }
-        self.adam.step = step;
-        Ok(())
-    }
 }
 
 /// `x ← (x − mean) / (std + 1e-8)`, the population statistics taken in f64.
@@ -822,150 +591,4 @@ fn new_slot(level: &LevelConfig, k: u64, hidden: usize) -> Result<EnvSlot, Polic
         ep_return: 0.0,
         ep_len: 0,
     })
-}
-
-/// One chunk step's LSTM `h` and `c` rows on the host, one row per sequence.
-type HostMemory = (Vec<Vec<f32>>, Vec<Vec<f32>>);
-
-/// What one shard of a minibatch gives back besides its gradient: its mean losses and the memories
-/// it computed at chunk steps 1..rec (for torch-ac's in-place refresh).
-struct ShardOut {
-    policy: f64,
-    value: f64,
-    entropy: f64,
-    mems: Vec<HostMemory>,
-    times: PhaseTimes,
-}
-
-/// Forward and backward of the sequences starting at `starts` (read-only on the rollout, so
-/// shards can run on threads side by side).
-fn shard_step(
-    net: &Net,
-    ro: &Rollout,
-    starts: &[usize],
-    ppo: &PpoConfig,
-) -> Result<(GradStore, ShardOut), PolicyError> {
-    let encode_t = std::time::Instant::now();
-    let rec = ppo.recurrence;
-    let hid = net.cfg.lstm_hidden;
-    let n = starts.len();
-    // Frames of the shard, t-major: row k·n + j is frame starts[j] + k.
-    let rows: Vec<usize> = (0..rec)
-        .flat_map(|k| starts.iter().map(move |&s| s + k))
-        .collect();
-    let obs_b: Vec<Observation> = rows.iter().map(|&i| ro.obs[i]).collect();
-    let missions: Vec<&[u32]> = rows.iter().map(|&i| ro.tokens[i].as_slice()).collect();
-    let tb = TokenBatch::new(&missions)?;
-    let codes = obs::CellCodes::new(&obs_b);
-    let gather = |v: &[f32]| -> Result<Tensor, PolicyError> {
-        let d: Vec<f32> = rows.iter().map(|&i| v[i]).collect();
-        Ok(Tensor::from_vec(d, rows.len(), &Device::Cpu)?)
-    };
-    let keep = gather(&ro.masks)?.reshape((rec, n))?;
-    let h0: Vec<f32> = starts
-        .iter()
-        .flat_map(|&s| ro.h[s].iter().copied())
-        .collect();
-    let c0: Vec<f32> = starts
-        .iter()
-        .flat_map(|&s| ro.c[s].iter().copied())
-        .collect();
-    let mem0 = Memory {
-        h: Tensor::from_vec(h0, (n, hid), &Device::Cpu)?,
-        c: Tensor::from_vec(c0, (n, hid), &Device::Cpu)?,
-    };
-    let mut times = PhaseTimes {
-        update_encode: secs(encode_t),
-        ..PhaseTimes::default()
-    };
-    let forward_t = std::time::Instant::now();
-    let (logits, values, mems) = net.sequence(&codes, &tb, &mem0, &keep)?;
-    let mems = mems
-        .iter()
-        .take(rec - 1)
-        .map(|m| Ok((m.h.to_vec2::<f32>()?, m.c.to_vec2::<f32>()?)))
-        .collect::<Result<Vec<_>, PolicyError>>()?;
-    let actions = Tensor::from_vec(
-        rows.iter().map(|&i| ro.actions[i]).collect::<Vec<u32>>(),
-        (rows.len(), 1),
-        &Device::Cpu,
-    )?;
-    let losses = ppo_loss(
-        &logits,
-        &values,
-        &actions,
-        &gather(&ro.logps)?,
-        &gather(&ro.values)?,
-        &gather(&ro.advantages)?,
-        &gather(&ro.returns)?,
-        ppo,
-    )?;
-    times.update_forward = secs(forward_t);
-    let backward_t = std::time::Instant::now();
-    let grads = losses.total.backward()?;
-    times.update_backward = secs(backward_t);
-    let out = ShardOut {
-        times,
-        policy: f64::from(losses.policy.to_scalar::<f32>()?),
-        value: f64::from(losses.value.to_scalar::<f32>()?),
-        entropy: f64::from(losses.entropy.to_scalar::<f32>()?),
-        mems,
-    };
-    Ok((grads, out))
-}
-
-/// The terms of the PPO loss for one minibatch.
-pub struct PpoLosses {
-    /// `policy − c_ent·entropy + c_v·value`, what is minimised.
-    pub total: Tensor,
-    /// `−mean(min(r·A, clip(r)·A))`.
-    pub policy: Tensor,
-    /// `mean(max((V − R)², (V_clip − R)²))`.
-    pub value: Tensor,
-    /// Mean entropy of the action distribution.
-    pub entropy: Tensor,
-}
-
-/// torch-ac's PPO loss (the one place it is written).
-#[expect(
-    clippy::too_many_arguments,
-    reason = "the loss's inputs, named as in torch-ac"
-)]
-pub fn ppo_loss(
-    logits: &Tensor,
-    values: &Tensor,
-    actions: &Tensor,
-    old_logp: &Tensor,
-    old_values: &Tensor,
-    adv: &Tensor,
-    returns: &Tensor,
-    cfg: &PpoConfig,
-) -> Result<PpoLosses, PolicyError> {
-    let clip = cfg.clip_eps;
-    let logp_all = log_probs(logits)?;
-    let entropy = (logp_all.exp()? * &logp_all)?
-        .sum(D::Minus1)?
-        .mean_all()?
-        .neg()?;
-    let logp = logp_all.gather(actions, 1)?.squeeze(1)?;
-    let ratio = (logp - old_logp)?.exp()?;
-    let surr1 = (&ratio * adv)?;
-    let surr2 = (ratio.clamp(1.0 - clip, 1.0 + clip)? * adv)?;
-    let policy = surr1.minimum(&surr2)?.mean_all()?.neg()?;
-    let v_clipped = (old_values + (values - old_values)?.clamp(-clip, clip)?)?;
-    let l1 = (values - returns)?.sqr()?;
-    let l2 = (v_clipped - returns)?.sqr()?;
-    let value = l1.maximum(&l2)?.mean_all()?;
-    let total = ((&policy - (&entropy * cfg.entropy_coef)?)? + (&value * cfg.value_loss_coef)?)?;
-    Ok(PpoLosses {
-        total,
-        policy,
-        value,
-        entropy,
-    })
-}
-
-/// Converts the optimizer's step count and tensors to safetensors-ready f32 data.
-pub fn tensor_to_vec(t: &Tensor) -> Result<Vec<f32>, PolicyError> {
-    Ok(t.to_dtype(DType::F32)?.flatten_all()?.to_vec1::<f32>()?)
 }

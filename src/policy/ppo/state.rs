@@ -1,0 +1,123 @@
+//! Saving and restoring a trainer's run state and Adam moments, for an exact `--resume`.
+
+use std::collections::BTreeMap;
+
+use candle_core::Tensor;
+
+use super::{MAX_STATE_TOKENS, RunState, Trainer};
+use crate::env::vocab;
+use crate::policy::error::PolicyError;
+
+impl Trainer {
+    /// Serialises the run state (RNG streams, environments, counters) as JSON.
+    pub fn state_json(&self) -> Result<String, PolicyError> {
+        serde_json::to_string(&self.state)
+            .map_err(|e| PolicyError::Input(format!("serialising run state: {e}")))
+    }
+
+    /// Restores a run state written by [`Trainer::state_json`], checking every field a later
+    /// update relies on; errors name the field (`envs[3].world.agent_pos`, ...).
+    pub fn restore_state(&mut self, json: &str) -> Result<(), PolicyError> {
+        let st: RunState = serde_json::from_str(json)
+            .map_err(|e| PolicyError::Input(format!("reading run state: {e}")))?;
+        let bad = |field: String, reason: String| PolicyError::Input(format!("{field}: {reason}"));
+        if st.envs.len() != self.ppo.procs {
+            return Err(bad(
+                "envs".into(),
+                format!(
+                    "{} environments, the run has --procs {}",
+                    st.envs.len(),
+                    self.ppo.procs
+                ),
+            ));
+        }
+        let hid = self.model.lstm_hidden;
+        for (k, e) in st.envs.iter().enumerate() {
+            if e.h.len() != hid || e.c.len() != hid {
+                return Err(bad(
+                    format!("envs[{k}].h"),
+                    format!(
+                        "memory of length {}/{}, the model has {hid}",
+                        e.h.len(),
+                        e.c.len()
+                    ),
+                ));
+            }
+            if e.h.iter().chain(&e.c).any(|x| !x.is_finite()) {
+                return Err(bad(
+                    format!("envs[{k}].h"),
+                    "holds NaN or infinite values".into(),
+                ));
+            }
+            if e.tokens.is_empty()
+                || e.tokens.len() > MAX_STATE_TOKENS
+                || e.tokens
+                    .iter()
+                    .any(|&t| t == 0 || t as usize >= vocab::VOCABULARY.len())
+            {
+                return Err(bad(
+                    format!("envs[{k}].tokens"),
+                    format!(
+                        "must be 1..={} ids in 1..{}",
+                        MAX_STATE_TOKENS,
+                        vocab::VOCABULARY.len()
+                    ),
+                ));
+            }
+            if e.mask != 0.0 && e.mask != 1.0 {
+                return Err(bad(
+                    format!("envs[{k}].mask"),
+                    format!("{} is not 0 or 1", e.mask),
+                ));
+            }
+            e.world
+                .validate()
+                .map_err(|err| bad(format!("envs[{k}].world"), err.to_string()))?;
+            if e.world.ended() {
+                return Err(bad(
+                    format!("envs[{k}].world"),
+                    "the episode has ended".into(),
+                ));
+            }
+        }
+        self.state = st;
+        Ok(())
+    }
+
+    /// Adam's moments and step as named tensors (for the resume file).
+    pub fn optimizer_tensors(&self) -> BTreeMap<String, Tensor> {
+        let mut out = BTreeMap::new();
+        for (k, (m, v)) in &self.adam.moments {
+            out.insert(format!("m.{k}"), m.clone());
+            out.insert(format!("v.{k}"), v.clone());
+        }
+        out
+    }
+
+    /// Restores Adam's moments and step.
+    pub fn restore_optimizer(
+        &mut self,
+        tensors: &BTreeMap<String, Tensor>,
+        step: u64,
+    ) -> Result<(), PolicyError> {
+        for (k, (m, v)) in &mut self.adam.moments {
+            let (Some(tm), Some(tv)) = (
+                tensors.get(&format!("m.{k}")),
+                tensors.get(&format!("v.{k}")),
+            ) else {
+                return Err(PolicyError::Input(format!(
+                    "optimizer state lacks the moments of {k}"
+                )));
+            };
+            if tm.dims() != m.dims() || tv.dims() != v.dims() {
+                return Err(PolicyError::Input(format!(
+                    "optimizer moments of {k} have the wrong shape"
+                )));
+            }
+            *m = tm.clone();
+            *v = tv.clone();
+        }
+        self.adam.step = step;
+        Ok(())
+    }
+}
