@@ -1,0 +1,229 @@
+//! The top bar (checkpoint, level, seed, mission, export), the timeline with the job
+//! progress and messages, and the keyboard shortcuts.
+
+use std::sync::atomic::Ordering;
+
+use eframe::egui;
+use egui::{Color32, Key};
+
+use super::Debugger;
+use crate::app::session::{Export, Shown, failure_step, next_miss};
+use crate::env::edit::Edit;
+use crate::env::level::TaskSet;
+use crate::env::vocab;
+
+impl Debugger {
+    pub(super) fn keyboard(&mut self, ctx: &egui::Context) {
+        let typing = ctx.memory(|m| m.focused().is_some());
+        if typing {
+            return;
+        }
+        let len = self.shown.as_ref().map_or(0, Shown::len);
+        ctx.input(|i| {
+            if i.key_pressed(Key::ArrowRight) {
+                self.cursor.nudge(1, len);
+            }
+            if i.key_pressed(Key::ArrowLeft) {
+                self.cursor.nudge(-1, len);
+            }
+            if i.key_pressed(Key::Space) {
+                self.cursor.playing = !self.cursor.playing;
+            }
+            if i.key_pressed(Key::Home) {
+                self.cursor.step = 0;
+            }
+            if i.key_pressed(Key::End) {
+                self.cursor.step = len.saturating_sub(1);
+            }
+        });
+    }
+
+    pub(super) fn controls(&mut self, ui: &mut egui::Ui) {
+        ui.horizontal_wrapped(|ui| {
+            ui.label("checkpoint");
+            egui::ComboBox::from_id_salt("ckpt")
+                .selected_text(self.checkpoint_text.clone())
+                .show_ui(ui, |ui| {
+                    for n in crate::policy::bundled::names() {
+                        ui.selectable_value(&mut self.checkpoint_text, n.clone(), n);
+                    }
+                });
+            ui.add(egui::TextEdit::singleline(&mut self.checkpoint_text).desired_width(160.0))
+                .on_hover_text("bundled:attention, bundled:baseline, or a checkpoint NAME (NAME.json + NAME.safetensors)");
+            ui.checkbox(&mut self.compare, "compare with");
+            ui.add_enabled(
+                self.compare,
+                egui::TextEdit::singleline(&mut self.compare_text).desired_width(140.0),
+            );
+            if ui.button("load").clicked() {
+                self.load_checkpoints();
+            }
+            ui.separator();
+            ui.label("room");
+            ui.add(egui::DragValue::new(&mut self.level.room_size).range(5..=16));
+            ui.label("objects");
+            ui.add(egui::DragValue::new(&mut self.level.n_objects).range(1..=20));
+            egui::ComboBox::from_id_salt("tasks")
+                .selected_text(format!("{:?}", self.level.tasks))
+                .show_ui(ui, |ui| {
+                    for t in [TaskSet::Both, TaskSet::GoTo, TaskSet::Pickup] {
+                        ui.selectable_value(&mut self.level.tasks, t, format!("{t:?}"));
+                    }
+                });
+            ui.label("seed");
+            ui.add(egui::DragValue::new(&mut self.seed));
+            ui.checkbox(&mut self.sample, "sampled");
+            if ui.button("run").on_hover_text("run a fresh episode").clicked() {
+                if let Err(e) = self.level.validate() {
+                    self.error(e.to_string());
+                } else {
+                    self.run_episode(None);
+                }
+            }
+            if ui.button("next seed").clicked() {
+                self.seed += 1;
+                self.run_episode(None);
+            }
+        });
+        ui.horizontal_wrapped(|ui| {
+            ui.label("mission");
+            let r = ui.add(egui::TextEdit::singleline(&mut self.mission_text).desired_width(260.0));
+            let unknown: Vec<&str> = self
+                .mission_text
+                .split_whitespace()
+                .filter(|w| vocab::token_id(&w.to_lowercase()).is_none())
+                .collect();
+            if !unknown.is_empty() {
+                ui.colored_label(
+                    Color32::from_rgb(230, 60, 60),
+                    format!("not in the vocabulary: {}", unknown.join(", ")),
+                )
+                .on_hover_text(format!("known words: {}", vocab::VOCABULARY[1..].join(" ")));
+            }
+            let apply = ui
+                .add_enabled(unknown.is_empty(), egui::Button::new("apply at this step"))
+                .on_hover_text("re-run the policy from the current step with this mission");
+            if apply.clicked()
+                || (r.lost_focus() && ui.input(|i| i.key_pressed(Key::Enter)) && unknown.is_empty())
+            {
+                let text = self.mission_text.clone();
+                self.probe(&Edit::Mission(text));
+            }
+            ui.separator();
+            ui.label("export to");
+            ui.add(egui::TextEdit::singleline(&mut self.export_dir).desired_width(90.0));
+            if ui.button(".rrd").clicked() {
+                self.export(Export::Rrd(self.export_path("rrd")));
+            }
+            if ui.button("MCAP").clicked() {
+                self.export(Export::Mcap(self.export_path("mcap")));
+            }
+            if ui.button("GIF").clicked() {
+                self.export(Export::Gif(self.export_path("gif")));
+            }
+            if ui
+                .button("PNG")
+                .on_hover_text("this window, as it is now")
+                .clicked()
+            {
+                let p = self.export_path("png");
+                self.request_shot(ui.ctx(), p, false);
+            }
+            if ui.button("Rerun: spawn").clicked() {
+                self.export(Export::Spawn);
+            }
+            ui.add(egui::TextEdit::singleline(&mut self.connect_url).desired_width(200.0));
+            if ui.button("connect").clicked() {
+                self.export(Export::Connect(self.connect_url.clone()));
+            }
+        });
+    }
+
+    pub(super) fn timeline(&mut self, ui: &mut egui::Ui) {
+        let len = self.shown.as_ref().map_or(0, Shown::len);
+        ui.horizontal(|ui| {
+            if ui.button("|<").on_hover_text("first step (Home)").clicked() {
+                self.cursor.step = 0;
+            }
+            if ui.button("<").on_hover_text("step back (←)").clicked() {
+                self.cursor.nudge(-1, len);
+            }
+            let play = if self.cursor.playing { "pause" } else { "play" };
+            if ui
+                .button(play)
+                .on_hover_text("play / pause (space)")
+                .clicked()
+            {
+                self.cursor.playing = !self.cursor.playing;
+            }
+            if ui.button(">").on_hover_text("step forward (→)").clicked() {
+                self.cursor.nudge(1, len);
+            }
+            if ui.button(">|").on_hover_text("last step (End)").clicked() {
+                self.cursor.step = len.saturating_sub(1);
+            }
+            let mut s = self.cursor.step;
+            ui.add(egui::Slider::new(&mut s, 0..=len.saturating_sub(1)).text(format!("of {len}")));
+            self.cursor.step = s;
+            ui.add(egui::Slider::new(&mut self.cursor.speed, 0.5..=20.0).text("steps/s"));
+            if let Some(shown) = &self.shown {
+                if ui.button("next grounding miss").clicked() {
+                    match next_miss(&shown.scenes, self.cursor.step) {
+                        Some(i) => self.cursor.step = i,
+                        None => self
+                            .messages
+                            .push((false, "no grounding miss in this episode".into())),
+                    }
+                }
+                let fail = failure_step(&shown.trace);
+                if ui
+                    .add_enabled(fail.is_some(), egui::Button::new("failure"))
+                    .clicked()
+                    && let Some(i) = fail
+                {
+                    self.cursor.step = i;
+                }
+                // Why it failed: the class `eval` gives the same episode (README,
+                // Evaluation).
+                if let Some(d) = &shown.failure {
+                    ui.label(
+                        egui::RichText::new(format!("failed: {}", d.class.name()))
+                            .color(Color32::from_rgb(230, 120, 90)),
+                    )
+                    .on_hover_text(format!(
+                        "target in view at {} step(s); M on it at {}",
+                        d.target_visible_steps,
+                        d.m_on_target_steps
+                            .map_or_else(|| "– (no M)".to_owned(), |n| n.to_string())
+                    ));
+                }
+            }
+        });
+        ui.horizontal(|ui| {
+            for job in &self.jobs {
+                ui.spinner();
+                if job.total > 0 {
+                    let d = job.done.load(Ordering::Relaxed);
+                    ui.add(
+                        egui::ProgressBar::new(d as f32 / job.total as f32)
+                            .desired_width(160.0)
+                            .text(format!("{} {d}/{}", job.what, job.total)),
+                    );
+                } else {
+                    ui.label(&job.what);
+                }
+            }
+            if !self.jobs.is_empty() && ui.button("cancel").clicked() {
+                self.cancel.store(true, Ordering::Relaxed);
+            }
+            if let Some((err, m)) = self.messages.last() {
+                let color = if *err {
+                    Color32::from_rgb(230, 60, 60)
+                } else {
+                    ui.visuals().weak_text_color()
+                };
+                ui.colored_label(color, m);
+            }
+        });
+    }
+}
