@@ -321,8 +321,11 @@ impl Net {
         let mission = self.mission_inputs_keyed(tb)?;
         let o = self.cells(codes)?;
         let x = self.visual_features(&o, mission.queries.as_ref().map(|(q, m)| (q, m)))?;
-        let mem = self.lstm_cell(&self.lstm_input(&x)?, mem)?;
-        let (logits, values) = self.heads(&mem.h, &mission.text)?;
+        // A chunk of one step through the training path's LSTM op (`mem` is already reset).
+        let keep = Tensor::ones((1, mem.h.dim(0)?), DType::F32, &Device::Cpu)?;
+        let (h, mut mems) = self.lstm_chunk(&x, mem, &keep)?;
+        let mem = mems.pop().ok_or_else(|| PolicyError::Input("empty chunk".into()))?;
+        let (logits, values) = self.heads(&h, &mission.text)?;
         Ok((logits, values, mem))
     }
 
@@ -336,13 +339,27 @@ impl Net {
         mem0: &Memory,
         keep: &Tensor,
     ) -> Result<(Tensor, Tensor, Vec<Memory>), PolicyError> {
-        let (t_len, n) = keep.dims2()?;
         let mission = self.mission_inputs_keyed(tb)?;
         let o = self.cells(codes)?;
         let x = self.visual_features(&o, mission.queries.as_ref().map(|(q, m)| (q, m)))?;
+        let (h, mems) = self.lstm_chunk(&x, mem0, keep)?;
+        let (logits, values) = self.heads(&h, &mission.text)?;
+        Ok((logits, values, mems))
+    }
+
+    /// The LSTM over a chunk of T steps of n sequences (t-major rows of `x`, `keep` (T, n)) as
+    /// one fused op ([`super::fused_sequence`]): every step's `h` (T·n, H) with gradient, and
+    /// the memory after each step.
+    fn lstm_chunk(
+        &self,
+        x: &Tensor,
+        mem0: &Memory,
+        keep: &Tensor,
+    ) -> Result<(Tensor, Vec<Memory>), PolicyError> {
+        let (t_len, n) = keep.dims2()?;
         let hd = self.cfg.lstm_hidden;
         let gx = self
-            .lstm_input(&x)?
+            .lstm_input(x)?
             .broadcast_add(self.p("lstm.bias_hh_l0")?)?;
         let out = super::fused_sequence::lstm_sequence(
             &gx,
@@ -360,8 +377,7 @@ impl Net {
                 })
             })
             .collect::<Result<Vec<_>, PolicyError>>()?;
-        let (logits, values) = self.heads(&out.narrow(1, 0, hd)?, &mission.text)?;
-        Ok((logits, values, mems))
+        Ok((out.narrow(1, 0, hd)?, mems))
     }
 
     /// Number of actions the actor scores.
