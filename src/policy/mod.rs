@@ -68,14 +68,7 @@ pub fn act_with(
     with_traces: bool,
     intervention: Option<&Intervention>,
 ) -> Result<ActOutput, PolicyError> {
-    if obs.len() != missions.len() || memory.h.dim(0)? != obs.len() {
-        return Err(PolicyError::Input(format!(
-            "batch sizes differ: {} observations, {} missions, {} memories",
-            obs.len(),
-            missions.len(),
-            memory.h.dim(0)?
-        )));
-    }
+    same_batch(obs.len(), missions.len(), &[("memories", memory.h.dim(0)?)])?;
     act_encoded(
         net,
         &Encoded::new(obs, missions)?,
@@ -164,14 +157,14 @@ pub fn act_missions(
     memory: &Memory,
     with_traces: bool,
 ) -> Result<ActOutput, PolicyError> {
-    if obs.len() != missions.len() || mission.text.dim(0)? != obs.len() {
-        return Err(PolicyError::Input(format!(
-            "batch sizes differ: {} observations, {} missions, {} mission inputs",
-            obs.len(),
-            missions.len(),
-            mission.text.dim(0)?
-        )));
-    }
+    same_batch(
+        obs.len(),
+        missions.len(),
+        &[
+            ("mission inputs", mission.text.dim(0)?),
+            ("memories", memory.h.dim(0)?),
+        ],
+    )?;
     act_prepared(
         net,
         &obs::CellCodes::new(obs),
@@ -181,6 +174,22 @@ pub fn act_missions(
         with_traces,
         None,
     )
+}
+
+/// Checks that a batch's parts have one row per observation, naming the sizes if not.
+fn same_batch(obs: usize, missions: usize, others: &[(&str, usize)]) -> Result<(), PolicyError> {
+    if missions == obs && others.iter().all(|(_, n)| *n == obs) {
+        return Ok(());
+    }
+    let parts: Vec<String> = [(obs, "observations"), (missions, "missions")]
+        .into_iter()
+        .chain(others.iter().map(|(what, n)| (*n, *what)))
+        .map(|(n, what)| format!("{n} {what}"))
+        .collect();
+    Err(PolicyError::Input(format!(
+        "batch sizes differ: {}",
+        parts.join(", ")
+    )))
 }
 
 fn act_prepared(
@@ -210,4 +219,21 @@ fn act_prepared(
 pub fn vec_tensor(v: Vec<f32>) -> Result<Tensor, PolicyError> {
     let n = v.len();
     Ok(Tensor::from_vec(v, n, &Device::Cpu)?)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn mismatched_batches_name_every_size() {
+        assert!(same_batch(3, 3, &[("memories", 3)]).is_ok());
+        let err = same_batch(3, 2, &[("mission inputs", 3), ("memories", 1)])
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("3 observations, 2 missions, 3 mission inputs, 1 memories"),
+            "{err}"
+        );
+    }
 }

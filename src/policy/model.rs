@@ -324,7 +324,9 @@ impl Net {
         // A chunk of one step through the training path's LSTM op (`mem` is already reset).
         let keep = Tensor::ones((1, mem.h.dim(0)?), DType::F32, &Device::Cpu)?;
         let (h, mut mems) = self.lstm_chunk(&x, mem, &keep)?;
-        let mem = mems.pop().ok_or_else(|| PolicyError::Input("empty chunk".into()))?;
+        let mem = mems
+            .pop()
+            .ok_or_else(|| PolicyError::Input("empty chunk".into()))?;
         let (logits, values) = self.heads(&h, &mission.text)?;
         Ok((logits, values, mem))
     }
