@@ -16,11 +16,13 @@ const TINY: f32 = 1e-30;
 
 struct AttentionFilter;
 
-/// Its backward: from `Q̂`, the mask, `Õ` and `dF`, returns `[dQ̂ (m·K) | dÕ (49·K)]` per
+/// Its backward: from `Q̂`, `Õ` and `dF` (the mask held in the op), returns `[dQ̂ (m·K) | dÕ (49·K)]` per
 /// frame as one (B, m·K + 49·K) tensor.
 struct AttentionFilterBackward {
     m: usize,
     k: usize,
+    /// The word mask, (B·m).
+    mask: Vec<f32>,
 }
 
 /// Per frame: maps `a` (m × 49), weights `w` (m) and `M` (49) from the scores and mask.
@@ -137,12 +139,12 @@ impl CustomOp3 for AttentionFilter {
         grad: &Tensor,
     ) -> Result<(Option<Tensor>, Option<Tensor>, Option<Tensor>)> {
         let (b, m, k) = qk.dims3()?;
-        // The gradient and O travel together as one input of the backward op.
-        let og = Tensor::cat(&[o.contiguous()?, grad.contiguous()?], 2)?;
+        // The mask (no gradient, B·m floats) rides in the op, leaving its inputs to Q̂, Õ, dF.
+        let mask: Vec<f32> = mask.flatten_all()?.to_vec1()?;
         let both = qk.contiguous()?.apply_op3_no_bwd(
-            &mask.contiguous()?,
-            &og,
-            &AttentionFilterBackward { m, k },
+            &o.contiguous()?,
+            &grad.contiguous()?,
+            &AttentionFilterBackward { m, k, mask },
         )?;
         let dqk = both.narrow(1, 0, m * k)?.reshape((b, m, k))?;
         let d_o = both
@@ -168,13 +170,19 @@ impl CustomOp3 for AttentionFilterBackward {
     ) -> Result<(CpuStorage, Shape)> {
         let (m, k) = (self.m, self.k);
         let (b, m1, k1) = l1.shape().dims3()?;
-        if m1 != m || k1 != k || l3.shape().dims3()? != (b, N_CELLS, 2 * k) {
+        if m1 != m
+            || k1 != k
+            || l2.shape().dims3()? != (b, N_CELLS, k)
+            || l3.shape() != l2.shape()
+            || self.mask.len() != b * m
+        {
             return Err(candle_core::Error::Msg("attention backward: shapes".into()));
         }
-        let (qk, mask, og) = (
+        let (qk, mask, o_all, df_all) = (
             slice(s1, l1, "attention: Q̂")?,
-            slice(s2, l2, "attention: mask")?,
-            slice(s3, l3, "attention: O|dF")?,
+            &self.mask,
+            slice(s2, l2, "attention: O")?,
+            slice(s3, l3, "attention: dF")?,
         );
         let width = m * k + N_CELLS * k;
         let mut out = vec![0f32; b * width];
@@ -183,22 +191,18 @@ impl CustomOp3 for AttentionFilterBackward {
         let mut dm = [0f32; N_CELLS];
         let mut da = vec![0f32; m * N_CELLS];
         let mut ds = vec![0f32; m * N_CELLS];
-        let mut oj_all = vec![0f32; N_CELLS * k];
         let mut dw = vec![0f32; m];
         for r in 0..b {
             let qr = &qk[r * m * k..(r + 1) * m * k];
             let maskr = &mask[r * m..(r + 1) * m];
-            for j in 0..N_CELLS {
-                let base = (r * N_CELLS + j) * 2 * k;
-                oj_all[j * k..(j + 1) * k].copy_from_slice(&og[base..base + k]);
-            }
-            scores(qr, &oj_all, k, &mut ds);
+            let oj_all = &o_all[r * N_CELLS * k..(r + 1) * N_CELLS * k];
+            let df = &df_all[r * N_CELLS * k..(r + 1) * N_CELLS * k];
+            scores(qr, oj_all, k, &mut ds);
             maps(&ds, maskr, &mut a, &mut w, &mut mm);
             let (dqk, d_o) = out[r * width..(r + 1) * width].split_at_mut(m * k);
             // F_j = 49·M_j·O_j.
             for j in 0..N_CELLS {
-                let base = (r * N_CELLS + j) * 2 * k;
-                let (oj, dfj) = og[base..base + 2 * k].split_at(k);
+                let (oj, dfj) = (&oj_all[j * k..(j + 1) * k], &df[j * k..(j + 1) * k]);
                 let mut acc = 0f32;
                 for c in 0..k {
                     d_o[j * k + c] = scale * mm[j] * dfj[c];

@@ -9,7 +9,7 @@
 
 use std::sync::Arc;
 
-use candle_core::{CpuStorage, CustomOp3, Device, Layout, Result, Shape, Tensor};
+use candle_core::{CpuStorage, CustomOp3, Device, Layout, Result, Shape, Storage, Tensor};
 
 use super::fused::f32_slice as slice;
 
@@ -59,6 +59,16 @@ struct LstmSequence {
     /// (T·n) 1 where the memory carries over into step t, 0 where an episode starts.
     keep: Arc<[f32]>,
     n: usize,
+}
+
+/// The f32 values of a CPU tensor's storage.
+fn cpu_f32<'a>(s: &'a Storage, l: &Layout, what: &str) -> Result<&'a [f32]> {
+    match s {
+        Storage::Cpu(c) => slice(c, l, what),
+        _ => Err(candle_core::Error::Msg(format!(
+            "{what} must be on the CPU"
+        ))),
+    }
 }
 
 /// `x · W_hhᵀ` for `x` (rows, H) on the host through candle's matmul.
@@ -159,9 +169,15 @@ impl CustomOp3 for LstmSequence {
         let (tn, width) = res.dims2()?;
         let (h, n) = (width / 6, self.n);
         let h4 = 4 * h;
-        let res: Vec<f32> = res.flatten_all()?.to_vec1()?;
-        let grad: Vec<f32> = grad.flatten_all()?.to_vec1()?;
-        let hc0: Vec<f32> = hc0.flatten_all()?.to_vec1()?;
+        // Read in place (the output and its gradient are 6H wide: copies would cost more
+        // than the gate arithmetic).
+        let (res, grad, hc0) = (res.contiguous()?, grad.contiguous()?, hc0.contiguous()?);
+        let (res_s, res_l) = res.storage_and_layout();
+        let (grad_s, grad_l) = grad.storage_and_layout();
+        let (hc0_s, hc0_l) = hc0.storage_and_layout();
+        let res = cpu_f32(&res_s, res_l, "lstm sequence: output")?;
+        let grad = cpu_f32(&grad_s, grad_l, "lstm sequence: gradient")?;
+        let hc0 = cpu_f32(&hc0_s, hc0_l, "lstm sequence: memory")?;
         let w = w.contiguous()?;
         let prev = |t: usize, j: usize| -> (&[f32], &[f32]) {
             if t == 0 {
