@@ -708,3 +708,38 @@ fn eval_exports_each_listed_failure_as_a_recording() {
         assert!(recorded.contains(&name), "{name} not in {recorded:?}");
     }
 }
+
+#[test]
+fn curve_reads_bundled_flat_logs_as_seed_bands() {
+    // Two seeds of one recipe as `assets/runs/` bundles them: NAME_log.csv + NAME_eval_log.csv.
+    let dir = tempfile::tempdir().unwrap();
+    let study = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/recipe_study");
+    let mut files = Vec::new();
+    for seed in [1, 2] {
+        for (src, dst) in [("log.csv", "log.csv"), ("eval_log.csv", "eval_log.csv")] {
+            let to = dir.path().join(format!("attention_seed{seed}_{dst}"));
+            std::fs::copy(study.join(format!("recurrence16-s{seed}/{src}")), &to).unwrap();
+            files.push(to.to_str().unwrap().to_owned());
+        }
+    }
+    let out = dir.path().join("fig.png");
+    let mut args = vec!["curve"];
+    args.extend(files.iter().map(String::as_str));
+    args.extend(["--out", out.to_str().unwrap()]);
+    let o = gs(&args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    // One band of two seeds, and the grounding figure from the eval logs beside them.
+    assert!(stdout(&o).contains("fig_grounding.png"), "{}", stdout(&o));
+    for f in ["fig.png", "fig_grounding.png"] {
+        assert!(image::open(dir.path().join(f)).is_ok(), "{f}");
+    }
+    // Only evaluation logs: nothing to draw.
+    let only_evals = gs(&[
+        "curve",
+        &files[1],
+        &files[3],
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_bad_input(&only_evals, "no training log");
+}

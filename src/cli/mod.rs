@@ -50,10 +50,12 @@ pub enum Command {
     Faithfulness(Box<faithfulness::FaithfulnessArgs>),
     /// Train a policy with recurrent PPO.
     Train(Box<train::TrainArgs>),
-    /// Plot training curves (mean reward against frames, the paper's Fig. 4) from log.csv files;
-    /// runs whose directory names differ only in a seed suffix (`-s2`, `_seed3`) are drawn as
-    /// one mean ± std band. Where an eval_log.csv sits beside a log, OUT_grounding.png shows
-    /// grounding emerge (held-out greedy success and acc_ng against frames).
+    /// Plot training curves (mean reward against frames, the paper's Fig. 4) from log.csv files
+    /// (a run directory's `log.csv`, or a bundled `NAME_log.csv`); runs whose names differ only
+    /// in a seed suffix (`-s2`, `_seed3`) are drawn as one mean ± std band. Where the tracked
+    /// evaluation sits beside a log (`eval_log.csv`, or `NAME_eval_log.csv`),
+    /// OUT_grounding.png shows grounding emerge (held-out greedy success and acc_ng against
+    /// frames).
     #[command(
         after_long_help = "EXAMPLES:\n  groundscope curve runs/attention/log.csv runs/baseline/log.csv --out fig4.png\n  groundscope curve runs/att-s1/log.csv runs/att-s2/log.csv runs/att-s3/log.csv --out att.png"
     )]
@@ -86,17 +88,22 @@ pub fn run(cli: Cli, matches: &clap::ArgMatches) -> anyhow::Result<ExitStatus> {
 }
 
 fn curve(logs: &[std::path::PathBuf], out: &std::path::Path) -> anyhow::Result<ExitStatus> {
-    use groundscope::metrics::bands::{band, band_panels, read_columns, recipe_of};
+    use groundscope::metrics::bands::{band, band_panels, read_columns, recipe_of, run_files};
     use groundscope::metrics::figures::{Curve, learning_curve, read_training_log};
     check_extension(out, "png", "--out")?;
     // Runs of one recipe (names differing only in a seed suffix) become one band.
     let mut groups: Vec<(String, Vec<std::path::PathBuf>)> = Vec::new();
+    // A glob such as `assets/runs/*_log.csv` also matches the tracked evaluations; those are
+    // read beside their logs, not drawn as logs.
+    let logs: Vec<&std::path::PathBuf> = logs
+        .iter()
+        .filter(|p| !p.to_string_lossy().ends_with("eval_log.csv"))
+        .collect();
+    if logs.is_empty() {
+        anyhow::bail!("no training log among the files (only eval_log.csv files were given)");
+    }
     for log in logs {
-        let run = log.parent().and_then(|p| p.file_name()).map_or_else(
-            || log.display().to_string(),
-            |n| n.to_string_lossy().into_owned(),
-        );
-        let recipe = recipe_of(&run);
+        let recipe = recipe_of(&run_files(log).0);
         match groups.iter_mut().find(|g| g.0 == recipe) {
             Some(g) => g.1.push(log.clone()),
             None => groups.push((recipe, vec![log.clone()])),
@@ -142,7 +149,7 @@ fn curve(logs: &[std::path::PathBuf], out: &std::path::Path) -> anyhow::Result<E
     for (label, paths) in &groups {
         let evals: Vec<std::path::PathBuf> = paths
             .iter()
-            .map(|p| p.with_file_name("eval_log.csv"))
+            .map(|p| run_files(p).1)
             .filter(|p| p.exists())
             .collect();
         if evals.is_empty() {

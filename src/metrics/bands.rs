@@ -31,6 +31,29 @@ pub fn recipe_of(run: &str) -> String {
     run.to_owned()
 }
 
+/// A training log's run name and the tracked evaluation that goes with it: a run directory's
+/// `RUN/log.csv` → (`RUN`, `RUN/eval_log.csv`), and a bundled flat file `DIR/NAME_log.csv`
+/// (`assets/runs/attention_seed1_log.csv`) → (`NAME`, `DIR/NAME_eval_log.csv`).
+pub fn run_files(log: &std::path::Path) -> (String, std::path::PathBuf) {
+    let file = log
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    match file.strip_suffix("_log.csv").filter(|n| !n.is_empty()) {
+        Some(name) => (
+            name.to_owned(),
+            log.with_file_name(format!("{name}_eval_log.csv")),
+        ),
+        None => (
+            log.parent().and_then(|p| p.file_name()).map_or_else(
+                || log.display().to_string(),
+                |n| n.to_string_lossy().into_owned(),
+            ),
+            log.with_file_name("eval_log.csv"),
+        ),
+    }
+}
+
 /// Reduces runs (each a list of `(frames, y)`) to a band: each run is averaged within `bins`
 /// equal frame intervals up to the longest run, then mean and population std are taken over
 /// the runs that reached that interval.
@@ -202,6 +225,20 @@ mod tests {
         assert_eq!(recipe_of("x20-seed11"), "x20");
         assert_eq!(recipe_of("att-fast5M"), "att-fast5M");
         assert_eq!(recipe_of("runs-s"), "runs-s");
+    }
+
+    #[test]
+    fn logs_find_their_run_name_and_tracked_evaluation() {
+        use std::path::Path;
+        let (name, ev) = run_files(Path::new("runs/att-s2/log.csv"));
+        assert_eq!(
+            (name.as_str(), ev.as_path()),
+            ("att-s2", Path::new("runs/att-s2/eval_log.csv"))
+        );
+        let (name, ev) = run_files(Path::new("assets/runs/attention_seed1_log.csv"));
+        assert_eq!(name, "attention_seed1");
+        assert_eq!(ev, Path::new("assets/runs/attention_seed1_eval_log.csv"));
+        assert_eq!(recipe_of(&name), "attention");
     }
 
     #[test]
