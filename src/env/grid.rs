@@ -125,4 +125,49 @@ impl Grid {
             })
             .collect()
     }
+
+    /// `check_objs_reachable` (see [`crate::env::level::all_reachable`]) on cell indices: a
+    /// flood fill from `start` over empty cells and doors; a non-door object is reached but
+    /// not expanded; true when every non-wall object was reached.
+    pub fn all_objects_reachable(&self, start: Pos) -> bool {
+        if !self.contains(start) {
+            return false;
+        }
+        let h = self.height as usize;
+        let n = self.cells.len();
+        let first = self.index(start);
+        let mut seen = vec![false; n];
+        let mut stack = Vec::with_capacity(64);
+        seen[first] = true;
+        stack.push(first);
+        while let Some(i) = stack.pop() {
+            if i != first && self.cells[i].is_some_and(|o| o.kind != ObjectKind::Door) {
+                continue;
+            }
+            let y = i % h;
+            // x ± 1 is i ± h; bounds follow from the index range, y ± 1 from the column.
+            let mut visit = |j: usize| {
+                if !seen[j] && self.cells[j].is_none_or(|o| o.kind != ObjectKind::Wall) {
+                    seen[j] = true;
+                    stack.push(j);
+                }
+            };
+            if i + h < n {
+                visit(i + h);
+            }
+            if i >= h {
+                visit(i - h);
+            }
+            if y + 1 < h {
+                visit(i + 1);
+            }
+            if y > 0 {
+                visit(i - 1);
+            }
+        }
+        self.cells
+            .iter()
+            .zip(&seen)
+            .all(|(c, s)| *s || c.is_none_or(|o| o.kind == ObjectKind::Wall))
+    }
 }

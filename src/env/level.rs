@@ -257,35 +257,68 @@ fn place_obj(grid: &Grid, agent_pos: Pos, rng: &mut Pcg64Mcg) -> Option<Pos> {
 /// `check_objs_reachable`: every non-wall object is 4-adjacent to the agent's component of
 /// empty (or enterable) cells.
 pub fn all_reachable(grid: &Grid, agent_pos: Pos) -> bool {
-    let (w, h) = (grid.width(), grid.height());
-    let mut seen = vec![false; w * h];
-    let idx = |(x, y): Pos| x as usize * h + y as usize;
-    let mut stack = vec![agent_pos];
-    seen[idx(agent_pos)] = true;
-    while let Some((x, y)) = stack.pop() {
-        // A non-door object is reached but not expanded.
-        if grid.get((x, y)).is_some_and(|o| o.kind != ObjectKind::Door) && (x, y) != agent_pos {
-            continue;
-        }
-        for n in [(x + 1, y), (x - 1, y), (x, y + 1), (x, y - 1)] {
-            if !grid.contains(n) || seen[idx(n)] {
-                continue;
-            }
-            if grid.get(n).is_some_and(|o| o.kind == ObjectKind::Wall) {
-                continue;
-            }
-            seen[idx(n)] = true;
-            stack.push(n);
-        }
-    }
-    grid.objects()
-        .filter(|(_, o)| o.kind != ObjectKind::Wall)
-        .all(|(p, _)| seen[idx(p)])
+    grid.all_objects_reachable(agent_pos)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The flood fill as first written, on positions: the reference for the index version.
+    fn reachable_reference(grid: &Grid, agent_pos: Pos) -> bool {
+        let (w, h) = (grid.width(), grid.height());
+        let mut seen = vec![false; w * h];
+        let idx = |(x, y): Pos| x as usize * h + y as usize;
+        let mut stack = vec![agent_pos];
+        seen[idx(agent_pos)] = true;
+        while let Some((x, y)) = stack.pop() {
+            if grid.get((x, y)).is_some_and(|o| o.kind != ObjectKind::Door) && (x, y) != agent_pos {
+                continue;
+            }
+            for n in [(x + 1, y), (x - 1, y), (x, y + 1), (x, y - 1)] {
+                if !grid.contains(n) || seen[idx(n)] {
+                    continue;
+                }
+                if grid.get(n).is_some_and(|o| o.kind == ObjectKind::Wall) {
+                    continue;
+                }
+                seen[idx(n)] = true;
+                stack.push(n);
+            }
+        }
+        grid.objects()
+            .filter(|(_, o)| o.kind != ObjectKind::Wall)
+            .all(|(p, _)| seen[idx(p)])
+    }
+
+    #[test]
+    fn reachability_matches_the_position_flood_fill() {
+        let mut rng = Pcg64Mcg::seed_from_u64(5);
+        let kinds = [
+            ObjectKind::Wall,
+            ObjectKind::Door,
+            ObjectKind::Ball,
+            ObjectKind::Key,
+        ];
+        let (mut yes, mut no) = (0, 0);
+        for _ in 0..3000 {
+            let (w, h) = (rng.random_range(1..10usize), rng.random_range(1..10usize));
+            let mut grid = Grid::new(w, h);
+            for x in 0..w as i32 {
+                for y in 0..h as i32 {
+                    if rng.random_ratio(2, 5) {
+                        let kind = kinds[rng.random_range(0..kinds.len())];
+                        grid.set((x, y), Some(WorldObj::new(kind, Color::Red, 1)));
+                    }
+                }
+            }
+            let agent = (rng.random_range(0..w as i32), rng.random_range(0..h as i32));
+            let want = reachable_reference(&grid, agent);
+            assert_eq!(all_reachable(&grid, agent), want, "{w}×{h} from {agent:?}");
+            if want { yes += 1 } else { no += 1 }
+        }
+        assert!(yes > 100 && no > 100, "both outcomes covered: {yes} / {no}");
+    }
 
     #[test]
     fn same_seed_same_world() {
