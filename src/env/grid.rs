@@ -136,6 +136,9 @@ impl Grid {
         let h = self.height as usize;
         let n = self.cells.len();
         let first = self.index(start);
+        if n <= 64 {
+            return self.all_reachable_bits(first);
+        }
         let mut seen = vec![false; n];
         let mut stack = Vec::with_capacity(64);
         seen[first] = true;
@@ -169,5 +172,49 @@ impl Grid {
             .iter()
             .zip(&seen)
             .all(|(c, s)| *s || c.is_none_or(|o| o.kind == ObjectKind::Wall))
+    }
+
+    /// [`Self::all_objects_reachable`] for grids of at most 64 cells (the paper's 8×8 room),
+    /// as a flood fill on bit masks: each round grows the reached set by one step in all four
+    /// directions at once.
+    fn all_reachable_bits(&self, first: usize) -> bool {
+        let h = self.height as usize;
+        let bit = |i: usize| 1u64 << i;
+        let (mut wall, mut expands, mut objects) = (0u64, 0u64, 0u64);
+        let (mut bottom, mut top) = (0u64, 0u64);
+        for (i, c) in self.cells.iter().enumerate() {
+            match c {
+                None => expands |= bit(i),
+                Some(o) if o.kind == ObjectKind::Wall => wall |= bit(i),
+                Some(o) => {
+                    objects |= bit(i);
+                    if o.kind == ObjectKind::Door {
+                        expands |= bit(i);
+                    }
+                }
+            }
+            if i % h == 0 {
+                bottom |= bit(i);
+            }
+            if i % h == h - 1 {
+                top |= bit(i);
+            }
+        }
+        let valid = u64::MAX >> (64 - self.cells.len());
+        let open = valid & !wall;
+        let mut reached = bit(first);
+        loop {
+            // Reached empty cells and doors spread, and the start cell whatever it holds.
+            let src = (reached & expands) | bit(first);
+            let grown = ((src & !top) << 1)
+                | ((src & !bottom) >> 1)
+                | src.checked_shl(h as u32).unwrap_or(0)
+                | src.checked_shr(h as u32).unwrap_or(0);
+            let next = reached | (grown & open);
+            if next == reached {
+                return objects & !reached == 0;
+            }
+            reached = next;
+        }
     }
 }
