@@ -8,23 +8,125 @@ pub type Pos = (i32, i32);
 /// MiniGrid's `DIR_TO_VEC`: 0 = right (+x), 1 = down (+y), 2 = left (−x), 3 = up (−y).
 pub const DIR_TO_VEC: [Pos; 4] = [(1, 0), (0, 1), (-1, 0), (0, -1)];
 
+/// How far the view codes extend past each side of the grid: the view reaches 6 cells ahead.
+pub(crate) const VIEW_PAD: i32 = 6;
+
 /// The width × height world grid of MiniGrid (`grid[x][y]`).
-#[derive(Clone, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[derive(Clone, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(from = "GridCells", into = "GridCells")]
 pub struct Grid {
     width: i32,
     height: i32,
     /// Cells in x-major order: index `x * height + y`, like numpy's `(W, H)` arrays.
     cells: Vec<Cell>,
+    /// Each cell's [`view_code`](super::view::view_code), x-major, on a grid padded by
+    /// [`VIEW_PAD`] walls on every side: the observation reads any view without bounds
+    /// checks or encoding. Kept in step with `cells` by every write; empty when the
+    /// dimensions are inconsistent.
+    codes: Vec<u32>,
+}
+
+/// What a grid serialises as: its dimensions and cells.
+#[derive(Clone, serde::Serialize, serde::Deserialize)]
+#[serde(rename = "Grid")]
+struct GridCells {
+    width: i32,
+    height: i32,
+    cells: Vec<Cell>,
+}
+
+impl From<GridCells> for Grid {
+    fn from(g: GridCells) -> Self {
+        let mut grid = Self {
+            width: g.width,
+            height: g.height,
+            cells: g.cells,
+            codes: Vec::new(),
+        };
+        // Any shape whose cells are all there gets codes (the padding is then at most
+        // 12·(w + h + 12) more entries); `is_consistent` still bounds the dimensions.
+        let shape_ok = grid.width >= 1
+            && grid.height >= 1
+            && grid.cells.len() as u64 == grid.width as u64 * grid.height as u64;
+        if shape_ok {
+            grid.codes = grid.padded_codes();
+        }
+        grid
+    }
+}
+
+impl From<Grid> for GridCells {
+    fn from(g: Grid) -> Self {
+        Self {
+            width: g.width,
+            height: g.height,
+            cells: g.cells,
+        }
+    }
+}
+
+impl std::fmt::Debug for Grid {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Grid")
+            .field("width", &self.width)
+            .field("height", &self.height)
+            .field("cells", &self.cells)
+            .finish_non_exhaustive()
+    }
 }
 
 impl Grid {
     /// An empty grid (no walls).
     pub fn new(width: usize, height: usize) -> Self {
-        Self {
+        GridCells {
             width: width as i32,
             height: height as i32,
             cells: vec![None; width * height],
         }
+        .into()
+    }
+
+    /// The view codes of the padded grid, from `cells`.
+    fn padded_codes(&self) -> Vec<u32> {
+        let (pw, ph) = self.padded_dims();
+        let outside = super::view::view_code(Some(WorldObj::new(
+            ObjectKind::Wall,
+            Color::Grey,
+            u32::MAX,
+        )));
+        let mut codes = vec![outside; (pw * ph) as usize];
+        for (i, cell) in self.cells.iter().enumerate() {
+            let i = i as i32;
+            let (x, y) = (i / self.height, i % self.height);
+            codes[self.padded_index((x, y))] = super::view::view_code(*cell);
+        }
+        codes
+    }
+
+    /// Width and height of the padded code grid.
+    #[inline]
+    fn padded_dims(&self) -> (i32, i32) {
+        (self.width + 2 * VIEW_PAD, self.height + 2 * VIEW_PAD)
+    }
+
+    /// Index in the padded code grid of `pos`, which lies within [`VIEW_PAD`] of the grid.
+    #[inline]
+    fn padded_index(&self, (x, y): Pos) -> usize {
+        ((x + VIEW_PAD) * (self.height + 2 * VIEW_PAD) + y + VIEW_PAD) as usize
+    }
+
+    /// The padded view codes, their index of `pos` (inside the grid) and the index step of a
+    /// move by `(dx, dy)`: what [`crate::env::view::observe`] walks.
+    #[inline]
+    pub(crate) fn view_codes(&self, pos: Pos) -> Option<(&[u32], usize)> {
+        (self.contains(pos) && !self.codes.is_empty())
+            .then(|| (self.codes.as_slice(), self.padded_index(pos)))
+    }
+
+    /// The padded index offset of a move by `(dx, dy)`.
+    #[inline]
+    pub(crate) fn view_stride(&self, (dx, dy): Pos) -> isize {
+        (dx * (self.height + 2 * VIEW_PAD) + dy) as isize
     }
 
     /// Width in cells.
@@ -40,6 +142,14 @@ impl Grid {
     /// Whether the dimensions are a room this crate can hold (1..=256 per side) and the cell
     /// vector has one entry per cell: what a deserialised grid must be checked for.
     pub fn is_consistent(&self) -> bool {
+        self.cells_consistent() && {
+            let (pw, ph) = self.padded_dims();
+            self.codes.len() == (pw * ph) as usize
+        }
+    }
+
+    /// Dimensions in range and one cell per position.
+    fn cells_consistent(&self) -> bool {
         (1..=256).contains(&self.width)
             && (1..=256).contains(&self.height)
             && self.cells.len() == (self.width * self.height) as usize
@@ -82,6 +192,10 @@ impl Grid {
         if self.contains(pos) {
             let i = self.index(pos);
             self.cells[i] = cell;
+            let j = self.padded_index(pos);
+            if let Some(code) = self.codes.get_mut(j) {
+                *code = super::view::view_code(cell);
+            }
         }
     }
 

@@ -396,12 +396,14 @@ impl World {
     /// the grid, in scan order.
     fn update_objs_poss(&mut self) {
         let set = &self.verifier.obj_set;
-        self.verifier.obj_poss = self
-            .grid
-            .objects()
-            .filter(|(_, o)| set.contains(&o.id))
-            .map(|(p, _)| p)
-            .collect();
+        let poss = &mut self.verifier.obj_poss;
+        poss.clear();
+        poss.extend(
+            self.grid
+                .objects()
+                .filter(|(_, o)| set.contains(&o.id))
+                .map(|(p, _)| p),
+        );
     }
 
     /// `ActionInstr.verify`: `Some(true)` success, `Some(false)` failure, `None` continue.
