@@ -350,3 +350,42 @@ fn fused_lstm_sequence_matches_the_stepped_reference() {
         );
     }
 }
+
+#[test]
+fn fused_two_biases_match_broadcast_adds() {
+    use groundscope::policy::fused_bias::add_two_biases;
+    let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(5);
+    let x = Var::from_tensor(&random(&mut rng, (37, 12), 3.0)).unwrap();
+    let b1 = Var::from_tensor(&random(&mut rng, (1, 12), 1.0).flatten_all().unwrap()).unwrap();
+    let b2 = Var::from_tensor(&random(&mut rng, (1, 12), 1.0).flatten_all().unwrap()).unwrap();
+    let w = random(&mut rng, (37, 12), 1.0);
+    let run = |fused: bool| {
+        let y = if fused {
+            add_two_biases(x.as_tensor(), b1.as_tensor(), b2.as_tensor()).unwrap()
+        } else {
+            x.broadcast_add(b1.as_tensor())
+                .unwrap()
+                .broadcast_add(b2.as_tensor())
+                .unwrap()
+        };
+        // A non-linear loss, so that each bias gradient is a sum of distinct rows.
+        let loss = (y.tanh().unwrap() * &w).unwrap().sum_all().unwrap();
+        (y, loss.backward().unwrap())
+    };
+    let (yf, gf) = run(true);
+    let (yr, gr) = run(false);
+    // The forward rounds exactly as the two broadcast adds.
+    assert_eq!(
+        yf.flatten_all().unwrap().to_vec1::<f32>().unwrap(),
+        yr.flatten_all().unwrap().to_vec1::<f32>().unwrap()
+    );
+    for (name, v) in [("x", &x), ("b1", &b1), ("b2", &b2)] {
+        close(
+            gf.get(v.as_tensor()).unwrap(),
+            gr.get(v.as_tensor()).unwrap(),
+            name,
+        );
+    }
+    // A bias of the wrong length is an error, not a panic.
+    assert!(add_two_biases(x.as_tensor(), &b1.narrow(0, 0, 5).unwrap(), b2.as_tensor()).is_err());
+}

@@ -89,11 +89,8 @@ impl Grid {
     /// The view codes of the padded grid, from `cells`.
     fn padded_codes(&self) -> Vec<u32> {
         let (pw, ph) = self.padded_dims();
-        let outside = super::view::view_code(Some(WorldObj::new(
-            ObjectKind::Wall,
-            Color::Grey,
-            u32::MAX,
-        )));
+        let outside =
+            super::view::view_code(Some(WorldObj::new(ObjectKind::Wall, Color::Grey, u32::MAX)));
         let mut codes = vec![outside; (pw * ph) as usize];
         for (i, cell) in self.cells.iter().enumerate() {
             let i = i as i32;

@@ -9,6 +9,7 @@ pub mod config;
 pub mod error;
 pub mod fused;
 pub mod fused_attention;
+pub mod fused_bias;
 pub mod fused_conv;
 pub mod fused_sequence;
 pub mod model;

@@ -360,9 +360,12 @@ impl Net {
     ) -> Result<(Tensor, Vec<Memory>), PolicyError> {
         let (t_len, n) = keep.dims2()?;
         let hd = self.cfg.lstm_hidden;
-        let gx = self
-            .lstm_input(x)?
-            .broadcast_add(self.p("lstm.bias_hh_l0")?)?;
+        // The same sums as `lstm_input(x) + b_hh`, with one pass over the rows in backward.
+        let gx = super::fused_bias::add_two_biases(
+            &x.matmul(&self.p("lstm.weight_ih_l0")?.t()?)?,
+            self.p("lstm.bias_ih_l0")?,
+            self.p("lstm.bias_hh_l0")?,
+        )?;
         let out = super::fused_sequence::lstm_sequence(
             &gx,
             self.p("lstm.weight_hh_l0")?,
