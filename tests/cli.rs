@@ -254,6 +254,11 @@ fn init_and_replay_write_checkpoints_and_traces() {
 }
 
 fn train(dir: &Path, frames: &str, extra: &[&str]) -> Output {
+    gs(&train_args(dir, frames, extra))
+}
+
+/// The arguments of a small training run (tracked every 2 updates on 4 episodes).
+fn train_args<'a>(dir: &'a Path, frames: &'a str, extra: &[&'a str]) -> Vec<&'a str> {
     let mut args = vec![
         "train",
         "--model",
@@ -286,7 +291,86 @@ fn train(dir: &Path, frames: &str, extra: &[&str]) -> Output {
         "--quiet",
     ];
     args.extend_from_slice(extra);
-    gs(&args)
+    args
+}
+
+#[test]
+fn validate_scores_a_saved_checkpoint_as_the_run_tracked_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = dir.path().join("run");
+    assert_eq!(train(&run, "256", &[]).status.code(), Some(0));
+    let model = run.join("model");
+    let out = dir.path().join("v.csv");
+    let o = gs(&[
+        "validate",
+        model.to_str().unwrap(),
+        "--episodes",
+        "4",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    // All but the timing column: the same weights on the same held-out levels.
+    let strip = |l: &str| l.rsplit_once(',').unwrap().0.to_owned();
+    let text = std::fs::read_to_string(&out).unwrap();
+    let rows: Vec<&str> = text.lines().collect();
+    assert_eq!(rows.len(), 2, "{text}");
+    assert!(rows[0].starts_with("checkpoint,update,frames,"), "{text}");
+    let tracked = std::fs::read_to_string(run.join("eval_log.csv")).unwrap();
+    let last = tracked.lines().last().unwrap();
+    assert_eq!(
+        strip(rows[1]),
+        format!("{},{}", model.display(), strip(last))
+    );
+    // A missing checkpoint is named, exits 2 and writes nothing.
+    let missing = dir.path().join("nope");
+    let out2 = dir.path().join("v2.csv");
+    let o = gs(&[
+        "validate",
+        model.to_str().unwrap(),
+        missing.to_str().unwrap(),
+        "--out",
+        out2.to_str().unwrap(),
+    ]);
+    assert_bad_input(&o, "nope");
+    assert!(!out2.exists());
+    assert_bad_input(
+        &gs(&["validate", model.to_str().unwrap(), "--episodes", "0"]),
+        "--episodes",
+    );
+}
+
+#[test]
+fn a_resume_that_leaves_out_the_tracking_flags_tracks_as_the_run_did() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = dir.path().join("run");
+    assert_eq!(train(&run, "128", &[]).status.code(), Some(0));
+    // Without the run's settings the defaults (every 50 updates, 200 episodes) would apply.
+    let mut args = train_args(&run, "256", &["--resume"]);
+    let at = args.iter().position(|a| *a == "--eval-interval").unwrap();
+    args.drain(at..at + 4);
+    let o = gs(&args);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    // A flag given on resume wins, and is kept for the next resume.
+    let mut args = train_args(&run, "384", &["--resume", "--eval-episodes", "6"]);
+    args.drain(at..at + 4);
+    let o = gs(&args);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let mut args = train_args(&run, "512", &["--resume"]);
+    args.drain(at..at + 4);
+    let o = gs(&args);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let rows: Vec<String> = std::fs::read_to_string(run.join("eval_log.csv"))
+        .unwrap()
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').take(3).collect::<Vec<_>>().join(","))
+        .collect();
+    assert_eq!(
+        rows,
+        ["2,128,4", "4,256,4", "6,384,6", "8,512,6"],
+        "{rows:?}"
+    );
 }
 
 #[test]

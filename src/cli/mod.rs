@@ -8,6 +8,7 @@ mod policy_cmd;
 mod replay;
 mod run_dir;
 mod train;
+mod validate;
 mod view;
 
 use clap::{Parser, Subcommand};
@@ -50,6 +51,9 @@ pub enum Command {
     Faithfulness(Box<faithfulness::FaithfulnessArgs>),
     /// Train a policy with recurrent PPO.
     Train(Box<train::TrainArgs>),
+    /// Evaluate saved checkpoints on the held-out validation levels that `train` tracks
+    /// (`eval_log.csv` rows): to compare checkpoints without the test set of `eval`.
+    Validate(validate::ValidateArgs),
     /// Plot training curves (mean reward against frames, the paper's Fig. 4) from log.csv files
     /// (a run directory's `log.csv`, or a bundled `NAME_log.csv`); runs whose names differ only
     /// in a seed suffix (`-s2`, `_seed3`) are drawn as one mean ± std band. Where the tracked
@@ -80,6 +84,7 @@ pub fn run(cli: Cli, matches: &clap::ArgMatches) -> anyhow::Result<ExitStatus> {
         Command::Bench(cmd) => bench::run(&cmd),
         Command::Train(args) => train::run(&args, matches.subcommand_matches("train")),
         Command::Eval(args) => eval::run(&args),
+        Command::Validate(args) => validate::run(&args),
         Command::Faithfulness(args) => faithfulness::run(&args),
         Command::Curve { logs, out } => curve(&logs, &out),
         Command::Init(args) => policy_cmd::init(&args),

@@ -34,6 +34,20 @@ pub struct ResumeFile {
     pub adam_step: u64,
     /// Updates done.
     pub updates: u64,
+    /// The run's held-out tracking settings (absent in runs saved before they were kept).
+    #[serde(default)]
+    pub tracking: Option<Tracking>,
+}
+
+/// How often, and on how many held-out episodes, a run evaluates itself (`eval_log.csv`).
+/// Kept with the run so a `--resume` that leaves the flags out goes on tracking the same way.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Tracking {
+    /// `--eval-interval`: updates between evaluations (0: never).
+    pub eval_interval: u64,
+    /// `--eval-episodes`: episodes per evaluation.
+    pub eval_episodes: u64,
 }
 
 /// Whether `dir` already holds a run (either layout).
@@ -63,7 +77,12 @@ fn generations(run: &Path) -> Vec<(u64, PathBuf)> {
 }
 
 /// Saves the trainer as a new generation of `run` and publishes it as `RUN/model`.
-pub fn save(trainer: &Trainer, run: &Path, training: TrainingState) -> anyhow::Result<()> {
+pub fn save(
+    trainer: &Trainer,
+    run: &Path,
+    training: TrainingState,
+    tracking: Tracking,
+) -> anyhow::Result<()> {
     let seed = training.seed;
     let parent = checkpoints_dir(run);
     std::fs::create_dir_all(&parent).with_context(|| format!("creating {}", parent.display()))?;
@@ -98,6 +117,7 @@ pub fn save(trainer: &Trainer, run: &Path, training: TrainingState) -> anyhow::R
         seed,
         adam_step: trainer.adam.step,
         updates: trainer.state.updates,
+        tracking: Some(tracking),
     };
     write_atomic(
         &tmp.path().join("resume.json"),
@@ -251,6 +271,7 @@ pub fn load_latest(run: &Path) -> anyhow::Result<(Trainer, RunInfo)> {
                 hidden: saved.ckpt.meta.model.lstm_hidden,
                 variant: saved.ckpt.meta.model.variant,
                 training: saved.ckpt.meta.training.clone(),
+                tracking: saved.resume.tracking,
             };
             restore(saved).map(|t| (t, info))
         }) {
@@ -289,4 +310,6 @@ pub struct RunInfo {
     pub variant: groundscope::policy::Variant,
     /// Its progress.
     pub training: TrainingState,
+    /// Its tracking settings, where the run recorded them.
+    pub tracking: Option<Tracking>,
 }

@@ -18,7 +18,7 @@ use groundscope::policy::{ModelConfig, Net, Params, TrainingState};
 use crate::ExitStatus;
 use crate::cli::env_cmd::LevelArgs;
 use crate::cli::policy_cmd::parse_variant;
-use crate::cli::run_dir;
+use crate::cli::run_dir::{self, Tracking};
 
 /// `groundscope train`.
 #[derive(Debug, Args)]
@@ -165,8 +165,13 @@ fn training_state(
 
 /// Saves a generation and redraws the run's learning curve (a figure: its failure is
 /// reported, not fatal, since the checkpoint is already safe).
-fn save_run(trainer: &Trainer, dir: &Path, training: TrainingState) -> anyhow::Result<()> {
-    run_dir::save(trainer, dir, training)?;
+fn save_run(
+    trainer: &Trainer,
+    dir: &Path,
+    training: TrainingState,
+    tracking: Tracking,
+) -> anyhow::Result<()> {
+    run_dir::save(trainer, dir, training, tracking)?;
     let drawn = groundscope::metrics::figures::read_training_log(&dir.join("log.csv"))
         .map_err(anyhow::Error::from)
         .and_then(|points| {
@@ -187,12 +192,33 @@ fn save_run(trainer: &Trainer, dir: &Path, training: TrainingState) -> anyhow::R
     Ok(())
 }
 
+/// The tracking settings of this invocation: the flags given, and on `--resume` the run's own
+/// settings for those left out (a run saved before they were kept takes the defaults).
+fn tracking(args: &TrainArgs, matches: Option<&ArgMatches>, run: Option<Tracking>) -> Tracking {
+    let pick = |id: &str, now: u64, saved: Option<u64>| match saved {
+        Some(v) if !given(matches, id) => v,
+        _ => now,
+    };
+    Tracking {
+        eval_interval: pick(
+            "eval_interval",
+            args.eval_interval,
+            run.map(|t| t.eval_interval),
+        ),
+        eval_episodes: pick(
+            "eval_episodes",
+            args.eval_episodes,
+            run.map(|t| t.eval_episodes),
+        ),
+    }
+}
+
 /// `--resume`: the newest complete checkpoint of the run, refusing flags that contradict it.
 fn resume_run(
     args: &TrainArgs,
     matches: Option<&ArgMatches>,
     variant: groundscope::policy::Variant,
-) -> anyhow::Result<(Trainer, u64, TrainingState)> {
+) -> anyhow::Result<(Trainer, u64, TrainingState, Option<Tracking>)> {
     let dir = &args.out;
     let (trainer, info) = run_dir::load_latest(dir)?;
     if info.variant != variant && given(matches, "model") {
@@ -210,7 +236,7 @@ fn resume_run(
         seed: info.seed,
     };
     saved.check_given(args, matches, "--resume", dir)?;
-    Ok((trainer, info.seed, info.training))
+    Ok((trainer, info.seed, info.training, info.tracking))
 }
 
 /// `--init NAME`: a new trainer on NAME's weights, refusing a checkpoint of the other model
@@ -463,14 +489,14 @@ fn train_in(
     drop(probe);
     let log_path = args.out.join("log.csv");
     let eval_path = args.out.join("eval_log.csv");
-    let (mut trainer, seed, kept) = if args.resume {
-        let (trainer, seed, kept) = resume_run(args, matches, variant)?;
+    let (mut trainer, seed, kept, track) = if args.resume {
+        let (trainer, seed, kept, saved) = resume_run(args, matches, variant)?;
         let u = trainer.state.updates;
         let rows = log_rows_upto(&log_path, LOG_HEADER, u);
         write_atomic(&log_path, format!("{LOG_HEADER}\n{rows}").as_bytes())?;
         let rows = log_rows_upto(&eval_path, EVAL_LOG_HEADER, u);
         write_atomic(&eval_path, format!("{EVAL_LOG_HEADER}\n{rows}").as_bytes())?;
-        (trainer, seed, Some(kept))
+        (trainer, seed, Some(kept), tracking(args, matches, saved))
     } else {
         if run_dir::holds_run(&args.out) {
             anyhow::bail!(
@@ -498,7 +524,7 @@ fn train_in(
             &eval_path,
             format!("{EVAL_LOG_HEADER}\n{parent_evals}").as_bytes(),
         )?;
-        (trainer, args.seed, None)
+        (trainer, args.seed, None, tracking(args, matches, None))
     };
     let open_append = |path: &Path| {
         std::fs::OpenOptions::new()
@@ -568,12 +594,12 @@ fn train_in(
                 log.update, log.frames, log.success_rate, log.mean_reward, log.entropy
             );
         }
-        if args.eval_interval > 0 && log.update % args.eval_interval == 0 {
+        if track.eval_interval > 0 && log.update % track.eval_interval == 0 {
             let net = Net::new(trainer.model, trainer.params.detached());
             let row = groundscope::metrics::tracking::track(
                 &net,
                 &trainer.level,
-                args.eval_episodes,
+                track.eval_episodes,
                 log.update,
                 log.frames,
             )?;
@@ -595,6 +621,7 @@ fn train_in(
                 &trainer,
                 &args.out,
                 training_state(&trainer, seed, Some(&log), None),
+                track,
             )?;
         }
         last = Some(log);
@@ -605,6 +632,7 @@ fn train_in(
             &trainer,
             &args.out,
             training_state(&trainer, seed, last.as_ref(), kept.as_ref()),
+            track,
         )?;
     }
     bar.finish_and_clear();

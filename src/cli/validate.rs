@@ -1,0 +1,79 @@
+//! `groundscope validate`: the tracked held-out evaluation of `train --eval-interval`, run on
+//! saved checkpoints — so a checkpoint (a snapshot of a run, another run's model, a bundled
+//! one) can be judged on the same validation levels as the runs' `eval_log.csv`, never on the
+//! test seeds of `eval`.
+
+use std::path::PathBuf;
+
+use clap::Args;
+use groundscope::metrics::tracking::{EVAL_LOG_HEADER, track};
+use groundscope::policy::checkpoint::write_atomic;
+use groundscope::policy::{Net, bundled};
+
+use crate::ExitStatus;
+
+/// `groundscope validate`.
+#[derive(Debug, Args)]
+#[command(
+    after_long_help = "EXAMPLES:\n  groundscope validate bundled:attention runs/att/model --episodes 500\n  groundscope validate snapshots/att/*/model --out choice.csv"
+)]
+pub struct ValidateArgs {
+    /// Checkpoints: NAME (NAME.json + NAME.safetensors) or bundled:attention /
+    /// bundled:baseline. Each is evaluated on its own training level.
+    #[arg(required = true, value_name = "NAME")]
+    pub checkpoints: Vec<String>,
+    /// Held-out episodes per checkpoint (level seeds 2^31 + e, those of `train`'s tracking).
+    #[arg(long, default_value_t = 500, allow_negative_numbers = true)]
+    pub episodes: u64,
+    /// Write the rows to this CSV file instead of stdout.
+    #[arg(long, value_name = "FILE")]
+    pub out: Option<PathBuf>,
+}
+
+/// `value` as one CSV field (quoted where it holds a comma, a quote or a line break).
+fn csv_field(value: &str) -> String {
+    if value.contains([',', '"', '\n', '\r']) {
+        format!("\"{}\"", value.replace('"', "\"\""))
+    } else {
+        value.to_owned()
+    }
+}
+
+/// Runs `validate`: every checkpoint is loaded before any is evaluated, and the output is
+/// written whole at the end, so bad input leaves no partial file.
+pub fn run(args: &ValidateArgs) -> anyhow::Result<ExitStatus> {
+    if args.episodes == 0 || args.episodes > 1_000_000 {
+        anyhow::bail!("--episodes {} must be between 1 and 1000000", args.episodes);
+    }
+    let mut ckpts = Vec::new();
+    for name in &args.checkpoints {
+        ckpts.push((name, bundled::load(name)?));
+    }
+    let mut text = format!("checkpoint,{EVAL_LOG_HEADER}\n");
+    for (name, ckpt) in ckpts {
+        let net = Net::new(ckpt.meta.model, ckpt.params.detached());
+        let t = &ckpt.meta.training;
+        let row = track(&net, &ckpt.meta.level, args.episodes, t.updates, t.frames)?;
+        text.push_str(&csv_field(name));
+        text.push(',');
+        text.push_str(&row.csv_row());
+        text.push('\n');
+    }
+    match &args.out {
+        Some(path) => write_atomic(path, text.as_bytes())?,
+        None => print!("{text}"),
+    }
+    Ok(ExitStatus::Success)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::csv_field;
+
+    #[test]
+    fn fields_are_quoted_only_where_csv_needs_it() {
+        assert_eq!(csv_field("runs/a/model"), "runs/a/model");
+        assert_eq!(csv_field("a,b"), "\"a,b\"");
+        assert_eq!(csv_field("say \"hi\""), "\"say \"\"hi\"\"\"");
+    }
+}
