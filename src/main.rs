@@ -23,6 +23,7 @@ pub enum ExitStatus {
 
 fn main() -> ExitCode {
     one_candle_thread_by_default();
+    keep_freed_pages();
     file_size_limit_is_an_error();
     // `println!` panics when stdout is closed or full. Those panics are not bugs: they are
     // turned into ripgrep's behaviour (a broken pipe ends quietly with 0, a full disk is a
@@ -109,6 +110,23 @@ fn one_candle_thread_by_default() {
             // SAFETY: the first statement of `main`, while this is the only thread.
             unsafe { std::env::set_var(var, "1") };
         }
+    }
+}
+
+/// mimalloc's `mi_option_purge_delay` (its index in `mimalloc.h`'s `mi_option_e`, the same in
+/// mimalloc 2 and 3; libmimalloc-sys names it only for version 2).
+const MI_OPTION_PURGE_DELAY: libmimalloc_sys::mi_option_t = 15;
+
+/// mimalloc hands pages it has not reused within a second back to the kernel, and a 2048-frame
+/// training step frees and re-allocates tens of MB per op: the kernel then zeroes every page
+/// again on first touch (`clear_page_erms`, 11% of a 2048-frame fwd+bwd profile). Keeping them
+/// costs only the peak footprint, which the process reaches every step anyway. Measured in
+/// README (issue #16). `MIMALLOC_PURGE_DELAY` set by the user still wins.
+#[expect(unsafe_code, reason = "mi_option_set is an FFI call")]
+fn keep_freed_pages() {
+    if std::env::var_os("MIMALLOC_PURGE_DELAY").is_none() {
+        // SAFETY: sets an option value of the allocator; any value is valid at any time.
+        unsafe { libmimalloc_sys::mi_option_set(MI_OPTION_PURGE_DELAY, -1) };
     }
 }
 

@@ -263,7 +263,10 @@ fn training_sequence_matches_step_by_step_acting() {
             let (lu, vu, mu) = net
                 .step_untraced(
                     &CellCodes::new(&obs[t * n..(t + 1) * n]),
-                    &TokenBatch::new(&missions[t * n..(t + 1) * n]).unwrap(),
+                    &net.mission_inputs_keyed(
+                        &TokenBatch::new(&missions[t * n..(t + 1) * n]).unwrap(),
+                    )
+                    .unwrap(),
                     &mem.masked(&keep_row).unwrap(),
                 )
                 .unwrap();

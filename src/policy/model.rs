@@ -312,13 +312,13 @@ impl Net {
     /// queries, fused attention): logits, values and the new memory, no attention tensors.
     /// The trainer's rollouts use it; everything that shows or replays an episode uses
     /// [`Self::step_with`], whose rounding it does not share.
+    /// `mission` comes from [`Self::mission_inputs_keyed`] (whole, or its rows `select`ed).
     pub fn step_untraced(
         &self,
         codes: &CellCodes,
-        tb: &TokenBatch,
+        mission: &MissionInputs,
         mem: &Memory,
     ) -> Result<(Tensor, Tensor, Memory), PolicyError> {
-        let mission = self.mission_inputs_keyed(tb)?;
         let o = self.cells(codes)?;
         let x = self.visual_features(&o, mission.queries.as_ref().map(|(q, m)| (q, m)))?;
         // A chunk of one step through the training path's LSTM op (`mem` is already reset).

@@ -9,6 +9,7 @@
 
 mod config;
 mod loss;
+mod missions;
 mod state;
 
 use candle_core::backprop::GradStore;
@@ -312,6 +313,7 @@ impl Trainer {
         );
         let n = p_n * t_n;
         let net = Net::new(self.model, self.params.detached());
+        let mut missions = missions::MissionCache::default();
         let mut ro = Rollout {
             obs: vec![
                 Observation {
@@ -332,7 +334,7 @@ impl Trainer {
         };
         let mut stats = EpisodeStats::default();
         for t in 0..t_n {
-            let out = self.act_all(&net)?;
+            let out = self.act_all(&net, &mut missions)?;
             let env_t = std::time::Instant::now();
             let st = &mut self.state;
             for (p, env) in st.envs.iter_mut().enumerate() {
@@ -382,7 +384,7 @@ impl Trainer {
             self.times.rollout_env += secs(env_t);
         }
         // Bootstrap values with the memory the next step would use.
-        let last = self.act_all(&net)?;
+        let last = self.act_all(&net, &mut missions)?;
         let gae_t = std::time::Instant::now();
         let (gamma, lambda) = (self.ppo.discount as f32, self.ppo.gae_lambda as f32);
         for p in 0..p_n {
@@ -408,7 +410,11 @@ impl Trainer {
     }
 
     /// One gradient-free step for every environment with its masked memory.
-    fn act_all(&mut self, net: &Net) -> Result<ActAll, PolicyError> {
+    fn act_all(
+        &mut self,
+        net: &Net,
+        cache: &mut missions::MissionCache,
+    ) -> Result<ActAll, PolicyError> {
         let encode_t = std::time::Instant::now();
         let hid = self.model.lstm_hidden;
         let envs = &self.state.envs;
@@ -424,10 +430,11 @@ impl Trainer {
             h: Tensor::from_vec(h, (envs.len(), hid), &Device::Cpu)?,
             c: Tensor::from_vec(c, (envs.len(), hid), &Device::Cpu)?,
         };
-        let enc = super::Encoded::new(&obs, &missions)?;
+        let codes = super::obs::CellCodes::new(&obs);
         let encoded = secs(encode_t);
         let forward_t = std::time::Instant::now();
-        let (logits, values, memory) = net.step_untraced(&enc.codes, &enc.tokens, &mem)?;
+        let mission = cache.inputs(net, &missions)?;
+        let (logits, values, memory) = net.step_untraced(&codes, &mission, &mem)?;
         let out = ActAll {
             probs: super::model::probs_host(&logits)?,
             values: values.to_vec1::<f32>()?,

@@ -1478,7 +1478,15 @@ impl Map2 for MatMul {
         let dst_rs = dst_strides[0];
         let dst_cs = dst_strides[1];
 
-        let mut dst = vec![T::zero(); b * m * n];
+        // gemm is called with read_dst = false and overwrites every element of dst when
+        // k > 0, so the buffer is not zeroed first (a memset of every matmul's output,
+        // 1-2% of a training step); with k == 0 gemm computes nothing and dst stays zeros.
+        let dst_len = b * m * n;
+        let mut dst: Vec<T> = if k == 0 {
+            vec![T::zero(); dst_len]
+        } else {
+            Vec::with_capacity(dst_len)
+        };
         let num_threads = crate::utils::get_num_threads();
         let parallelism = if num_threads > 1 {
             Parallelism::Rayon(num_threads)
@@ -1502,13 +1510,14 @@ impl Map2 for MatMul {
         for step in 0..b {
             let lhs_p = &lhs[step * a_skip..];
             let rhs_p = &rhs[step * b_skip..];
-            let dst_p = &mut dst[step * c_skip..];
+            // A raw pointer, not a slice: dst's length stays 0 until every element is written.
+            let dst_p = unsafe { dst.as_mut_ptr().add(step * c_skip) };
             unsafe {
                 gemm(
                     /* m: usize = */ m,
                     /* n: usize = */ n,
                     /* k: usize = */ k,
-                    /* dst: *mut T = */ dst_p.as_mut_ptr(),
+                    /* dst: *mut T = */ dst_p,
                     /* dst_cs: isize = */ dst_cs as isize,
                     /* dst_rs: isize = */ dst_rs as isize,
                     /* read_dst: bool = */ false,
@@ -1527,6 +1536,8 @@ impl Map2 for MatMul {
                 )
             }
         }
+        // SAFETY: with k > 0 the gemm calls above wrote all b * m * n elements.
+        unsafe { dst.set_len(dst_len) };
         Ok(dst)
     }
 
