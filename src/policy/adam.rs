@@ -53,6 +53,17 @@ impl Adam {
         vars: &BTreeMap<String, Var>,
         grads: &GradStore,
     ) -> Result<(), PolicyError> {
+        self.step_scaled(vars, grads, None)
+    }
+
+    /// [`Self::step`] on the gradients multiplied by `scale` (gradient clipping), computed as
+    /// candle's `g * scale` would (`g · scale + 0` in f32) without a tensor of its own.
+    pub fn step_scaled(
+        &mut self,
+        vars: &BTreeMap<String, Var>,
+        grads: &GradStore,
+        scale: Option<f64>,
+    ) -> Result<(), PolicyError> {
         self.step += 1;
         let AdamConfig {
             lr,
@@ -61,11 +72,13 @@ impl Adam {
             eps,
         } = self.cfg;
         let t = self.step as i32;
-        // The update runs as one host loop per parameter: as candle ops it was ten full-size
-        // temporaries per parameter and a tenth of the training time (issue #16).
+        // The update runs as one host pass per parameter over the tensors' own buffers: as
+        // candle ops it was ten full-size temporaries per parameter, and copying each operand
+        // out and back was still most of the optimizer's time (issue #16).
         let (b1, b2) = (beta1 as f32, beta2 as f32);
         let (bc1, bc2) = ((1.0 - beta1.powi(t)) as f32, (1.0 - beta2.powi(t)) as f32);
         let (lr, eps) = (lr as f32, eps as f32);
+        let scale = scale.map(|s| s as f32);
         for (k, var) in vars {
             let Some(g) = grads.get(var.as_tensor()) else {
                 continue;
@@ -74,30 +87,67 @@ impl Adam {
                 continue;
             };
             let shape = var.as_tensor().shape().clone();
-            let g: Vec<f32> = g.flatten_all()?.to_vec1()?;
-            let mut p: Vec<f32> = var.as_tensor().flatten_all()?.to_vec1()?;
-            let mut mv: Vec<f32> = m.flatten_all()?.to_vec1()?;
-            let mut vv: Vec<f32> = v.flatten_all()?.to_vec1()?;
-            for (((p, m), v), g) in p.iter_mut().zip(&mut mv).zip(&mut vv).zip(&g) {
-                *m = b1 * *m + (1.0 - b1) * g;
-                *v = b2 * *v + (1.0 - b2) * g * g;
-                *p -= lr * ((*m / bc1) / ((*v / bc2).sqrt() + eps));
+            let n = shape.elem_count();
+            let (mut pn, mut mn, mut vn) = (
+                Vec::with_capacity(n),
+                Vec::with_capacity(n),
+                Vec::with_capacity(n),
+            );
+            let g = g.contiguous()?;
+            {
+                let (gs, gl) = g.storage_and_layout();
+                let (ps, pl) = var.as_tensor().storage_and_layout();
+                let (ms, ml) = m.storage_and_layout();
+                let (vs, vl) = v.storage_and_layout();
+                let (g, p) = (host(&gs, gl)?, host(&ps, pl)?);
+                let (m, v) = (host(&ms, ml)?, host(&vs, vl)?);
+                for (((&p, &m), &v), &g) in p.iter().zip(m).zip(v).zip(g) {
+                    let g = match scale {
+                        Some(s) => g * s + 0.0,
+                        None => g,
+                    };
+                    let m = b1 * m + (1.0 - b1) * g;
+                    let v = b2 * v + (1.0 - b2) * g * g;
+                    mn.push(m);
+                    vn.push(v);
+                    pn.push(p - lr * ((m / bc1) / ((v / bc2).sqrt() + eps)));
+                }
             }
-            *m = Tensor::from_vec(mv, shape.clone(), &Device::Cpu)?;
-            *v = Tensor::from_vec(vv, shape.clone(), &Device::Cpu)?;
-            var.set(&Tensor::from_vec(p, shape, &Device::Cpu)?)?;
+            if pn.len() != n {
+                return Err(PolicyError::Input(format!(
+                    "adam: gradient of {k} has {} values, not {n}",
+                    g.elem_count()
+                )));
+            }
+            *m = Tensor::from_vec(mn, shape.clone(), &Device::Cpu)?;
+            *v = Tensor::from_vec(vn, shape.clone(), &Device::Cpu)?;
+            var.set(&Tensor::from_vec(pn, shape, &Device::Cpu)?)?;
         }
         Ok(())
     }
 }
 
-/// Scales gradients so that their global L2 norm is at most `max_norm`; returns the norm
-/// before clipping (what torch-ac logs). Sums in name order, so the result is deterministic.
-pub fn clip_grad_norm(
-    grads: &mut GradStore,
+/// The f32 values of a contiguous CPU tensor's storage, in place.
+pub(super) fn host<'a>(
+    storage: &'a candle_core::Storage,
+    layout: &candle_core::Layout,
+) -> Result<&'a [f32], PolicyError> {
+    let candle_core::Storage::Cpu(cpu) = storage else {
+        return Err(PolicyError::Input(
+            "optimizer: tensors must be on the CPU".into(),
+        ));
+    };
+    Ok(super::fused::f32_slice(cpu, layout, "optimizer operand")?)
+}
+
+/// The global gradient norm `‖g‖₂` over `vars` (each parameter's sum of squares by candle,
+/// added in f64 in name order) and the factor that clips it to `max_norm` (torch's
+/// `clip_grad_norm_`: `max_norm / (‖g‖ + 1e-6)` where that is below 1).
+pub fn grad_norm(
+    grads: &GradStore,
     vars: &BTreeMap<String, Var>,
     max_norm: f64,
-) -> Result<f64, PolicyError> {
+) -> Result<(f64, Option<f64>), PolicyError> {
     let mut sq = 0.0f64;
     for v in vars.values() {
         if let Some(g) = grads.get(v.as_tensor()) {
@@ -106,15 +156,7 @@ pub fn clip_grad_norm(
     }
     let norm = sq.sqrt();
     let scale = max_norm / (norm + 1e-6);
-    if scale < 1.0 {
-        for v in vars.values() {
-            if let Some(g) = grads.get(v.as_tensor()) {
-                let g = (g * scale)?;
-                grads.insert(v.as_tensor(), g);
-            }
-        }
-    }
-    Ok(norm)
+    Ok((norm, (scale < 1.0).then_some(scale)))
 }
 
 #[cfg(test)]

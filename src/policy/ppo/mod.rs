@@ -20,7 +20,7 @@ use rand_pcg::Pcg64Mcg;
 use serde::{Deserialize, Serialize};
 
 use super::ModelConfig;
-use super::adam::{Adam, AdamConfig, clip_grad_norm};
+use super::adam::{Adam, AdamConfig, grad_norm, host};
 use super::error::PolicyError;
 use super::model::{Memory, Net};
 use super::params::Params;
@@ -499,7 +499,7 @@ impl Trainer {
                     .collect();
                 let (stores, outs): (Vec<GradStore>, Vec<ShardOut>) = outs.into_iter().unzip();
                 let opt_t = std::time::Instant::now();
-                let mut grads = self.merge_grads(stores, &shares)?;
+                let grads = self.merge_grads(stores, &shares)?;
                 for ((part, out), w) in parts.iter().zip(&outs).zip(&shares) {
                     // Refresh the stored memories inside each chunk, as torch-ac does.
                     for (k, (hs, cs)) in out.mems.iter().enumerate() {
@@ -513,8 +513,8 @@ impl Trainer {
                     log.entropy += w * out.entropy;
                     self.times.add(&out.times);
                 }
-                let norm = clip_grad_norm(&mut grads, &self.params.vars, self.ppo.max_grad_norm)?;
-                self.adam.step(&self.params.vars, &grads)?;
+                let (norm, clip) = grad_norm(&grads, &self.params.vars, self.ppo.max_grad_norm)?;
+                self.adam.step_scaled(&self.params.vars, &grads, clip)?;
                 self.times.optimizer += secs(opt_t);
                 log.grad_norm += norm;
                 n_batches += 1.0;
@@ -542,23 +542,33 @@ impl Trainer {
         if rest.is_empty() {
             return Ok(merged);
         }
+        // One host pass per parameter with candle's arithmetic: `g * w` is its affine
+        // `g · w + 0` in f32, and the terms are added in shard order, as tensors they were.
+        let shares: Vec<f32> = shares.iter().map(|&w| w as f32).collect();
         for v in self.params.vars.values() {
-            let mut sum = merged
-                .get(v.as_tensor())
-                .map(|g| g * shares[0])
-                .transpose()?;
-            for (grads, &w) in rest.iter().zip(&shares[1..]) {
-                if let Some(g) = grads.get(v.as_tensor()) {
-                    let g = (g * w)?;
-                    sum = Some(match sum {
-                        Some(acc) => (acc + g)?,
-                        None => g,
-                    });
+            let terms: Vec<(Tensor, f32)> = std::iter::once(&merged)
+                .chain(&rest)
+                .zip(&shares)
+                .filter_map(|(grads, &w)| grads.get(v.as_tensor()).map(|g| (g.clone(), w)))
+                .map(|(g, w)| Ok((g.contiguous()?, w)))
+                .collect::<Result<_, PolicyError>>()?;
+            let Some(shape) = terms.first().map(|(g, _)| g.shape().clone()) else {
+                continue;
+            };
+            let mut sum = vec![0f32; shape.elem_count()];
+            for (k, (g, w)) in terms.iter().enumerate() {
+                let (gs, gl) = g.storage_and_layout();
+                let g = host(&gs, gl)?;
+                if g.len() != sum.len() {
+                    return Err(PolicyError::Input("shard gradients differ in shape".into()));
+                }
+                if k == 0 {
+                    sum.iter_mut().zip(g).for_each(|(s, &g)| *s = g * w + 0.0);
+                } else {
+                    sum.iter_mut().zip(g).for_each(|(s, &g)| *s += g * w + 0.0);
                 }
             }
-            if let Some(sum) = sum {
-                merged.insert(v.as_tensor(), sum);
-            }
+            merged.insert(v.as_tensor(), Tensor::from_vec(sum, shape, &Device::Cpu)?);
         }
         Ok(merged)
     }
