@@ -146,9 +146,9 @@ impl CustomOp3 for AttentionFilter {
             &grad.contiguous()?,
             &AttentionFilterBackward { m, k, mask },
         )?;
-        let dqk = both.narrow(1, 0, m * k)?.reshape((b, m, k))?;
+        let dqk = both.narrow(0, 0, b * m * k)?.reshape((b, m, k))?;
         let d_o = both
-            .narrow(1, m * k, N_CELLS * k)?
+            .narrow(0, b * m * k, b * N_CELLS * k)?
             .reshape((b, N_CELLS, k))?;
         Ok((Some(dqk), None, Some(d_o)))
     }
@@ -184,8 +184,10 @@ impl CustomOp3 for AttentionFilterBackward {
             slice(s2, l2, "attention: O")?,
             slice(s3, l3, "attention: dF")?,
         );
-        let width = m * k + N_CELLS * k;
-        let mut out = vec![0f32; b * width];
+        // All rows' dQ̂ first, then all rows' dÕ: each half is a contiguous tensor on its own,
+        // so splitting the output costs no copy (row-interleaved halves had to be copied).
+        let mut out = vec![0f32; b * (m + N_CELLS) * k];
+        let (dqk_all, d_o_all) = out.split_at_mut(b * m * k);
         let (mut a, mut w, mut mm) = (vec![0f32; m * N_CELLS], vec![0f32; m], vec![0f32; N_CELLS]);
         let scale = N_CELLS as f32;
         let mut dm = [0f32; N_CELLS];
@@ -199,7 +201,8 @@ impl CustomOp3 for AttentionFilterBackward {
             let df = &df_all[r * N_CELLS * k..(r + 1) * N_CELLS * k];
             scores(qr, oj_all, k, &mut ds);
             maps(&ds, maskr, &mut a, &mut w, &mut mm);
-            let (dqk, d_o) = out[r * width..(r + 1) * width].split_at_mut(m * k);
+            let dqk = &mut dqk_all[r * m * k..(r + 1) * m * k];
+            let d_o = &mut d_o_all[r * N_CELLS * k..(r + 1) * N_CELLS * k];
             // F_j = 49·M_j·O_j.
             for j in 0..N_CELLS {
                 let (oj, dfj) = (&oj_all[j * k..(j + 1) * k], &df[j * k..(j + 1) * k]);
@@ -261,7 +264,8 @@ impl CustomOp3 for AttentionFilterBackward {
                 }
             }
         }
-        Ok((CpuStorage::F32(out), Shape::from((b, width))))
+        let len = out.len();
+        Ok((CpuStorage::F32(out), Shape::from(len)))
     }
 }
 
