@@ -149,9 +149,17 @@ fn fused_attention_matches_the_autograd_reference() {
 
 #[test]
 fn sparse_conv_matches_the_dense_patch_gemm() {
+    // 16 channels take the fixed-width loops, 8 the general ones.
+    for channels in [16, 8] {
+        sparse_conv_matches_dense(channels);
+    }
+}
+
+fn sparse_conv_matches_dense(channels: usize) {
     use groundscope::env::view::Observation;
     use groundscope::policy::obs::{CellCodes, patches};
-    let cfg = ModelConfig::new(Variant::Attention);
+    let mut cfg = ModelConfig::new(Variant::Attention);
+    cfg.conv_channels = channels;
     let params = Params::init(&cfg, 5).unwrap();
     let net = Net::new(cfg, params.tracked());
     let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(11);
