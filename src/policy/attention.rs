@@ -23,7 +23,7 @@ const TINY: f64 = 1e-30;
 /// Eq. 3: the scaled scores `Q Kcᵀ / √d_k`, (B, m, 49).
 pub fn scores(q: &Tensor, kc: &Tensor) -> Result<Tensor, PolicyError> {
     let d_k = q.dim(D::Minus1)? as f64;
-    Ok((q.matmul(&kc.transpose(1, 2)?.contiguous()?)? / d_k.sqrt())?)
+    Ok((q.matmul(&kc.transpose(1, 2)?)? / d_k.sqrt())?)
 }
 
 /// Eq. 3 regrouped for the fused training path: since `Kc = Õ W_kᵀ`,

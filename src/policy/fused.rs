@@ -4,6 +4,11 @@
 
 use candle_core::{CpuStorage, CustomOp2, CustomOp3, Layout, Result, Shape, Tensor};
 
+// The same activations as the training path's LSTM op, so that acting (evaluation, replays,
+// the debugger) computes what the rollouts trained on; glibc's `tanhf`/`expf` were also a
+// fifth of a batch-256 inference step.
+use super::fused_sequence::{sigmoid, tanh_fast};
+
 /// The element-wise part of one LSTM step, PyTorch's gate order (i, f, g, o): from the gate
 /// pre-activations `g` (B, 4H) and the previous cell state `c` (B, H), the new `[h, c]` as one
 /// (B, 2H) tensor.
@@ -12,11 +17,6 @@ pub struct LstmGates;
 /// Its backward: from `g`, `c` and the gradient of `[h, c]`, the gradients `[dg, dc]` as one
 /// (B, 5H) tensor.
 struct LstmGatesBackward;
-
-#[inline]
-fn sigmoid(x: f32) -> f32 {
-    1.0 / (1.0 + (-x).exp())
-}
 
 /// The f32 values of a contiguous storage; `what` names the op and input in errors.
 pub(super) fn f32_slice<'a>(s: &'a CpuStorage, l: &Layout, what: &str) -> Result<&'a [f32]> {
@@ -66,11 +66,11 @@ impl CustomOp2 for LstmGates {
             for k in 0..h {
                 let i = sigmoid(gr[k]);
                 let f = sigmoid(gr[h + k]);
-                let gg = gr[2 * h + k].tanh();
+                let gg = tanh_fast(gr[2 * h + k]);
                 let o = sigmoid(gr[3 * h + k]);
                 let cn = f * cr[k] + i * gg;
                 oc[k] = cn;
-                oh[k] = o * cn.tanh();
+                oh[k] = o * tanh_fast(cn);
             }
         }
         Ok((CpuStorage::F32(out), Shape::from((b, 2 * h))))
@@ -130,10 +130,10 @@ impl CustomOp3 for LstmGatesBackward {
             for k in 0..h {
                 let i = sigmoid(gr[k]);
                 let f = sigmoid(gr[h + k]);
-                let gg = gr[2 * h + k].tanh();
+                let gg = tanh_fast(gr[2 * h + k]);
                 let o = sigmoid(gr[3 * h + k]);
                 let cn = f * cr[k] + i * gg;
-                let tc = cn.tanh();
+                let tc = tanh_fast(cn);
                 let dc = dc_out[k] + dh[k] * o * (1.0 - tc * tc);
                 dg[k] = dc * gg * i * (1.0 - i);
                 dg[h + k] = dc * cr[k] * f * (1.0 - f);

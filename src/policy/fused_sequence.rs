@@ -48,7 +48,7 @@ pub fn tanh_fast(x: f32) -> f32 {
 
 /// `σ(x) = (1 + tanh(x/2)) / 2`, through [`tanh_fast`].
 #[inline]
-fn sigmoid(x: f32) -> f32 {
+pub(super) fn sigmoid(x: f32) -> f32 {
     0.5 * tanh_fast(0.5 * x) + 0.5
 }
 
