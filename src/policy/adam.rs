@@ -149,14 +149,7 @@ impl AdamUpdate {
         g: &[f32],
         grad: impl Fn(f32) -> f32,
     ) {
-        let Self {
-            b1,
-            b2,
-            bc1,
-            bc2,
-            lr,
-            eps,
-        } = *self;
+        let (b1, b2, bc1, bc2, lr, eps) = (self.b1, self.b2, self.bc1, self.bc2, self.lr, self.eps);
         for (((p, m), v), &g) in p.iter_mut().zip(m.iter_mut()).zip(v.iter_mut()).zip(g) {
             let g = grad(g);
             *m = b1 * *m + (1.0 - b1) * g;
