@@ -181,6 +181,11 @@ pub fn band_panels(
                 let color = SERIES_COLORS[i % SERIES_COLORS.len()];
                 let pts: Vec<&(f64, f64, f64, usize)> =
                     b.points.iter().filter(|p| p.1.is_finite()).collect();
+                if pts.is_empty() {
+                    // A model without this measure (a baseline's word accuracies): no line
+                    // and no legend entry.
+                    continue;
+                }
                 if pts.iter().any(|p| p.3 > 1) {
                     let mut poly: Vec<(f64, f64)> =
                         pts.iter().map(|p| (p.0, (p.1 + p.2).min(1.0))).collect();
@@ -202,7 +207,7 @@ pub fn band_panels(
             }
             chart
                 .configure_series_labels()
-                .position(SeriesLabelPosition::LowerRight)
+                .position(free_corner(bands, x_max))
                 .background_style(WHITE.mix(0.85))
                 .border_style(BLACK)
                 .label_font(("sans-serif", 14))
@@ -214,9 +219,68 @@ pub fn band_panels(
     save_rgb(&buf, w, h, path)
 }
 
+/// The corner of a panel (x from 0 to `x_max`, y from 0 to 1) where the legend hides the
+/// fewest points of the bands: a legend box covers about the outer 40% of the width and 30%
+/// of the height. Ties go to the lower right, then the upper right.
+fn free_corner(bands: &[Band], x_max: f64) -> SeriesLabelPosition {
+    let corners = [
+        (SeriesLabelPosition::LowerRight, true, false),
+        (SeriesLabelPosition::UpperRight, true, true),
+        (SeriesLabelPosition::UpperLeft, false, true),
+        (SeriesLabelPosition::LowerLeft, false, false),
+    ];
+    let hidden = |right: bool, top: bool| {
+        bands
+            .iter()
+            .flat_map(|b| &b.points)
+            .filter(|p| p.1.is_finite())
+            .filter(|p| {
+                let x_in = if right {
+                    p.0 > 0.6 * x_max
+                } else {
+                    p.0 < 0.4 * x_max
+                };
+                let y_in = if top { p.1 > 0.7 } else { p.1 < 0.3 };
+                x_in && y_in
+            })
+            .count()
+    };
+    corners
+        .into_iter()
+        .min_by_key(|&(_, right, top)| hidden(right, top))
+        .map_or(SeriesLabelPosition::LowerRight, |c| c.0)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_legend_goes_where_the_curves_are_not() {
+        let band = |ys: &[f64]| Band {
+            label: "x".into(),
+            points: ys
+                .iter()
+                .enumerate()
+                .map(|(i, &y)| (i as f64, y, 0.0, 1))
+                .collect(),
+        };
+        let rising = band(&[0.0, 0.2, 0.5, 0.8, 0.9, 0.95, 1.0, 1.0, 1.0, 1.0]);
+        let falling = band(&[0.0, 0.3, 0.5, 0.5, 0.4, 0.3, 0.2, 0.1, 0.05, 0.0]);
+        assert!(matches!(
+            free_corner(std::slice::from_ref(&rising), 9.0),
+            SeriesLabelPosition::LowerRight
+        ));
+        assert!(matches!(
+            free_corner(&[falling], 9.0),
+            SeriesLabelPosition::UpperRight
+        ));
+        // Lines without a finite point hide nothing.
+        assert!(matches!(
+            free_corner(&[rising, band(&[f64::NAN; 10])], 9.0),
+            SeriesLabelPosition::LowerRight
+        ));
+    }
 
     #[test]
     fn recipes_drop_seed_suffixes_only() {
