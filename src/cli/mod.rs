@@ -8,6 +8,7 @@ mod policy_cmd;
 mod replay;
 mod run_dir;
 mod train;
+mod train_start;
 mod validate;
 mod view;
 

@@ -9,7 +9,6 @@ use std::time::Instant;
 use anyhow::Context as _;
 use clap::ArgMatches;
 use clap::Args;
-use clap::parser::ValueSource;
 use groundscope::metrics::tracking::EVAL_LOG_HEADER;
 use groundscope::policy::checkpoint::write_atomic;
 use groundscope::policy::ppo::{PpoConfig, Trainer, UpdateLog};
@@ -19,6 +18,7 @@ use crate::ExitStatus;
 use crate::cli::env_cmd::LevelArgs;
 use crate::cli::policy_cmd::parse_variant;
 use crate::cli::run_dir::{self, Tracking};
+use crate::cli::train_start::{resume_run, tracking, warm_start};
 
 /// `groundscope train`.
 #[derive(Debug, Args)]
@@ -118,7 +118,7 @@ pub struct TrainArgs {
 
 const LOG_HEADER: &str = "update,frames,fps,episodes,success_rate,mean_reward,mean_length,policy_loss,value_loss,entropy,grad_norm,elapsed_secs";
 
-fn ppo_config(a: &TrainArgs) -> PpoConfig {
+pub(super) fn ppo_config(a: &TrainArgs) -> PpoConfig {
     PpoConfig {
         procs: a.procs,
         frames_per_proc: a.frames_per_proc,
@@ -190,225 +190,6 @@ fn save_run(
         eprintln!("groundscope: {}: {e:#}", dir.join("curve.png").display());
     }
     Ok(())
-}
-
-/// The tracking settings of this invocation: the flags given, and on `--resume` the run's own
-/// settings for those left out (a run saved before they were kept takes the defaults).
-fn tracking(args: &TrainArgs, matches: Option<&ArgMatches>, run: Option<Tracking>) -> Tracking {
-    let pick = |id: &str, now: u64, saved: Option<u64>| match saved {
-        Some(v) if !given(matches, id) => v,
-        _ => now,
-    };
-    Tracking {
-        eval_interval: pick(
-            "eval_interval",
-            args.eval_interval,
-            run.map(|t| t.eval_interval),
-        ),
-        eval_episodes: pick(
-            "eval_episodes",
-            args.eval_episodes,
-            run.map(|t| t.eval_episodes),
-        ),
-    }
-}
-
-/// `--resume`: the newest complete checkpoint of the run, refusing flags that contradict it.
-fn resume_run(
-    args: &TrainArgs,
-    matches: Option<&ArgMatches>,
-    variant: groundscope::policy::Variant,
-) -> anyhow::Result<(Trainer, u64, TrainingState, Option<Tracking>)> {
-    let dir = &args.out;
-    let (trainer, info) = run_dir::load_latest(dir)?;
-    if info.variant != variant && given(matches, "model") {
-        anyhow::bail!(
-            "--resume: {} holds a {} model, not {}",
-            dir.display(),
-            info.variant.name(),
-            variant.name()
-        );
-    }
-    let saved = Fixed {
-        ppo: info.ppo,
-        level: info.level,
-        hidden: info.hidden,
-        seed: info.seed,
-    };
-    saved.check_given(args, matches, "--resume", dir)?;
-    Ok((trainer, info.seed, info.training, info.tracking))
-}
-
-/// `--init NAME`: a new trainer on NAME's weights, refusing a checkpoint of the other model
-/// or a `--hidden` that differs from its size.
-fn warm_start(
-    name: &str,
-    variant: groundscope::policy::Variant,
-    level: groundscope::env::level::LevelConfig,
-    ppo: PpoConfig,
-    args: &TrainArgs,
-    matches: Option<&ArgMatches>,
-) -> anyhow::Result<Trainer> {
-    let ckpt =
-        groundscope::policy::bundled::load(name).with_context(|| format!("--init {name}"))?;
-    if ckpt.meta.model.variant != variant {
-        anyhow::bail!(
-            "--init: {name} is a {} model, not {}",
-            ckpt.meta.model.variant.name(),
-            variant.name()
-        );
-    }
-    if given(matches, "hidden") && args.hidden != ckpt.meta.model.lstm_hidden {
-        anyhow::bail!(
-            "--init: {name} has hidden size {}, not --hidden {}",
-            ckpt.meta.model.lstm_hidden,
-            args.hidden
-        );
-    }
-    Ok(Trainer::warm_start(
-        ckpt.meta.model,
-        level,
-        ppo,
-        ckpt.params,
-        args.seed,
-        ckpt.meta.training.frames,
-        ckpt.meta.training.updates,
-    )?)
-}
-
-/// Whether flag `id` was given on the command line rather than left at its default.
-fn given(matches: Option<&ArgMatches>, id: &str) -> bool {
-    matches.is_some_and(|m| m.value_source(id) == Some(ValueSource::CommandLine))
-}
-
-/// What a run fixes at its start. On `--resume` a flag left out takes the run's value, and a
-/// flag given with another value is an error rather than silently ignored.
-struct Fixed {
-    ppo: PpoConfig,
-    level: groundscope::env::level::LevelConfig,
-    hidden: usize,
-    seed: u64,
-}
-
-impl Fixed {
-    fn check_given(
-        &self,
-        args: &TrainArgs,
-        matches: Option<&ArgMatches>,
-        how: &str,
-        dir: &Path,
-    ) -> anyhow::Result<()> {
-        let (now, run) = (ppo_config(args), &self.ppo);
-        let a = &args.level;
-        let l = &self.level;
-        let pairs: [(&str, String, String); 21] = [
-            (
-                "reward_scale",
-                now.reward_scale.to_string(),
-                run.reward_scale.to_string(),
-            ),
-            (
-                "normalize_advantages",
-                now.normalize_advantages.to_string(),
-                run.normalize_advantages.to_string(),
-            ),
-            ("procs", now.procs.to_string(), run.procs.to_string()),
-            (
-                "frames_per_proc",
-                now.frames_per_proc.to_string(),
-                run.frames_per_proc.to_string(),
-            ),
-            ("epochs", now.epochs.to_string(), run.epochs.to_string()),
-            (
-                "batch_size",
-                now.batch_size.to_string(),
-                run.batch_size.to_string(),
-            ),
-            (
-                "recurrence",
-                now.recurrence.to_string(),
-                run.recurrence.to_string(),
-            ),
-            ("lr", now.lr.to_string(), run.lr.to_string()),
-            (
-                "adam_eps",
-                now.adam_eps.to_string(),
-                run.adam_eps.to_string(),
-            ),
-            (
-                "discount",
-                now.discount.to_string(),
-                run.discount.to_string(),
-            ),
-            (
-                "gae_lambda",
-                now.gae_lambda.to_string(),
-                run.gae_lambda.to_string(),
-            ),
-            (
-                "entropy_coef",
-                now.entropy_coef.to_string(),
-                run.entropy_coef.to_string(),
-            ),
-            (
-                "value_loss_coef",
-                now.value_loss_coef.to_string(),
-                run.value_loss_coef.to_string(),
-            ),
-            (
-                "max_grad_norm",
-                now.max_grad_norm.to_string(),
-                run.max_grad_norm.to_string(),
-            ),
-            (
-                "clip_eps",
-                now.clip_eps.to_string(),
-                run.clip_eps.to_string(),
-            ),
-            (
-                "update_threads",
-                now.update_threads.to_string(),
-                run.update_threads.to_string(),
-            ),
-            ("hidden", args.hidden.to_string(), self.hidden.to_string()),
-            ("seed", args.seed.to_string(), self.seed.to_string()),
-            ("size", a.size.to_string(), l.room_size.to_string()),
-            ("objects", a.objects.to_string(), l.n_objects.to_string()),
-            (
-                "tasks",
-                task_name(&a.tasks),
-                format!("{:?}", l.tasks).to_lowercase(),
-            ),
-        ];
-        for (id, now, run) in pairs {
-            if given(matches, id) && now != run {
-                anyhow::bail!(
-                    "{how}: the run in {} was started with --{} {run}, not {now}; leave the flag out to keep the run's value",
-                    dir.display(),
-                    id.replace('_', "-")
-                );
-            }
-        }
-        for (id, on) in [
-            ("no_done", !l.done_required),
-            ("always_color", !l.color_optional),
-        ] {
-            if given(matches, id) && !on {
-                anyhow::bail!(
-                    "{how}: the run in {} was started without --{}",
-                    dir.display(),
-                    id.replace('_', "-")
-                );
-            }
-        }
-        Ok(())
-    }
-}
-
-/// `--tasks` as the run files spell it, so `both` and its aliases compare equal.
-fn task_name(given: &str) -> String {
-    groundscope::env::TaskSet::parse(given)
-        .map_or_else(|_| given.to_owned(), |t| format!("{t:?}").to_lowercase())
 }
 
 /// The rows of the `log.csv` beside checkpoint `name` up to `updates`, so a warm-started
