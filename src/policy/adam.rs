@@ -172,6 +172,52 @@ pub(super) fn host<'a>(
     Ok(super::fused::f32_slice(cpu, layout, "optimizer operand")?)
 }
 
+/// The minibatch gradient from its shards' gradients, `Σ share_k · g_k` added in shard
+/// order (one shard: its gradient as it is).
+pub fn merge_shards(
+    vars: &BTreeMap<String, Var>,
+    stores: Vec<GradStore>,
+    shares: &[f64],
+) -> Result<GradStore, PolicyError> {
+    let mut stores = stores.into_iter();
+    let Some(mut merged) = stores.next() else {
+        return Err(PolicyError::Input("empty minibatch".into()));
+    };
+    let rest: Vec<GradStore> = stores.collect();
+    if rest.is_empty() {
+        return Ok(merged);
+    }
+    // One host pass per parameter with candle's arithmetic: `g * w` is its affine
+    // `g · w + 0` in f32, and the terms are added in shard order, as tensors they were.
+    let shares: Vec<f32> = shares.iter().map(|&w| w as f32).collect();
+    for v in vars.values() {
+        let terms: Vec<(Tensor, f32)> = std::iter::once(&merged)
+            .chain(&rest)
+            .zip(&shares)
+            .filter_map(|(grads, &w)| grads.get(v.as_tensor()).map(|g| (g.clone(), w)))
+            .map(|(g, w)| Ok((g.contiguous()?, w)))
+            .collect::<Result<_, PolicyError>>()?;
+        let Some(shape) = terms.first().map(|(g, _)| g.shape().clone()) else {
+            continue;
+        };
+        let mut sum = vec![0f32; shape.elem_count()];
+        for (k, (g, w)) in terms.iter().enumerate() {
+            let (gs, gl) = g.storage_and_layout();
+            let g = host(&gs, gl)?;
+            if g.len() != sum.len() {
+                return Err(PolicyError::Input("shard gradients differ in shape".into()));
+            }
+            if k == 0 {
+                sum.iter_mut().zip(g).for_each(|(s, &g)| *s = g * w + 0.0);
+            } else {
+                sum.iter_mut().zip(g).for_each(|(s, &g)| *s += g * w + 0.0);
+            }
+        }
+        merged.insert(v.as_tensor(), Tensor::from_vec(sum, shape, &Device::Cpu)?);
+    }
+    Ok(merged)
+}
+
 /// The global gradient norm `‖g‖₂` over `vars` (each parameter's sum of squares by candle,
 /// added in f64 in name order) and the factor that clips it to `max_norm` (torch's
 /// `clip_grad_norm_`: `max_norm / (‖g‖ + 1e-6)` where that is below 1).

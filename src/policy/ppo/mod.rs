@@ -20,7 +20,7 @@ use rand_pcg::Pcg64Mcg;
 use serde::{Deserialize, Serialize};
 
 use super::ModelConfig;
-use super::adam::{Adam, AdamConfig, grad_norm, host};
+use super::adam::{Adam, AdamConfig, grad_norm, merge_shards};
 use super::error::PolicyError;
 use super::model::{Memory, Net};
 use super::params::Params;
@@ -499,7 +499,7 @@ impl Trainer {
                     .collect();
                 let (stores, outs): (Vec<GradStore>, Vec<ShardOut>) = outs.into_iter().unzip();
                 let opt_t = std::time::Instant::now();
-                let grads = self.merge_grads(stores, &shares)?;
+                let grads = merge_shards(&self.params.vars, stores, &shares)?;
                 for ((part, out), w) in parts.iter().zip(&outs).zip(&shares) {
                     // Refresh the stored memories inside each chunk, as torch-ac does.
                     for (k, (hs, cs)) in out.mems.iter().enumerate() {
@@ -525,52 +525,6 @@ impl Trainer {
         log.entropy /= n_batches;
         log.grad_norm /= n_batches;
         Ok(log)
-    }
-
-    /// The minibatch gradient from its shards' gradients, `Σ share_k · g_k` added in shard
-    /// order (one shard: its gradient as it is).
-    fn merge_grads(
-        &self,
-        stores: Vec<GradStore>,
-        shares: &[f64],
-    ) -> Result<GradStore, PolicyError> {
-        let mut stores = stores.into_iter();
-        let Some(mut merged) = stores.next() else {
-            return Err(PolicyError::Input("empty minibatch".into()));
-        };
-        let rest: Vec<GradStore> = stores.collect();
-        if rest.is_empty() {
-            return Ok(merged);
-        }
-        // One host pass per parameter with candle's arithmetic: `g * w` is its affine
-        // `g · w + 0` in f32, and the terms are added in shard order, as tensors they were.
-        let shares: Vec<f32> = shares.iter().map(|&w| w as f32).collect();
-        for v in self.params.vars.values() {
-            let terms: Vec<(Tensor, f32)> = std::iter::once(&merged)
-                .chain(&rest)
-                .zip(&shares)
-                .filter_map(|(grads, &w)| grads.get(v.as_tensor()).map(|g| (g.clone(), w)))
-                .map(|(g, w)| Ok((g.contiguous()?, w)))
-                .collect::<Result<_, PolicyError>>()?;
-            let Some(shape) = terms.first().map(|(g, _)| g.shape().clone()) else {
-                continue;
-            };
-            let mut sum = vec![0f32; shape.elem_count()];
-            for (k, (g, w)) in terms.iter().enumerate() {
-                let (gs, gl) = g.storage_and_layout();
-                let g = host(&gs, gl)?;
-                if g.len() != sum.len() {
-                    return Err(PolicyError::Input("shard gradients differ in shape".into()));
-                }
-                if k == 0 {
-                    sum.iter_mut().zip(g).for_each(|(s, &g)| *s = g * w + 0.0);
-                } else {
-                    sum.iter_mut().zip(g).for_each(|(s, &g)| *s += g * w + 0.0);
-                }
-            }
-            merged.insert(v.as_tensor(), Tensor::from_vec(sum, shape, &Device::Cpu)?);
-        }
-        Ok(merged)
     }
 }
 
