@@ -7,6 +7,7 @@ use candle_core::backprop::GradStore;
 use candle_core::{Device, Tensor, Var};
 
 use super::error::PolicyError;
+use super::fused::cpu_f32;
 
 /// Adam hyper-parameters.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -65,18 +66,9 @@ impl Adam {
         scale: Option<f64>,
     ) -> Result<(), PolicyError> {
         self.step += 1;
-        let AdamConfig {
-            lr,
-            beta1,
-            beta2,
-            eps,
-        } = self.cfg;
-        let t = self.step as i32;
         // The update runs as one host loop per parameter: as candle ops it was ten full-size
         // temporaries per parameter and a tenth of the training time (issue #16).
-        let (b1, b2) = (beta1 as f32, beta2 as f32);
-        let (bc1, bc2) = ((1.0 - beta1.powi(t)) as f32, (1.0 - beta2.powi(t)) as f32);
-        let (lr, eps) = (lr as f32, eps as f32);
+        let update = AdamUpdate::new(&self.cfg, self.step);
         let scale = scale.map(|s| s as f32);
         for (k, var) in vars {
             let Some(g) = grads.get(var.as_tensor()) else {
@@ -86,42 +78,33 @@ impl Adam {
                 continue;
             };
             let shape = var.as_tensor().shape().clone();
-            let n = shape.elem_count();
             let g = g.contiguous()?;
             // Copies of the operands (plain memcpys), then one in-place loop that the compiler
             // vectorises; the scale is a separate instantiation, not a branch in the loop.
-            let ((pn, mn, vn), gl) = {
+            let (pn, mn, vn) = {
                 let (gs, gl) = g.storage_and_layout();
                 let (ps, pl) = var.as_tensor().storage_and_layout();
                 let (ms, ml) = m.storage_and_layout();
                 let (vs, vl) = v.storage_and_layout();
-                let mut out = (
-                    host(&ps, pl)?.to_vec(),
-                    host(&ms, ml)?.to_vec(),
-                    host(&vs, vl)?.to_vec(),
-                );
-                let g = host(&gs, gl)?;
-                if g.len() == n && out.0.len() == n {
-                    let update = AdamUpdate {
-                        b1,
-                        b2,
-                        bc1,
-                        bc2,
-                        lr,
-                        eps,
-                    };
-                    match scale {
-                        Some(s) => update.run(&mut out, g, |g| g * s + 0.0),
-                        None => update.run(&mut out, g, |g| g),
-                    }
+                let g = cpu_f32(&gs, gl, "adam: gradient")?;
+                if g.len() != shape.elem_count() {
+                    return Err(PolicyError::Input(format!(
+                        "adam: gradient of {k} has {} values, not {}",
+                        g.len(),
+                        shape.elem_count()
+                    )));
                 }
-                (out, g.len())
+                let mut out = (
+                    cpu_f32(&ps, pl, "adam: parameter")?.to_vec(),
+                    cpu_f32(&ms, ml, "adam: first moment")?.to_vec(),
+                    cpu_f32(&vs, vl, "adam: second moment")?.to_vec(),
+                );
+                match scale {
+                    Some(s) => update.run(&mut out, g, |g| g * s + 0.0),
+                    None => update.run(&mut out, g, |g| g),
+                }
+                out
             };
-            if gl != n || pn.len() != n {
-                return Err(PolicyError::Input(format!(
-                    "adam: gradient of {k} has {gl} values, not {n}"
-                )));
-            }
             *m = Tensor::from_vec(mn, shape.clone(), &Device::Cpu)?;
             *v = Tensor::from_vec(vn, shape.clone(), &Device::Cpu)?;
             var.set(&Tensor::from_vec(pn, shape, &Device::Cpu)?)?;
@@ -130,7 +113,8 @@ impl Adam {
     }
 }
 
-/// Adam's per-step constants (bias corrections included).
+/// One Adam step's constants in f32, bias corrections of step `t` included.
+#[derive(Clone, Copy)]
 struct AdamUpdate {
     b1: f32,
     b2: f32,
@@ -141,6 +125,18 @@ struct AdamUpdate {
 }
 
 impl AdamUpdate {
+    fn new(cfg: &AdamConfig, t: u64) -> Self {
+        let t = t as i32;
+        Self {
+            b1: cfg.beta1 as f32,
+            b2: cfg.beta2 as f32,
+            bc1: (1.0 - cfg.beta1.powi(t)) as f32,
+            bc2: (1.0 - cfg.beta2.powi(t)) as f32,
+            lr: cfg.lr as f32,
+            eps: cfg.eps as f32,
+        }
+    }
+
     /// `(p, m, v)` updated in place from the gradient `grad(g)` of every element.
     #[inline]
     fn run(
@@ -149,7 +145,14 @@ impl AdamUpdate {
         g: &[f32],
         grad: impl Fn(f32) -> f32,
     ) {
-        let (b1, b2, bc1, bc2, lr, eps) = (self.b1, self.b2, self.bc1, self.bc2, self.lr, self.eps);
+        let Self {
+            b1,
+            b2,
+            bc1,
+            bc2,
+            lr,
+            eps,
+        } = *self;
         for (((p, m), v), &g) in p.iter_mut().zip(m.iter_mut()).zip(v.iter_mut()).zip(g) {
             let g = grad(g);
             *m = b1 * *m + (1.0 - b1) * g;
@@ -157,19 +160,6 @@ impl AdamUpdate {
             *p -= lr * ((*m / bc1) / ((*v / bc2).sqrt() + eps));
         }
     }
-}
-
-/// The f32 values of a contiguous CPU tensor's storage, in place.
-pub(super) fn host<'a>(
-    storage: &'a candle_core::Storage,
-    layout: &candle_core::Layout,
-) -> Result<&'a [f32], PolicyError> {
-    let candle_core::Storage::Cpu(cpu) = storage else {
-        return Err(PolicyError::Input(
-            "optimizer: tensors must be on the CPU".into(),
-        ));
-    };
-    Ok(super::fused::f32_slice(cpu, layout, "optimizer operand")?)
 }
 
 /// The minibatch gradient from its shards' gradients, `Σ share_k · g_k` added in shard
@@ -203,7 +193,7 @@ pub fn merge_shards(
         let mut sum = vec![0f32; shape.elem_count()];
         for (k, (g, w)) in terms.iter().enumerate() {
             let (gs, gl) = g.storage_and_layout();
-            let g = host(&gs, gl)?;
+            let g = cpu_f32(&gs, gl, "shard gradient")?;
             if g.len() != sum.len() {
                 return Err(PolicyError::Input("shard gradients differ in shape".into()));
             }

@@ -28,6 +28,20 @@ pub(super) fn f32_slice<'a>(s: &'a CpuStorage, l: &Layout, what: &str) -> Result
         .ok_or_else(|| candle_core::Error::Msg(format!("{what} must be contiguous")))
 }
 
+/// The f32 values of a contiguous CPU tensor's storage (as `storage_and_layout` gives it).
+pub(super) fn cpu_f32<'a>(
+    s: &'a candle_core::Storage,
+    l: &Layout,
+    what: &str,
+) -> Result<&'a [f32]> {
+    match s {
+        candle_core::Storage::Cpu(c) => f32_slice(c, l, what),
+        _ => Err(candle_core::Error::Msg(format!(
+            "{what} must be on the CPU"
+        ))),
+    }
+}
+
 fn dims(l1: &Layout, l2: &Layout) -> Result<(usize, usize)> {
     let (b, h4) = l1.shape().dims2()?;
     let (b2, h) = l2.shape().dims2()?;

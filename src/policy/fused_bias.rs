@@ -5,7 +5,7 @@
 
 use candle_core::{CpuStorage, CustomOp3, Layout, Result, Shape, Tensor};
 
-use super::fused::f32_slice;
+use super::fused::{cpu_f32, f32_slice};
 
 /// `(x + b1) + b2` for `x` (R, C) and biases (C,), in that order, so the sum rounds exactly as
 /// two `broadcast_add`s do.
@@ -58,12 +58,7 @@ impl CustomOp3 for TwoBiases {
         let cols = grad.dim(1)?;
         let g = grad.contiguous()?;
         let (storage, layout) = g.storage_and_layout();
-        let candle_core::Storage::Cpu(cpu) = &*storage else {
-            return Err(candle_core::Error::Msg(
-                "bias add: the gradient must be on the CPU".into(),
-            ));
-        };
-        let d = f32_slice(cpu, layout, "bias add: gradient")?;
+        let d = cpu_f32(&storage, layout, "bias add: gradient")?;
         let mut sum = vec![0f32; cols];
         for row in d.chunks_exact(cols) {
             for (s, &v) in sum.iter_mut().zip(row) {

@@ -9,9 +9,9 @@
 
 use std::sync::Arc;
 
-use candle_core::{CpuStorage, CustomOp3, Device, Layout, Result, Shape, Storage, Tensor};
+use candle_core::{CpuStorage, CustomOp3, Device, Layout, Result, Shape, Tensor};
 
-use super::fused::f32_slice as slice;
+use super::fused::{cpu_f32, f32_slice as slice};
 
 /// `tanh` as Eigen's `ptanh_float` computes it: a [13/6] rational approximation on
 /// [−7.905, 7.905] (±1 beyond), within a few ulp of the true value. glibc's `tanhf` (through
@@ -59,16 +59,6 @@ struct LstmSequence {
     /// (T·n) 1 where the memory carries over into step t, 0 where an episode starts.
     keep: Arc<[f32]>,
     n: usize,
-}
-
-/// The f32 values of a CPU tensor's storage.
-fn cpu_f32<'a>(s: &'a Storage, l: &Layout, what: &str) -> Result<&'a [f32]> {
-    match s {
-        Storage::Cpu(c) => slice(c, l, what),
-        _ => Err(candle_core::Error::Msg(format!(
-            "{what} must be on the CPU"
-        ))),
-    }
 }
 
 /// `x · W_hhᵀ` for `x` (rows, H) on the host through candle's matmul.
