@@ -155,26 +155,27 @@ impl CustomOp2 for ConvCodesBackward {
         let codes = self.codes.as_slice();
         let mut dwt = vec![0f32; PATCH * k];
         let mut db = vec![0f32; k];
-        let mut dpre = vec![0f32; k];
         if k == FAST_K {
             backward_fixed::<FAST_K>(codes, o, d, &mut dwt, &mut db);
-        }
-        for f in (0..frames).filter(|_| k != FAST_K) {
-            let fc = &codes[f * N_CELLS * 3..(f + 1) * N_CELLS * 3];
-            for cell in 0..N_CELLS {
-                let at = (f * N_CELLS + cell) * k;
-                // ReLU: no gradient where the output was clamped to 0.
-                for ((p, g), y) in dpre.iter_mut().zip(&d[at..at + k]).zip(&o[at..at + k]) {
-                    *p = if *y > 0.0 { *g } else { 0.0 };
-                }
-                for (a, p) in db.iter_mut().zip(&dpre) {
-                    *a += p;
-                }
-                for_each_column(fc, cell, |col| {
-                    for (a, p) in dwt[col * k..(col + 1) * k].iter_mut().zip(&dpre) {
+        } else {
+            let mut dpre = vec![0f32; k];
+            for f in 0..frames {
+                let fc = &codes[f * N_CELLS * 3..(f + 1) * N_CELLS * 3];
+                for cell in 0..N_CELLS {
+                    let at = (f * N_CELLS + cell) * k;
+                    // ReLU: no gradient where the output was clamped to 0.
+                    for ((p, g), y) in dpre.iter_mut().zip(&d[at..at + k]).zip(&o[at..at + k]) {
+                        *p = if *y > 0.0 { *g } else { 0.0 };
+                    }
+                    for (a, p) in db.iter_mut().zip(&dpre) {
                         *a += p;
                     }
-                });
+                    for_each_column(fc, cell, |col| {
+                        for (a, p) in dwt[col * k..(col + 1) * k].iter_mut().zip(&dpre) {
+                            *a += p;
+                        }
+                    });
+                }
             }
         }
         let mut out = vec![0f32; k * PATCH + k];
