@@ -400,3 +400,75 @@ fn fused_two_biases_match_broadcast_adds() {
     // A bias of the wrong length is an error, not a panic.
     assert!(add_two_biases(x.as_tensor(), &b1.narrow(0, 0, 5).unwrap(), b2.as_tensor()).is_err());
 }
+
+#[test]
+fn every_simd_level_gives_the_same_bits() {
+    use groundscope::env::{LevelConfig, vocab::tokenize};
+    use groundscope::policy::obs::{CellCodes, TokenBatch};
+    use groundscope::policy::simd::{Level, detected, with_cap};
+    // The fused loops are compiled for AVX-512, AVX2 and baseline x86-64 and chosen at run
+    // time; every clone must compute the training step and the acting step to the bit, so a
+    // run's numbers do not depend on the CPU it runs on.
+    let cfg = ModelConfig::new(Variant::Attention);
+    let params = Params::init(&cfg, 4).unwrap();
+    let tracked = params.tracked();
+    let net = Net::new(cfg, tracked.clone());
+    let level = LevelConfig::default();
+    let (t_len, n) = (4, 6);
+    let worlds: Vec<_> = (0..t_len * n)
+        .map(|s| level.generate(100 + s as u64).unwrap())
+        .collect();
+    let obs: Vec<_> = worlds
+        .iter()
+        .map(groundscope::env::World::observe)
+        .collect();
+    let tokens: Vec<Vec<u32>> = worlds
+        .iter()
+        .map(|w| tokenize(&w.mission).unwrap())
+        .collect();
+    let missions: Vec<&[u32]> = tokens.iter().map(Vec::as_slice).collect();
+    let mut keep = vec![1f32; t_len * n];
+    keep[n + 1] = 0.0;
+    let keep = Tensor::from_vec(keep, (t_len, n), &Device::Cpu).unwrap();
+    let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(9);
+    let mem0 = Memory {
+        h: random(&mut rng, (n, cfg.lstm_hidden), 0.5),
+        c: random(&mut rng, (n, cfg.lstm_hidden), 0.5),
+    };
+    let weights = random(&mut rng, (t_len * n, 7), 1.0);
+    let bits = |t: &Tensor| -> Vec<u32> {
+        let v: Vec<f32> = t.flatten_all().unwrap().to_vec1().unwrap();
+        v.into_iter().map(f32::to_bits).collect()
+    };
+    let run = |cap: Level| {
+        with_cap(cap, || {
+            let (logits, values, _) = net
+                .sequence(
+                    &CellCodes::new(&obs),
+                    &TokenBatch::new(&missions).unwrap(),
+                    &mem0,
+                    &keep,
+                )
+                .unwrap();
+            let loss = ((&logits * &weights).unwrap().sum_all().unwrap()
+                + values.sqr().unwrap().sum_all().unwrap())
+            .unwrap();
+            let grads = loss.backward().unwrap();
+            let mut out = vec![bits(&logits), bits(&values)];
+            for t in tracked.values() {
+                out.push(bits(grads.get(t).expect("every parameter has a gradient")));
+            }
+            let acted =
+                groundscope::policy::act(&net, &obs[..n], &missions[..n], &mem0, true).unwrap();
+            out.push(bits(&acted.memory.h));
+            out.push(bits(&acted.memory.c));
+            out
+        })
+    };
+    let base = run(Level::Base);
+    for cap in [Level::Avx2, Level::Avx512] {
+        if cap <= detected() {
+            assert!(run(cap) == base, "{cap:?} differs from the baseline clone");
+        }
+    }
+}

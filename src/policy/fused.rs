@@ -73,20 +73,7 @@ impl CustomOp2 for LstmGates {
             f32_slice(s2, l2, "lstm gates: c")?,
         );
         let mut out = vec![0f32; b * 2 * h];
-        for r in 0..b {
-            let gr = &g[r * 4 * h..(r + 1) * 4 * h];
-            let cr = &c[r * h..(r + 1) * h];
-            let (oh, oc) = out[r * 2 * h..(r + 1) * 2 * h].split_at_mut(h);
-            for k in 0..h {
-                let i = sigmoid(gr[k]);
-                let f = sigmoid(gr[h + k]);
-                let gg = tanh_fast(gr[2 * h + k]);
-                let o = sigmoid(gr[3 * h + k]);
-                let cn = f * cr[k] + i * gg;
-                oc[k] = cn;
-                oh[k] = o * tanh_fast(cn);
-            }
-        }
+        gates_forward(g, c, h, &mut out);
         Ok((CpuStorage::F32(out), Shape::from((b, 2 * h))))
     }
 
@@ -136,7 +123,35 @@ impl CustomOp3 for LstmGatesBackward {
             ));
         }
         let mut out = vec![0f32; b * 5 * h];
-        for r in 0..b {
+        gates_backward(g, c, d, h, &mut out);
+        Ok((CpuStorage::F32(out), Shape::from((b, 5 * h))))
+    }
+}
+
+crate::multiversion! {
+    /// [`LstmGates`]' loop: rows of `g` (B, 4H) and `c` (B, H) into `[h, c]` rows of `out`.
+    fn gates_forward(g: &[f32], c: &[f32], h: usize, out: &mut [f32]) {
+        for r in 0..c.len().checked_div(h).unwrap_or(0) {
+            let gr = &g[r * 4 * h..(r + 1) * 4 * h];
+            let cr = &c[r * h..(r + 1) * h];
+            let (oh, oc) = out[r * 2 * h..(r + 1) * 2 * h].split_at_mut(h);
+            for k in 0..h {
+                let i = sigmoid(gr[k]);
+                let f = sigmoid(gr[h + k]);
+                let gg = tanh_fast(gr[2 * h + k]);
+                let o = sigmoid(gr[3 * h + k]);
+                let cn = f * cr[k] + i * gg;
+                oc[k] = cn;
+                oh[k] = o * tanh_fast(cn);
+            }
+        }
+    }
+}
+
+crate::multiversion! {
+    /// [`LstmGatesBackward`]' loop: `[dg, dc]` rows of `out` from `g`, `c` and `d` (B, 2H).
+    fn gates_backward(g: &[f32], c: &[f32], d: &[f32], h: usize, out: &mut [f32]) {
+        for r in 0..c.len().checked_div(h).unwrap_or(0) {
             let gr = &g[r * 4 * h..(r + 1) * 4 * h];
             let cr = &c[r * h..(r + 1) * h];
             let (dh, dc_out) = d[r * 2 * h..(r + 1) * 2 * h].split_at(h);
@@ -156,7 +171,6 @@ impl CustomOp3 for LstmGatesBackward {
                 dc_prev[k] = dc * f;
             }
         }
-        Ok((CpuStorage::F32(out), Shape::from((b, 5 * h))))
     }
 }
 

@@ -85,7 +85,7 @@ impl CustomOp2 for ConvCodes {
         let codes = self.codes.as_slice();
         let mut out = vec![0f32; frames * N_CELLS * k];
         if k == FAST_K {
-            forward_fixed::<FAST_K>(codes, &wt, b, &mut out);
+            forward_fast(codes, &wt, b, &mut out);
             return Ok((CpuStorage::F32(out), Shape::from((frames, N_CELLS, k))));
         }
         for f in 0..frames {
@@ -156,7 +156,7 @@ impl CustomOp2 for ConvCodesBackward {
         let mut dwt = vec![0f32; PATCH * k];
         let mut db = vec![0f32; k];
         if k == FAST_K {
-            backward_fixed::<FAST_K>(codes, o, d, &mut dwt, &mut db);
+            backward_fast(codes, o, d, &mut dwt, &mut db);
         } else {
             let mut dpre = vec![0f32; k];
             for f in 0..frames {
@@ -194,61 +194,61 @@ impl CustomOp2 for ConvCodesBackward {
 /// the same as the general loops' (each channel adds the same terms in the same order).
 const FAST_K: usize = 16;
 
-/// The forward loop for `K` channels; `wt` is the transposed weight (PATCH, K).
-fn forward_fixed<const K: usize>(codes: &[u8], wt: &[f32], b: &[f32], out: &mut [f32]) {
-    let Some(&bias) = b.first_chunk::<K>() else {
-        return;
-    };
-    for (fc, frame) in codes
-        .chunks_exact(N_CELLS * 3)
-        .zip(out.chunks_exact_mut(N_CELLS * K))
-    {
-        for (cell, dst) in frame.chunks_exact_mut(K).enumerate() {
-            let mut acc = bias;
-            for_each_column(fc, cell, |col| {
-                let w = &wt[col * K..col * K + K];
-                for (a, x) in acc.iter_mut().zip(w) {
-                    *a += x;
+crate::multiversion! {
+    /// The forward loop for [`FAST_K`] channels; `wt` is the transposed weight (PATCH, K).
+    fn forward_fast(codes: &[u8], wt: &[f32], b: &[f32], out: &mut [f32]) {
+        const K: usize = FAST_K;
+        let Some(&bias) = b.first_chunk::<K>() else {
+            return;
+        };
+        for (fc, frame) in codes
+            .chunks_exact(N_CELLS * 3)
+            .zip(out.chunks_exact_mut(N_CELLS * K))
+        {
+            for (cell, dst) in frame.chunks_exact_mut(K).enumerate() {
+                let mut acc = bias;
+                for_each_column(fc, cell, |col| {
+                    let w = &wt[col * K..col * K + K];
+                    for (a, x) in acc.iter_mut().zip(w) {
+                        *a += x;
+                    }
+                });
+                for (o, a) in dst.iter_mut().zip(acc) {
+                    *o = a.max(0.0);
                 }
-            });
-            for (o, a) in dst.iter_mut().zip(acc) {
-                *o = a.max(0.0);
             }
         }
     }
 }
 
-/// The backward loop for `K` channels: `dwt` (PATCH, K) and `db` (K) accumulated from the
-/// output `o` and its gradient `d`.
-fn backward_fixed<const K: usize>(
-    codes: &[u8],
-    o: &[f32],
-    d: &[f32],
-    dwt: &mut [f32],
-    db: &mut [f32],
-) {
-    let Some(db) = db.first_chunk_mut::<K>() else {
-        return;
-    };
-    for ((fc, of), df) in codes
-        .chunks_exact(N_CELLS * 3)
-        .zip(o.chunks_exact(N_CELLS * K))
-        .zip(d.chunks_exact(N_CELLS * K))
-    {
-        for (cell, (y, g)) in of.chunks_exact(K).zip(df.chunks_exact(K)).enumerate() {
-            // ReLU: no gradient where the output was clamped to 0.
-            let mut dpre = [0f32; K];
-            for ((p, g), y) in dpre.iter_mut().zip(g).zip(y) {
-                *p = if *y > 0.0 { *g } else { 0.0 };
-            }
-            for (a, p) in db.iter_mut().zip(&dpre) {
-                *a += p;
-            }
-            for_each_column(fc, cell, |col| {
-                for (a, p) in dwt[col * K..col * K + K].iter_mut().zip(&dpre) {
+crate::multiversion! {
+    /// The backward loop for [`FAST_K`] channels: `dwt` (PATCH, K) and `db` (K) accumulated
+    /// from the output `o` and its gradient `d`.
+    fn backward_fast(codes: &[u8], o: &[f32], d: &[f32], dwt: &mut [f32], db: &mut [f32]) {
+        const K: usize = FAST_K;
+        let Some(db) = db.first_chunk_mut::<K>() else {
+            return;
+        };
+        for ((fc, of), df) in codes
+            .chunks_exact(N_CELLS * 3)
+            .zip(o.chunks_exact(N_CELLS * K))
+            .zip(d.chunks_exact(N_CELLS * K))
+        {
+            for (cell, (y, g)) in of.chunks_exact(K).zip(df.chunks_exact(K)).enumerate() {
+                // ReLU: no gradient where the output was clamped to 0.
+                let mut dpre = [0f32; K];
+                for ((p, g), y) in dpre.iter_mut().zip(g).zip(y) {
+                    *p = if *y > 0.0 { *g } else { 0.0 };
+                }
+                for (a, p) in db.iter_mut().zip(&dpre) {
                     *a += p;
                 }
-            });
+                for_each_column(fc, cell, |col| {
+                    for (a, p) in dwt[col * K..col * K + K].iter_mut().zip(&dpre) {
+                        *a += p;
+                    }
+                });
+            }
         }
     }
 }

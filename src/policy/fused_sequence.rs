@@ -70,6 +70,82 @@ fn times_w_t(x: &[f32], rows: usize, w: &Tensor) -> Result<Vec<f32>> {
         .to_vec1()
 }
 
+crate::multiversion! {
+    /// One step's gates for its n rows: `g = gx + rec` (n, 4H) and the new `[h | c]` from the
+    /// masked previous cell state `cm` (n, H), written into the step's `[h | c | g]` rows.
+    fn step_forward(gx: &[f32], rec: &[f32], cm: &[f32], h: usize, out: &mut [f32]) {
+        let (h4, width) = (4 * h, 6 * h);
+        for j in 0..cm.len().checked_div(h).unwrap_or(0) {
+            let (hc, g) = out[j * width..(j + 1) * width].split_at_mut(2 * h);
+            for (k, gk) in g.iter_mut().enumerate() {
+                *gk = gx[j * h4 + k] + rec[j * h4 + k];
+            }
+            let (ho, co) = hc.split_at_mut(h);
+            for k in 0..h {
+                let i = sigmoid(g[k]);
+                let f = sigmoid(g[h + k]);
+                let gg = tanh_fast(g[2 * h + k]);
+                let o = sigmoid(g[3 * h + k]);
+                let c = f * cm[j * h + k] + i * gg;
+                co[k] = c;
+                ho[k] = o * tanh_fast(c);
+            }
+        }
+    }
+}
+
+/// What [`step_backward`] reads for one step's n rows.
+struct StepRows<'a> {
+    /// (n) 1 where the memory carried over into this step.
+    keep: &'a [f32],
+    /// The previous `[h | c …]` rows (the initial memory at step 0), `prev_width` apart.
+    prev: &'a [f32],
+    prev_width: usize,
+    /// This step's `[h | c | g]` rows and their gradients (n, 6H).
+    res: &'a [f32],
+    grad: &'a [f32],
+    /// The gradients reaching `h` and `c` from the next step (n, H).
+    dh_carry: &'a [f32],
+    dc_carry: &'a [f32],
+}
+
+crate::multiversion! {
+    /// One step's gate gradients `dg` (n, 4H), the masked previous `h` (n, H) for
+    /// `dW_hh`, and the gradient `dc_prev` (n, H) passed to the previous step's cell state.
+    fn step_backward(
+        x: StepRows<'_>,
+        dg_all: &mut [f32],
+        h_prev: &mut [f32],
+        h: usize,
+        dc_prev: &mut [f32],
+    ) {
+        let (h4, width) = (4 * h, 6 * h);
+        for (j, &keep) in x.keep.iter().enumerate() {
+            let hp = &x.prev[j * x.prev_width..j * x.prev_width + h];
+            let cp = &x.prev[j * x.prev_width + h..j * x.prev_width + 2 * h];
+            let g = &x.res[j * width + 2 * h..(j + 1) * width];
+            let c_new = &x.res[j * width + h..j * width + 2 * h];
+            let d = &x.grad[j * width..j * width + 2 * h];
+            let dg = &mut dg_all[j * h4..(j + 1) * h4];
+            for k in 0..h {
+                h_prev[j * h + k] = keep * hp[k];
+                let i = sigmoid(g[k]);
+                let f = sigmoid(g[h + k]);
+                let gg = tanh_fast(g[2 * h + k]);
+                let o = sigmoid(g[3 * h + k]);
+                let tc = tanh_fast(c_new[k]);
+                let dh = d[k] + x.dh_carry[j * h + k];
+                let dc = d[h + k] + x.dc_carry[j * h + k] + dh * o * (1.0 - tc * tc);
+                dg[k] = dc * gg * i * (1.0 - i);
+                dg[h + k] = dc * keep * cp[k] * f * (1.0 - f);
+                dg[2 * h + k] = dc * i * (1.0 - gg * gg);
+                dg[3 * h + k] = dh * tc * o * (1.0 - o);
+                dc_prev[j * h + k] = keep * dc * f;
+            }
+        }
+    }
+}
+
 impl CustomOp3 for LstmSequence {
     fn name(&self) -> &'static str {
         "lstm-sequence"
@@ -126,24 +202,13 @@ impl CustomOp3 for LstmSequence {
                 }
             }
             let rec = times_w_t(&hm, n, &w)?;
-            for j in 0..n {
-                let row = t * n + j;
-                let (hcg, _) = out[row * width..].split_at_mut(width);
-                let (hc, g) = hcg.split_at_mut(2 * h);
-                for (k, gk) in g.iter_mut().enumerate() {
-                    *gk = gx[row * h4 + k] + rec[j * h4 + k];
-                }
-                let (ho, co) = hc.split_at_mut(h);
-                for k in 0..h {
-                    let i = sigmoid(g[k]);
-                    let f = sigmoid(g[h + k]);
-                    let gg = tanh_fast(g[2 * h + k]);
-                    let o = sigmoid(g[3 * h + k]);
-                    let c = f * cm[j * h + k] + i * gg;
-                    co[k] = c;
-                    ho[k] = o * tanh_fast(c);
-                }
-            }
+            step_forward(
+                &gx[t * n * h4..(t + 1) * n * h4],
+                &rec,
+                &cm,
+                h,
+                &mut out[t * n * width..(t + 1) * n * width],
+            );
         }
         Ok((CpuStorage::F32(out), Shape::from((tn, width))))
     }
@@ -169,17 +234,6 @@ impl CustomOp3 for LstmSequence {
         let grad = cpu_f32(&grad_s, grad_l, "lstm sequence: gradient")?;
         let hc0 = cpu_f32(&hc0_s, hc0_l, "lstm sequence: memory")?;
         let w = w.contiguous()?;
-        let prev = |t: usize, j: usize| -> (&[f32], &[f32]) {
-            if t == 0 {
-                (
-                    &hc0[j * 2 * h..j * 2 * h + h],
-                    &hc0[j * 2 * h + h..(j + 1) * 2 * h],
-                )
-            } else {
-                let r = ((t - 1) * n + j) * width;
-                (&res[r..r + h], &res[r + h..r + 2 * h])
-            }
-        };
         let mut dg_all = vec![0f32; tn * h4];
         // The previous steps' masked h, the right operand of dW_hh = Σ_t dg_tᵀ h_{t−1}.
         let mut h_prev = vec![0f32; tn * h];
@@ -187,30 +241,26 @@ impl CustomOp3 for LstmSequence {
         let mut dc_carry = vec![0f32; n * h];
         let mut dc_prev = vec![0f32; n * h];
         for t in (0..tn / n).rev() {
-            for j in 0..n {
-                let row = t * n + j;
-                let keep = self.keep[row];
-                let (hp, cp) = prev(t, j);
-                let g = &res[row * width + 2 * h..(row + 1) * width];
-                let c_new = &res[row * width + h..row * width + 2 * h];
-                let d = &grad[row * width..row * width + 2 * h];
-                let dg = &mut dg_all[row * h4..(row + 1) * h4];
-                for k in 0..h {
-                    h_prev[row * h + k] = keep * hp[k];
-                    let i = sigmoid(g[k]);
-                    let f = sigmoid(g[h + k]);
-                    let gg = tanh_fast(g[2 * h + k]);
-                    let o = sigmoid(g[3 * h + k]);
-                    let tc = tanh_fast(c_new[k]);
-                    let dh = d[k] + dh_carry[j * h + k];
-                    let dc = d[h + k] + dc_carry[j * h + k] + dh * o * (1.0 - tc * tc);
-                    dg[k] = dc * gg * i * (1.0 - i);
-                    dg[h + k] = dc * keep * cp[k] * f * (1.0 - f);
-                    dg[2 * h + k] = dc * i * (1.0 - gg * gg);
-                    dg[3 * h + k] = dh * tc * o * (1.0 - o);
-                    dc_prev[j * h + k] = keep * dc * f;
-                }
-            }
+            let (prev, prev_width) = if t == 0 {
+                (hc0, 2 * h)
+            } else {
+                (&res[(t - 1) * n * width..t * n * width], width)
+            };
+            step_backward(
+                StepRows {
+                    keep: &self.keep[t * n..(t + 1) * n],
+                    prev,
+                    prev_width,
+                    res: &res[t * n * width..(t + 1) * n * width],
+                    grad: &grad[t * n * width..(t + 1) * n * width],
+                    dh_carry: &dh_carry,
+                    dc_carry: &dc_carry,
+                },
+                &mut dg_all[t * n * h4..(t + 1) * n * h4],
+                &mut h_prev[t * n * h..(t + 1) * n * h],
+                h,
+                &mut dc_prev,
+            );
             let dg_t =
                 Tensor::from_slice(&dg_all[t * n * h4..(t + 1) * n * h4], (n, h4), &Device::Cpu)?;
             let dhm: Vec<f32> = dg_t.matmul(&w)?.flatten_all()?.to_vec1()?;

@@ -16,6 +16,7 @@ pub mod model;
 pub mod obs;
 pub mod params;
 pub mod ppo;
+pub mod simd;
 pub mod trace;
 
 use candle_core::{Device, Tensor};
