@@ -8,6 +8,7 @@ pub mod checkpoint;
 pub mod config;
 pub mod error;
 pub mod fused;
+pub mod fused_act;
 pub mod fused_attention;
 pub mod fused_bias;
 pub mod fused_conv;

@@ -14,6 +14,7 @@ use candle_core::{D, DType, Device, Tensor};
 use super::attention::{AttentionOut, Intervention, attend_with};
 use super::config::ModelConfig;
 use super::error::PolicyError;
+use super::fused_act;
 use super::obs::{CellCodes, N_CELLS, PATCH, TokenBatch};
 use crate::env::world::Action;
 
@@ -124,11 +125,11 @@ impl Net {
         for t in 0..l {
             let gx = gx_all.narrow(1, t, 1)?.squeeze(1)?;
             let gh = h.matmul(&w_hh.t()?)?.broadcast_add(b_hh)?;
-            let rz =
-                candle_nn::ops::sigmoid(&(gx.narrow(1, 0, 2 * hg)? + gh.narrow(1, 0, 2 * hg)?)?)?;
+            let rz = fused_act::sigmoid(&(gx.narrow(1, 0, 2 * hg)? + gh.narrow(1, 0, 2 * hg)?)?)?;
             let r = rz.narrow(1, 0, hg)?;
             let z = rz.narrow(1, hg, hg)?;
-            let n = (gx.narrow(1, 2 * hg, hg)? + (r * gh.narrow(1, 2 * hg, hg)?)?)?.tanh()?;
+            let n =
+                fused_act::tanh(&(gx.narrow(1, 2 * hg, hg)? + (r * gh.narrow(1, 2 * hg, hg)?)?)?)?;
             let h_new = ((&n + (&z * (&h - &n)?)?)?).clone();
             // Padding steps keep the state: h = h_new·valid + h·(1 − valid).
             let valid = tb.mask.narrow(1, t, 1)?;
@@ -259,8 +260,8 @@ impl Net {
     /// Actor logits (B, 7) and critic values (B,) from the LSTM output and the text code.
     pub fn heads(&self, h: &Tensor, text: &Tensor) -> Result<(Tensor, Tensor), PolicyError> {
         let z = Tensor::cat(&[h, text], 1)?;
-        let a = self.linear(&self.linear(&z, "actor.0")?.tanh()?, "actor.2")?;
-        let v = self.linear(&self.linear(&z, "critic.0")?.tanh()?, "critic.2")?;
+        let a = self.linear(&fused_act::tanh(&self.linear(&z, "actor.0")?)?, "actor.2")?;
+        let v = self.linear(&fused_act::tanh(&self.linear(&z, "critic.0")?)?, "critic.2")?;
         Ok((a, v.squeeze(1)?))
     }
 
