@@ -101,7 +101,7 @@ pub fn save(
     ckpt.save(&tmp.path().join("model"))?;
     let (opt_path, _) = checkpoint_paths(&tmp.path().join("optimizer"));
     let opt: std::collections::HashMap<String, Tensor> =
-        trainer.optimizer_tensors().into_iter().collect();
+        trainer.optimizer_tensors()?.into_iter().collect();
     candle_core::safetensors::save(&opt, &opt_path)
         .with_context(|| format!("writing {}", opt_path.display()))?;
     std::fs::File::open(&opt_path)

@@ -29,22 +29,44 @@ pub struct Adam {
     pub cfg: AdamConfig,
     /// Steps taken.
     pub step: u64,
-    /// name → (m, v).
-    pub moments: BTreeMap<String, (Tensor, Tensor)>,
+    /// name → moments, in the parameter's row-major order.
+    pub moments: BTreeMap<String, Moments>,
+    /// Threads a step splits every parameter's elements across (each element's arithmetic is
+    /// the same on any thread, so the result does not depend on it).
+    pub threads: usize,
+}
+
+/// One parameter's first and second moments, kept on the host: a step updates them in place
+/// instead of copying them out of tensors and back.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Moments {
+    /// First moment.
+    pub m: Vec<f32>,
+    /// Second moment.
+    pub v: Vec<f32>,
 }
 
 impl Adam {
     /// Fresh state for `vars`.
     pub fn new(cfg: AdamConfig, vars: &BTreeMap<String, Var>) -> Result<Self, PolicyError> {
-        let mut moments = BTreeMap::new();
-        for (k, v) in vars {
-            let z = v.as_tensor().zeros_like()?;
-            moments.insert(k.clone(), (z.clone(), z));
-        }
+        let moments = vars
+            .iter()
+            .map(|(k, v)| {
+                let n = v.as_tensor().elem_count();
+                (
+                    k.clone(),
+                    Moments {
+                        m: vec![0.0; n],
+                        v: vec![0.0; n],
+                    },
+                )
+            })
+            .collect();
         Ok(Self {
             cfg,
             step: 0,
             moments,
+            threads: 1,
         })
     }
 
@@ -66,51 +88,83 @@ impl Adam {
         scale: Option<f64>,
     ) -> Result<(), PolicyError> {
         self.step += 1;
-        // The update runs as one host loop per parameter: as candle ops it was ten full-size
-        // temporaries per parameter and a tenth of the training time (issue #16).
+        // One host loop per parameter: as candle ops it was ten full-size temporaries per
+        // parameter and a tenth of the training time (issue #16).
         let update = AdamUpdate::new(&self.cfg, self.step);
         let scale = scale.map(|s| s as f32);
-        for (k, var) in vars {
-            let Some(g) = grads.get(var.as_tensor()) else {
+        // The operands (read) apart from what the loop writes: moments and new values.
+        let (mut inputs, mut outputs) = (Vec::new(), Vec::new());
+        for (k, mo) in &mut self.moments {
+            let Some((var, g)) = vars
+                .get(k)
+                .and_then(|var| grads.get(var.as_tensor()).map(|g| (var, g)))
+            else {
                 continue;
             };
-            let Some((m, v)) = self.moments.get_mut(k) else {
-                continue;
+            let n = var.as_tensor().elem_count();
+            if g.elem_count() != n || mo.m.len() != n || mo.v.len() != n {
+                return Err(PolicyError::Input(format!(
+                    "adam: gradient or moments of {k} do not have its {n} values"
+                )));
+            }
+            inputs.push((var, g.contiguous()?));
+            outputs.push((mo, vec![0f32; n]));
+        }
+        {
+            let guards = inputs
+                .iter()
+                .map(|(var, g)| (var.as_tensor().storage_and_layout(), g.storage_and_layout()))
+                .collect::<Vec<_>>();
+            // Every parameter cut into `threads` ranges; thread t updates the t-th of each.
+            let threads = self.threads.max(1);
+            let mut jobs: Vec<Vec<Job<'_>>> = (0..threads).map(|_| Vec::new()).collect();
+            for (((ps, pl), (gs, gl)), (mo, out)) in guards.iter().zip(&mut outputs) {
+                let p = cpu_f32(ps, pl, "adam: parameter")?;
+                let g = cpu_f32(gs, gl, "adam: gradient")?;
+                let per = p.len().div_ceil(threads).max(1);
+                let parts = p
+                    .chunks(per)
+                    .zip(g.chunks(per))
+                    .zip(mo.m.chunks_mut(per))
+                    .zip(mo.v.chunks_mut(per))
+                    .zip(out.chunks_mut(per));
+                for (t, ((((p, g), m), v), out)) in parts.enumerate() {
+                    jobs[t].push(Job { p, g, m, v, out });
+                }
+            }
+            let run = |jobs: Vec<Job<'_>>| {
+                for job in jobs {
+                    match scale {
+                        Some(s) => update.run(job, |g| g * s + 0.0),
+                        None => update.run(job, |g| g),
+                    }
+                }
             };
+            let mut jobs = jobs.into_iter();
+            let first = jobs.next().unwrap_or_default();
+            std::thread::scope(|scope| {
+                for rest in jobs.by_ref() {
+                    scope.spawn(|| run(rest));
+                }
+                run(first);
+            });
+        }
+        for ((var, _), (_, out)) in inputs.iter().zip(outputs) {
             let shape = var.as_tensor().shape().clone();
-            let g = g.contiguous()?;
-            // Copies of the operands (plain memcpys), then one in-place loop that the compiler
-            // vectorises; the scale is a separate instantiation, not a branch in the loop.
-            let (pn, mn, vn) = {
-                let (gs, gl) = g.storage_and_layout();
-                let (ps, pl) = var.as_tensor().storage_and_layout();
-                let (ms, ml) = m.storage_and_layout();
-                let (vs, vl) = v.storage_and_layout();
-                let g = cpu_f32(&gs, gl, "adam: gradient")?;
-                if g.len() != shape.elem_count() {
-                    return Err(PolicyError::Input(format!(
-                        "adam: gradient of {k} has {} values, not {}",
-                        g.len(),
-                        shape.elem_count()
-                    )));
-                }
-                let mut out = (
-                    cpu_f32(&ps, pl, "adam: parameter")?.to_vec(),
-                    cpu_f32(&ms, ml, "adam: first moment")?.to_vec(),
-                    cpu_f32(&vs, vl, "adam: second moment")?.to_vec(),
-                );
-                match scale {
-                    Some(s) => update.run(&mut out, g, |g| g * s + 0.0),
-                    None => update.run(&mut out, g, |g| g),
-                }
-                out
-            };
-            *m = Tensor::from_vec(mn, shape.clone(), &Device::Cpu)?;
-            *v = Tensor::from_vec(vn, shape.clone(), &Device::Cpu)?;
-            var.set(&Tensor::from_vec(pn, shape, &Device::Cpu)?)?;
+            var.set(&Tensor::from_vec(out, shape, &Device::Cpu)?)?;
         }
         Ok(())
     }
+}
+
+/// One thread's share of one parameter: its elements' parameter values, gradients, moments
+/// (updated in place) and the new parameter values.
+struct Job<'a> {
+    p: &'a [f32],
+    g: &'a [f32],
+    m: &'a mut [f32],
+    v: &'a mut [f32],
+    out: &'a mut [f32],
 }
 
 /// One Adam step's constants in f32, bias corrections of step `t` included.
@@ -137,14 +191,9 @@ impl AdamUpdate {
         }
     }
 
-    /// `(p, m, v)` updated in place from the gradient `grad(g)` of every element.
+    /// A job's new parameters and moments from the gradient `grad(g)` of every element.
     #[inline]
-    fn run(
-        &self,
-        (p, m, v): &mut (Vec<f32>, Vec<f32>, Vec<f32>),
-        g: &[f32],
-        grad: impl Fn(f32) -> f32,
-    ) {
+    fn run(&self, job: Job<'_>, grad: impl Fn(f32) -> f32) {
         let Self {
             b1,
             b2,
@@ -153,11 +202,12 @@ impl AdamUpdate {
             lr,
             eps,
         } = *self;
-        for (((p, m), v), &g) in p.iter_mut().zip(m.iter_mut()).zip(v.iter_mut()).zip(g) {
+        let Job { p, g, m, v, out } = job;
+        for ((((o, &p), m), v), &g) in out.iter_mut().zip(p).zip(m).zip(v).zip(g) {
             let g = grad(g);
             *m = b1 * *m + (1.0 - b1) * g;
             *v = b2 * *v + (1.0 - b2) * g * g;
-            *p -= lr * ((*m / bc1) / ((*v / bc2).sqrt() + eps));
+            *o = p - lr * ((*m / bc1) / ((*v / bc2).sqrt() + eps));
         }
     }
 }
@@ -276,5 +326,56 @@ mod tests {
         // The parameter with a zero first gradient still moved on the second step.
         assert!((f64::from(got[2]) - 0.5).abs() > 1e-3);
         assert_eq!(adam.step, 2);
+    }
+
+    #[test]
+    fn threads_split_elements_without_changing_a_bit() {
+        // 1,001 elements: uneven ranges for 2 and 3 threads, and a bias-sized parameter.
+        let run = |threads: usize| {
+            let vars: BTreeMap<String, Var> = [("a", 1001usize), ("b", 3)]
+                .into_iter()
+                .map(|(k, n)| {
+                    let v: Vec<f32> = (0..n).map(|i| (i as f32 * 0.37).sin()).collect();
+                    let t = Tensor::from_vec(v, n, &Device::Cpu).unwrap();
+                    (k.to_owned(), Var::from_tensor(&t).unwrap())
+                })
+                .collect();
+            let mut adam = Adam::new(
+                AdamConfig {
+                    lr: 0.003,
+                    beta1: 0.9,
+                    beta2: 0.999,
+                    eps: 1e-5,
+                },
+                &vars,
+            )
+            .unwrap();
+            adam.threads = threads;
+            for step in 0..3 {
+                let loss = vars
+                    .values()
+                    .map(|v| {
+                        let t = v.as_tensor();
+                        (t.sqr().unwrap() * (step as f64 + 1.0))
+                            .unwrap()
+                            .sum_all()
+                            .unwrap()
+                    })
+                    .reduce(|a, b| (a + b).unwrap())
+                    .unwrap();
+                let grads = loss.backward().unwrap();
+                adam.step_scaled(&vars, &grads, (step == 1).then_some(0.5))
+                    .unwrap();
+            }
+            let bits = |t: &Tensor| -> Vec<u32> {
+                let v: Vec<f32> = t.to_vec1().unwrap();
+                v.into_iter().map(f32::to_bits).collect()
+            };
+            let params: Vec<Vec<u32>> = vars.values().map(|v| bits(v.as_tensor())).collect();
+            (params, adam.moments)
+        };
+        let one = run(1);
+        assert_eq!(run(2), one);
+        assert_eq!(run(3), one);
     }
 }

@@ -2,7 +2,7 @@
 
 use std::collections::BTreeMap;
 
-use candle_core::Tensor;
+use candle_core::{Device, Tensor};
 
 use super::{MAX_STATE_TOKENS, RunState, Trainer};
 use crate::env::vocab;
@@ -84,14 +84,27 @@ impl Trainer {
         Ok(())
     }
 
-    /// Adam's moments and step as named tensors (for the resume file).
-    pub fn optimizer_tensors(&self) -> BTreeMap<String, Tensor> {
+    /// Adam's moments and step as named tensors (for the resume file), each of its
+    /// parameter's shape.
+    pub fn optimizer_tensors(&self) -> Result<BTreeMap<String, Tensor>, PolicyError> {
         let mut out = BTreeMap::new();
-        for (k, (m, v)) in &self.adam.moments {
-            out.insert(format!("m.{k}"), m.clone());
-            out.insert(format!("v.{k}"), v.clone());
+        for (k, mo) in &self.adam.moments {
+            let shape = self
+                .params
+                .vars
+                .get(k)
+                .map(|v| v.as_tensor().shape().clone())
+                .ok_or_else(|| PolicyError::Input(format!("no parameter {k} for its moments")))?;
+            out.insert(
+                format!("m.{k}"),
+                Tensor::from_slice(&mo.m, shape.clone(), &Device::Cpu)?,
+            );
+            out.insert(
+                format!("v.{k}"),
+                Tensor::from_slice(&mo.v, shape, &Device::Cpu)?,
+            );
         }
-        out
+        Ok(out)
     }
 
     /// Restores Adam's moments and step.
@@ -100,22 +113,24 @@ impl Trainer {
         tensors: &BTreeMap<String, Tensor>,
         step: u64,
     ) -> Result<(), PolicyError> {
-        for (k, (m, v)) in &mut self.adam.moments {
-            let (Some(tm), Some(tv)) = (
+        for (k, mo) in &mut self.adam.moments {
+            let (Some(tm), Some(tv), Some(var)) = (
                 tensors.get(&format!("m.{k}")),
                 tensors.get(&format!("v.{k}")),
+                self.params.vars.get(k),
             ) else {
                 return Err(PolicyError::Input(format!(
                     "optimizer state lacks the moments of {k}"
                 )));
             };
-            if tm.dims() != m.dims() || tv.dims() != v.dims() {
+            let dims = var.as_tensor().dims();
+            if tm.dims() != dims || tv.dims() != dims {
                 return Err(PolicyError::Input(format!(
                     "optimizer moments of {k} have the wrong shape"
                 )));
             }
-            *m = tm.clone();
-            *v = tv.clone();
+            mo.m = tm.flatten_all()?.to_vec1()?;
+            mo.v = tv.flatten_all()?.to_vec1()?;
         }
         self.adam.step = step;
         Ok(())
