@@ -90,8 +90,8 @@ pub struct TrainArgs {
     /// PPO clip epsilon.
     #[arg(long, default_value_t = PpoConfig::default().clip_eps, allow_negative_numbers = true)]
     pub clip_eps: f64,
-    /// Threads sharing each minibatch's forward and backward pass (use the cores the rollout
-    /// leaves idle; results depend on the count, not on timing).
+    /// Threads sharing each minibatch's forward and backward pass and the optimizer step (use
+    /// the cores the rollout leaves idle; results depend on the count, not on timing).
     #[arg(long, default_value_t = PpoConfig::default().update_threads, allow_negative_numbers = true)]
     pub update_threads: usize,
     /// Multiply rewards by this for GAE and the value loss (BabyAI: 20); logs stay unscaled.
