@@ -17,6 +17,26 @@ fn random(rng: &mut rand_pcg::Pcg64Mcg, shape: (usize, usize), scale: f32) -> Te
     Tensor::from_vec(v, shape, &Device::Cpu).unwrap()
 }
 
+/// The first views and the missions' tokens of `count` levels from seed `first`.
+fn real_inputs(
+    level: &groundscope::env::LevelConfig,
+    first: u64,
+    count: usize,
+) -> (Vec<groundscope::env::view::Observation>, Vec<Vec<u32>>) {
+    let worlds: Vec<_> = (0..count as u64)
+        .map(|s| level.generate(first + s).unwrap())
+        .collect();
+    let obs = worlds
+        .iter()
+        .map(groundscope::env::World::observe)
+        .collect();
+    let tokens = worlds
+        .iter()
+        .map(|w| groundscope::env::vocab::tokenize(&w.mission).unwrap())
+        .collect();
+    (obs, tokens)
+}
+
 fn close(a: &Tensor, b: &Tensor, what: &str) {
     let a: Vec<f32> = a.flatten_all().unwrap().to_vec1().unwrap();
     let b: Vec<f32> = b.flatten_all().unwrap().to_vec1().unwrap();
@@ -213,7 +233,7 @@ fn sparse_conv_matches_dense(channels: usize) {
 
 #[test]
 fn training_sequence_matches_step_by_step_acting() {
-    use groundscope::env::{LevelConfig, vocab::tokenize};
+    use groundscope::env::LevelConfig;
     use groundscope::policy::obs::{CellCodes, TokenBatch};
     // The training path (sparse conv, keyed queries, fused attention and gates) against the
     // acting path (the composite attention of attention.rs), on real views and missions with
@@ -223,17 +243,7 @@ fn training_sequence_matches_step_by_step_acting() {
         let net = Net::new(cfg, Params::init(&cfg, 2).unwrap().detached());
         let level = LevelConfig::default();
         let (t_len, n) = (3, 4);
-        let worlds: Vec<_> = (0..t_len * n)
-            .map(|s| level.generate(s as u64).unwrap())
-            .collect();
-        let obs: Vec<_> = worlds
-            .iter()
-            .map(groundscope::env::World::observe)
-            .collect();
-        let tokens: Vec<Vec<u32>> = worlds
-            .iter()
-            .map(|w| tokenize(&w.mission).unwrap())
-            .collect();
+        let (obs, tokens) = real_inputs(&level, 0, t_len * n);
         let missions: Vec<&[u32]> = tokens.iter().map(Vec::as_slice).collect();
         let mut keep = vec![1f32; t_len * n];
         keep[n + 2] = 0.0;
@@ -403,7 +413,7 @@ fn fused_two_biases_match_broadcast_adds() {
 
 #[test]
 fn every_simd_level_gives_the_same_bits() {
-    use groundscope::env::{LevelConfig, vocab::tokenize};
+    use groundscope::env::LevelConfig;
     use groundscope::policy::obs::{CellCodes, TokenBatch};
     use groundscope::policy::simd::{Level, detected, with_cap};
     // The fused loops are compiled for AVX-512, AVX2 and baseline x86-64 and chosen at run
@@ -415,17 +425,7 @@ fn every_simd_level_gives_the_same_bits() {
     let net = Net::new(cfg, tracked.clone());
     let level = LevelConfig::default();
     let (t_len, n) = (4, 6);
-    let worlds: Vec<_> = (0..t_len * n)
-        .map(|s| level.generate(100 + s as u64).unwrap())
-        .collect();
-    let obs: Vec<_> = worlds
-        .iter()
-        .map(groundscope::env::World::observe)
-        .collect();
-    let tokens: Vec<Vec<u32>> = worlds
-        .iter()
-        .map(|w| tokenize(&w.mission).unwrap())
-        .collect();
+    let (obs, tokens) = real_inputs(&level, 100, t_len * n);
     let missions: Vec<&[u32]> = tokens.iter().map(Vec::as_slice).collect();
     let mut keep = vec![1f32; t_len * n];
     keep[n + 1] = 0.0;
