@@ -7,7 +7,7 @@ use candle_core::{CpuStorage, CustomOp2, CustomOp3, Layout, Result, Shape, Tenso
 // The same activations as the training path's LSTM op, so that acting (evaluation, replays,
 // the debugger) computes what the rollouts trained on; glibc's `tanhf`/`expf` were also a
 // fifth of a batch-256 inference step.
-use super::fused_sequence::{sigmoid, tanh_fast};
+use super::fused_sequence::{gate_activations, tanh_fast};
 
 /// The element-wise part of one LSTM step, PyTorch's gate order (i, f, g, o): from the gate
 /// pre-activations `g` (B, 4H) and the previous cell state `c` (B, H), the new `[h, c]` as one
@@ -136,10 +136,7 @@ crate::multiversion! {
             let cr = &c[r * h..(r + 1) * h];
             let (oh, oc) = out[r * 2 * h..(r + 1) * 2 * h].split_at_mut(h);
             for k in 0..h {
-                let i = sigmoid(gr[k]);
-                let f = sigmoid(gr[h + k]);
-                let gg = tanh_fast(gr[2 * h + k]);
-                let o = sigmoid(gr[3 * h + k]);
+                let (i, f, gg, o) = gate_activations(gr, h, k);
                 let cn = f * cr[k] + i * gg;
                 oc[k] = cn;
                 oh[k] = o * tanh_fast(cn);
@@ -157,10 +154,7 @@ crate::multiversion! {
             let (dh, dc_out) = d[r * 2 * h..(r + 1) * 2 * h].split_at(h);
             let (dg, dc_prev) = out[r * 5 * h..(r + 1) * 5 * h].split_at_mut(4 * h);
             for k in 0..h {
-                let i = sigmoid(gr[k]);
-                let f = sigmoid(gr[h + k]);
-                let gg = tanh_fast(gr[2 * h + k]);
-                let o = sigmoid(gr[3 * h + k]);
+                let (i, f, gg, o) = gate_activations(gr, h, k);
                 let cn = f * cr[k] + i * gg;
                 let tc = tanh_fast(cn);
                 let dc = dc_out[k] + dh[k] * o * (1.0 - tc * tc);

@@ -52,6 +52,22 @@ pub(super) fn sigmoid(x: f32) -> f32 {
     0.5 * tanh_fast(0.5 * x) + 0.5
 }
 
+/// The activations of unit `k` from one row of gate pre-activations `g` (4H, PyTorch's order
+/// i, f, g, o): `(σ(i), σ(f), tanh(g), σ(o))`, shared by every LSTM loop.
+#[expect(
+    clippy::inline_always,
+    reason = "the loops that call it are compiled per vector unit; a call would keep them scalar"
+)]
+#[inline(always)]
+pub(super) fn gate_activations(g: &[f32], h: usize, k: usize) -> (f32, f32, f32, f32) {
+    (
+        sigmoid(g[k]),
+        sigmoid(g[h + k]),
+        tanh_fast(g[2 * h + k]),
+        sigmoid(g[3 * h + k]),
+    )
+}
+
 /// The op: inputs `gx` (T·n, 4H, both biases included), `W_hh` (4H, H) and `[h0 | c0]`
 /// (n, 2H); output per frame `[h | c | g]` (T·n, 6H) with `g` the gate pre-activations,
 /// kept for the backward.
@@ -82,10 +98,7 @@ crate::multiversion! {
             }
             let (ho, co) = hc.split_at_mut(h);
             for k in 0..h {
-                let i = sigmoid(g[k]);
-                let f = sigmoid(g[h + k]);
-                let gg = tanh_fast(g[2 * h + k]);
-                let o = sigmoid(g[3 * h + k]);
+                let (i, f, gg, o) = gate_activations(g, h, k);
                 let c = f * cm[j * h + k] + i * gg;
                 co[k] = c;
                 ho[k] = o * tanh_fast(c);
@@ -129,10 +142,7 @@ crate::multiversion! {
             let dg = &mut dg_all[j * h4..(j + 1) * h4];
             for k in 0..h {
                 h_prev[j * h + k] = keep * hp[k];
-                let i = sigmoid(g[k]);
-                let f = sigmoid(g[h + k]);
-                let gg = tanh_fast(g[2 * h + k]);
-                let o = sigmoid(g[3 * h + k]);
+                let (i, f, gg, o) = gate_activations(g, h, k);
                 let tc = tanh_fast(c_new[k]);
                 let dh = d[k] + x.dh_carry[j * h + k];
                 let dc = d[h + k] + x.dc_carry[j * h + k] + dh * o * (1.0 - tc * tc);
