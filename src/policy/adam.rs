@@ -31,9 +31,6 @@ pub struct Adam {
     pub step: u64,
     /// name → moments, in the parameter's row-major order.
     pub moments: BTreeMap<String, Moments>,
-    /// Threads a step splits every parameter's elements across (each element's arithmetic is
-    /// the same on any thread, so the result does not depend on it).
-    pub threads: usize,
 }
 
 /// One parameter's first and second moments, kept on the host: a step updates them in place
@@ -66,7 +63,6 @@ impl Adam {
             cfg,
             step: 0,
             moments,
-            threads: 1,
         })
     }
 
@@ -76,16 +72,19 @@ impl Adam {
         vars: &BTreeMap<String, Var>,
         grads: &GradStore,
     ) -> Result<(), PolicyError> {
-        self.step_scaled(vars, grads, None)
+        self.step_scaled(vars, grads, None, 1)
     }
 
     /// [`Self::step`] on the gradients multiplied by `scale` (gradient clipping), computed as
-    /// candle's `g * scale` would (`g · scale + 0` in f32) without a tensor of its own.
+    /// candle's `g * scale` would (`g · scale + 0` in f32) without a tensor of its own, with
+    /// every parameter's elements split across `threads` (each element's arithmetic is the
+    /// same on any thread, so the result does not depend on the count).
     pub fn step_scaled(
         &mut self,
         vars: &BTreeMap<String, Var>,
         grads: &GradStore,
         scale: Option<f64>,
+        threads: usize,
     ) -> Result<(), PolicyError> {
         self.step += 1;
         // One host loop per parameter: as candle ops it was ten full-size temporaries per
@@ -116,7 +115,7 @@ impl Adam {
                 .map(|(var, g)| (var.as_tensor().storage_and_layout(), g.storage_and_layout()))
                 .collect::<Vec<_>>();
             // Every parameter cut into `threads` ranges; thread t updates the t-th of each.
-            let threads = self.threads.max(1);
+            let threads = threads.max(1);
             let mut jobs: Vec<Vec<Job<'_>>> = (0..threads).map(|_| Vec::new()).collect();
             for (((ps, pl), (gs, gl)), (mo, out)) in guards.iter().zip(&mut outputs) {
                 let p = cpu_f32(ps, pl, "adam: parameter")?;
@@ -350,7 +349,6 @@ mod tests {
                 &vars,
             )
             .unwrap();
-            adam.threads = threads;
             for step in 0..3 {
                 let loss = vars
                     .values()
@@ -364,7 +362,7 @@ mod tests {
                     .reduce(|a, b| (a + b).unwrap())
                     .unwrap();
                 let grads = loss.backward().unwrap();
-                adam.step_scaled(&vars, &grads, (step == 1).then_some(0.5))
+                adam.step_scaled(&vars, &grads, (step == 1).then_some(0.5), threads)
                     .unwrap();
             }
             let bits = |t: &Tensor| -> Vec<u32> {

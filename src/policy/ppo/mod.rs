@@ -514,8 +514,8 @@ impl Trainer {
                     self.times.add(&out.times);
                 }
                 let (norm, clip) = grad_norm(&grads, &self.params.vars, self.ppo.max_grad_norm)?;
-                self.adam.threads = self.ppo.update_threads;
-                self.adam.step_scaled(&self.params.vars, &grads, clip)?;
+                self.adam
+                    .step_scaled(&self.params.vars, &grads, clip, self.ppo.update_threads)?;
                 self.times.optimizer += secs(opt_t);
                 log.grad_norm += norm;
                 n_batches += 1.0;
