@@ -324,6 +324,7 @@ fn fused_lstm_sequence_matches_the_stepped_reference() {
             let out = lstm_sequence(
                 &gxb,
                 w_hh.as_tensor(),
+                None,
                 h0.as_tensor(),
                 c0.as_tensor(),
                 &keep,

@@ -11,6 +11,7 @@ use std::collections::BTreeMap;
 use candle_core::{Device, Tensor};
 use groundscope::env::LevelConfig;
 use groundscope::episode::{ActionMode, EpisodeSpec, run_episode};
+use groundscope::policy::model::TRANSPOSED;
 use groundscope::policy::obs::{CellCodes, TokenBatch};
 use groundscope::policy::{
     Checkpoint, Memory, ModelConfig, Net, Params, TrainingState, Variant, act,
@@ -260,4 +261,110 @@ fn traces_are_deterministic_and_maps_are_distributions() {
             .iter()
             .all(|s| s.attention.is_none())
     );
+}
+
+/// Bit patterns of a tensor's values, for exact comparisons.
+fn bits(t: &Tensor) -> Vec<u32> {
+    t.flatten_all()
+        .unwrap()
+        .to_vec1::<f32>()
+        .unwrap()
+        .iter()
+        .map(|x| x.to_bits())
+        .collect()
+}
+
+/// An acting net multiplies by contiguous copies of its matrices' transposes (gemm repacks a
+/// strided `W.t()` at every call); that must not move a bit. gemm is checked on those matrices
+/// of both models at the row counts acting, rollouts and minibatches use, and the nets
+/// end to end: a detached net (with the copies) against the same weights tracked (without).
+#[test]
+fn contiguous_transposes_change_no_bit() {
+    let mut rng_state = 7u64;
+    let mut next = || {
+        rng_state = rng_state
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(1_442_695_040_888_963_407);
+        ((rng_state >> 40) as f32 / (1u64 << 24) as f32) * 2.0 - 1.0
+    };
+    for variant in [Variant::Attention, Variant::Baseline] {
+        let cfg = ModelConfig::new(variant);
+        let params = Params::init(&cfg, 5).unwrap();
+        let weights = params.detached();
+        for name in TRANSPOSED {
+            let w = &weights[name];
+            let (_, k) = w.dims2().unwrap();
+            let wt = w.t().unwrap().contiguous().unwrap();
+            for rows in (2..=64).chain([100, 128, 255, 256, 500, 784, 1024, 2048]) {
+                let x: Vec<f32> = (0..rows * k).map(|_| next()).collect();
+                let x = Tensor::from_vec(x, (rows, k), &Device::Cpu).unwrap();
+                assert_eq!(
+                    bits(&x.matmul(&w.t().unwrap()).unwrap()),
+                    bits(&x.matmul(&wt).unwrap()),
+                    "{name}, {rows} rows"
+                );
+            }
+        }
+        let acting = Net::new(cfg, params.detached());
+        let tracked = Net::new(cfg, params.tracked());
+        let level = LevelConfig::default();
+        for batch in [1, 2, 16, 40] {
+            let worlds: Vec<_> = (0..batch)
+                .map(|s| level.generate(s as u64).unwrap())
+                .collect();
+            let tokens: Vec<Vec<u32>> = worlds
+                .iter()
+                .map(|w| groundscope::env::vocab::tokenize(&w.mission).unwrap())
+                .collect();
+            let missions: Vec<&[u32]> = tokens.iter().map(Vec::as_slice).collect();
+            let tb = TokenBatch::new(&missions).unwrap();
+            let codes = CellCodes::new(
+                &worlds
+                    .iter()
+                    .map(groundscope::env::World::observe)
+                    .collect::<Vec<_>>(),
+            );
+            let mem = Memory {
+                h: Tensor::from_vec(
+                    (0..batch * cfg.lstm_hidden)
+                        .map(|_| next())
+                        .collect::<Vec<_>>(),
+                    (batch, cfg.lstm_hidden),
+                    &Device::Cpu,
+                )
+                .unwrap(),
+                c: Tensor::from_vec(
+                    (0..batch * cfg.lstm_hidden)
+                        .map(|_| next())
+                        .collect::<Vec<_>>(),
+                    (batch, cfg.lstm_hidden),
+                    &Device::Cpu,
+                )
+                .unwrap(),
+            };
+            let traced = |net: &Net| {
+                let m = net.mission_inputs(&tb).unwrap();
+                let (l, v, mem, _) = net.step(&codes, &m, &mem).unwrap();
+                [l, v, mem.h, mem.c].iter().map(bits).collect::<Vec<_>>()
+            };
+            assert_eq!(
+                traced(&acting),
+                traced(&tracked),
+                "{variant:?} acting, batch {batch}"
+            );
+            let untraced = |net: &Net| {
+                let m = net.mission_inputs_keyed(&tb).unwrap();
+                let (l, v, mem) = net.step_untraced(&codes, &m, &mem).unwrap();
+                [l, v, mem.h, mem.c, m.text]
+                    .iter()
+                    .map(bits)
+                    .collect::<Vec<_>>()
+            };
+            assert_eq!(
+                untraced(&acting),
+                untraced(&tracked),
+                "{variant:?} rollout step, batch {batch}"
+            );
+        }
+    }
 }

@@ -8,6 +8,7 @@ use candle_core::{Device, Tensor, Var};
 
 use super::error::PolicyError;
 use super::fused::cpu_f32;
+use super::grads::{ParamGrad, with_minibatch_grads};
 
 /// Adam hyper-parameters.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -66,23 +67,25 @@ impl Adam {
         })
     }
 
-    /// One update of every variable that has a gradient.
+    /// One update of every variable that has a gradient in `grads`.
     pub fn step(
         &mut self,
         vars: &BTreeMap<String, Var>,
         grads: &GradStore,
     ) -> Result<(), PolicyError> {
-        self.step_scaled(vars, grads, None, 1)
+        with_minibatch_grads(vars, std::slice::from_ref(grads), &[1.0], 1, |g| {
+            self.step_host(g, None, 1)
+        })
     }
 
-    /// [`Self::step`] on the gradients multiplied by `scale` (gradient clipping), computed as
-    /// candle's `g * scale` would (`g · scale + 0` in f32) without a tensor of its own, with
-    /// every parameter's elements split across `threads` (each element's arithmetic is the
-    /// same on any thread, so the result does not depend on the count).
-    pub fn step_scaled(
+    /// One update from gradients on the host ([`super::grads::with_minibatch_grads`]),
+    /// multiplied by `scale` (gradient clipping) as candle's `g * scale` would (`g · scale +
+    /// 0` in f32) without a tensor of its own, with every parameter's elements split across
+    /// `threads` (each element's arithmetic is the same on any thread, so the result does not
+    /// depend on the count).
+    pub fn step_host(
         &mut self,
-        vars: &BTreeMap<String, Var>,
-        grads: &GradStore,
+        grads: &[ParamGrad<'_>],
         scale: Option<f64>,
         threads: usize,
     ) -> Result<(), PolicyError> {
@@ -91,35 +94,33 @@ impl Adam {
         // parameter and a tenth of the training time (issue #16).
         let update = AdamUpdate::new(&self.cfg, self.step);
         let scale = scale.map(|s| s as f32);
-        // The operands (read) apart from what the loop writes: moments and new values.
-        let (mut inputs, mut outputs) = (Vec::new(), Vec::new());
-        for (k, mo) in &mut self.moments {
-            let Some((var, g)) = vars
-                .get(k)
-                .and_then(|var| grads.get(var.as_tensor()).map(|g| (var, g)))
-            else {
-                continue;
-            };
+        // The moments of each parameter, and a buffer for its new values.
+        let mut outputs = Vec::with_capacity(grads.len());
+        let mut rest = self.moments.iter_mut();
+        for &(name, var, g) in grads {
+            // Both in name order: walk the moments alongside.
+            let mo = rest
+                .find(|(k, _)| k.as_str() == name)
+                .map(|(_, mo)| mo)
+                .ok_or_else(|| PolicyError::Input(format!("adam: no moments for {name}")))?;
             let n = var.as_tensor().elem_count();
-            if g.elem_count() != n || mo.m.len() != n || mo.v.len() != n {
+            if g.len() != n || mo.m.len() != n || mo.v.len() != n {
                 return Err(PolicyError::Input(format!(
-                    "adam: gradient or moments of {k} do not have its {n} values"
+                    "adam: gradient or moments of {name} do not have its {n} values"
                 )));
             }
-            inputs.push((var, g.contiguous()?));
             outputs.push((mo, vec![0f32; n]));
         }
         {
-            let guards = inputs
+            let guards = grads
                 .iter()
-                .map(|(var, g)| (var.as_tensor().storage_and_layout(), g.storage_and_layout()))
+                .map(|(_, var, _)| var.as_tensor().storage_and_layout())
                 .collect::<Vec<_>>();
             // Every parameter cut into `threads` ranges; thread t updates the t-th of each.
             let threads = threads.max(1);
             let mut jobs: Vec<Vec<Job<'_>>> = (0..threads).map(|_| Vec::new()).collect();
-            for (((ps, pl), (gs, gl)), (mo, out)) in guards.iter().zip(&mut outputs) {
+            for (((ps, pl), &(_, _, g)), (mo, out)) in guards.iter().zip(grads).zip(&mut outputs) {
                 let p = cpu_f32(ps, pl, "adam: parameter")?;
-                let g = cpu_f32(gs, gl, "adam: gradient")?;
                 let per = p.len().div_ceil(threads).max(1);
                 let parts = p
                     .chunks(per)
@@ -148,7 +149,7 @@ impl Adam {
                 run(first);
             });
         }
-        for ((var, _), (_, out)) in inputs.iter().zip(outputs) {
+        for (&(_, var, _), (_, out)) in grads.iter().zip(outputs) {
             let shape = var.as_tensor().shape().clone();
             var.set(&Tensor::from_vec(out, shape, &Device::Cpu)?)?;
         }
@@ -209,71 +210,6 @@ impl AdamUpdate {
             *o = p - lr * ((*m / bc1) / ((*v / bc2).sqrt() + eps));
         }
     }
-}
-
-/// The minibatch gradient from its shards' gradients, `Σ share_k · g_k` added in shard
-/// order (one shard: its gradient as it is).
-pub fn merge_shards(
-    vars: &BTreeMap<String, Var>,
-    stores: Vec<GradStore>,
-    shares: &[f64],
-) -> Result<GradStore, PolicyError> {
-    let mut stores = stores.into_iter();
-    let Some(mut merged) = stores.next() else {
-        return Err(PolicyError::Input("empty minibatch".into()));
-    };
-    let rest: Vec<GradStore> = stores.collect();
-    if rest.is_empty() {
-        return Ok(merged);
-    }
-    // One host pass per parameter with candle's arithmetic: `g * w` is its affine
-    // `g · w + 0` in f32, and the terms are added in shard order, as tensors they were.
-    let shares: Vec<f32> = shares.iter().map(|&w| w as f32).collect();
-    for v in vars.values() {
-        let terms: Vec<(Tensor, f32)> = std::iter::once(&merged)
-            .chain(&rest)
-            .zip(&shares)
-            .filter_map(|(grads, &w)| grads.get(v.as_tensor()).map(|g| (g.clone(), w)))
-            .map(|(g, w)| Ok((g.contiguous()?, w)))
-            .collect::<Result<_, PolicyError>>()?;
-        let Some(shape) = terms.first().map(|(g, _)| g.shape().clone()) else {
-            continue;
-        };
-        let mut sum = vec![0f32; shape.elem_count()];
-        for (k, (g, w)) in terms.iter().enumerate() {
-            let (gs, gl) = g.storage_and_layout();
-            let g = cpu_f32(&gs, gl, "shard gradient")?;
-            if g.len() != sum.len() {
-                return Err(PolicyError::Input("shard gradients differ in shape".into()));
-            }
-            if k == 0 {
-                sum.iter_mut().zip(g).for_each(|(s, &g)| *s = g * w + 0.0);
-            } else {
-                sum.iter_mut().zip(g).for_each(|(s, &g)| *s += g * w + 0.0);
-            }
-        }
-        merged.insert(v.as_tensor(), Tensor::from_vec(sum, shape, &Device::Cpu)?);
-    }
-    Ok(merged)
-}
-
-/// The global gradient norm `‖g‖₂` over `vars` (each parameter's sum of squares by candle,
-/// added in f64 in name order) and the factor that clips it to `max_norm` (torch's
-/// `clip_grad_norm_`: `max_norm / (‖g‖ + 1e-6)` where that is below 1).
-pub fn grad_norm(
-    grads: &GradStore,
-    vars: &BTreeMap<String, Var>,
-    max_norm: f64,
-) -> Result<(f64, Option<f64>), PolicyError> {
-    let mut sq = 0.0f64;
-    for v in vars.values() {
-        if let Some(g) = grads.get(v.as_tensor()) {
-            sq += f64::from(g.sqr()?.sum_all()?.to_scalar::<f32>()?);
-        }
-    }
-    let norm = sq.sqrt();
-    let scale = max_norm / (norm + 1e-6);
-    Ok((norm, (scale < 1.0).then_some(scale)))
 }
 
 #[cfg(test)]
@@ -362,8 +298,10 @@ mod tests {
                     .reduce(|a, b| (a + b).unwrap())
                     .unwrap();
                 let grads = loss.backward().unwrap();
-                adam.step_scaled(&vars, &grads, (step == 1).then_some(0.5), threads)
-                    .unwrap();
+                with_minibatch_grads(&vars, std::slice::from_ref(&grads), &[1.0], threads, |g| {
+                    adam.step_host(g, (step == 1).then_some(0.5), threads)
+                })
+                .unwrap();
             }
             let bits = |t: &Tensor| -> Vec<u32> {
                 let v: Vec<f32> = t.to_vec1().unwrap();

@@ -75,15 +75,44 @@ struct LstmSequence {
     /// (T·n) 1 where the memory carries over into step t, 0 where an episode starts.
     keep: Arc<[f32]>,
     n: usize,
+    /// `W_hhᵀ` made contiguous by the caller (an acting net keeps one), if any.
+    w_hh_t: Option<Tensor>,
 }
 
-/// `x · W_hhᵀ` for `x` (rows, H) on the host through candle's matmul.
-fn times_w_t(x: &[f32], rows: usize, w: &Tensor) -> Result<Vec<f32>> {
-    let h = w.dim(1)?;
-    Tensor::from_slice(x, (rows, h), &Device::Cpu)?
-        .matmul(&w.t()?)?
-        .flatten_all()?
-        .to_vec1()
+/// `W_hh` for the steps' `x · W_hhᵀ`: from two rows on as the contiguous transpose `W_hhᵀ`
+/// (H, 4H), since candle hands a strided `W.t()` to gemm, which then repacks all of it at
+/// every step; gemm gives the same bits for either layout there. One row keeps the strided
+/// product: gemm's matrix-vector path rounds differently with the two layouts.
+enum Recurrent {
+    Strided(Tensor),
+    Transposed(Tensor),
+}
+
+impl Recurrent {
+    /// From `W_hh` (4H, H) row-major, or the transpose the caller already keeps (`wt`).
+    fn new(w: &[f32], wt: Option<&Tensor>, h4: usize, h: usize, rows: usize) -> Result<Self> {
+        if rows < 2 {
+            return Ok(Self::Strided(Tensor::from_slice(w, (h4, h), &Device::Cpu)?));
+        }
+        Ok(Self::Transposed(match wt {
+            Some(wt) if wt.dims() == [h, h4] && wt.is_contiguous() => wt.clone(),
+            _ => Tensor::from_slice(w, (h4, h), &Device::Cpu)?
+                .t()?
+                .contiguous()?,
+        }))
+    }
+
+    /// `x · W_hhᵀ` for `x` (rows, H) on the host through candle's matmul.
+    fn times(&self, x: &[f32], rows: usize) -> Result<Vec<f32>> {
+        let (w, h) = match self {
+            Self::Strided(w) => (w.t()?, w.dim(1)?),
+            Self::Transposed(wt) => (wt.clone(), wt.dim(0)?),
+        };
+        Tensor::from_slice(x, (rows, h), &Device::Cpu)?
+            .matmul(&w)?
+            .flatten_all()?
+            .to_vec1()
+    }
 }
 
 crate::multiversion! {
@@ -188,7 +217,13 @@ impl CustomOp3 for LstmSequence {
             )));
         }
         let gx = slice(s1, l1, "lstm sequence: gx")?;
-        let w = Tensor::from_slice(slice(s2, l2, "lstm sequence: W_hh")?, (h4, h), &Device::Cpu)?;
+        let w = Recurrent::new(
+            slice(s2, l2, "lstm sequence: W_hh")?,
+            self.w_hh_t.as_ref(),
+            h4,
+            h,
+            n,
+        )?;
         let hc0 = slice(s3, l3, "lstm sequence: memory")?;
         let width = 6 * h;
         let mut out = vec![0f32; tn * width];
@@ -211,7 +246,7 @@ impl CustomOp3 for LstmSequence {
                     cm[j * h + k] = keep * cp[k];
                 }
             }
-            let rec = times_w_t(&hm, n, &w)?;
+            let rec = w.times(&hm, n)?;
             step_forward(
                 &gx[t * n * h4..(t + 1) * n * h4],
                 &rec,
@@ -302,10 +337,12 @@ impl CustomOp3 for LstmSequence {
 /// Runs T LSTM steps of n sequences: `gx` (T·n, 4H) the projected inputs with both biases,
 /// t-major; `w_hh` (4H, H); `h0`, `c0` (n, H); `keep` (T, n), 0 where step t starts an
 /// episode (the memory is zeroed before that step). Returns `[h | c | g]` per frame
-/// (T·n, 6H): the new memory and the gate pre-activations.
+/// (T·n, 6H): the new memory and the gate pre-activations. `w_hh_t`, where the caller keeps
+/// one, is `W_hhᵀ` (H, 4H) contiguous with `w_hh`'s values (it saves a transpose per call).
 pub fn lstm_sequence(
     gx: &Tensor,
     w_hh: &Tensor,
+    w_hh_t: Option<&Tensor>,
     h0: &Tensor,
     c0: &Tensor,
     keep: &Tensor,
@@ -319,6 +356,7 @@ pub fn lstm_sequence(
         LstmSequence {
             keep: keep.into(),
             n,
+            w_hh_t: w_hh_t.cloned(),
         },
     )
 }

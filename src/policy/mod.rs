@@ -13,6 +13,7 @@ pub mod fused_attention;
 pub mod fused_bias;
 pub mod fused_conv;
 pub mod fused_sequence;
+pub mod grads;
 pub mod model;
 pub mod obs;
 pub mod params;

@@ -18,12 +18,25 @@ use super::fused_act;
 use super::obs::{CellCodes, N_CELLS, PATCH, TokenBatch};
 use crate::env::world::Action;
 
+/// The matrices an acting net also keeps transposed ([`Net::new`]): the large ones. The small
+/// ones (heads, attention projections) are cheap to repack, and gemm's small-size paths do
+/// not give the same bits for both layouts.
+pub const TRANSPOSED: [&str; 4] = [
+    "lstm.weight_ih_l0",
+    "lstm.weight_hh_l0",
+    "gru.weight_ih_l0",
+    "gru.weight_hh_l0",
+];
+
 /// The network's weights plus its config; cheap to clone (tensors share storage).
 #[derive(Clone, Debug)]
 pub struct Net {
     /// Sizes and variant.
     pub cfg: ModelConfig,
     w: BTreeMap<String, Tensor>,
+    /// Contiguous transposes `Wᵀ` of the matrices of a detached (acting) net, for
+    /// [`Self::times_t`]; empty for a net whose weights are tracked for training.
+    wt: BTreeMap<String, Tensor>,
 }
 
 /// Recurrent memory of B environments: LSTM `h` and `c`, each (B, H).
@@ -62,9 +75,21 @@ pub struct Visual {
 }
 
 impl Net {
-    /// Wraps named weights (tracked for training, detached for acting).
+    /// Wraps named weights (tracked for training, detached for acting). The recurrent nets'
+    /// detached matrices ([`TRANSPOSED`]) also get a contiguous copy of their transpose:
+    /// candle hands `x · W.t()` to gemm with `W` strided, and gemm then repacks all of `W` on
+    /// every call, which for the rollout's 16 rows cost more than the product itself (issue
+    /// #16). The copies are taken here, so a net of detached weights must not outlive an
+    /// update of those weights (the trainer makes a new one for every rollout).
     pub fn new(cfg: ModelConfig, w: BTreeMap<String, Tensor>) -> Self {
-        Self { cfg, w }
+        let wt = TRANSPOSED
+            .iter()
+            .filter_map(|&k| Some((k, w.get(k)?)))
+            .filter(|(_, t)| t.rank() == 2 && !t.is_variable())
+            // A transpose that cannot be made leaves the strided product, which is also right.
+            .filter_map(|(k, t)| Some((k.to_owned(), t.t().ok()?.contiguous().ok()?)))
+            .collect();
+        Self { cfg, w, wt }
     }
 
     fn p(&self, name: &str) -> Result<&Tensor, PolicyError> {
@@ -73,10 +98,23 @@ impl Net {
             .ok_or_else(|| PolicyError::Input(format!("missing parameter {name}")))
     }
 
+    /// `x · Wᵀ` for a 2-D `x` and the matrix `name`. From two rows on it multiplies by the
+    /// contiguous transpose where the net keeps one: for these matrices gemm gives the same
+    /// bits with either layout (`tests/policy.rs` checks every row count to 64 and larger
+    /// ones, and compares acting and rollout steps bit for bit), while one row takes gemm's
+    /// matrix-vector path, which rounds differently with the two layouts, so it stays strided.
+    fn times_t(&self, x: &Tensor, name: &str) -> Result<Tensor, PolicyError> {
+        match self.wt.get(name) {
+            Some(wt) if x.dim(0)? >= 2 => Ok(x.matmul(wt)?),
+            _ => Ok(x.matmul(&self.p(name)?.t()?)?),
+        }
+    }
+
     fn linear(&self, x: &Tensor, prefix: &str) -> Result<Tensor, PolicyError> {
-        let w = self.p(&format!("{prefix}.weight"))?;
         let b = self.p(&format!("{prefix}.bias"))?;
-        Ok(x.matmul(&w.t()?)?.broadcast_add(b)?)
+        Ok(self
+            .times_t(x, &format!("{prefix}.weight"))?
+            .broadcast_add(b)?)
     }
 
     /// `Õ = ReLU(Conv3×3(O))` for the B frames of `codes`: (B, 49, K), through the sparse
@@ -112,19 +150,19 @@ impl Net {
     pub fn encode_text(&self, tb: &TokenBatch, emb: &Tensor) -> Result<Tensor, PolicyError> {
         let (u, l) = tb.tokens.dims2()?;
         let hg = self.cfg.gru_hidden;
-        let w_ih = self.p("gru.weight_ih_l0")?;
-        let w_hh = self.p("gru.weight_hh_l0")?;
         let b_ih = self.p("gru.bias_ih_l0")?;
         let b_hh = self.p("gru.bias_hh_l0")?;
-        let gx_all = emb
-            .reshape((u * l, self.cfg.word_dim))?
-            .matmul(&w_ih.t()?)?
+        let gx_all = self
+            .times_t(
+                &emb.reshape((u * l, self.cfg.word_dim))?,
+                "gru.weight_ih_l0",
+            )?
             .broadcast_add(b_ih)?
             .reshape((u, l, 3 * hg))?;
         let mut h = Tensor::zeros((u, hg), DType::F32, &Device::Cpu)?;
         for t in 0..l {
             let gx = gx_all.narrow(1, t, 1)?.squeeze(1)?;
-            let gh = h.matmul(&w_hh.t()?)?.broadcast_add(b_hh)?;
+            let gh = self.times_t(&h, "gru.weight_hh_l0")?.broadcast_add(b_hh)?;
             let rz = fused_act::sigmoid(&(gx.narrow(1, 0, 2 * hg)? + gh.narrow(1, 0, 2 * hg)?)?)?;
             let r = rz.narrow(1, 0, hg)?;
             let z = rz.narrow(1, hg, hg)?;
@@ -141,10 +179,8 @@ impl Net {
     /// Word queries `Q = g̃ W_q` of the distinct missions: (U, L, d_k).
     pub fn queries(&self, emb: &Tensor) -> Result<Tensor, PolicyError> {
         let (u, l, e) = emb.dims3()?;
-        let wq = self.p("attention.q.weight")?;
-        Ok(emb
-            .reshape((u * l, e))?
-            .matmul(&wq.t()?)?
+        Ok(self
+            .times_t(&emb.reshape((u * l, e))?, "attention.q.weight")?
             .reshape((u, l, self.cfg.key_dim))?)
     }
 
@@ -164,11 +200,9 @@ impl Net {
         let (b, n, k) = o.dims3()?;
         match q {
             Some((q, mask)) if self.cfg.has_attention() => {
-                let wk = self.p("attention.k.weight")?;
-                let kc =
-                    o.reshape((b * n, k))?
-                        .matmul(&wk.t()?)?
-                        .reshape((b, n, self.cfg.key_dim))?;
+                let kc = self
+                    .times_t(&o.reshape((b * n, k))?, "attention.k.weight")?
+                    .reshape((b, n, self.cfg.key_dim))?;
                 let out = attend_with(q, &kc, mask, o, intervention)?;
                 Ok(Visual {
                     x: out.f.reshape((b, n * k))?,
@@ -221,16 +255,16 @@ impl Net {
 
     /// The LSTM input projection for all frames at once: `x W_ihᵀ + b_ih`, (B, 4H).
     pub fn lstm_input(&self, x: &Tensor) -> Result<Tensor, PolicyError> {
-        Ok(x.matmul(&self.p("lstm.weight_ih_l0")?.t()?)?
+        Ok(self
+            .times_t(x, "lstm.weight_ih_l0")?
             .broadcast_add(self.p("lstm.bias_ih_l0")?)?)
     }
 
     /// The gate pre-activations of an LSTM step: `gx + h W_hhᵀ + b_hh`, (B, 4H).
     fn lstm_preactivations(&self, gx: &Tensor, mem: &Memory) -> Result<Tensor, PolicyError> {
         Ok((gx
-            + mem
-                .h
-                .matmul(&self.p("lstm.weight_hh_l0")?.t()?)?
+            + self
+                .times_t(&mem.h, "lstm.weight_hh_l0")?
                 .broadcast_add(self.p("lstm.bias_hh_l0")?)?)?)
     }
 
@@ -363,13 +397,14 @@ impl Net {
         let hd = self.cfg.lstm_hidden;
         // The same sums as `lstm_input(x) + b_hh`, with one pass over the rows in backward.
         let gx = super::fused_bias::add_two_biases(
-            &x.matmul(&self.p("lstm.weight_ih_l0")?.t()?)?,
+            &self.times_t(x, "lstm.weight_ih_l0")?,
             self.p("lstm.bias_ih_l0")?,
             self.p("lstm.bias_hh_l0")?,
         )?;
         let out = super::fused_sequence::lstm_sequence(
             &gx,
             self.p("lstm.weight_hh_l0")?,
+            self.wt.get("lstm.weight_hh_l0"),
             &mem0.h,
             &mem0.c,
             keep,

@@ -1,6 +1,9 @@
 //! The rollout's mission inputs (the GRU code and the keyed queries), computed once per
 //! distinct mission and update instead of at every step: a mission only changes when its
-//! episode ends, and the GRU over every environment's words was 40% of a rollout step.
+//! episode ends, and the GRU over every environment's words was 40% of a rollout step. The
+//! missions met are remembered across updates, so that each rollout computes them all in
+//! its first step, as one batch, instead of again whenever a new one turns up (which took a
+//! third of a rollout's forward time).
 
 use std::collections::HashMap;
 
@@ -10,8 +13,8 @@ use crate::policy::error::PolicyError;
 use crate::policy::model::{MissionInputs, Net};
 use crate::policy::obs::TokenBatch;
 
-/// The distinct missions met so far in one rollout and their inputs under that rollout's
-/// weights (a new update means a new cache).
+/// The distinct missions met so far and their inputs under the current rollout's weights
+/// ([`MissionCache::renew`] at every rollout).
 #[derive(Default)]
 pub(super) struct MissionCache {
     /// Row of each distinct mission in `inputs`.
@@ -23,7 +26,20 @@ pub(super) struct MissionCache {
     inputs: Option<MissionInputs>,
 }
 
+/// Distinct missions kept at most; past that (a level with a vast mission space) the cache
+/// starts again, so that a rollout does not compute missions it will never meet.
+const MAX_DISTINCT: usize = 4096;
+
 impl MissionCache {
+    /// Forgets the inputs (the weights changed) but keeps the missions, which the next
+    /// [`Self::inputs`] computes as one batch.
+    pub(super) fn renew(&mut self) {
+        self.inputs = None;
+        if self.distinct.len() > MAX_DISTINCT {
+            *self = Self::default();
+        }
+    }
+
     /// The inputs of `missions`, row for row. A mission not seen before in this rollout has
     /// all distinct missions computed again as one batch: each row of the GRU, the queries
     /// and the key projection depends on its own mission alone, so a mission's row is the
@@ -71,12 +87,12 @@ mod tests {
     use crate::policy::{ModelConfig, Variant};
 
     /// Steps through the cache give the very numbers of computing each step's missions on
-    /// their own, while missions of several lengths come and go.
+    /// their own, while missions of several lengths come and go, and after a renewal under
+    /// new weights (all missions met so far then computed as one batch).
     #[test]
     fn cached_missions_step_exactly_as_recomputed_ones() -> Result<(), Box<dyn std::error::Error>> {
         for variant in [Variant::Attention, Variant::Baseline] {
             let cfg = ModelConfig::new(variant);
-            let net = Net::new(cfg, Params::init(&cfg, 3)?.detached());
             let worlds: Vec<_> = (0..40)
                 .map(|s| LevelConfig::default().generate(s))
                 .collect::<Result<_, _>>()?;
@@ -85,7 +101,14 @@ mod tests {
                 .map(|w| tokenize(&w.mission))
                 .collect::<Result<_, _>>()?;
             let mut cache = MissionCache::default();
-            for step in 0..8 {
+            for step in 0..16usize {
+                // A new rollout with new weights every 8 steps.
+                let net = Net::new(cfg, Params::init(&cfg, 3 + step as u64 / 8)?.detached());
+                if step == 8 {
+                    let met = cache.distinct.len();
+                    cache.renew();
+                    assert_eq!(cache.distinct.len(), met, "renewing keeps the missions");
+                }
                 // Four environments; each step brings in missions from further down the list.
                 let idx: Vec<usize> = (0..4).map(|e| (e * 7 + step * 3) % worlds.len()).collect();
                 let missions: Vec<&[u32]> = idx.iter().map(|&i| tokens[i].as_slice()).collect();
@@ -104,7 +127,7 @@ mod tests {
                     "step {step}"
                 );
             }
-            assert!(cache.distinct.len() > 4, "missions came and went");
+            assert!(cache.distinct.len() > 20, "missions came and went");
         }
         Ok(())
     }

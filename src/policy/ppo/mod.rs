@@ -20,8 +20,9 @@ use rand_pcg::Pcg64Mcg;
 use serde::{Deserialize, Serialize};
 
 use super::ModelConfig;
-use super::adam::{Adam, AdamConfig, grad_norm, merge_shards};
+use super::adam::{Adam, AdamConfig};
 use super::error::PolicyError;
+use super::grads::{clip_factor, with_minibatch_grads};
 use super::model::{Memory, Net};
 use super::params::Params;
 use crate::env::level::LevelConfig;
@@ -128,6 +129,9 @@ pub struct Trainer {
     pub state: RunState,
     /// Wall time per phase, summed over the updates of this process (not saved).
     pub times: PhaseTimes,
+    /// The missions the rollouts have met, kept across updates (not saved: it only decides
+    /// which rows are computed together, not their values).
+    missions: missions::MissionCache,
 }
 
 /// Seconds spent in each phase of training (`groundscope bench train`). With
@@ -240,6 +244,7 @@ impl Trainer {
                 envs,
             },
             times: PhaseTimes::default(),
+            missions: missions::MissionCache::default(),
         })
     }
 
@@ -313,7 +318,8 @@ impl Trainer {
         );
         let n = p_n * t_n;
         let net = Net::new(self.model, self.params.detached());
-        let mut missions = missions::MissionCache::default();
+        let mut missions = std::mem::take(&mut self.missions);
+        missions.renew();
         let mut ro = Rollout {
             obs: vec![
                 Observation {
@@ -385,6 +391,7 @@ impl Trainer {
         }
         // Bootstrap values with the memory the next step would use.
         let last = self.act_all(&net, &mut missions)?;
+        self.missions = missions;
         let gae_t = std::time::Instant::now();
         let (gamma, lambda) = (self.ppo.discount as f32, self.ppo.gae_lambda as f32);
         for p in 0..p_n {
@@ -499,7 +506,6 @@ impl Trainer {
                     .collect();
                 let (stores, outs): (Vec<GradStore>, Vec<ShardOut>) = outs.into_iter().unzip();
                 let opt_t = std::time::Instant::now();
-                let grads = merge_shards(&self.params.vars, stores, &shares)?;
                 for ((part, out), w) in parts.iter().zip(&outs).zip(&shares) {
                     // Refresh the stored memories inside each chunk, as torch-ac does.
                     for (k, (hs, cs)) in out.mems.iter().enumerate() {
@@ -513,9 +519,13 @@ impl Trainer {
                     log.entropy += w * out.entropy;
                     self.times.add(&out.times);
                 }
-                let (norm, clip) = grad_norm(&grads, &self.params.vars, self.ppo.max_grad_norm)?;
-                self.adam
-                    .step_scaled(&self.params.vars, &grads, clip, self.ppo.update_threads)?;
+                let (adam, threads) = (&mut self.adam, self.ppo.update_threads);
+                let norm =
+                    with_minibatch_grads(&self.params.vars, &stores, &shares, threads, |grads| {
+                        let (norm, clip) = clip_factor(grads, self.ppo.max_grad_norm);
+                        adam.step_host(grads, clip, threads)?;
+                        Ok(norm)
+                    })?;
                 self.times.optimizer += secs(opt_t);
                 log.grad_norm += norm;
                 n_batches += 1.0;
