@@ -149,7 +149,8 @@ pub fn band_panels(
         reason: e.to_string(),
     };
     let panel_w = 460u32;
-    let (w, h) = (panel_w * panels.len().max(1) as u32, 460u32);
+    // At least wide enough for the title over a single panel.
+    let (w, h) = ((panel_w * panels.len().max(1) as u32).max(720), 460u32);
     let mut buf = vec![0u8; (w * h * 3) as usize];
     {
         let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
