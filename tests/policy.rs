@@ -324,23 +324,13 @@ fn contiguous_transposes_change_no_bit() {
                     .map(groundscope::env::World::observe)
                     .collect::<Vec<_>>(),
             );
+            let mut state = || {
+                let v: Vec<f32> = (0..batch * cfg.lstm_hidden).map(|_| next()).collect();
+                Tensor::from_vec(v, (batch, cfg.lstm_hidden), &Device::Cpu).unwrap()
+            };
             let mem = Memory {
-                h: Tensor::from_vec(
-                    (0..batch * cfg.lstm_hidden)
-                        .map(|_| next())
-                        .collect::<Vec<_>>(),
-                    (batch, cfg.lstm_hidden),
-                    &Device::Cpu,
-                )
-                .unwrap(),
-                c: Tensor::from_vec(
-                    (0..batch * cfg.lstm_hidden)
-                        .map(|_| next())
-                        .collect::<Vec<_>>(),
-                    (batch, cfg.lstm_hidden),
-                    &Device::Cpu,
-                )
-                .unwrap(),
+                h: state(),
+                c: state(),
             };
             let traced = |net: &Net| {
                 let m = net.mission_inputs(&tb).unwrap();

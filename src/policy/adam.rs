@@ -8,7 +8,7 @@ use candle_core::{Device, Tensor, Var};
 
 use super::error::PolicyError;
 use super::fused::cpu_f32;
-use super::grads::{ParamGrad, with_minibatch_grads};
+use super::grads::{ParamGrad, on_threads, with_minibatch_grads};
 
 /// Adam hyper-parameters.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -140,14 +140,7 @@ impl Adam {
                     }
                 }
             };
-            let mut jobs = jobs.into_iter();
-            let first = jobs.next().unwrap_or_default();
-            std::thread::scope(|scope| {
-                for rest in jobs.by_ref() {
-                    scope.spawn(|| run(rest));
-                }
-                run(first);
-            });
+            on_threads(jobs, run);
         }
         for (&(_, var, _), (_, out)) in grads.iter().zip(outputs) {
             let shape = var.as_tensor().shape().clone();

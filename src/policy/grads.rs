@@ -110,6 +110,17 @@ pub fn with_minibatch_grads<R>(
             }
         }
     };
+    on_threads(jobs, run);
+    let grads: Vec<ParamGrad<'_>> = terms
+        .iter()
+        .zip(&merged)
+        .map(|((name, var, _), g)| (*name, *var, g.as_slice()))
+        .collect();
+    f(&grads)
+}
+
+/// Runs each thread's list of jobs on a thread of its own, the first on the calling thread.
+pub(super) fn on_threads<J: Send>(jobs: Vec<Vec<J>>, run: impl Fn(Vec<J>) + Sync) {
     let mut jobs = jobs.into_iter();
     let first = jobs.next().unwrap_or_default();
     std::thread::scope(|scope| {
@@ -118,12 +129,6 @@ pub fn with_minibatch_grads<R>(
         }
         run(first);
     });
-    let grads: Vec<ParamGrad<'_>> = terms
-        .iter()
-        .zip(&merged)
-        .map(|((name, var, _), g)| (*name, *var, g.as_slice()))
-        .collect();
-    f(&grads)
 }
 
 /// The global gradient norm `‖g‖₂` (each parameter's sum of squares in f32, added in f64 in
@@ -180,17 +185,22 @@ mod tests {
                 .map(|i| ((i as f32 * 0.731 + seed).sin() * 3.7).powi(3))
                 .collect()
         };
-        for n in [1usize, 7, 31, 32, 33, 64, 100, 1000, 4099] {
-            let x = values(n, 0.3);
-            let t = Tensor::from_vec(x.clone(), n, &Device::Cpu).unwrap();
-            let candle = t
-                .sqr()
+        let candle = |t: &Tensor| {
+            t.sqr()
                 .unwrap()
                 .sum_all()
                 .unwrap()
                 .to_scalar::<f32>()
-                .unwrap();
-            assert_eq!(sum_squares(&x).to_bits(), candle.to_bits(), "{n} values");
+                .unwrap()
+        };
+        for n in [1usize, 7, 31, 32, 33, 64, 100, 1000, 4099] {
+            let x = values(n, 0.3);
+            let t = Tensor::from_vec(x.clone(), n, &Device::Cpu).unwrap();
+            assert_eq!(
+                sum_squares(&x).to_bits(),
+                candle(&t).to_bits(),
+                "{n} values"
+            );
         }
         // A transposed view, as backward hands over linear weights' gradients: candle squares
         // it into row-major order before summing, as `with_minibatch_grads` reads it.
@@ -199,15 +209,12 @@ mod tests {
             .t()
             .unwrap();
         assert!(!t.is_contiguous());
-        let candle = t
-            .sqr()
-            .unwrap()
-            .sum_all()
-            .unwrap()
-            .to_scalar::<f32>()
-            .unwrap();
         let x: Vec<f32> = t.flatten_all().unwrap().to_vec1().unwrap();
-        assert_eq!(sum_squares(&x).to_bits(), candle.to_bits(), "transposed");
+        assert_eq!(
+            sum_squares(&x).to_bits(),
+            candle(&t).to_bits(),
+            "transposed"
+        );
         let (rows, cols) = (37, 53);
         let var = Var::from_tensor(
             &Tensor::from_vec(values(rows * cols, 0.0), (rows, cols), &Device::Cpu).unwrap(),
