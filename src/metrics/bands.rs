@@ -354,7 +354,11 @@ mod tests {
         let b = band("recipe", &runs, 20);
         band_panels(&[("success".into(), vec![b])], "t", &p).unwrap();
         let img = image::open(&p).unwrap().to_rgb8();
-        assert_eq!(img.dimensions(), (460, 460));
+        assert_eq!(
+            img.dimensions(),
+            (720, 460),
+            "one panel, widened for its title"
+        );
         let c = SERIES_COLORS[0];
         assert!(
             img.pixels().any(|px| px.0 == [c.0, c.1, c.2]),
