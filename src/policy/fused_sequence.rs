@@ -79,37 +79,30 @@ struct LstmSequence {
     w_hh_t: Option<Tensor>,
 }
 
-/// `W_hh` for the steps' `x · W_hhᵀ`: from two rows on as the contiguous transpose `W_hhᵀ`
-/// (H, 4H), since candle hands a strided `W.t()` to gemm, which then repacks all of it at
-/// every step; gemm gives the same bits for either layout there. One row keeps the strided
-/// product: gemm's matrix-vector path rounds differently with the two layouts.
-enum Recurrent {
-    Strided(Tensor),
-    Transposed(Tensor),
+/// `W_hh` for the steps' `x · W_hhᵀ` ([`super::model::times_transposed`]), with its
+/// contiguous transpose from two rows on: candle hands a strided `W.t()` to gemm, which then
+/// repacks all of it at every step.
+struct Recurrent {
+    w: Tensor,
+    wt: Option<Tensor>,
 }
 
 impl Recurrent {
-    /// From `W_hh` (4H, H) row-major, or the transpose the caller already keeps (`wt`).
+    /// From `W_hh` (4H, H) row-major, and the transpose the caller already keeps (`wt`).
     fn new(w: &[f32], wt: Option<&Tensor>, h4: usize, h: usize, rows: usize) -> Result<Self> {
-        if rows < 2 {
-            return Ok(Self::Strided(Tensor::from_slice(w, (h4, h), &Device::Cpu)?));
-        }
-        Ok(Self::Transposed(match wt {
-            Some(wt) if wt.dims() == [h, h4] && wt.is_contiguous() => wt.clone(),
-            _ => Tensor::from_slice(w, (h4, h), &Device::Cpu)?
-                .t()?
-                .contiguous()?,
-        }))
+        let w = Tensor::from_slice(w, (h4, h), &Device::Cpu)?;
+        let wt = match wt {
+            Some(wt) if wt.dims() == [h, h4] && wt.is_contiguous() => Some(wt.clone()),
+            _ if rows >= 2 => Some(w.t()?.contiguous()?),
+            _ => None,
+        };
+        Ok(Self { w, wt })
     }
 
     /// `x · W_hhᵀ` for `x` (rows, H) on the host through candle's matmul.
     fn times(&self, x: &[f32], rows: usize) -> Result<Vec<f32>> {
-        let (w, h) = match self {
-            Self::Strided(w) => (w.t()?, w.dim(1)?),
-            Self::Transposed(wt) => (wt.clone(), wt.dim(0)?),
-        };
-        Tensor::from_slice(x, (rows, h), &Device::Cpu)?
-            .matmul(&w)?
+        let x = Tensor::from_slice(x, (rows, self.w.dim(1)?), &Device::Cpu)?;
+        super::model::times_transposed(&x, &self.w, self.wt.as_ref())?
             .flatten_all()?
             .to_vec1()
     }

@@ -28,6 +28,22 @@ pub const TRANSPOSED: [&str; 4] = [
     "gru.weight_hh_l0",
 ];
 
+/// `x · Wᵀ` for a 2-D `x`, by `wt` (`Wᵀ` contiguous, where the caller keeps one) from two rows
+/// on: for the [`TRANSPOSED`] matrices gemm gives the same bits with either layout
+/// (`tests/policy.rs` checks every row count to 64 and larger ones, and acting and rollout
+/// steps bit for bit), while one row takes gemm's matrix-vector path, which rounds differently
+/// with the two layouts, so it stays strided.
+pub(crate) fn times_transposed(
+    x: &Tensor,
+    w: &Tensor,
+    wt: Option<&Tensor>,
+) -> candle_core::Result<Tensor> {
+    match wt {
+        Some(wt) if x.dim(0)? >= 2 => x.matmul(wt),
+        _ => x.matmul(&w.t()?),
+    }
+}
+
 /// The network's weights plus its config; cheap to clone (tensors share storage).
 #[derive(Clone, Debug)]
 pub struct Net {
@@ -98,16 +114,10 @@ impl Net {
             .ok_or_else(|| PolicyError::Input(format!("missing parameter {name}")))
     }
 
-    /// `x · Wᵀ` for a 2-D `x` and the matrix `name`. From two rows on it multiplies by the
-    /// contiguous transpose where the net keeps one: for these matrices gemm gives the same
-    /// bits with either layout (`tests/policy.rs` checks every row count to 64 and larger
-    /// ones, and compares acting and rollout steps bit for bit), while one row takes gemm's
-    /// matrix-vector path, which rounds differently with the two layouts, so it stays strided.
+    /// `x · Wᵀ` for a 2-D `x` and the matrix `name`, through [`times_transposed`] with the
+    /// net's contiguous transpose where it keeps one.
     fn times_t(&self, x: &Tensor, name: &str) -> Result<Tensor, PolicyError> {
-        match self.wt.get(name) {
-            Some(wt) if x.dim(0)? >= 2 => Ok(x.matmul(wt)?),
-            _ => Ok(x.matmul(&self.p(name)?.t()?)?),
-        }
+        Ok(times_transposed(x, self.p(name)?, self.wt.get(name))?)
     }
 
     fn linear(&self, x: &Tensor, prefix: &str) -> Result<Tensor, PolicyError> {
