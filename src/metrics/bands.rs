@@ -4,6 +4,7 @@
 use std::path::Path;
 
 use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use super::error::MetricsError;
 use super::figures::{SERIES_COLORS, register_font, save_rgb};
@@ -137,7 +138,9 @@ pub fn read_columns(path: &Path, names: &[&str]) -> Result<Vec<Vec<f64>>, Metric
 }
 
 /// Draws one panel per `(title, y label, bands)` side by side: each band a mean line with a
-/// shaded ±std region (no region where a recipe has one run).
+/// shaded ±std region (no region where a recipe has one run), and one legend for all panels in
+/// a strip below them — with several runs every corner of a panel holds a curve, and a legend
+/// inside hid some (the grounding study's five runs).
 pub fn band_panels(
     panels: &[(String, Vec<Band>)],
     title: &str,
@@ -150,15 +153,25 @@ pub fn band_panels(
     };
     let panel_w = 460u32;
     // At least wide enough for the title over a single panel.
-    let (w, h) = ((panel_w * panels.len().max(1) as u32).max(720), 460u32);
+    let w = (panel_w * panels.len().max(1) as u32).max(720);
+    let entries = legend_entries(panels);
+    let font = ("sans-serif", 14).into_font();
+    let widths = entries
+        .iter()
+        .map(|(label, _)| font.box_size(label).map(|(tw, _)| tw))
+        .collect::<Result<Vec<u32>, _>>()
+        .map_err(|e| err(&e))?;
+    let places = legend_layout(&widths, w);
+    let rows = places.iter().map(|p| p.1 + 1).max().unwrap_or(0);
+    let plots_h = 460u32;
+    let h = plots_h + if rows == 0 { 0 } else { rows * LEGEND_ROW + 8 };
     let mut buf = vec![0u8; (w * h * 3) as usize];
     {
         let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
         root.fill(&WHITE).map_err(|e| err(&e))?;
-        let root = root
-            .titled(title, ("sans-serif", 22))
-            .map_err(|e| err(&e))?;
-        let areas = root.split_evenly((1, panels.len().max(1)));
+        let (top, strip) = root.split_vertically(plots_h);
+        let top = top.titled(title, ("sans-serif", 22)).map_err(|e| err(&e))?;
+        let areas = top.split_evenly((1, panels.len().max(1)));
         for ((name, bands), area) in panels.iter().zip(areas) {
             let x_max = bands
                 .iter()
@@ -183,8 +196,7 @@ pub fn band_panels(
                 let pts: Vec<&(f64, f64, f64, usize)> =
                     b.points.iter().filter(|p| p.1.is_finite()).collect();
                 if pts.is_empty() {
-                    // A model without this measure (a baseline's word accuracies): no line
-                    // and no legend entry.
+                    // A model without this measure (a baseline's word accuracies): no line.
                     continue;
                 }
                 if pts.iter().any(|p| p.3 > 1) {
@@ -200,56 +212,77 @@ pub fn band_panels(
                         pts.iter().map(|p| (p.0, p.1)),
                         color.stroke_width(3),
                     ))
-                    .map_err(|e| err(&e))?
-                    .label(b.label.clone())
-                    .legend(move |(x, y)| {
-                        PathElement::new(vec![(x, y), (x + 24, y)], color.stroke_width(3))
-                    });
+                    .map_err(|e| err(&e))?;
             }
-            chart
-                .configure_series_labels()
-                .position(free_corner(bands, x_max))
-                .background_style(WHITE.mix(0.85))
-                .border_style(BLACK)
-                .label_font(("sans-serif", 14))
-                .draw()
+        }
+        for ((label, color), (x, row)) in entries.iter().zip(places) {
+            let (x, y) = (x as i32, (row * LEGEND_ROW + LEGEND_ROW / 2) as i32);
+            strip
+                .draw(&PathElement::new(
+                    vec![(x, y), (x + LEGEND_LINE as i32, y)],
+                    color.stroke_width(3),
+                ))
                 .map_err(|e| err(&e))?;
+            let text = Text::new(
+                label.as_str(),
+                (x + (LEGEND_LINE + LEGEND_PAD) as i32, y),
+                font.color(&BLACK).pos(Pos::new(HPos::Left, VPos::Center)),
+            );
+            strip.draw(&text).map_err(|e| err(&e))?;
         }
         root.present().map_err(|e| err(&e))?;
     }
     save_rgb(&buf, w, h, path)
 }
 
-/// The corner of a panel (x from 0 to `x_max`, y from 0 to 1) where the legend hides the
-/// fewest points of the bands: a legend box covers about the outer 40% of the width and 30%
-/// of the height. Ties go to the lower right, then the upper right.
-fn free_corner(bands: &[Band], x_max: f64) -> SeriesLabelPosition {
-    let corners = [
-        (SeriesLabelPosition::LowerRight, true, false),
-        (SeriesLabelPosition::UpperRight, true, true),
-        (SeriesLabelPosition::UpperLeft, false, true),
-        (SeriesLabelPosition::LowerLeft, false, false),
-    ];
-    let hidden = |right: bool, top: bool| {
-        bands
-            .iter()
-            .flat_map(|b| &b.points)
-            .filter(|p| p.1.is_finite())
-            .filter(|p| {
-                let x_in = if right {
-                    p.0 > 0.6 * x_max
-                } else {
-                    p.0 < 0.4 * x_max
-                };
-                let y_in = if top { p.1 > 0.7 } else { p.1 < 0.3 };
-                x_in && y_in
-            })
-            .count()
-    };
-    corners
-        .into_iter()
-        .min_by_key(|&(_, right, top)| hidden(right, top))
-        .map_or(SeriesLabelPosition::LowerRight, |c| c.0)
+/// One row of the legend strip, in pixels.
+const LEGEND_ROW: u32 = 24;
+/// The sample line of an entry, the space between it and its label, and between entries.
+const LEGEND_LINE: u32 = 26;
+const LEGEND_PAD: u32 = 6;
+const LEGEND_GAP: u32 = 28;
+
+/// The legend's entries: every label that has a line in some panel, once, in the order first
+/// drawn, with its panel colour (bands are coloured by their place in the panel's list).
+fn legend_entries(panels: &[(String, Vec<Band>)]) -> Vec<(String, RGBColor)> {
+    let mut entries: Vec<(String, RGBColor)> = Vec::new();
+    for (_, bands) in panels {
+        for (i, b) in bands.iter().enumerate() {
+            let drawn = b.points.iter().any(|p| p.1.is_finite());
+            if drawn && !entries.iter().any(|(l, _)| *l == b.label) {
+                entries.push((b.label.clone(), SERIES_COLORS[i % SERIES_COLORS.len()]));
+            }
+        }
+    }
+    entries
+}
+
+/// Where each legend entry goes, given its label's width in pixels: `(x, row)`, entries left
+/// to right in rows no wider than `width` (an entry wider than a row gets a row of its own),
+/// each row centred.
+fn legend_layout(label_widths: &[u32], width: u32) -> Vec<(u32, u32)> {
+    let entry = |tw: u32| LEGEND_LINE + LEGEND_PAD + tw;
+    let usable = width.saturating_sub(2 * LEGEND_GAP);
+    // Rows as ranges of entries, with their widths.
+    let mut rows: Vec<(usize, usize, u32)> = Vec::new();
+    for (i, &tw) in label_widths.iter().enumerate() {
+        match rows.last_mut() {
+            Some((_, end, rw)) if *rw + LEGEND_GAP + entry(tw) <= usable => {
+                *end = i + 1;
+                *rw += LEGEND_GAP + entry(tw);
+            }
+            _ => rows.push((i, i + 1, entry(tw))),
+        }
+    }
+    let mut places = Vec::with_capacity(label_widths.len());
+    for (r, &(start, end, rw)) in rows.iter().enumerate() {
+        let mut x = width.saturating_sub(rw) / 2;
+        for &tw in &label_widths[start..end] {
+            places.push((x, r as u32));
+            x += entry(tw) + LEGEND_GAP;
+        }
+    }
+    places
 }
 
 #[cfg(test)]
@@ -257,30 +290,55 @@ mod tests {
     use super::*;
 
     #[test]
-    fn the_legend_goes_where_the_curves_are_not() {
-        let band = |ys: &[f64]| Band {
-            label: "x".into(),
-            points: ys
-                .iter()
-                .enumerate()
-                .map(|(i, &y)| (i as f64, y, 0.0, 1))
-                .collect(),
+    fn legend_entries_fill_centred_rows_without_overlap() {
+        let widths = [120, 300, 80, 400, 90];
+        let places = legend_layout(&widths, 720);
+        assert_eq!(places.len(), widths.len());
+        let entry = |tw: u32| LEGEND_LINE + LEGEND_PAD + tw;
+        // 120 + 300 + 80 fit in a row of 720 less the margins; 400 does not fit after them.
+        let rows: Vec<u32> = places.iter().map(|p| p.1).collect();
+        assert_eq!(rows, [0, 0, 0, 1, 1]);
+        for (i, (&(x, r), &tw)) in places.iter().zip(&widths).enumerate() {
+            assert!(x + entry(tw) <= 720, "entry {i} inside the figure");
+            if let Some(&(nx, nr)) = places.get(i + 1)
+                && nr == r
+            {
+                assert_eq!(
+                    nx,
+                    x + entry(tw) + LEGEND_GAP,
+                    "entries {i}, {} apart",
+                    i + 1
+                );
+            }
+        }
+        // Each row is centred: as much room on its left as on its right.
+        let (x0, x2) = (places[0].0, places[2].0 + entry(widths[2]));
+        assert!(x0.abs_diff(720 - x2) <= 1, "{x0} vs {}", 720 - x2);
+        // A label wider than the figure still gets a place, alone on its row.
+        assert_eq!(legend_layout(&[2000, 10], 720), [(0, 0), (339, 1)]);
+        assert!(legend_layout(&[], 720).is_empty());
+    }
+
+    #[test]
+    fn the_legend_lists_each_drawn_label_once_in_its_colour() {
+        let line = |label: &str, y: f64| Band {
+            label: label.into(),
+            points: vec![(1.0, y, 0.0, 1)],
         };
-        let rising = band(&[0.0, 0.2, 0.5, 0.8, 0.9, 0.95, 1.0, 1.0, 1.0, 1.0]);
-        let falling = band(&[0.0, 0.3, 0.5, 0.5, 0.4, 0.3, 0.2, 0.1, 0.05, 0.0]);
-        assert!(matches!(
-            free_corner(std::slice::from_ref(&rising), 9.0),
-            SeriesLabelPosition::LowerRight
-        ));
-        assert!(matches!(
-            free_corner(&[falling], 9.0),
-            SeriesLabelPosition::UpperRight
-        ));
-        // Lines without a finite point hide nothing.
-        assert!(matches!(
-            free_corner(&[rising, band(&[f64::NAN; 10])], 9.0),
-            SeriesLabelPosition::LowerRight
-        ));
+        let panels = vec![
+            ("a".to_owned(), vec![line("att", 0.5), line("base", 0.7)]),
+            // The baseline has no word accuracies: a NaN line is not drawn.
+            (
+                "b".to_owned(),
+                vec![line("att", 0.2), line("base", f64::NAN)],
+            ),
+            ("c".to_owned(), vec![line("x", f64::NAN), line("only", 0.1)]),
+        ];
+        let entries = legend_entries(&panels);
+        let labels: Vec<&str> = entries.iter().map(|e| e.0.as_str()).collect();
+        assert_eq!(labels, ["att", "base", "only"]);
+        assert_eq!(entries[1].1, SERIES_COLORS[1]);
+        assert_eq!(entries[2].1, SERIES_COLORS[1]);
     }
 
     #[test]
@@ -354,15 +412,20 @@ mod tests {
         let b = band("recipe", &runs, 20);
         band_panels(&[("success".into(), vec![b])], "t", &p).unwrap();
         let img = image::open(&p).unwrap().to_rgb8();
-        assert_eq!(
-            img.dimensions(),
-            (720, 460),
-            "one panel, widened for its title"
-        );
+        let (w, h) = img.dimensions();
+        assert_eq!(w, 720, "one panel, widened for its title");
+        assert_eq!(h, 460 + LEGEND_ROW + 8, "a row of legend below the panel");
         let c = SERIES_COLORS[0];
+        let is_line = |px: &image::Rgb<u8>| px.0 == [c.0, c.1, c.2];
         assert!(
-            img.pixels().any(|px| px.0 == [c.0, c.1, c.2]),
+            img.enumerate_pixels()
+                .any(|(_, y, px)| y < 460 && is_line(px)),
             "the mean line is drawn"
+        );
+        assert!(
+            img.enumerate_pixels()
+                .any(|(_, y, px)| y >= 460 && is_line(px)),
+            "its legend entry is drawn below the panel"
         );
         // The band is the line colour at 20% over white.
         let shade = |v: u8| (f64::from(v) * 0.2 + 255.0 * 0.8).round() as u8;
