@@ -826,4 +826,16 @@ fn curve_reads_bundled_flat_logs_as_seed_bands() {
         out.to_str().unwrap(),
     ]);
     assert_bad_input(&only_evals, "no training log");
+    // A bad tracked evaluation is found before anything is drawn: no figure at all.
+    let fresh = dir.path().join("fresh.png");
+    std::fs::write(&files[3], "frames,greedy_success\n100,0.5\n").unwrap();
+    let bad_eval = gs(&[
+        "curve",
+        &files[0],
+        &files[2],
+        "--out",
+        fresh.to_str().unwrap(),
+    ]);
+    assert_bad_input(&bad_eval, "object_acc_ng");
+    assert!(!fresh.exists(), "no reward figure either");
 }

@@ -161,6 +161,21 @@ fn save_then_load_gives_identical_outputs() {
 }
 
 #[test]
+fn a_run_directory_names_its_model() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = dir.path().join("run");
+    std::fs::create_dir(&run).unwrap();
+    // A directory without a model names the file it looked for.
+    let err = Checkpoint::load(&run).unwrap_err().to_string();
+    assert!(err.contains("model.json"), "{err}");
+    let (mut ckpt, _) = saved(Variant::Baseline, &run);
+    ckpt.save(&run.join("model")).unwrap();
+    let loaded = Checkpoint::load(&run).unwrap();
+    assert_eq!(loaded.meta, ckpt.meta);
+    assert_eq!(outputs(&loaded), outputs(&ckpt));
+}
+
+#[test]
 fn broken_checkpoints_name_what_is_wrong() {
     let dir = tempfile::tempdir().unwrap();
     let (_, name) = saved(Variant::Attention, dir.path());

@@ -24,8 +24,8 @@ use crate::ExitStatus;
     after_long_help = "EXAMPLES:\n  groundscope eval --out report/\n  groundscope eval --checkpoint runs/att/model --sizes 8,10 --objects 4,6 --seeds 2 --episodes 50 --out quick/ --min-success 0.9"
 )]
 pub struct EvalArgs {
-    /// Checkpoints to evaluate (repeatable): NAME or bundled:attention / bundled:baseline
-    /// [default: both bundled ones].
+    /// Checkpoints to evaluate (repeatable): NAME, a run directory (its model) or
+    /// bundled:attention / bundled:baseline [default: both bundled ones].
     #[arg(long, value_name = "NAME")]
     pub checkpoint: Vec<String>,
     /// Report directory: report.json, report.md, CSVs, PNG figures, failures.json.

@@ -35,7 +35,8 @@ pub enum Part {
     groundscope faithfulness --checkpoint runs/att/model --sizes 10 --objects 6 --out faith10\n  \
     groundscope faithfulness --checkpoint bundled:baseline --out faith-baseline")]
 pub struct FaithfulnessArgs {
-    /// Checkpoints (repeatable) [default: bundled:attention].
+    /// Checkpoints (repeatable): NAME, a run directory (its model) or bundled:NAME
+    /// [default: bundled:attention].
     #[arg(long, value_name = "NAME")]
     pub checkpoint: Vec<String>,
     /// Output directory.

@@ -1,6 +1,7 @@
 //! Command-line arguments (clap) and dispatch to the library.
 
 mod bench;
+mod curve;
 mod env_cmd;
 mod eval;
 mod faithfulness;
@@ -87,108 +88,10 @@ pub fn run(cli: Cli, matches: &clap::ArgMatches) -> anyhow::Result<ExitStatus> {
         Command::Eval(args) => eval::run(&args),
         Command::Validate(args) => validate::run(&args),
         Command::Faithfulness(args) => faithfulness::run(&args),
-        Command::Curve { logs, out } => curve(&logs, &out),
+        Command::Curve { logs, out } => curve::curve(&logs, &out),
         Command::Init(args) => policy_cmd::init(&args),
         Command::Replay(args) => replay::replay(&args),
     }
-}
-
-fn curve(logs: &[std::path::PathBuf], out: &std::path::Path) -> anyhow::Result<ExitStatus> {
-    use groundscope::metrics::bands::{band, band_panels, read_columns, recipe_of, run_files};
-    use groundscope::metrics::figures::{Curve, learning_curve, read_training_log};
-    check_extension(out, "png", "--out")?;
-    // Runs of one recipe (names differing only in a seed suffix) become one band.
-    let mut groups: Vec<(String, Vec<std::path::PathBuf>)> = Vec::new();
-    // A glob such as `assets/runs/*_log.csv` also matches the tracked evaluations; those are
-    // read beside their logs, not drawn as logs.
-    let logs: Vec<&std::path::PathBuf> = logs
-        .iter()
-        .filter(|p| !p.to_string_lossy().ends_with("eval_log.csv"))
-        .collect();
-    if logs.is_empty() {
-        anyhow::bail!("no training log among the files (only eval_log.csv files were given)");
-    }
-    for log in logs {
-        let recipe = recipe_of(&run_files(log).0);
-        match groups.iter_mut().find(|g| g.0 == recipe) {
-            Some(g) => g.1.push(log.clone()),
-            None => groups.push((recipe, vec![log.clone()])),
-        }
-    }
-    if groups.iter().all(|g| g.1.len() == 1) {
-        let mut curves = Vec::new();
-        for (label, paths) in &groups {
-            curves.push(Curve {
-                label: label.clone(),
-                points: read_training_log(&paths[0])?,
-            });
-        }
-        learning_curve(&curves, "Mean reward during training", out)?;
-    } else {
-        let mut bands = Vec::new();
-        for (label, paths) in &groups {
-            let runs = paths
-                .iter()
-                .map(|p| read_training_log(p))
-                .collect::<Result<Vec<_>, _>>()?;
-            bands.push(band(&format!("{label} (n={})", paths.len()), &runs, 100));
-        }
-        band_panels(
-            &[("mean training reward".into(), bands)],
-            "Mean reward during training (mean ± std over seeds)",
-            out,
-        )?;
-    }
-    println!("wrote {}", out.display());
-    // Grounding emergence, from the tracked evaluations beside the logs.
-    let metrics = [
-        ("greedy_success", "greedy success (held-out)"),
-        ("object_acc_ng", "object-word acc_ng"),
-        ("color_acc_ng", "colour-word acc_ng"),
-        ("combined_acc_ng", "M on targets, acc_ng"),
-    ];
-    let mut panels: Vec<(String, Vec<groundscope::metrics::bands::Band>)> = metrics
-        .iter()
-        .map(|m| (m.1.to_owned(), Vec::new()))
-        .collect();
-    let mut any = false;
-    for (label, paths) in &groups {
-        let evals: Vec<std::path::PathBuf> = paths
-            .iter()
-            .map(|p| run_files(p).1)
-            .filter(|p| p.exists())
-            .collect();
-        if evals.is_empty() {
-            continue;
-        }
-        any = true;
-        let mut names = vec!["frames"];
-        names.extend(metrics.iter().map(|m| m.0));
-        let tables = evals
-            .iter()
-            .map(|p| read_columns(p, &names))
-            .collect::<Result<Vec<_>, _>>()?;
-        for (k, panel) in panels.iter_mut().enumerate() {
-            let runs: Vec<Vec<(f64, f64)>> = tables
-                .iter()
-                .map(|rows| rows.iter().map(|r| (r[0], r[k + 1])).collect())
-                .collect();
-            panel
-                .1
-                .push(band(&format!("{label} (n={})", evals.len()), &runs, 50));
-        }
-    }
-    if any {
-        let stem = out.with_extension("");
-        let g = std::path::PathBuf::from(format!("{}_grounding.png", stem.display()));
-        band_panels(
-            &panels,
-            "Grounding emergence (tracked held-out evaluation)",
-            &g,
-        )?;
-        println!("wrote {}", g.display());
-    }
-    Ok(ExitStatus::Success)
 }
 
 /// Fails unless `path` ends in `.ext`, naming the flag.

@@ -31,8 +31,8 @@ const DEFAULT_VIEWER_URL: &str = "rerun+http://127.0.0.1:9876/proxy";
     groundscope replay --checkpoint bundled:baseline --mission \"go to the red ball\" --save red.rrd\n  \
     groundscope replay --checkpoint runs/untrained --seed 3 --trace out.json")]
 pub struct ReplayArgs {
-    /// Checkpoint: NAME (NAME.json + NAME.safetensors) or bundled:attention / bundled:baseline
-    /// [default: bundled:attention].
+    /// Checkpoint: NAME (NAME.json + NAME.safetensors), a run directory (its model) or
+    /// bundled:attention / bundled:baseline [default: bundled:attention].
     #[arg(long, value_name = "NAME")]
     pub checkpoint: Option<String>,
     /// Level seed (of the first episode).

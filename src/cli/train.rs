@@ -41,9 +41,9 @@ pub struct TrainArgs {
     /// Continue the run in --out exactly where it stopped (weights, Adam, RNGs, environments).
     #[arg(long)]
     pub resume: bool,
-    /// Start a new run from this checkpoint's weights (NAME or bundled:NAME) with the
-    /// hyper-parameters given here: fresh Adam and RNG streams, frame and update counts
-    /// continued from the checkpoint, network sizes taken from it.
+    /// Start a new run from this checkpoint's weights (NAME, a run directory or
+    /// bundled:NAME) with the hyper-parameters given here: fresh Adam and RNG streams, frame
+    /// and update counts continued from the checkpoint, network sizes taken from it.
     #[arg(long, value_name = "NAME", conflicts_with = "resume")]
     pub init: Option<String>,
     /// Save a checkpoint every this many updates.

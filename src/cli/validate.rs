@@ -18,8 +18,8 @@ use crate::ExitStatus;
     after_long_help = "EXAMPLES:\n  groundscope validate bundled:attention runs/att/model --episodes 500\n  groundscope validate snapshots/att/*/model --out choice.csv"
 )]
 pub struct ValidateArgs {
-    /// Checkpoints: NAME (NAME.json + NAME.safetensors) or bundled:attention /
-    /// bundled:baseline. Each is evaluated on its own training level.
+    /// Checkpoints: NAME (NAME.json + NAME.safetensors), a run directory (its model) or
+    /// bundled:attention / bundled:baseline. Each is evaluated on its own training level.
     #[arg(required = true, value_name = "NAME")]
     pub checkpoints: Vec<String>,
     /// Held-out episodes per checkpoint (level seeds 2^31 + e, those of `train`'s tracking).

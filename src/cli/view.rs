@@ -18,8 +18,8 @@ EXAMPLES:\n  groundscope\n  groundscope view --seed 7 --compare bundled:baseline
 xvfb-run -a groundscope view --screenshot shot.png --seed 3 --step 4 --size 1400x900"
 )]
 pub struct ViewArgs {
-    /// Checkpoint: NAME (NAME.json + NAME.safetensors) or bundled:attention / bundled:baseline
-    /// [default: bundled:attention].
+    /// Checkpoint: NAME (NAME.json + NAME.safetensors), a run directory (its model) or
+    /// bundled:attention / bundled:baseline [default: bundled:attention].
     #[arg(long, value_name = "NAME")]
     pub checkpoint: Option<String>,
     /// A second checkpoint, run on the same seed side by side.

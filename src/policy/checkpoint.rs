@@ -244,8 +244,16 @@ impl Checkpoint {
     /// Loads and checks a checkpoint. A pair caught between its two renames by
     /// [`Checkpoint::save`] in another process (the JSON still naming the previous weights) is
     /// read from the kept previous weights or read again, so a reader never fails on a
-    /// checkpoint being rewritten.
+    /// checkpoint being rewritten. A directory names the checkpoint a training run keeps in
+    /// it (`RUN` → `RUN/model`).
     pub fn load(name: &Path) -> Result<Self, PolicyError> {
+        let in_dir;
+        let name = if name.is_dir() {
+            in_dir = name.join("model");
+            &in_dir
+        } else {
+            name
+        };
         let (st, js) = checkpoint_paths(name);
         let mut tries = 0;
         loop {

@@ -1,0 +1,122 @@
+//! `groundscope curve`: learning curves, seed bands and the grounding-emergence figure.
+
+use std::path::{Path, PathBuf};
+
+use groundscope::metrics::bands::{Band, band, band_panels, read_columns, recipe_of, run_files};
+use groundscope::metrics::figures::{Curve, learning_curve, read_training_log};
+
+use super::check_extension;
+use crate::ExitStatus;
+
+/// The tracked evaluation's columns drawn in the grounding figure, with their panel titles.
+const METRICS: [(&str, &str); 4] = [
+    ("greedy_success", "greedy success (held-out)"),
+    ("object_acc_ng", "object-word acc_ng"),
+    ("color_acc_ng", "colour-word acc_ng"),
+    ("combined_acc_ng", "M on targets, acc_ng"),
+];
+
+/// Figure panels: a title and the bands drawn in it.
+type Panels = Vec<(String, Vec<Band>)>;
+
+/// Draws `out` (mean reward: one line per run, or a band per recipe of several seeds) and,
+/// where tracked evaluations sit beside the logs, `out`'s `_grounding.png`. Every file is
+/// read before anything is drawn, so a bad one leaves no figure behind.
+pub(super) fn curve(logs: &[PathBuf], out: &Path) -> anyhow::Result<ExitStatus> {
+    check_extension(out, "png", "--out")?;
+    // A glob such as `assets/runs/*_log.csv` also matches the tracked evaluations; those are
+    // read beside their logs, not drawn as logs.
+    let logs: Vec<&PathBuf> = logs
+        .iter()
+        .filter(|p| !p.to_string_lossy().ends_with("eval_log.csv"))
+        .collect();
+    if logs.is_empty() {
+        anyhow::bail!("no training log among the files (only eval_log.csv files were given)");
+    }
+    // Runs of one recipe (names differing only in a seed suffix) become one band.
+    let mut groups: Vec<(String, Vec<&PathBuf>)> = Vec::new();
+    for log in logs {
+        let recipe = recipe_of(&run_files(log).0);
+        match groups.iter_mut().find(|g| g.0 == recipe) {
+            Some(g) => g.1.push(log),
+            None => groups.push((recipe, vec![log])),
+        }
+    }
+    let rewards = groups
+        .iter()
+        .map(|(_, paths)| paths.iter().map(|p| read_training_log(p)).collect())
+        .collect::<Result<Vec<Vec<_>>, _>>()?;
+    let panels = grounding_panels(&groups)?;
+
+    if groups.iter().all(|g| g.1.len() == 1) {
+        let curves: Vec<Curve> = groups
+            .iter()
+            .zip(rewards)
+            .map(|((label, _), mut runs)| Curve {
+                label: label.clone(),
+                points: runs.swap_remove(0),
+            })
+            .collect();
+        learning_curve(&curves, "Mean reward during training", out)?;
+    } else {
+        let bands: Vec<Band> = groups
+            .iter()
+            .zip(&rewards)
+            .map(|((label, paths), runs)| band(&format!("{label} (n={})", paths.len()), runs, 100))
+            .collect();
+        band_panels(
+            &[("mean training reward".into(), bands)],
+            "Mean reward during training (mean ± std over seeds)",
+            out,
+        )?;
+    }
+    println!("wrote {}", out.display());
+    if let Some(panels) = panels {
+        let stem = out.with_extension("");
+        let g = PathBuf::from(format!("{}_grounding.png", stem.display()));
+        band_panels(
+            &panels,
+            "Grounding emergence (tracked held-out evaluation)",
+            &g,
+        )?;
+        println!("wrote {}", g.display());
+    }
+    Ok(ExitStatus::Success)
+}
+
+/// One panel per tracked metric with a band per recipe, from the `eval_log.csv` files beside
+/// the logs; `None` where no log has one.
+fn grounding_panels(groups: &[(String, Vec<&PathBuf>)]) -> anyhow::Result<Option<Panels>> {
+    let mut panels: Panels = METRICS
+        .iter()
+        .map(|m| (m.1.to_owned(), Vec::new()))
+        .collect();
+    let mut any = false;
+    let mut names = vec!["frames"];
+    names.extend(METRICS.iter().map(|m| m.0));
+    for (label, paths) in groups {
+        let evals: Vec<PathBuf> = paths
+            .iter()
+            .map(|p| run_files(p).1)
+            .filter(|p| p.exists())
+            .collect();
+        if evals.is_empty() {
+            continue;
+        }
+        any = true;
+        let tables = evals
+            .iter()
+            .map(|p| read_columns(p, &names))
+            .collect::<Result<Vec<_>, _>>()?;
+        for (k, panel) in panels.iter_mut().enumerate() {
+            let runs: Vec<Vec<(f64, f64)>> = tables
+                .iter()
+                .map(|rows| rows.iter().map(|r| (r[0], r[k + 1])).collect())
+                .collect();
+            panel
+                .1
+                .push(band(&format!("{label} (n={})", evals.len()), &runs, 50));
+        }
+    }
+    Ok(any.then_some(panels))
+}
