@@ -505,6 +505,13 @@ fn init_starts_a_new_run_from_trained_weights() {
     let parent_log = std::fs::read_to_string(parent.join("log.csv")).unwrap();
     let child_log = std::fs::read_to_string(child.join("log.csv")).unwrap();
     assert!(child_log.starts_with(&parent_log));
+    // The run directory names its model, and its logs are found inside it.
+    let sibling = dir.path().join("sibling");
+    let o = train(&sibling, "256", &["--init", parent.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert_eq!(updates(&sibling), ["1", "2", "3", "4"]);
+    let sibling_log = std::fs::read_to_string(sibling.join("log.csv")).unwrap();
+    assert!(sibling_log.starts_with(&parent_log));
     // The child resumes like any run; --init with --resume, or of the other model, is refused.
     let o = train(&child, "320", &["--resume"]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));

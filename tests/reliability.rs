@@ -36,6 +36,15 @@ fn bad_training_settings_are_refused_before_anything_is_written() {
         (&["--hidden", "0"][..], "lstm_hidden"),
         (&["--hidden", "100000"][..], "lstm_hidden"),
         (&["--reward-scale", "0"][..], "--reward-scale"),
+        (&["--gae-lambda", "2"][..], "--gae-lambda"),
+        (&["--discount", "1.5"][..], "--discount"),
+        (&["--adam-eps", "0"][..], "--adam-eps"),
+        (&["--entropy-coef", "-0.01"][..], "--entropy-coef"),
+        (&["--value-loss-coef", "nan"][..], "--value-loss-coef"),
+        (
+            &["--eval-interval", "1", "--eval-episodes", "0"][..],
+            "--eval-episodes",
+        ),
         (&["--objects", "90", "--size", "16"][..], "n_objects"),
     ] {
         assert_bad_input(&train(&run, flags), what);
@@ -255,6 +264,8 @@ fn unbounded_work_is_refused() {
         &gs(&["bench", "policy", "--recurrence", "3"]),
         "--recurrence",
     );
+    // Nothing to time is refused too, rather than reported as 0 steps/s.
+    assert_bad_input(&gs(&["bench", "env", "--steps", "0"]), "--steps");
 }
 
 #[test]

@@ -89,6 +89,9 @@ pub fn run(cmd: &BenchCommand) -> anyhow::Result<ExitStatus> {
 }
 
 fn bench_env(steps: u64) -> anyhow::Result<ExitStatus> {
+    if steps == 0 {
+        anyhow::bail!("--steps 0: must be at least 1");
+    }
     let cfg = LevelConfig::default();
     let mut rng = Pcg64Mcg::seed_from_u64(0);
     let mut seed = 0;

@@ -198,7 +198,13 @@ fn parent_log_rows(name: &str, file: &str, header: &str, updates: u64) -> String
     if name.starts_with(groundscope::policy::bundled::PREFIX) {
         return String::new();
     }
-    let dir = Path::new(name).parent().unwrap_or(Path::new("."));
+    let name = Path::new(name);
+    // A run directory holds its logs; a checkpoint `DIR/NAME` has them beside it.
+    let dir = if name.is_dir() {
+        name
+    } else {
+        name.parent().unwrap_or(Path::new("."))
+    };
     log_rows_upto(&dir.join(file), header, updates)
 }
 
@@ -234,6 +240,11 @@ pub fn run(args: &TrainArgs, matches: Option<&ArgMatches>) -> anyhow::Result<Exi
     model.gru_hidden = args.hidden;
     if args.save_interval == 0 {
         anyhow::bail!("--save-interval 0: must be at least 1 update");
+    }
+    if args.eval_interval > 0 && args.eval_episodes == 0 {
+        anyhow::bail!(
+            "--eval-episodes 0: must be at least 1 (--eval-interval 0 turns the tracked evaluation off)"
+        );
     }
     if !args.resume {
         // Everything a new run can get wrong is refused before its directory is made.

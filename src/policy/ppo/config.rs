@@ -109,6 +109,7 @@ impl PpoConfig {
         }
         for (name, v) in [
             ("--lr", self.lr),
+            ("--adam-eps", self.adam_eps),
             ("--discount", self.discount),
             ("--gae-lambda", self.gae_lambda),
             ("--clip-eps", self.clip_eps),
@@ -117,6 +118,24 @@ impl PpoConfig {
         ] {
             if !(v.is_finite() && v > 0.0) {
                 return bad(format!("{name} {v} must be a positive number"));
+            }
+        }
+        // Above 1 the returns and advantages grow without bound (training diverges).
+        for (name, v) in [
+            ("--discount", self.discount),
+            ("--gae-lambda", self.gae_lambda),
+        ] {
+            if v > 1.0 {
+                return bad(format!("{name} {v} must be at most 1"));
+            }
+        }
+        // A negative coefficient would reward the loss term it weighs.
+        for (name, v) in [
+            ("--entropy-coef", self.entropy_coef),
+            ("--value-loss-coef", self.value_loss_coef),
+        ] {
+            if !(v.is_finite() && v >= 0.0) {
+                return bad(format!("{name} {v} must be a number ≥ 0"));
             }
         }
         Ok(())
