@@ -338,6 +338,14 @@ fn validate_scores_a_saved_checkpoint_as_the_run_tracked_it() {
         &gs(&["validate", model.to_str().unwrap(), "--episodes", "0"]),
         "--episodes",
     );
+    // An output that could not be written is refused before any evaluation.
+    let m = model.to_str().unwrap();
+    assert_bad_input(&gs(&["validate", m, "--out", "v.png"]), "--out");
+    let nowhere = dir.path().join("no/such/dir/v.csv");
+    assert_bad_input(
+        &gs(&["validate", m, "--out", nowhere.to_str().unwrap()]),
+        "cannot write",
+    );
 }
 
 #[test]

@@ -45,6 +45,16 @@ pub fn run(args: &ValidateArgs) -> anyhow::Result<ExitStatus> {
     if args.episodes == 0 || args.episodes > 1_000_000 {
         anyhow::bail!("--episodes {} must be between 1 and 1000000", args.episodes);
     }
+    if let Some(path) = &args.out {
+        // Found wrong now, not after every checkpoint has been evaluated.
+        super::check_extension(path, "csv", "--out")?;
+        let dir = match path.parent() {
+            Some(d) if !d.as_os_str().is_empty() => d,
+            _ => std::path::Path::new("."),
+        };
+        tempfile::NamedTempFile::new_in(dir)
+            .map_err(|e| anyhow::anyhow!("--out {}: cannot write there: {e}", path.display()))?;
+    }
     let mut ckpts = Vec::new();
     for name in &args.checkpoints {
         ckpts.push((name, bundled::load(name)?));
