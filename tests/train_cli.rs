@@ -1,0 +1,355 @@
+//! `train`, `validate` and `curve` on the command line: exact resume, `--init`, the tracked
+//! evaluation and the figures drawn from run logs.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::format_collect,
+    reason = "test helpers fail loudly"
+)]
+
+mod common;
+
+use common::{assert_bad_input, gs, stderr, stdout};
+
+use std::path::Path;
+use std::process::Output;
+
+fn train(dir: &Path, frames: &str, extra: &[&str]) -> Output {
+    gs(&train_args(dir, frames, extra))
+}
+
+/// The arguments of a small training run (tracked every 2 updates on 4 episodes).
+fn train_args<'a>(dir: &'a Path, frames: &'a str, extra: &[&'a str]) -> Vec<&'a str> {
+    let mut args = vec![
+        "train",
+        "--model",
+        "attention",
+        "--out",
+        dir.to_str().unwrap(),
+        "--frames",
+        frames,
+        "--size",
+        "5",
+        "--objects",
+        "1",
+        "--tasks",
+        "goto",
+        "--no-done",
+        "--procs",
+        "4",
+        "--frames-per-proc",
+        "16",
+        "--batch-size",
+        "32",
+        "--hidden",
+        "16",
+        "--save-interval",
+        "1",
+        "--eval-interval",
+        "2",
+        "--eval-episodes",
+        "4",
+        "--quiet",
+    ];
+    args.extend_from_slice(extra);
+    args
+}
+
+#[test]
+fn validate_scores_a_saved_checkpoint_as_the_run_tracked_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = dir.path().join("run");
+    assert_eq!(train(&run, "256", &[]).status.code(), Some(0));
+    let model = run.join("model");
+    let out = dir.path().join("v.csv");
+    let o = gs(&[
+        "validate",
+        model.to_str().unwrap(),
+        "--episodes",
+        "4",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    // All but the timing column: the same weights on the same held-out levels.
+    let strip = |l: &str| l.rsplit_once(',').unwrap().0.to_owned();
+    let text = std::fs::read_to_string(&out).unwrap();
+    let rows: Vec<&str> = text.lines().collect();
+    assert_eq!(rows.len(), 2, "{text}");
+    assert!(rows[0].starts_with("checkpoint,update,frames,"), "{text}");
+    let tracked = std::fs::read_to_string(run.join("eval_log.csv")).unwrap();
+    let last = tracked.lines().last().unwrap();
+    assert_eq!(
+        strip(rows[1]),
+        format!("{},{}", model.display(), strip(last))
+    );
+    // A missing checkpoint is named, exits 2 and writes nothing.
+    let missing = dir.path().join("nope");
+    let out2 = dir.path().join("v2.csv");
+    let o = gs(&[
+        "validate",
+        model.to_str().unwrap(),
+        missing.to_str().unwrap(),
+        "--out",
+        out2.to_str().unwrap(),
+    ]);
+    assert_bad_input(&o, "nope");
+    assert!(!out2.exists());
+    assert_bad_input(
+        &gs(&["validate", model.to_str().unwrap(), "--episodes", "0"]),
+        "--episodes",
+    );
+    // An output that could not be written is refused before any evaluation.
+    let m = model.to_str().unwrap();
+    assert_bad_input(&gs(&["validate", m, "--out", "v.png"]), "--out");
+    let nowhere = dir.path().join("no/such/dir/v.csv");
+    assert_bad_input(
+        &gs(&["validate", m, "--out", nowhere.to_str().unwrap()]),
+        "cannot write",
+    );
+}
+
+#[test]
+fn a_resume_that_leaves_out_the_tracking_flags_tracks_as_the_run_did() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = dir.path().join("run");
+    assert_eq!(train(&run, "128", &[]).status.code(), Some(0));
+    // Without the run's settings the defaults (every 50 updates, 200 episodes) would apply.
+    let mut args = train_args(&run, "256", &["--resume"]);
+    let at = args.iter().position(|a| *a == "--eval-interval").unwrap();
+    args.drain(at..at + 4);
+    let o = gs(&args);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    // A flag given on resume wins, and is kept for the next resume.
+    let mut args = train_args(&run, "384", &["--resume", "--eval-episodes", "6"]);
+    args.drain(at..at + 4);
+    let o = gs(&args);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let mut args = train_args(&run, "512", &["--resume"]);
+    args.drain(at..at + 4);
+    let o = gs(&args);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let rows: Vec<String> = std::fs::read_to_string(run.join("eval_log.csv"))
+        .unwrap()
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').take(3).collect::<Vec<_>>().join(","))
+        .collect();
+    assert_eq!(
+        rows,
+        ["2,128,4", "4,256,4", "6,384,6", "8,512,6"],
+        "{rows:?}"
+    );
+}
+
+#[test]
+fn resumed_training_matches_an_uninterrupted_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let straight = dir.path().join("straight");
+    let split = dir.path().join("split");
+    assert_eq!(train(&straight, "256", &[]).status.code(), Some(0));
+    assert_eq!(train(&split, "128", &[]).status.code(), Some(0));
+    // As if the run had been killed after logging update 3 but before checkpointing it.
+    let log_path = split.join("log.csv");
+    let text = std::fs::read_to_string(&log_path).unwrap();
+    let last = text.lines().last().unwrap();
+    let ghost = format!("3{}\n", &last[last.find(',').unwrap()..]);
+    std::fs::write(&log_path, text + &ghost).unwrap();
+    let o = train(&split, "256", &["--resume"]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    for f in [
+        "model.safetensors",
+        "checkpoints/update-00000004/optimizer.safetensors",
+    ] {
+        assert_eq!(
+            std::fs::read(straight.join(f)).unwrap(),
+            std::fs::read(split.join(f)).unwrap(),
+            "{f} differs"
+        );
+    }
+    let log = |d: &Path| {
+        std::fs::read_to_string(d.join("log.csv"))
+            .unwrap()
+            .lines()
+            .map(|l| {
+                l.split(',')
+                    .enumerate()
+                    .filter(|(i, _)| ![2, 11].contains(i))
+                    .map(|(_, x)| x.to_owned())
+                    .collect::<Vec<_>>()
+            })
+            .collect::<Vec<_>>()
+    };
+    assert_eq!(
+        log(&straight),
+        log(&split),
+        "same losses apart from timing columns"
+    );
+    // The tracked evaluation runs at updates 2 and 4 in both, with the same results.
+    let evals = |d: &Path| -> Vec<String> {
+        std::fs::read_to_string(d.join("eval_log.csv"))
+            .unwrap()
+            .lines()
+            .map(|l| l.rsplit_once(',').unwrap().0.to_owned())
+            .collect()
+    };
+    assert_eq!(evals(&straight), evals(&split));
+    assert_eq!(evals(&straight).len(), 3, "{:?}", evals(&straight));
+    assert!(evals(&straight)[2].starts_with("4,256,4,"));
+    // A resume directory from another model, and a fresh run over an existing one.
+    let mut args = vec![
+        "train",
+        "--model",
+        "baseline",
+        "--out",
+        split.to_str().unwrap(),
+        "--resume",
+        "--quiet",
+    ];
+    assert_bad_input(&gs(&args), "attention");
+    args.retain(|a| *a != "--resume");
+    assert_bad_input(&gs(&args), "--resume");
+    // Flags given with --resume must agree with the run; flags left out take its values.
+    let before = std::fs::read(split.join("model.safetensors")).unwrap();
+    assert_bad_input(
+        &train(&split, "320", &["--resume", "--lr", "0.5"]),
+        "--lr 0.001",
+    );
+    assert_bad_input(
+        &train(&split, "320", &["--resume", "--always-color"]),
+        "--always-color",
+    );
+    assert_eq!(
+        std::fs::read(split.join("model.safetensors")).unwrap(),
+        before,
+        "a refused resume leaves the run alone"
+    );
+    assert_bad_input(
+        &train(&dir.path().join("x"), "64", &["--recurrence", "3"]),
+        "--recurrence",
+    );
+    assert_bad_input(
+        &train(Path::new("/proc/groundscope-run"), "64", &[]),
+        "groundscope-run",
+    );
+}
+
+#[test]
+fn init_starts_a_new_run_from_trained_weights() {
+    let dir = tempfile::tempdir().unwrap();
+    let parent = dir.path().join("parent");
+    assert_eq!(train(&parent, "128", &[]).status.code(), Some(0));
+    let child = dir.path().join("child");
+    let init = parent.join("model");
+    let o = train(
+        &child,
+        "256",
+        &["--init", init.to_str().unwrap(), "--entropy-coef", "0.001"],
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let meta = |d: &Path| -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(d.join("model.json")).unwrap()).unwrap()
+    };
+    // 128 frames = 2 updates of 64 in the parent, then 2 more here.
+    assert_eq!(meta(&parent)["training"]["updates"], 2);
+    assert_eq!(meta(&child)["training"]["frames"], 256);
+    assert_eq!(meta(&child)["training"]["updates"], 4);
+    assert_ne!(
+        meta(&parent)["weights_sha256"],
+        meta(&child)["weights_sha256"]
+    );
+    let updates = |d: &Path| -> Vec<String> {
+        std::fs::read_to_string(d.join("log.csv"))
+            .unwrap()
+            .lines()
+            .skip(1)
+            .map(|l| l.split(',').next().unwrap().to_owned())
+            .collect()
+    };
+    assert_eq!(
+        updates(&child),
+        ["1", "2", "3", "4"],
+        "the parent's rows come first"
+    );
+    let parent_log = std::fs::read_to_string(parent.join("log.csv")).unwrap();
+    let child_log = std::fs::read_to_string(child.join("log.csv")).unwrap();
+    assert!(child_log.starts_with(&parent_log));
+    // The run directory names its model, and its logs are found inside it.
+    let sibling = dir.path().join("sibling");
+    let o = train(&sibling, "256", &["--init", parent.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert_eq!(updates(&sibling), ["1", "2", "3", "4"]);
+    let sibling_log = std::fs::read_to_string(sibling.join("log.csv")).unwrap();
+    assert!(sibling_log.starts_with(&parent_log));
+    // The child resumes like any run; --init with --resume, or of the other model, is refused.
+    let o = train(&child, "320", &["--resume"]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert_eq!(meta(&child)["training"]["updates"], 5);
+    assert_bad_input(
+        &train(
+            &child,
+            "384",
+            &["--resume", "--init", init.to_str().unwrap()],
+        ),
+        "--init",
+    );
+    let o = gs(&[
+        "train",
+        "--model",
+        "baseline",
+        "--init",
+        init.to_str().unwrap(),
+        "--out",
+        dir.path().join("b").to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert_bad_input(&o, "attention");
+    assert!(!dir.path().join("b").join("model.json").exists());
+}
+
+#[test]
+fn curve_reads_bundled_flat_logs_as_seed_bands() {
+    // Two seeds of one recipe as `assets/runs/` bundles them: NAME_log.csv + NAME_eval_log.csv.
+    let dir = tempfile::tempdir().unwrap();
+    let study = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/recipe_study");
+    let mut files = Vec::new();
+    for seed in [1, 2] {
+        for (src, dst) in [("log.csv", "log.csv"), ("eval_log.csv", "eval_log.csv")] {
+            let to = dir.path().join(format!("attention_seed{seed}_{dst}"));
+            std::fs::copy(study.join(format!("recurrence16-s{seed}/{src}")), &to).unwrap();
+            files.push(to.to_str().unwrap().to_owned());
+        }
+    }
+    let out = dir.path().join("fig.png");
+    let mut args = vec!["curve"];
+    args.extend(files.iter().map(String::as_str));
+    args.extend(["--out", out.to_str().unwrap()]);
+    let o = gs(&args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    // One band of two seeds, and the grounding figure from the eval logs beside them.
+    assert!(stdout(&o).contains("fig_grounding.png"), "{}", stdout(&o));
+    for f in ["fig.png", "fig_grounding.png"] {
+        assert!(image::open(dir.path().join(f)).is_ok(), "{f}");
+    }
+    // Only evaluation logs: nothing to draw.
+    let only_evals = gs(&[
+        "curve",
+        &files[1],
+        &files[3],
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_bad_input(&only_evals, "no training log");
+    // A bad tracked evaluation is found before anything is drawn: no figure at all.
+    let fresh = dir.path().join("fresh.png");
+    std::fs::write(&files[3], "frames,greedy_success\n100,0.5\n").unwrap();
+    let bad_eval = gs(&[
+        "curve",
+        &files[0],
+        &files[2],
+        "--out",
+        fresh.to_str().unwrap(),
+    ]);
+    assert_bad_input(&bad_eval, "object_acc_ng");
+    assert!(!fresh.exists(), "no reward figure either");
+}
