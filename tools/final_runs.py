@@ -3,6 +3,8 @@
 
 usage: python3 tools/final_runs.py [assets/runs]
 
+`<model>_<recipe>_seed<N>` names the runs of another recipe (`attention_ent003_seed2`).
+
 Reads `<model>_seed<N>_log.csv` and `<model>_seed<N>_eval_log.csv` as `groundscope train`
 wrote them (15M frames, tracked held-out evaluation of 500 greedy episodes on level seeds
 2^31 + e). The final 1,000-episode test set is not read here; README reports it apart.
@@ -22,8 +24,18 @@ def triple(r):
     return [float(r[k] or "nan") for k in ("greedy_success", "object_acc_ng", "color_acc_ng")]
 
 
+def is_baseline(model):
+    return model.split("_")[0] == "baseline"
+
+
+def label(model):
+    # `attention_ent003` (a recipe other than the chosen one) reads "attention `ent003`".
+    base, _, tag = model.partition("_")
+    return f"{base} `{tag}`" if tag else base
+
+
 def fmt(v, model):
-    if model == "baseline":
+    if is_baseline(model):
         return f"{v[0]:.2f} / – / –"
     return " / ".join(f"{x:.2f}" for x in v)
 
@@ -53,7 +65,7 @@ def main():
             hours.append(wall_hours(log))
             reach = " / ".join(first_at(ev, x) for x in (0.90, 0.95, 0.99))
             print(
-                f"| {model} seed {seed} | {int(log[-1]['frames']) / 1e6:.2f}M | {reach} | "
+                f"| {label(model)} seed {seed} | {int(log[-1]['frames']) / 1e6:.2f}M | {reach} | "
                 f"{fmt(at5, model)} | {fmt(end, model)} | {hours[-1]:.2f} h |"
             )
         if len(seeds) > 1:
@@ -61,11 +73,11 @@ def main():
                 cols = list(zip(*vs))
                 return " / ".join(
                     f"{statistics.mean(c):.2f} ± {statistics.stdev(c):.2f}" for c in cols
-                ) if model != "baseline" else (
+                ) if not is_baseline(model) else (
                     f"{statistics.mean(cols[0]):.2f} ± {statistics.stdev(cols[0]):.2f} / – / –"
                 )
             print(
-                f"| **{model}, mean ± std over {len(seeds)} seeds** | | | {mean_std(at5s)} | "
+                f"| **{label(model)}, mean ± std over {len(seeds)} seeds** | | | {mean_std(at5s)} | "
                 f"{mean_std(ends)} | {statistics.mean(hours):.2f} h |"
             )
 
