@@ -198,13 +198,9 @@ fn parent_log_rows(name: &str, file: &str, header: &str, updates: u64) -> String
     if name.starts_with(groundscope::policy::bundled::PREFIX) {
         return String::new();
     }
-    let name = Path::new(name);
-    // A run directory holds its logs; a checkpoint `DIR/NAME` has them beside it.
-    let dir = if name.is_dir() {
-        name
-    } else {
-        name.parent().unwrap_or(Path::new("."))
-    };
+    // The logs sit beside the checkpoint (inside a run directory given as the name).
+    let name = groundscope::policy::checkpoint::checkpoint_name(Path::new(name));
+    let dir = name.parent().unwrap_or(Path::new("."));
     log_rows_upto(&dir.join(file), header, updates)
 }
 

@@ -6,6 +6,7 @@
 use std::path::PathBuf;
 
 use clap::Args;
+use groundscope::files::{OutputKind, output_kind, parent_dir};
 use groundscope::metrics::tracking::{EVAL_LOG_HEADER, track};
 use groundscope::policy::checkpoint::write_atomic;
 use groundscope::policy::{Net, bundled};
@@ -48,12 +49,13 @@ pub fn run(args: &ValidateArgs) -> anyhow::Result<ExitStatus> {
     if let Some(path) = &args.out {
         // Found wrong now, not after every checkpoint has been evaluated.
         super::check_extension(path, "csv", "--out")?;
-        let dir = match path.parent() {
-            Some(d) if !d.as_os_str().is_empty() => d,
-            _ => std::path::Path::new("."),
+        let cannot = |e: std::io::Error| {
+            anyhow::anyhow!("--out {}: cannot write there: {e}", path.display())
         };
-        tempfile::NamedTempFile::new_in(dir)
-            .map_err(|e| anyhow::anyhow!("--out {}: cannot write there: {e}", path.display()))?;
+        // A file is replaced through a temporary beside it (a device or FIFO is written in place).
+        if let OutputKind::Replace(dest) = output_kind(path).map_err(cannot)? {
+            tempfile::NamedTempFile::new_in(parent_dir(&dest)).map_err(cannot)?;
+        }
     }
     let mut ckpts = Vec::new();
     for name in &args.checkpoints {

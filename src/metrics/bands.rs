@@ -7,7 +7,7 @@ use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use super::error::MetricsError;
-use super::figures::{SERIES_COLORS, register_font, save_rgb};
+use super::figures::{register_font, save_rgb, series_color};
 
 /// A recipe's runs reduced to one line: `(frames, mean, std over runs, runs)` per bin.
 #[derive(Clone, Debug)]
@@ -192,7 +192,7 @@ pub fn band_panels(
                 .draw()
                 .map_err(|e| err(&e))?;
             for (i, b) in bands.iter().enumerate() {
-                let color = SERIES_COLORS[i % SERIES_COLORS.len()];
+                let color = series_color(i);
                 let pts: Vec<&(f64, f64, f64, usize)> =
                     b.points.iter().filter(|p| p.1.is_finite()).collect();
                 if pts.is_empty() {
@@ -250,7 +250,7 @@ fn legend_entries(panels: &[(String, Vec<Band>)]) -> Vec<(String, RGBColor)> {
         for (i, b) in bands.iter().enumerate() {
             let drawn = b.points.iter().any(|p| p.1.is_finite());
             if drawn && !entries.iter().any(|(l, _)| *l == b.label) {
-                entries.push((b.label.clone(), SERIES_COLORS[i % SERIES_COLORS.len()]));
+                entries.push((b.label.clone(), series_color(i)));
             }
         }
     }
@@ -288,6 +288,7 @@ fn legend_layout(label_widths: &[u32], width: u32) -> Vec<(u32, u32)> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::metrics::figures::SERIES_COLORS;
 
     #[test]
     fn legend_entries_fill_centred_rows_without_overlap() {

@@ -31,6 +31,12 @@ pub const SERIES_COLORS: [RGBColor; 6] = [
     RGBColor(86, 180, 233),
 ];
 
+/// The colour of the `i`-th series of a figure (the palette repeats past its end), so that a
+/// line and its legend entry are coloured by the same rule.
+pub fn series_color(i: usize) -> RGBColor {
+    SERIES_COLORS[i % SERIES_COLORS.len()]
+}
+
 fn plot_err(path: &Path, e: impl std::fmt::Display) -> MetricsError {
     MetricsError::Io {
         path: path.to_path_buf(),
@@ -99,7 +105,7 @@ pub fn learning_curve(curves: &[Curve], title: &str, path: &Path) -> Result<(), 
             .draw()
             .map_err(|e| plot_err(path, e))?;
         for (i, c) in curves.iter().enumerate() {
-            let color = SERIES_COLORS[i % SERIES_COLORS.len()];
+            let color = series_color(i);
             let raw: Vec<(f64, f64)> = c
                 .points
                 .iter()

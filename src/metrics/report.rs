@@ -11,7 +11,7 @@ use serde::{Deserialize, Serialize};
 
 use super::error::MetricsError;
 use super::failure::{Counterfactual, FailureClass};
-use super::figures::{SERIES_COLORS, save_rgb};
+use super::figures::{save_rgb, series_color};
 use super::grounding::WordKind;
 use super::sweep::{EpisodeSummary, GroundingStats, MeanStd, Performance};
 use crate::env::level::LevelConfig;
@@ -580,7 +580,7 @@ impl Report {
                     }
                 }
                 for (i, (label, pts)) in lines.iter().enumerate() {
-                    let color = SERIES_COLORS[i % SERIES_COLORS.len()];
+                    let color = series_color(i);
                     chart
                         .draw_series(LineSeries::new(
                             pts.iter().map(|p| (p.0, p.1)),

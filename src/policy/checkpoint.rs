@@ -68,6 +68,16 @@ pub struct Checkpoint {
     pub params: Params,
 }
 
+/// The checkpoint a name given to a reader stands for: a run directory names the model the run
+/// keeps in it (`RUN` → `RUN/model`); any other name stands for itself.
+pub fn checkpoint_name(name: &Path) -> std::borrow::Cow<'_, Path> {
+    if name.is_dir() {
+        std::borrow::Cow::Owned(name.join("model"))
+    } else {
+        std::borrow::Cow::Borrowed(name)
+    }
+}
+
 /// The two file paths of a checkpoint named `name` (`x`, `x.json` or `x.safetensors`).
 pub fn checkpoint_paths(name: &Path) -> (PathBuf, PathBuf) {
     let base = match name.extension().and_then(|e| e.to_str()) {
@@ -247,14 +257,7 @@ impl Checkpoint {
     /// checkpoint being rewritten. A directory names the checkpoint a training run keeps in
     /// it (`RUN` → `RUN/model`).
     pub fn load(name: &Path) -> Result<Self, PolicyError> {
-        let in_dir;
-        let name = if name.is_dir() {
-            in_dir = name.join("model");
-            &in_dir
-        } else {
-            name
-        };
-        let (st, js) = checkpoint_paths(name);
+        let (st, js) = checkpoint_paths(&checkpoint_name(name));
         let mut tries = 0;
         loop {
             let before = (file_stamp(&js), file_stamp(&st));
