@@ -1,20 +1,27 @@
 #!/usr/bin/env python3
 """Scores runs of issue #15's grounding study by the rule README fixed in advance.
 
-usage: python3 tools/grounding_score.py VALIDATE.csv...
+usage: python3 tools/grounding_score.py [--acc] VALIDATE.csv...
 
 Each CSV holds `groundscope validate --episodes 500 --out F` rows for one run's whole-million
 snapshots (the tracked held-out levels). A run's score is its best snapshot from 5M frames on,
 among those with greedy success >= 0.97, by min(object acc_ng / 0.90, colour acc_ng / 0.80).
+With --acc the same on `acc` (the map's value on the target's own cell, the metric of the
+issue's targets), the score of the study's fifth part on (README, fixed 2026-11-23 21:0x UTC).
 """
 import csv
 import sys
 
-for f in sys.argv[1:]:
+args = sys.argv[1:]
+metric = 'acc_ng'
+if args and args[0] == '--acc':
+    metric, args = 'acc', args[1:]
+for f in args:
     rows = [r for r in csv.DictReader(open(f)) if int(r['frames']) >= 5_000_000]
     ok = [r for r in rows if float(r['greedy_success']) >= 0.97]
-    sc = [(min(float(r['object_acc_ng'])/0.90, float(r['color_acc_ng'])/0.80), r) for r in ok]
+    obj, col = (lambda r: float(r['object_' + metric])), (lambda r: float(r['color_' + metric]))
+    sc = [(min(obj(r) / 0.90, col(r) / 0.80), r) for r in ok]
     if not sc:
         print(f, 'no snapshot with greedy >= 0.97'); continue
     s, r = max(sc, key=lambda x: x[0])
-    print(f"{f}: score {s:.3f} at {int(r['frames'])/1e6:.2f}M (greedy {float(r['greedy_success']):.3f}, object {float(r['object_acc_ng']):.3f}, colour {float(r['color_acc_ng']):.3f}); {len(ok)} of {len(rows)} snapshots eligible")
+    print(f"{f}: score ({metric}) {s:.3f} at {int(r['frames'])/1e6:.2f}M (greedy {float(r['greedy_success']):.3f}, object {obj(r):.3f}, colour {col(r):.3f}); {len(ok)} of {len(rows)} snapshots eligible")
