@@ -7,7 +7,7 @@ Each CSV holds `groundscope validate --episodes 500 --out F` rows for one run's 
 snapshots (the tracked held-out levels). A run's score is its best snapshot from 5M frames on,
 among those with greedy success >= 0.97, by min(object acc_ng / 0.90, colour acc_ng / 0.80).
 With --acc the same on `acc` (the map's value on the target's own cell, the metric of the
-issue's targets), the score of the study's fifth part on (README, fixed 2026-11-23 21:0x UTC).
+issue's targets), the score of the study's fifth part on (README, fixed 2026-11-23 20:43 UTC).
 """
 import csv
 import sys
