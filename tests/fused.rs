@@ -169,17 +169,18 @@ fn fused_attention_matches_the_autograd_reference() {
 
 #[test]
 fn sparse_conv_matches_the_dense_patch_gemm() {
-    // 16 channels take the fixed-width loops, 8 the general ones.
-    for channels in [16, 8] {
-        sparse_conv_matches_dense(channels);
+    // 16 channels take the fixed-width loops, 8 the general ones; 3×3 and 1×1 kernels.
+    for (channels, kernel) in [(16, 3), (8, 3), (16, 1), (8, 1)] {
+        sparse_conv_matches_dense(channels, kernel);
     }
 }
 
-fn sparse_conv_matches_dense(channels: usize) {
+fn sparse_conv_matches_dense(channels: usize, kernel: usize) {
     use groundscope::env::view::Observation;
     use groundscope::policy::obs::{CellCodes, patches};
     let mut cfg = ModelConfig::new(Variant::Attention);
     cfg.conv_channels = channels;
+    cfg.conv_kernel = kernel;
     let params = Params::init(&cfg, 5).unwrap();
     let net = Net::new(cfg, params.tracked());
     let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(11);
@@ -209,7 +210,8 @@ fn sparse_conv_matches_dense(channels: usize) {
         let o = if sparse {
             net.cells(&CellCodes::new(&obs)).unwrap()
         } else {
-            net.cells_reference(&patches(&obs).unwrap()).unwrap()
+            net.cells_reference(&patches(&obs, kernel).unwrap())
+                .unwrap()
         };
         let loss = (&o * &weights).unwrap().sum_all().unwrap();
         (o, loss.backward().unwrap())

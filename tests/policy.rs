@@ -21,6 +21,7 @@ fn tiny(variant: Variant) -> ModelConfig {
     ModelConfig {
         variant,
         conv_channels: 3,
+        conv_kernel: 3,
         word_dim: 4,
         key_dim: 4,
         lstm_hidden: 5,
@@ -76,8 +77,16 @@ fn loss(net: &Net, level: &LevelConfig) -> Tensor {
 #[test]
 fn gradients_reach_every_parameter_and_match_finite_differences() {
     let level = LevelConfig::default();
-    for variant in [Variant::Attention, Variant::Baseline] {
-        let cfg = tiny(variant);
+    let one_by_one = ModelConfig {
+        conv_kernel: 1,
+        ..tiny(Variant::Attention)
+    };
+    for cfg in [
+        tiny(Variant::Attention),
+        tiny(Variant::Baseline),
+        one_by_one,
+    ] {
+        let variant = (cfg.variant, cfg.conv_kernel);
         let params = Params::init(&cfg, 3).unwrap();
         let net = Net::new(cfg, params.tracked());
         let grads = loss(&net, &level).backward().unwrap();

@@ -110,6 +110,43 @@ fn validate_scores_a_saved_checkpoint_as_the_run_tracked_it() {
 }
 
 #[test]
+fn a_one_by_one_encoder_trains_resumes_and_keeps_its_kernel() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = dir.path().join("run");
+    let o = train(&run, "128", &["--conv-kernel", "1"]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let meta: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(run.join("model.json")).unwrap()).unwrap();
+    assert_eq!(meta["model"]["conv_kernel"], 1, "{meta}");
+    // A resume without the flag keeps the run's kernel; one with another kernel is refused.
+    let o = train(&run, "256", &["--resume"]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert_bad_input(
+        &train(&run, "384", &["--resume", "--conv-kernel", "3"]),
+        "--conv-kernel 1, not 3",
+    );
+    // --init from it with another kernel is refused too, and leaves no run behind.
+    let warm = dir.path().join("warm");
+    let model = run.join("model");
+    assert_bad_input(
+        &train(
+            &warm,
+            "128",
+            &["--init", model.to_str().unwrap(), "--conv-kernel", "3"],
+        ),
+        "not --conv-kernel 3",
+    );
+    assert!(!warm.exists());
+    // Only 1 and 3 are kernels; a new run with another leaves nothing.
+    let bad = dir.path().join("bad");
+    assert_bad_input(
+        &train(&bad, "128", &["--conv-kernel", "2"]),
+        "conv_kernel = 2",
+    );
+    assert!(!bad.exists());
+}
+
+#[test]
 fn a_resume_that_leaves_out_the_tracking_flags_tracks_as_the_run_did() {
     let dir = tempfile::tempdir().unwrap();
     let run = dir.path().join("run");

@@ -24,6 +24,9 @@ pub struct InitArgs {
     /// Checkpoint name: writes NAME.safetensors and NAME.json.
     #[arg(long, value_name = "NAME")]
     pub out: PathBuf,
+    /// Side of the encoder's convolution kernel: 3 (the paper's) or 1 (see `train --help`).
+    #[arg(long, default_value_t = 3, allow_negative_numbers = true)]
+    pub conv_kernel: usize,
     #[command(flatten)]
     pub level: LevelArgs,
 }
@@ -37,7 +40,11 @@ pub fn parse_variant(s: &str) -> anyhow::Result<Variant> {
 pub fn init(args: &InitArgs) -> anyhow::Result<ExitStatus> {
     let variant = parse_variant(&args.model)?;
     let level = args.level.config()?;
-    let cfg = ModelConfig::new(variant);
+    let cfg = ModelConfig {
+        conv_kernel: args.conv_kernel,
+        ..ModelConfig::new(variant)
+    };
+    cfg.validate()?;
     let params = Params::init(&cfg, args.seed)?;
     let n = params.count();
     let training = TrainingState {

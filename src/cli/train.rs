@@ -111,6 +111,10 @@ pub struct TrainArgs {
     /// Hidden size of the LSTM and GRU (smaller trains faster; the paper's default is 128).
     #[arg(long, default_value_t = 128, allow_negative_numbers = true)]
     pub hidden: usize,
+    /// Side of the encoder's convolution kernel: 3 (the paper's network, DESIGN.md) or 1 (each
+    /// cell's features its own codes only, so a word map that helps must cover its object).
+    #[arg(long, default_value_t = 3, allow_negative_numbers = true)]
+    pub conv_kernel: usize,
     /// Hide the progress bar (log lines only).
     #[arg(long)]
     pub quiet: bool,
@@ -234,6 +238,7 @@ pub fn run(args: &TrainArgs, matches: Option<&ArgMatches>) -> anyhow::Result<Exi
     let mut model = ModelConfig::new(variant);
     model.lstm_hidden = args.hidden;
     model.gru_hidden = args.hidden;
+    model.conv_kernel = args.conv_kernel;
     if args.save_interval == 0 {
         anyhow::bail!("--save-interval 0: must be at least 1 update");
     }

@@ -57,6 +57,7 @@ pub(super) fn resume_run(
         ppo: info.ppo,
         level: info.level,
         hidden: info.hidden,
+        conv_kernel: info.conv_kernel,
         seed: info.seed,
     };
     saved.check_given(args, matches, "--resume", dir)?;
@@ -64,7 +65,7 @@ pub(super) fn resume_run(
 }
 
 /// `--init NAME`: a new trainer on NAME's weights, refusing a checkpoint of the other model
-/// or a `--hidden` that differs from its size.
+/// or a `--hidden` or `--conv-kernel` that differs from its size.
 pub(super) fn warm_start(
     name: &str,
     variant: groundscope::policy::Variant,
@@ -89,6 +90,13 @@ pub(super) fn warm_start(
             args.hidden
         );
     }
+    if given(matches, "conv_kernel") && args.conv_kernel != ckpt.meta.model.conv_kernel {
+        anyhow::bail!(
+            "--init: {name} has a {k}×{k} encoder, not --conv-kernel {}",
+            args.conv_kernel,
+            k = ckpt.meta.model.conv_kernel,
+        );
+    }
     Ok(Trainer::warm_start(
         ckpt.meta.model,
         level,
@@ -111,6 +119,7 @@ struct Fixed {
     ppo: PpoConfig,
     level: groundscope::env::level::LevelConfig,
     hidden: usize,
+    conv_kernel: usize,
     seed: u64,
 }
 
@@ -125,7 +134,7 @@ impl Fixed {
         let (now, run) = (ppo_config(args), &self.ppo);
         let a = &args.level;
         let l = &self.level;
-        let pairs: [(&str, String, String); 21] = [
+        let pairs: [(&str, String, String); 22] = [
             (
                 "reward_scale",
                 now.reward_scale.to_string(),
@@ -195,6 +204,11 @@ impl Fixed {
                 run.update_threads.to_string(),
             ),
             ("hidden", args.hidden.to_string(), self.hidden.to_string()),
+            (
+                "conv_kernel",
+                args.conv_kernel.to_string(),
+                self.conv_kernel.to_string(),
+            ),
             ("seed", args.seed.to_string(), self.seed.to_string()),
             ("size", a.size.to_string(), l.room_size.to_string()),
             ("objects", a.objects.to_string(), l.n_objects.to_string()),

@@ -37,8 +37,18 @@ impl Variant {
 pub struct ModelConfig {
     /// Attention or baseline.
     pub variant: Variant,
-    /// K: channels of the 3×3 convolution that keeps the 7×7 grid.
+    /// K: channels of the convolution that keeps the 7×7 grid.
     pub conv_channels: usize,
+    /// Side of the convolution's kernel: 3 (the default, DESIGN.md §1) or 1. With 3 every
+    /// cell's features carry its eight neighbours' codes, so a word map one cell beside its
+    /// object passes the object to the LSTM as well as a map on it; with 1 a cell's features
+    /// are its own codes only. Checkpoints without the field have 3, and 3 is not written,
+    /// so their files stay as they were.
+    #[serde(
+        default = "ModelConfig::default_kernel",
+        skip_serializing_if = "ModelConfig::is_default_kernel"
+    )]
+    pub conv_kernel: usize,
     /// E: word embedding size.
     pub word_dim: usize,
     /// d_k: query/key size.
@@ -57,12 +67,30 @@ impl ModelConfig {
         Self {
             variant,
             conv_channels: 16,
+            conv_kernel: Self::DEFAULT_KERNEL,
             word_dim: 32,
             key_dim: 32,
             lstm_hidden: 128,
             gru_hidden: 128,
             head_hidden: 64,
         }
+    }
+
+    /// The paper's (and DESIGN.md's) kernel side.
+    pub const DEFAULT_KERNEL: usize = 3;
+    /// The kernel sides the encoder supports.
+    pub const KERNELS: [usize; 2] = [1, 3];
+
+    fn default_kernel() -> usize {
+        Self::DEFAULT_KERNEL
+    }
+
+    #[expect(
+        clippy::trivially_copy_pass_by_ref,
+        reason = "serde's skip_serializing_if passes a reference"
+    )]
+    fn is_default_kernel(k: &usize) -> bool {
+        *k == Self::DEFAULT_KERNEL
     }
 
     /// The largest size accepted for any dimension: well past the paper's (128) and small
@@ -74,6 +102,12 @@ impl ModelConfig {
 
     /// Checks every size is positive and bounded, naming the field.
     pub fn validate(&self) -> Result<(), super::PolicyError> {
+        if !Self::KERNELS.contains(&self.conv_kernel) {
+            return Err(super::PolicyError::Input(format!(
+                "model size conv_kernel = {} must be 1 or 3",
+                self.conv_kernel
+            )));
+        }
         for (name, v, max) in [
             ("conv_channels", self.conv_channels, Self::MAX_CHANNELS),
             ("word_dim", self.word_dim, Self::MAX_SIZE),
@@ -94,5 +128,42 @@ impl ModelConfig {
     /// Whether the network has the attention module.
     pub fn has_attention(&self) -> bool {
         self.variant == Variant::Attention
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_kernel_is_written_only_when_it_is_not_the_papers() {
+        let paper = ModelConfig::new(Variant::Attention);
+        let json = serde_json::to_string(&paper).unwrap();
+        assert!(!json.contains("conv_kernel"), "{json}");
+        // Checkpoints written before the field existed read as 3×3.
+        let back: ModelConfig = serde_json::from_str(&json).unwrap();
+        assert_eq!(back, paper);
+        let one = ModelConfig {
+            conv_kernel: 1,
+            ..paper
+        };
+        let json = serde_json::to_string(&one).unwrap();
+        assert!(json.contains("\"conv_kernel\":1"), "{json}");
+        assert_eq!(serde_json::from_str::<ModelConfig>(&json).unwrap(), one);
+    }
+
+    #[test]
+    fn only_one_and_three_are_kernels() {
+        for (k, ok) in [(0, false), (1, true), (2, false), (3, true), (5, false)] {
+            let cfg = ModelConfig {
+                conv_kernel: k,
+                ..ModelConfig::new(Variant::Baseline)
+            };
+            let r = cfg.validate();
+            assert_eq!(r.is_ok(), ok, "{k}: {r:?}");
+            if let Err(e) = r {
+                assert!(e.to_string().contains("conv_kernel"), "{e}");
+            }
+        }
     }
 }

@@ -1,6 +1,6 @@
-//! The first layer, `Õ = ReLU(Conv3×3(O) + b)`, computed from the codes set in each cell
-//! instead of the one-hot im2col patches (issue #16). A patch has 180 entries of which at
-//! most 27 are 1, so the dense GEMM did 6.7× the necessary work and built 35 KB of patches
+//! The first layer, `Õ = ReLU(Conv(O) + b)` (3×3, or 1×1 with `conv_kernel` 1), computed
+//! from the codes set in each cell instead of the one-hot im2col patches (issue #16). A 3×3
+//! patch has 180 entries of which at most 27 are 1, so the dense GEMM did 6.7× the necessary work and built 35 KB of patches
 //! per frame; here each output cell adds the ≤ 27 weight columns its codes select. The
 //! backward scatters into the same columns (the input is a constant and needs no gradient).
 //! [`super::model::Net::cells_reference`] keeps the dense version; `tests/fused.rs` compares.
@@ -8,24 +8,33 @@
 use candle_core::{CpuStorage, CustomOp2, Layout, Result, Shape, Tensor};
 
 use super::fused::f32_slice as slice;
-use super::obs::{CellCodes, N_CELLS, PATCH};
+use super::obs::{CellCodes, N_CELLS, patch_len};
 use crate::env::view::VIEW_SIZE;
 
-/// The forward op: inputs the weight (K, PATCH) and bias (K); output (B, 49, K).
+/// The forward op: inputs the weight (K, patch) and bias (K); output (B, 49, K).
 struct ConvCodes {
     codes: CellCodes,
+    kernel: usize,
 }
 
 /// Its backward: inputs the output `Õ` (B, 49, K) and its gradient; output
-/// `[dW (K·PATCH) | db (K)]` as one vector.
+/// `[dW (K·patch) | db (K)]` as one vector.
 struct ConvCodesBackward {
     codes: CellCodes,
+    kernel: usize,
 }
 
-/// The patch columns feeding output cell `cell`, `(column, …)` with `column = c·9 + ky·3 + kx`
-/// as in [`super::obs::push_patches`], passed to `f` one at a time.
+/// The patch columns feeding output cell `cell` of a `kernel`×`kernel` convolution (1 or 3),
+/// `(column, …)` with `column = c·kernel² + ky·kernel + kx` as in
+/// [`super::obs::push_patches`], passed to `f` one at a time.
 #[inline]
-fn for_each_column(codes: &[u8], cell: usize, mut f: impl FnMut(usize)) {
+fn for_each_column(codes: &[u8], kernel: usize, cell: usize, mut f: impl FnMut(usize)) {
+    if kernel == 1 {
+        for &c in &codes[cell * 3..cell * 3 + 3] {
+            f(usize::from(c));
+        }
+        return;
+    }
     let v = VIEW_SIZE as isize;
     let (ny, nx) = ((cell / VIEW_SIZE) as isize, (cell % VIEW_SIZE) as isize);
     for ky in 0..3isize {
@@ -47,12 +56,13 @@ fn for_each_column(codes: &[u8], cell: usize, mut f: impl FnMut(usize)) {
     }
 }
 
-fn kernel_width(l1: &Layout, l2: &Layout) -> Result<usize> {
+fn kernel_width(l1: &Layout, l2: &Layout, kernel: usize) -> Result<usize> {
     let (k, patch) = l1.shape().dims2()?;
     let k2 = l2.shape().dims1()?;
-    if patch != PATCH || k2 != k {
+    let want = patch_len(kernel);
+    if patch != want || k2 != k {
         return Err(candle_core::Error::Msg(format!(
-            "conv codes: shapes {:?} and {:?} do not fit (K, {PATCH}) and (K)",
+            "conv codes: shapes {:?} and {:?} do not fit (K, {want}) and (K)",
             l1.shape(),
             l2.shape()
         )));
@@ -72,11 +82,12 @@ impl CustomOp2 for ConvCodes {
         s2: &CpuStorage,
         l2: &Layout,
     ) -> Result<(CpuStorage, Shape)> {
-        let k = kernel_width(l1, l2)?;
+        let k = kernel_width(l1, l2, self.kernel)?;
+        let patch = patch_len(self.kernel);
         let (w, b) = (slice(s1, l1, "conv: weight")?, slice(s2, l2, "conv: bias")?);
         // Transposed so that each patch column's K weights are adjacent.
-        let mut wt = vec![0f32; PATCH * k];
-        for (ki, row) in w.chunks_exact(PATCH).enumerate() {
+        let mut wt = vec![0f32; patch * k];
+        for (ki, row) in w.chunks_exact(patch).enumerate() {
             for (col, x) in row.iter().enumerate() {
                 wt[col * k + ki] = *x;
             }
@@ -85,7 +96,7 @@ impl CustomOp2 for ConvCodes {
         let codes = self.codes.as_slice();
         let mut out = vec![0f32; frames * N_CELLS * k];
         if k == FAST_K {
-            forward_fast(codes, &wt, b, &mut out);
+            forward_fast(codes, self.kernel, &wt, b, &mut out);
             return Ok((CpuStorage::F32(out), Shape::from((frames, N_CELLS, k))));
         }
         for f in 0..frames {
@@ -93,7 +104,7 @@ impl CustomOp2 for ConvCodes {
             for cell in 0..N_CELLS {
                 let acc = &mut out[(f * N_CELLS + cell) * k..(f * N_CELLS + cell + 1) * k];
                 acc.copy_from_slice(b);
-                for_each_column(fc, cell, |col| {
+                for_each_column(fc, self.kernel, cell, |col| {
                     for (a, x) in acc.iter_mut().zip(&wt[col * k..(col + 1) * k]) {
                         *a += x;
                     }
@@ -114,15 +125,17 @@ impl CustomOp2 for ConvCodes {
         grad: &Tensor,
     ) -> Result<(Option<Tensor>, Option<Tensor>)> {
         let k = w.dim(0)?;
+        let patch = patch_len(self.kernel);
         let both = res.contiguous()?.apply_op2_no_bwd(
             &grad.contiguous()?,
             &ConvCodesBackward {
                 codes: self.codes.clone(),
+                kernel: self.kernel,
             },
         )?;
         Ok((
-            Some(both.narrow(0, 0, k * PATCH)?.reshape((k, PATCH))?),
-            Some(both.narrow(0, k * PATCH, k)?),
+            Some(both.narrow(0, 0, k * patch)?.reshape((k, patch))?),
+            Some(both.narrow(0, k * patch, k)?),
         ))
     }
 }
@@ -153,10 +166,11 @@ impl CustomOp2 for ConvCodesBackward {
             slice(s2, l2, "conv: gradient")?,
         );
         let codes = self.codes.as_slice();
-        let mut dwt = vec![0f32; PATCH * k];
+        let patch = patch_len(self.kernel);
+        let mut dwt = vec![0f32; patch * k];
         let mut db = vec![0f32; k];
         if k == FAST_K {
-            backward_fast(codes, o, d, &mut dwt, &mut db);
+            backward_fast(codes, self.kernel, o, d, &mut dwt, &mut db);
         } else {
             let mut dpre = vec![0f32; k];
             for f in 0..frames {
@@ -170,7 +184,7 @@ impl CustomOp2 for ConvCodesBackward {
                     for (a, p) in db.iter_mut().zip(&dpre) {
                         *a += p;
                     }
-                    for_each_column(fc, cell, |col| {
+                    for_each_column(fc, self.kernel, cell, |col| {
                         for (a, p) in dwt[col * k..(col + 1) * k].iter_mut().zip(&dpre) {
                             *a += p;
                         }
@@ -178,14 +192,14 @@ impl CustomOp2 for ConvCodesBackward {
                 }
             }
         }
-        let mut out = vec![0f32; k * PATCH + k];
-        for col in 0..PATCH {
+        let mut out = vec![0f32; k * patch + k];
+        for col in 0..patch {
             for ki in 0..k {
-                out[ki * PATCH + col] = dwt[col * k + ki];
+                out[ki * patch + col] = dwt[col * k + ki];
             }
         }
-        out[k * PATCH..].copy_from_slice(&db);
-        Ok((CpuStorage::F32(out), Shape::from(k * PATCH + k)))
+        out[k * patch..].copy_from_slice(&db);
+        Ok((CpuStorage::F32(out), Shape::from(k * patch + k)))
     }
 }
 
@@ -195,8 +209,8 @@ impl CustomOp2 for ConvCodesBackward {
 const FAST_K: usize = 16;
 
 crate::multiversion! {
-    /// The forward loop for [`FAST_K`] channels; `wt` is the transposed weight (PATCH, K).
-    fn forward_fast(codes: &[u8], wt: &[f32], b: &[f32], out: &mut [f32]) {
+    /// The forward loop for [`FAST_K`] channels; `wt` is the transposed weight (patch, K).
+    fn forward_fast(codes: &[u8], kernel: usize, wt: &[f32], b: &[f32], out: &mut [f32]) {
         const K: usize = FAST_K;
         let Some(&bias) = b.first_chunk::<K>() else {
             return;
@@ -207,7 +221,7 @@ crate::multiversion! {
         {
             for (cell, dst) in frame.chunks_exact_mut(K).enumerate() {
                 let mut acc = bias;
-                for_each_column(fc, cell, |col| {
+                for_each_column(fc, kernel, cell, |col| {
                     let w = &wt[col * K..col * K + K];
                     for (a, x) in acc.iter_mut().zip(w) {
                         *a += x;
@@ -222,9 +236,16 @@ crate::multiversion! {
 }
 
 crate::multiversion! {
-    /// The backward loop for [`FAST_K`] channels: `dwt` (PATCH, K) and `db` (K) accumulated
+    /// The backward loop for [`FAST_K`] channels: `dwt` (patch, K) and `db` (K) accumulated
     /// from the output `o` and its gradient `d`.
-    fn backward_fast(codes: &[u8], o: &[f32], d: &[f32], dwt: &mut [f32], db: &mut [f32]) {
+    fn backward_fast(
+        codes: &[u8],
+        kernel: usize,
+        o: &[f32],
+        d: &[f32],
+        dwt: &mut [f32],
+        db: &mut [f32],
+    ) {
         const K: usize = FAST_K;
         let Some(db) = db.first_chunk_mut::<K>() else {
             return;
@@ -243,7 +264,7 @@ crate::multiversion! {
                 for (a, p) in db.iter_mut().zip(&dpre) {
                     *a += p;
                 }
-                for_each_column(fc, cell, |col| {
+                for_each_column(fc, kernel, cell, |col| {
                     for (a, p) in dwt[col * K..col * K + K].iter_mut().zip(&dpre) {
                         *a += p;
                     }
@@ -253,13 +274,25 @@ crate::multiversion! {
     }
 }
 
-/// `ReLU(Conv3×3(O) + b)` for the frames of `codes`, from the weight (K, PATCH) and bias (K):
-/// (B, 49, K), with its backward to the weight and bias.
-pub fn conv_codes(codes: &CellCodes, weight: &Tensor, bias: &Tensor) -> Result<Tensor> {
+/// `ReLU(Conv(O) + b)` of a `kernel`×`kernel` convolution (1 or 3, padding `kernel / 2`) for
+/// the frames of `codes`, from the weight (K, `patch_len(kernel)`) and bias (K): (B, 49, K),
+/// with its backward to the weight and bias.
+pub fn conv_codes(
+    codes: &CellCodes,
+    kernel: usize,
+    weight: &Tensor,
+    bias: &Tensor,
+) -> Result<Tensor> {
+    if kernel != 1 && kernel != 3 {
+        return Err(candle_core::Error::Msg(format!(
+            "conv codes: kernel {kernel} is not 1 or 3"
+        )));
+    }
     weight.contiguous()?.apply_op2(
         &bias.contiguous()?,
         ConvCodes {
             codes: codes.clone(),
+            kernel,
         },
     )
 }

@@ -15,7 +15,7 @@ use super::attention::{AttentionOut, Intervention, attend_with};
 use super::config::ModelConfig;
 use super::error::PolicyError;
 use super::fused_act;
-use super::obs::{CellCodes, N_CELLS, PATCH, TokenBatch};
+use super::obs::{CellCodes, N_CELLS, TokenBatch, patch_len};
 use crate::env::world::Action;
 
 /// The matrices an acting net also keeps transposed ([`Net::new`]): the large ones. The small
@@ -127,20 +127,23 @@ impl Net {
             .broadcast_add(b)?)
     }
 
-    /// `Õ = ReLU(Conv3×3(O))` for the B frames of `codes`: (B, 49, K), through the sparse
-    /// op of [`super::fused_conv`].
+    /// `Õ = ReLU(Conv(O))` (3×3 or 1×1, `conv_kernel`) for the B frames of `codes`:
+    /// (B, 49, K), through the sparse op of [`super::fused_conv`].
     pub fn cells(&self, codes: &CellCodes) -> Result<Tensor, PolicyError> {
-        let k = self.cfg.conv_channels;
-        let w = self.p("encoder.conv.weight")?.reshape((k, PATCH))?;
+        let (k, ks) = (self.cfg.conv_channels, self.cfg.conv_kernel);
+        let w = self.p("encoder.conv.weight")?.reshape((k, patch_len(ks)))?;
         let b = self.p("encoder.conv.bias")?;
-        Ok(super::fused_conv::conv_codes(codes, &w, b)?)
+        Ok(super::fused_conv::conv_codes(codes, ks, &w, b)?)
     }
 
-    /// [`Self::cells`] as a dense GEMM over the im2col patches (B·49, PATCH) with candle's
-    /// autograd: the reference the sparse op is tested against.
+    /// [`Self::cells`] as a dense GEMM over the im2col patches (B·49, patch) of
+    /// [`super::obs::patches`] with candle's autograd: the reference the sparse op is tested
+    /// against.
     pub fn cells_reference(&self, patches: &Tensor) -> Result<Tensor, PolicyError> {
         let k = self.cfg.conv_channels;
-        let w = self.p("encoder.conv.weight")?.reshape((k, PATCH))?;
+        let w = self
+            .p("encoder.conv.weight")?
+            .reshape((k, patch_len(self.cfg.conv_kernel)))?;
         let b = self.p("encoder.conv.bias")?;
         let rows = patches.dim(0)?;
         let o = patches.matmul(&w.t()?)?.broadcast_add(b)?.relu()?;

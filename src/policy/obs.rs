@@ -20,8 +20,14 @@ pub const CELL_CODES: usize = 11 + 6 + 3;
 /// Cells in the view.
 pub const N_CELLS: usize = VIEW_SIZE * VIEW_SIZE;
 
-/// Length of one im2col patch: `CELL_CODES × 3 × 3`, index `c·9 + ky·3 + kx`.
-pub const PATCH: usize = CELL_CODES * 9;
+/// Length of one im2col patch of a `kernel`×`kernel` convolution: `CELL_CODES × kernel²`,
+/// index `c·kernel² + ky·kernel + kx`.
+pub const fn patch_len(kernel: usize) -> usize {
+    CELL_CODES * kernel * kernel
+}
+
+/// Length of one im2col patch of the default 3×3 convolution.
+pub const PATCH: usize = patch_len(3);
 
 /// The one-hot codes set for an encoded cell.
 #[inline]
@@ -33,25 +39,28 @@ fn codes(enc: [u8; 3]) -> [usize; 3] {
     ]
 }
 
-/// Appends the 49 patches of `obs` (49 × [`PATCH`] floats) to `out`.
-pub fn push_patches(obs: &Observation, out: &mut Vec<f32>) {
+/// Appends the 49 patches of `obs` for a `kernel`×`kernel` convolution (49 ×
+/// [`patch_len`]`(kernel)` floats) to `out`.
+pub fn push_patches(obs: &Observation, kernel: usize, out: &mut Vec<f32>) {
+    let patch = patch_len(kernel);
     let start = out.len();
-    out.resize(start + N_CELLS * PATCH, 0.0);
+    out.resize(start + N_CELLS * patch, 0.0);
     let dst = &mut out[start..];
     let v = VIEW_SIZE as i32;
+    let (ks, r) = (kernel as i32, kernel as i32 / 2);
     for vy in 0..v {
         for vx in 0..v {
             let codes = codes(obs.image[vx as usize][vy as usize]);
             // This cell feeds the patch of every neighbour (ny, nx) at kernel offset (ky, kx).
-            for ky in 0..3 {
-                for kx in 0..3 {
-                    let (ny, nx) = (vy - (ky - 1), vx - (kx - 1));
+            for ky in 0..ks {
+                for kx in 0..ks {
+                    let (ny, nx) = (vy - (ky - r), vx - (kx - r));
                     if !(0..v).contains(&ny) || !(0..v).contains(&nx) {
                         continue;
                     }
-                    let row = (ny * v + nx) as usize * PATCH;
+                    let row = (ny * v + nx) as usize * patch;
                     for c in codes {
-                        dst[row + c * 9 + (ky * 3 + kx) as usize] = 1.0;
+                        dst[row + c * (ks * ks) as usize + (ky * ks + kx) as usize] = 1.0;
                     }
                 }
             }
@@ -98,15 +107,17 @@ impl CellCodes {
     }
 }
 
-/// Patches of a batch of observations as a `(B·49, PATCH)` tensor.
-pub fn patches(obs: &[Observation]) -> Result<Tensor, PolicyError> {
-    let mut data = Vec::with_capacity(obs.len() * N_CELLS * PATCH);
+/// Patches of a batch of observations for a `kernel`×`kernel` convolution as a
+/// `(B·49, patch_len(kernel))` tensor.
+pub fn patches(obs: &[Observation], kernel: usize) -> Result<Tensor, PolicyError> {
+    let patch = patch_len(kernel);
+    let mut data = Vec::with_capacity(obs.len() * N_CELLS * patch);
     for o in obs {
-        push_patches(o, &mut data);
+        push_patches(o, kernel, &mut data);
     }
     Ok(Tensor::from_vec(
         data,
-        (obs.len() * N_CELLS, PATCH),
+        (obs.len() * N_CELLS, patch),
         &Device::Cpu,
     )?)
 }
@@ -178,7 +189,7 @@ mod tests {
         };
         obs.image[2][4] = [6, 3, 0]; // purple ball at vx 2, vy 4
         let mut p = Vec::new();
-        push_patches(&obs, &mut p);
+        push_patches(&obs, 3, &mut p);
         let row = (4 * 7 + 2) * PATCH;
         let centre = |c: usize| p[row + c * 9 + 4];
         assert_eq!(centre(6), 1.0);
@@ -188,6 +199,16 @@ mod tests {
         let top_left = &p[..PATCH];
         assert!((0..CELL_CODES).all(|c| top_left[c * 9] == 0.0 && top_left[c * 9 + 1] == 0.0));
         assert_eq!(p.iter().sum::<f32>() as usize, 3 * (49 * 9 - 4 * 7 * 3 + 4));
+        // A 1×1 patch is the cell's own codes and nothing else.
+        let mut p1 = Vec::new();
+        push_patches(&obs, 1, &mut p1);
+        assert_eq!(p1.len(), 49 * CELL_CODES);
+        let ball = &p1[(4 * 7 + 2) * CELL_CODES..(4 * 7 + 3) * CELL_CODES];
+        assert_eq!(
+            (ball[6], ball[11 + 3], ball[17], ball[1]),
+            (1.0, 1.0, 1.0, 0.0)
+        );
+        assert_eq!(p1.iter().sum::<f32>() as usize, 3 * 49);
     }
 
     #[test]

@@ -54,13 +54,14 @@ pub fn param_specs(cfg: &ModelConfig) -> Vec<ParamSpec> {
     let k = cfg.conv_channels;
     let (e, dk) = (cfg.word_dim, cfg.key_dim);
     let (hl, hg, hh) = (cfg.lstm_hidden, cfg.gru_hidden, cfg.head_hidden);
-    let conv_fan_in = (CELL_CODES * 9) as f32;
+    let ks = cfg.conv_kernel;
+    let conv_fan_in = (CELL_CODES * ks * ks) as f32;
     let lstm_b = 1.0 / (hl as f32).sqrt();
     let gru_b = 1.0 / (hg as f32).sqrt();
     let mut v = vec![
         spec(
             "encoder.conv.weight",
-            &[k, CELL_CODES, 3, 3],
+            &[k, CELL_CODES, ks, ks],
             Init::Uniform(1.0 / conv_fan_in.sqrt()),
         ),
         spec(
