@@ -288,6 +288,7 @@ fn eval_writes_a_complete_report_and_gates_on_thresholds() {
         "report.md",
         "performance.csv",
         "accuracy.csv",
+        "around.csv",
         "failures.json",
         "fig6_reward.png",
         "fig6_success.png",
@@ -323,6 +324,21 @@ fn eval_writes_a_complete_report_and_gates_on_thresholds() {
     assert!(
         v["cells"][7]["accuracy"].is_null(),
         "no accuracies for the baseline"
+    );
+    // The offsets around the objects: `on` is acc and `forward` acc_bs, cell by cell; 4
+    // attention cells × 3 word kinds × 9 offsets in around.csv, none for the baseline.
+    for c in report.cells.iter().filter_map(|c| c.accuracy.as_ref()) {
+        for g in [&c.object, &c.color, &c.combined] {
+            assert_eq!((g.around[4], g.around[1]), (g.acc, g.acc_bs), "{g:?}");
+        }
+    }
+    let around = std::fs::read_to_string(out.join("around.csv")).unwrap();
+    assert_eq!(around.lines().count(), 1 + 4 * 3 * 9, "{around}");
+    assert!(!around.contains("bundled:baseline"));
+    let md = std::fs::read_to_string(out.join("report.md")).unwrap();
+    assert!(
+        md.contains("| word | forward-left | forward | forward-right |"),
+        "{md}"
     );
     // Failure classes: one per failed episode; baselines cannot be judged on grounding.
     for c in &report.cells {

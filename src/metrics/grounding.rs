@@ -11,6 +11,10 @@
 //! - `acc_cmb`: `acc` or `acc_bs` (just `acc` when `y = 0`).
 //!
 //! Each is the fraction of the n_ω objects that hit. Maps are `map[vy][vx]`, agent-up.
+//! Beyond the paper, `around` says *where* in the neighbourhood a map passes τ: for each of
+//! the nine cells [`AROUND`] of an object's 3×3 neighbourhood, the fraction of objects whose
+//! cell at that offset is `≥ τ` (so `around[4]` is `acc` and `around[1]` is `acc_bs`). A map
+//! that settles beside its objects shows there which side it settled on.
 
 use serde::{Deserialize, Serialize};
 
@@ -19,7 +23,35 @@ use crate::env::object::{Color, ObjectKind};
 use crate::env::view::{AGENT_IN_VIEW, Observation, VIEW_SIZE, ViewCell};
 use crate::policy::ViewMap;
 
-/// The four accuracies of one map at one step, each a fraction of the related objects.
+/// The nine cells of an object's 3×3 neighbourhood as view offsets `(dx, dy)`, row by row
+/// from the row one step forward (`dy = −1`) to the row one step back, each left to right.
+pub const AROUND: [(i64, i64); 9] = [
+    (-1, -1),
+    (0, -1),
+    (1, -1),
+    (-1, 0),
+    (0, 0),
+    (1, 0),
+    (-1, 1),
+    (0, 1),
+    (1, 1),
+];
+
+/// Short names of the [`AROUND`] offsets as seen from the agent, for tables.
+pub const AROUND_NAMES: [&str; 9] = [
+    "forward-left",
+    "forward",
+    "forward-right",
+    "left",
+    "on",
+    "right",
+    "back-left",
+    "back",
+    "back-right",
+];
+
+/// The four accuracies of one map at one step, each a fraction of the related objects, and
+/// the hit rate at each offset of [`AROUND`].
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Accuracies {
     /// Hit on the object's own cell.
@@ -30,6 +62,9 @@ pub struct Accuracies {
     pub acc_bs: f64,
     /// `acc` or `acc_bs`.
     pub acc_cmb: f64,
+    /// The fraction of objects whose cell at each offset of [`AROUND`] is `≥ τ`.
+    #[serde(default)]
+    pub around: [f64; 9],
 }
 
 impl Accuracies {
@@ -47,6 +82,9 @@ impl Accuracies {
         self.acc_ng += o.acc_ng;
         self.acc_bs += o.acc_bs;
         self.acc_cmb += o.acc_cmb;
+        for (a, b) in self.around.iter_mut().zip(o.around) {
+            *a += b;
+        }
     }
 
     /// Element-wise division.
@@ -57,6 +95,7 @@ impl Accuracies {
             acc_ng: self.acc_ng / by,
             acc_bs: self.acc_bs / by,
             acc_cmb: self.acc_cmb / by,
+            around: self.around.map(|a| a / by),
         }
     }
 }
@@ -103,6 +142,9 @@ pub struct ObjectHit {
     pub acc_bs: bool,
     /// `acc` or `acc_bs`.
     pub acc_cmb: bool,
+    /// Whether the cell at each offset of [`AROUND`] is `≥ τ` (outside the view: no).
+    #[serde(default)]
+    pub around: [bool; 9],
 }
 
 /// Hit or miss of each object in `objects` on `map` at threshold `α / n` (n = the number of
@@ -117,16 +159,16 @@ pub fn object_hits(map: &ViewMap, objects: &[ViewCell], alpha: f64) -> Vec<Objec
         .iter()
         .map(|&cell| {
             let (x, y) = (cell.0 as i64, cell.1 as i64);
-            let acc = at(x, y).is_some_and(|v| v >= tau);
-            let acc_ng =
-                (-1..=1).any(|dy| (-1..=1).any(|dx| at(x + dx, y + dy).is_some_and(|v| v >= tau)));
-            let acc_bs = y > 0 && at(x, y - 1).is_some_and(|v| v >= tau);
+            let around = AROUND.map(|(dx, dy)| at(x + dx, y + dy).is_some_and(|v| v >= tau));
+            // The paper's criteria are cells of the neighbourhood: on it, any, one forward.
+            let (acc, acc_bs) = (around[4], around[1]);
             ObjectHit {
                 cell,
                 acc,
-                acc_ng,
+                acc_ng: around.contains(&true),
                 acc_bs,
                 acc_cmb: acc || acc_bs,
+                around,
             }
         })
         .collect()
@@ -149,6 +191,9 @@ pub fn accuracies_of_hits(hits: &[ObjectHit]) -> Accuracies {
         sum.acc_ng += f64::from(u8::from(h.acc_ng));
         sum.acc_bs += f64::from(u8::from(h.acc_bs));
         sum.acc_cmb += f64::from(u8::from(h.acc_cmb));
+        for (a, hit) in sum.around.iter_mut().zip(h.around) {
+            *a += f64::from(u8::from(hit));
+        }
     }
     sum.scaled(hits.len().max(1) as f64)
 }
@@ -266,15 +311,29 @@ mod tests {
     #[test]
     fn one_hot_on_the_object_hits_everything_but_the_shift() {
         let a = accuracies(&one_hot(2, 3), &[(2, 3)], 0.5).unwrap();
-        assert_eq!(
-            a,
-            Accuracies {
-                acc: 1.0,
-                acc_ng: 1.0,
-                acc_bs: 0.0,
-                acc_cmb: 1.0
-            }
-        );
+        assert_eq!(a.values(), [1.0, 1.0, 0.0, 1.0]);
+    }
+
+    #[test]
+    fn around_says_which_side_of_the_object_the_map_passes() {
+        // One object at (2, 3): a map one cell to its right; another at (5, 0): a map on it.
+        let mut m = one_hot(3, 3);
+        m[0][5] = 1.0;
+        let a = accuracies(&m, &[(2, 3), (5, 0)], 0.5).unwrap();
+        let mut want = [0.0; 9];
+        want[5] = 0.5; // right of the first object
+        want[4] = 0.5; // on the second
+        assert_eq!(a.around, want);
+        assert_eq!(a.acc, a.around[4]);
+        assert_eq!(a.acc_bs, a.around[1]);
+        assert_eq!(a.acc_ng, 1.0);
+        // The offsets name the sides as the agent sees them (forward is up the view).
+        assert_eq!(AROUND[1], (0, -1));
+        assert_eq!((AROUND_NAMES[1], AROUND_NAMES[5]), ("forward", "right"));
+        // A mean over steps keeps the offsets.
+        let mut sum = a;
+        sum.add(&accuracies(&one_hot(2, 2), &[(2, 3)], 0.5).unwrap());
+        assert_eq!(sum.scaled(2.0).around[1], 0.5);
     }
 
     #[test]
@@ -289,15 +348,7 @@ mod tests {
     #[test]
     fn a_map_shifted_one_cell_forward_hits_bs_ng_and_cmb() {
         let a = accuracies(&one_hot(2, 2), &[(2, 3)], 0.5).unwrap();
-        assert_eq!(
-            a,
-            Accuracies {
-                acc: 0.0,
-                acc_ng: 1.0,
-                acc_bs: 1.0,
-                acc_cmb: 1.0
-            }
-        );
+        assert_eq!(a.values(), [0.0, 1.0, 1.0, 1.0]);
     }
 
     #[test]
@@ -305,25 +356,9 @@ mod tests {
         let mut m = one_hot(4, 0);
         m[6][0] = 0.9; // far away, irrelevant
         let a = accuracies(&m, &[(4, 0)], 0.5).unwrap();
-        assert_eq!(
-            a,
-            Accuracies {
-                acc: 1.0,
-                acc_ng: 1.0,
-                acc_bs: 0.0,
-                acc_cmb: 1.0
-            }
-        );
+        assert_eq!(a.values(), [1.0, 1.0, 0.0, 1.0]);
         let miss = accuracies(&one_hot(5, 1), &[(4, 0)], 0.5).unwrap();
-        assert_eq!(
-            miss,
-            Accuracies {
-                acc: 0.0,
-                acc_ng: 1.0,
-                acc_bs: 0.0,
-                acc_cmb: 0.0
-            }
-        );
+        assert_eq!(miss.values(), [0.0, 1.0, 0.0, 0.0]);
     }
 
     #[test]

@@ -1,5 +1,6 @@
 //! Metrics and reports: the paper's grounding accuracies, evaluation sweeps, figures.
 
+mod around;
 pub mod bands;
 pub mod error;
 pub mod failure;

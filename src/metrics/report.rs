@@ -219,7 +219,8 @@ pub fn worst_episodes(
     failed
 }
 
-fn csv(m: &MeanStd) -> String {
+/// `mean,std` for a CSV row (two empty fields when nothing was measured).
+pub(super) fn csv(m: &MeanStd) -> String {
     match (m.mean, m.std) {
         (Some(a), Some(b)) => format!("{a:.6},{b:.6}"),
         _ => ",".into(),
@@ -298,6 +299,7 @@ impl Report {
                 );
             }
         }
+        self.around_table(&mut s);
         self.failure_table(&mut s);
         let _ = writeln!(s, "\n## Worst episodes\n");
         let _ = writeln!(
@@ -441,6 +443,7 @@ impl Report {
             ("report.md", self.markdown(failures)),
             ("performance.csv", self.performance_csv()),
             ("accuracy.csv", self.accuracy_csv()),
+            ("around.csv", self.around_csv()),
         ];
         for (name, text) in &files {
             let p = tmp.path().join(name);

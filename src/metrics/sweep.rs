@@ -284,6 +284,10 @@ pub struct GroundingStats {
     pub acc_bs: MeanStd,
     /// `acc_cmb`.
     pub acc_cmb: MeanStd,
+    /// The hit rate at each offset of [`super::grounding::AROUND`], averaged as the four
+    /// accuracies are (`around[4]` is `acc`, `around[1]` is `acc_bs`).
+    #[serde(default)]
+    pub around: Vec<MeanStd>,
     /// Evaluated steps over all episodes.
     pub evaluated_steps: u64,
     /// Episodes with no evaluated step (left out of the averages).
@@ -317,13 +321,17 @@ pub fn performance(eps: &[EpisodeSummary]) -> Performance {
 /// summaries), then per seed over episodes that had any, then mean ± std over seeds.
 pub fn grounding(eps: &[EpisodeSummary], kind: WordKind) -> GroundingStats {
     let seeds = by_seed(eps);
-    let per_seed: Vec<[f64; 4]> = seeds
+    // The four accuracies, then the nine offsets.
+    let per_seed: Vec<[f64; 13]> = seeds
         .iter()
         .map(|s| {
-            let vals: Vec<[f64; 4]> = s
+            let vals: Vec<[f64; 13]> = s
                 .iter()
                 .filter_map(|e| e.grounding.get(&kind))
-                .map(|(a, _)| a.values())
+                .map(|(a, _)| {
+                    let v = a.values();
+                    std::array::from_fn(|i| if i < 4 { v[i] } else { a.around[i - 4] })
+                })
                 .collect();
             std::array::from_fn(|i| mean(vals.iter().map(|v| v[i])))
         })
@@ -334,6 +342,7 @@ pub fn grounding(eps: &[EpisodeSummary], kind: WordKind) -> GroundingStats {
         acc_ng: col(1),
         acc_bs: col(2),
         acc_cmb: col(3),
+        around: (4..13).map(col).collect(),
         evaluated_steps: eps
             .iter()
             .filter_map(|e| e.grounding.get(&kind))
@@ -361,6 +370,7 @@ mod tests {
                         acc_ng: 1.0,
                         acc_bs: 0.0,
                         acc_cmb: a,
+                        around: [0.0, 0.0, 0.0, 0.0, a, 0.0, 0.0, 0.0, 1.0 - a],
                     },
                     2,
                 ),
@@ -397,6 +407,9 @@ mod tests {
             }
         );
         assert_eq!(g.acc_ng.mean, Some(1.0));
+        assert_eq!(g.around.len(), 9);
+        assert_eq!(g.around[4], g.acc);
+        assert_eq!(g.around[8].mean, Some(0.25));
         assert_eq!(g.evaluated_steps, 6);
         assert_eq!(g.episodes_without, 1);
         let p = performance(&eps);

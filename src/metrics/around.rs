@@ -1,0 +1,86 @@
+//! Where each word's map passes τ around its objects (beyond the paper): `around.csv` and a
+//! table in `report.md`, from the rates at the [`AROUND`] offsets that every grounding
+//! evaluation carries. `acc` and `acc_ng` say whether a map hits an object or its
+//! neighbourhood; these say which side of the object a map that misses it settled on.
+
+use std::fmt::Write;
+
+use super::grounding::{AROUND, AROUND_NAMES, WordKind};
+use super::report::{Report, csv};
+use super::sweep::GroundingStats;
+
+impl Report {
+    /// The attention cells' grounding stats per word kind, in report order.
+    fn around_rows(
+        &self,
+    ) -> impl Iterator<Item = (&super::report::Cell, WordKind, &GroundingStats)> {
+        self.cells.iter().flat_map(|c| {
+            c.accuracy.iter().flat_map(move |a| {
+                [
+                    (c, WordKind::Object, &a.object),
+                    (c, WordKind::Color, &a.color),
+                    (c, WordKind::Combined, &a.combined),
+                ]
+            })
+        })
+    }
+
+    /// `around.csv`: one line per attention cell, word kind and offset (`dx` right, `dy`
+    /// back, as seen from the agent), mean and std over seeds.
+    pub fn around_csv(&self) -> String {
+        let mut s = String::from("checkpoint,size,objects,word,offset,dx,dy,mean,std\n");
+        for (c, kind, g) in self.around_rows() {
+            for ((name, (dx, dy)), m) in AROUND_NAMES.iter().zip(AROUND).zip(&g.around) {
+                let _ = writeln!(
+                    s,
+                    "{},{},{},{},{name},{dx},{dy},{}",
+                    c.checkpoint,
+                    c.size,
+                    c.objects,
+                    kind.name(),
+                    csv(m)
+                );
+            }
+        }
+        s
+    }
+
+    /// The `report.md` section: one row per attention cell and word kind, one column per
+    /// offset (the mean over seeds).
+    pub(super) fn around_table(&self, s: &mut String) {
+        if !self.cells.iter().any(|c| c.accuracy.is_some()) {
+            return;
+        }
+        let _ = writeln!(
+            s,
+            "\n## Where the maps pass τ around their objects (not in the paper)\n"
+        );
+        let _ = writeln!(
+            s,
+            "Share of related objects whose cell at each offset (as the agent sees it) passes τ; \
+             `on` is `acc`, `forward` is `acc_bs`. Mean over seeds; `around.csv` has the std.\n"
+        );
+        let _ = writeln!(
+            s,
+            "| checkpoint | size | objects | word | {} |",
+            AROUND_NAMES.join(" | ")
+        );
+        let _ = writeln!(s, "|---|---|---|---|{}", "---|".repeat(AROUND.len()));
+        for (c, kind, g) in self.around_rows() {
+            let cols: Vec<String> = g
+                .around
+                .iter()
+                .map(|m| m.mean.map_or("–".into(), |v| format!("{v:.3}")))
+                .collect();
+            let _ = writeln!(
+                s,
+                "| {} | {} | {} | {} | {} |",
+                c.checkpoint,
+                c.size,
+                c.objects,
+                kind.name(),
+                cols.join(" | ")
+            );
+        }
+    }
+}
