@@ -12,7 +12,7 @@ use super::{Debugger, Overlay};
 use crate::env::edit::Edit;
 use crate::env::view::{VIEW_SIZE, view_from_world};
 use crate::env::{Pos, world_from_view};
-use crate::metrics::grounding::ObjectHit;
+use crate::metrics::grounding::{AROUND_NAMES, ObjectHit};
 use crate::policy::ViewMap;
 use crate::render::colorize;
 
@@ -207,6 +207,15 @@ impl Debugger {
                         "\nrelated object: acc {} · ng {} · bs {} · cmb {}",
                         h.acc, h.acc_ng, h.acc_bs, h.acc_cmb
                     );
+                    // Which neighbouring cells pass τ: where a map that misses it sits.
+                    let sides: Vec<&str> = AROUND_NAMES
+                        .iter()
+                        .zip(h.around)
+                        .filter_map(|(n, hit)| hit.then_some(*n))
+                        .collect();
+                    if !sides.is_empty() {
+                        let _ = write!(text, "\n≥ τ: {}", sides.join(", "));
+                    }
                 }
                 return resp.on_hover_text_at_pointer(text);
             }
