@@ -21,14 +21,20 @@ pub fn register_font() {
     });
 }
 
-/// Distinct line colours (colour-blind friendly, Okabe–Ito).
-pub const SERIES_COLORS: [RGBColor; 6] = [
+/// Distinct line colours: Okabe–Ito's colour-blind-friendly set (its yellow left out, too
+/// pale on white), then black and three of Paul Tol's muted colours, so that the study's
+/// figures of up to ten runs repeat none.
+pub const SERIES_COLORS: [RGBColor; 10] = [
     RGBColor(0, 114, 178),
     RGBColor(213, 94, 0),
     RGBColor(0, 158, 115),
     RGBColor(204, 121, 167),
     RGBColor(230, 159, 0),
     RGBColor(86, 180, 233),
+    RGBColor(0, 0, 0),
+    RGBColor(136, 34, 85),
+    RGBColor(153, 153, 51),
+    RGBColor(119, 119, 119),
 ];
 
 /// The colour of the `i`-th series of a figure (the palette repeats past its end), so that a
