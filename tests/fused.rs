@@ -108,6 +108,13 @@ fn fused_lstm_gates_match_the_autograd_reference() {
 
 #[test]
 fn fused_attention_matches_the_autograd_reference() {
+    // Our filter factor 49 and the paper's 1.
+    for scale in [49, 1] {
+        fused_attention_matches_reference(scale);
+    }
+}
+
+fn fused_attention_matches_reference(scale: u32) {
     use groundscope::policy::attention::{attend, keyed_queries};
     use groundscope::policy::fused_attention::attention_filter;
     let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(11);
@@ -140,7 +147,7 @@ fn fused_attention_matches_the_autograd_reference() {
     let run = |fused: bool| {
         let f = if fused {
             let qk = keyed_queries(q.as_tensor(), wk.as_tensor()).unwrap();
-            attention_filter(&qk, &mask, o.as_tensor()).unwrap()
+            attention_filter(&qk, &mask, o.as_tensor(), scale).unwrap()
         } else {
             let kc = o
                 .as_tensor()
@@ -150,7 +157,9 @@ fn fused_attention_matches_the_autograd_reference() {
                 .unwrap()
                 .reshape((b, 49, dk))
                 .unwrap();
-            attend(q.as_tensor(), &kc, &mask, o.as_tensor()).unwrap().f
+            attend(q.as_tensor(), &kc, &mask, o.as_tensor(), scale)
+                .unwrap()
+                .f
         };
         let loss = (&f * &weights).unwrap().sum_all().unwrap();
         (f, loss.backward().unwrap())

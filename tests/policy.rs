@@ -22,6 +22,7 @@ fn tiny(variant: Variant) -> ModelConfig {
         variant,
         conv_channels: 3,
         conv_kernel: 3,
+        filter_scale: 49,
         word_dim: 4,
         key_dim: 4,
         lstm_hidden: 5,
@@ -81,12 +82,17 @@ fn gradients_reach_every_parameter_and_match_finite_differences() {
         conv_kernel: 1,
         ..tiny(Variant::Attention)
     };
+    let papers_filter = ModelConfig {
+        filter_scale: 1,
+        ..tiny(Variant::Attention)
+    };
     for cfg in [
         tiny(Variant::Attention),
         tiny(Variant::Baseline),
         one_by_one,
+        papers_filter,
     ] {
-        let variant = (cfg.variant, cfg.conv_kernel);
+        let variant = (cfg.variant, cfg.conv_kernel, cfg.filter_scale);
         let params = Params::init(&cfg, 3).unwrap();
         let net = Net::new(cfg, params.tracked());
         let grads = loss(&net, &level).backward().unwrap();

@@ -147,6 +147,28 @@ fn a_one_by_one_encoder_trains_resumes_and_keeps_its_kernel() {
 }
 
 #[test]
+fn the_papers_filter_trains_resumes_and_keeps_its_scale() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = dir.path().join("run");
+    let o = train(&run, "128", &["--filter-scale", "1"]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let meta: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(run.join("model.json")).unwrap()).unwrap();
+    assert_eq!(meta["model"]["filter_scale"], 1, "{meta}");
+    assert_eq!(train(&run, "256", &["--resume"]).status.code(), Some(0));
+    assert_bad_input(
+        &train(&run, "384", &["--resume", "--filter-scale", "49"]),
+        "--filter-scale 1, not 49",
+    );
+    let bad = dir.path().join("bad");
+    assert_bad_input(
+        &train(&bad, "128", &["--filter-scale", "7"]),
+        "filter_scale = 7",
+    );
+    assert!(!bad.exists());
+}
+
+#[test]
 fn a_resume_that_leaves_out_the_tracking_flags_tracks_as_the_run_did() {
     let dir = tempfile::tempdir().unwrap();
     let run = dir.path().join("run");

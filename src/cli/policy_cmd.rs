@@ -27,6 +27,9 @@ pub struct InitArgs {
     /// Side of the encoder's convolution kernel: 3 (the paper's) or 1 (see `train --help`).
     #[arg(long, default_value_t = 3, allow_negative_numbers = true)]
     pub conv_kernel: usize,
+    /// The attention filter's factor: 49 or 1 (the paper's; see `train --help`).
+    #[arg(long, default_value_t = 49, allow_negative_numbers = true)]
+    pub filter_scale: u32,
     #[command(flatten)]
     pub level: LevelArgs,
 }
@@ -42,6 +45,7 @@ pub fn init(args: &InitArgs) -> anyhow::Result<ExitStatus> {
     let level = args.level.config()?;
     let cfg = ModelConfig {
         conv_kernel: args.conv_kernel,
+        filter_scale: args.filter_scale,
         ..ModelConfig::new(variant)
     };
     cfg.validate()?;

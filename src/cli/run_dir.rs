@@ -270,6 +270,7 @@ pub fn load_latest(run: &Path) -> anyhow::Result<(Trainer, RunInfo)> {
                 level: saved.ckpt.meta.level,
                 hidden: saved.ckpt.meta.model.lstm_hidden,
                 conv_kernel: saved.ckpt.meta.model.conv_kernel,
+                filter_scale: saved.ckpt.meta.model.filter_scale,
                 variant: saved.ckpt.meta.model.variant,
                 training: saved.ckpt.meta.training.clone(),
                 tracking: saved.resume.tracking,
@@ -309,6 +310,8 @@ pub struct RunInfo {
     pub hidden: usize,
     /// Its encoder's kernel side.
     pub conv_kernel: usize,
+    /// Its attention filter's factor.
+    pub filter_scale: u32,
     /// Its model variant.
     pub variant: groundscope::policy::Variant,
     /// Its progress.

@@ -115,6 +115,10 @@ pub struct TrainArgs {
     /// cell's features its own codes only, so a word map that helps must cover its object).
     #[arg(long, default_value_t = 3, allow_negative_numbers = true)]
     pub conv_kernel: usize,
+    /// The attention filter's factor s in F = s·M·Õ: 49 (uniform attention passes the features
+    /// unchanged) or 1 (the paper's F = M·Õ: flat maps shrink every input).
+    #[arg(long, default_value_t = 49, allow_negative_numbers = true)]
+    pub filter_scale: u32,
     /// Hide the progress bar (log lines only).
     #[arg(long)]
     pub quiet: bool,
@@ -239,6 +243,7 @@ pub fn run(args: &TrainArgs, matches: Option<&ArgMatches>) -> anyhow::Result<Exi
     model.lstm_hidden = args.hidden;
     model.gru_hidden = args.hidden;
     model.conv_kernel = args.conv_kernel;
+    model.filter_scale = args.filter_scale;
     if args.save_interval == 0 {
         anyhow::bail!("--save-interval 0: must be at least 1 update");
     }

@@ -58,6 +58,7 @@ pub(super) fn resume_run(
         level: info.level,
         hidden: info.hidden,
         conv_kernel: info.conv_kernel,
+        filter_scale: info.filter_scale,
         seed: info.seed,
     };
     saved.check_given(args, matches, "--resume", dir)?;
@@ -65,7 +66,7 @@ pub(super) fn resume_run(
 }
 
 /// `--init NAME`: a new trainer on NAME's weights, refusing a checkpoint of the other model
-/// or a `--hidden` or `--conv-kernel` that differs from its size.
+/// or a `--hidden`, `--conv-kernel` or `--filter-scale` that differs from its own.
 pub(super) fn warm_start(
     name: &str,
     variant: groundscope::policy::Variant,
@@ -97,6 +98,13 @@ pub(super) fn warm_start(
             k = ckpt.meta.model.conv_kernel,
         );
     }
+    if given(matches, "filter_scale") && args.filter_scale != ckpt.meta.model.filter_scale {
+        anyhow::bail!(
+            "--init: {name} has filter scale {}, not --filter-scale {}",
+            ckpt.meta.model.filter_scale,
+            args.filter_scale,
+        );
+    }
     Ok(Trainer::warm_start(
         ckpt.meta.model,
         level,
@@ -120,6 +128,7 @@ struct Fixed {
     level: groundscope::env::level::LevelConfig,
     hidden: usize,
     conv_kernel: usize,
+    filter_scale: u32,
     seed: u64,
 }
 
@@ -134,7 +143,7 @@ impl Fixed {
         let (now, run) = (ppo_config(args), &self.ppo);
         let a = &args.level;
         let l = &self.level;
-        let pairs: [(&str, String, String); 22] = [
+        let pairs: [(&str, String, String); 23] = [
             (
                 "reward_scale",
                 now.reward_scale.to_string(),
@@ -208,6 +217,11 @@ impl Fixed {
                 "conv_kernel",
                 args.conv_kernel.to_string(),
                 self.conv_kernel.to_string(),
+            ),
+            (
+                "filter_scale",
+                args.filter_scale.to_string(),
+                self.filter_scale.to_string(),
             ),
             ("seed", args.seed.to_string(), self.seed.to_string()),
             ("size", a.size.to_string(), l.room_size.to_string()),

@@ -6,16 +6,18 @@
 //! - `h`: (B, m), `H_i = −Σ_j A_ij ln A_ij` in nats, with `0 · ln 0 = 0`;
 //! - `w`: (B, m), `w = softmax(−H)` over the real words only (padding gets weight 0);
 //! - `m`: (B, 49), `M = Σ_i w_i A_i`;
-//! - `f`: (B, 49, K), `F_j = 49 · M_j · Õ_j`.
+//! - `f`: (B, 49, K), `F_j = s · M_j · Õ_j`, with the filter scale `s` of the model
+//!   configuration: 49 by default, 1 as the paper writes it.
 //!
-//! The factor 49 in `F` is our choice where the paper is silent: with a uniform `M` it passes
-//! `Õ` through unchanged, so the LSTM input keeps the baseline's scale instead of shrinking
-//! 49-fold (it trains markedly faster; a constant factor changes no attention value).
+//! The default factor 49 is our choice (issue #4): with a uniform `M` it passes `Õ` through
+//! unchanged, so the LSTM input keeps the baseline's scale instead of shrinking 49-fold (it
+//! trained markedly faster). It also means a network whose maps go flat loses nothing — it
+//! becomes the baseline — while with the paper's factor 1 a flat `M` shrinks every input and
+//! a map on the target passes that cell whole. A constant factor changes no attention value.
 
 use candle_core::{D, Tensor};
 
 use super::error::PolicyError;
-use super::obs::N_CELLS;
 
 /// Smallest probability fed to `ln`, so that `0 · ln 0` evaluates to `0 · ln(tiny) = 0`.
 const TINY: f64 = 1e-30;
@@ -62,10 +64,10 @@ pub fn combined_map(w: &Tensor, a: &Tensor) -> Result<Tensor, PolicyError> {
     Ok(w.unsqueeze(1)?.matmul(a)?.squeeze(1)?)
 }
 
-/// `F_j = 49 · M_j · Õ_j`: every cell's feature vector scaled by its combined attention,
-/// (B, 49, K).
-pub fn filter_features(o: &Tensor, m: &Tensor) -> Result<Tensor, PolicyError> {
-    Ok(o.broadcast_mul(&(m * N_CELLS as f64)?.unsqueeze(2)?)?)
+/// `F_j = scale · M_j · Õ_j`: every cell's feature vector scaled by its combined attention,
+/// (B, 49, K); `scale` is the model's `filter_scale` (49 by default, 1 as in the paper).
+pub fn filter_features(o: &Tensor, m: &Tensor, scale: u32) -> Result<Tensor, PolicyError> {
+    Ok(o.broadcast_mul(&(m * f64::from(scale))?.unsqueeze(2)?)?)
 }
 
 /// Everything the attention module computes for a batch.
@@ -95,14 +97,16 @@ pub enum Intervention {
     ScaleWeights(Tensor),
 }
 
-/// Eqs. 3–7 and the filter, given queries, keys, the word mask and the cell features `Õ`.
+/// Eqs. 3–7 and the filter (factor `scale`), given queries, keys, the word mask and the cell
+/// features `Õ`.
 pub fn attend(
     q: &Tensor,
     kc: &Tensor,
     mask: &Tensor,
     o: &Tensor,
+    scale: u32,
 ) -> Result<AttentionOut, PolicyError> {
-    attend_with(q, kc, mask, o, None)
+    attend_with(q, kc, mask, o, scale, None)
 }
 
 /// [`attend`] with an optional [`Intervention`] applied to `w` or `M` before the filter.
@@ -111,6 +115,7 @@ pub fn attend_with(
     kc: &Tensor,
     mask: &Tensor,
     o: &Tensor,
+    scale: u32,
     intervention: Option<&Intervention>,
 ) -> Result<AttentionOut, PolicyError> {
     let a = attention_maps(q, kc)?;
@@ -125,7 +130,7 @@ pub fn attend_with(
         Some(Intervention::SetM(m)) => m.clone(),
         _ => combined_map(&w, &a)?,
     };
-    let f = filter_features(o, &m)?;
+    let f = filter_features(o, &m, scale)?;
     Ok(AttentionOut { a, h, w, m, f })
 }
 
@@ -212,15 +217,19 @@ mod tests {
             .unwrap();
         assert_eq!(&m[..3], &[0.25, 0.75, 0.0]);
         assert!((m.iter().sum::<f32>() - 1.0).abs() < 1e-6);
-        // Uniform M leaves Õ unchanged.
+        // Uniform M leaves Õ unchanged with the default factor, and shrinks it 49-fold with
+        // the paper's.
         let o = Tensor::ones((1, 49, 3), candle_core::DType::F32, &Device::Cpu).unwrap();
         let uni = Tensor::full(1f32 / 49.0, (1, 49), &Device::Cpu).unwrap();
-        let f = filter_features(&o, &uni)
-            .unwrap()
-            .flatten_all()
-            .unwrap()
-            .to_vec1::<f32>()
-            .unwrap();
-        assert!(f.iter().all(|x| (x - 1.0).abs() < 1e-5));
+        let filtered = |scale: u32| {
+            filter_features(&o, &uni, scale)
+                .unwrap()
+                .flatten_all()
+                .unwrap()
+                .to_vec1::<f32>()
+                .unwrap()
+        };
+        assert!(filtered(49).iter().all(|x| (x - 1.0).abs() < 1e-5));
+        assert!(filtered(1).iter().all(|x| (x - 1.0 / 49.0).abs() < 1e-7));
     }
 }

@@ -49,6 +49,14 @@ pub struct ModelConfig {
         skip_serializing_if = "ModelConfig::is_default_kernel"
     )]
     pub conv_kernel: usize,
+    /// The filter's factor `s` in `F_j = s · M_j · Õ_j`: 49 (the default, ours: a uniform `M`
+    /// passes `Õ` unchanged) or 1 (the paper's `F = Õ · M`: a flat `M` shrinks every input,
+    /// so sharp maps pay). Written to checkpoints only when it is not 49.
+    #[serde(
+        default = "ModelConfig::default_filter_scale",
+        skip_serializing_if = "ModelConfig::is_default_filter_scale"
+    )]
+    pub filter_scale: u32,
     /// E: word embedding size.
     pub word_dim: usize,
     /// d_k: query/key size.
@@ -68,6 +76,7 @@ impl ModelConfig {
             variant,
             conv_channels: 16,
             conv_kernel: Self::DEFAULT_KERNEL,
+            filter_scale: Self::DEFAULT_FILTER_SCALE,
             word_dim: 32,
             key_dim: 32,
             lstm_hidden: 128,
@@ -80,6 +89,23 @@ impl ModelConfig {
     pub const DEFAULT_KERNEL: usize = 3;
     /// The kernel sides the encoder supports.
     pub const KERNELS: [usize; 2] = [1, 3];
+
+    /// The default filter factor (the number of view cells).
+    pub const DEFAULT_FILTER_SCALE: u32 = 49;
+    /// The filter factors the model supports.
+    pub const FILTER_SCALES: [u32; 2] = [1, 49];
+
+    fn default_filter_scale() -> u32 {
+        Self::DEFAULT_FILTER_SCALE
+    }
+
+    #[expect(
+        clippy::trivially_copy_pass_by_ref,
+        reason = "serde's skip_serializing_if passes a reference"
+    )]
+    fn is_default_filter_scale(s: &u32) -> bool {
+        *s == Self::DEFAULT_FILTER_SCALE
+    }
 
     fn default_kernel() -> usize {
         Self::DEFAULT_KERNEL
@@ -102,6 +128,12 @@ impl ModelConfig {
 
     /// Checks every size is positive and bounded, naming the field.
     pub fn validate(&self) -> Result<(), super::PolicyError> {
+        if !Self::FILTER_SCALES.contains(&self.filter_scale) {
+            return Err(super::PolicyError::Input(format!(
+                "model setting filter_scale = {} must be 1 or 49",
+                self.filter_scale
+            )));
+        }
         if !Self::KERNELS.contains(&self.conv_kernel) {
             return Err(super::PolicyError::Input(format!(
                 "model size conv_kernel = {} must be 1 or 3",
@@ -150,6 +182,31 @@ mod tests {
         let json = serde_json::to_string(&one).unwrap();
         assert!(json.contains("\"conv_kernel\":1"), "{json}");
         assert_eq!(serde_json::from_str::<ModelConfig>(&json).unwrap(), one);
+    }
+
+    #[test]
+    fn the_filter_scale_is_written_only_when_it_is_the_papers() {
+        let ours = ModelConfig::new(Variant::Attention);
+        assert!(
+            !serde_json::to_string(&ours)
+                .unwrap()
+                .contains("filter_scale")
+        );
+        let papers = ModelConfig {
+            filter_scale: 1,
+            ..ours
+        };
+        let json = serde_json::to_string(&papers).unwrap();
+        assert!(json.contains("\"filter_scale\":1"), "{json}");
+        assert_eq!(serde_json::from_str::<ModelConfig>(&json).unwrap(), papers);
+        for (s, ok) in [(0, false), (1, true), (7, false), (49, true)] {
+            let r = ModelConfig {
+                filter_scale: s,
+                ..ours
+            }
+            .validate();
+            assert_eq!(r.is_ok(), ok, "{s}: {r:?}");
+        }
     }
 
     #[test]

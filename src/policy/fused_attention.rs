@@ -14,13 +14,17 @@ use super::obs::N_CELLS;
 /// Smallest probability fed to `ln`, as in `attention.rs`.
 const TINY: f32 = 1e-30;
 
-struct AttentionFilter;
+/// The forward op; `scale` is the filter's factor (`F_j = scale · M_j · Õ_j`).
+struct AttentionFilter {
+    scale: f32,
+}
 
 /// Its backward: from `Q̂`, `Õ` and `dF` (the mask held in the op), returns `[dQ̂ (m·K) | dÕ (49·K)]` per
 /// frame as one (B, m·K + 49·K) tensor.
 struct AttentionFilterBackward {
     m: usize,
     k: usize,
+    scale: f32,
     /// The word mask, (B·m).
     mask: Vec<f32>,
 }
@@ -110,7 +114,7 @@ impl CustomOp3 for AttentionFilter {
         let mut out = vec![0f32; b * N_CELLS * k];
         let (mut a, mut w, mut mm) = (vec![0f32; m * N_CELLS], vec![0f32; m], vec![0f32; N_CELLS]);
         let mut s = vec![0f32; m * N_CELLS];
-        let scale = N_CELLS as f32;
+        let scale = self.scale;
         for r in 0..b {
             scores(
                 &qk[r * m * k..(r + 1) * m * k],
@@ -144,7 +148,12 @@ impl CustomOp3 for AttentionFilter {
         let both = qk.contiguous()?.apply_op3_no_bwd(
             &o.contiguous()?,
             &grad.contiguous()?,
-            &AttentionFilterBackward { m, k, mask },
+            &AttentionFilterBackward {
+                m,
+                k,
+                scale: self.scale,
+                mask,
+            },
         )?;
         let dqk = both.narrow(0, 0, b * m * k)?.reshape((b, m, k))?;
         let d_o = both
@@ -189,7 +198,7 @@ impl CustomOp3 for AttentionFilterBackward {
         let mut out = vec![0f32; b * (m + N_CELLS) * k];
         let (dqk_all, d_o_all) = out.split_at_mut(b * m * k);
         let (mut a, mut w, mut mm) = (vec![0f32; m * N_CELLS], vec![0f32; m], vec![0f32; N_CELLS]);
-        let scale = N_CELLS as f32;
+        let scale = self.scale;
         let mut dm = [0f32; N_CELLS];
         let mut da = vec![0f32; m * N_CELLS];
         let mut ds = vec![0f32; m * N_CELLS];
@@ -270,9 +279,15 @@ impl CustomOp3 for AttentionFilterBackward {
 }
 
 /// `F` (B, 49, K) from the keyed queries `Q̂` (B, m, K), the word mask (B, m) and `Õ`
-/// (B, 49, K).
-pub fn attention_filter(keyed: &Tensor, mask: &Tensor, o: &Tensor) -> Result<Tensor> {
-    keyed
-        .contiguous()?
-        .apply_op3(&mask.contiguous()?, &o.contiguous()?, AttentionFilter)
+/// (B, 49, K), with the filter's factor `scale` (`F_j = scale · M_j · Õ_j`; see
+/// [`super::attention::filter_features`]).
+pub fn attention_filter(keyed: &Tensor, mask: &Tensor, o: &Tensor, scale: u32) -> Result<Tensor> {
+    keyed.contiguous()?.apply_op3(
+        &mask.contiguous()?,
+        &o.contiguous()?,
+        AttentionFilter {
+            // Small integers (1 or 49) are exact in f32.
+            scale: scale as f32,
+        },
+    )
 }

@@ -216,7 +216,7 @@ impl Net {
                 let kc = self
                     .times_t(&o.reshape((b * n, k))?, "attention.k.weight")?
                     .reshape((b, n, self.cfg.key_dim))?;
-                let out = attend_with(q, &kc, mask, o, intervention)?;
+                let out = attend_with(q, &kc, mask, o, self.cfg.filter_scale, intervention)?;
                 Ok(Visual {
                     x: out.f.reshape((b, n * k))?,
                     attention: Some(out),
@@ -241,7 +241,8 @@ impl Net {
         let (b, n, k) = o.dims3()?;
         match keyed {
             Some((qk, mask)) if self.cfg.has_attention() => {
-                let f = super::fused_attention::attention_filter(qk, mask, o)?;
+                let f =
+                    super::fused_attention::attention_filter(qk, mask, o, self.cfg.filter_scale)?;
                 Ok(f.reshape((b, n * k))?)
             }
             _ => Ok(o.reshape((b, n * k))?),
