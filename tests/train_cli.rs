@@ -390,6 +390,17 @@ fn curve_reads_bundled_flat_logs_as_seed_bands() {
     for f in ["fig.png", "fig_grounding.png"] {
         assert!(image::open(dir.path().join(f)).is_ok(), "{f}");
     }
+    // The same runs with `acc` instead of `acc_ng`: other columns, so another picture.
+    let acc_ng = std::fs::read(dir.path().join("fig_grounding.png")).unwrap();
+    let acc_out = dir.path().join("acc.png");
+    let mut acc_args = vec!["curve", "--accuracy", "acc"];
+    acc_args.extend(files.iter().map(String::as_str));
+    acc_args.extend(["--out", acc_out.to_str().unwrap()]);
+    let o = gs(&acc_args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let acc = std::fs::read(dir.path().join("acc_grounding.png")).unwrap();
+    assert!(image::load_from_memory(&acc).is_ok());
+    assert_ne!(acc, acc_ng);
     // Only evaluation logs: nothing to draw.
     let only_evals = gs(&[
         "curve",

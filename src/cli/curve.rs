@@ -8,13 +8,35 @@ use groundscope::metrics::figures::{Curve, learning_curve, read_training_log};
 use super::check_extension;
 use crate::ExitStatus;
 
-/// The tracked evaluation's columns drawn in the grounding figure, with their panel titles.
-const METRICS: [(&str, &str); 4] = [
-    ("greedy_success", "greedy success (held-out)"),
-    ("object_acc_ng", "object-word acc_ng"),
-    ("color_acc_ng", "colour-word acc_ng"),
-    ("combined_acc_ng", "M on targets, acc_ng"),
-];
+/// Which accuracy of the tracked evaluation the grounding figure draws.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Accuracy {
+    /// `acc_ng`: the map passes τ somewhere in the object's 3×3 neighbourhood.
+    AccNg,
+    /// `acc`: the map passes τ on the object's own cell.
+    Acc,
+}
+
+impl Accuracy {
+    /// The tracked evaluation's columns drawn in the grounding figure, with their panel titles.
+    fn metrics(self) -> [(&'static str, &'static str); 4] {
+        let success = ("greedy_success", "greedy success (held-out)");
+        match self {
+            Self::AccNg => [
+                success,
+                ("object_acc_ng", "object-word acc_ng"),
+                ("color_acc_ng", "colour-word acc_ng"),
+                ("combined_acc_ng", "M on targets, acc_ng"),
+            ],
+            Self::Acc => [
+                success,
+                ("object_acc", "object-word acc"),
+                ("color_acc", "colour-word acc"),
+                ("combined_acc", "M on targets, acc"),
+            ],
+        }
+    }
+}
 
 /// Figure panels: a title and the bands drawn in it.
 type Panels = Vec<(String, Vec<Band>)>;
@@ -22,7 +44,11 @@ type Panels = Vec<(String, Vec<Band>)>;
 /// Draws `out` (mean reward: one line per run, or a band per recipe of several seeds) and,
 /// where tracked evaluations sit beside the logs, `out`'s `_grounding.png`. Every file is
 /// read before anything is drawn, so a bad one leaves no figure behind.
-pub(super) fn curve(logs: &[PathBuf], out: &Path) -> anyhow::Result<ExitStatus> {
+pub(super) fn curve(
+    logs: &[PathBuf],
+    out: &Path,
+    accuracy: Accuracy,
+) -> anyhow::Result<ExitStatus> {
     check_extension(out, "png", "--out")?;
     // A glob such as `assets/runs/*_log.csv` also matches the tracked evaluations; those are
     // read beside their logs, not drawn as logs.
@@ -46,7 +72,7 @@ pub(super) fn curve(logs: &[PathBuf], out: &Path) -> anyhow::Result<ExitStatus> 
         .iter()
         .map(|(_, paths)| paths.iter().map(|p| read_training_log(p)).collect())
         .collect::<Result<Vec<Vec<_>>, _>>()?;
-    let panels = grounding_panels(&groups)?;
+    let panels = grounding_panels(&groups, &accuracy.metrics())?;
 
     if groups.iter().all(|g| g.1.len() == 1) {
         let curves: Vec<Curve> = groups
@@ -84,16 +110,19 @@ pub(super) fn curve(logs: &[PathBuf], out: &Path) -> anyhow::Result<ExitStatus> 
     Ok(ExitStatus::Success)
 }
 
-/// One panel per tracked metric with a band per recipe, from the `eval_log.csv` files beside
-/// the logs; `None` where no log has one.
-fn grounding_panels(groups: &[(String, Vec<&PathBuf>)]) -> anyhow::Result<Option<Panels>> {
-    let mut panels: Panels = METRICS
+/// One panel per tracked metric (column, title) with a band per recipe, from the
+/// `eval_log.csv` files beside the logs; `None` where no log has one.
+fn grounding_panels(
+    groups: &[(String, Vec<&PathBuf>)],
+    metrics: &[(&str, &str)],
+) -> anyhow::Result<Option<Panels>> {
+    let mut panels: Panels = metrics
         .iter()
         .map(|m| (m.1.to_owned(), Vec::new()))
         .collect();
     let mut any = false;
     let mut names = vec!["frames"];
-    names.extend(METRICS.iter().map(|m| m.0));
+    names.extend(metrics.iter().map(|m| m.0));
     for (label, paths) in groups {
         let evals: Vec<PathBuf> = paths
             .iter()

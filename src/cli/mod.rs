@@ -60,8 +60,8 @@ pub enum Command {
     /// (a run directory's `log.csv`, or a bundled `NAME_log.csv`); runs whose names differ only
     /// in a seed suffix (`-s2`, `_seed3`) are drawn as one mean ± std band. Where the tracked
     /// evaluation sits beside a log (`eval_log.csv`, or `NAME_eval_log.csv`),
-    /// OUT_grounding.png shows grounding emerge (held-out greedy success and acc_ng against
-    /// frames).
+    /// OUT_grounding.png shows grounding emerge (held-out greedy success and the word maps'
+    /// accuracy, acc_ng or acc, against frames).
     #[command(
         after_long_help = "EXAMPLES:\n  groundscope curve runs/attention/log.csv runs/baseline/log.csv --out fig4.png\n  groundscope curve runs/att-s1/log.csv runs/att-s2/log.csv runs/att-s3/log.csv --out att.png"
     )]
@@ -72,6 +72,10 @@ pub enum Command {
         /// Output PNG.
         #[arg(long, value_name = "FILE")]
         out: std::path::PathBuf,
+        /// The accuracy drawn in the grounding figure: acc-ng (the map passes τ in the object's
+        /// 3×3 neighbourhood) or acc (on the object's own cell, the targets).
+        #[arg(long, value_enum, default_value = "acc-ng")]
+        accuracy: curve::Accuracy,
     },
     /// Speed benchmarks that print JSON lines.
     #[command(subcommand)]
@@ -88,7 +92,11 @@ pub fn run(cli: Cli, matches: &clap::ArgMatches) -> anyhow::Result<ExitStatus> {
         Command::Eval(args) => eval::run(&args),
         Command::Validate(args) => validate::run(&args),
         Command::Faithfulness(args) => faithfulness::run(&args),
-        Command::Curve { logs, out } => curve::curve(&logs, &out),
+        Command::Curve {
+            logs,
+            out,
+            accuracy,
+        } => curve::curve(&logs, &out, accuracy),
         Command::Init(args) => policy_cmd::init(&args),
         Command::Replay(args) => replay::replay(&args),
     }
