@@ -110,62 +110,47 @@ fn validate_scores_a_saved_checkpoint_as_the_run_tracked_it() {
 }
 
 #[test]
-fn a_one_by_one_encoder_trains_resumes_and_keeps_its_kernel() {
-    let dir = tempfile::tempdir().unwrap();
-    let run = dir.path().join("run");
-    let o = train(&run, "128", &["--conv-kernel", "1"]);
-    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
-    let meta: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(run.join("model.json")).unwrap()).unwrap();
-    assert_eq!(meta["model"]["conv_kernel"], 1, "{meta}");
-    // A resume without the flag keeps the run's kernel; one with another kernel is refused.
-    let o = train(&run, "256", &["--resume"]);
-    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
-    assert_bad_input(
-        &train(&run, "384", &["--resume", "--conv-kernel", "3"]),
-        "--conv-kernel 1, not 3",
-    );
-    // --init from it with another kernel is refused too, and leaves no run behind.
-    let warm = dir.path().join("warm");
-    let model = run.join("model");
-    assert_bad_input(
-        &train(
-            &warm,
-            "128",
-            &["--init", model.to_str().unwrap(), "--conv-kernel", "3"],
-        ),
-        "not --conv-kernel 3",
-    );
-    assert!(!warm.exists());
-    // Only 1 and 3 are kernels; a new run with another leaves nothing.
-    let bad = dir.path().join("bad");
-    assert_bad_input(
-        &train(&bad, "128", &["--conv-kernel", "2"]),
-        "conv_kernel = 2",
-    );
-    assert!(!bad.exists());
-}
-
-#[test]
-fn the_papers_filter_trains_resumes_and_keeps_its_scale() {
-    let dir = tempfile::tempdir().unwrap();
-    let run = dir.path().join("run");
-    let o = train(&run, "128", &["--filter-scale", "1"]);
-    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
-    let meta: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(run.join("model.json")).unwrap()).unwrap();
-    assert_eq!(meta["model"]["filter_scale"], 1, "{meta}");
-    assert_eq!(train(&run, "256", &["--resume"]).status.code(), Some(0));
-    assert_bad_input(
-        &train(&run, "384", &["--resume", "--filter-scale", "49"]),
-        "--filter-scale 1, not 49",
-    );
-    let bad = dir.path().join("bad");
-    assert_bad_input(
-        &train(&bad, "128", &["--filter-scale", "7"]),
-        "filter_scale = 7",
-    );
-    assert!(!bad.exists());
+fn model_options_train_resume_and_are_kept() {
+    // (flag, its checkpoint field, the value under test, another valid one, an invalid one)
+    for (flag, field, value, other, bad) in [
+        ("--conv-kernel", "conv_kernel", "1", "3", "2"),
+        ("--filter-scale", "filter_scale", "1", "49", "7"),
+    ] {
+        let dir = tempfile::tempdir().unwrap();
+        let run = dir.path().join("run");
+        let o = train(&run, "128", &[flag, value]);
+        assert_eq!(o.status.code(), Some(0), "{flag}: {}", stderr(&o));
+        let meta: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(run.join("model.json")).unwrap())
+                .unwrap();
+        assert_eq!(meta["model"][field].to_string(), value, "{meta}");
+        // A resume without the flag keeps the run's value; one with another is refused.
+        let o = train(&run, "256", &["--resume"]);
+        assert_eq!(o.status.code(), Some(0), "{flag}: {}", stderr(&o));
+        assert_bad_input(
+            &train(&run, "384", &["--resume", flag, other]),
+            &format!("{flag} {value}, not {other}"),
+        );
+        // --init from it with another value is refused too, and leaves no run behind.
+        let warm = dir.path().join("warm");
+        let model = run.join("model");
+        assert_bad_input(
+            &train(
+                &warm,
+                "128",
+                &["--init", model.to_str().unwrap(), flag, other],
+            ),
+            &format!("not {flag} {other}"),
+        );
+        assert!(!warm.exists());
+        // An unsupported value is refused before a new run leaves anything.
+        let refused = dir.path().join("bad");
+        assert_bad_input(
+            &train(&refused, "128", &[flag, bad]),
+            &format!("{field} = {bad}"),
+        );
+        assert!(!refused.exists());
+    }
 }
 
 #[test]
