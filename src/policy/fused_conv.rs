@@ -1,9 +1,10 @@
 //! The first layer, `Õ = ReLU(Conv(O) + b)` (3×3, or 1×1 with `conv_kernel` 1), computed
 //! from the codes set in each cell instead of the one-hot im2col patches (issue #16). A 3×3
-//! patch has 180 entries of which at most 27 are 1, so the dense GEMM did 6.7× the necessary work and built 35 KB of patches
-//! per frame; here each output cell adds the ≤ 27 weight columns its codes select. The
-//! backward scatters into the same columns (the input is a constant and needs no gradient).
-//! [`super::model::Net::cells_reference`] keeps the dense version; `tests/fused.rs` compares.
+//! patch has 180 entries of which at most 27 are 1, so the dense GEMM did 6.7× the necessary
+//! work and built 35 KB of patches per frame; here each output cell adds the ≤ 27 weight
+//! columns its codes select (3 for a 1×1 kernel). The backward scatters into the same columns
+//! (the input is a constant and needs no gradient). [`super::model::Net::cells_reference`]
+//! keeps the dense version; `tests/fused.rs` compares.
 
 use candle_core::{CpuStorage, CustomOp2, Layout, Result, Shape, Tensor};
 
