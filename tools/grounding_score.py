@@ -1,23 +1,29 @@
 #!/usr/bin/env python3
 """Scores runs of issue #15's grounding study by the rule README fixed in advance.
 
-usage: python3 tools/grounding_score.py [--acc] VALIDATE.csv...
+usage: python3 tools/grounding_score.py [--acc] [--until FRAMES] VALIDATE.csv...
 
 Each CSV holds `groundscope validate --episodes 500 --out F` rows for one run's whole-million
 snapshots (the tracked held-out levels). A run's score is its best snapshot from 5M frames on,
 among those with greedy success >= 0.97, by min(object acc_ng / 0.90, colour acc_ng / 0.80).
 With --acc the same on `acc` (the map's value on the target's own cell, the metric of the
 issue's targets), the score of the study's fifth part on (README, fixed 2026-11-23 20:43 UTC).
+With --until F only snapshots at or below F frames count (the `paper` seeds' 10M budget,
+fixed 2026-11-24 00:10 UTC, and the runs they are compared with).
 """
 import csv
 import sys
 
 args = sys.argv[1:]
 metric = 'acc_ng'
-if args and args[0] == '--acc':
-    metric, args = 'acc', args[1:]
+until = float('inf')
+while args and args[0] in ('--acc', '--until'):
+    if args[0] == '--acc':
+        metric, args = 'acc', args[1:]
+    else:
+        until, args = int(args[1]), args[2:]
 for f in args:
-    rows = [r for r in csv.DictReader(open(f)) if int(r['frames']) >= 5_000_000]
+    rows = [r for r in csv.DictReader(open(f)) if 5_000_000 <= int(r['frames']) <= until]
     ok = [r for r in rows if float(r['greedy_success']) >= 0.97]
     obj, col = (lambda r: float(r['object_' + metric])), (lambda r: float(r['color_' + metric]))
     sc = [(min(obj(r) / 0.90, col(r) / 0.80), r) for r in ok]
