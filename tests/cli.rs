@@ -9,6 +9,7 @@
 mod common;
 
 use common::{assert_bad_input, gs, stderr, stdout};
+use groundscope::metrics::grounding::WordKind;
 
 #[test]
 fn env_verify_passes_the_reference_dumps_and_counts() {
@@ -289,6 +290,7 @@ fn eval_writes_a_complete_report_and_gates_on_thresholds() {
         "performance.csv",
         "accuracy.csv",
         "around.csv",
+        "words.csv",
         "failures.json",
         "fig6_reward.png",
         "fig6_success.png",
@@ -338,6 +340,37 @@ fn eval_writes_a_complete_report_and_gates_on_thresholds() {
     let md = std::fs::read_to_string(out.join("report.md")).unwrap();
     assert!(
         md.contains("| word | forward-left | forward | forward-right |"),
+        "{md}"
+    );
+    // Word by word: each attention cell lists the words its missions named, and a word's
+    // episodes add up to its kind's (every mission names one object word, at most one colour).
+    for c in report.cells.iter().filter(|c| c.accuracy.is_some()) {
+        let words = &c.accuracy.as_ref().unwrap().words;
+        let count = |kind: WordKind| -> u64 {
+            words
+                .iter()
+                .filter(|w| w.kind == kind)
+                .map(|w| w.episodes)
+                .sum()
+        };
+        assert_eq!(count(WordKind::Object), c.episodes, "{words:?}");
+        assert!(count(WordKind::Color) <= c.episodes);
+        assert!(
+            words
+                .iter()
+                .all(|w| w.episodes > 0 && w.kind != WordKind::Combined)
+        );
+    }
+    let words_csv = std::fs::read_to_string(out.join("words.csv")).unwrap();
+    let n_words: usize = report
+        .cells
+        .iter()
+        .filter_map(|c| c.accuracy.as_ref())
+        .map(|a| a.words.len())
+        .sum();
+    assert_eq!(words_csv.lines().count(), 1 + n_words, "{words_csv}");
+    assert!(
+        md.contains("| checkpoint | size | objects | key | ball | box | red |"),
         "{md}"
     );
     // Failure classes: one per failed episode; baselines cannot be judged on grounding.

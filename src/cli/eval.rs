@@ -14,6 +14,7 @@ use groundscope::metrics::report::{
     Cell, CellAccuracy, CheckpointInfo, Report, SCHEMA_VERSION, worst_episodes,
 };
 use groundscope::metrics::sweep::{EpisodeSummary, evaluate_cell, grounding, performance};
+use groundscope::metrics::words::by_word;
 use groundscope::policy::{Net, bundled};
 
 use crate::ExitStatus;
@@ -165,6 +166,7 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitStatus> {
             object: grounding(&eps, WordKind::Object),
             color: grounding(&eps, WordKind::Color),
             combined: grounding(&eps, WordKind::Combined),
+            words: by_word(&eps),
         });
         let classes = class_counts(
             eps.iter().filter_map(|e| e.failure.as_ref()),

@@ -15,13 +15,9 @@ impl Report {
         &self,
     ) -> impl Iterator<Item = (&super::report::Cell, WordKind, &GroundingStats)> {
         self.cells.iter().flat_map(|c| {
-            c.accuracy.iter().flat_map(move |a| {
-                [
-                    (c, WordKind::Object, &a.object),
-                    (c, WordKind::Color, &a.color),
-                    (c, WordKind::Combined, &a.combined),
-                ]
-            })
+            c.accuracy
+                .iter()
+                .flat_map(move |a| a.by_kind().map(|(kind, g)| (c, kind, g)))
         })
     }
 

@@ -10,5 +10,6 @@ pub mod grounding;
 pub mod report;
 pub mod sweep;
 pub mod tracking;
+pub mod words;
 
 pub use error::MetricsError;

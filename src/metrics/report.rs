@@ -31,6 +31,25 @@ pub struct CellAccuracy {
     pub color: GroundingStats,
     /// The combined map `M` on the target objects (ours).
     pub combined: GroundingStats,
+    /// The object and colour words one by one ([`super::words::by_word`]).
+    #[serde(default)]
+    pub words: Vec<super::words::WordStats>,
+}
+
+impl CellAccuracy {
+    /// The stats of one word kind.
+    pub fn of(&self, kind: WordKind) -> &GroundingStats {
+        match kind {
+            WordKind::Object => &self.object,
+            WordKind::Color => &self.color,
+            WordKind::Combined => &self.combined,
+        }
+    }
+
+    /// The three word kinds' stats, in report order.
+    pub fn by_kind(&self) -> [(WordKind, &GroundingStats); 3] {
+        WordKind::ALL.map(|k| (k, self.of(k)))
+    }
 }
 
 /// One checkpoint × size × objects cell.
@@ -279,11 +298,7 @@ impl Report {
             let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|");
             for c in &self.cells {
                 let Some(a) = &c.accuracy else { continue };
-                let g = match kind {
-                    WordKind::Object => &a.object,
-                    WordKind::Color => &a.color,
-                    WordKind::Combined => &a.combined,
-                };
+                let g = a.of(kind);
                 let _ = writeln!(
                     s,
                     "| {} | {} | {} | {} | {} | {} | {} | {} | {} |",
@@ -300,6 +315,7 @@ impl Report {
             }
         }
         self.around_table(&mut s);
+        self.words_table(&mut s);
         self.failure_table(&mut s);
         let _ = writeln!(s, "\n## Worst episodes\n");
         let _ = writeln!(
@@ -398,11 +414,7 @@ impl Report {
         );
         for c in &self.cells {
             let Some(a) = &c.accuracy else { continue };
-            for (kind, g) in [
-                (WordKind::Object, &a.object),
-                (WordKind::Color, &a.color),
-                (WordKind::Combined, &a.combined),
-            ] {
+            for (kind, g) in a.by_kind() {
                 let _ = writeln!(
                     s,
                     "{},{},{},{},{},{},{},{},{},{}",
@@ -444,6 +456,7 @@ impl Report {
             ("performance.csv", self.performance_csv()),
             ("accuracy.csv", self.accuracy_csv()),
             ("around.csv", self.around_csv()),
+            ("words.csv", self.words_csv()),
         ];
         for (name, text) in &files {
             let p = tmp.path().join(name);
