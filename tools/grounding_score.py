@@ -9,7 +9,7 @@ among those with greedy success >= 0.97, by min(object acc_ng / 0.90, colour acc
 With --acc the same on `acc` (the map's value on the target's own cell, the metric of the
 issue's targets), the score of the study's fifth part on (README, fixed 2026-11-23 20:43 UTC).
 With --until F only snapshots at or below F frames count (the `paper` seeds' 10M budget,
-fixed 2026-11-24 00:10 UTC, and the runs they are compared with).
+fixed 2026-11-24 00:02 UTC, and the runs they are compared with).
 """
 import csv
 import sys
