@@ -1,0 +1,194 @@
+//! Grounding word by word (beyond the paper): the object-word and colour-word accuracies of a
+//! cell split by the word the mission names. A word class's mean can hide one word that never
+//! grounds (two object words of three on their objects give 0.67); this says which.
+//! `words.csv` and a `report.md` table; the averages are [`grounding`]'s, over the episodes
+//! whose mission names the word.
+
+use std::fmt::Write;
+
+use serde::{Deserialize, Serialize};
+
+use super::grounding::WordKind;
+use super::report::{Report, csv};
+use super::sweep::{EpisodeSummary, GroundingStats, grounding};
+use crate::env::mission::Instruction;
+use crate::env::object::{Color, ObjectKind};
+
+/// One word's grounding in a cell.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct WordStats {
+    /// Object word or colour word.
+    pub kind: WordKind,
+    /// The word, as the mission spells it.
+    pub word: String,
+    /// Episodes whose mission names it.
+    pub episodes: u64,
+    /// Its map's accuracies over those episodes (per episode, then per seed, then over seeds).
+    pub stats: GroundingStats,
+}
+
+/// The object and colour words named by the missions of `eps`, each with its map's
+/// accuracies over the episodes that name it: object words (key, ball, box), then colours in
+/// MiniGrid's order; words no mission names are left out. A mission that does not parse names
+/// no word.
+pub fn by_word(eps: &[EpisodeSummary]) -> Vec<WordStats> {
+    let descs: Vec<_> = eps
+        .iter()
+        .map(|e| Instruction::parse(&e.mission).ok().map(|i| i.desc))
+        .collect();
+    let kinds = ObjectKind::PICKABLE.map(|k| (WordKind::Object, k.name(), Some(k), None));
+    let colors = Color::ALL.map(|c| (WordKind::Color, c.name(), None, Some(c)));
+    kinds
+        .into_iter()
+        .chain(colors)
+        .filter_map(|(kind, word, k, c)| {
+            let named: Vec<EpisodeSummary> = eps
+                .iter()
+                .zip(&descs)
+                .filter(|(_, d)| {
+                    d.is_some_and(|d| (k.is_some() && d.kind == k) || (c.is_some() && d.color == c))
+                })
+                .map(|(e, _)| e.clone())
+                .collect();
+            (!named.is_empty()).then(|| WordStats {
+                kind,
+                word: word.to_owned(),
+                episodes: named.len() as u64,
+                stats: grounding(&named, kind),
+            })
+        })
+        .collect()
+}
+
+impl Report {
+    /// `words.csv`: one line per attention cell and word named in it.
+    pub fn words_csv(&self) -> String {
+        let mut s = String::from(
+            "checkpoint,size,objects,kind,word,episodes,acc_mean,acc_std,acc_ng_mean,acc_ng_std,evaluated_steps\n",
+        );
+        for c in &self.cells {
+            let Some(a) = &c.accuracy else { continue };
+            for w in &a.words {
+                let _ = writeln!(
+                    s,
+                    "{},{},{},{},{},{},{},{},{}",
+                    c.checkpoint,
+                    c.size,
+                    c.objects,
+                    w.kind.name(),
+                    w.word,
+                    w.episodes,
+                    csv(&w.stats.acc),
+                    csv(&w.stats.acc_ng),
+                    w.stats.evaluated_steps
+                );
+            }
+        }
+        s
+    }
+
+    /// The `report.md` section: one row per attention cell, one column per word (`acc`, mean
+    /// over seeds; `–` for a word no mission named).
+    pub(super) fn words_table(&self, s: &mut String) {
+        if !self.cells.iter().any(|c| c.accuracy.is_some()) {
+            return;
+        }
+        let words: Vec<&str> = ObjectKind::PICKABLE
+            .iter()
+            .map(|k| k.name())
+            .chain(Color::ALL.iter().map(|c| c.name()))
+            .collect();
+        let _ = writeln!(
+            s,
+            "\n## Each word's map on its objects (not in the paper)\n"
+        );
+        let _ = writeln!(
+            s,
+            "`acc` of each word's map over the episodes whose mission names it (mean over seeds; \
+             `words.csv` has `acc_ng`, the std and the counts).\n"
+        );
+        let _ = writeln!(s, "| checkpoint | size | objects | {} |", words.join(" | "));
+        let _ = writeln!(s, "|---|---|---|{}", "---|".repeat(words.len()));
+        for c in &self.cells {
+            let Some(a) = &c.accuracy else { continue };
+            let cols: Vec<String> = words
+                .iter()
+                .map(|w| {
+                    a.words
+                        .iter()
+                        .find(|x| x.word == *w)
+                        .and_then(|x| x.stats.acc.mean)
+                        .map_or("–".into(), |v| format!("{v:.3}"))
+                })
+                .collect();
+            let _ = writeln!(
+                s,
+                "| {} | {} | {} | {} |",
+                c.checkpoint,
+                c.size,
+                c.objects,
+                cols.join(" | ")
+            );
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::collections::BTreeMap;
+
+    use super::*;
+    use crate::metrics::grounding::Accuracies;
+
+    fn ep(seed: u64, mission: &str, object: f64, color: Option<f64>) -> EpisodeSummary {
+        let acc = |a: f64| {
+            (
+                Accuracies {
+                    acc: a,
+                    acc_ng: 1.0,
+                    ..Accuracies::default()
+                },
+                3,
+            )
+        };
+        let mut grounding = BTreeMap::from([(WordKind::Object, acc(object))]);
+        if let Some(c) = color {
+            grounding.insert(WordKind::Color, acc(c));
+        }
+        EpisodeSummary {
+            eval_seed: seed,
+            level_seed: seed,
+            mission: mission.into(),
+            success: true,
+            reward: 0.9,
+            length: 5,
+            grounding,
+            failure: None,
+        }
+    }
+
+    #[test]
+    fn each_word_gets_the_episodes_that_name_it() {
+        let eps = [
+            ep(0, "go to the red ball", 1.0, Some(0.5)),
+            ep(0, "go to the blue key", 0.0, Some(1.0)),
+            ep(1, "pick up a red key", 0.5, Some(0.0)),
+            ep(1, "go to the ball", 1.0, None),
+            ep(1, "not a mission", 1.0, Some(1.0)),
+        ];
+        let w = by_word(&eps);
+        let names: Vec<(&str, u64)> = w.iter().map(|x| (x.word.as_str(), x.episodes)).collect();
+        // Object words first, then colours in MiniGrid order; unnamed words left out.
+        assert_eq!(names, [("key", 2), ("ball", 2), ("red", 2), ("blue", 1)]);
+        let acc = |word: &str| w.iter().find(|x| x.word == word).unwrap().stats.acc;
+        // key: seed 0 → 0.0, seed 1 → 0.5: mean 0.25 ± 0.25 over seeds.
+        assert_eq!(acc("key").mean, Some(0.25));
+        assert_eq!(acc("key").std, Some(0.25));
+        assert_eq!(acc("ball").mean, Some(1.0));
+        // Colour words read the colour map, not the object map.
+        assert_eq!(acc("red").mean, Some(0.25));
+        assert_eq!(acc("blue").mean, Some(1.0));
+        assert_eq!(w[0].kind, WordKind::Object);
+        assert_eq!(w[2].kind, WordKind::Color);
+    }
+}
