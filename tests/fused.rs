@@ -7,7 +7,7 @@
 )]
 
 use candle_core::{Device, Tensor, Var};
-use groundscope::policy::{Memory, ModelConfig, Net, Params, Variant};
+use groundscope::policy::{ColourCodes, Memory, ModelConfig, Net, Params, Variant};
 use rand::{Rng as _, SeedableRng as _};
 
 fn random(rng: &mut rand_pcg::Pcg64Mcg, shape: (usize, usize), scale: f32) -> Tensor {
@@ -178,18 +178,22 @@ fn fused_attention_matches_reference(scale: u32) {
 
 #[test]
 fn sparse_conv_matches_the_dense_patch_gemm() {
-    // 16 channels take the fixed-width loops, 8 the general ones; 3×3 and 1×1 kernels.
-    for (channels, kernel) in [(16, 3), (8, 3), (16, 1), (8, 1)] {
-        sparse_conv_matches_dense(channels, kernel);
+    // 16 channels take the fixed-width loops, 8 the general ones; 3×3 and 1×1 kernels; colour
+    // codes on every cell (MiniGrid's) or on objects only (unset slots skipped).
+    for colours in [ColourCodes::All, ColourCodes::Objects] {
+        for (channels, kernel) in [(16, 3), (8, 3), (16, 1), (8, 1)] {
+            sparse_conv_matches_dense(channels, kernel, colours);
+        }
     }
 }
 
-fn sparse_conv_matches_dense(channels: usize, kernel: usize) {
+fn sparse_conv_matches_dense(channels: usize, kernel: usize, colours: ColourCodes) {
     use groundscope::env::view::Observation;
     use groundscope::policy::obs::{CellCodes, patches};
     let mut cfg = ModelConfig::new(Variant::Attention);
     cfg.conv_channels = channels;
     cfg.conv_kernel = kernel;
+    cfg.colour_codes = colours;
     let params = Params::init(&cfg, 5).unwrap();
     let net = Net::new(cfg, params.tracked());
     let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(11);
@@ -219,7 +223,8 @@ fn sparse_conv_matches_dense(channels: usize, kernel: usize) {
         let o = if sparse {
             net.cells(&CellCodes::new(&obs)).unwrap()
         } else {
-            net.cells_reference(&patches(&obs, kernel).unwrap())
+            let codes = CellCodes::new(&obs).encoded(colours);
+            net.cells_reference(&patches(&codes, kernel).unwrap())
                 .unwrap()
         };
         let loss = (&o * &weights).unwrap().sum_all().unwrap();

@@ -14,7 +14,7 @@ use groundscope::episode::{ActionMode, EpisodeSpec, run_episode};
 use groundscope::policy::model::TRANSPOSED;
 use groundscope::policy::obs::{CellCodes, TokenBatch};
 use groundscope::policy::{
-    Checkpoint, Memory, ModelConfig, Net, Params, TrainingState, Variant, act,
+    Checkpoint, ColourCodes, Memory, ModelConfig, Net, Params, TrainingState, Variant, act,
 };
 
 fn tiny(variant: Variant) -> ModelConfig {
@@ -23,6 +23,7 @@ fn tiny(variant: Variant) -> ModelConfig {
         conv_channels: 3,
         conv_kernel: 3,
         filter_scale: 49,
+        colour_codes: ColourCodes::All,
         word_dim: 4,
         key_dim: 4,
         lstm_hidden: 5,
@@ -86,13 +87,23 @@ fn gradients_reach_every_parameter_and_match_finite_differences() {
         filter_scale: 1,
         ..tiny(Variant::Attention)
     };
+    let object_colours = ModelConfig {
+        colour_codes: ColourCodes::Objects,
+        ..tiny(Variant::Attention)
+    };
     for cfg in [
         tiny(Variant::Attention),
         tiny(Variant::Baseline),
         one_by_one,
         papers_filter,
+        object_colours,
     ] {
-        let variant = (cfg.variant, cfg.conv_kernel, cfg.filter_scale);
+        let variant = (
+            cfg.variant,
+            cfg.conv_kernel,
+            cfg.filter_scale,
+            cfg.colour_codes,
+        );
         let params = Params::init(&cfg, 3).unwrap();
         let net = Net::new(cfg, params.tracked());
         let grads = loss(&net, &level).backward().unwrap();
@@ -128,9 +139,15 @@ fn gradients_reach_every_parameter_and_match_finite_differences() {
                 );
                 loss(&Net::new(cfg, w), &level).to_scalar::<f32>().unwrap()
             };
-            let eps = 1e-2;
-            let fd = (eval(eps) - eval(-eps)) / (2.0 * eps);
-            if (fd - ad).abs() > 0.05 * ad.abs().max(fd.abs()) + 2e-3 {
+            let off = |fd: f32| (fd - ad).abs() > 0.05 * ad.abs().max(fd.abs()) + 2e-3;
+            // A step of 1e-2 can straddle ReLU kinks (every empty cell of a view shares one
+            // pre-activation per channel); a step of 1e-3 then has to agree instead.
+            let fd_at = |eps: f32| (eval(eps) - eval(-eps)) / (2.0 * eps);
+            let mut fd = fd_at(1e-2);
+            if off(fd) {
+                fd = fd_at(1e-3);
+            }
+            if off(fd) {
                 failures.push(format!(
                     "{name}[{i}]: autograd {ad}, finite difference {fd}"
                 ));

@@ -115,6 +115,7 @@ fn model_options_train_resume_and_are_kept() {
     for (flag, field, value, other, bad) in [
         ("--conv-kernel", "conv_kernel", "1", "3", "2"),
         ("--filter-scale", "filter_scale", "1", "49", "7"),
+        ("--colour-codes", "colour_codes", "objects", "all", "none"),
     ] {
         let dir = tempfile::tempdir().unwrap();
         let run = dir.path().join("run");
@@ -123,7 +124,13 @@ fn model_options_train_resume_and_are_kept() {
         let meta: serde_json::Value =
             serde_json::from_str(&std::fs::read_to_string(run.join("model.json")).unwrap())
                 .unwrap();
-        assert_eq!(meta["model"][field].to_string(), value, "{meta}");
+        let kept = &meta["model"][field];
+        assert_eq!(
+            kept.as_str()
+                .map_or_else(|| kept.to_string(), str::to_owned),
+            value,
+            "{meta}"
+        );
         // A resume without the flag keeps the run's value; one with another is refused.
         let o = train(&run, "256", &["--resume"]);
         assert_eq!(o.status.code(), Some(0), "{flag}: {}", stderr(&o));

@@ -5,6 +5,7 @@ mod curve;
 mod env_cmd;
 mod eval;
 mod faithfulness;
+mod model_options;
 mod policy_cmd;
 mod replay;
 mod run_dir;

@@ -8,6 +8,7 @@ use groundscope::policy::{Checkpoint, ModelConfig, Params, TrainingState, Varian
 
 use crate::ExitStatus;
 use crate::cli::env_cmd::LevelArgs;
+use crate::cli::model_options::ModelOptions;
 
 /// `groundscope init`.
 #[derive(Debug, Args)]
@@ -24,12 +25,8 @@ pub struct InitArgs {
     /// Checkpoint name: writes NAME.safetensors and NAME.json.
     #[arg(long, value_name = "NAME")]
     pub out: PathBuf,
-    /// Side of the encoder's convolution kernel: 3 (the paper's) or 1 (see `train --help`).
-    #[arg(long, default_value_t = 3, allow_negative_numbers = true)]
-    pub conv_kernel: usize,
-    /// The attention filter's factor: 49 or 1 (the paper's; see `train --help`).
-    #[arg(long, default_value_t = 49, allow_negative_numbers = true)]
-    pub filter_scale: u32,
+    #[command(flatten)]
+    pub model_options: ModelOptions,
     #[command(flatten)]
     pub level: LevelArgs,
 }
@@ -43,11 +40,7 @@ pub fn parse_variant(s: &str) -> anyhow::Result<Variant> {
 pub fn init(args: &InitArgs) -> anyhow::Result<ExitStatus> {
     let variant = parse_variant(&args.model)?;
     let level = args.level.config()?;
-    let cfg = ModelConfig {
-        conv_kernel: args.conv_kernel,
-        filter_scale: args.filter_scale,
-        ..ModelConfig::new(variant)
-    };
+    let cfg = args.model_options.apply(ModelConfig::new(variant))?;
     cfg.validate()?;
     let params = Params::init(&cfg, args.seed)?;
     let n = params.count();

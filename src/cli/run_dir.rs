@@ -269,8 +269,7 @@ pub fn load_latest(run: &Path) -> anyhow::Result<(Trainer, RunInfo)> {
                 ppo: saved.resume.ppo,
                 level: saved.ckpt.meta.level,
                 hidden: saved.ckpt.meta.model.lstm_hidden,
-                conv_kernel: saved.ckpt.meta.model.conv_kernel,
-                filter_scale: saved.ckpt.meta.model.filter_scale,
+                model: saved.ckpt.meta.model,
                 variant: saved.ckpt.meta.model.variant,
                 training: saved.ckpt.meta.training.clone(),
                 tracking: saved.resume.tracking,
@@ -308,10 +307,8 @@ pub struct RunInfo {
     pub level: groundscope::env::level::LevelConfig,
     /// Its hidden size.
     pub hidden: usize,
-    /// Its encoder's kernel side.
-    pub conv_kernel: usize,
-    /// Its attention filter's factor.
-    pub filter_scale: u32,
+    /// Its network (sizes and model options).
+    pub model: groundscope::policy::ModelConfig,
     /// Its model variant.
     pub variant: groundscope::policy::Variant,
     /// Its progress.

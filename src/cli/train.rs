@@ -16,6 +16,7 @@ use groundscope::policy::{ModelConfig, Net, Params, TrainingState};
 
 use crate::ExitStatus;
 use crate::cli::env_cmd::LevelArgs;
+use crate::cli::model_options::ModelOptions;
 use crate::cli::policy_cmd::parse_variant;
 use crate::cli::run_dir::{self, Tracking};
 use crate::cli::train_start::{resume_run, tracking, warm_start};
@@ -111,14 +112,8 @@ pub struct TrainArgs {
     /// Hidden size of the LSTM and GRU (smaller trains faster; the paper's default is 128).
     #[arg(long, default_value_t = 128, allow_negative_numbers = true)]
     pub hidden: usize,
-    /// Side of the encoder's convolution kernel: 3 (the paper's network, DESIGN.md) or 1 (each
-    /// cell's features its own codes only, so a word map that helps must cover its object).
-    #[arg(long, default_value_t = 3, allow_negative_numbers = true)]
-    pub conv_kernel: usize,
-    /// The attention filter's factor s in F = s·M·Õ: 49 (uniform attention passes the features
-    /// unchanged) or 1 (the paper's F = M·Õ: flat maps shrink every input).
-    #[arg(long, default_value_t = 49, allow_negative_numbers = true)]
-    pub filter_scale: u32,
+    #[command(flatten)]
+    pub model_options: ModelOptions,
     /// Hide the progress bar (log lines only).
     #[arg(long)]
     pub quiet: bool,
@@ -239,11 +234,11 @@ fn log_rows_upto(path: &Path, header: &str, updates: u64) -> String {
 /// Runs `train`.
 pub fn run(args: &TrainArgs, matches: Option<&ArgMatches>) -> anyhow::Result<ExitStatus> {
     let variant = parse_variant(&args.model)?;
-    let mut model = ModelConfig::new(variant);
-    model.lstm_hidden = args.hidden;
-    model.gru_hidden = args.hidden;
-    model.conv_kernel = args.conv_kernel;
-    model.filter_scale = args.filter_scale;
+    let model = args.model_options.apply(ModelConfig {
+        lstm_hidden: args.hidden,
+        gru_hidden: args.hidden,
+        ..ModelConfig::new(variant)
+    })?;
     if args.save_interval == 0 {
         anyhow::bail!("--save-interval 0: must be at least 1 update");
     }

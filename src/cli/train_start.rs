@@ -57,8 +57,7 @@ pub(super) fn resume_run(
         ppo: info.ppo,
         level: info.level,
         hidden: info.hidden,
-        conv_kernel: info.conv_kernel,
-        filter_scale: info.filter_scale,
+        model: info.model,
         seed: info.seed,
     };
     saved.check_given(args, matches, "--resume", dir)?;
@@ -66,7 +65,7 @@ pub(super) fn resume_run(
 }
 
 /// `--init NAME`: a new trainer on NAME's weights, refusing a checkpoint of the other model
-/// or a `--hidden`, `--conv-kernel` or `--filter-scale` that differs from its own.
+/// or a `--hidden` or model option (`--conv-kernel`, …) that differs from its own.
 pub(super) fn warm_start(
     name: &str,
     variant: groundscope::policy::Variant,
@@ -91,19 +90,11 @@ pub(super) fn warm_start(
             args.hidden
         );
     }
-    if given(matches, "conv_kernel") && args.conv_kernel != ckpt.meta.model.conv_kernel {
-        anyhow::bail!(
-            "--init: {name} has a {k}×{k} encoder, not --conv-kernel {}",
-            args.conv_kernel,
-            k = ckpt.meta.model.conv_kernel,
-        );
-    }
-    if given(matches, "filter_scale") && args.filter_scale != ckpt.meta.model.filter_scale {
-        anyhow::bail!(
-            "--init: {name} has filter scale {}, not --filter-scale {}",
-            ckpt.meta.model.filter_scale,
-            args.filter_scale,
-        );
+    for (id, now, theirs) in args.model_options.against(&ckpt.meta.model) {
+        if given(matches, id) && now != theirs {
+            let flag = id.replace('_', "-");
+            anyhow::bail!("--init: {name} was trained with --{flag} {theirs}, not --{flag} {now}");
+        }
     }
     Ok(Trainer::warm_start(
         ckpt.meta.model,
@@ -127,8 +118,7 @@ struct Fixed {
     ppo: PpoConfig,
     level: groundscope::env::level::LevelConfig,
     hidden: usize,
-    conv_kernel: usize,
-    filter_scale: u32,
+    model: groundscope::policy::ModelConfig,
     seed: u64,
 }
 
@@ -143,7 +133,7 @@ impl Fixed {
         let (now, run) = (ppo_config(args), &self.ppo);
         let a = &args.level;
         let l = &self.level;
-        let pairs: [(&str, String, String); 23] = [
+        let pairs: [(&str, String, String); 21] = [
             (
                 "reward_scale",
                 now.reward_scale.to_string(),
@@ -213,16 +203,6 @@ impl Fixed {
                 run.update_threads.to_string(),
             ),
             ("hidden", args.hidden.to_string(), self.hidden.to_string()),
-            (
-                "conv_kernel",
-                args.conv_kernel.to_string(),
-                self.conv_kernel.to_string(),
-            ),
-            (
-                "filter_scale",
-                args.filter_scale.to_string(),
-                self.filter_scale.to_string(),
-            ),
             ("seed", args.seed.to_string(), self.seed.to_string()),
             ("size", a.size.to_string(), l.room_size.to_string()),
             ("objects", a.objects.to_string(), l.n_objects.to_string()),
@@ -232,7 +212,10 @@ impl Fixed {
                 format!("{:?}", l.tasks).to_lowercase(),
             ),
         ];
-        for (id, now, run) in pairs {
+        for (id, now, run) in pairs
+            .into_iter()
+            .chain(args.model_options.against(&self.model))
+        {
             if given(matches, id) && now != run {
                 anyhow::bail!(
                     "{how}: the run in {} was started with --{} {run}, not {now}; leave the flag out to keep the run's value",

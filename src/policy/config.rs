@@ -31,6 +31,49 @@ impl Variant {
     }
 }
 
+/// Which cells the encoder's colour one-hot is set on.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ColourCodes {
+    /// Every cell, as MiniGrid encodes it (the default): empty and unseen cells carry colour 0,
+    /// red, and walls grey, so those two colours' codes are set all over the view.
+    #[default]
+    All,
+    /// Only cells holding an object with a colour: unseen, empty and wall cells keep their type
+    /// and state codes, so every colour's code picks out objects of that colour.
+    Objects,
+}
+
+impl ColourCodes {
+    /// The lowercase name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::All => "all",
+            Self::Objects => "objects",
+        }
+    }
+
+    /// Parses `all` or `objects`, naming the setting otherwise.
+    pub fn parse(s: &str) -> Result<Self, super::PolicyError> {
+        match s {
+            "all" => Ok(Self::All),
+            "objects" => Ok(Self::Objects),
+            _ => Err(super::PolicyError::Input(format!(
+                "model setting colour_codes = {s} must be all or objects"
+            ))),
+        }
+    }
+
+    /// Whether it is the default (checkpoints leave the default out).
+    #[expect(
+        clippy::trivially_copy_pass_by_ref,
+        reason = "serde's skip_serializing_if passes a reference"
+    )]
+    fn is_all(&self) -> bool {
+        *self == Self::All
+    }
+}
+
 /// Sizes of the network (DESIGN.md §1 defaults).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -57,6 +100,9 @@ pub struct ModelConfig {
         skip_serializing_if = "ModelConfig::is_default_filter_scale"
     )]
     pub filter_scale: u32,
+    /// Which cells carry a colour code ([`ColourCodes`]). Written only when not `all`.
+    #[serde(default, skip_serializing_if = "ColourCodes::is_all")]
+    pub colour_codes: ColourCodes,
     /// E: word embedding size.
     pub word_dim: usize,
     /// d_k: query/key size.
@@ -77,6 +123,7 @@ impl ModelConfig {
             conv_channels: 16,
             conv_kernel: Self::DEFAULT_KERNEL,
             filter_scale: Self::DEFAULT_FILTER_SCALE,
+            colour_codes: ColourCodes::All,
             word_dim: 32,
             key_dim: 32,
             lstm_hidden: 128,
@@ -207,6 +254,23 @@ mod tests {
             .validate();
             assert_eq!(r.is_ok(), ok, "{s}: {r:?}");
         }
+    }
+
+    #[test]
+    fn colour_codes_are_written_only_when_not_minigrids() {
+        let all = ModelConfig::new(Variant::Attention);
+        let json = serde_json::to_string(&all).unwrap();
+        assert!(!json.contains("colour_codes"), "{json}");
+        assert_eq!(serde_json::from_str::<ModelConfig>(&json).unwrap(), all);
+        let objects = ModelConfig {
+            colour_codes: ColourCodes::parse("objects").unwrap(),
+            ..all
+        };
+        let json = serde_json::to_string(&objects).unwrap();
+        assert!(json.contains("\"colour_codes\":\"objects\""), "{json}");
+        assert_eq!(serde_json::from_str::<ModelConfig>(&json).unwrap(), objects);
+        let bad = ColourCodes::parse("none").unwrap_err().to_string();
+        assert!(bad.contains("colour_codes = none"), "{bad}");
     }
 
     #[test]

@@ -9,7 +9,7 @@
 use candle_core::{CpuStorage, CustomOp2, Layout, Result, Shape, Tensor};
 
 use super::fused::f32_slice as slice;
-use super::obs::{CellCodes, N_CELLS, patch_len};
+use super::obs::{CellCodes, N_CELLS, NO_CODE, patch_len};
 use crate::env::view::VIEW_SIZE;
 
 /// The forward op: inputs the weight (K, patch) and bias (K); output (B, 49, K).
@@ -27,12 +27,14 @@ struct ConvCodesBackward {
 
 /// The patch columns feeding output cell `cell` of a `kernel`×`kernel` convolution (1 or 3),
 /// `(column, …)` with `column = c·kernel² + ky·kernel + kx` as in
-/// [`super::obs::push_patches`], passed to `f` one at a time.
+/// [`super::obs::patches`], passed to `f` one at a time; an unset slot ([`NO_CODE`]) has none.
 #[inline]
 fn for_each_column(codes: &[u8], kernel: usize, cell: usize, mut f: impl FnMut(usize)) {
     if kernel == 1 {
         for &c in &codes[cell * 3..cell * 3 + 3] {
-            f(usize::from(c));
+            if c != NO_CODE {
+                f(usize::from(c));
+            }
         }
         return;
     }
@@ -51,7 +53,9 @@ fn for_each_column(codes: &[u8], kernel: usize, cell: usize, mut f: impl FnMut(u
             let src = (vy * v + vx) as usize * 3;
             let offset = (ky * 3 + kx) as usize;
             for &c in &codes[src..src + 3] {
-                f(usize::from(c) * 9 + offset);
+                if c != NO_CODE {
+                    f(usize::from(c) * 9 + offset);
+                }
             }
         }
     }

@@ -12,7 +12,7 @@ use std::collections::BTreeMap;
 use candle_core::{D, DType, Device, Tensor};
 
 use super::attention::{AttentionOut, Intervention, attend_with};
-use super::config::ModelConfig;
+use super::config::{ColourCodes, ModelConfig};
 use super::error::PolicyError;
 use super::fused_act;
 use super::obs::{CellCodes, N_CELLS, TokenBatch, patch_len};
@@ -128,17 +128,22 @@ impl Net {
     }
 
     /// `Õ = ReLU(Conv(O))` (3×3 or 1×1, `conv_kernel`) for the B frames of `codes`:
-    /// (B, 49, K), through the sparse op of [`super::fused_conv`].
+    /// (B, 49, K), through the sparse op of [`super::fused_conv`]. The codes are read as the
+    /// model's `colour_codes` says ([`CellCodes::encoded`]).
     pub fn cells(&self, codes: &CellCodes) -> Result<Tensor, PolicyError> {
         let (k, ks) = (self.cfg.conv_channels, self.cfg.conv_kernel);
         let w = self.p("encoder.conv.weight")?.reshape((k, patch_len(ks)))?;
         let b = self.p("encoder.conv.bias")?;
-        Ok(super::fused_conv::conv_codes(codes, ks, &w, b)?)
+        let codes = match self.cfg.colour_codes {
+            ColourCodes::All => std::borrow::Cow::Borrowed(codes),
+            other => std::borrow::Cow::Owned(codes.encoded(other)),
+        };
+        Ok(super::fused_conv::conv_codes(&codes, ks, &w, b)?)
     }
 
     /// [`Self::cells`] as a dense GEMM over the im2col patches (B·49, patch) of
-    /// [`super::obs::patches`] with candle's autograd: the reference the sparse op is tested
-    /// against.
+    /// [`super::obs::patches`] (of the codes as the model reads them) with candle's autograd:
+    /// the reference the sparse op is tested against.
     pub fn cells_reference(&self, patches: &Tensor) -> Result<Tensor, PolicyError> {
         let k = self.cfg.conv_channels;
         let w = self

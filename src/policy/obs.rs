@@ -11,6 +11,7 @@ use std::collections::BTreeMap;
 
 use candle_core::{Device, Tensor};
 
+use super::config::ColourCodes;
 use super::error::PolicyError;
 use crate::env::view::{Observation, VIEW_SIZE};
 
@@ -39,9 +40,17 @@ fn codes(enc: [u8; 3]) -> [usize; 3] {
     ]
 }
 
-/// Appends the 49 patches of `obs` for a `kernel`×`kernel` convolution (49 ×
-/// [`patch_len`]`(kernel)` floats) to `out`.
-pub fn push_patches(obs: &Observation, kernel: usize, out: &mut Vec<f32>) {
+/// A code slot left unset ([`ColourCodes::Objects`] on a cell without a colour): the encoder
+/// adds no weight column for it.
+pub const NO_CODE: u8 = u8::MAX;
+
+/// Object types below this one (unseen, empty, wall) have no colour of their own under
+/// [`ColourCodes::Objects`].
+const FIRST_COLOURED_TYPE: u8 = 3;
+
+/// Appends the 49 patches of the `cell` codes of one frame (49 × 3, as in [`CellCodes`]) for
+/// a `kernel`×`kernel` convolution (49 × [`patch_len`]`(kernel)` floats) to `out`.
+fn push_patches(cell: &[u8], kernel: usize, out: &mut Vec<f32>) {
     let patch = patch_len(kernel);
     let start = out.len();
     out.resize(start + N_CELLS * patch, 0.0);
@@ -50,7 +59,7 @@ pub fn push_patches(obs: &Observation, kernel: usize, out: &mut Vec<f32>) {
     let (ks, r) = (kernel as i32, kernel as i32 / 2);
     for vy in 0..v {
         for vx in 0..v {
-            let codes = codes(obs.image[vx as usize][vy as usize]);
+            let j = (vy * v + vx) as usize;
             // This cell feeds the patch of every neighbour (ny, nx) at kernel offset (ky, kx).
             for ky in 0..ks {
                 for kx in 0..ks {
@@ -59,8 +68,9 @@ pub fn push_patches(obs: &Observation, kernel: usize, out: &mut Vec<f32>) {
                         continue;
                     }
                     let row = (ny * v + nx) as usize * patch;
-                    for c in codes {
-                        dst[row + c * (ks * ks) as usize + (ky * ks + kx) as usize] = 1.0;
+                    for &c in cell[j * 3..j * 3 + 3].iter().filter(|&&c| c != NO_CODE) {
+                        dst[row + usize::from(c) * (ks * ks) as usize + (ky * ks + kx) as usize] =
+                            1.0;
                     }
                 }
             }
@@ -96,6 +106,28 @@ impl CellCodes {
         }
     }
 
+    /// The codes the encoder of a model with `colour_codes` reads: these codes themselves for
+    /// [`ColourCodes::All`]; for [`ColourCodes::Objects`] the colour slot of unseen, empty and
+    /// wall cells is [`NO_CODE`].
+    #[must_use]
+    pub fn encoded(&self, colour_codes: ColourCodes) -> Self {
+        match colour_codes {
+            ColourCodes::All => self.clone(),
+            ColourCodes::Objects => {
+                let mut codes = self.codes.to_vec();
+                for cell in codes.chunks_exact_mut(3) {
+                    if cell[0] < FIRST_COLOURED_TYPE {
+                        cell[1] = NO_CODE;
+                    }
+                }
+                Self {
+                    frames: self.frames,
+                    codes: codes.into(),
+                }
+            }
+        }
+    }
+
     /// Number of frames.
     pub fn frames(&self) -> usize {
         self.frames
@@ -107,17 +139,18 @@ impl CellCodes {
     }
 }
 
-/// Patches of a batch of observations for a `kernel`×`kernel` convolution as a
-/// `(B·49, patch_len(kernel))` tensor.
-pub fn patches(obs: &[Observation], kernel: usize) -> Result<Tensor, PolicyError> {
+/// Patches of a batch of frames' codes for a `kernel`×`kernel` convolution as a
+/// `(B·49, patch_len(kernel))` tensor: the dense input [`super::model::Net::cells_reference`]
+/// multiplies (unset slots, [`NO_CODE`], set nothing).
+pub fn patches(codes: &CellCodes, kernel: usize) -> Result<Tensor, PolicyError> {
     let patch = patch_len(kernel);
-    let mut data = Vec::with_capacity(obs.len() * N_CELLS * patch);
-    for o in obs {
-        push_patches(o, kernel, &mut data);
+    let mut data = Vec::with_capacity(codes.frames() * N_CELLS * patch);
+    for frame in codes.as_slice().chunks_exact(N_CELLS * 3) {
+        push_patches(frame, kernel, &mut data);
     }
     Ok(Tensor::from_vec(
         data,
-        (obs.len() * N_CELLS, patch),
+        (codes.frames() * N_CELLS, patch),
         &Device::Cpu,
     )?)
 }
@@ -188,8 +221,9 @@ mod tests {
             image: [[[1, 0, 0]; 7]; 7],
         };
         obs.image[2][4] = [6, 3, 0]; // purple ball at vx 2, vy 4
+        let codes = CellCodes::new(&[obs]);
         let mut p = Vec::new();
-        push_patches(&obs, 3, &mut p);
+        push_patches(codes.as_slice(), 3, &mut p);
         let row = (4 * 7 + 2) * PATCH;
         let centre = |c: usize| p[row + c * 9 + 4];
         assert_eq!(centre(6), 1.0);
@@ -201,7 +235,7 @@ mod tests {
         assert_eq!(p.iter().sum::<f32>() as usize, 3 * (49 * 9 - 4 * 7 * 3 + 4));
         // A 1×1 patch is the cell's own codes and nothing else.
         let mut p1 = Vec::new();
-        push_patches(&obs, 1, &mut p1);
+        push_patches(codes.as_slice(), 1, &mut p1);
         assert_eq!(p1.len(), 49 * CELL_CODES);
         let ball = &p1[(4 * 7 + 2) * CELL_CODES..(4 * 7 + 3) * CELL_CODES];
         assert_eq!(
@@ -209,6 +243,43 @@ mod tests {
             (1.0, 1.0, 1.0, 0.0)
         );
         assert_eq!(p1.iter().sum::<f32>() as usize, 3 * 49);
+    }
+
+    #[test]
+    fn object_colour_codes_leave_floor_walls_and_unseen_cells_without_a_colour() {
+        let mut obs = Observation {
+            image: [[[1, 0, 0]; 7]; 7], // empty floor: colour 0 is red in MiniGrid's encoding
+        };
+        obs.image[0][0] = [2, 5, 0]; // grey wall
+        obs.image[1][0] = [0, 0, 0]; // unseen
+        obs.image[2][4] = [6, 0, 0]; // red ball
+        obs.image[3][3] = [5, 5, 0]; // grey key
+        let all = CellCodes::new(&[obs]);
+        assert_eq!(all.encoded(ColourCodes::All).as_slice(), all.as_slice());
+        let objects = all.encoded(ColourCodes::Objects);
+        let cell = |c: &CellCodes, vx: usize, vy: usize| {
+            let at = (vy * 7 + vx) * 3;
+            c.as_slice()[at..at + 3].to_vec()
+        };
+        assert_eq!(cell(&all, 5, 5), [1, 11, 17], "floor reads red");
+        assert_eq!(cell(&objects, 5, 5), [1, NO_CODE, 17]);
+        assert_eq!(cell(&objects, 0, 0), [2, NO_CODE, 17]);
+        assert_eq!(cell(&objects, 1, 0), [0, NO_CODE, 17]);
+        assert_eq!(
+            cell(&objects, 2, 4),
+            [6, 11, 17],
+            "the red ball keeps its colour"
+        );
+        assert_eq!(
+            cell(&objects, 3, 3),
+            [5, 16, 17],
+            "the grey key keeps its colour"
+        );
+        // Only the two objects set a colour column in the patches.
+        let p = patches(&objects, 1).unwrap().to_vec2::<f32>().unwrap();
+        let colour_hits: f32 = p.iter().map(|row| row[11..17].iter().sum::<f32>()).sum();
+        assert_eq!(colour_hits, 2.0);
+        assert_eq!(p.iter().flatten().sum::<f32>(), (2 * 49 + 2) as f32);
     }
 
     #[test]

@@ -1,0 +1,58 @@
+//! The model options `train` and `policy init` share: choices about the network beyond its
+//! sizes, kept in the checkpoint. One place lists them, so a new one is checked on `--resume`
+//! and `--init` like the others.
+
+use clap::Args;
+use groundscope::policy::{ColourCodes, ModelConfig};
+
+/// Model options (defaults: the paper's network as DESIGN.md describes it).
+#[derive(Args, Clone, Debug)]
+pub struct ModelOptions {
+    /// Side of the encoder's convolution kernel: 3 (the paper's network, DESIGN.md) or 1 (each
+    /// cell's features its own codes only, so a word map that helps must cover its object).
+    #[arg(long, default_value_t = 3, allow_negative_numbers = true)]
+    pub conv_kernel: usize,
+    /// The attention filter's factor s in F = s·M·Õ: 49 (uniform attention passes the features
+    /// unchanged) or 1 (the paper's F = M·Õ: flat maps shrink every input).
+    #[arg(long, default_value_t = 49, allow_negative_numbers = true)]
+    pub filter_scale: u32,
+    /// Which cells carry a colour code: all (MiniGrid's encoding: empty and unseen cells read
+    /// red, walls grey) or objects (only cells holding a coloured object).
+    #[arg(long, default_value = "all")]
+    pub colour_codes: String,
+}
+
+impl ModelOptions {
+    /// `cfg` with these options set (checked by [`ModelConfig::validate`]); a colour-code
+    /// choice that is not one is an error naming its setting.
+    pub fn apply(&self, cfg: ModelConfig) -> anyhow::Result<ModelConfig> {
+        Ok(ModelConfig {
+            conv_kernel: self.conv_kernel,
+            filter_scale: self.filter_scale,
+            colour_codes: ColourCodes::parse(&self.colour_codes)?,
+            ..cfg
+        })
+    }
+
+    /// Each option as `(clap id, the value given, the value in cfg)`, for comparing a command
+    /// line with a checkpoint.
+    pub fn against(&self, cfg: &ModelConfig) -> [(&'static str, String, String); 3] {
+        [
+            (
+                "conv_kernel",
+                self.conv_kernel.to_string(),
+                cfg.conv_kernel.to_string(),
+            ),
+            (
+                "filter_scale",
+                self.filter_scale.to_string(),
+                cfg.filter_scale.to_string(),
+            ),
+            (
+                "colour_codes",
+                self.colour_codes.clone(),
+                cfg.colour_codes.name().to_owned(),
+            ),
+        ]
+    }
+}
