@@ -136,7 +136,7 @@ impl Net {
         let b = self.p("encoder.conv.bias")?;
         let codes = match self.cfg.colour_codes {
             ColourCodes::All => std::borrow::Cow::Borrowed(codes),
-            other => std::borrow::Cow::Owned(codes.encoded(other)),
+            ColourCodes::Objects => std::borrow::Cow::Owned(codes.encoded(ColourCodes::Objects)),
         };
         Ok(super::fused_conv::conv_codes(&codes, ks, &w, b)?)
     }
