@@ -108,13 +108,13 @@ fn fused_lstm_gates_match_the_autograd_reference() {
 
 #[test]
 fn fused_attention_matches_the_autograd_reference() {
-    // Our filter factor 49 and the paper's 1.
-    for scale in [49, 1] {
-        fused_attention_matches_reference(scale);
+    // Our filter factor 49 and the paper's 1; the paper's word weights and warmer ones.
+    for (scale, t) in [(49, 1.0), (1, 1.0), (1, 3.89), (49, 0.5)] {
+        fused_attention_matches_reference(scale, t);
     }
 }
 
-fn fused_attention_matches_reference(scale: u32) {
+fn fused_attention_matches_reference(scale: u32, t: f32) {
     use groundscope::policy::attention::{attend, keyed_queries};
     use groundscope::policy::fused_attention::attention_filter;
     let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(11);
@@ -147,7 +147,7 @@ fn fused_attention_matches_reference(scale: u32) {
     let run = |fused: bool| {
         let f = if fused {
             let qk = keyed_queries(q.as_tensor(), wk.as_tensor()).unwrap();
-            attention_filter(&qk, &mask, o.as_tensor(), scale).unwrap()
+            attention_filter(&qk, &mask, o.as_tensor(), scale, t).unwrap()
         } else {
             let kc = o
                 .as_tensor()
@@ -157,7 +157,7 @@ fn fused_attention_matches_reference(scale: u32) {
                 .unwrap()
                 .reshape((b, 49, dk))
                 .unwrap();
-            attend(q.as_tensor(), &kc, &mask, o.as_tensor(), scale)
+            attend(q.as_tensor(), &kc, &mask, o.as_tensor(), scale, t)
                 .unwrap()
                 .f
         };

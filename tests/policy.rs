@@ -14,7 +14,8 @@ use groundscope::episode::{ActionMode, EpisodeSpec, run_episode};
 use groundscope::policy::model::TRANSPOSED;
 use groundscope::policy::obs::{CellCodes, TokenBatch};
 use groundscope::policy::{
-    Checkpoint, ColourCodes, Memory, ModelConfig, Net, Params, TrainingState, Variant, act,
+    Checkpoint, ColourCodes, Memory, ModelConfig, Net, Params, TrainingState, Variant,
+    WordTemperature, act,
 };
 
 fn tiny(variant: Variant) -> ModelConfig {
@@ -24,6 +25,7 @@ fn tiny(variant: Variant) -> ModelConfig {
         conv_kernel: 3,
         filter_scale: 49,
         colour_codes: ColourCodes::All,
+        word_temperature: WordTemperature::PAPER,
         word_dim: 4,
         key_dim: 4,
         lstm_hidden: 5,
@@ -91,18 +93,24 @@ fn gradients_reach_every_parameter_and_match_finite_differences() {
         colour_codes: ColourCodes::Objects,
         ..tiny(Variant::Attention)
     };
+    let warm_words = ModelConfig {
+        word_temperature: WordTemperature(3.89),
+        ..tiny(Variant::Attention)
+    };
     for cfg in [
         tiny(Variant::Attention),
         tiny(Variant::Baseline),
         one_by_one,
         papers_filter,
         object_colours,
+        warm_words,
     ] {
         let variant = (
             cfg.variant,
             cfg.conv_kernel,
             cfg.filter_scale,
             cfg.colour_codes,
+            cfg.word_temperature,
         );
         let params = Params::init(&cfg, 3).unwrap();
         let net = Net::new(cfg, params.tracked());

@@ -116,6 +116,7 @@ fn model_options_train_resume_and_are_kept() {
         ("--conv-kernel", "conv_kernel", "1", "3", "2"),
         ("--filter-scale", "filter_scale", "1", "49", "7"),
         ("--colour-codes", "colour_codes", "objects", "all", "none"),
+        ("--word-temperature", "word_temperature", "3.89", "1", "0"),
     ] {
         let dir = tempfile::tempdir().unwrap();
         let run = dir.path().join("run");

@@ -3,7 +3,7 @@
 //! and `--init` like the others.
 
 use clap::Args;
-use groundscope::policy::{ColourCodes, ModelConfig};
+use groundscope::policy::{ColourCodes, ModelConfig, WordTemperature};
 
 /// Model options (defaults: the paper's network as DESIGN.md describes it).
 #[derive(Args, Clone, Debug)]
@@ -20,6 +20,10 @@ pub struct ModelOptions {
     /// red, walls grey) or objects (only cells holding a coloured object).
     #[arg(long, default_value = "all")]
     pub colour_codes: String,
+    /// The word weights' temperature T in w = softmax(−H/T): 1 (the paper's) or larger, so
+    /// that flat word maps keep some weight in M (ln 49 ≈ 3.89: entropy in units of its maximum).
+    #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
+    pub word_temperature: f32,
 }
 
 impl ModelOptions {
@@ -30,13 +34,14 @@ impl ModelOptions {
             conv_kernel: self.conv_kernel,
             filter_scale: self.filter_scale,
             colour_codes: ColourCodes::parse(&self.colour_codes)?,
+            word_temperature: WordTemperature(self.word_temperature),
             ..cfg
         })
     }
 
     /// Each option as `(clap id, the value given, the value in cfg)`, for comparing a command
     /// line with a checkpoint.
-    pub fn against(&self, cfg: &ModelConfig) -> [(&'static str, String, String); 3] {
+    pub fn against(&self, cfg: &ModelConfig) -> [(&'static str, String, String); 4] {
         [
             (
                 "conv_kernel",
@@ -52,6 +57,11 @@ impl ModelOptions {
                 "colour_codes",
                 self.colour_codes.clone(),
                 cfg.colour_codes.name().to_owned(),
+            ),
+            (
+                "word_temperature",
+                self.word_temperature.to_string(),
+                cfg.word_temperature.0.to_string(),
             ),
         ]
     }

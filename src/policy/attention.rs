@@ -4,7 +4,9 @@
 //! - `q`: (B, m, d_k) word queries `Q = g̃ W_q`; `kc`: (B, 49, d_k) cell keys `Kc = Õ W_k`;
 //! - `a`: (B, m, 49), `A = softmax_rows(Q Kcᵀ / √d_k)`, row i is word i's map;
 //! - `h`: (B, m), `H_i = −Σ_j A_ij ln A_ij` in nats, with `0 · ln 0 = 0`;
-//! - `w`: (B, m), `w = softmax(−H)` over the real words only (padding gets weight 0);
+//! - `w`: (B, m), `w = softmax(−H / T)` over the real words only (padding gets weight 0),
+//!   with the word temperature `T` of the model configuration: 1 as the paper writes it (the
+//!   default), larger to weigh the words more evenly;
 //! - `m`: (B, 49), `M = Σ_i w_i A_i`;
 //! - `f`: (B, 49, K), `F_j = s · M_j · Õ_j`, with the filter scale `s` of the model
 //!   configuration: 49 by default, 1 as the paper writes it.
@@ -51,10 +53,16 @@ pub fn entropies(a: &Tensor) -> Result<Tensor, PolicyError> {
     Ok((a * ln_a)?.sum(D::Minus1)?.neg()?)
 }
 
-/// Eq. 6: `w = softmax(−H)` over real words; `mask` (B, m) is 1 for real words, 0 for padding.
-pub fn word_weights(h: &Tensor, mask: &Tensor) -> Result<Tensor, PolicyError> {
-    // Padding gets −1e9 before the softmax, i.e. exactly 0 after it.
-    let neg_h = h.neg()?;
+/// Eq. 5: `w = softmax(−H / T)` over real words; `mask` (B, m) is 1 for real words, 0 for
+/// padding; `t` is the word temperature (1 in the paper).
+pub fn word_weights(h: &Tensor, mask: &Tensor, t: f32) -> Result<Tensor, PolicyError> {
+    // Padding gets −1e9 before the softmax, i.e. exactly 0 after it. T = 1 skips the division,
+    // so the paper's weights are computed exactly as before the option existed.
+    let neg_h = if t == 1.0 {
+        h.neg()?
+    } else {
+        (h.neg()? / f64::from(t))?
+    };
     let masked = ((&neg_h * mask)? + ((mask - 1.0)? * 1e9)?)?;
     Ok(candle_nn::ops::softmax(&masked, D::Minus1)?)
 }
@@ -97,16 +105,17 @@ pub enum Intervention {
     ScaleWeights(Tensor),
 }
 
-/// Eqs. 3–7 and the filter (factor `scale`), given queries, keys, the word mask and the cell
-/// features `Õ`.
+/// Eqs. 3–7 and the filter (factor `scale`, word temperature `t`), given queries, keys, the
+/// word mask and the cell features `Õ`.
 pub fn attend(
     q: &Tensor,
     kc: &Tensor,
     mask: &Tensor,
     o: &Tensor,
     scale: u32,
+    t: f32,
 ) -> Result<AttentionOut, PolicyError> {
-    attend_with(q, kc, mask, o, scale, None)
+    attend_with(q, kc, mask, o, scale, t, None)
 }
 
 /// [`attend`] with an optional [`Intervention`] applied to `w` or `M` before the filter.
@@ -116,11 +125,12 @@ pub fn attend_with(
     mask: &Tensor,
     o: &Tensor,
     scale: u32,
+    t: f32,
     intervention: Option<&Intervention>,
 ) -> Result<AttentionOut, PolicyError> {
     let a = attention_maps(q, kc)?;
     let h = entropies(&a)?;
-    let mut w = word_weights(&h, mask)?;
+    let mut w = word_weights(&h, mask, t)?;
     if let Some(Intervention::ScaleWeights(factors)) = intervention {
         let scaled = (&w * factors)?;
         let total = scaled.sum_keepdim(D::Minus1)?.clamp(TINY, f64::MAX)?;
@@ -190,15 +200,27 @@ mod tests {
         // Words 0 and 1 tie (H = 1), word 2 is focused (H = 0), word 3 is padding.
         let h = Tensor::from_vec(vec![1f32, 1., 0., 0.], (1, 4), &Device::Cpu).unwrap();
         let mask = Tensor::from_vec(vec![1f32, 1., 1., 0.], (1, 4), &Device::Cpu).unwrap();
-        let w = word_weights(&h, &mask)
-            .unwrap()
-            .flatten_all()
-            .unwrap()
-            .to_vec1::<f32>()
-            .unwrap();
+        let weights = |t: f32| {
+            word_weights(&h, &mask, t)
+                .unwrap()
+                .flatten_all()
+                .unwrap()
+                .to_vec1::<f32>()
+                .unwrap()
+        };
         let e = (-1f32).exp();
         let z = 2.0 * e + 1.0;
-        assert_eq!(round(&w, 6), round(&[e / z, e / z, 1.0 / z, 0.0], 6));
+        assert_eq!(
+            round(&weights(1.0), 6),
+            round(&[e / z, e / z, 1.0 / z, 0.0], 6)
+        );
+        // At T = 4 the focused word's lead shrinks from e to e^(1/4).
+        let e4 = (-0.25f32).exp();
+        let z4 = 2.0 * e4 + 1.0;
+        assert_eq!(
+            round(&weights(4.0), 6),
+            round(&[e4 / z4, e4 / z4, 1.0 / z4, 0.0], 6)
+        );
     }
 
     #[test]

@@ -74,6 +74,45 @@ impl ColourCodes {
     }
 }
 
+/// The word weights' temperature `T` in `w = softmax(−H / T)`: 1 is the paper's eq. 5; a
+/// larger `T` weighs the words more evenly, so a flat map keeps some weight in `M` (and some
+/// gradient). Compared and hashed by its bits; [`ModelConfig::validate`] keeps it finite and
+/// positive.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(transparent)]
+pub struct WordTemperature(pub f32);
+
+impl WordTemperature {
+    /// The paper's eq. 5.
+    pub const PAPER: Self = Self(1.0);
+    /// The largest temperature accepted: past it every weight is within 4% of uniform.
+    pub const MAX: f32 = 100.0;
+
+    /// Whether it is the paper's (checkpoints leave it out).
+    #[expect(
+        clippy::trivially_copy_pass_by_ref,
+        reason = "serde's skip_serializing_if passes a reference"
+    )]
+    fn is_paper(&self) -> bool {
+        *self == Self::PAPER
+    }
+}
+
+impl Default for WordTemperature {
+    fn default() -> Self {
+        Self::PAPER
+    }
+}
+
+// Validation admits finite values only, so equality by value is total.
+impl Eq for WordTemperature {}
+
+impl std::hash::Hash for WordTemperature {
+    fn hash<H: std::hash::Hasher>(&self, state: &mut H) {
+        self.0.to_bits().hash(state);
+    }
+}
+
 /// Sizes of the network (DESIGN.md §1 defaults).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -103,6 +142,9 @@ pub struct ModelConfig {
     /// Which cells carry a colour code ([`ColourCodes`]). Written only when not `all`.
     #[serde(default, skip_serializing_if = "ColourCodes::is_all")]
     pub colour_codes: ColourCodes,
+    /// The word weights' temperature ([`WordTemperature`]). Written only when not 1.
+    #[serde(default, skip_serializing_if = "WordTemperature::is_paper")]
+    pub word_temperature: WordTemperature,
     /// E: word embedding size.
     pub word_dim: usize,
     /// d_k: query/key size.
@@ -124,6 +166,7 @@ impl ModelConfig {
             conv_kernel: Self::DEFAULT_KERNEL,
             filter_scale: Self::DEFAULT_FILTER_SCALE,
             colour_codes: ColourCodes::All,
+            word_temperature: WordTemperature::PAPER,
             word_dim: 32,
             key_dim: 32,
             lstm_hidden: 128,
@@ -175,6 +218,13 @@ impl ModelConfig {
 
     /// Checks every size is positive and bounded, naming the field.
     pub fn validate(&self) -> Result<(), super::PolicyError> {
+        let t = self.word_temperature.0;
+        if !(t.is_finite() && t > 0.0 && t <= WordTemperature::MAX) {
+            return Err(super::PolicyError::Input(format!(
+                "model setting word_temperature = {t} must be in (0, {}]",
+                WordTemperature::MAX
+            )));
+        }
         if !Self::FILTER_SCALES.contains(&self.filter_scale) {
             return Err(super::PolicyError::Input(format!(
                 "model setting filter_scale = {} must be 1 or 49",
@@ -271,6 +321,40 @@ mod tests {
         assert_eq!(serde_json::from_str::<ModelConfig>(&json).unwrap(), objects);
         let bad = ColourCodes::parse("none").unwrap_err().to_string();
         assert!(bad.contains("colour_codes = none"), "{bad}");
+    }
+
+    #[test]
+    fn the_word_temperature_is_written_only_when_not_the_papers_and_must_be_positive() {
+        let paper = ModelConfig::new(Variant::Attention);
+        let json = serde_json::to_string(&paper).unwrap();
+        assert!(!json.contains("word_temperature"), "{json}");
+        let warm = ModelConfig {
+            word_temperature: WordTemperature(3.89),
+            ..paper
+        };
+        let json = serde_json::to_string(&warm).unwrap();
+        assert!(json.contains("\"word_temperature\":3.89"), "{json}");
+        assert_eq!(serde_json::from_str::<ModelConfig>(&json).unwrap(), warm);
+        for (t, ok) in [
+            (1.0, true),
+            (0.5, true),
+            (100.0, true),
+            (0.0, false),
+            (-1.0, false),
+            (100.5, false),
+            (f32::INFINITY, false),
+            (f32::NAN, false),
+        ] {
+            let r = ModelConfig {
+                word_temperature: WordTemperature(t),
+                ..paper
+            }
+            .validate();
+            assert_eq!(r.is_ok(), ok, "{t}: {r:?}");
+            if !ok {
+                assert!(format!("{r:?}").contains("word_temperature"), "{r:?}");
+            }
+        }
     }
 
     #[test]

@@ -14,9 +14,11 @@ use super::obs::N_CELLS;
 /// Smallest probability fed to `ln`, as in `attention.rs`.
 const TINY: f32 = 1e-30;
 
-/// The forward op; `scale` is the filter's factor (`F_j = scale · M_j · Õ_j`).
+/// The forward op; `scale` is the filter's factor (`F_j = scale · M_j · Õ_j`), `t` the word
+/// temperature (`w = softmax(−H / t)`).
 struct AttentionFilter {
     scale: f32,
+    t: f32,
 }
 
 /// Its backward: from `Q̂`, `Õ` and `dF` (the mask held in the op), returns `[dQ̂ (m·K) | dÕ (49·K)]` per
@@ -25,12 +27,14 @@ struct AttentionFilterBackward {
     m: usize,
     k: usize,
     scale: f32,
+    t: f32,
     /// The word mask, (B·m).
     mask: Vec<f32>,
 }
 
-/// Per frame: maps `a` (m × 49), weights `w` (m) and `M` (49) from the scores and mask.
-fn maps(s: &[f32], mask: &[f32], a: &mut [f32], w: &mut [f32], m_out: &mut [f32]) {
+/// Per frame: maps `a` (m × 49), weights `w` (m) and `M` (49) from the scores and mask, at
+/// word temperature `t`.
+fn maps(s: &[f32], mask: &[f32], t: f32, a: &mut [f32], w: &mut [f32], m_out: &mut [f32]) {
     let m = mask.len();
     let mut neg_h = vec![0f32; m];
     for i in 0..m {
@@ -47,8 +51,8 @@ fn maps(s: &[f32], mask: &[f32], a: &mut [f32], w: &mut [f32], m_out: &mut [f32]
             *o /= z;
             h -= *o * o.clamp(TINY, 1.0).ln();
         }
-        // Padding: −1e9 before the softmax, as `word_weights`.
-        neg_h[i] = -h * mask[i] + (mask[i] - 1.0) * 1e9;
+        // Padding: −1e9 before the softmax, as `word_weights` (x / 1 is x, bit for bit).
+        neg_h[i] = -h / t * mask[i] + (mask[i] - 1.0) * 1e9;
     }
     let max = neg_h.iter().fold(f32::NEG_INFINITY, |x, y| x.max(*y));
     let mut z = 0f32;
@@ -122,7 +126,14 @@ impl CustomOp3 for AttentionFilter {
                 k,
                 &mut s,
             );
-            maps(&s, &mask[r * m..(r + 1) * m], &mut a, &mut w, &mut mm);
+            maps(
+                &s,
+                &mask[r * m..(r + 1) * m],
+                self.t,
+                &mut a,
+                &mut w,
+                &mut mm,
+            );
             for (j, mj) in mm.iter().enumerate() {
                 let f = mj * scale;
                 let base = (r * N_CELLS + j) * k;
@@ -152,6 +163,7 @@ impl CustomOp3 for AttentionFilter {
                 m,
                 k,
                 scale: self.scale,
+                t: self.t,
                 mask,
             },
         )?;
@@ -209,7 +221,7 @@ impl CustomOp3 for AttentionFilterBackward {
             let oj_all = &o_all[r * N_CELLS * k..(r + 1) * N_CELLS * k];
             let df = &df_all[r * N_CELLS * k..(r + 1) * N_CELLS * k];
             scores(qr, oj_all, k, &mut ds);
-            maps(&ds, maskr, &mut a, &mut w, &mut mm);
+            maps(&ds, maskr, self.t, &mut a, &mut w, &mut mm);
             let dqk = &mut dqk_all[r * m * k..(r + 1) * m * k];
             let d_o = &mut d_o_all[r * N_CELLS * k..(r + 1) * N_CELLS * k];
             // F_j = 49·M_j·O_j.
@@ -230,11 +242,11 @@ impl CustomOp3 for AttentionFilterBackward {
                     da[i * N_CELLS + j] = w[i] * dm[j];
                 }
             }
-            // w = softmax(−H·mask + (mask − 1)·1e9).
+            // w = softmax(−H/t·mask + (mask − 1)·1e9).
             let dot: f32 = w.iter().zip(&dw).map(|(x, y)| x * y).sum();
             for i in 0..m {
                 let dz = w[i] * (dw[i] - dot);
-                let dh = -dz * maskr[i];
+                let dh = -dz / self.t * maskr[i];
                 // H_i = −Σ_j A_ij ln clamp(A_ij): ∂H/∂A = −(ln A + 1) where A ≥ TINY.
                 for j in 0..N_CELLS {
                     let x = a[i * N_CELLS + j];
@@ -280,14 +292,22 @@ impl CustomOp3 for AttentionFilterBackward {
 
 /// `F` (B, 49, K) from the keyed queries `Q̂` (B, m, K), the word mask (B, m) and `Õ`
 /// (B, 49, K), with the filter's factor `scale` (`F_j = scale · M_j · Õ_j`; see
-/// [`super::attention::filter_features`]).
-pub fn attention_filter(keyed: &Tensor, mask: &Tensor, o: &Tensor, scale: u32) -> Result<Tensor> {
+/// [`super::attention::filter_features`]) and the word temperature `t` (see
+/// [`super::attention::word_weights`]).
+pub fn attention_filter(
+    keyed: &Tensor,
+    mask: &Tensor,
+    o: &Tensor,
+    scale: u32,
+    t: f32,
+) -> Result<Tensor> {
     keyed.contiguous()?.apply_op3(
         &mask.contiguous()?,
         &o.contiguous()?,
         AttentionFilter {
             // Small integers (1 or 49) are exact in f32.
             scale: scale as f32,
+            t,
         },
     )
 }

@@ -221,7 +221,15 @@ impl Net {
                 let kc = self
                     .times_t(&o.reshape((b * n, k))?, "attention.k.weight")?
                     .reshape((b, n, self.cfg.key_dim))?;
-                let out = attend_with(q, &kc, mask, o, self.cfg.filter_scale, intervention)?;
+                let out = attend_with(
+                    q,
+                    &kc,
+                    mask,
+                    o,
+                    self.cfg.filter_scale,
+                    self.cfg.word_temperature.0,
+                    intervention,
+                )?;
                 Ok(Visual {
                     x: out.f.reshape((b, n * k))?,
                     attention: Some(out),
@@ -246,8 +254,13 @@ impl Net {
         let (b, n, k) = o.dims3()?;
         match keyed {
             Some((qk, mask)) if self.cfg.has_attention() => {
-                let f =
-                    super::fused_attention::attention_filter(qk, mask, o, self.cfg.filter_scale)?;
+                let f = super::fused_attention::attention_filter(
+                    qk,
+                    mask,
+                    o,
+                    self.cfg.filter_scale,
+                    self.cfg.word_temperature.0,
+                )?;
                 Ok(f.reshape((b, n * k))?)
             }
             _ => Ok(o.reshape((b, n * k))?),
