@@ -1,7 +1,10 @@
 #!/usr/bin/env python3
 """Prints README's table of issue #15's final-model runs from their bundled logs.
 
-usage: python3 tools/final_runs.py [assets/runs]
+usage: python3 tools/final_runs.py [--acc] [assets/runs]
+
+With --acc the accuracies are `acc` (the map on the object's own cell, the metric of the
+issue's targets and of the grounding study from its fifth part on) instead of `acc_ng`.
 
 `<model>_<recipe>_seed<N>` names the runs of another recipe (`attention_ent003_seed2`).
 
@@ -19,9 +22,13 @@ sys.path.insert(0, str(pathlib.Path(__file__).parent))
 from recipe_study import BUDGET, first_at, rows, wall_hours  # noqa: E402
 
 
+METRIC = "acc_ng"
+
+
 def triple(r):
     # The baseline has no maps: its accuracy columns are empty.
-    return [float(r[k] or "nan") for k in ("greedy_success", "object_acc_ng", "color_acc_ng")]
+    keys = ("greedy_success", f"object_{METRIC}", f"color_{METRIC}")
+    return [float(r[k] or "nan") for k in keys]
 
 
 def is_baseline(model):
@@ -41,7 +48,11 @@ def fmt(v, model):
 
 
 def main():
-    root = pathlib.Path(sys.argv[1] if len(sys.argv) > 1 else "assets/runs")
+    global METRIC
+    args = sys.argv[1:]
+    if args[:1] == ["--acc"]:
+        METRIC, args = "acc", args[1:]
+    root = pathlib.Path(args[0] if args else "assets/runs")
     runs = {}
     for p in sorted(root.glob("*_seed*_log.csv")):
         m = re.fullmatch(r"(\w+?)_seed(\d+)_log\.csv", p.name)
@@ -49,7 +60,7 @@ def main():
             continue
         runs.setdefault(m.group(1), []).append((int(m.group(2)), p))
     print(
-        "| run | frames | to 90% / 95% / 99% | at 5M: success / object / colour `acc_ng` "
+        f"| run | frames | to 90% / 95% / 99% | at 5M: success / object / colour `{METRIC}` "
         "| at the end | wall time |"
     )
     print("|---|---|---|---|---|---|")
