@@ -20,8 +20,9 @@ pub struct ModelOptions {
     /// red, walls grey) or objects (only cells holding a coloured object).
     #[arg(long, default_value = "all")]
     pub colour_codes: String,
-    /// The word weights' temperature T in w = softmax(−H/T): 1 (the paper's) or larger, so
-    /// that flat word maps keep some weight in M (ln 49 ≈ 3.89: entropy in units of its maximum).
+    /// The word weights' temperature T in w = softmax(−H/T), in (0, 100]: 1 is the paper's; a
+    /// larger T lets flat word maps keep some weight in M (ln 49 ≈ 3.89: entropy in units of
+    /// its maximum).
     #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
     pub word_temperature: f32,
 }
