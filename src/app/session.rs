@@ -53,7 +53,7 @@ pub struct Shown {
 impl Shown {
     fn new(trace: EpisodeTrace, alpha: f64) -> Self {
         let scenes = episode_scenes(&trace, alpha);
-        let failure = Evidence::from_trace(&trace, alpha).diagnose();
+        let failure = Evidence::from_trace(&trace).diagnose();
         Self {
             trace: Arc::new(trace),
             scenes: Arc::new(scenes),

@@ -160,18 +160,15 @@ pub fn evaluate_episodes(
             // The failure classifier reads the world before the action, as a trace records it.
             let before = r.world.clone();
             let outcome = r.world.step(action).map_err(PolicyError::from)?;
-            r.evidence.push(
-                &StepFacts {
-                    world: &before,
-                    obs: &obs[row],
-                    combined: combined.as_ref(),
-                    action,
-                    reward: outcome.reward,
-                    terminated: outcome.terminated,
-                    truncated: outcome.truncated,
-                },
-                alpha,
-            );
+            r.evidence.push(&StepFacts {
+                world: &before,
+                obs: &obs[row],
+                combined: combined.as_ref(),
+                action,
+                reward: outcome.reward,
+                terminated: outcome.terminated,
+                truncated: outcome.truncated,
+            });
             r.summary.length += 1;
             r.summary.reward += outcome.reward;
             if outcome.terminated || outcome.truncated {

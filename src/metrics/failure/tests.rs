@@ -61,22 +61,19 @@ fn episode(world: &World, maps: &[Option<ViewMap>], actions: &[Action], end: End
     for (i, &action) in actions.iter().enumerate() {
         let last = i + 1 == actions.len();
         let m = &maps[i % maps.len()];
-        e.push(
-            &StepFacts {
-                world,
-                obs: &obs,
-                combined: m.as_ref(),
-                action,
-                reward: if last && matches!(end, End::Success) {
-                    0.9
-                } else {
-                    0.0
-                },
-                terminated: last && matches!(end, End::Success | End::Failure),
-                truncated: last && matches!(end, End::Truncated),
+        e.push(&StepFacts {
+            world,
+            obs: &obs,
+            combined: m.as_ref(),
+            action,
+            reward: if last && matches!(end, End::Success) {
+                0.9
+            } else {
+                0.0
             },
-            0.5,
-        );
+            terminated: last && matches!(end, End::Success | End::Failure),
+            truncated: last && matches!(end, End::Truncated),
+        });
     }
     e
 }
@@ -88,6 +85,28 @@ fn class(e: &Evidence) -> FailureClass {
 /// `M` on the target's view cell, and far from it.
 const ON: Option<ViewMap> = Some(one_hot((3, 3)));
 const OFF: Option<ViewMap> = Some(one_hot((0, 0)));
+
+/// `M` is on a target by where its largest cell is, not by its value: a spread map whose
+/// peak (0.3, under τ = 0.5) is on the target counts, as does a peak one cell in front of
+/// it; a peak beside it, behind it, or a tie won by a cell earlier in row order does not.
+#[test]
+fn m_is_on_the_target_by_its_largest_cell() {
+    let spread = |peak: ViewCell, v: f32| {
+        let mut m = [[(1.0 - v) / 48.0; VIEW_SIZE]; VIEW_SIZE];
+        m[peak.1][peak.0] = v;
+        m
+    };
+    let t = [(3, 3)];
+    assert!(m_points_at(&spread((3, 3), 0.3), &t));
+    assert!(m_points_at(&spread((3, 2), 0.3), &t), "one cell forward");
+    assert!(!m_points_at(&spread((3, 4), 0.3), &t), "behind");
+    assert!(!m_points_at(&spread((2, 3), 0.3), &t), "beside");
+    assert!(!m_points_at(&spread((3, 3), 0.0), &t), "a uniform map points at (0, 0)");
+    assert!(m_points_at(&spread((5, 1), 0.3), &[(3, 3), (5, 1)]), "any target");
+    let mut tie = spread((3, 3), 0.3);
+    tie[0][6] = 0.3;
+    assert!(!m_points_at(&tie, &t), "the first largest cell in row order");
+}
 
 #[test]
 fn visibility_uses_the_observation() {
@@ -274,7 +293,7 @@ fn sweep_failures_are_classed_and_rerun_without_distractors() {
             mode: ActionMode::Greedy,
         };
         let trace = run_from(&net, "b", &spec, initial_world(&spec).unwrap()).unwrap();
-        assert_eq!(Evidence::from_trace(&trace, 0.5).diagnose(), e.failure);
+        assert_eq!(Evidence::from_trace(&trace).diagnose(), e.failure);
         let a = counterfactual(&net, "b", &spec).unwrap();
         assert_eq!(
             a,
