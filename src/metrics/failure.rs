@@ -23,8 +23,8 @@
 //!
 //! Why the largest cell and the majority of visible steps: a threshold on `M`'s value (the
 //! report's `acc_cmb` at τ = α / n) depends on how many words share the weight — with a word
-//! temperature (`--word-temperature`) `M` is a mixture of nine maps whose peak sits on the
-//! target while holding a third of the mass, under τ = 0.5 at every step — whereas where `M`
+//! temperature (`--word-temperature`) `M` mixes every mission word's map, its peak on the
+//! target holding a third of the mass, under τ = 0.5 at every step — whereas where `M`
 //! points does not; the cell in front is accepted because trained maps often settle one cell
 //! forward of their object (`acc_bs`). One step alone is noisy — the last step a target is
 //! visible is typically the step it leaves the view's edge while the agent turns — while the

@@ -101,11 +101,20 @@ fn m_is_on_the_target_by_its_largest_cell() {
     assert!(m_points_at(&spread((3, 2), 0.3), &t), "one cell forward");
     assert!(!m_points_at(&spread((3, 4), 0.3), &t), "behind");
     assert!(!m_points_at(&spread((2, 3), 0.3), &t), "beside");
-    assert!(!m_points_at(&spread((3, 3), 0.0), &t), "a uniform map points at (0, 0)");
-    assert!(m_points_at(&spread((5, 1), 0.3), &[(3, 3), (5, 1)]), "any target");
+    assert!(
+        !m_points_at(&spread((3, 3), 0.0), &t),
+        "flat but for the target: points at (0, 0)"
+    );
+    assert!(
+        m_points_at(&spread((5, 1), 0.3), &[(3, 3), (5, 1)]),
+        "any target"
+    );
     let mut tie = spread((3, 3), 0.3);
     tie[0][6] = 0.3;
-    assert!(!m_points_at(&tie, &t), "the first largest cell in row order");
+    assert!(
+        !m_points_at(&tie, &t),
+        "the first largest cell in row order"
+    );
 }
 
 #[test]
