@@ -440,7 +440,63 @@ fn eval_writes_a_complete_report_and_gates_on_thresholds() {
         &gs(&["eval", "--out", b, "--checkpoint", "/nonexistent/x"]),
         "/nonexistent/x.json",
     );
+    assert_bad_input(
+        &gs(&["eval", "--out", b, "--first-seed", "2146", "--seeds", "2"]),
+        "--first-seed 2146",
+    );
     assert!(!bad.exists(), "no partial report");
+}
+
+/// `--first-seed S` plays evaluation seeds S.. (level seeds S·10⁶ + e), and says so.
+#[test]
+fn eval_first_seed_moves_the_levels() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("held-out");
+    let o = gs(&[
+        "eval",
+        "--checkpoint",
+        "bundled:attention",
+        "--sizes",
+        "8",
+        "--objects",
+        "4",
+        "--seeds",
+        "2",
+        "--first-seed",
+        "7",
+        "--episodes",
+        "3",
+        "--top-k",
+        "6",
+        "--quiet",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
+    assert_eq!(report["first_seed"], 7);
+    assert_eq!(report["cells"][0]["episodes"], 6);
+    let listed: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("failures.json")).unwrap()).unwrap();
+    let seeds: Vec<u64> = listed
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|f| f["seed"].as_u64().unwrap())
+        .collect();
+    assert!(!seeds.is_empty(), "the low-acc_cmb list names episodes");
+    for s in seeds {
+        assert!(
+            (7_000_000..7_000_003).contains(&s) || (8_000_000..8_000_003).contains(&s),
+            "level seed {s} is not one of evaluation seeds 7 and 8"
+        );
+    }
+    assert!(
+        std::fs::read_to_string(out.join("report.md"))
+            .unwrap()
+            .contains("2 seeds (from 7)")
+    );
 }
 
 #[test]

@@ -13,6 +13,7 @@ use groundscope::metrics::grounding::WordKind;
 use groundscope::metrics::report::{
     Cell, CellAccuracy, CheckpointInfo, Report, SCHEMA_VERSION, worst_episodes,
 };
+use groundscope::metrics::sweep::MAX_EVAL_SEEDS;
 use groundscope::metrics::sweep::{EpisodeSummary, evaluate_cell, grounding, performance};
 use groundscope::metrics::words::by_word;
 use groundscope::policy::{Net, bundled};
@@ -51,6 +52,15 @@ pub struct EvalArgs {
     /// Evaluation seeds per cell (mean ± std is over these).
     #[arg(long, default_value_t = 5, allow_negative_numbers = true)]
     pub seeds: u64,
+    /// The first evaluation seed: the sweep uses seeds S .. S + --seeds − 1. Reports so far
+    /// use seeds from 0; a later S gives levels none of them has seen (held-out levels).
+    #[arg(
+        long,
+        value_name = "S",
+        default_value_t = 0,
+        allow_negative_numbers = true
+    )]
+    pub first_seed: u64,
     /// Episodes per seed.
     #[arg(long, default_value_t = 100, allow_negative_numbers = true)]
     pub episodes: u64,
@@ -80,8 +90,8 @@ pub struct EvalArgs {
     pub jobs: Option<usize>,
 }
 
-/// Runs `eval`.
-pub fn run(args: &EvalArgs) -> anyhow::Result<ExitStatus> {
+/// Refuses a sweep that cannot run, before anything is loaded or written.
+fn check(args: &EvalArgs) -> anyhow::Result<()> {
     if !(0.0..=1.0).contains(&args.alpha) {
         anyhow::bail!("--alpha {} is outside [0, 1]", args.alpha);
     }
@@ -96,6 +106,19 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitStatus> {
             args.episodes
         );
     }
+    // Level seeds s·10⁶ + e must stay under the tracked evaluation's 2³¹ (and training's 2³²).
+    if args
+        .first_seed
+        .checked_add(args.seeds)
+        .is_none_or(|end| end > MAX_EVAL_SEEDS)
+    {
+        anyhow::bail!(
+            "--first-seed {} --seeds {} reaches past evaluation seed {} (level seeds are seed·10⁶ + episode, below 2³¹)",
+            args.first_seed,
+            args.seeds,
+            MAX_EVAL_SEEDS - 1
+        );
+    }
     for (flag, v) in [
         ("--min-success", args.min_success),
         ("--min-acc-ng", args.min_acc_ng),
@@ -106,6 +129,12 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitStatus> {
             anyhow::bail!("{flag} {x} is outside [0, 1]");
         }
     }
+    Ok(())
+}
+
+/// Runs `eval`.
+pub fn run(args: &EvalArgs) -> anyhow::Result<ExitStatus> {
+    check(args)?;
     let specs = if args.checkpoint.is_empty() {
         bundled::names()
     } else {
@@ -194,6 +223,7 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitStatus> {
         alpha: args.alpha,
         mode: if args.sample { "sampled" } else { "greedy" }.into(),
         seeds: args.seeds,
+        first_seed: args.first_seed,
         episodes_per_seed: args.episodes,
         checkpoints: ckpts
             .iter()
@@ -307,7 +337,7 @@ fn run_cells(
                     let r = evaluate_cell(
                         &net,
                         level,
-                        args.seeds,
+                        args.first_seed..args.first_seed + args.seeds,
                         args.episodes,
                         args.alpha,
                         mode,

@@ -179,6 +179,9 @@ pub struct Report {
     pub mode: String,
     /// Evaluation seeds.
     pub seeds: u64,
+    /// The first evaluation seed (`eval --first-seed`; absent in older reports: 0).
+    #[serde(default)]
+    pub first_seed: u64,
     /// Episodes per seed.
     pub episodes_per_seed: u64,
     /// Checkpoints evaluated.
@@ -253,8 +256,13 @@ impl Report {
         let _ = writeln!(s, "# groundscope evaluation\n");
         let _ = writeln!(
             s,
-            "α = {}, {} actions, {} seeds × {} episodes per cell; mean ± std over seeds. Sweep took {:.1} s.\n",
-            self.alpha, self.mode, self.seeds, self.episodes_per_seed, self.elapsed_secs
+            "α = {}, {} actions, {} seeds (from {}) × {} episodes per cell; mean ± std over seeds. Sweep took {:.1} s.\n",
+            self.alpha,
+            self.mode,
+            self.seeds,
+            self.first_seed,
+            self.episodes_per_seed,
+            self.elapsed_secs
         );
         for c in &self.checkpoints {
             let _ = writeln!(

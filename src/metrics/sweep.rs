@@ -12,6 +12,8 @@ use serde::{Deserialize, Serialize};
 use super::error::MetricsError;
 use super::failure::{Diagnosis, Evidence, StepFacts};
 use super::grounding::{Accuracies, WordKind, ground_step};
+use std::ops::Range;
+
 use crate::env::level::LevelConfig;
 use crate::env::vocab;
 use crate::env::world::World;
@@ -25,6 +27,11 @@ use crate::policy::{Memory, Net, PolicyError, TokenBatch, act_missions};
 pub fn eval_level_seed(eval_seed: u64, episode: u64) -> u64 {
     eval_seed * 1_000_000 + episode
 }
+
+/// Evaluation seeds are below this, so that their level seeds stay under the tracked
+/// evaluation's (`2³¹ + e`, [`super::tracking::VALIDATION_SEED_BASE`]).
+pub const MAX_EVAL_SEEDS: u64 = 2147;
+const _: () = assert!(MAX_EVAL_SEEDS * 1_000_000 <= super::tracking::VALIDATION_SEED_BASE);
 
 /// What one evaluated episode produced.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -58,18 +65,19 @@ struct Running {
     rng: Pcg64Mcg,
 }
 
-/// Runs `seeds × episodes` episodes of `level` in lockstep; summaries come back in
-/// (seed, episode) order. `progress` is called with the number of finished episodes.
+/// Runs `episodes` episodes of `level` for each evaluation seed in `seeds` in lockstep;
+/// summaries come back in (seed, episode) order. `progress` is called with the number of
+/// finished episodes.
 pub fn evaluate_cell(
     net: &Net,
     level: &LevelConfig,
-    seeds: u64,
+    seeds: Range<u64>,
     episodes: u64,
     alpha: f64,
     mode: ActionMode,
     progress: &mut dyn FnMut(u64),
 ) -> Result<Vec<EpisodeSummary>, MetricsError> {
-    let plan: Vec<(u64, u64)> = (0..seeds)
+    let plan: Vec<(u64, u64)> = seeds
         .flat_map(|s| (0..episodes).map(move |e| (s, eval_level_seed(s, e))))
         .collect();
     evaluate_episodes(net, level, &plan, alpha, mode, progress)

@@ -288,7 +288,7 @@ fn sweep_failures_are_classed_and_rerun_without_distractors() {
     // A big room: the bundled baseline fails about a fifth of S16N10 (README's sweep).
     level.room_size = 16;
     level.n_objects = 10;
-    let eps = evaluate_cell(&net, &level, 1, 24, 0.5, ActionMode::Greedy, &mut |_| {}).unwrap();
+    let eps = evaluate_cell(&net, &level, 0..1, 24, 0.5, ActionMode::Greedy, &mut |_| {}).unwrap();
     let failed: Vec<_> = eps.iter().filter(|e| !e.success).collect();
     assert!(!failed.is_empty(), "the baseline fails some of these");
     assert!(eps.iter().all(|e| e.success == e.failure.is_none()));
