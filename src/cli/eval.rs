@@ -13,8 +13,9 @@ use groundscope::metrics::grounding::WordKind;
 use groundscope::metrics::report::{
     Cell, CellAccuracy, CheckpointInfo, Report, SCHEMA_VERSION, worst_episodes,
 };
-use groundscope::metrics::sweep::MAX_EVAL_SEEDS;
-use groundscope::metrics::sweep::{EpisodeSummary, evaluate_cell, grounding, performance};
+use groundscope::metrics::sweep::{
+    EpisodeSummary, MAX_EVAL_SEEDS, evaluate_cell, grounding, performance,
+};
 use groundscope::metrics::words::by_word;
 use groundscope::policy::{Net, bundled};
 

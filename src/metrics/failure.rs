@@ -42,6 +42,7 @@ use serde::{Deserialize, Serialize};
 
 use super::error::MetricsError;
 use super::faithfulness::measures::argmax;
+use super::faithfulness::step::index_cell;
 use crate::env::EnvError;
 use crate::env::edit::{Edit, apply};
 use crate::env::view::{AGENT_IN_VIEW, Observation, VIEW_SIZE, ViewCell, world_from_view};
@@ -206,8 +207,7 @@ pub fn visible_targets(world: &World, obs: &Observation) -> Vec<ViewCell> {
 /// [`super::faithfulness::measures::localisation`] on the two cells `acc_cmb` accepts.
 pub fn m_points_at(m: &ViewMap, targets: &[ViewCell]) -> bool {
     let flat: Vec<f64> = m.iter().flatten().map(|&v| f64::from(v)).collect();
-    let best = argmax(&flat);
-    let (x, y) = (best % VIEW_SIZE, best / VIEW_SIZE);
+    let (x, y) = index_cell(argmax(&flat));
     targets
         .iter()
         .any(|&(tx, ty)| tx == x && (ty == y || ty == y + 1))

@@ -4,6 +4,7 @@
 //! evaluation seeds).
 
 use std::collections::BTreeMap;
+use std::ops::Range;
 
 use rand::SeedableRng as _;
 use rand_pcg::Pcg64Mcg;
@@ -12,8 +13,6 @@ use serde::{Deserialize, Serialize};
 use super::error::MetricsError;
 use super::failure::{Diagnosis, Evidence, StepFacts};
 use super::grounding::{Accuracies, WordKind, ground_step};
-use std::ops::Range;
-
 use crate::env::level::LevelConfig;
 use crate::env::vocab;
 use crate::env::world::World;
