@@ -254,8 +254,18 @@ fn training_sequence_matches_step_by_step_acting() {
     // The training path (sparse conv, keyed queries, fused attention and gates) against the
     // acting path (the composite attention of attention.rs), on real views and missions with
     // an episode start inside the sequence.
-    for variant in [Variant::Attention, Variant::Baseline] {
-        let cfg = ModelConfig::new(variant);
+    // Split keys (a 1×1 key encoder beside the 3×3 one, the big-room study's recipe) take
+    // the training path through padded channels; the acting path forms `Kc` directly.
+    let split = ModelConfig {
+        key_kernel: Some(1),
+        word_temperature: groundscope::policy::WordTemperature(3.89),
+        ..ModelConfig::new(Variant::Attention)
+    };
+    for cfg in [
+        ModelConfig::new(Variant::Attention),
+        ModelConfig::new(Variant::Baseline),
+        split,
+    ] {
         let net = Net::new(cfg, Params::init(&cfg, 2).unwrap().detached());
         let level = LevelConfig::default();
         let (t_len, n) = (3, 4);

@@ -26,6 +26,7 @@ fn tiny(variant: Variant) -> ModelConfig {
         filter_scale: 49,
         colour_codes: ColourCodes::All,
         word_temperature: WordTemperature::PAPER,
+        key_kernel: None,
         word_dim: 4,
         key_dim: 4,
         lstm_hidden: 5,
@@ -97,7 +98,12 @@ fn gradients_reach_every_parameter_and_match_finite_differences() {
         word_temperature: WordTemperature(3.89),
         ..tiny(Variant::Attention)
     };
+    let split_keys = ModelConfig {
+        key_kernel: Some(1),
+        ..tiny(Variant::Attention)
+    };
     for cfg in [
+        split_keys,
         tiny(Variant::Attention),
         tiny(Variant::Baseline),
         one_by_one,
@@ -111,6 +117,7 @@ fn gradients_reach_every_parameter_and_match_finite_differences() {
             cfg.filter_scale,
             cfg.colour_codes,
             cfg.word_temperature,
+            cfg.key_kernel,
         );
         let params = Params::init(&cfg, 3).unwrap();
         let net = Net::new(cfg, params.tracked());

@@ -25,6 +25,26 @@ pub struct ModelOptions {
     /// its maximum).
     #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
     pub word_temperature: f32,
+    /// Where the attention's keys come from: shared (the paper's: the encoder's features, the
+    /// same ones the filter passes) or 1 / 3 (a second encoder of that kernel side for the
+    /// keys alone, so the maps can read each cell's own codes while the filter passes
+    /// features that carry the neighbours). Attention model only.
+    #[arg(long, default_value = "shared")]
+    pub key_kernel: String,
+}
+
+/// Parses `--key-kernel`: `shared` or a kernel side (checked by [`ModelConfig::validate`]).
+fn parse_key_kernel(s: &str) -> anyhow::Result<Option<usize>> {
+    if s == "shared" {
+        return Ok(None);
+    }
+    s.parse()
+        .map(Some)
+        .map_err(|_| anyhow::anyhow!("--key-kernel {s} must be shared, 1 or 3"))
+}
+
+fn key_kernel_name(k: Option<usize>) -> String {
+    k.map_or_else(|| "shared".to_owned(), |k| k.to_string())
 }
 
 impl ModelOptions {
@@ -36,13 +56,14 @@ impl ModelOptions {
             filter_scale: self.filter_scale,
             colour_codes: ColourCodes::parse(&self.colour_codes)?,
             word_temperature: WordTemperature(self.word_temperature),
+            key_kernel: parse_key_kernel(&self.key_kernel)?,
             ..cfg
         })
     }
 
     /// Each option as `(clap id, the value given, the value in cfg)`, for comparing a command
     /// line with a checkpoint.
-    pub fn against(&self, cfg: &ModelConfig) -> [(&'static str, String, String); 4] {
+    pub fn against(&self, cfg: &ModelConfig) -> [(&'static str, String, String); 5] {
         [
             (
                 "conv_kernel",
@@ -63,6 +84,12 @@ impl ModelOptions {
                 "word_temperature",
                 self.word_temperature.to_string(),
                 cfg.word_temperature.0.to_string(),
+            ),
+            (
+                "key_kernel",
+                parse_key_kernel(&self.key_kernel)
+                    .map_or_else(|_| self.key_kernel.clone(), key_kernel_name),
+                key_kernel_name(cfg.key_kernel),
             ),
         ]
     }

@@ -145,6 +145,13 @@ pub struct ModelConfig {
     /// The word weights' temperature ([`WordTemperature`]). Written only when not 1.
     #[serde(default, skip_serializing_if = "WordTemperature::is_paper")]
     pub word_temperature: WordTemperature,
+    /// Where the attention's keys come from: `None` (the paper's, and the default) from `Õ`,
+    /// the same features the filter passes; `Some(side)` from a second encoder of their own
+    /// with that kernel side (1 or 3, K channels, `encoder.key_conv.*`), so the maps can be
+    /// drawn from each cell's own codes while the filter passes features that carry the
+    /// neighbours (the big-room study's split keys). Attention only; written only when set.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub key_kernel: Option<usize>,
     /// E: word embedding size.
     pub word_dim: usize,
     /// d_k: query/key size.
@@ -167,6 +174,7 @@ impl ModelConfig {
             filter_scale: Self::DEFAULT_FILTER_SCALE,
             colour_codes: ColourCodes::All,
             word_temperature: WordTemperature::PAPER,
+            key_kernel: None,
             word_dim: 32,
             key_dim: 32,
             lstm_hidden: 128,
@@ -230,6 +238,18 @@ impl ModelConfig {
                 "model setting filter_scale = {} must be 1 or 49",
                 self.filter_scale
             )));
+        }
+        if let Some(k) = self.key_kernel {
+            if !Self::KERNELS.contains(&k) {
+                return Err(super::PolicyError::Input(format!(
+                    "model setting key_kernel = {k} must be 1 or 3"
+                )));
+            }
+            if !self.has_attention() {
+                return Err(super::PolicyError::Input(
+                    "model setting key_kernel is for the attention model only".into(),
+                ));
+            }
         }
         if !Self::KERNELS.contains(&self.conv_kernel) {
             return Err(super::PolicyError::Input(format!(
@@ -354,6 +374,35 @@ mod tests {
             if !ok {
                 assert!(format!("{r:?}").contains("word_temperature"), "{r:?}");
             }
+        }
+    }
+
+    #[test]
+    fn split_keys_are_written_only_when_set_and_only_for_attention() {
+        let shared = ModelConfig::new(Variant::Attention);
+        let json = serde_json::to_string(&shared).unwrap();
+        assert!(!json.contains("key_kernel"), "{json}");
+        assert_eq!(serde_json::from_str::<ModelConfig>(&json).unwrap(), shared);
+        let split = ModelConfig {
+            key_kernel: Some(1),
+            ..shared
+        };
+        let json = serde_json::to_string(&split).unwrap();
+        assert!(json.contains("\"key_kernel\":1"), "{json}");
+        assert_eq!(serde_json::from_str::<ModelConfig>(&json).unwrap(), split);
+        assert!(split.validate().is_ok());
+        for bad in [
+            ModelConfig {
+                key_kernel: Some(2),
+                ..shared
+            },
+            ModelConfig {
+                key_kernel: Some(1),
+                ..ModelConfig::new(Variant::Baseline)
+            },
+        ] {
+            let e = bad.validate().unwrap_err().to_string();
+            assert!(e.contains("key_kernel"), "{e}");
         }
     }
 

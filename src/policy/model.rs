@@ -141,6 +141,25 @@ impl Net {
         Ok(super::fused_conv::conv_codes(&codes, ks, &w, b)?)
     }
 
+    /// The split keys' features `Õ_key = ReLU(Conv_key(O))` (B, 49, K) of a model with
+    /// [`ModelConfig::key_kernel`] set, through the same sparse op as [`Self::cells`]; `None`
+    /// for the paper's model, whose keys come from `Õ` itself.
+    pub fn key_cells(&self, codes: &CellCodes) -> Result<Option<Tensor>, PolicyError> {
+        let Some(ks) = self.cfg.key_kernel.filter(|_| self.cfg.has_attention()) else {
+            return Ok(None);
+        };
+        let k = self.cfg.conv_channels;
+        let w = self
+            .p("encoder.key_conv.weight")?
+            .reshape((k, patch_len(ks)))?;
+        let b = self.p("encoder.key_conv.bias")?;
+        let codes = match self.cfg.colour_codes {
+            ColourCodes::All => std::borrow::Cow::Borrowed(codes),
+            ColourCodes::Objects => std::borrow::Cow::Owned(codes.encoded(ColourCodes::Objects)),
+        };
+        Ok(Some(super::fused_conv::conv_codes(&codes, ks, &w, b)?))
+    }
+
     /// [`Self::cells`] as a dense GEMM over the im2col patches (B·49, patch) of
     /// [`super::obs::patches`] (of the codes as the model reads them) with candle's autograd:
     /// the reference the sparse op is tested against.
@@ -203,15 +222,22 @@ impl Net {
     }
 
     /// The visual path for B frames: `Õ`, then (attention variant) `Kc`, A, H, w, M and `F`.
-    /// `q` is (B, L, d_k) and `mask` (B, L), both gathered per frame.
-    pub fn visual(&self, o: &Tensor, q: Option<(&Tensor, &Tensor)>) -> Result<Visual, PolicyError> {
-        self.visual_with(o, q, None)
+    /// `q` is (B, L, d_k) and `mask` (B, L), both gathered per frame; `o_key` the split keys'
+    /// features ([`Self::key_cells`]), `None` to take the keys from `o`.
+    pub fn visual(
+        &self,
+        o: &Tensor,
+        o_key: Option<&Tensor>,
+        q: Option<(&Tensor, &Tensor)>,
+    ) -> Result<Visual, PolicyError> {
+        self.visual_with(o, o_key, q, None)
     }
 
     /// [`Self::visual`] with an [`Intervention`] on the attention (ignored by the baseline).
     pub fn visual_with(
         &self,
         o: &Tensor,
+        o_key: Option<&Tensor>,
         q: Option<(&Tensor, &Tensor)>,
         intervention: Option<&Intervention>,
     ) -> Result<Visual, PolicyError> {
@@ -219,7 +245,10 @@ impl Net {
         match q {
             Some((q, mask)) if self.cfg.has_attention() => {
                 let kc = self
-                    .times_t(&o.reshape((b * n, k))?, "attention.k.weight")?
+                    .times_t(
+                        &o_key.unwrap_or(o).reshape((b * n, k))?,
+                        "attention.k.weight",
+                    )?
                     .reshape((b, n, self.cfg.key_dim))?;
                 let out = attend_with(
                     q,
@@ -246,22 +275,28 @@ impl Net {
     /// ([`super::fused_attention::attention_filter`], same maths as [`Self::visual`] with its
     /// own backward). `keyed` is the per-frame `Q̂ = Q W_k / √d_k` (B, L, K) and mask (B, L);
     /// the baseline's path is unchanged.
+    ///
+    /// With split keys (`o_key`) the same op runs on the channels `[Õ_key | Õ]` with `Q̂`
+    /// padded by zeros on `Õ`'s channels — the scores are then `Q̂ Õ_keyᵀ` — and only `Õ`'s
+    /// channels of its output are kept, so `Õ_key` gets its gradient through the maps alone.
     pub fn visual_features(
         &self,
         o: &Tensor,
+        o_key: Option<&Tensor>,
         keyed: Option<(&Tensor, &Tensor)>,
     ) -> Result<Tensor, PolicyError> {
         let (b, n, k) = o.dims3()?;
-        match keyed {
-            Some((qk, mask)) if self.cfg.has_attention() => {
-                let f = super::fused_attention::attention_filter(
-                    qk,
-                    mask,
-                    o,
-                    self.cfg.filter_scale,
-                    self.cfg.word_temperature.0,
-                )?;
+        let (scale, t) = (self.cfg.filter_scale, self.cfg.word_temperature.0);
+        match (keyed, o_key) {
+            (Some((qk, mask)), None) if self.cfg.has_attention() => {
+                let f = super::fused_attention::attention_filter(qk, mask, o, scale, t)?;
                 Ok(f.reshape((b, n * k))?)
+            }
+            (Some((qk, mask)), Some(ok)) if self.cfg.has_attention() => {
+                let both = Tensor::cat(&[ok, o], 2)?;
+                let padded = Tensor::cat(&[qk, &qk.zeros_like()?], 2)?;
+                let f = super::fused_attention::attention_filter(&padded, mask, &both, scale, t)?;
+                Ok(f.narrow(2, k, k)?.reshape((b, n * k))?)
             }
             _ => Ok(o.reshape((b, n * k))?),
         }
@@ -364,8 +399,10 @@ impl Net {
         intervention: Option<&Intervention>,
     ) -> Result<(Tensor, Tensor, Memory, Visual), PolicyError> {
         let o = self.cells(codes)?;
+        let o_key = self.key_cells(codes)?;
         let vis = self.visual_with(
             &o,
+            o_key.as_ref(),
             mission.queries.as_ref().map(|(q, m)| (q, m)),
             intervention,
         )?;
@@ -387,7 +424,12 @@ impl Net {
         mem: &Memory,
     ) -> Result<(Tensor, Tensor, Memory), PolicyError> {
         let o = self.cells(codes)?;
-        let x = self.visual_features(&o, mission.queries.as_ref().map(|(q, m)| (q, m)))?;
+        let o_key = self.key_cells(codes)?;
+        let x = self.visual_features(
+            &o,
+            o_key.as_ref(),
+            mission.queries.as_ref().map(|(q, m)| (q, m)),
+        )?;
         // A chunk of one step through the training path's LSTM op (`mem` is already reset).
         let keep = Tensor::ones((1, mem.h.dim(0)?), DType::F32, &Device::Cpu)?;
         let (h, mut mems) = self.lstm_chunk(&x, mem, &keep)?;
@@ -410,7 +452,12 @@ impl Net {
     ) -> Result<(Tensor, Tensor, Vec<Memory>), PolicyError> {
         let mission = self.mission_inputs_keyed(tb)?;
         let o = self.cells(codes)?;
-        let x = self.visual_features(&o, mission.queries.as_ref().map(|(q, m)| (q, m)))?;
+        let o_key = self.key_cells(codes)?;
+        let x = self.visual_features(
+            &o,
+            o_key.as_ref(),
+            mission.queries.as_ref().map(|(q, m)| (q, m)),
+        )?;
         let (h, mems) = self.lstm_chunk(&x, mem0, keep)?;
         let (logits, values) = self.heads(&h, &mission.text)?;
         Ok((logits, values, mems))

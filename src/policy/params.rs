@@ -91,6 +91,16 @@ pub fn param_specs(cfg: &ModelConfig) -> Vec<ParamSpec> {
         spec("critic.2.weight", &[1, hh], Init::RowNormal),
         spec("critic.2.bias", &[1], Init::Zeros),
     ];
+    if let (true, Some(kk)) = (cfg.has_attention(), cfg.key_kernel) {
+        let fan_in = (CELL_CODES * kk * kk) as f32;
+        let b = 1.0 / fan_in.sqrt();
+        v.push(spec(
+            "encoder.key_conv.weight",
+            &[k, CELL_CODES, kk, kk],
+            Init::Uniform(b),
+        ));
+        v.push(spec("encoder.key_conv.bias", &[k], Init::Uniform(b)));
+    }
     if cfg.has_attention() {
         v.push(spec("attention.q.weight", &[dk, e], Init::RowNormal));
         v.push(spec("attention.k.weight", &[dk, k], Init::RowNormal));
