@@ -117,6 +117,7 @@ fn model_options_train_resume_and_are_kept() {
         ("--filter-scale", "filter_scale", "1", "49", "7"),
         ("--colour-codes", "colour_codes", "objects", "all", "none"),
         ("--word-temperature", "word_temperature", "3.89", "1", "0"),
+        ("--key-kernel", "key_kernel", "1", "shared", "2"),
     ] {
         let dir = tempfile::tempdir().unwrap();
         let run = dir.path().join("run");
@@ -158,6 +159,60 @@ fn model_options_train_resume_and_are_kept() {
             &format!("{field} = {bad}"),
         );
         assert!(!refused.exists());
+    }
+}
+
+#[test]
+fn an_annealed_temperature_ends_at_the_papers_and_resumes_exactly() {
+    // 64 frames per update: updates starting at 0 and 64 act at 3, then 2, then 1 from 192.
+    let dir = tempfile::tempdir().unwrap();
+    let anneal = [
+        "--word-temperature",
+        "3",
+        "--word-temperature-anneal",
+        "64:192",
+    ];
+    let temperature = |run: &Path| {
+        let meta: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(run.join("model.json")).unwrap())
+                .unwrap();
+        meta["model"]["word_temperature"].as_f64()
+    };
+    let whole = dir.path().join("whole");
+    let o = train(&whole, "128", &anneal);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    // The second update started at 64 frames: still 3.
+    assert_eq!(temperature(&whole), Some(3.0));
+    let o = train(&whole, "192", &["--resume"]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert_eq!(temperature(&whole), Some(2.0));
+    let o = train(&whole, "320", &["--resume"]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    // At 1 the model is the paper's, and its checkpoint leaves the field out.
+    assert_eq!(temperature(&whole), None);
+    let straight = dir.path().join("straight");
+    let o = train(&straight, "320", &anneal);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert_eq!(
+        std::fs::read(whole.join("model.safetensors")).unwrap(),
+        std::fs::read(straight.join("model.safetensors")).unwrap(),
+        "a run resumed twice ends with other weights than an uninterrupted one"
+    );
+    assert_bad_input(
+        &train(
+            &whole,
+            "384",
+            &["--resume", "--word-temperature-anneal", "0:64"],
+        ),
+        "--word-temperature-anneal 64:192, not 0:64",
+    );
+    for bad in ["64", "192:64", "a:b", "-1:5"] {
+        let refused = dir.path().join("bad");
+        assert_bad_input(
+            &train(&refused, "128", &["--word-temperature-anneal", bad]),
+            "--word-temperature-anneal",
+        );
+        assert!(!refused.exists(), "{bad}");
     }
 }
 

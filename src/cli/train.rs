@@ -11,8 +11,8 @@ use clap::ArgMatches;
 use clap::Args;
 use groundscope::metrics::tracking::EVAL_LOG_HEADER;
 use groundscope::policy::checkpoint::write_atomic;
-use groundscope::policy::ppo::{PpoConfig, Trainer, UpdateLog};
-use groundscope::policy::{ModelConfig, Net, Params, TrainingState};
+use groundscope::policy::ppo::{PpoConfig, TemperatureAnneal, Trainer, UpdateLog};
+use groundscope::policy::{ModelConfig, Net, Params, TrainingState, WordTemperature};
 
 use crate::ExitStatus;
 use crate::cli::env_cmd::LevelArgs;
@@ -101,6 +101,10 @@ pub struct TrainArgs {
     /// Normalise each rollout's advantages to mean 0, standard deviation 1.
     #[arg(long)]
     pub normalize_advantages: bool,
+    /// Anneal the word temperature from --word-temperature (the model's, with --init) to 1,
+    /// the paper's, linearly between START and END frames: START:END, e.g. 6000000:9000000.
+    #[arg(long, value_name = "START:END", allow_hyphen_values = true)]
+    pub word_temperature_anneal: Option<String>,
     /// Evaluate greedily on the held-out validation levels every this many updates and append
     /// the result to eval_log.csv (0: never).
     #[arg(long, default_value_t = 50, allow_negative_numbers = true)]
@@ -121,8 +125,15 @@ pub struct TrainArgs {
 
 const LOG_HEADER: &str = "update,frames,fps,episodes,success_rate,mean_reward,mean_length,policy_loss,value_loss,entropy,grad_norm,elapsed_secs";
 
-pub(super) fn ppo_config(a: &TrainArgs) -> PpoConfig {
-    PpoConfig {
+/// The run's PPO settings from the command line; `from` is the temperature an annealing
+/// schedule starts at (the new model's, or the checkpoint's with `--init`).
+pub(super) fn ppo_config(a: &TrainArgs, from: f32) -> anyhow::Result<PpoConfig> {
+    let temperature_anneal = a
+        .word_temperature_anneal
+        .as_deref()
+        .map(|s| TemperatureAnneal::parse(s, from, WordTemperature::PAPER.0))
+        .transpose()?;
+    Ok(PpoConfig {
         procs: a.procs,
         frames_per_proc: a.frames_per_proc,
         epochs: a.epochs,
@@ -139,7 +150,8 @@ pub(super) fn ppo_config(a: &TrainArgs) -> PpoConfig {
         update_threads: a.update_threads,
         reward_scale: a.reward_scale,
         normalize_advantages: a.normalize_advantages,
-    }
+        temperature_anneal,
+    })
 }
 
 /// The training state recorded with a checkpoint: `last` is the newest update's log (a run
@@ -250,7 +262,7 @@ pub fn run(args: &TrainArgs, matches: Option<&ArgMatches>) -> anyhow::Result<Exi
     if !args.resume {
         // Everything a new run can get wrong is refused before its directory is made.
         model.validate()?;
-        ppo_config(args).validate()?;
+        ppo_config(args, model.word_temperature.0)?.validate()?;
         args.level.config()?;
     }
     let created = !args.out.exists();
@@ -298,7 +310,7 @@ fn train_in(
             );
         }
         let level = args.level.config()?;
-        let ppo = ppo_config(args);
+        let ppo = ppo_config(args, model.word_temperature.0)?;
         let (trainer, parent_rows, parent_evals) = if let Some(name) = &args.init {
             let trainer = warm_start(name, variant, level, ppo, args, matches)?;
             let u = trainer.state.updates;

@@ -96,6 +96,11 @@ pub(super) fn warm_start(
             anyhow::bail!("--init: {name} was trained with --{flag} {theirs}, not --{flag} {now}");
         }
     }
+    // A schedule starts from the temperature the parent was trained at.
+    let mut ppo = ppo;
+    if let Some(a) = &mut ppo.temperature_anneal {
+        a.from = ckpt.meta.model.word_temperature.0;
+    }
     Ok(Trainer::warm_start(
         ckpt.meta.model,
         level,
@@ -130,10 +135,15 @@ impl Fixed {
         how: &str,
         dir: &Path,
     ) -> anyhow::Result<()> {
-        let (now, run) = (ppo_config(args), &self.ppo);
+        let (now, run) = (ppo_config(args, self.model.word_temperature.0)?, &self.ppo);
         let a = &args.level;
         let l = &self.level;
-        let pairs: [(&str, String, String); 21] = [
+        let schedule = |p: &PpoConfig| {
+            p.temperature_anneal
+                .map_or_else(String::new, |a| format!("{}:{}", a.start, a.end))
+        };
+        let pairs: [(&str, String, String); 22] = [
+            ("word_temperature_anneal", schedule(&now), schedule(run)),
             (
                 "reward_scale",
                 now.reward_scale.to_string(),

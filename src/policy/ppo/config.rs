@@ -47,6 +47,65 @@ pub struct PpoConfig {
     /// epochs (over the whole rollout, so the result does not depend on `update_threads`).
     #[serde(default)]
     pub normalize_advantages: bool,
+    /// A schedule for the word weights' temperature ([`TemperatureAnneal`]); `None` keeps the
+    /// model's. Written only when set, so older run settings read as before.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub temperature_anneal: Option<TemperatureAnneal>,
+}
+
+/// The word temperature annealed over training: `from` until `start` frames, then linearly
+/// to `to` at `end` frames, and `to` after. Each update acts and learns at the temperature of
+/// the frame count it starts from, and the checkpoint it saves carries that temperature, so
+/// a run that reaches `end` with `to` = 1 leaves the paper's model (eq. 5 as written). Kept
+/// with the run's settings, so `--resume` continues the schedule exactly.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TemperatureAnneal {
+    /// The temperature before `start` (the model's at the start of the run).
+    pub from: f32,
+    /// The temperature from `end` on.
+    pub to: f32,
+    /// Frames where the temperature starts to move.
+    pub start: u64,
+    /// Frames where it reaches `to`.
+    pub end: u64,
+}
+
+impl TemperatureAnneal {
+    /// The temperature at `frames`.
+    pub fn at(&self, frames: u64) -> f32 {
+        if frames <= self.start {
+            self.from
+        } else if frames >= self.end {
+            self.to
+        } else {
+            let x = (frames - self.start) as f64 / (self.end - self.start) as f64;
+            (f64::from(self.from) + (f64::from(self.to) - f64::from(self.from)) * x) as f32
+        }
+    }
+
+    /// Parses `START:END` (frames) for a schedule from `from` to `to`, naming the flag.
+    pub fn parse(s: &str, from: f32, to: f32) -> Result<Self, PolicyError> {
+        let bad = || {
+            PolicyError::Input(format!(
+                "--word-temperature-anneal {s} must be START:END frames with START < END"
+            ))
+        };
+        let (a, b) = s.split_once(':').ok_or_else(bad)?;
+        let (start, end) = (
+            a.trim().parse::<u64>().map_err(|_| bad())?,
+            b.trim().parse::<u64>().map_err(|_| bad())?,
+        );
+        if start >= end {
+            return Err(bad());
+        }
+        Ok(Self {
+            from,
+            to,
+            start,
+            end,
+        })
+    }
 }
 
 fn one_thread() -> usize {
@@ -76,6 +135,7 @@ impl Default for PpoConfig {
             update_threads: 1,
             reward_scale: 1.0,
             normalize_advantages: false,
+            temperature_anneal: None,
         }
     }
 }
@@ -138,11 +198,59 @@ impl PpoConfig {
                 return bad(format!("{name} {v} must be a number ≥ 0"));
             }
         }
+        self.validate_anneal()
+    }
+
+    /// The schedule's temperatures must be ones the model accepts.
+    fn validate_anneal(&self) -> Result<(), PolicyError> {
+        if let Some(a) = self.temperature_anneal {
+            for t in [a.from, a.to] {
+                if !(t.is_finite() && t > 0.0 && t <= crate::policy::WordTemperature::MAX) {
+                    return Err(PolicyError::Input(format!(
+                        "--word-temperature-anneal: temperature {t} must be in (0, {}]",
+                        crate::policy::WordTemperature::MAX
+                    )));
+                }
+            }
+            if a.start >= a.end {
+                return Err(PolicyError::Input(
+                    "--word-temperature-anneal: START must be below END".into(),
+                ));
+            }
+        }
         Ok(())
     }
 
     /// Frames collected per update.
     pub fn frames_per_update(&self) -> usize {
         self.procs * self.frames_per_proc
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_anneal_holds_then_moves_linearly_then_holds() {
+        let a = TemperatureAnneal::parse("100:300", 3.0, 1.0).unwrap();
+        assert_eq!(
+            [0, 100, 200, 250, 300, 1000].map(|f| a.at(f)),
+            [3.0, 3.0, 2.0, 1.5, 1.0, 1.0]
+        );
+        for bad in ["300:100", "5:5", "1", "x:2", ":"] {
+            let e = TemperatureAnneal::parse(bad, 3.0, 1.0)
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains("--word-temperature-anneal"), "{bad}: {e}");
+        }
+        let cold = PpoConfig {
+            temperature_anneal: Some(TemperatureAnneal { from: 0.0, ..a }),
+            ..PpoConfig::default()
+        };
+        assert!(cold.validate().is_err());
+        // Without a schedule the settings serialise as before.
+        let json = serde_json::to_string(&PpoConfig::default()).unwrap();
+        assert!(!json.contains("anneal"), "{json}");
     }
 }

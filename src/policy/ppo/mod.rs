@@ -30,7 +30,7 @@ use crate::env::view::Observation;
 use crate::env::vocab;
 use crate::env::world::{Action, World};
 
-pub use config::PpoConfig;
+pub use config::{PpoConfig, TemperatureAnneal};
 pub use loss::{PpoLosses, ppo_loss, tensor_to_vec};
 use loss::{ShardOut, shard_step};
 
@@ -274,6 +274,9 @@ impl Trainer {
 
     /// Collects one rollout and runs the PPO epochs on it.
     pub fn update(&mut self) -> Result<UpdateLog, PolicyError> {
+        if let Some(a) = self.ppo.temperature_anneal {
+            self.model.word_temperature = crate::policy::WordTemperature(a.at(self.state.frames));
+        }
         let (mut ro, stats) = self.collect()?;
         let mut log = self.optimise(&mut ro)?;
         self.state.updates += 1;
