@@ -11,6 +11,7 @@ named with --baselines (default: every baseline in the report). Prints a table, 
 """
 import argparse
 import csv
+import gzip
 import json
 import os
 import sys
@@ -25,8 +26,13 @@ def mean(stat):
 
 
 def load(directory):
-    with open(os.path.join(directory, "report.json")) as f:
-        report = json.load(f)
+    path = os.path.join(directory, "report.json")
+    if os.path.exists(path):
+        with open(path) as f:
+            report = json.load(f)
+    else:  # the copies kept in experiments/ are compressed
+        with gzip.open(path + ".gz", "rt") as f:
+            report = json.load(f)
     words = {}
     with open(os.path.join(directory, "words.csv"), newline="") as f:
         for row in csv.DictReader(f):
