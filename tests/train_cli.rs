@@ -416,9 +416,10 @@ fn init_starts_a_new_run_from_trained_weights() {
 
 #[test]
 fn curve_reads_bundled_flat_logs_as_seed_bands() {
-    // Two seeds of one recipe as `assets/runs/` bundles them: NAME_log.csv + NAME_eval_log.csv.
+    // Two seeds of one recipe as `experiments/runs/` keeps them: NAME_log.csv and
+    // NAME_eval_log.csv side by side.
     let dir = tempfile::tempdir().unwrap();
-    let study = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/recipe_study");
+    let study = Path::new(env!("CARGO_MANIFEST_DIR")).join("experiments/recipe_study");
     let mut files = Vec::new();
     for seed in [1, 2] {
         for (src, dst) in [("log.csv", "log.csv"), ("eval_log.csv", "eval_log.csv")] {

@@ -50,7 +50,7 @@ pub(super) fn curve(
     accuracy: Accuracy,
 ) -> anyhow::Result<ExitStatus> {
     check_extension(out, "png", "--out")?;
-    // A glob such as `assets/runs/*_log.csv` also matches the tracked evaluations; those are
+    // A glob such as `experiments/runs/*_log.csv` also matches the tracked evaluations; those are
     // read beside their logs, not drawn as logs.
     let logs: Vec<&PathBuf> = logs
         .iter()

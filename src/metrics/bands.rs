@@ -34,7 +34,7 @@ pub fn recipe_of(run: &str) -> String {
 
 /// A training log's run name and the tracked evaluation that goes with it: a run directory's
 /// `RUN/log.csv` → (`RUN`, `RUN/eval_log.csv`), and a bundled flat file `DIR/NAME_log.csv`
-/// (`assets/runs/attention_seed1_log.csv`) → (`NAME`, `DIR/NAME_eval_log.csv`).
+/// (`experiments/runs/attention_seed1_log.csv`) → (`NAME`, `DIR/NAME_eval_log.csv`).
 pub fn run_files(log: &std::path::Path) -> (String, std::path::PathBuf) {
     let file = log
         .file_name()
@@ -359,9 +359,9 @@ mod tests {
             (name.as_str(), ev.as_path()),
             ("att-s2", Path::new("runs/att-s2/eval_log.csv"))
         );
-        let (name, ev) = run_files(Path::new("assets/runs/attention_seed1_log.csv"));
+        let (name, ev) = run_files(Path::new("experiments/runs/attention_seed1_log.csv"));
         assert_eq!(name, "attention_seed1");
-        assert_eq!(ev, Path::new("assets/runs/attention_seed1_eval_log.csv"));
+        assert_eq!(ev, Path::new("experiments/runs/attention_seed1_eval_log.csv"));
         assert_eq!(recipe_of(&name), "attention");
     }
 

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Prints README's table of issue #15's final-model runs from their bundled logs.
 
-usage: python3 tools/final_runs.py [--acc] [assets/runs]
+usage: python3 experiments/tools/final_runs.py [--acc] [experiments/runs]
 
 With --acc the accuracies are `acc` (the map on the object's own cell, the metric of the
 issue's targets and of the grounding study from its fifth part on) instead of `acc_ng`.
@@ -52,7 +52,7 @@ def main():
     args = sys.argv[1:]
     if args[:1] == ["--acc"]:
         METRIC, args = "acc", args[1:]
-    root = pathlib.Path(args[0] if args else "assets/runs")
+    root = pathlib.Path(args[0] if args else "experiments/runs")
     runs = {}
     for p in sorted(root.glob("*_seed*_log.csv")):
         m = re.fullmatch(r"(\w+?)_seed(\d+)_log\.csv", p.name)

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Scores runs of issue #15's grounding study by the rule README fixed in advance.
 
-usage: python3 tools/grounding_score.py [--acc] [--until FRAMES] VALIDATE.csv...
+usage: python3 experiments/tools/grounding_score.py [--acc] [--until FRAMES] VALIDATE.csv...
 
 Each CSV holds `groundscope validate --episodes 500 --out F` rows for one run's whole-million
 snapshots (the tracked held-out levels). A run's score is its best snapshot from 5M frames on,

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Prints the recipe-study table of README (issue #15) from the bundled run logs.
 
-usage: python3 tools/recipe_study.py [assets/recipe_study]
+usage: python3 experiments/tools/recipe_study.py [experiments/recipe_study]
 
 Every run directory holds the `log.csv` and `eval_log.csv` that `groundscope train` wrote,
 cut at the study's budget of 5M frames. Everything comes from the tracked held-out evaluation
@@ -44,7 +44,7 @@ def cell(r):
 
 
 def main():
-    root = pathlib.Path(sys.argv[1] if len(sys.argv) > 1 else "assets/recipe_study")
+    root = pathlib.Path(sys.argv[1] if len(sys.argv) > 1 else "experiments/recipe_study")
     print("| run | frames | to 90% | to 95% | best greedy (at) | at 5M: success / object / colour `acc_ng` | wall time |")
     print("|---|---|---|---|---|---|---|")
     for d in sorted(p for p in root.iterdir() if p.is_dir()):
