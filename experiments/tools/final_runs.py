@@ -1,5 +1,6 @@
 #!/usr/bin/env python3
-"""Prints README's table of issue #15's final-model runs from their bundled logs.
+"""Prints the tables of issue #15's final-model runs from their kept logs (the recipe and
+grounding studies, docs/studies/recipe-study.md and docs/studies/grounding-study.md).
 
 usage: python3 experiments/tools/final_runs.py [--acc] [experiments/runs]
 
@@ -10,7 +11,7 @@ issue's targets and of the grounding study from its fifth part on) instead of `a
 
 Reads `<model>_seed<N>_log.csv` and `<model>_seed<N>_eval_log.csv` as `groundscope train`
 wrote them (15M frames, tracked held-out evaluation of 500 greedy episodes on level seeds
-2^31 + e). The final 1,000-episode test set is not read here; README reports it apart.
+2^31 + e). The final 1,000-episode test set is not read here; the studies report it apart.
 """
 import csv
 import pathlib

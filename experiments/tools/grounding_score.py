@@ -1,5 +1,6 @@
 #!/usr/bin/env python3
-"""Scores runs of issue #15's grounding study by the rule README fixed in advance.
+"""Scores runs of issue #15's grounding study by the rule fixed in advance
+(docs/studies/grounding-study.md).
 
 usage: python3 experiments/tools/grounding_score.py [--acc] [--until FRAMES] VALIDATE.csv...
 
@@ -7,7 +8,7 @@ Each CSV holds `groundscope validate --episodes 500 --out F` rows for one run's 
 snapshots (the tracked held-out levels). A run's score is its best snapshot from 5M frames on,
 among those with greedy success >= 0.97, by min(object acc_ng / 0.90, colour acc_ng / 0.80).
 With --acc the same on `acc` (the map's value on the target's own cell, the metric of the
-issue's targets), the score of the study's fifth part on (README, fixed 2026-11-23 20:43 UTC).
+issue's targets), the score of the study's fifth part on (fixed 2026-11-23 20:43 UTC).
 With --until F only snapshots at or below F frames count (the `paper` seeds' 10M budget,
 fixed 2026-11-24 00:02 UTC, and the runs they are compared with).
 """

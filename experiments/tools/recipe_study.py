@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Prints the recipe-study table of README (issue #15) from the bundled run logs.
+"""Prints the recipe study's table (issue #15, docs/studies/recipe-study.md) from its run logs.
 
 usage: python3 experiments/tools/recipe_study.py [experiments/recipe_study]
 
