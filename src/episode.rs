@@ -63,7 +63,7 @@ pub struct StepRecord {
     pub faithfulness: Option<StepFaithfulness>,
 }
 
-/// What `replay --faithfulness` measures at a step (README, "Faithfulness").
+/// What `replay --faithfulness` measures at a step (docs/faithfulness.md).
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct StepFaithfulness {
     /// Δ of each view cell when it alone is replaced by empty floor, agent-up like the maps
@@ -344,7 +344,7 @@ pub fn run_episode(
     run_from(&net, name, spec, initial_world(spec)?)
 }
 
-/// JSON form of one step (README documents it).
+/// JSON form of one step (documented in docs/formats.md#episode-traces).
 #[derive(Serialize)]
 struct StepJson<'a> {
     t: usize,
@@ -364,7 +364,7 @@ struct StepJson<'a> {
     faithfulness: Option<&'a StepFaithfulness>,
 }
 
-/// JSON form of a trace (README documents it).
+/// JSON form of a trace (documented in docs/formats.md#episode-traces).
 #[derive(Serialize)]
 struct TraceJson<'a> {
     schema_version: u32,

@@ -3,7 +3,8 @@
 mod cli;
 
 /// mimalloc keeps freed tensor buffers for reuse; glibc's allocator hands them back to the
-/// kernel and pays page faults on every training step (measured in README, "Measured figures").
+/// kernel and pays page faults on every training step (measured in
+/// docs/studies/performance-history.md).
 #[global_allocator]
 static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
 
@@ -121,7 +122,8 @@ const MI_OPTION_PURGE_DELAY: libmimalloc_sys::mi_option_t = 15;
 /// training step frees and re-allocates tens of MB per op: the kernel then zeroes every page
 /// again on first touch (`clear_page_erms`, 11% of a 2048-frame fwd+bwd profile). Keeping them
 /// costs only the peak footprint, which the process reaches every step anyway. Measured in
-/// README (issue #16). `MIMALLOC_PURGE_DELAY` set by the user still wins.
+/// docs/studies/performance-history.md (issue #16). `MIMALLOC_PURGE_DELAY` set by the user
+/// still wins.
 #[expect(unsafe_code, reason = "mi_option_set is an FFI call")]
 fn keep_freed_pages() {
     if std::env::var_os("MIMALLOC_PURGE_DELAY").is_none() {

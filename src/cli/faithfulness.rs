@@ -1,6 +1,6 @@
 //! `groundscope faithfulness`: does the attention explain the behaviour? Occlusion,
 //! deletion/insertion, interventions on `M`, closed-loop re-runs, counterfactual worlds and
-//! localisation, each beside its control; see README, "Faithfulness".
+//! localisation, each beside its control; see docs/faithfulness.md.
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;

@@ -74,7 +74,7 @@ pub struct ReplayArgs {
     #[arg(long, value_name = "FILE.mcap")]
     pub mcap: Option<PathBuf>,
     /// Add faithfulness measures to every step: occlusion Δ (7×7), ρ(M, Δ) and one-step
-    /// interventions on M (in the trace, the `.rrd` and the MCAP; see README).
+    /// interventions on M (in the trace, the `.rrd` and the MCAP; see docs/faithfulness.md).
     #[arg(long)]
     pub faithfulness: bool,
     /// Threshold fraction α of the grounding hit/miss marks (τ = α / n).

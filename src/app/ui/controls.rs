@@ -183,8 +183,8 @@ impl Debugger {
                 {
                     self.cursor.step = i;
                 }
-                // Why it failed: the class `eval` gives the same episode (README,
-                // Evaluation).
+                // Why it failed: the class `eval` gives the same episode
+                // (docs/evaluation.md#failure-classes).
                 if let Some(d) = &shown.failure {
                     ui.label(
                         egui::RichText::new(format!("failed: {}", d.class.name()))

@@ -285,7 +285,7 @@ fn sweep_failures_are_classed_and_rerun_without_distractors() {
     let ckpt = bundled::load("bundled:baseline").unwrap();
     let net = Net::new(ckpt.meta.model, ckpt.params.detached());
     let mut level = ckpt.meta.level;
-    // A big room: the bundled baseline fails about a fifth of S16N10 (README's sweep).
+    // A big room: the bundled baseline fails about a fifth of S16N10 (docs/results.md#big-rooms).
     level.room_size = 16;
     level.n_objects = 10;
     let eps = evaluate_cell(&net, &level, 0..1, 24, 0.5, ActionMode::Greedy, &mut |_| {}).unwrap();

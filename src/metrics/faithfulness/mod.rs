@@ -1,6 +1,6 @@
 //! Faithfulness: does the attention explain the behaviour? A consumer of the policy (through
 //! [`crate::policy::act_with`] and its [`crate::policy::Intervention`]s) and of the world;
-//! definitions in README, "Faithfulness".
+//! definitions in docs/faithfulness.md.
 //!
 //! Every measure is aggregated like `eval`: over the analysed steps of an episode, then over
 //! the episodes of an evaluation seed, then mean ± std over seeds, and every one sits next

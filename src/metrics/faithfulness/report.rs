@@ -1,5 +1,6 @@
-//! Aggregation of episode results into `faithfulness.json` (schema in README), with a
-//! Markdown table and a per-step CSV. Every value is paired with its control.
+//! Aggregation of episode results into `faithfulness.json` (schema in
+//! docs/formats.md#faithfulness-reports), with a Markdown table and a per-step CSV. Every
+//! value is paired with its control.
 
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
