@@ -1,0 +1,208 @@
+#!/usr/bin/env python3
+"""Write the small ONNX graphs that groundscope's bad-input tests load (and one good one).
+
+    python export/make_bad_fixtures.py tests/fixtures/onnx
+
+Every file is a few kilobytes, built with the ``onnx`` helper API (no PyTorch): a tiny
+policy of contract 1 (docs/onnx.md) — the mean of the view's codes, the mean of the
+mission's word embeddings and the memory, concatenated, then three matrix products for the
+logits, the value and the new memory — and one defect per file:
+
+==========================  ===================================================================
+``minimal.onnx``            none: the control, a valid graph every command accepts
+``bad_missing_input.onnx``  no ``mission`` input (the text part left out)
+``bad_missing_output.onnx`` no ``logits`` output (it is called ``action_logits``)
+``bad_shape.onnx``          ``logits`` of 5 actions, (B, 5)
+``bad_dtype.onnx``          ``memory`` declared int64 (cast to float inside)
+``bad_operator.onnx``       a ``Loop`` (one iteration, adds 0 to the memory): valid ONNX that
+                            onnxruntime runs but tract cannot
+``bad_vocabulary.onnx``     the vocabulary has no ``"key"``
+``bad_nan.onnx``            ``logits`` NaN on every input: ``+ (s − s) / (s − s)`` with ``s``
+                            the sum of the memory, computed at run time (no initializer holds
+                            the NaN, nothing to fold)
+==========================  ===================================================================
+
+Each has the full metadata (but for the vocabulary of ``bad_vocabulary.onnx``); each is
+checked with ``onnx.checker`` and, where the contract's feeds fit it, run with onnxruntime
+to confirm it does what its name says.
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import numpy as np
+import onnx
+from onnx import TensorProto, helper, numpy_helper
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+import onnx_contract as oc  # noqa: E402
+
+MEMORY = 8
+EMB = 4
+VOCABULARY = oc.GROUNDSCOPE_VOCABULARY
+
+
+def tiny(
+    *,
+    mission: bool = True,
+    logits_name: str = "logits",
+    actions: int = 7,
+    memory_int: bool = False,
+    loop: bool = False,
+    nan: bool = False,
+    vocabulary: list[str] = VOCABULARY,
+    name: str = "minimal",
+) -> onnx.ModelProto:
+    """The tiny policy with the chosen defect."""
+    rng = np.random.default_rng(0)
+    feat = 1 + (EMB if mission else 0) + MEMORY
+
+    def init(n: str, shape: tuple[int, ...]) -> onnx.TensorProto:
+        return numpy_helper.from_array((0.3 * rng.standard_normal(shape)).astype(np.float32), n)
+
+    inits = [init("emb", (len(vocabulary), EMB))] if mission else []
+    inits += [
+        init("w_logits", (feat, actions)),
+        init("b_logits", (actions,)),
+        init("w_value", (feat, 1)),
+        init("w_memory", (feat, MEMORY)),
+        numpy_helper.from_array(np.array([1], dtype=np.int64), "axis1"),
+    ]
+    inputs = [helper.make_tensor_value_info("image", TensorProto.FLOAT, ["batch", 7, 7, 3])]
+    if mission:
+        inputs.append(
+            helper.make_tensor_value_info("mission", TensorProto.INT64, ["batch", "words"]))
+    mem_type = TensorProto.INT64 if memory_int else TensorProto.FLOAT
+    inputs.append(helper.make_tensor_value_info("memory", mem_type, ["batch", MEMORY]))
+
+    nodes = [
+        # View: mean of all codes, (B, 1).
+        helper.make_node("ReduceMean", ["image"], ["view"], axes=[1, 2, 3], keepdims=0),
+        helper.make_node("Unsqueeze", ["view", "axis1"], ["view1"]),
+    ]
+    if memory_int:
+        nodes.append(helper.make_node("Cast", ["memory"], ["memory_f"], to=TensorProto.FLOAT))
+        mem = "memory_f"
+    else:
+        mem = "memory"
+    parts = ["view1"]
+    if mission:
+        nodes += [
+            helper.make_node("Gather", ["emb", "mission"], ["words_e"], axis=0),
+            helper.make_node("ReduceMean", ["words_e"], ["text"], axes=[1], keepdims=0),
+        ]
+        parts.append("text")
+    parts.append(mem)
+    nodes += [
+        helper.make_node("Concat", parts, ["z"], axis=1),
+        helper.make_node("MatMul", ["z", "w_logits"], ["logits_mm"]),
+        helper.make_node("Add", ["logits_mm", "b_logits"],
+                         ["logits_raw" if nan else logits_name]),
+        helper.make_node("MatMul", ["z", "w_value"], ["value_2d"]),
+        helper.make_node("Squeeze", ["value_2d", "axis1"], ["value"]),
+        helper.make_node("MatMul", ["z", "w_memory"], ["memory_mm"]),
+        helper.make_node("Tanh", ["memory_mm"], ["memory_loop" if loop else "memory_out"]),
+    ]
+    if nan:
+        # s − s is 0 for any finite memory, 0 / 0 is NaN: made from the input at run time.
+        nodes += [
+            helper.make_node("ReduceSum", [mem], ["s"], keepdims=1),
+            helper.make_node("Sub", ["s", "s"], ["zero"]),
+            helper.make_node("Div", ["zero", "zero"], ["nan"]),
+            helper.make_node("Add", ["logits_raw", "nan"], [logits_name]),
+        ]
+    if loop:
+        # One iteration that adds 0 to the memory: body(iter, cond, v) → (cond, v + 0).
+        body = helper.make_graph(
+            [
+                helper.make_node("Identity", ["cond_in"], ["cond_out"]),
+                helper.make_node("Add", ["v_in", "zero_f"], ["v_out"]),
+            ],
+            "loop_body",
+            [
+                helper.make_tensor_value_info("iter", TensorProto.INT64, []),
+                helper.make_tensor_value_info("cond_in", TensorProto.BOOL, []),
+                helper.make_tensor_value_info("v_in", TensorProto.FLOAT, None),
+            ],
+            [
+                helper.make_tensor_value_info("cond_out", TensorProto.BOOL, []),
+                helper.make_tensor_value_info("v_out", TensorProto.FLOAT, None),
+            ],
+            [numpy_helper.from_array(np.array(0.0, dtype=np.float32), "zero_f")],
+        )
+        inits += [
+            numpy_helper.from_array(np.array(1, dtype=np.int64), "trip"),
+            numpy_helper.from_array(np.array(True), "cond"),
+        ]
+        nodes.append(helper.make_node("Loop", ["trip", "cond", "memory_loop"], ["memory_out"],
+                                      body=body))
+    outputs = [
+        helper.make_tensor_value_info(logits_name, TensorProto.FLOAT, ["batch", actions]),
+        helper.make_tensor_value_info("value", TensorProto.FLOAT, ["batch"]),
+        helper.make_tensor_value_info("memory_out", TensorProto.FLOAT, ["batch", MEMORY]),
+    ]
+    graph = helper.make_graph(nodes, name, inputs, outputs, inits)
+    model = helper.make_model(
+        graph,
+        opset_imports=[helper.make_opsetid("", oc.OPSET)],
+        producer_name="groundscope make_bad_fixtures.py",
+    )
+    model.ir_version = 8
+    model.doc_string = f"groundscope test fixture {name}.onnx (tests/fixtures/onnx/README.md)"
+    oc.set_metadata(model, oc.metadata(vocabulary, MEMORY, oc.DEFAULT_LEVEL, "image", name))
+    onnx.checker.check_model(model, full_check=True)
+    return model
+
+
+FIXTURES = {
+    "minimal": {},
+    "bad_missing_input": {"mission": False},
+    "bad_missing_output": {"logits_name": "action_logits"},
+    "bad_shape": {"actions": 5},
+    "bad_dtype": {"memory_int": True},
+    "bad_operator": {"loop": True},
+    "bad_vocabulary": {"vocabulary": [w for w in VOCABULARY if w != "key"]},
+    "bad_nan": {"nan": True},
+}
+
+
+def run(path: Path) -> dict[str, np.ndarray]:
+    """Runs a fixture with onnxruntime on contract feeds (those it declares, cast to its
+    declared types)."""
+    import onnxruntime as ort
+
+    session = ort.InferenceSession(str(path), providers=["CPUExecutionProvider"])
+    rng = np.random.default_rng(1)
+    feeds = oc.random_feeds(rng, 3, 4, VOCABULARY, MEMORY, np.float32)
+    given = {}
+    for i in session.get_inputs():
+        x = feeds[i.name]
+        given[i.name] = x.astype(np.int64) if i.type == "tensor(int64)" else x
+    return dict(zip([o.name for o in session.get_outputs()], session.run(None, given)))
+
+
+def main() -> int:
+    out_dir = Path(sys.argv[1] if len(sys.argv) > 1 else "tests/fixtures/onnx")
+    out_dir.mkdir(parents=True, exist_ok=True)
+    for name, defect in FIXTURES.items():
+        path = out_dir / f"{name}.onnx"
+        onnx.save(tiny(name=name, **defect), str(path))
+        out = run(path)
+        logits = out.get("logits", out.get("action_logits"))
+        shape = {k: v.shape for k, v in out.items()}
+        print(f"wrote {path} ({path.stat().st_size} bytes): onnxruntime gives {shape}")
+        assert logits is not None
+        if name == "bad_nan":
+            assert np.isnan(logits).all(), "bad_nan must give NaN logits"
+        else:
+            assert np.isfinite(logits).all()
+        if name == "bad_shape":
+            assert logits.shape[1] == 5
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
