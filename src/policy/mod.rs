@@ -16,6 +16,7 @@ pub mod fused_sequence;
 pub mod grads;
 pub mod model;
 pub mod obs;
+pub mod onnx;
 pub mod params;
 pub mod ppo;
 pub mod simd;

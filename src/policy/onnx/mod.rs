@@ -1,0 +1,62 @@
+//! Imported agents: any recurrent policy exported to ONNX under the contract of
+//! docs/onnx.md, run by tract (pure Rust) behind the same acting interface as the native
+//! model. Built with the `onnx` cargo feature (on by default); without it loading an `.onnx`
+//! file is a one-line error.
+
+pub mod contract;
+#[cfg(feature = "onnx")]
+mod runtime;
+
+#[cfg(feature = "onnx")]
+pub use runtime::OnnxAgent;
+
+use crate::policy::trace::ViewMap;
+
+/// What the optional outputs of one row hold, in groundscope's agent-up order.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct MapOutputs {
+    /// One map per mission word (`word_maps`).
+    pub words: Option<Vec<ViewMap>>,
+    /// One weight per mission word (`word_weights`).
+    pub weights: Option<Vec<f32>>,
+    /// The combined map (`combined_map`).
+    pub combined: Option<ViewMap>,
+}
+
+/// One step of an ONNX policy for B environments.
+#[derive(Clone, Debug, PartialEq)]
+pub struct OnnxStep {
+    /// (B, 7) action logits.
+    pub logits: Vec<Vec<f32>>,
+    /// (B,) values.
+    pub values: Vec<f32>,
+    /// The new memory, B × M row-major.
+    pub memory: Vec<f32>,
+    /// Per row, the maps the graph outputs (`None` when it outputs no `word_maps`).
+    pub maps: Option<Vec<MapOutputs>>,
+}
+
+/// Whether `path` names an ONNX file (by its extension).
+pub fn is_onnx(path: &std::path::Path) -> bool {
+    path.extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("onnx"))
+}
+
+/// A stand-in for a build without the `onnx` feature: loading says so.
+#[cfg(not(feature = "onnx"))]
+#[derive(Debug)]
+pub struct OnnxAgent {
+    /// Never constructed.
+    pub meta: contract::Meta,
+}
+
+#[cfg(not(feature = "onnx"))]
+impl OnnxAgent {
+    /// Always an error: this build has no ONNX runtime.
+    pub fn load(path: &std::path::Path) -> Result<Self, crate::policy::PolicyError> {
+        Err(crate::policy::PolicyError::Input(format!(
+            "{}: this groundscope was built without the onnx feature",
+            path.display()
+        )))
+    }
+}

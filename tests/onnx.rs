@@ -1,0 +1,168 @@
+//! ONNX import (docs/onnx.md): the bundled attention model exported through PyTorch gives the
+//! native model's actions, maps, weights and `M`; foreign architectures load and step; every
+//! broken graph is refused with one line naming what is wrong. The fixtures are made by
+//! `export/make_fixtures.sh` (PyTorch is not needed here).
+#![cfg(feature = "onnx")]
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    reason = "test helpers fail loudly"
+)]
+
+use std::path::{Path, PathBuf};
+
+use groundscope::env::LevelConfig;
+use groundscope::env::vocab;
+use groundscope::env::world::Action;
+use groundscope::policy::onnx::OnnxAgent;
+use groundscope::policy::{self, Memory, Net, bundled};
+
+fn fixture(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/fixtures/onnx")
+        .join(name)
+}
+
+fn argmax(v: &[f32]) -> usize {
+    v.iter()
+        .enumerate()
+        .fold(
+            (0, f32::NEG_INFINITY),
+            |b, (i, &x)| if x > b.1 { (i, x) } else { b },
+        )
+        .0
+}
+
+fn max_diff(a: &[f32], b: &[f32]) -> f32 {
+    assert_eq!(a.len(), b.len());
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| (x - y).abs())
+        .fold(0.0, f32::max)
+}
+
+fn flat(m: &policy::ViewMap) -> Vec<f32> {
+    m.iter().flatten().copied().collect()
+}
+
+#[test]
+fn the_bundled_model_through_onnx_acts_and_attends_as_the_native_one() {
+    let onnx = OnnxAgent::load(&fixture("bundled_attention.onnx")).unwrap();
+    assert!(onnx.has_maps());
+    let ckpt = bundled::load("bundled:attention").unwrap();
+    let net = Net::new(ckpt.meta.model, ckpt.params.detached());
+    let level = LevelConfig::default();
+    let hid = net.cfg.lstm_hidden;
+    assert_eq!(onnx.meta.memory_size, 2 * hid);
+    assert_eq!(onnx.meta.level, level);
+    let (mut steps, mut worst_logit, mut worst_map) = (0, 0f32, 0f32);
+    for seed in 0..200 {
+        let mut world = level.generate(seed).unwrap();
+        let tokens = vocab::tokenize(&world.mission).unwrap();
+        let mission = policy::episode_mission(&net, &tokens).unwrap();
+        let mut memory = Memory::zeros(1, hid).unwrap();
+        let mut onnx_memory = vec![0f32; 2 * hid];
+        while !world.ended() {
+            let obs = world.observe();
+            let native =
+                policy::act_episode(&net, obs, &tokens, &mission, &memory, true, None).unwrap();
+            let theirs = onnx
+                .step(&[obs], &[world.agent_dir], &[&tokens], &onnx_memory)
+                .unwrap();
+            let (a, b) = (&native.logits[0], &theirs.logits[0]);
+            worst_logit = worst_logit.max(max_diff(a, b));
+            assert_eq!(
+                argmax(a),
+                argmax(b),
+                "seed {seed} step {steps}: {a:?} vs {b:?}"
+            );
+            let trace = &native.traces.as_ref().unwrap()[0];
+            let maps = &theirs.maps.as_ref().unwrap()[0];
+            let words = maps.words.as_ref().unwrap();
+            let weights = maps.weights.as_ref().unwrap();
+            assert_eq!(words.len(), trace.words.len());
+            for (w, (map, weight)) in trace.words.iter().zip(words.iter().zip(weights)) {
+                worst_map = worst_map.max(max_diff(&flat(&w.map), &flat(map)));
+                worst_map = worst_map.max((w.weight - weight).abs());
+            }
+            worst_map = worst_map.max(max_diff(
+                &flat(&trace.combined),
+                &flat(maps.combined.as_ref().unwrap()),
+            ));
+            memory = native.memory;
+            onnx_memory = theirs.memory;
+            let action = Action::from_index(argmax(a)).unwrap();
+            world.step(action).unwrap();
+            steps += 1;
+        }
+    }
+    eprintln!("{steps} steps: logits within {worst_logit:e}, maps, w and M within {worst_map:e}");
+    assert!(steps > 1000, "{steps} steps");
+    assert!(worst_map < 1e-5, "maps, weights or M differ by {worst_map}");
+    assert!(worst_logit < 1e-3, "logits differ by {worst_logit}");
+}
+
+#[test]
+fn broken_graphs_are_refused_naming_what_is_wrong() {
+    for (file, expect) in [
+        ("bad_missing_input.onnx", "no input \"mission\""),
+        ("bad_missing_output.onnx", "no output \"logits\""),
+        ("bad_shape.onnx", "output \"logits\""),
+        ("bad_dtype.onnx", "input \"memory\" is int64"),
+        ("bad_operator.onnx", "operator Loop"),
+        ("bad_vocabulary.onnx", "no word \"key\""),
+    ] {
+        let path = fixture(file);
+        let e = OnnxAgent::load(&path).unwrap_err().to_string();
+        assert!(e.contains(expect), "{file}: {e}");
+        assert!(e.contains(file), "{file}: names the file: {e}");
+        assert_eq!(e.lines().count(), 1, "{e}");
+    }
+    let nan = OnnxAgent::load(&fixture("bad_nan.onnx")).unwrap();
+    let world = LevelConfig::default().generate(0).unwrap();
+    let tokens = vocab::tokenize(&world.mission).unwrap();
+    let m = nan.meta.memory_size;
+    let e = nan
+        .step(
+            &[world.observe()],
+            &[world.agent_dir],
+            &[&tokens],
+            &vec![0.0; m],
+        )
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("output logits holds NaN"), "{e}");
+}
+
+#[test]
+fn foreign_architectures_load_and_step_in_batches_of_mixed_mission_lengths() {
+    let level = LevelConfig::default();
+    let worlds: Vec<_> = (0..6).map(|s| level.generate(s).unwrap()).collect();
+    let tokens: Vec<Vec<u32>> = worlds
+        .iter()
+        .map(|w| vocab::tokenize(&w.mission).unwrap())
+        .collect();
+    let missions: Vec<&[u32]> = tokens.iter().map(Vec::as_slice).collect();
+    let obs: Vec<_> = worlds.iter().map(|w| w.observe()).collect();
+    let dirs: Vec<u8> = worlds.iter().map(|w| w.agent_dir).collect();
+    for (file, maps) in [("acmodel.onnx", false), ("torch_reference.onnx", true)] {
+        let agent = OnnxAgent::load(&fixture(file)).unwrap();
+        assert_eq!(agent.has_maps(), maps, "{file}");
+        let m = agent.meta.memory_size;
+        let batch = agent
+            .step(&obs, &dirs, &missions, &vec![0.0; 6 * m])
+            .unwrap();
+        // Each row as its own batch gives the same numbers: rows are not mixed up when
+        // missions of different lengths are grouped.
+        for r in 0..6 {
+            let one = agent
+                .step(&obs[r..=r], &dirs[r..=r], &missions[r..=r], &vec![0.0; m])
+                .unwrap();
+            assert!(
+                max_diff(&one.logits[0], &batch.logits[r]) < 1e-5,
+                "{file} row {r}"
+            );
+            assert!(max_diff(&one.memory, &batch.memory[r * m..(r + 1) * m]) < 1e-5);
+        }
+    }
+}
