@@ -361,7 +361,10 @@ mod tests {
         );
         let (name, ev) = run_files(Path::new("experiments/runs/attention_seed1_log.csv"));
         assert_eq!(name, "attention_seed1");
-        assert_eq!(ev, Path::new("experiments/runs/attention_seed1_eval_log.csv"));
+        assert_eq!(
+            ev,
+            Path::new("experiments/runs/attention_seed1_eval_log.csv")
+        );
         assert_eq!(recipe_of(&name), "attention");
     }
 
