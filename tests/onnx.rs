@@ -143,7 +143,10 @@ fn foreign_architectures_load_and_step_in_batches_of_mixed_mission_lengths() {
         .map(|w| vocab::tokenize(&w.mission).unwrap())
         .collect();
     let missions: Vec<&[u32]> = tokens.iter().map(Vec::as_slice).collect();
-    let obs: Vec<_> = worlds.iter().map(|w| w.observe()).collect();
+    let obs: Vec<_> = worlds
+        .iter()
+        .map(groundscope::env::World::observe)
+        .collect();
     let dirs: Vec<u8> = worlds.iter().map(|w| w.agent_dir).collect();
     for (file, maps) in [("acmodel.onnx", false), ("torch_reference.onnx", true)] {
         let agent = OnnxAgent::load(&fixture(file)).unwrap();

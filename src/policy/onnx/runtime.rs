@@ -569,6 +569,6 @@ fn build(
     model.select_outputs_by_name(&outputs).map_err(fail)?;
     model
         .into_optimized()
-        .and_then(|m| m.into_runnable())
+        .and_then(IntoRunnable::into_runnable)
         .map_err(fail)
 }
