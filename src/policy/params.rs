@@ -33,7 +33,7 @@ pub enum Init {
 /// One parameter: name, shape, init.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ParamSpec {
-    /// Stable tensor name (documented in README).
+    /// Stable tensor name (documented in docs/formats.md#tensor-names).
     pub name: String,
     /// Shape.
     pub shape: Vec<usize>,
