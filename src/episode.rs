@@ -13,7 +13,7 @@ use crate::env::snapshot::Snapshot;
 use crate::env::view::Observation;
 use crate::env::vocab;
 use crate::env::world::{Action, World};
-use crate::policy::{self, AttentionTrace, Checkpoint, Memory, Net, PolicyError};
+use crate::policy::{self, Acting, AttentionTrace, Checkpoint, Memory, Net, PolicyError};
 
 /// How actions are chosen from the policy's probabilities.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -177,8 +177,8 @@ pub fn initial_world(spec: &EpisodeSpec) -> Result<World, PolicyError> {
 }
 
 /// Runs `net` from `world` to the end of the episode. The same inputs give the same trace.
-pub fn run_from(
-    net: &Net,
+pub fn run_from<P: Acting + ?Sized>(
+    net: &P,
     checkpoint: &str,
     spec: &EpisodeSpec,
     world: World,
@@ -187,15 +187,15 @@ pub fn run_from(
 }
 
 /// An episode from `world` with a fresh memory and sampling RNG.
-fn run_fresh(
-    net: &Net,
+fn run_fresh<P: Acting + ?Sized>(
+    net: &P,
     checkpoint: &str,
     spec: &EpisodeSpec,
     world: World,
     intervene: Option<Intervene<'_>>,
 ) -> Result<EpisodeTrace, PolicyError> {
     let tokens = vocab::tokenize(&world.mission)?;
-    let memory = Memory::zeros(1, net.cfg.lstm_hidden)?;
+    let memory = net.zero_memory()?;
     run_loop(
         net,
         checkpoint,
@@ -220,8 +220,8 @@ pub type Intervene<'a> = &'a dyn Fn(
 
 /// [`run_from`] with an intervention on the attention at every step (closed-loop probes;
 /// see `metrics::faithfulness`). The trace shows the changed weights and `M`.
-pub fn run_from_with(
-    net: &Net,
+pub fn run_from_with<P: Acting + ?Sized>(
+    net: &P,
     checkpoint: &str,
     spec: &EpisodeSpec,
     world: World,
@@ -239,19 +239,27 @@ pub fn episode_rng(seed: u64) -> Pcg64Mcg {
 /// kept, their observations are fed again to rebuild the agent's memory (and its sampling RNG
 /// is advanced past them), then the policy runs from `world` — what the agent would have done
 /// had the world looked like that at step `k`.
-pub fn rerun_from(
-    net: &Net,
+pub fn rerun_from<P: Acting + ?Sized>(
+    net: &P,
     trace: &EpisodeTrace,
     k: usize,
     world: World,
 ) -> Result<EpisodeTrace, PolicyError> {
     let k = k.min(trace.steps.len());
     let prefix = trace.steps[..k].to_vec();
-    let mut memory = Memory::zeros(1, net.cfg.lstm_hidden)?;
+    let mut memory = net.zero_memory()?;
     let mut rng = episode_rng(trace.seed);
-    let mission = policy::episode_mission(net, &trace.tokens)?;
+    let mission = net.prepare(&trace.tokens)?;
     for s in &prefix {
-        let out = policy::act_episode(net, s.obs, &trace.tokens, &mission, &memory, false, None)?;
+        let out = net.act_one(
+            s.obs,
+            s.world.agent_dir,
+            &trace.tokens,
+            mission.as_ref(),
+            &memory,
+            false,
+            None,
+        )?;
         memory = out.memory;
         choose(&s.probs, trace.mode, &mut rng);
     }
@@ -279,8 +287,8 @@ pub fn rerun_from(
     clippy::too_many_arguments,
     reason = "the whole state of a running episode"
 )]
-fn run_loop(
-    net: &Net,
+fn run_loop<P: Acting + ?Sized>(
+    net: &P,
     checkpoint: &str,
     spec: &EpisodeSpec,
     mut world: World,
@@ -290,14 +298,22 @@ fn run_loop(
     mut steps: Vec<StepRecord>,
     intervene: Option<Intervene<'_>>,
 ) -> Result<EpisodeTrace, PolicyError> {
-    let mission = policy::episode_mission(net, &tokens)?;
+    let mission = net.prepare(&tokens)?;
     while !world.ended() {
         let obs = world.observe();
         let iv = match intervene {
             Some(f) => f(&world, &obs, &tokens, &memory)?,
             None => None,
         };
-        let out = policy::act_episode(net, obs, &tokens, &mission, &memory, true, iv.as_ref())?;
+        let out = net.act_one(
+            obs,
+            world.agent_dir,
+            &tokens,
+            mission.as_ref(),
+            &memory,
+            true,
+            iv.as_ref(),
+        )?;
         memory = out.memory;
         let probs_v = out.probs.into_iter().next().unwrap_or_default();
         let mut probs = [0.0; Action::COUNT];
@@ -323,7 +339,7 @@ fn run_loop(
     }
     Ok(EpisodeTrace {
         checkpoint: checkpoint.to_owned(),
-        variant: net.cfg.variant,
+        variant: net.variant(),
         level: spec.level,
         seed: spec.seed,
         mission: world.mission.clone(),

@@ -9,7 +9,11 @@
     reason = "test helpers fail loudly"
 )]
 
+mod common;
+
 use std::path::{Path, PathBuf};
+
+use common::{assert_bad_input, gs, stderr};
 
 use groundscope::env::LevelConfig;
 use groundscope::env::vocab;
@@ -168,4 +172,75 @@ fn foreign_architectures_load_and_step_in_batches_of_mixed_mission_lengths() {
             assert!(max_diff(&one.memory, &batch.memory[r * m..(r + 1) * m]) < 1e-5);
         }
     }
+}
+
+#[test]
+fn replay_runs_an_onnx_file_as_it_runs_a_checkpoint() {
+    let dir = tempfile::tempdir().unwrap();
+    let (ours, theirs) = (dir.path().join("native.json"), dir.path().join("onnx.json"));
+    let bundled = fixture("bundled_attention.onnx");
+    for (spec, out) in [
+        ("bundled:attention", &ours),
+        (bundled.to_str().unwrap(), &theirs),
+    ] {
+        let o = gs(&[
+            "replay",
+            "--checkpoint",
+            spec,
+            "--seed",
+            "5",
+            "--trace",
+            out.to_str().unwrap(),
+        ]);
+        assert_eq!(o.status.code(), Some(0), "{spec}: {}", stderr(&o));
+    }
+    let read = |p: &Path| -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap()
+    };
+    let (a, b) = (read(&ours), read(&theirs));
+    let actions = |v: &serde_json::Value| -> Vec<u64> {
+        v["steps"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|s| s["action"].as_u64().unwrap())
+            .collect()
+    };
+    assert_eq!(actions(&a), actions(&b));
+    assert_eq!(a["variant"], b["variant"]);
+    let first = |v: &serde_json::Value| {
+        v["steps"][0]["attention"]["combined"][6][3]
+            .as_f64()
+            .unwrap()
+    };
+    assert!((first(&a) - first(&b)).abs() < 1e-5);
+    // A graph without maps records too (Rerun and MCAP), as a baseline would.
+    let (rrd, mcap) = (dir.path().join("ac.rrd"), dir.path().join("ac.mcap"));
+    let o = gs(&[
+        "replay",
+        "--checkpoint",
+        fixture("acmodel.onnx").to_str().unwrap(),
+        "--episodes",
+        "2",
+        "--save",
+        rrd.to_str().unwrap(),
+        "--mcap",
+        mcap.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(std::fs::metadata(&rrd).unwrap().len() > 1000);
+    assert!(std::fs::metadata(&mcap).unwrap().len() > 1000);
+    // A broken graph: one line naming the operator, exit 2, nothing written.
+    let bad = dir.path().join("bad.json");
+    assert_bad_input(
+        &gs(&[
+            "replay",
+            "--checkpoint",
+            fixture("bad_operator.onnx").to_str().unwrap(),
+            "--trace",
+            bad.to_str().unwrap(),
+        ]),
+        "operator Loop",
+    );
+    assert!(!bad.exists());
 }

@@ -76,7 +76,15 @@ pub fn level_with(
     size: Option<usize>,
     objects: Option<usize>,
 ) -> anyhow::Result<groundscope::env::LevelConfig> {
-    let mut level = ckpt.meta.level;
+    level_from(ckpt.meta.level, size, objects)
+}
+
+/// A training level with the room size and object count given on the command line, checked.
+pub fn level_from(
+    mut level: groundscope::env::LevelConfig,
+    size: Option<usize>,
+    objects: Option<usize>,
+) -> anyhow::Result<groundscope::env::LevelConfig> {
     if let Some(s) = size {
         level.room_size = s;
     }

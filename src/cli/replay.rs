@@ -9,16 +9,16 @@ use std::time::Instant;
 use anyhow::Context as _;
 use clap::Args;
 use groundscope::env::vocab::{tokenize, words};
-use groundscope::episode::{ActionMode, EpisodeSpec, EpisodeTrace, initial_world, run_episode};
+use groundscope::episode::{ActionMode, EpisodeSpec, EpisodeTrace, initial_world, run_from};
 use groundscope::metrics::faithfulness::annotate;
-use groundscope::policy::Net;
+use groundscope::policy::Agent;
 use groundscope::record::{
     McapRecorder, RecordError, RerunRecorder, RerunTargets, StopFlag, episode_scenes, word_paths,
 };
 
 use crate::ExitStatus;
 use crate::cli::check_extension;
-use crate::cli::policy_cmd::{level_with, load_checkpoint};
+use crate::cli::policy_cmd::level_from;
 
 /// The default `--connect` URL: a viewer on this machine.
 const DEFAULT_VIEWER_URL: &str = "rerun+http://127.0.0.1:9876/proxy";
@@ -106,8 +106,19 @@ pub fn replay(args: &ReplayArgs) -> anyhow::Result<ExitStatus> {
         // A second handler cannot be installed in the same process (tests call `run` once).
         let _ = ctrlc::set_handler(move || s.store(true, Ordering::Relaxed));
     }
-    let (ckpt, name) = load_checkpoint(args.checkpoint.as_deref())?;
-    let level = level_with(&ckpt, args.size, args.objects)?;
+    let name = args.checkpoint.clone().unwrap_or_else(|| {
+        groundscope::policy::bundled::names()
+            .first()
+            .cloned()
+            .unwrap_or_default()
+    });
+    let agent = Agent::load(&name)?;
+    if args.faithfulness && agent.native().is_none() {
+        anyhow::bail!(
+            "--faithfulness with {name}: the per-step probes need a native checkpoint (ONNX support for them is issue #32's next step)"
+        );
+    }
+    let level = level_from(agent.level(), args.size, args.objects)?;
     let mode = if args.sample {
         ActionMode::Sampled
     } else {
@@ -128,7 +139,8 @@ pub fn replay(args: &ReplayArgs) -> anyhow::Result<ExitStatus> {
     // The blueprint shows one view per word map of the whole recording: the missions come
     // from the levels alone, without running the policy.
     let mut paths = Vec::new();
-    if wants_rerun && ckpt.meta.model.variant.name() == "attention" {
+    let variant = agent.acting().variant();
+    if wants_rerun && variant.name() == "attention" {
         let mut missions = std::collections::BTreeSet::new();
         for seed in args.seed..=last {
             if stop.load(Ordering::Relaxed) {
@@ -156,18 +168,17 @@ pub fn replay(args: &ReplayArgs) -> anyhow::Result<ExitStatus> {
     std::thread::scope(|scope| -> anyhow::Result<()> {
         let (tx, rx) = std::sync::mpsc::sync_channel(1);
         let stop_worker = &stop;
-        let (ckpt, name, alpha, spec) = (&ckpt, &name, args.alpha, &spec);
-        let faithful = args
-            .faithfulness
-            .then(|| Net::new(ckpt.meta.model, ckpt.params.detached()));
+        let (agent, name, alpha, spec) = (&agent, &name, args.alpha, &spec);
+        let faithful = args.faithfulness.then(|| agent.native()).flatten();
         scope.spawn(move || {
             for seed in args.seed..=last {
                 if stop_worker.load(Ordering::Relaxed) {
                     break;
                 }
-                let item = run_episode(ckpt, name, &spec(seed))
+                let item = initial_world(&spec(seed))
+                    .and_then(|world| run_from(agent.acting(), name, &spec(seed), world))
                     .and_then(|mut trace| {
-                        if let Some(net) = &faithful {
+                        if let Some(net) = faithful {
                             annotate(net, &mut trace)?;
                         }
                         Ok(trace)
@@ -190,7 +201,7 @@ pub fn replay(args: &ReplayArgs) -> anyhow::Result<ExitStatus> {
             let (trace, scenes) = item?;
             println!(
                 "{} on {level} seed {}: \"{}\" → {} in {} steps, reward {:.3}",
-                ckpt.meta.model.variant.name(),
+                variant.name(),
                 trace.seed,
                 trace.mission,
                 if trace.success() {

@@ -1,6 +1,7 @@
 //! The policy: the paper's text-visual attention network and its no-attention baseline
 //! (candle), attention traces, checkpoints.
 
+pub mod acting;
 pub mod adam;
 pub mod attention;
 pub mod bundled;
@@ -24,6 +25,7 @@ pub mod trace;
 
 use candle_core::{Device, Tensor};
 
+pub use acting::{Acting, Agent};
 pub use attention::Intervention;
 pub use checkpoint::{Checkpoint, CheckpointMeta, TrainingState, checkpoint_paths};
 pub use config::{ColourCodes, ModelConfig, Variant, WordTemperature};

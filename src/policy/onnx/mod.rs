@@ -60,3 +60,53 @@ impl OnnxAgent {
         )))
     }
 }
+
+/// The attention trace of one step of an imported graph, from the maps it output. The
+/// entropies are computed here (`H = −Σ A ln A`, as the native model does); a graph without
+/// `word_weights` gets equal weights, and one without `combined_map` gets `M = Σ w A` — both
+/// said in docs/onnx.md.
+pub fn trace(
+    tokens: &[u32],
+    maps: &MapOutputs,
+) -> Result<crate::policy::AttentionTrace, crate::policy::PolicyError> {
+    use crate::policy::{AttentionTrace, WordAttention};
+    let words = maps.words.as_deref().unwrap_or_default();
+    if words.len() != tokens.len() {
+        return Err(crate::policy::PolicyError::Input(format!(
+            "output word_maps has {} maps for a mission of {} words",
+            words.len(),
+            tokens.len()
+        )));
+    }
+    let n = tokens.len().max(1) as f32;
+    let weights: Vec<f32> = maps
+        .weights
+        .clone()
+        .unwrap_or_else(|| vec![1.0 / n; tokens.len()]);
+    let mut combined = [[0.0; crate::env::view::VIEW_SIZE]; crate::env::view::VIEW_SIZE];
+    for (map, w) in words.iter().zip(&weights) {
+        for (row, src) in combined.iter_mut().zip(map) {
+            for (c, a) in row.iter_mut().zip(src) {
+                *c += w * a;
+            }
+        }
+    }
+    Ok(AttentionTrace {
+        words: tokens
+            .iter()
+            .zip(words.iter().zip(&weights))
+            .map(|(&t, (map, &weight))| WordAttention {
+                word: crate::env::vocab::word(t).unwrap_or("?").to_owned(),
+                token: t,
+                map: *map,
+                entropy: -map
+                    .iter()
+                    .flatten()
+                    .map(|&a| a * a.clamp(1e-30, 1.0).ln())
+                    .sum::<f32>(),
+                weight,
+            })
+            .collect(),
+        combined: maps.combined.unwrap_or(combined),
+    })
+}

@@ -160,11 +160,14 @@ impl OnnxAgent {
             .iter()
             .find(|(op, _)| !onnx.op_register.0.contains_key(*op))
         {
+            let node = if node.is_empty() {
+                String::new()
+            } else {
+                format!(" (node \"{node}\")")
+            };
             return Err(bad(
                 path,
-                format!(
-                    "operator {op} (node \"{node}\") is not supported by the ONNX runtime (tract)"
-                ),
+                format!("operator {op}{node} is not supported by the ONNX runtime (tract)"),
             ));
         }
         let plan = build(

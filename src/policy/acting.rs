@@ -1,0 +1,238 @@
+//! What the episode runner needs of a policy, so that a native network and an imported ONNX
+//! graph run the same episodes through the same code (`episode::run_from` and friends).
+
+use candle_core::{DType, Device, Tensor};
+
+use super::attention::Intervention;
+use super::config::Variant;
+use super::error::PolicyError;
+use super::model::{Memory, MissionInputs, Net};
+use super::{ActOutput, act_episode, episode_mission};
+use crate::env::view::Observation;
+
+/// A policy that acts in one environment at a time.
+pub trait Acting {
+    /// Attention (the traces carry maps) or baseline (they do not).
+    fn variant(&self) -> Variant;
+
+    /// The memory of a fresh episode.
+    fn zero_memory(&self) -> Result<Memory, PolicyError>;
+
+    /// Whatever depends only on the mission, computed once per episode (`None` where the
+    /// policy has nothing to keep).
+    fn prepare(&self, tokens: &[u32]) -> Result<Option<MissionInputs>, PolicyError>;
+
+    /// One step: the observation, the agent's direction (0–3), the mission, what
+    /// [`Self::prepare`] returned and the memory before the step.
+    #[expect(
+        clippy::too_many_arguments,
+        reason = "one step's whole input, as the acting functions take it"
+    )]
+    fn act_one(
+        &self,
+        obs: Observation,
+        direction: u8,
+        tokens: &[u32],
+        prepared: Option<&MissionInputs>,
+        memory: &Memory,
+        with_traces: bool,
+        intervention: Option<&Intervention>,
+    ) -> Result<ActOutput, PolicyError>;
+}
+
+impl Acting for Net {
+    fn variant(&self) -> Variant {
+        self.cfg.variant
+    }
+
+    fn zero_memory(&self) -> Result<Memory, PolicyError> {
+        Memory::zeros(1, self.cfg.lstm_hidden)
+    }
+
+    fn prepare(&self, tokens: &[u32]) -> Result<Option<MissionInputs>, PolicyError> {
+        episode_mission(self, tokens).map(Some)
+    }
+
+    fn act_one(
+        &self,
+        obs: Observation,
+        _direction: u8,
+        tokens: &[u32],
+        prepared: Option<&MissionInputs>,
+        memory: &Memory,
+        with_traces: bool,
+        intervention: Option<&Intervention>,
+    ) -> Result<ActOutput, PolicyError> {
+        let owned;
+        let mission = if let Some(m) = prepared {
+            m
+        } else {
+            owned = episode_mission(self, tokens)?;
+            &owned
+        };
+        act_episode(
+            self,
+            obs,
+            tokens,
+            mission,
+            memory,
+            with_traces,
+            intervention,
+        )
+    }
+}
+
+/// An imported graph's memory in [`Memory`]'s shape: `h` holds the graph's M values, `c` is
+/// empty.
+pub fn flat_memory(values: Vec<f32>) -> Result<Memory, PolicyError> {
+    let m = values.len();
+    Ok(Memory {
+        h: Tensor::from_vec(values, (1, m), &Device::Cpu)?,
+        c: Tensor::zeros((1, 0), DType::F32, &Device::Cpu)?,
+    })
+}
+
+#[cfg(feature = "onnx")]
+impl Acting for super::onnx::OnnxAgent {
+    fn variant(&self) -> Variant {
+        if self.has_maps() {
+            Variant::Attention
+        } else {
+            Variant::Baseline
+        }
+    }
+
+    fn zero_memory(&self) -> Result<Memory, PolicyError> {
+        flat_memory(vec![0.0; self.meta.memory_size])
+    }
+
+    fn prepare(&self, _tokens: &[u32]) -> Result<Option<MissionInputs>, PolicyError> {
+        Ok(None)
+    }
+
+    fn act_one(
+        &self,
+        obs: Observation,
+        direction: u8,
+        tokens: &[u32],
+        _prepared: Option<&MissionInputs>,
+        memory: &Memory,
+        with_traces: bool,
+        intervention: Option<&Intervention>,
+    ) -> Result<ActOutput, PolicyError> {
+        if intervention.is_some() {
+            return Err(PolicyError::Input(format!(
+                "{}: interventions on the attention need a graph that takes the map as an input, which contract 1 does not define",
+                self.path.display()
+            )));
+        }
+        let mem = memory.h.flatten_all()?.to_vec1::<f32>()?;
+        let step = self.step(&[obs], &[direction], &[tokens], &mem)?;
+        let traces = match (&step.maps, with_traces) {
+            (Some(maps), true) => Some(vec![super::onnx::trace(tokens, &maps[0])?]),
+            _ => None,
+        };
+        let logits = step.logits;
+        Ok(ActOutput {
+            probs: logits.iter().map(|l| softmax(l)).collect(),
+            logits,
+            values: step.values,
+            memory: flat_memory(step.memory)?,
+            traces,
+        })
+    }
+}
+
+/// Softmax of one row of logits, on the host.
+pub fn softmax(logits: &[f32]) -> Vec<f32> {
+    let max = logits.iter().fold(f32::NEG_INFINITY, |a, &b| a.max(b));
+    let e: Vec<f32> = logits.iter().map(|&x| (x - max).exp()).collect();
+    let z: f32 = e.iter().sum();
+    e.into_iter().map(|x| x / z).collect()
+}
+
+/// A policy loaded from the command line: a native checkpoint's network or an ONNX graph.
+#[derive(Debug)]
+pub enum Agent {
+    /// A groundscope checkpoint.
+    Native(Box<super::Checkpoint>, Net),
+    /// An imported graph (docs/onnx.md).
+    Onnx(Box<super::onnx::OnnxAgent>),
+}
+
+impl Agent {
+    /// Loads `spec`: a file ending in `.onnx` as an imported graph, anything else as
+    /// [`super::bundled::load`] does (a checkpoint name, a run directory, `bundled:NAME`).
+    pub fn load(spec: &str) -> Result<Self, PolicyError> {
+        if super::onnx::is_onnx(std::path::Path::new(spec)) {
+            return Ok(Self::Onnx(Box::new(super::onnx::OnnxAgent::load(
+                std::path::Path::new(spec),
+            )?)));
+        }
+        let ckpt = super::bundled::load(spec)?;
+        let net = Net::new(ckpt.meta.model, ckpt.params.detached());
+        Ok(Self::Native(Box::new(ckpt), net))
+    }
+
+    /// The level it was trained on.
+    pub fn level(&self) -> crate::env::LevelConfig {
+        match self {
+            Self::Native(ckpt, _) => ckpt.meta.level,
+            Self::Onnx(a) => onnx_level(a),
+        }
+    }
+
+    /// The policy, to run episodes with.
+    pub fn acting(&self) -> &(dyn Acting + Send + Sync) {
+        match self {
+            Self::Native(_, net) => net,
+            Self::Onnx(a) => a.as_ref(),
+        }
+    }
+
+    /// The native network, for what only it supports (interventions, faithfulness).
+    pub fn native(&self) -> Option<&Net> {
+        match self {
+            Self::Native(_, net) => Some(net),
+            Self::Onnx(_) => None,
+        }
+    }
+}
+
+#[cfg(feature = "onnx")]
+fn onnx_level(a: &super::onnx::OnnxAgent) -> crate::env::LevelConfig {
+    a.meta.level
+}
+
+#[cfg(not(feature = "onnx"))]
+fn onnx_level(a: &super::onnx::OnnxAgent) -> crate::env::LevelConfig {
+    a.meta.level
+}
+
+#[cfg(not(feature = "onnx"))]
+impl Acting for super::onnx::OnnxAgent {
+    fn variant(&self) -> Variant {
+        Variant::Baseline
+    }
+
+    fn zero_memory(&self) -> Result<Memory, PolicyError> {
+        Err(PolicyError::Input("built without the onnx feature".into()))
+    }
+
+    fn prepare(&self, _tokens: &[u32]) -> Result<Option<MissionInputs>, PolicyError> {
+        Err(PolicyError::Input("built without the onnx feature".into()))
+    }
+
+    fn act_one(
+        &self,
+        _obs: Observation,
+        _direction: u8,
+        _tokens: &[u32],
+        _prepared: Option<&MissionInputs>,
+        _memory: &Memory,
+        _with_traces: bool,
+        _intervention: Option<&Intervention>,
+    ) -> Result<ActOutput, PolicyError> {
+        Err(PolicyError::Input("built without the onnx feature".into()))
+    }
+}
