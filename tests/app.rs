@@ -1,4 +1,6 @@
-//! The debugger as a user starts it: a real frame rendered under Xvfb, and its errors.
+//! The debugger: what its panels show and how they respond, through egui's test harness
+//! (`egui_kittest`, reading the UI's AccessKit tree); a real frame rendered under Xvfb; and its
+//! errors.
 #![allow(
     clippy::unwrap_used,
     clippy::expect_used,
@@ -6,7 +8,18 @@
     reason = "tests fail loudly"
 )]
 
+mod common;
+
 use std::process::{Command, Output};
+
+use eframe::egui;
+use egui::accesskit::Toggled;
+use egui_kittest::Harness;
+use egui_kittest::kittest::{NodeT as _, Queryable as _};
+use groundscope::app::session::{Agent, Request, Shown, run_request};
+use groundscope::app::{Debugger, StartOptions};
+use groundscope::episode::ActionMode;
+use groundscope::metrics::faithfulness::annotate_step;
 
 fn gs(args: &[&str], display: Option<&str>) -> Output {
     let mut cmd = Command::new(env!("CARGO_BIN_EXE_groundscope"));
@@ -34,6 +47,8 @@ fn xvfb_screenshot(args: &[&str]) -> Output {
 
 #[test]
 fn screenshot_renders_the_real_panels() {
+    // The real window (eframe, OpenGL) and the screenshot path; what the panels show is
+    // checked through egui's own harness below.
     let dir = tempfile::tempdir().unwrap();
     let shot = dir.path().join("shot.png");
     let o = xvfb_screenshot(&[
@@ -53,24 +68,25 @@ fn screenshot_renders_the_real_panels() {
         String::from_utf8_lossy(&o.stdout),
         String::from_utf8_lossy(&o.stderr)
     );
+    assert_eq!(
+        String::from_utf8_lossy(&o.stdout).trim_end(),
+        format!("wrote {}", shot.display())
+    );
     let img = image::open(&shot).unwrap().to_rgb8();
     // The window's size (logical = physical pixels under Xvfb).
     assert_eq!(img.dimensions(), (1200, 800));
-    // A real picture: many distinct colours (tiles, viridis maps, text), not a blank frame.
-    let colours: std::collections::BTreeSet<[u8; 3]> = img.pixels().map(|p| p.0).collect();
-    assert!(colours.len() > 200, "only {} colours", colours.len());
-    // Viridis' dark purple end (the maps' low values) appears somewhere in the central panel.
-    let purple = img
-        .pixels()
-        .filter(|p| p.0[2] > 60 && p.0[0] < 80 && p.0[1] < 40)
-        .count();
-    assert!(purple > 500, "no heat map pixels ({purple})");
-    // The agent (MiniGrid red, lightened where its view is highlighted) is in the left panel.
-    let red = img
-        .enumerate_pixels()
-        .filter(|(x, _, p)| *x < 450 && p.0[0] > 200 && p.0[1] < 100 && p.0[2] < 100)
-        .count();
-    assert!(red > 20, "no agent in the world panel ({red})");
+    // A drawn frame, not a blank one: the world picture in the left panel and the row of word
+    // maps in the central panel each hold more than one colour.
+    for (name, x0, x1, y0, y1) in [
+        ("world picture", 10, 330, 120, 440),
+        ("row of word maps", 350, 1190, 370, 500),
+    ] {
+        let first = *img.get_pixel(x0, y0);
+        assert!(
+            (x0..x1).any(|x| (y0..y1).any(|y| *img.get_pixel(x, y) != first)),
+            "the {name} is a flat colour"
+        );
+    }
 }
 
 #[test]
@@ -106,36 +122,142 @@ fn bad_view_arguments_are_one_line_errors() {
     }
 }
 
-#[test]
-fn the_faithfulness_view_adds_the_occlusion_map() {
-    let dir = tempfile::tempdir().unwrap();
-    let purple = |with: bool| {
-        let shot = dir.path().join(format!("f{with}.png"));
-        let mut args = vec![
-            "view",
-            "--screenshot",
-            shot.to_str().unwrap(),
-            "--seed",
-            "3",
-            "--step",
-            "1",
-            "--size",
-            "1400x1100",
-        ];
-        if with {
-            args.push("--faithfulness");
-        }
-        let o = xvfb_screenshot(&args);
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-        let img = image::open(&shot).unwrap().to_rgb8();
-        // Viridis' dark end, in the central panel.
-        img.enumerate_pixels()
-            .filter(|(x, _, p)| *x > 450 && p.0[2] > 60 && p.0[0] < 80 && p.0[1] < 40)
-            .count()
+/// The debugger as `groundscope view --seed 3 --step STEP` opens it, in egui's test harness.
+fn debugger(step: usize, faithfulness: bool) -> Harness<'static, Debugger> {
+    let opts = StartOptions {
+        checkpoint: "bundled:attention".into(),
+        compare: None,
+        level: None,
+        seed: 3,
+        sample: false,
+        step,
+        mission: None,
+        faithfulness,
     };
-    let (without, with) = (purple(false), purple(true));
-    assert!(
-        with > without + 2000,
-        "one more 7×7 map: {without} → {with} dark viridis pixels"
+    Harness::builder()
+        .with_size([1400.0, 1100.0])
+        // The harness would also fail on the inputs without an accessible name (the
+        // controls' combo boxes, drag values and text fields): not what these tests are about.
+        .with_accessibility_check(false)
+        .build_ui_state(
+            |ui, d: &mut Debugger| d.frame(ui),
+            Debugger::new(&opts, None),
+        )
+}
+
+/// Runs frames until a label containing `text` shows (the episode runs in the background).
+fn show_until(h: &mut Harness<'_, Debugger>, text: &str) {
+    common::wait_until(&format!("a label with {text:?}"), || {
+        h.step();
+        h.query_by_label_contains(text).is_some()
+    });
+}
+
+/// The episode the debugger runs, run here without it.
+fn episode() -> (Agent, Shown) {
+    let agent = Agent::load("bundled:attention").unwrap();
+    let request = Request {
+        level: agent.ckpt.meta.level,
+        seed: 3,
+        mode: ActionMode::Greedy,
+        mission: None,
+    };
+    let shown = run_request(&agent, &request, 0.5).unwrap();
+    (agent, shown)
+}
+
+/// The labels of the policy panel for step `k` of `shown`.
+fn policy_labels(shown: &Shown, k: usize) -> [String; 2] {
+    let step = &shown.trace.steps[k];
+    [
+        format!(
+            "step {k} of {} · {} · total reward {:.3}",
+            shown.len(),
+            if shown.trace.success() {
+                "success"
+            } else {
+                "failure"
+            },
+            shown.trace.total_reward()
+        ),
+        format!(
+            "action {} · value {:.3} · reward {:.3}",
+            step.action.name(),
+            step.value,
+            step.reward
+        ),
+    ]
+}
+
+#[test]
+fn the_debugger_shows_the_step_it_opens_on_and_steps_with_the_arrow_keys() {
+    let (_, shown) = episode();
+    assert!(shown.len() > 4, "seed 3 has {} steps", shown.len());
+    let mut h = debugger(2, false);
+    show_until(&mut h, "step 2 of ");
+    for label in policy_labels(&shown, 2) {
+        h.get_by_label(&label);
+    }
+    let step = &shown.trace.steps[2];
+    h.get_by_label(&step.world.mission);
+    // A map per word of the mission, and the combined map.
+    let words = &step.attention.as_ref().unwrap().words;
+    assert!(!words.is_empty());
+    for w in words {
+        assert!(
+            h.query_all_by_label(&w.word).next().is_some(),
+            "no map of {:?}",
+            w.word
+        );
+        h.get_by_label(&format!("w {:.3} · H {:.2}", w.weight, w.entropy));
+    }
+    for label in ["combined M", "word weights w", "agent view (agent-up)"] {
+        h.get_by_label(label);
+    }
+    // The faithfulness view is one click away, not open.
+    let faithful = h.get_by_label(FAITHFULNESS_BOX);
+    assert_eq!(faithful.accesskit_node().toggled(), Some(Toggled::False));
+    assert!(h.query_by_label("occlusion Δ").is_none());
+    // → moves to the next step, ← back.
+    h.key_press(egui::Key::ArrowRight);
+    show_until(&mut h, "step 3 of ");
+    for label in policy_labels(&shown, 3) {
+        h.get_by_label(&label);
+    }
+    h.key_press(egui::Key::ArrowLeft);
+    show_until(&mut h, "step 2 of ");
+}
+
+const FAITHFULNESS_BOX: &str = "faithfulness: does this step's behaviour depend on M?";
+
+#[test]
+fn the_faithfulness_box_adds_this_steps_occlusion_map() {
+    let (agent, shown) = episode();
+    let f = annotate_step(&agent.net, &shown.trace, 1).unwrap();
+    let rho = match f.rank_correlation {
+        Some(r) => format!("Spearman ρ(M, Δ) = {r:.3}"),
+        None => "ρ(M, Δ): undefined (M or Δ constant)".to_owned(),
+    };
+    let mut h = debugger(1, false);
+    show_until(&mut h, "step 1 of ");
+    assert!(h.query_by_label("occlusion Δ").is_none());
+    assert!(h.query_by_label(&rho).is_none());
+    h.get_by_label(FAITHFULNESS_BOX).click();
+    show_until(&mut h, "occlusion Δ");
+    assert_eq!(
+        h.get_by_label(FAITHFULNESS_BOX).accesskit_node().toggled(),
+        Some(Toggled::True)
     );
+    h.get_by_label(&rho);
+    for (name, e) in &f.interventions {
+        h.get_by_label_contains(&format!("{name}: TV {:.3}", e.tv));
+    }
+    for probe in ["M uniform", "M steered to a distractor"] {
+        h.get_by_label(probe);
+    }
+    // `view --faithfulness` opens with it shown.
+    let mut h = debugger(1, true);
+    show_until(&mut h, "step 1 of ");
+    h.get_by_label("occlusion Δ");
+    h.get_by_label(&rho);
 }

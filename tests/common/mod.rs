@@ -7,8 +7,63 @@
 )]
 #![allow(dead_code, reason = "each test binary uses a subset of the helpers")]
 
+use std::io::BufRead as _;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
+use std::sync::mpsc::Receiver;
+use std::time::{Duration, Instant};
+
+/// How long a test waits for something that must happen (a file, a line, an exit) before it
+/// fails: a guard against a hang, generous for a loaded machine, never what a test measures.
+pub const GUARD: Duration = Duration::from_mins(2);
+
+/// Polls `ready` (every millisecond) until it holds; fails naming `what` after [`GUARD`].
+pub fn wait_until(what: &str, mut ready: impl FnMut() -> bool) {
+    let deadline = Instant::now() + GUARD;
+    while !ready() {
+        assert!(Instant::now() < deadline, "waited {GUARD:?} for {what}");
+        std::thread::sleep(Duration::from_millis(1));
+    }
+}
+
+/// Waits for `child` to exit; kills it and fails naming `what` after [`GUARD`].
+pub fn wait_for_exit(child: &mut std::process::Child, what: &str) -> std::process::ExitStatus {
+    let deadline = Instant::now() + GUARD;
+    loop {
+        if let Some(status) = child.try_wait().unwrap() {
+            return status;
+        }
+        if Instant::now() >= deadline {
+            let _ = child.kill();
+            let _ = child.wait();
+            panic!("{what} still runs after {GUARD:?}");
+        }
+        std::thread::sleep(Duration::from_millis(1));
+    }
+}
+
+/// The lines of a child's output as they are printed, read on a thread until the pipe closes
+/// (which also keeps the pipe from filling up).
+pub fn lines(out: impl std::io::Read + Send + 'static) -> Receiver<String> {
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        for line in std::io::BufReader::new(out).lines() {
+            let Ok(line) = line else { break };
+            if tx.send(line).is_err() {
+                break;
+            }
+        }
+    });
+    rx
+}
+
+/// The next line from [`lines`]; fails naming `what` if the pipe closes first or nothing comes
+/// within [`GUARD`].
+pub fn next_line(lines: &Receiver<String>, what: &str) -> String {
+    lines
+        .recv_timeout(GUARD)
+        .unwrap_or_else(|e| panic!("no {what}: {e}"))
+}
 
 /// Runs the groundscope binary with `args` (one candle thread, as CI).
 pub fn gs(args: &[&str]) -> Output {
