@@ -1,6 +1,7 @@
 //! Crash consistency of training runs: a run killed with SIGKILL at any instant (during an
 //! update, a save, or start-up) resumes, and a reader of `RUN/model` never sees a
-//! half-written checkpoint while the run rewrites it.
+//! half-written checkpoint while the run rewrites it. The kills are timed by what the run
+//! shows (a line, a log row, a change in its checkpoints), not by delays.
 #![allow(
     clippy::unwrap_used,
     clippy::expect_used,
@@ -11,7 +12,7 @@ mod common;
 
 use std::path::Path;
 use std::process::{Child, Command, Stdio};
-use std::time::{Duration, Instant};
+use std::time::Instant;
 
 use groundscope::policy::Checkpoint;
 
@@ -38,7 +39,7 @@ fn start(dir: &Path, frames: u64, resume: bool) -> Child {
     if resume {
         cmd.arg("--resume");
     }
-    cmd.stdout(Stdio::null())
+    cmd.stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
         .unwrap()
@@ -49,42 +50,103 @@ fn updates_of(dir: &Path) -> u64 {
     ckpt.meta.training.updates
 }
 
+/// The names in `RUN/checkpoints` (none before the first save).
+fn checkpoint_entries(dir: &Path) -> Vec<String> {
+    if dir.join("checkpoints").is_dir() {
+        common::entries(&dir.join("checkpoints"))
+    } else {
+        Vec::new()
+    }
+}
+
+/// The newest generation, `RUN/checkpoints/update-N`.
+fn newest_generation(dir: &Path) -> Option<u64> {
+    checkpoint_entries(dir)
+        .iter()
+        .filter_map(|n| n.strip_prefix("update-")?.parse().ok())
+        .max()
+}
+
+/// The update of the last row of `RUN/log.csv`.
+fn last_logged(dir: &Path) -> Option<u64> {
+    let log = std::fs::read_to_string(dir.join("log.csv")).ok()?;
+    log.lines().skip(1).last()?.split(',').next()?.parse().ok()
+}
+
+/// What a kill waits for: each puts it at another point of a run's life.
+#[derive(Clone, Copy, Debug)]
+enum KillAt {
+    /// A generation newer than any at the spawn has landed: the run is publishing
+    /// `RUN/model` and pruning old generations, or has gone on to the next update.
+    NewGeneration,
+    /// Nothing: start-up, or a resume reading its generation.
+    Spawn,
+    /// The run's first line on stdout: start-up is over, the first update runs.
+    Started,
+    /// `RUN/checkpoints` changes: a save has begun (its temporary generation appears).
+    SaveBegins,
+    /// `log.csv` has a row past every update the run had logged or saved at the spawn: an
+    /// update is done and its save comes next.
+    Logged,
+}
+
 #[test]
-fn sigkill_at_random_instants_always_leaves_a_run_that_resumes() {
+fn sigkill_at_any_point_always_leaves_a_run_that_resumes() {
     let tmp = tempfile::tempdir().unwrap();
     let dir = tmp.path().join("run");
-    // A fixed pseudo-random sequence of delays from 0 to 400 ms: start-up, updates and saves.
-    let mut x: u64 = 0x2545_F491_4F6C_DD1D;
-    let mut resumed = 0;
-    for _ in 0..30 {
-        x ^= x << 13;
-        x ^= x >> 7;
-        x ^= x << 17;
-        let delay = Duration::from_millis(x % 400);
-        let has_run = std::fs::read_dir(dir.join("checkpoints")).is_ok_and(|mut d| {
-            d.any(|e| {
-                e.unwrap()
-                    .file_name()
-                    .to_string_lossy()
-                    .starts_with("update-")
-            })
-        });
-        let mut child = start(&dir, 1 << 40, has_run);
-        std::thread::sleep(delay);
-        if let Ok(Some(status)) = child.try_wait() {
-            let mut err = String::new();
-            std::io::Read::read_to_string(child.stderr.as_mut().unwrap(), &mut err).unwrap();
-            panic!("the run ended by itself ({status}): {err}");
+    let order = [
+        KillAt::NewGeneration,
+        KillAt::Spawn,
+        KillAt::Started,
+        KillAt::SaveBegins,
+        KillAt::Logged,
+    ];
+    for i in 0..30 {
+        let kill_at = order[i % order.len()];
+        // The first run starts the directory; every kill after it must leave a generation.
+        let generation = newest_generation(&dir);
+        assert_eq!(
+            generation.is_some(),
+            i > 0,
+            "kill {i}: a kill left no generation to resume from"
+        );
+        let (listing, logged) = (checkpoint_entries(&dir), last_logged(&dir));
+        let mut child = start(&dir, 1 << 40, i > 0);
+        let stdout = common::lines(child.stdout.take().unwrap());
+        let mut running = || {
+            if let Some(status) = child.try_wait().unwrap() {
+                let mut err = String::new();
+                std::io::Read::read_to_string(child.stderr.as_mut().unwrap(), &mut err).unwrap();
+                panic!("kill {i} ({kill_at:?}): the run ended by itself ({status}): {err}");
+            }
+        };
+        let past = generation.max(logged);
+        match kill_at {
+            KillAt::Spawn => {}
+            KillAt::Started => {
+                let line = common::next_line(&stdout, "first line of the run");
+                assert!(line.starts_with("training "), "{line}");
+            }
+            KillAt::NewGeneration => common::wait_until("a new generation", || {
+                running();
+                newest_generation(&dir) > generation
+            }),
+            KillAt::SaveBegins => common::wait_until("a save", || {
+                running();
+                checkpoint_entries(&dir) != listing
+            }),
+            KillAt::Logged => common::wait_until("a new row in log.csv", || {
+                running();
+                last_logged(&dir) > past
+            }),
         }
         child.kill().unwrap();
         child.wait().unwrap();
-        resumed += usize::from(has_run);
         if dir.join("model.json").exists() {
             // Whatever instant the kill hit, the published checkpoint loads.
             updates_of(&dir);
         }
     }
-    assert!(resumed >= 20, "only {resumed} kills hit a resumed run");
     // The run finishes normally from wherever the kills left it.
     let before = updates_of(&dir);
     let target = (before + 2) * 16;
@@ -116,15 +178,19 @@ fn readers_never_see_a_checkpoint_being_rewritten() {
     let dir = tmp.path().join("run");
     let mut child = start(&dir, 1 << 40, false);
     let model = dir.join("model");
-    let deadline = Instant::now() + Duration::from_secs(20);
-    while !dir.join("model.json").exists() {
-        assert!(Instant::now() < deadline, "the run never saved");
-        std::thread::sleep(Duration::from_millis(5));
-    }
+    common::wait_until("the first save", || dir.join("model.json").exists());
+    // Read as fast as possible until the run has rewritten the checkpoint under the reader
+    // twenty times (seen as twenty different update counts).
     let (mut loads, mut updates) = (0, std::collections::BTreeSet::new());
-    let until = Instant::now() + Duration::from_secs(4);
     let mut failures = Vec::new();
-    while Instant::now() < until {
+    let deadline = Instant::now() + common::GUARD;
+    while failures.is_empty() && (loads < 100 || updates.len() < 20) {
+        assert!(
+            Instant::now() < deadline,
+            "{loads} reads saw only {updates:?} in {:?}",
+            common::GUARD
+        );
+        assert!(child.try_wait().unwrap().is_none(), "the run ended");
         match Checkpoint::load(&model) {
             Ok(c) => {
                 loads += 1;
@@ -137,12 +203,6 @@ fn readers_never_see_a_checkpoint_being_rewritten() {
     child.wait().unwrap();
     assert!(
         failures.is_empty(),
-        "{} failed reads: {failures:?}",
-        failures.len()
-    );
-    assert!(loads >= 20, "only {loads} reads");
-    assert!(
-        updates.len() >= 5,
-        "the run saved only {updates:?} while being read"
+        "a read failed after {loads}: {failures:?}"
     );
 }

@@ -2,7 +2,10 @@
 #![allow(clippy::unwrap_used, reason = "test helpers fail loudly")]
 
 use groundscope::env::level::all_reachable;
-use groundscope::env::{AGENT_IN_VIEW, Action, LevelConfig, ObjectKind, TaskSet};
+use groundscope::env::object::encode_cell;
+use groundscope::env::{
+    AGENT_IN_VIEW, Action, LevelConfig, ObjectKind, TaskSet, VIEW_SIZE, world_from_view,
+};
 use proptest::prelude::*;
 
 fn level() -> impl Strategy<Value = LevelConfig> {
@@ -55,7 +58,20 @@ proptest! {
             prop_assert!(out.reward >= 0.0 && out.reward <= 1.0);
             prop_assert_eq!(out.reward > 0.0, out.terminated && out.reward > 0.0);
             let obs = w.observe();
-            prop_assert_eq!(obs.image.len(), 7);
+            // Every cell the agent sees shows what the world holds there (outside the grid:
+            // a wall), after whatever the step changed; the cell ahead is always seen.
+            for vx in 0..VIEW_SIZE {
+                for vy in 0..VIEW_SIZE {
+                    if (vx, vy) == AGENT_IN_VIEW || !obs.visible((vx, vy)) {
+                        continue;
+                    }
+                    let pos = world_from_view(w.agent_pos, w.agent_dir, (vx, vy));
+                    let world_cell = encode_cell(&w.grid.get_or_wall(pos));
+                    prop_assert_eq!(obs.at((vx, vy)), world_cell, "view cell {:?}", (vx, vy));
+                }
+            }
+            let ahead = (AGENT_IN_VIEW.0, AGENT_IN_VIEW.1 - 1);
+            prop_assert!(obs.visible(ahead), "the cell ahead is hidden");
             // The agent's own cell is always visible: the carried object or empty.
             let own = obs.at(AGENT_IN_VIEW);
             let expected = w.carrying.map_or([1, 0, 0], |c| c.encode());

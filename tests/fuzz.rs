@@ -218,8 +218,9 @@ proptest! {
         let (mut trainer, state) = trainer_and_state();
         let text = mutate_json(&state, &edits);
         if trainer.restore_state(&text).is_ok() {
-            // A state that was accepted must train.
-            let _ = trainer.update();
+            // A state that was accepted must train: restoring is where a bad state is refused.
+            let update = trainer.update();
+            prop_assert!(update.is_ok(), "an accepted run state fails to train: {:?}", update.err());
         }
     }
 }

@@ -13,7 +13,6 @@ use common::{assert_bad_input, entries, gs};
 
 use std::os::unix::fs::FileTypeExt as _;
 use std::process::{Command, Stdio};
-use std::time::{Duration, Instant};
 
 fn bin() -> Command {
     let mut c = Command::new(env!("CARGO_BIN_EXE_groundscope"));
@@ -131,14 +130,7 @@ fn viewer_problems_are_one_line() {
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
-    let t0 = Instant::now();
-    while child.try_wait().unwrap().is_none() {
-        assert!(
-            t0.elapsed() < Duration::from_mins(1),
-            "replay --connect hangs"
-        );
-        std::thread::sleep(Duration::from_millis(50));
-    }
+    common::wait_for_exit(&mut child, "replay --connect to something else");
     let o = child.wait_with_output().unwrap();
     assert_bad_input(&o, &format!("no Rerun viewer at {url}"));
 }
@@ -174,16 +166,23 @@ fn ctrl_c_during_replay_says_so_and_leaves_nothing() {
     let tmp = tempfile::tempdir().unwrap();
     let rrd = tmp.path().join("long.rrd");
     let mcap = tmp.path().join("long.mcap");
-    let child = bin()
+    let mut child = bin()
         .args(["replay", "--seed", "0", "--episodes", "100000", "--save"])
         .arg(&rrd)
         .arg("--mcap")
         .arg(&mcap)
-        .stdout(Stdio::null())
+        .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
-    std::thread::sleep(Duration::from_millis(2500));
+    // Interrupt it while it records: once its first episode is printed and its (temporary)
+    // outputs exist.
+    let stdout = common::lines(child.stdout.take().unwrap());
+    let first = common::next_line(&stdout, "first episode of the replay");
+    assert!(first.contains("seed 0:"), "{first}");
+    common::wait_until("the recordings' temporary files", || {
+        !entries(tmp.path()).is_empty()
+    });
     assert!(
         Command::new("kill")
             .args(["-INT", &child.id().to_string()])
@@ -191,6 +190,7 @@ fn ctrl_c_during_replay_says_so_and_leaves_nothing() {
             .unwrap()
             .success()
     );
+    common::wait_for_exit(&mut child, "replay after Ctrl-C");
     let o = child.wait_with_output().unwrap();
     assert_bad_input(&o, "interrupted");
     assert!(entries(tmp.path()).is_empty(), "{:?}", entries(tmp.path()));

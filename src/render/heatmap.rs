@@ -134,6 +134,7 @@ pub fn overlay_on_world(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::env::view_from_world;
     use crate::render::{fixtures, render_world};
 
     /// Relative luminance of an sRGB colour (Rec. 709 weights on linear light).
@@ -287,13 +288,48 @@ mod tests {
     fn the_overlay_skips_what_lies_outside_grid_or_image() {
         let world = fixtures::world();
         let map = [[1.0; VIEW_SIZE]; VIEW_SIZE];
-        // The top view row lies at y = −1, outside the grid.
-        let mut img = render_world(&world, 8, false);
-        overlay_on_world(&mut img, &world, &map, 8, 0.5, 0.0, 1.0);
-        // An image smaller than the world: clipped, no panic.
-        let mut small = RgbImage::new(10, 10);
-        overlay_on_world(&mut small, &world, &map, 8, 0.5, 0.0, 1.0);
+        let yellow = colorize(1.0, 0.0, 1.0);
+        // Half-way between a channel and yellow's, rounded as `blend` rounds.
+        let half = |p: image::Rgb<u8>| {
+            image::Rgb(std::array::from_fn(|c| {
+                f32::midpoint(f32::from(p.0[c]), f32::from(yellow[c])).round() as u8
+            }))
+        };
+        let seen = |x: u32, y: u32, ts: u32| {
+            let cell = ((x / ts) as i32, (y / ts) as i32);
+            view_from_world(world.agent_pos, world.agent_dir, cell).is_some()
+        };
+        // The agent at (3, 5) facing up sees columns 0..=6 and rows −1..=5: the top view
+        // row lies at y = −1, outside the grid, and is skipped (not drawn on row 0 again);
+        // column 7 and rows 6 and 7 are behind or beside the view and keep the world.
+        let ts = 8;
+        let plain = render_world(&world, ts, false);
+        let mut img = plain.clone();
+        overlay_on_world(&mut img, &world, &map, ts, 0.5, 0.0, 1.0);
+        assert_eq!(img.dimensions(), plain.dimensions());
+        let mut covered = std::collections::BTreeSet::new();
+        for (x, y, p) in img.enumerate_pixels() {
+            let was = *plain.get_pixel(x, y);
+            if seen(x, y, ts) {
+                covered.insert((x / ts, y / ts));
+                assert_eq!(*p, half(was), "({x}, {y}) lies in the view");
+            } else {
+                assert_eq!(*p, was, "({x}, {y}) lies outside the view");
+            }
+        }
+        assert_eq!(covered.len(), 7 * 6, "the view's cells inside the grid");
+        // An image smaller than the world: what it holds of the view is blended, the rest
+        // (column 7 from x = 56) kept, and nothing is drawn past its edges.
+        let grey = image::Rgb([100, 100, 100]);
+        let mut small = RgbImage::from_pixel(60, 10, grey);
+        overlay_on_world(&mut small, &world, &map, ts, 0.5, 0.0, 1.0);
+        assert_eq!(small.dimensions(), (60, 10));
+        for (x, y, p) in small.enumerate_pixels() {
+            let want = if x < 56 { half(grey) } else { grey };
+            assert_eq!(*p, want, "({x}, {y})");
+        }
         let mut empty = RgbImage::new(0, 0);
-        overlay_on_world(&mut empty, &world, &map, 8, 0.5, 0.0, 1.0);
+        overlay_on_world(&mut empty, &world, &map, ts, 0.5, 0.0, 1.0);
+        assert_eq!(empty.dimensions(), (0, 0));
     }
 }
