@@ -244,3 +244,57 @@ fn replay_runs_an_onnx_file_as_it_runs_a_checkpoint() {
     );
     assert!(!bad.exists());
 }
+
+#[test]
+fn eval_of_the_onnx_export_reports_what_the_native_model_measures() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("eval");
+    let bundled = fixture("bundled_attention.onnx");
+    let acmodel = fixture("acmodel.onnx");
+    let o = gs(&[
+        "eval",
+        "--checkpoint",
+        bundled.to_str().unwrap(),
+        "--checkpoint",
+        "bundled:attention",
+        "--checkpoint",
+        acmodel.to_str().unwrap(),
+        "--sizes",
+        "8,12",
+        "--objects",
+        "4,8",
+        "--seeds",
+        "2",
+        "--episodes",
+        "20",
+        "--quiet",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
+    let cells = report["cells"].as_array().unwrap();
+    let of = |name: &str| -> Vec<&serde_json::Value> {
+        cells.iter().filter(|c| c["checkpoint"] == name).collect()
+    };
+    let (theirs, ours) = (of(bundled.to_str().unwrap()), of("bundled:attention"));
+    assert_eq!(theirs.len(), 4);
+    for (a, b) in theirs.iter().zip(&ours) {
+        for key in ["success", "reward", "length"] {
+            assert_eq!(a[key], b[key], "{key} in S{} N{}", a["size"], a["objects"]);
+        }
+        let (x, y) = (
+            a["accuracy"]["object"]["acc"]["mean"].as_f64().unwrap(),
+            b["accuracy"]["object"]["acc"]["mean"].as_f64().unwrap(),
+        );
+        assert!((x - y).abs() < 1e-9, "object acc {x} vs {y}");
+        assert_eq!(a["variant"], "attention");
+    }
+    // A graph without maps is evaluated as a baseline: no accuracies, failure classes without
+    // `grounding`.
+    for c in of(acmodel.to_str().unwrap()) {
+        assert!(c["accuracy"].is_null(), "{c}");
+        assert!(c["failure_classes"].get("grounding").is_none(), "{c}");
+    }
+}

@@ -17,7 +17,7 @@ use groundscope::metrics::sweep::{
     EpisodeSummary, MAX_EVAL_SEEDS, evaluate_cell, grounding, performance,
 };
 use groundscope::metrics::words::by_word;
-use groundscope::policy::{Net, bundled};
+use groundscope::policy::{Agent, Variant};
 
 use crate::ExitStatus;
 
@@ -137,20 +137,20 @@ fn check(args: &EvalArgs) -> anyhow::Result<()> {
 pub fn run(args: &EvalArgs) -> anyhow::Result<ExitStatus> {
     check(args)?;
     let specs = if args.checkpoint.is_empty() {
-        bundled::names()
+        groundscope::policy::bundled::names()
     } else {
         args.checkpoint.clone()
     };
     let mut ckpts = Vec::new();
     for s in &specs {
-        ckpts.push((s.clone(), bundled::load(s)?));
+        ckpts.push((s.clone(), Agent::load(s)?));
     }
     // Check every cell's level before running anything: no partial report.
     let mut cells = Vec::new();
     for (name, ckpt) in &ckpts {
         for &size in &args.sizes {
             for &objects in &args.objects {
-                let mut level = ckpt.meta.level;
+                let mut level = ckpt.level();
                 level.room_size = size;
                 level.n_objects = objects;
                 level
@@ -192,20 +192,18 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitStatus> {
             .ok()
             .flatten()
             .unwrap_or_else(|| Err(anyhow::anyhow!("evaluation stopped early")))?;
-        let accuracy = ckpt.meta.model.has_attention().then(|| CellAccuracy {
+        let attention = ckpt.acting().variant() == Variant::Attention;
+        let accuracy = attention.then(|| CellAccuracy {
             object: grounding(&eps, WordKind::Object),
             color: grounding(&eps, WordKind::Color),
             combined: grounding(&eps, WordKind::Combined),
             words: by_word(&eps),
         });
-        let classes = class_counts(
-            eps.iter().filter_map(|e| e.failure.as_ref()),
-            ckpt.meta.model.has_attention(),
-        );
+        let classes = class_counts(eps.iter().filter_map(|e| e.failure.as_ref()), attention);
         report_cells.push(
             Cell::new(
                 name,
-                ckpt.meta.model.variant.name(),
+                ckpt.acting().variant().name(),
                 level.room_size,
                 level.n_objects,
                 eps.len() as u64,
@@ -230,9 +228,9 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitStatus> {
             .iter()
             .map(|(n, c)| CheckpointInfo {
                 name: n.clone(),
-                variant: c.meta.model.variant.name().into(),
-                frames: c.meta.training.frames,
-                level: c.meta.level,
+                variant: c.acting().variant().name().into(),
+                frames: c.frames(),
+                level: c.level(),
             })
             .collect(),
         cells: report_cells,
@@ -311,11 +309,7 @@ type CellResults = Vec<Mutex<Option<anyhow::Result<Vec<EpisodeSummary>>>>>;
 
 /// Evaluates `cells` in the given order on `jobs` worker threads.
 fn run_cells(
-    cells: &[(
-        String,
-        &groundscope::policy::Checkpoint,
-        groundscope::env::LevelConfig,
-    )],
+    cells: &[(String, &Agent, groundscope::env::LevelConfig)],
     order: &[usize],
     jobs: usize,
     args: &EvalArgs,
@@ -332,11 +326,11 @@ fn run_cells(
                     let k = next.fetch_add(1, Ordering::Relaxed);
                     let Some(&i) = order.get(k) else { break };
                     let (name, ckpt, level) = &cells[i];
-                    let net = Net::new(ckpt.meta.model, ckpt.params.detached());
+                    let net = ckpt.acting();
                     bar.set_message(format!("{name} S{} N{}", level.room_size, level.n_objects));
                     let mut last = 0u64;
                     let r = evaluate_cell(
-                        &net,
+                        net,
                         level,
                         args.first_seed..args.first_seed + args.seeds,
                         args.episodes,
@@ -367,14 +361,14 @@ fn run_cells(
 /// (same checkpoint, mission and action mode) with the non-target objects removed.
 fn add_counterfactuals(
     failures: &mut [groundscope::metrics::report::Failure],
-    ckpts: &[(String, groundscope::policy::Checkpoint)],
+    ckpts: &[(String, Agent)],
     mode: ActionMode,
 ) -> anyhow::Result<()> {
     for f in failures.iter_mut().filter(|f| f.class.is_some()) {
         let Some((name, ckpt)) = ckpts.iter().find(|(n, _)| *n == f.checkpoint) else {
             continue;
         };
-        let mut level = ckpt.meta.level;
+        let mut level = ckpt.level();
         level.room_size = f.size;
         level.n_objects = f.objects;
         let spec = EpisodeSpec {
@@ -383,9 +377,8 @@ fn add_counterfactuals(
             mission: None,
             mode,
         };
-        let net = Net::new(ckpt.meta.model, ckpt.params.detached());
         f.counterfactual = Some(
-            counterfactual(&net, name, &spec)
+            counterfactual(ckpt.acting(), name, &spec)
                 .with_context(|| format!("counterfactual of {name} seed {}", f.seed))?,
         );
     }
@@ -396,12 +389,11 @@ fn add_counterfactuals(
 /// it as `DIR/<kind>-<checkpoint>-S<size>-N<objects>-seed<seed>.rrd`.
 fn export_failures(
     failures: &[groundscope::metrics::report::Failure],
-    ckpts: &[(String, groundscope::policy::Checkpoint)],
+    ckpts: &[(String, Agent)],
     dir: &std::path::Path,
     mode: ActionMode,
     alpha: f64,
 ) -> anyhow::Result<usize> {
-    use groundscope::episode::run_episode;
     use groundscope::record::{RerunTargets, record_rerun};
     std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     let mut recorded = 0;
@@ -409,7 +401,7 @@ fn export_failures(
         let Some((name, ckpt)) = ckpts.iter().find(|(n, _)| *n == f.checkpoint) else {
             continue;
         };
-        let mut level = ckpt.meta.level;
+        let mut level = ckpt.level();
         level.room_size = f.size;
         level.n_objects = f.objects;
         let spec = EpisodeSpec {
@@ -418,7 +410,12 @@ fn export_failures(
             mission: None,
             mode,
         };
-        let trace = run_episode(ckpt, name, &spec)?;
+        let trace = groundscope::episode::run_from(
+            ckpt.acting(),
+            name,
+            &spec,
+            groundscope::episode::initial_world(&spec)?,
+        )?;
         // The whole name, so two checkpoints called `model` in different runs do not share
         // file names.
         let short: String = name

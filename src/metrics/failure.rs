@@ -48,7 +48,7 @@ use crate::env::edit::{Edit, apply};
 use crate::env::view::{AGENT_IN_VIEW, Observation, VIEW_SIZE, ViewCell, world_from_view};
 use crate::env::world::{Action, World};
 use crate::episode::{EpisodeSpec, EpisodeTrace, initial_world, run_from};
-use crate::policy::{Net, PolicyError, ViewMap};
+use crate::policy::{PolicyError, ViewMap};
 
 /// How many final actions of a truncated episode must all be turns for
 /// [`FailureClass::TurningInPlace`]: two full rotations, longer than any useful scan.
@@ -370,8 +370,8 @@ pub fn without_distractors(world: &World) -> Result<(World, u32), EnvError> {
 /// Re-runs `spec` on `net` from its initial world without distractors. Deterministic: the
 /// same checkpoint and spec give the same verdict (greedy, or sampled with the episode's own
 /// seeded RNG, as [`run_from`] does).
-pub fn counterfactual(
-    net: &Net,
+pub fn counterfactual<P: crate::policy::Acting + ?Sized>(
+    net: &P,
     checkpoint: &str,
     spec: &EpisodeSpec,
 ) -> Result<Counterfactual, MetricsError> {

@@ -19,7 +19,7 @@ use crate::env::world::World;
 use crate::episode::{ActionMode, choose};
 use candle_core::{Device, Tensor};
 
-use crate::policy::{Memory, Net, PolicyError, TokenBatch, act_missions};
+use crate::policy::{Acting, Memory, PolicyError};
 
 /// The level seed of episode `e` of evaluation seed `s`: `s · 1_000_000 + e` (training
 /// seeds start at 2³², so the two never meet). `groundscope replay --seed` takes it.
@@ -67,8 +67,8 @@ struct Running {
 /// Runs `episodes` episodes of `level` for each evaluation seed in `seeds` in lockstep;
 /// summaries come back in (seed, episode) order. `progress` is called with the number of
 /// finished episodes.
-pub fn evaluate_cell(
-    net: &Net,
+pub fn evaluate_cell<P: Acting + ?Sized>(
+    net: &P,
     level: &LevelConfig,
     seeds: Range<u64>,
     episodes: u64,
@@ -84,8 +84,8 @@ pub fn evaluate_cell(
 
 /// Runs one episode per `(eval_seed, level_seed)` of `plan` in lockstep; summaries come back
 /// in plan order.
-pub fn evaluate_episodes(
-    net: &Net,
+pub fn evaluate_episodes<P: Acting + ?Sized>(
+    net: &P,
     level: &LevelConfig,
     plan: &[(u64, u64)],
     alpha: f64,
@@ -119,11 +119,11 @@ pub fn evaluate_episodes(
     let total = running.len();
     let mut done: Vec<Option<EpisodeSummary>> = vec![None; total];
     let mut active: Vec<usize> = (0..total).collect();
-    let mut memory = Memory::zeros(total, net.cfg.lstm_hidden)?;
-    let want_traces = net.cfg.has_attention();
+    let mut memory = net.zero_memory_batch(total)?;
+    let want_traces = net.variant() == crate::policy::Variant::Attention;
     // Missions are fixed per episode: their GRU codes and queries are computed once.
     let all: Vec<&[u32]> = running.iter().map(|r| r.tokens.as_slice()).collect();
-    let mission_all = net.mission_inputs(&TokenBatch::new(&all)?)?;
+    let mission_all = net.prepare_batch(&all)?;
     let mut finished = 0u64;
     while !active.is_empty() {
         let obs: Vec<_> = active.iter().map(|&i| running[i].world.observe()).collect();
@@ -133,8 +133,16 @@ pub fn evaluate_episodes(
             .collect();
         let rows: Vec<u32> = active.iter().map(|&i| i as u32).collect();
         let rows = Tensor::from_vec(rows, active.len(), &Device::Cpu).map_err(PolicyError::from)?;
-        let mission = mission_all.select(&rows)?;
-        let out = act_missions(net, &obs, &missions, &mission, &memory, want_traces)?;
+        let mission = mission_all.as_ref().map(|m| m.select(&rows)).transpose()?;
+        let dirs: Vec<u8> = active.iter().map(|&i| running[i].world.agent_dir).collect();
+        let out = net.act_batch(
+            &obs,
+            &dirs,
+            &missions,
+            mission.as_ref(),
+            &memory,
+            want_traces,
+        )?;
         let mut keep = Vec::with_capacity(active.len());
         for (row, &i) in active.iter().enumerate() {
             let r = &mut running[i];

@@ -38,11 +38,56 @@ pub trait Acting {
         with_traces: bool,
         intervention: Option<&Intervention>,
     ) -> Result<ActOutput, PolicyError>;
+
+    /// The memory of B fresh episodes.
+    fn zero_memory_batch(&self, batch: usize) -> Result<Memory, PolicyError>;
+
+    /// [`Self::prepare`] for B missions at once (the rows are later `select`ed).
+    fn prepare_batch(&self, missions: &[&[u32]]) -> Result<Option<MissionInputs>, PolicyError>;
+
+    /// One step of B environments; `prepared` holds their rows of [`Self::prepare_batch`].
+    fn act_batch(
+        &self,
+        obs: &[Observation],
+        directions: &[u8],
+        missions: &[&[u32]],
+        prepared: Option<&MissionInputs>,
+        memory: &Memory,
+        with_traces: bool,
+    ) -> Result<ActOutput, PolicyError>;
 }
 
 impl Acting for Net {
     fn variant(&self) -> Variant {
         self.cfg.variant
+    }
+
+    fn zero_memory_batch(&self, batch: usize) -> Result<Memory, PolicyError> {
+        Memory::zeros(batch, self.cfg.lstm_hidden)
+    }
+
+    fn prepare_batch(&self, missions: &[&[u32]]) -> Result<Option<MissionInputs>, PolicyError> {
+        self.mission_inputs(&super::TokenBatch::new(missions)?)
+            .map(Some)
+    }
+
+    fn act_batch(
+        &self,
+        obs: &[Observation],
+        _directions: &[u8],
+        missions: &[&[u32]],
+        prepared: Option<&MissionInputs>,
+        memory: &Memory,
+        with_traces: bool,
+    ) -> Result<ActOutput, PolicyError> {
+        let owned;
+        let mission = if let Some(m) = prepared {
+            m
+        } else {
+            owned = self.mission_inputs(&super::TokenBatch::new(missions)?)?;
+            &owned
+        };
+        super::act_missions(self, obs, missions, mission, memory, with_traces)
     }
 
     fn zero_memory(&self) -> Result<Memory, PolicyError> {
@@ -85,10 +130,15 @@ impl Acting for Net {
 /// An imported graph's memory in [`Memory`]'s shape: `h` holds the graph's M values, `c` is
 /// empty.
 pub fn flat_memory(values: Vec<f32>) -> Result<Memory, PolicyError> {
-    let m = values.len();
+    flat_memory_rows(values, 1)
+}
+
+/// [`flat_memory`] for `rows` environments (`values` row-major).
+pub fn flat_memory_rows(values: Vec<f32>, rows: usize) -> Result<Memory, PolicyError> {
+    let m = values.len() / rows.max(1);
     Ok(Memory {
-        h: Tensor::from_vec(values, (1, m), &Device::Cpu)?,
-        c: Tensor::zeros((1, 0), DType::F32, &Device::Cpu)?,
+        h: Tensor::from_vec(values, (rows, m), &Device::Cpu)?,
+        c: Tensor::zeros((rows, 0), DType::F32, &Device::Cpu)?,
     })
 }
 
@@ -108,6 +158,45 @@ impl Acting for super::onnx::OnnxAgent {
 
     fn prepare(&self, _tokens: &[u32]) -> Result<Option<MissionInputs>, PolicyError> {
         Ok(None)
+    }
+
+    fn zero_memory_batch(&self, batch: usize) -> Result<Memory, PolicyError> {
+        flat_memory_rows(vec![0.0; batch * self.meta.memory_size], batch)
+    }
+
+    fn prepare_batch(&self, _missions: &[&[u32]]) -> Result<Option<MissionInputs>, PolicyError> {
+        Ok(None)
+    }
+
+    fn act_batch(
+        &self,
+        obs: &[Observation],
+        directions: &[u8],
+        missions: &[&[u32]],
+        _prepared: Option<&MissionInputs>,
+        memory: &Memory,
+        with_traces: bool,
+    ) -> Result<ActOutput, PolicyError> {
+        let mem = memory.h.flatten_all()?.to_vec1::<f32>()?;
+        let step = self.step(obs, directions, missions, &mem)?;
+        let traces = match (&step.maps, with_traces) {
+            (Some(maps), true) => Some(
+                missions
+                    .iter()
+                    .zip(maps)
+                    .map(|(t, m)| super::onnx::trace(t, m))
+                    .collect::<Result<Vec<_>, _>>()?,
+            ),
+            _ => None,
+        };
+        let logits = step.logits;
+        Ok(ActOutput {
+            probs: logits.iter().map(|l| softmax(l)).collect(),
+            logits,
+            values: step.values,
+            memory: flat_memory_rows(step.memory, obs.len())?,
+            traces,
+        })
     }
 
     fn act_one(
@@ -190,6 +279,14 @@ impl Agent {
         }
     }
 
+    /// Frames it was trained for (0 for an imported graph: its metadata does not say).
+    pub fn frames(&self) -> u64 {
+        match self {
+            Self::Native(ckpt, _) => ckpt.meta.training.frames,
+            Self::Onnx(_) => 0,
+        }
+    }
+
     /// The native network, for what only it supports (interventions, faithfulness).
     pub fn native(&self) -> Option<&Net> {
         match self {
@@ -232,6 +329,26 @@ impl Acting for super::onnx::OnnxAgent {
         _memory: &Memory,
         _with_traces: bool,
         _intervention: Option<&Intervention>,
+    ) -> Result<ActOutput, PolicyError> {
+        Err(PolicyError::Input("built without the onnx feature".into()))
+    }
+
+    fn zero_memory_batch(&self, _batch: usize) -> Result<Memory, PolicyError> {
+        Err(PolicyError::Input("built without the onnx feature".into()))
+    }
+
+    fn prepare_batch(&self, _missions: &[&[u32]]) -> Result<Option<MissionInputs>, PolicyError> {
+        Err(PolicyError::Input("built without the onnx feature".into()))
+    }
+
+    fn act_batch(
+        &self,
+        _obs: &[Observation],
+        _directions: &[u8],
+        _missions: &[&[u32]],
+        _prepared: Option<&MissionInputs>,
+        _memory: &Memory,
+        _with_traces: bool,
     ) -> Result<ActOutput, PolicyError> {
         Err(PolicyError::Input("built without the onnx feature".into()))
     }

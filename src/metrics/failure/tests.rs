@@ -8,7 +8,7 @@ use crate::env::mission::{Instruction, ObjDesc, TaskKind};
 use crate::env::object::{Color, ObjectKind, WorldObj};
 use crate::episode::ActionMode;
 use crate::metrics::sweep::evaluate_cell;
-use crate::policy::bundled;
+use crate::policy::{Net, bundled};
 
 const TARGET: u32 = 100;
 const BALL: u32 = 101;
