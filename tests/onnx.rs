@@ -298,3 +298,30 @@ fn eval_of_the_onnx_export_reports_what_the_native_model_measures() {
         assert!(c["failure_classes"].get("grounding").is_none(), "{c}");
     }
 }
+
+#[test]
+fn validate_scores_the_onnx_export_as_the_native_checkpoint() {
+    let bundled = fixture("bundled_attention.onnx");
+    let o = gs(&[
+        "validate",
+        bundled.to_str().unwrap(),
+        "bundled:attention",
+        "--episodes",
+        "60",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let text = common::stdout(&o);
+    let rows: Vec<Vec<&str>> = text
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').collect())
+        .collect();
+    assert_eq!(rows.len(), 2, "{text}");
+    // Episodes, success, reward, length and the six accuracies; not the name, counters or time.
+    assert_eq!(rows[0][3..13], rows[1][3..13], "{text}");
+    assert_eq!(
+        rows[0][1..3],
+        ["0", "0"],
+        "an imported graph has no training counters"
+    );
+}

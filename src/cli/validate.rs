@@ -8,8 +8,8 @@ use std::path::PathBuf;
 use clap::Args;
 use groundscope::files::{OutputKind, output_kind, parent_dir};
 use groundscope::metrics::tracking::{EVAL_LOG_HEADER, track};
+use groundscope::policy::Agent;
 use groundscope::policy::checkpoint::write_atomic;
-use groundscope::policy::{Net, bundled};
 
 use crate::ExitStatus;
 
@@ -59,13 +59,22 @@ pub fn run(args: &ValidateArgs) -> anyhow::Result<ExitStatus> {
     }
     let mut ckpts = Vec::new();
     for name in &args.checkpoints {
-        ckpts.push((name, bundled::load(name)?));
+        ckpts.push((name, Agent::load(name)?));
     }
     let mut text = format!("checkpoint,{EVAL_LOG_HEADER}\n");
-    for (name, ckpt) in ckpts {
-        let net = Net::new(ckpt.meta.model, ckpt.params.detached());
-        let t = &ckpt.meta.training;
-        let row = track(&net, &ckpt.meta.level, args.episodes, t.updates, t.frames)?;
+    for (name, agent) in ckpts {
+        // An imported graph's metadata carries no training counters: its row says 0.
+        let (updates, frames) = match &agent {
+            Agent::Native(ckpt, _) => (ckpt.meta.training.updates, ckpt.meta.training.frames),
+            Agent::Onnx(_) => (0, 0),
+        };
+        let row = track(
+            agent.acting(),
+            &agent.level(),
+            args.episodes,
+            updates,
+            frames,
+        )?;
         text.push_str(&csv_field(name));
         text.push(',');
         text.push_str(&row.csv_row());

@@ -10,7 +10,6 @@ use super::grounding::WordKind;
 use super::sweep::{evaluate_episodes, grounding, performance};
 use crate::env::level::LevelConfig;
 use crate::episode::ActionMode;
-use crate::policy::Net;
 
 /// Level seeds of the tracked set are `VALIDATION_SEED_BASE + e`: past every evaluation seed
 /// (`s · 1,000,000 + e` for the few thousand `s` a sweep uses) and below the training seeds
@@ -78,8 +77,8 @@ impl TrackedEval {
 }
 
 /// Evaluates `net` greedily on the first `episodes` held-out levels of `level`.
-pub fn track(
-    net: &Net,
+pub fn track<P: crate::policy::Acting + ?Sized>(
+    net: &P,
     level: &LevelConfig,
     episodes: u64,
     update: u64,
