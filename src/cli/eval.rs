@@ -8,13 +8,14 @@ use std::time::Instant;
 use anyhow::Context as _;
 use clap::Args;
 use groundscope::episode::{ActionMode, EpisodeSpec};
+use groundscope::metrics::exploration::{EpisodeExploration, cell_exploration};
 use groundscope::metrics::failure::{class_counts, counterfactual};
 use groundscope::metrics::grounding::WordKind;
 use groundscope::metrics::report::{
     Cell, CellAccuracy, CheckpointInfo, Report, SCHEMA_VERSION, worst_episodes,
 };
 use groundscope::metrics::sweep::{
-    EpisodeSummary, MAX_EVAL_SEEDS, evaluate_cell, grounding, performance,
+    EpisodeSummary, MAX_EVAL_SEEDS, evaluate_cell_explored, grounding, performance,
 };
 use groundscope::metrics::words::by_word;
 use groundscope::policy::{Agent, Variant};
@@ -187,11 +188,13 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitStatus> {
     let mut report_cells = Vec::new();
     let mut all_eps = Vec::new();
     for ((name, ckpt, level), slot) in cells.iter().zip(results) {
-        let eps = slot
+        let explored = slot
             .into_inner()
             .ok()
             .flatten()
             .unwrap_or_else(|| Err(anyhow::anyhow!("evaluation stopped early")))?;
+        let exploration = cell_exploration(&explored);
+        let eps: Vec<EpisodeSummary> = explored.into_iter().map(|(s, _)| s).collect();
         let attention = ckpt.acting().variant() == Variant::Attention;
         let accuracy = attention.then(|| CellAccuracy {
             object: grounding(&eps, WordKind::Object),
@@ -210,7 +213,8 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitStatus> {
                 &performance(&eps),
                 accuracy,
             )
-            .with_failure_classes(classes),
+            .with_failure_classes(classes)
+            .with_exploration(exploration),
         );
         all_eps.push((name.clone(), level.room_size, level.n_objects, eps));
     }
@@ -305,7 +309,7 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitStatus> {
 }
 
 /// Cell results, in `cells` order.
-type CellResults = Vec<Mutex<Option<anyhow::Result<Vec<EpisodeSummary>>>>>;
+type CellResults = Vec<Mutex<Option<anyhow::Result<Vec<(EpisodeSummary, EpisodeExploration)>>>>>;
 
 /// Evaluates `cells` in the given order on `jobs` worker threads.
 fn run_cells(
@@ -329,7 +333,7 @@ fn run_cells(
                     let net = ckpt.acting();
                     bar.set_message(format!("{name} S{} N{}", level.room_size, level.n_objects));
                     let mut last = 0u64;
-                    let r = evaluate_cell(
+                    let r = evaluate_cell_explored(
                         net,
                         level,
                         args.first_seed..args.first_seed + args.seeds,

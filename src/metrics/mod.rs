@@ -3,6 +3,7 @@
 mod around;
 pub mod bands;
 pub mod error;
+pub mod exploration;
 pub mod failure;
 pub mod faithfulness;
 pub mod figures;

@@ -10,6 +10,7 @@ use plotters::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use super::error::MetricsError;
+use super::exploration::CellExploration;
 use super::failure::{Counterfactual, FailureClass};
 use super::figures::{save_rgb, series_color};
 use super::grounding::WordKind;
@@ -79,6 +80,10 @@ pub struct Cell {
     /// for baselines, which have no `M` to decide it.
     #[serde(default)]
     pub failure_classes: BTreeMap<FailureClass, u64>,
+    /// Exploration coverage of all, successful and failed episodes
+    /// ([`super::exploration`]); absent in older reports.
+    #[serde(default)]
+    pub exploration: Option<CellExploration>,
 }
 
 impl Cell {
@@ -104,6 +109,7 @@ impl Cell {
             reward_given_success: perf.reward_given_success,
             accuracy,
             failure_classes: BTreeMap::new(),
+            exploration: None,
         }
     }
 
@@ -111,6 +117,13 @@ impl Cell {
     #[must_use]
     pub fn with_failure_classes(mut self, counts: BTreeMap<FailureClass, u64>) -> Self {
         self.failure_classes = counts;
+        self
+    }
+
+    /// The cell with its exploration coverage ([`super::exploration::cell_exploration`]).
+    #[must_use]
+    pub fn with_exploration(mut self, exploration: CellExploration) -> Self {
+        self.exploration = Some(exploration);
         self
     }
 }
@@ -325,6 +338,7 @@ impl Report {
         self.around_table(&mut s);
         self.words_table(&mut s);
         self.failure_table(&mut s);
+        self.exploration_tables(&mut s);
         let _ = writeln!(s, "\n## Worst episodes\n");
         let _ = writeln!(
             s,
@@ -465,6 +479,7 @@ impl Report {
             ("accuracy.csv", self.accuracy_csv()),
             ("around.csv", self.around_csv()),
             ("words.csv", self.words_csv()),
+            ("exploration.csv", self.exploration_csv()),
         ];
         for (name, text) in &files {
             let p = tmp.path().join(name);
@@ -520,10 +535,16 @@ impl Report {
                 })?;
             }
         }
+        figs.extend(self.exploration_figures(tmp.path())?);
         let mut names: Vec<&str> = files.iter().map(|(n, _)| *n).collect();
         // A directory reused from an evaluation with attention checkpoints must not keep
         // that run's accuracy figures beside this run's report.
-        for stale in ["fig7_object_accuracy.png", "fig8_color_accuracy.png"] {
+        for stale in [
+            "fig7_object_accuracy.png",
+            "fig8_color_accuracy.png",
+            super::exploration::FIG_EXPLORATION,
+            super::exploration::FIG_EXPLORATION_MAPS,
+        ] {
             if !figs.contains(&stale) {
                 let p = dir.join(stale);
                 if p.exists() {
@@ -543,7 +564,7 @@ impl Report {
 
     /// One PNG: a panel per room size, x = object count, a line (with ±std error bars) per
     /// series that `series` returns for each cell.
-    fn figure(
+    pub(super) fn figure(
         &self,
         path: &Path,
         title: &str,

@@ -11,6 +11,7 @@ use rand_pcg::Pcg64Mcg;
 use serde::{Deserialize, Serialize};
 
 use super::error::MetricsError;
+use super::exploration::{EpisodeExploration, Tracker};
 use super::failure::{Diagnosis, Evidence, StepFacts};
 use super::grounding::{Accuracies, WordKind, ground_step};
 use crate::env::level::LevelConfig;
@@ -61,6 +62,7 @@ struct Running {
     summary: EpisodeSummary,
     sums: BTreeMap<WordKind, (Accuracies, u32)>,
     evidence: Evidence,
+    exploration: Tracker,
     rng: Pcg64Mcg,
 }
 
@@ -76,10 +78,25 @@ pub fn evaluate_cell<P: Acting + ?Sized>(
     mode: ActionMode,
     progress: &mut dyn FnMut(u64),
 ) -> Result<Vec<EpisodeSummary>, MetricsError> {
+    let eps = evaluate_cell_explored(net, level, seeds, episodes, alpha, mode, progress)?;
+    Ok(eps.into_iter().map(|(s, _)| s).collect())
+}
+
+/// [`evaluate_cell`], each summary with its episode's exploration coverage
+/// ([`super::exploration`]).
+pub fn evaluate_cell_explored<P: Acting + ?Sized>(
+    net: &P,
+    level: &LevelConfig,
+    seeds: Range<u64>,
+    episodes: u64,
+    alpha: f64,
+    mode: ActionMode,
+    progress: &mut dyn FnMut(u64),
+) -> Result<Vec<(EpisodeSummary, EpisodeExploration)>, MetricsError> {
     let plan: Vec<(u64, u64)> = seeds
         .flat_map(|s| (0..episodes).map(move |e| (s, eval_level_seed(s, e))))
         .collect();
-    evaluate_episodes(net, level, &plan, alpha, mode, progress)
+    evaluate_episodes_explored(net, level, &plan, alpha, mode, progress)
 }
 
 /// Runs one episode per `(eval_seed, level_seed)` of `plan` in lockstep; summaries come back
@@ -92,6 +109,21 @@ pub fn evaluate_episodes<P: Acting + ?Sized>(
     mode: ActionMode,
     progress: &mut dyn FnMut(u64),
 ) -> Result<Vec<EpisodeSummary>, MetricsError> {
+    let eps = evaluate_episodes_explored(net, level, plan, alpha, mode, progress)?;
+    Ok(eps.into_iter().map(|(s, _)| s).collect())
+}
+
+/// [`evaluate_episodes`], each summary with its episode's exploration coverage. The
+/// coverage is read from the same steps as the summary (the world before each action, the
+/// observation and trace the policy produced), so it costs no extra forward pass.
+pub fn evaluate_episodes_explored<P: Acting + ?Sized>(
+    net: &P,
+    level: &LevelConfig,
+    plan: &[(u64, u64)],
+    alpha: f64,
+    mode: ActionMode,
+    progress: &mut dyn FnMut(u64),
+) -> Result<Vec<(EpisodeSummary, EpisodeExploration)>, MetricsError> {
     let mut running = Vec::new();
     for &(s, level_seed) in plan {
         {
@@ -112,12 +144,13 @@ pub fn evaluate_episodes<P: Acting + ?Sized>(
                 tokens,
                 sums: BTreeMap::new(),
                 evidence: Evidence::default(),
+                exploration: Tracker::default(),
                 rng: Pcg64Mcg::seed_from_u64(level_seed ^ 0x9E37_79B9_7F4A_7C15),
             });
         }
     }
     let total = running.len();
-    let mut done: Vec<Option<EpisodeSummary>> = vec![None; total];
+    let mut done: Vec<Option<(EpisodeSummary, EpisodeExploration)>> = vec![None; total];
     let mut active: Vec<usize> = (0..total).collect();
     let mut memory = net.zero_memory_batch(total)?;
     let want_traces = net.variant() == crate::policy::Variant::Attention;
@@ -146,11 +179,8 @@ pub fn evaluate_episodes<P: Acting + ?Sized>(
         let mut keep = Vec::with_capacity(active.len());
         for (row, &i) in active.iter().enumerate() {
             let r = &mut running[i];
-            let combined = out
-                .traces
-                .as_ref()
-                .and_then(|t| t.get(row))
-                .map(|t| t.combined);
+            let trace_row = out.traces.as_ref().and_then(|t| t.get(row));
+            let combined = trace_row.map(|t| t.combined);
             if let Some(traces) = &out.traces {
                 let trace = &traces[row];
                 let words: Vec<(&str, &crate::policy::ViewMap)> = trace
@@ -175,7 +205,7 @@ pub fn evaluate_episodes<P: Acting + ?Sized>(
             // The failure classifier reads the world before the action, as a trace records it.
             let before = r.world.clone();
             let outcome = r.world.step(action).map_err(PolicyError::from)?;
-            r.evidence.push(&StepFacts {
+            let facts = StepFacts {
                 world: &before,
                 obs: &obs[row],
                 combined: combined.as_ref(),
@@ -183,7 +213,10 @@ pub fn evaluate_episodes<P: Acting + ?Sized>(
                 reward: outcome.reward,
                 terminated: outcome.terminated,
                 truncated: outcome.truncated,
-            });
+            };
+            r.evidence.push(&facts);
+            r.exploration
+                .push(&facts, trace_row.map(|t| t.words.as_slice()));
             r.summary.length += 1;
             r.summary.reward += outcome.reward;
             if outcome.terminated || outcome.truncated {
@@ -194,7 +227,8 @@ pub fn evaluate_episodes<P: Acting + ?Sized>(
                     .map(|(k, (sum, n))| (*k, (sum.scaled(f64::from(*n)), *n)))
                     .collect();
                 r.summary.failure = r.evidence.diagnose();
-                done[i] = Some(r.summary.clone());
+                let exploration = std::mem::take(&mut r.exploration).finish(r.world.agent_pos);
+                done[i] = Some((r.summary.clone(), exploration));
                 finished += 1;
             } else {
                 keep.push(row);

@@ -1,0 +1,262 @@
+//! The exploration outputs of an evaluation report: `exploration.csv`, the `report.md`
+//! tables and the figures. Everything reads the cells' [`CellExploration`], so the files agree
+//! with `report.json`.
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use super::{CellExploration, CellMapStats, ExplorationStats};
+use crate::metrics::error::MetricsError;
+use crate::metrics::report::{Cell, Report, csv};
+use crate::metrics::sweep::MeanStd;
+
+/// The `exploration.csv` header (documented in `docs/exploration.md`).
+pub const EXPLORATION_CSV_HEADER: &str = "checkpoint,variant,size,objects,outcome,episodes,\
+steps_mean,steps_std,visited_mean,visited_std,visited_frac_mean,visited_frac_std,\
+seen_frac_mean,seen_frac_std,turn_frac_mean,turn_frac_std,\
+longest_turn_run_mean,longest_turn_run_std,revisit_frac_mean,revisit_frac_std,\
+never_visible,truncated,first_visible_step_mean,first_visible_step_std,\
+hidden_steps,visible_steps,\
+m_entropy_hidden_mean,m_entropy_hidden_std,m_entropy_visible_mean,m_entropy_visible_std,\
+m_max_hidden_mean,m_max_hidden_std,m_max_visible_mean,m_max_visible_std,\
+w_entropy_hidden_mean,w_entropy_hidden_std,w_entropy_visible_mean,w_entropy_visible_std,\
+word_entropy_hidden_mean,word_entropy_hidden_std,word_entropy_visible_mean,word_entropy_visible_std";
+
+/// The figure with the failures' coverage (every report).
+pub const FIG_EXPLORATION: &str = "fig_exploration.png";
+/// The figure with `M`'s entropy while a target is hidden / visible (attention reports only).
+pub const FIG_EXPLORATION_MAPS: &str = "fig_exploration_maps.png";
+
+/// The map columns of one CSV row: the steps, then each measure hidden and visible. A set
+/// without maps (a baseline's, or no episode) leaves all 18 fields empty: its steps were not
+/// split, which is not zero.
+fn map_fields(s: &ExplorationStats) -> String {
+    let Some(m) = &s.maps else {
+        return ",".repeat(17);
+    };
+    let pair =
+        |f: fn(&CellMapStats) -> &MeanStd| format!("{},{}", csv(f(&m.hidden)), csv(f(&m.visible)));
+    format!(
+        "{},{},{},{},{},{}",
+        m.hidden.steps,
+        m.visible.steps,
+        pair(|x| &x.m_entropy),
+        pair(|x| &x.m_max),
+        pair(|x| &x.w_entropy),
+        pair(|x| &x.word_entropy)
+    )
+}
+
+/// A mean with three decimals, `–` when nothing was measured.
+fn mean3(m: &MeanStd) -> String {
+    m.mean.map_or("–".into(), |v| format!("{v:.3}"))
+}
+
+/// Legend labels for the checkpoints: their file names when those are unique (the full
+/// names of run directories make legends wider than a panel), else the names as given.
+fn labels(report: &Report) -> Vec<(String, String)> {
+    let short: Vec<String> = report
+        .checkpoints
+        .iter()
+        .map(|c| {
+            Path::new(&c.name)
+                .file_name()
+                .map_or(c.name.clone(), |f| f.to_string_lossy().into_owned())
+        })
+        .collect();
+    let mut sorted = short.clone();
+    sorted.sort();
+    sorted.dedup();
+    let unique = sorted.len() == short.len();
+    report
+        .checkpoints
+        .iter()
+        .zip(short)
+        .map(|(c, s)| (c.name.clone(), if unique { s } else { c.name.clone() }))
+        .collect()
+}
+
+/// The attention checkpoints' maps while a target is hidden / visible, all episodes.
+fn maps_table(with: &[&Cell], s: &mut String) {
+    let rows: Vec<(&Cell, &super::CellMapSplit)> = with
+        .iter()
+        .filter_map(|c| Some((*c, c.exploration.as_ref()?.all.maps.as_ref()?)))
+        .collect();
+    if rows.is_empty() {
+        return;
+    }
+    let _ = writeln!(
+        s,
+        "\n## The maps while no target is in view (not in the paper)\n"
+    );
+    let _ = writeln!(
+        s,
+        "Normalised entropy of `M` (`H(M) / ln 49`: 1 = uniform), its largest value and the \
+         normalised entropy of the word weights (`H(w) / ln m`), each averaged over the steps \
+         of an episode with no target visible (hidden) and with one (visible), then over \
+         the episodes (all outcomes).\n"
+    );
+    let _ = writeln!(
+        s,
+        "| checkpoint | size | objects | hidden steps | H(M) hidden | H(M) visible | max M hidden | max M visible | H(w) hidden | H(w) visible |"
+    );
+    let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|---|");
+    for (c, m) in rows {
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
+            c.checkpoint,
+            c.size,
+            c.objects,
+            m.hidden.steps,
+            mean3(&m.hidden.m_entropy),
+            mean3(&m.visible.m_entropy),
+            mean3(&m.hidden.m_max),
+            mean3(&m.visible.m_max),
+            mean3(&m.hidden.w_entropy),
+            mean3(&m.visible.w_entropy)
+        );
+    }
+}
+
+impl Report {
+    /// `exploration.csv`: one line per cell and outcome (`all`, `success`, `failure`).
+    pub fn exploration_csv(&self) -> String {
+        let mut s = format!("{EXPLORATION_CSV_HEADER}\n");
+        for c in &self.cells {
+            let Some(x) = &c.exploration else { continue };
+            for (outcome, e) in x.outcomes() {
+                let _ = writeln!(
+                    s,
+                    "{},{},{},{},{outcome},{},{},{},{},{},{},{},{},{},{},{},{}",
+                    c.checkpoint,
+                    c.variant,
+                    c.size,
+                    c.objects,
+                    e.episodes,
+                    csv(&e.steps),
+                    csv(&e.visited),
+                    csv(&e.visited_frac),
+                    csv(&e.seen_frac),
+                    csv(&e.turn_frac),
+                    csv(&e.longest_turn_run),
+                    csv(&e.revisit_frac),
+                    e.never_visible,
+                    e.truncated,
+                    csv(&e.first_visible_step),
+                    map_fields(e)
+                );
+            }
+        }
+        s
+    }
+
+    /// The `report.md` sections: the failures' coverage per cell, one column per checkpoint;
+    /// then, for attention checkpoints, the maps while a target is hidden and visible.
+    pub(crate) fn exploration_tables(&self, s: &mut String) {
+        let with: Vec<&Cell> = self
+            .cells
+            .iter()
+            .filter(|c| c.exploration.is_some())
+            .collect();
+        if with.is_empty() {
+            return;
+        }
+        let _ = writeln!(
+            s,
+            "\n## Exploration of the failed episodes (not in the paper)\n"
+        );
+        let _ = writeln!(
+            s,
+            "Per checkpoint: failed episodes, then their mean share of the room's floor ever \
+             seen / stood on / steps spent turning (mean over the failed episodes; \
+             `exploration.csv` has the std, the successes and more; see docs/exploration.md).\n"
+        );
+        let names: Vec<&str> = self.checkpoints.iter().map(|c| c.name.as_str()).collect();
+        let _ = writeln!(s, "| size | objects | {} |", names.join(" | "));
+        let _ = writeln!(s, "|---|---|{}", "---|".repeat(names.len()));
+        let mut keys: Vec<(usize, usize)> = Vec::new();
+        for c in &with {
+            if !keys.contains(&(c.size, c.objects)) {
+                keys.push((c.size, c.objects));
+            }
+        }
+        for (size, objects) in keys {
+            let cols: Vec<String> = names
+                .iter()
+                .map(|n| {
+                    let x = with
+                        .iter()
+                        .find(|c| c.checkpoint == *n && c.size == size && c.objects == objects)
+                        .and_then(|c| c.exploration.as_ref());
+                    match x {
+                        Some(CellExploration { failure: f, .. }) if f.episodes > 0 => format!(
+                            "{}: {} / {} / {}",
+                            f.episodes,
+                            mean3(&f.seen_frac),
+                            mean3(&f.visited_frac),
+                            mean3(&f.turn_frac)
+                        ),
+                        Some(_) => "0".into(),
+                        None => "–".into(),
+                    }
+                })
+                .collect();
+            let _ = writeln!(s, "| {size} | {objects} | {} |", cols.join(" | "));
+        }
+        maps_table(&with, s);
+    }
+
+    /// Draws the exploration figures into `dir`; returns the names of those written
+    /// ([`FIG_EXPLORATION`] always when any cell has exploration numbers,
+    /// [`FIG_EXPLORATION_MAPS`] when an attention cell has).
+    pub(crate) fn exploration_figures(
+        &self,
+        dir: &Path,
+    ) -> Result<Vec<&'static str>, MetricsError> {
+        let mut written = Vec::new();
+        if !self.cells.iter().any(|c| c.exploration.is_some()) {
+            return Ok(written);
+        }
+        let labels = labels(self);
+        let label = |c: &Cell| {
+            labels
+                .iter()
+                .find(|(n, _)| *n == c.checkpoint)
+                .map_or(c.checkpoint.clone(), |(_, l)| l.clone())
+        };
+        self.figure(
+            &dir.join(FIG_EXPLORATION),
+            "Failed episodes: share of the floor ever seen",
+            &|c| {
+                c.exploration
+                    .as_ref()
+                    .map(|x| vec![(label(c), x.failure.seen_frac)])
+                    .unwrap_or_default()
+            },
+        )?;
+        written.push(FIG_EXPLORATION);
+        let any_maps = self
+            .cells
+            .iter()
+            .any(|c| c.exploration.as_ref().is_some_and(|x| x.all.maps.is_some()));
+        if any_maps {
+            self.figure(
+                &dir.join(FIG_EXPLORATION_MAPS),
+                "H(M) / ln 49 while no target is visible (hidden) and while one is",
+                &|c| {
+                    let Some(m) = c.exploration.as_ref().and_then(|x| x.all.maps.as_ref()) else {
+                        return Vec::new();
+                    };
+                    let l = label(c);
+                    vec![
+                        (format!("{l} hidden"), m.hidden.m_entropy),
+                        (format!("{l} visible"), m.visible.m_entropy),
+                    ]
+                },
+            )?;
+            written.push(FIG_EXPLORATION_MAPS);
+        }
+        Ok(written)
+    }
+}
