@@ -215,6 +215,64 @@ impl Acting for super::onnx::OnnxAgent {
                 self.path.display()
             )));
         }
+        self.act_batch(&[obs], &[direction], &[tokens], None, memory, with_traces)
+    }
+
+    fn zero_memory_batch(&self, batch: usize) -> Result<Memory, PolicyError> {
+        flat_memory_rows(vec![0.0; batch * self.meta.memory_size], batch)
+    }
+
+    fn prepare_batch(&self, _missions: &[&[u32]]) -> Result<Option<MissionInputs>, PolicyError> {
+        Ok(None)
+    }
+
+    fn act_batch(
+        &self,
+        obs: &[Observation],
+        directions: &[u8],
+        missions: &[&[u32]],
+        _prepared: Option<&MissionInputs>,
+        memory: &Memory,
+        with_traces: bool,
+    ) -> Result<ActOutput, PolicyError> {
+        let mem = memory.h.flatten_all()?.to_vec1::<f32>()?;
+        let step = self.step(obs, directions, missions, &mem)?;
+        let traces = match (&step.maps, with_traces) {
+            (Some(maps), true) => Some(
+                missions
+                    .iter()
+                    .zip(maps)
+                    .map(|(t, m)| super::onnx::trace(t, m))
+                    .collect::<Result<Vec<_>, _>>()?,
+            ),
+            _ => None,
+        };
+        let logits = step.logits;
+        Ok(ActOutput {
+            probs: logits.iter().map(|l| softmax(l)).collect(),
+            logits,
+            values: step.values,
+            memory: flat_memory_rows(step.memory, obs.len())?,
+            traces,
+        })
+    }
+
+    fn act_one(
+        &self,
+        obs: Observation,
+        direction: u8,
+        tokens: &[u32],
+        _prepared: Option<&MissionInputs>,
+        memory: &Memory,
+        with_traces: bool,
+        intervention: Option<&Intervention>,
+    ) -> Result<ActOutput, PolicyError> {
+        if intervention.is_some() {
+            return Err(PolicyError::Input(format!(
+                "{}: interventions on the attention need a graph that takes the map as an input, which contract 1 does not define",
+                self.path.display()
+            )));
+        }
         let mem = memory.h.flatten_all()?.to_vec1::<f32>()?;
         let step = self.step(&[obs], &[direction], &[tokens], &mem)?;
         let traces = match (&step.maps, with_traces) {

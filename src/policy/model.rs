@@ -134,11 +134,12 @@ impl Net {
         let (k, ks) = (self.cfg.conv_channels, self.cfg.conv_kernel);
         let w = self.p("encoder.conv.weight")?.reshape((k, patch_len(ks)))?;
         let b = self.p("encoder.conv.bias")?;
-        let codes = match self.cfg.colour_codes {
-            ColourCodes::All => std::borrow::Cow::Borrowed(codes),
-            ColourCodes::Objects => std::borrow::Cow::Owned(codes.encoded(ColourCodes::Objects)),
-        };
-        Ok(super::fused_conv::conv_codes(&codes, ks, &w, b)?)
+        Ok(super::fused_conv::conv_codes(
+            &self.read_codes(codes),
+            ks,
+            &w,
+            b,
+        )?)
     }
 
     /// The split keys' features `Õ_key = ReLU(Conv_key(O))` (B, 49, K) of a model with
@@ -153,11 +154,20 @@ impl Net {
             .p("encoder.key_conv.weight")?
             .reshape((k, patch_len(ks)))?;
         let b = self.p("encoder.key_conv.bias")?;
-        let codes = match self.cfg.colour_codes {
+        Ok(Some(super::fused_conv::conv_codes(
+            &self.read_codes(codes),
+            ks,
+            &w,
+            b,
+        )?))
+    }
+
+    /// The codes as the model's `colour_codes` reads them ([`CellCodes::encoded`]).
+    fn read_codes<'a>(&self, codes: &'a CellCodes) -> std::borrow::Cow<'a, CellCodes> {
+        match self.cfg.colour_codes {
             ColourCodes::All => std::borrow::Cow::Borrowed(codes),
             ColourCodes::Objects => std::borrow::Cow::Owned(codes.encoded(ColourCodes::Objects)),
-        };
-        Ok(Some(super::fused_conv::conv_codes(&codes, ks, &w, b)?))
+        }
     }
 
     /// [`Self::cells`] as a dense GEMM over the im2col patches (B·49, patch) of
