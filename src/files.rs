@@ -86,6 +86,25 @@ pub fn sync_dir(dir: &Path) -> std::io::Result<()> {
     }
 }
 
+/// A hidden temporary file in `dir` (`.groundscope-*.tmp`) for an output being written. Its
+/// creation error is the system's reason alone: `tempfile` adds the temporary's own name,
+/// which the user never gave (the caller names the output's path).
+pub fn temp_file_in(dir: &Path) -> std::io::Result<tempfile::NamedTempFile> {
+    tempfile::Builder::new()
+        .prefix(".groundscope-")
+        .suffix(".tmp")
+        .tempfile_in(dir)
+        .map_err(|e| {
+            // tempfile's error reads "<system's reason> at path \"<temporary>\"" and keeps no
+            // other handle on the reason, so the suffix is cut from the text.
+            let text = e.to_string();
+            match text.rfind(" at path ") {
+                Some(i) => std::io::Error::new(e.kind(), text[..i].to_owned()),
+                None => e,
+            }
+        })
+}
+
 /// Writes `bytes` to `path` as the module doc says: atomically and durably for regular files,
 /// in place for special files. On error nothing new is left beside `path`.
 pub fn write_output(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
@@ -97,10 +116,7 @@ pub fn write_output(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
         }
         OutputKind::Replace(p) => {
             let dir = parent_dir(&p);
-            let mut tmp = tempfile::Builder::new()
-                .prefix(".groundscope-")
-                .suffix(".tmp")
-                .tempfile_in(dir)?;
+            let mut tmp = temp_file_in(dir)?;
             tmp.write_all(bytes)?;
             tmp.as_file().sync_all()?;
             make_shareable(tmp.path())?;
@@ -122,6 +138,16 @@ pub fn commit_temp(tmp: tempfile::TempPath, dest: &Path) -> std::io::Result<()> 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_missing_directory_is_reported_without_the_temporary_name() {
+        let dir = tempfile::tempdir().unwrap();
+        let e = write_output(&dir.path().join("nodir/t.json"), b"{}")
+            .unwrap_err()
+            .to_string();
+        assert!(!e.contains(".groundscope-"), "{e}");
+        assert!(e.contains("No such file or directory"), "{e}");
+    }
 
     #[test]
     fn regular_files_are_replaced_and_symlinks_kept() {

@@ -157,11 +157,7 @@ fn save_pair(st: &Path, js: &Path, weights: &[u8], json: &[u8]) -> Result<(), Po
     }
     let dir = crate::files::parent_dir(st);
     let temp = |path: &Path, bytes: &[u8]| -> Result<tempfile::TempPath, PolicyError> {
-        let mut f = tempfile::Builder::new()
-            .prefix(".groundscope-")
-            .suffix(".tmp")
-            .tempfile_in(dir)
-            .map_err(|e| io_err(path, e))?;
+        let mut f = crate::files::temp_file_in(dir).map_err(|e| io_err(path, e))?;
         f.write_all(bytes).map_err(|e| io_err(path, e))?;
         f.as_file().sync_all().map_err(|e| io_err(path, e))?;
         crate::files::make_shareable(f.path()).map_err(|e| io_err(path, e))?;
