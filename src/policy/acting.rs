@@ -254,7 +254,7 @@ impl Agent {
     pub fn level(&self) -> crate::env::LevelConfig {
         match self {
             Self::Native(ckpt, _) => ckpt.meta.level,
-            Self::Onnx(a) => onnx_level(a),
+            Self::Onnx(a) => a.meta.level,
         }
     }
 
@@ -281,16 +281,6 @@ impl Agent {
             Self::Onnx(_) => None,
         }
     }
-}
-
-#[cfg(feature = "onnx")]
-fn onnx_level(a: &super::onnx::OnnxAgent) -> crate::env::LevelConfig {
-    a.meta.level
-}
-
-#[cfg(not(feature = "onnx"))]
-fn onnx_level(a: &super::onnx::OnnxAgent) -> crate::env::LevelConfig {
-    a.meta.level
 }
 
 #[cfg(not(feature = "onnx"))]

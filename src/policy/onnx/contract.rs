@@ -113,15 +113,17 @@ pub fn meta(props: &Props, fallback_name: &str) -> Result<Meta, PolicyError> {
     })
 }
 
-/// Words groundscope's missions use (every vocabulary word but padding and the location
-/// phrases BabyAI's `PickupLoc` adds, which these levels never generate).
+/// Words groundscope's missions use: every vocabulary word but padding, BabyAI's "object" and
+/// the location phrases of its `PickupLoc`, which these levels never generate.
 pub fn mission_words() -> impl Iterator<Item = (u32, &'static str)> {
-    const LOCATIONS: [&str; 8] = ["in", "front", "of", "you", "behind", "on", "your", "left"];
+    const NEVER: [&str; 10] = [
+        "object", "in", "front", "of", "you", "behind", "on", "your", "left", "right",
+    ];
     VOCABULARY
         .iter()
         .enumerate()
         .skip(1)
-        .filter(|(_, w)| !LOCATIONS.contains(w) && **w != "right" && **w != "object")
+        .filter(|(_, w)| !NEVER.contains(w))
         .map(|(i, w)| (i as u32, *w))
 }
 
