@@ -25,7 +25,8 @@ The network, step by step (DESIGN.md §1):
 3. ``Q = g̃ W_qᵀ``, ``Kc = Õ_key W_kᵀ`` (no biases), with ``Õ_key = ReLU(Conv_key(codes))``
    when ``key_kernel`` is set (``encoder.key_conv.*``), else ``Õ`` itself;
 4. ``A = softmax(Q Kcᵀ / √d_k)`` over the 49 cells; ``H = −Σ A ln max(A, 1e-30)``;
-   ``w = softmax(−H / T)`` (T = ``word_temperature``, default 1); ``M = Σ_i w_i A_i``;
+   ``w = softmax(−H / T)`` (T = ``word_temperature``, default 1; over the object and colour
+   words only with ``attend_words = content``); ``M = Σ_i w_i A_i``;
 5. ``F = s · M ⊙ Õ`` (s = ``filter_scale``, default 49), flattened cell-major then channel;
    the baseline variant skips 3–5 and passes ``Õ`` flattened;
 6. an LSTM cell (PyTorch's equations, gates i, f, g, o) over ``F``; a GRU (gates r, z, n)
@@ -64,7 +65,11 @@ DEFAULTS = {
     "colour_codes": "all",
     "word_temperature": 1.0,
     "key_kernel": None,
+    "attend_words": "all",
 }
+# Token ids of the object and colour words (src/env/vocab.rs): ball, box, key = 7–9; red …
+# grey = 11–16. attend_words = content weighs only these (src/policy/config.rs, AttendWords).
+CONTENT_IDS = ((7, 9), (11, 16))
 
 
 def load_native(checkpoint: str | Path) -> tuple[dict, dict[str, torch.Tensor]]:
@@ -199,7 +204,15 @@ class GroundscopeNet(nn.Module):
             a = torch.softmax(torch.matmul(q, kc.transpose(1, 2)) / math.sqrt(d_k), dim=-1)
             h = -(a * torch.log(torch.clamp(a, TINY, 1.0))).sum(-1)  # (B, L)
             t = float(self.cfg["word_temperature"])
-            w = torch.softmax(-h if t == 1.0 else -h / t, dim=-1)  # (B, L)
+            neg_h = -h if t == 1.0 else -h / t
+            if self.cfg["attend_words"] == "content":
+                keep = torch.zeros_like(mission, dtype=torch.bool)
+                for lo, hi in CONTENT_IDS:
+                    keep = keep | ((mission >= lo) & (mission <= hi))
+                # A mission without a content word keeps every word, as in Rust.
+                keep = keep | ~keep.any(dim=-1, keepdim=True)
+                neg_h = neg_h.masked_fill(~keep, -1e9)
+            w = torch.softmax(neg_h, dim=-1)  # (B, L)
             m = torch.matmul(w.unsqueeze(1), a).squeeze(1)  # (B, 49)
             x = o * (m * float(self.cfg["filter_scale"])).unsqueeze(2)  # (B, 49, K)
             maps = (a, w, m)

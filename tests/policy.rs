@@ -14,7 +14,7 @@ use groundscope::episode::{ActionMode, EpisodeSpec, run_episode};
 use groundscope::policy::model::TRANSPOSED;
 use groundscope::policy::obs::{CellCodes, TokenBatch};
 use groundscope::policy::{
-    Checkpoint, ColourCodes, Memory, ModelConfig, Net, Params, TrainingState, Variant,
+    AttendWords, Checkpoint, ColourCodes, Memory, ModelConfig, Net, Params, TrainingState, Variant,
     WordTemperature, act,
 };
 
@@ -27,6 +27,7 @@ fn tiny(variant: Variant) -> ModelConfig {
         colour_codes: ColourCodes::All,
         word_temperature: WordTemperature::PAPER,
         key_kernel: None,
+        attend_words: AttendWords::All,
         word_dim: 4,
         key_dim: 4,
         lstm_hidden: 5,

@@ -3,7 +3,7 @@
 //! and `--init` like the others.
 
 use clap::Args;
-use groundscope::policy::{ColourCodes, ModelConfig, WordTemperature};
+use groundscope::policy::{AttendWords, ColourCodes, ModelConfig, WordTemperature};
 
 /// Model options (defaults: the paper's network as DESIGN.md describes it).
 #[derive(Args, Clone, Debug)]
@@ -31,6 +31,11 @@ pub struct ModelOptions {
     /// features that carry the neighbours). Attention model only.
     #[arg(long, default_value = "shared")]
     pub key_kernel: String,
+    /// Which mission words the attention weighs in w, M and the filter: all (the paper's) or
+    /// content (the object and colour words only; every word still gets its map). Attention
+    /// model only.
+    #[arg(long, default_value = "all")]
+    pub attend_words: String,
 }
 
 /// Parses `--key-kernel`: `shared` or a kernel side (checked by [`ModelConfig::validate`]).
@@ -57,13 +62,14 @@ impl ModelOptions {
             colour_codes: ColourCodes::parse(&self.colour_codes)?,
             word_temperature: WordTemperature(self.word_temperature),
             key_kernel: parse_key_kernel(&self.key_kernel)?,
+            attend_words: AttendWords::parse(&self.attend_words)?,
             ..cfg
         })
     }
 
     /// Each option as `(clap id, the value given, the value in cfg)`, for comparing a command
     /// line with a checkpoint.
-    pub fn against(&self, cfg: &ModelConfig) -> [(&'static str, String, String); 5] {
+    pub fn against(&self, cfg: &ModelConfig) -> [(&'static str, String, String); 6] {
         [
             (
                 "conv_kernel",
@@ -90,6 +96,11 @@ impl ModelOptions {
                 parse_key_kernel(&self.key_kernel)
                     .map_or_else(|_| self.key_kernel.clone(), key_kernel_name),
                 key_kernel_name(cfg.key_kernel),
+            ),
+            (
+                "attend_words",
+                self.attend_words.clone(),
+                cfg.attend_words.name().to_owned(),
             ),
         ]
     }

@@ -74,6 +74,72 @@ impl ColourCodes {
     }
 }
 
+/// Which mission words the attention weighs: every word gets a map either way, and the GRU
+/// reads the whole mission; this decides which maps enter `w`, `M` and the filter.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum AttendWords {
+    /// Every word of the mission (the paper's eqs. 5–6, the default).
+    #[default]
+    All,
+    /// The object and colour words only ([`is_content_word`]), so `M` is made of the maps of
+    /// the words that name the target (the big-room study's part 3). A mission without such
+    /// a word keeps all its words.
+    Content,
+}
+
+impl AttendWords {
+    /// The lowercase name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::All => "all",
+            Self::Content => "content",
+        }
+    }
+
+    /// Parses `all` or `content`, naming the setting otherwise.
+    pub fn parse(s: &str) -> Result<Self, super::PolicyError> {
+        match s {
+            "all" => Ok(Self::All),
+            "content" => Ok(Self::Content),
+            _ => Err(super::PolicyError::Input(format!(
+                "model setting attend_words = {s} must be all or content"
+            ))),
+        }
+    }
+
+    /// Whether it is the default (checkpoints leave the default out).
+    #[expect(
+        clippy::trivially_copy_pass_by_ref,
+        reason = "serde's skip_serializing_if passes a reference"
+    )]
+    fn is_all(&self) -> bool {
+        *self == Self::All
+    }
+
+    /// The attention's word mask of one mission: 1 for each word it weighs, 0 for the rest
+    /// (the padding's 0s are the caller's).
+    pub fn mask(self, tokens: &[u32]) -> Vec<f32> {
+        let content = |t: &u32| is_content_word(*t);
+        match self {
+            Self::Content if tokens.iter().any(content) => tokens
+                .iter()
+                .map(|t| f32::from(u8::from(content(t))))
+                .collect(),
+            _ => vec![1.0; tokens.len()],
+        }
+    }
+}
+
+/// Whether token `id` names an object type or a colour: the nine words the grounding metrics
+/// score (key, ball, box and the six colours).
+pub fn is_content_word(id: u32) -> bool {
+    matches!(
+        crate::env::vocab::word(id),
+        Some("key" | "ball" | "box" | "red" | "green" | "blue" | "purple" | "yellow" | "grey")
+    )
+}
+
 /// The word weights' temperature `T` in `w = softmax(−H / T)`: 1 is the paper's eq. 5; a
 /// larger `T` weighs the words more evenly, so a flat map keeps some weight in `M` (and some
 /// gradient). Compared and hashed by its bits; [`ModelConfig::validate`] keeps it finite and
@@ -145,6 +211,9 @@ pub struct ModelConfig {
     /// The word weights' temperature ([`WordTemperature`]). Written only when not 1.
     #[serde(default, skip_serializing_if = "WordTemperature::is_paper")]
     pub word_temperature: WordTemperature,
+    /// Which words the attention weighs ([`AttendWords`]). Written only when not `all`.
+    #[serde(default, skip_serializing_if = "AttendWords::is_all")]
+    pub attend_words: AttendWords,
     /// Where the attention's keys come from: `None` (the paper's, and the default) from `Õ`,
     /// the same features the filter passes; `Some(side)` from a second encoder of their own
     /// with that kernel side (1 or 3, K channels, `encoder.key_conv.*`), so the maps can be
@@ -175,6 +244,7 @@ impl ModelConfig {
             colour_codes: ColourCodes::All,
             word_temperature: WordTemperature::PAPER,
             key_kernel: None,
+            attend_words: AttendWords::All,
             word_dim: 32,
             key_dim: 32,
             lstm_hidden: 128,
@@ -250,6 +320,11 @@ impl ModelConfig {
                     "model setting key_kernel is for the attention model only".into(),
                 ));
             }
+        }
+        if self.attend_words != AttendWords::All && !self.has_attention() {
+            return Err(super::PolicyError::Input(
+                "model setting attend_words is for the attention model only".into(),
+            ));
         }
         if !Self::KERNELS.contains(&self.conv_kernel) {
             return Err(super::PolicyError::Input(format!(
@@ -419,5 +494,45 @@ mod tests {
                 assert!(e.to_string().contains("conv_kernel"), "{e}");
             }
         }
+    }
+
+    #[test]
+    fn content_words_mask_the_function_words_and_are_written_only_when_set() {
+        use crate::env::vocab::tokenize;
+        let all = ModelConfig::new(Variant::Attention);
+        let content = ModelConfig {
+            attend_words: AttendWords::Content,
+            ..all
+        };
+        assert!(
+            !serde_json::to_string(&all)
+                .unwrap()
+                .contains("attend_words")
+        );
+        let json = serde_json::to_string(&content).unwrap();
+        assert!(json.contains("\"attend_words\":\"content\""), "{json}");
+        assert_eq!(serde_json::from_str::<ModelConfig>(&json).unwrap(), content);
+        let go = tokenize("go to the red ball").unwrap();
+        assert_eq!(AttendWords::Content.mask(&go), [0.0, 0.0, 0.0, 1.0, 1.0]);
+        assert_eq!(AttendWords::All.mask(&go), [1.0; 5]);
+        let pick = tokenize("pick up a key").unwrap();
+        assert_eq!(AttendWords::Content.mask(&pick), [0.0, 0.0, 0.0, 1.0]);
+        // No content word: every word is kept rather than none.
+        let bare = tokenize("go to the object").unwrap();
+        assert_eq!(AttendWords::Content.mask(&bare), [1.0; 4]);
+        assert!(
+            AttendWords::parse("some")
+                .unwrap_err()
+                .to_string()
+                .contains("attend_words")
+        );
+        let e = ModelConfig {
+            attend_words: AttendWords::Content,
+            ..ModelConfig::new(Variant::Baseline)
+        }
+        .validate()
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("attend_words"), "{e}");
     }
 }

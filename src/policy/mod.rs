@@ -28,7 +28,7 @@ use candle_core::{Device, Tensor};
 pub use acting::{Acting, Agent};
 pub use attention::Intervention;
 pub use checkpoint::{Checkpoint, CheckpointMeta, TrainingState, checkpoint_paths};
-pub use config::{ColourCodes, ModelConfig, Variant, WordTemperature};
+pub use config::{AttendWords, ColourCodes, ModelConfig, Variant, WordTemperature};
 pub use error::PolicyError;
 pub use model::{Memory, MissionInputs, Net};
 pub use obs::TokenBatch;

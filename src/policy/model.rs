@@ -12,7 +12,7 @@ use std::collections::BTreeMap;
 use candle_core::{D, DType, Device, Tensor};
 
 use super::attention::{AttentionOut, Intervention, attend_with};
-use super::config::{ColourCodes, ModelConfig};
+use super::config::{AttendWords, ColourCodes, ModelConfig};
 use super::error::PolicyError;
 use super::fused_act;
 use super::obs::{CellCodes, N_CELLS, TokenBatch, patch_len};
@@ -322,12 +322,26 @@ impl Net {
             let wk = self.p("attention.k.weight")?;
             let qk = super::attention::keyed_queries(&self.queries(&emb)?, wk)?
                 .index_select(&tb.index, 0)?;
-            let mask = tb.mask.index_select(&tb.index, 0)?;
+            let mask = self.attention_mask(tb)?.index_select(&tb.index, 0)?;
             Some((qk, mask))
         } else {
             None
         };
         Ok(MissionInputs { text, queries })
+    }
+
+    /// The attention's word mask (U, L) of the distinct missions: the padding mask, with the
+    /// words [`ModelConfig::attend_words`] leaves out set to 0 as well.
+    fn attention_mask(&self, tb: &TokenBatch) -> Result<Tensor, PolicyError> {
+        if self.cfg.attend_words == AttendWords::All {
+            return Ok(tb.mask.clone());
+        }
+        let (u, l) = tb.mask.dims2()?;
+        let mut mask = vec![0f32; u * l];
+        for (row, d) in mask.chunks_mut(l).zip(&tb.distinct) {
+            row[..d.len()].copy_from_slice(&self.cfg.attend_words.mask(d));
+        }
+        Ok(Tensor::from_vec(mask, (u, l), tb.mask.device())?)
     }
 
     /// The LSTM input projection for all frames at once: `x W_ihᵀ + b_ih`, (B, 4H).
@@ -382,7 +396,7 @@ impl Net {
         let text = self.encode_text(tb, &emb)?.index_select(&tb.index, 0)?;
         let queries = if self.cfg.has_attention() {
             let q = self.queries(&emb)?.index_select(&tb.index, 0)?;
-            let mask = tb.mask.index_select(&tb.index, 0)?;
+            let mask = self.attention_mask(tb)?.index_select(&tb.index, 0)?;
             Some((q, mask))
         } else {
             None
