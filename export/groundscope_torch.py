@@ -187,6 +187,19 @@ class GroundscopeNet(nn.Module):
         return net.eval(), meta
 
     def forward(self, image: torch.Tensor, mission: torch.Tensor, memory: torch.Tensor):
+        return self.step(image, mission, memory)
+
+    def step(
+        self,
+        image: torch.Tensor,
+        mission: torch.Tensor,
+        memory: torch.Tensor,
+        combined_override: torch.Tensor | None = None,
+        override_weight: torch.Tensor | None = None,
+    ):
+        """:meth:`forward`, with the contract's optional intervention inputs: ``M`` becomes
+        ``(1 − α)·M + α·combined_override`` (α = ``override_weight``, (B,); the map (B, 7, 7)
+        in the image layout ``[vx][vy]``) before the filter; the outputs show that ``M``."""
         b = image.shape[0]
         codes = self.cells(image)  # (B, 20, vy, vx)
         o = F.relu(self.conv(codes))  # (B, K, vy, vx)
@@ -214,6 +227,10 @@ class GroundscopeNet(nn.Module):
                 neg_h = neg_h.masked_fill(~keep, -1e9)
             w = torch.softmax(neg_h, dim=-1)  # (B, L)
             m = torch.matmul(w.unsqueeze(1), a).squeeze(1)  # (B, 49)
+            if combined_override is not None and override_weight is not None:
+                alpha = override_weight.unsqueeze(1)  # (B, 1)
+                given = combined_override.transpose(1, 2).reshape(b, N_CELLS)  # → [vy][vx]
+                m = (1.0 - alpha) * m + alpha * given
             x = o * (m * float(self.cfg["filter_scale"])).unsqueeze(2)  # (B, 49, K)
             maps = (a, w, m)
         else:
@@ -237,6 +254,30 @@ class GroundscopeNet(nn.Module):
         word_maps = a.reshape(b, l, VIEW, VIEW).transpose(2, 3)
         combined = m.reshape(b, VIEW, VIEW).transpose(1, 2)
         return logits, value, memory_out, word_maps, w, combined
+
+
+class WithOverrides(nn.Module):
+    """A :class:`GroundscopeNet` that also takes the contract's intervention inputs
+    ``combined_override`` and ``override_weight`` (docs/onnx.md#interventions), so that
+    groundscope can set ``M`` (faithfulness interventions, closed-loop probes)."""
+
+    def __init__(self, net: GroundscopeNet):
+        super().__init__()
+        if not net.attention:
+            raise ValueError("only a model with maps can take combined_override")
+        self.net = net
+        self.attention = True
+        self.memory_size = net.memory_size
+
+    def forward(
+        self,
+        image: torch.Tensor,
+        mission: torch.Tensor,
+        memory: torch.Tensor,
+        combined_override: torch.Tensor,
+        override_weight: torch.Tensor,
+    ):
+        return self.net.step(image, mission, memory, combined_override, override_weight)
 
 
 def output_names(net: GroundscopeNet) -> list[str]:

@@ -27,7 +27,7 @@ import torch
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import onnx_contract as oc  # noqa: E402
-from groundscope_torch import GroundscopeNet, output_names, tokenize  # noqa: E402
+from groundscope_torch import GroundscopeNet, WithOverrides, output_names, tokenize  # noqa: E402
 
 
 def check_traces(path: Path, traces: list[str], vocabulary: list[str]) -> dict[str, float]:
@@ -51,6 +51,9 @@ def check_traces(path: Path, traces: list[str], vocabulary: list[str]) -> dict[s
                 "image": np.array([step["obs"]], dtype=img_dtype),
                 "mission": mission,
                 "memory": memory,
+                # The intervention inputs, where the graph takes them, left at "no change".
+                "combined_override": np.zeros((1, 7, 7), dtype=np.float32),
+                "override_weight": np.zeros((1,), dtype=np.float32),
             }
             out = dict(zip(names, session.run(None, {k: feeds[k] for k in dtypes})))
             logits = out["logits"][0].astype(np.float64)
@@ -95,6 +98,12 @@ def main() -> int:
         metavar="TRACE",
         help="groundscope replay traces of this checkpoint to replay through the ONNX file",
     )
+    ap.add_argument(
+        "--no-overrides",
+        action="store_true",
+        help="leave out the intervention inputs combined_override and override_weight "
+        "(an attention model takes them by default; docs/onnx.md#interventions)",
+    )
     ap.add_argument("--tolerance", type=float, default=1e-5)
     args = ap.parse_args()
 
@@ -104,7 +113,11 @@ def main() -> int:
     image_dtype = np.int64 if args.image_dtype == "int64" else np.float32
     rng = np.random.default_rng(0)
     example = oc.random_feeds(rng, 2, 5, vocabulary, net.memory_size, image_dtype)
-    example = {k: torch.from_numpy(example[k]) for k in ("image", "mission", "memory")}
+    inputs = ["image", "mission", "memory"]
+    if net.attention and not args.no_overrides:
+        net = WithOverrides(net)
+        inputs += ["combined_override", "override_weight"]
+    example = {k: torch.from_numpy(example[k]) for k in inputs}
     name = args.name or Path(args.checkpoint).name
     props = oc.metadata(vocabulary, net.memory_size, meta["level"], "image", name)
     oc.export(net, example, output_names(net), args.out, props, "groundscope native_to_onnx.py")

@@ -18,7 +18,7 @@ CONTRACT = "1"
 OPSET = 17
 PREFIX = "groundscope."
 # Inputs the contract names (``direction`` is optional) and the outputs it requires / shows.
-INPUTS = ("image", "direction", "mission", "memory")
+INPUTS = ("image", "direction", "mission", "memory", "combined_override", "override_weight")
 REQUIRED_INPUTS = ("image", "mission", "memory")
 REQUIRED_OUTPUTS = ("logits", "value", "memory_out")
 OPTIONAL_OUTPUTS = ("word_maps", "word_weights", "combined_map")
@@ -29,6 +29,8 @@ DYNAMIC_AXES = {
     "direction": {0: "batch"},
     "mission": {0: "batch", 1: "words"},
     "memory": {0: "batch"},
+    "combined_override": {0: "batch"},
+    "override_weight": {0: "batch"},
     "logits": {0: "batch"},
     "value": {0: "batch"},
     "memory_out": {0: "batch"},
@@ -172,6 +174,11 @@ def random_feeds(
         "direction": rng.integers(0, 4, size=batch).astype(np.int64),
         "mission": rng.choice(ids, size=(batch, words)).astype(np.int64),
         "memory": (0.5 * rng.standard_normal((batch, memory_size))).astype(np.float32),
+        # Maps that sum to 1, and a mix of rows left alone (0), set (1) and blended.
+        "combined_override": (lambda m: (m / m.sum(axis=(1, 2), keepdims=True)).astype(np.float32))(
+            rng.random((batch, 7, 7))
+        ),
+        "override_weight": rng.choice([0.0, 1.0, 0.5], size=batch).astype(np.float32),
     }
 
 

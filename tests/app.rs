@@ -124,9 +124,19 @@ fn bad_view_arguments_are_one_line_errors() {
 
 /// The debugger as `groundscope view --seed 3 --step STEP` opens it, in egui's test harness.
 fn debugger(step: usize, faithfulness: bool) -> Harness<'static, Debugger> {
+    debugger_of("bundled:attention", None, step, faithfulness)
+}
+
+/// [`debugger`] for `checkpoint` (and `compare`, side by side).
+fn debugger_of(
+    checkpoint: &str,
+    compare: Option<&str>,
+    step: usize,
+    faithfulness: bool,
+) -> Harness<'static, Debugger> {
     let opts = StartOptions {
-        checkpoint: "bundled:attention".into(),
-        compare: None,
+        checkpoint: checkpoint.into(),
+        compare: compare.map(str::to_owned),
         level: None,
         seed: 3,
         sample: false,
@@ -149,7 +159,8 @@ fn debugger(step: usize, faithfulness: bool) -> Harness<'static, Debugger> {
 fn show_until(h: &mut Harness<'_, Debugger>, text: &str) {
     common::wait_until(&format!("a label with {text:?}"), || {
         h.step();
-        h.query_by_label_contains(text).is_some()
+        // Compare mode shows a second policy panel: any match will do.
+        h.query_all_by_label_contains(text).next().is_some()
     });
 }
 
@@ -157,7 +168,7 @@ fn show_until(h: &mut Harness<'_, Debugger>, text: &str) {
 fn episode() -> (Agent, Shown) {
     let agent = Agent::load("bundled:attention").unwrap();
     let request = Request {
-        level: agent.ckpt.meta.level,
+        level: agent.level(),
         seed: 3,
         mode: ActionMode::Greedy,
         mission: None,
@@ -233,7 +244,7 @@ const FAITHFULNESS_BOX: &str = "faithfulness: does this step's behaviour depend 
 #[test]
 fn the_faithfulness_box_adds_this_steps_occlusion_map() {
     let (agent, shown) = episode();
-    let f = annotate_step(&agent.net, &shown.trace, 1).unwrap();
+    let f = annotate_step(agent.acting(), &shown.trace, 1).unwrap();
     let rho = match f.rank_correlation {
         Some(r) => format!("Spearman ρ(M, Δ) = {r:.3}"),
         None => "ρ(M, Δ): undefined (M or Δ constant)".to_owned(),
@@ -260,4 +271,75 @@ fn the_faithfulness_box_adds_this_steps_occlusion_map() {
     show_until(&mut h, "step 1 of ");
     h.get_by_label("occlusion Δ");
     h.get_by_label(&rho);
+}
+
+fn onnx_fixture(name: &str) -> String {
+    format!("{}/tests/fixtures/onnx/{name}", env!("CARGO_MANIFEST_DIR"))
+}
+
+#[test]
+fn an_onnx_graph_without_maps_opens_with_its_occlusion_saliency_in_their_place() {
+    let acmodel = onnx_fixture("acmodel.onnx");
+    let agent = Agent::load(&acmodel).unwrap();
+    let request = Request {
+        level: agent.level(),
+        seed: 3,
+        mode: ActionMode::Greedy,
+        mission: None,
+    };
+    let shown = run_request(&agent, &request, 0.5).unwrap();
+    assert!(shown.trace.steps.iter().all(|s| s.attention.is_none()));
+    let k = 1.min(shown.len() - 1);
+    let f = annotate_step(agent.acting(), &shown.trace, k).unwrap();
+    let mut h = debugger_of(&acmodel, Some("bundled:attention"), k, false);
+    show_until(&mut h, &format!("step {k} of "));
+    for label in policy_labels(&shown, k) {
+        assert!(h.query_all_by_label(&label).next().is_some(), "{label}");
+    }
+    // No checkbox to tick: the occlusion map is there, with this step's scale, and no probe
+    // that would need M.
+    assert!(h.query_by_label(FAITHFULNESS_BOX).is_none());
+    h.get_by_label_contains("no attention maps: the occlusion saliency below");
+    show_until(&mut h, "occlusion Δ");
+    let hi = f.occlusion.iter().flatten().fold(1e-6f32, |a, b| a.max(*b));
+    h.get_by_label(&format!("scale 0–{hi:.3}"));
+    assert!(h.query_by_label("M uniform").is_none());
+    // The native model beside it.
+    h.get_by_label_contains("compare: bundled:attention");
+}
+
+#[test]
+fn screenshot_of_an_onnx_graph_beside_a_native_checkpoint() {
+    let dir = tempfile::tempdir().unwrap();
+    let shot = dir.path().join("onnx.png");
+    let o = xvfb_screenshot(&[
+        "view",
+        "--checkpoint",
+        &onnx_fixture("bundled_attention.onnx"),
+        "--compare",
+        "bundled:attention",
+        "--screenshot",
+        shot.to_str().unwrap(),
+        "--seed",
+        "3",
+        "--step",
+        "2",
+        "--size",
+        "1200x800",
+    ]);
+    assert!(
+        o.status.success(),
+        "stdout: {}\nstderr: {}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let img = image::open(&shot).unwrap().to_rgb8();
+    assert_eq!(img.dimensions(), (1200, 800));
+    // The exported graph's word maps are drawn in the central panel.
+    let (x0, x1, y0, y1) = (350, 890, 370, 500);
+    let first = *img.get_pixel(x0, y0);
+    assert!(
+        (x0..x1).any(|x| (y0..y1).any(|y| *img.get_pixel(x, y) != first)),
+        "the row of word maps is a flat colour"
+    );
 }

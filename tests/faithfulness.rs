@@ -94,7 +94,8 @@ fn occlusion_is_zero_where_nothing_is_replaced_and_annotation_is_deterministic()
     let step = &trace.steps[0];
     let mem = Memory::zeros(1, net.cfg.lstm_hidden).unwrap();
     let input = StepInput {
-        net: &net,
+        agent: &net,
+        direction: step.world.agent_dir,
         tokens: &trace.tokens,
         memory: &mem,
         obs: step.obs,

@@ -71,7 +71,7 @@ fn the_bundled_model_through_onnx_acts_and_attends_as_the_native_one() {
             let native =
                 policy::act_episode(&net, obs, &tokens, &mission, &memory, true, None).unwrap();
             let theirs = onnx
-                .step(&[obs], &[world.agent_dir], &[&tokens], &onnx_memory)
+                .step(&[obs], &[world.agent_dir], &[&tokens], &onnx_memory, None)
                 .unwrap();
             let (a, b) = (&native.logits[0], &theirs.logits[0]);
             worst_logit = worst_logit.max(max_diff(a, b));
@@ -132,6 +132,7 @@ fn broken_graphs_are_refused_naming_what_is_wrong() {
             &[world.agent_dir],
             &[&tokens],
             &vec![0.0; m],
+            None,
         )
         .unwrap_err()
         .to_string();
@@ -157,13 +158,19 @@ fn foreign_architectures_load_and_step_in_batches_of_mixed_mission_lengths() {
         assert_eq!(agent.has_maps(), maps, "{file}");
         let m = agent.meta.memory_size;
         let batch = agent
-            .step(&obs, &dirs, &missions, &vec![0.0; 6 * m])
+            .step(&obs, &dirs, &missions, &vec![0.0; 6 * m], None)
             .unwrap();
         // Each row as its own batch gives the same numbers: rows are not mixed up when
         // missions of different lengths are grouped.
         for r in 0..6 {
             let one = agent
-                .step(&obs[r..=r], &dirs[r..=r], &missions[r..=r], &vec![0.0; m])
+                .step(
+                    &obs[r..=r],
+                    &dirs[r..=r],
+                    &missions[r..=r],
+                    &vec![0.0; m],
+                    None,
+                )
                 .unwrap();
             assert!(
                 max_diff(&one.logits[0], &batch.logits[r]) < 1e-5,

@@ -33,7 +33,7 @@ impl FaithfulnessView {
     ) -> Option<Loop> {
         if self.key != Some((generation, k)) {
             let t0 = Instant::now();
-            let r = crate::metrics::faithfulness::annotate_step(&agent.net, &shown.trace, k)
+            let r = crate::metrics::faithfulness::annotate_step(agent.acting(), &shown.trace, k)
                 .map_err(|e| e.to_string());
             let ms = t0.elapsed().as_secs_f64() * 1000.0;
             self.result = Some(r.map(|f| (f, ms)));
@@ -78,7 +78,7 @@ impl FaithfulnessView {
             None => {}
         }
         let mut probe = None;
-        if shown.trace.variant.name() != "attention" {
+        if shown.trace.variant.name() != "attention" || !agent.acting().takes_interventions() {
             return None;
         }
         ui.horizontal_wrapped(|ui| {

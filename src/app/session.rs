@@ -12,30 +12,37 @@ use crate::env::level::LevelConfig;
 use crate::episode::{ActionMode, EpisodeSpec, EpisodeTrace, rerun_from, run_from, run_from_with};
 use crate::metrics::failure::{Diagnosis, Evidence};
 use crate::metrics::faithfulness::episode::{Loop, intervention};
-use crate::policy::{Checkpoint, Net, bundled};
+use crate::policy::Acting;
 use crate::record::{RerunTargets, StepScene, episode_scenes, record_rerun, write_mcap};
 
-/// A loaded checkpoint, ready to act.
+/// A loaded policy, ready to act: a native checkpoint or an imported ONNX graph.
 #[derive(Clone, Debug)]
 pub struct Agent {
-    /// What the user chose: `bundled:attention`, `bundled:baseline` or a path.
+    /// What the user chose: `bundled:attention`, `bundled:baseline`, a checkpoint path or a
+    /// `.onnx` file.
     pub spec: String,
-    /// The network.
-    pub net: Net,
-    /// Its metadata (level trained on, frames...).
-    pub ckpt: Arc<Checkpoint>,
+    /// The policy, shared with the jobs that run it.
+    pub policy: Arc<crate::policy::Agent>,
 }
 
 impl Agent {
-    /// Loads `spec` (a bundled name or a checkpoint path).
+    /// Loads `spec` ([`crate::policy::Agent::load`]).
     pub fn load(spec: &str) -> Result<Self, String> {
-        let ckpt = bundled::load(spec).map_err(|e| e.to_string())?;
-        let net = Net::new(ckpt.meta.model, ckpt.params.detached());
+        let policy = crate::policy::Agent::load(spec).map_err(|e| e.to_string())?;
         Ok(Self {
             spec: spec.to_owned(),
-            net,
-            ckpt: Arc::new(ckpt),
+            policy: Arc::new(policy),
         })
+    }
+
+    /// The level it was trained on.
+    pub fn level(&self) -> LevelConfig {
+        self.policy.level()
+    }
+
+    /// The policy, to run episodes with.
+    pub fn acting(&self) -> &(dyn Acting + Send + Sync) {
+        self.policy.acting()
     }
 }
 
@@ -167,7 +174,7 @@ pub fn run_request(agent: &Agent, req: &Request, alpha: f64) -> Result<Shown, St
         mode: req.mode,
     };
     let world = crate::episode::initial_world(&spec).map_err(|e| e.to_string())?;
-    let trace = run_from(&agent.net, &agent.spec, &spec, world).map_err(|e| e.to_string())?;
+    let trace = run_from(agent.acting(), &agent.spec, &spec, world).map_err(|e| e.to_string())?;
     Ok(Shown::new(trace, alpha))
 }
 
@@ -205,12 +212,12 @@ pub fn start_probe(
         .get(k)
         .ok_or_else(|| format!("step {k} is past the end of the episode"))?;
     let world = apply(&step.world, edit).map_err(|e| e.to_string())?;
-    let net = agent.net.clone();
+    let agent = agent.clone();
     let trace = shown.trace.clone();
     Ok(Job::spawn(
         format!("probing step {k}"),
         0,
-        move |_| match rerun_from(&net, &trace, k, world) {
+        move |_| match rerun_from(agent.acting(), &trace, k, world) {
             Ok(t) => JobResult::Probed(Box::new(Shown::new(t, alpha)), k),
             Err(e) => JobResult::Failed(e.to_string()),
         },
@@ -220,7 +227,7 @@ pub fn start_probe(
 /// Re-runs the episode of `shown` from its start with `how` applied to the attention at
 /// every step (M uniform, steered onto a distractor, a word's weight zeroed).
 pub fn start_attention_probe(agent: &Agent, shown: &Shown, how: Loop, alpha: f64) -> Job {
-    let net = agent.net.clone();
+    let agent = agent.clone();
     let trace = shown.trace.clone();
     Job::spawn(format!("re-running with {how:?}"), 0, move |_| {
         let world = trace
@@ -233,8 +240,9 @@ pub fn start_attention_probe(agent: &Agent, shown: &Shown, how: Loop, alpha: f64
             mission: None,
             mode: trace.mode,
         };
-        let run = run_from_with(&net, &trace.checkpoint, &spec, world, &|w, o, t, m| {
-            intervention(&net, how, w, o, t, m)
+        let acting = agent.acting();
+        let run = run_from_with(acting, &trace.checkpoint, &spec, world, &|w, o, t, m| {
+            intervention(acting, how, w, o, t, m)
         });
         match run {
             Ok(t) => JobResult::Probed(Box::new(Shown::new(t, alpha)), 0),
@@ -368,7 +376,7 @@ mod tests {
     fn shown(seed: u64) -> (Agent, Shown) {
         let agent = Agent::load("bundled:attention").unwrap();
         let req = Request {
-            level: agent.ckpt.meta.level,
+            level: agent.level(),
             seed,
             mode: ActionMode::Greedy,
             mission: None,
@@ -402,7 +410,7 @@ mod tests {
             agent.clone(),
             Some(Agent::load("bundled:baseline").unwrap()),
             Request {
-                level: agent.ckpt.meta.level,
+                level: agent.level(),
                 seed: 3,
                 mode: ActionMode::Greedy,
                 mission: None,

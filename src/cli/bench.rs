@@ -55,6 +55,12 @@ pub enum BenchCommand {
         #[arg(long, default_value_t = 50, allow_negative_numbers = true)]
         episodes: u64,
     },
+    /// An ONNX graph against a native checkpoint: the evaluation sweep (default: the default
+    /// sweep, 10,000 greedy episodes) on each, alternated, one thread; the ratio of their
+    /// times and where the graph's time goes (tract's plan, building its inputs and reading
+    /// its outputs, the rest: world, metrics).
+    #[cfg(feature = "onnx")]
+    Onnx(super::bench_onnx::BenchOnnxArgs),
 }
 
 /// Runs a benchmark.
@@ -79,6 +85,8 @@ pub fn run(cmd: &BenchCommand) -> anyhow::Result<ExitStatus> {
             }
             bench_policy(model, *secs, *recurrence)
         }
+        #[cfg(feature = "onnx")]
+        BenchCommand::Onnx(args) => super::bench_onnx::run(args),
         BenchCommand::Record { episodes } => {
             if !(1..=10_000).contains(episodes) {
                 anyhow::bail!("--episodes {episodes}: must be in 1..=10000");

@@ -15,7 +15,7 @@ use groundscope::metrics::report::{
     Cell, CellAccuracy, CheckpointInfo, Report, SCHEMA_VERSION, worst_episodes,
 };
 use groundscope::metrics::sweep::{
-    EpisodeSummary, MAX_EVAL_SEEDS, evaluate_cell_explored, grounding, performance,
+    EpisodeSummary, EvalOptions, MAX_EVAL_SEEDS, evaluate_cell_explored, grounding, performance,
 };
 use groundscope::metrics::words::by_word;
 use groundscope::policy::{Agent, Variant};
@@ -25,11 +25,16 @@ use crate::ExitStatus;
 /// `groundscope eval`.
 #[derive(Debug, Args)]
 #[command(
-    after_long_help = "EXAMPLES:\n  groundscope eval --out report/\n  groundscope eval --checkpoint runs/att/model --sizes 8,10 --objects 4,6 --seeds 2 --episodes 50 --out quick/ --min-success 0.9"
+    after_long_help = "EXAMPLES:\n  groundscope eval --out report/\n  groundscope eval --checkpoint runs/att/model --sizes 8,10 --objects 4,6 --seeds 2 --episodes 50 --out quick/ --min-success 0.9\n  groundscope eval --checkpoint my_agent.onnx --saliency --out mine/"
+)]
+#[expect(
+    clippy::struct_excessive_bools,
+    reason = "one field per on/off flag of the command line"
 )]
 pub struct EvalArgs {
-    /// Checkpoints to evaluate (repeatable): NAME, a run directory (its model) or
-    /// bundled:attention / bundled:baseline [default: both bundled ones].
+    /// Checkpoints to evaluate (repeatable): NAME, a run directory (its model),
+    /// bundled:attention / bundled:baseline or an ONNX graph FILE.onnx [default: both bundled
+    /// ones].
     #[arg(long, value_name = "NAME")]
     pub checkpoint: Vec<String>,
     /// Report directory: report.json, report.md, CSVs, PNG figures, failures.json.
@@ -72,6 +77,12 @@ pub struct EvalArgs {
     /// Sample actions instead of taking the most probable one.
     #[arg(long)]
     pub sample: bool,
+    /// For a model without attention maps (a baseline, an ONNX graph that exports none): let
+    /// the occlusion saliency stand in for M in the failure classes, so `grounding` is decided
+    /// for it too (docs/evaluation.md#failure-classes). Slower: one forward of the perturbed
+    /// views at every step with a target in view.
+    #[arg(long)]
+    pub saliency: bool,
     /// How many worst episodes of each kind to list.
     #[arg(long, default_value_t = 10, allow_negative_numbers = true)]
     pub top_k: usize,
@@ -202,7 +213,10 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitStatus> {
             combined: grounding(&eps, WordKind::Combined),
             words: by_word(&eps),
         });
-        let classes = class_counts(eps.iter().filter_map(|e| e.failure.as_ref()), attention);
+        let classes = class_counts(
+            eps.iter().filter_map(|e| e.failure.as_ref()),
+            attention || args.saliency,
+        );
         report_cells.push(
             Cell::new(
                 name,
@@ -228,6 +242,7 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitStatus> {
         seeds: args.seeds,
         first_seed: args.first_seed,
         episodes_per_seed: args.episodes,
+        saliency: args.saliency,
         checkpoints: ckpts
             .iter()
             .map(|(n, c)| CheckpointInfo {
@@ -338,8 +353,11 @@ fn run_cells(
                         level,
                         args.first_seed..args.first_seed + args.seeds,
                         args.episodes,
-                        args.alpha,
-                        mode,
+                        &EvalOptions {
+                            alpha: args.alpha,
+                            mode,
+                            saliency: args.saliency,
+                        },
                         &mut |n| {
                             let d = n.saturating_sub(last);
                             last = n;

@@ -13,7 +13,7 @@ use groundscope::metrics::faithfulness::report::{
 };
 use groundscope::metrics::faithfulness::{self, EpisodeResult, Parts, figures, summarise};
 use groundscope::metrics::sweep::eval_level_seed;
-use groundscope::policy::{Net, bundled};
+use groundscope::policy::{Agent, bundled};
 
 use crate::ExitStatus;
 
@@ -22,9 +22,10 @@ use crate::ExitStatus;
 pub enum Part {
     /// Per step: occlusion, deletion/insertion, one-step interventions, localisation.
     Steps,
-    /// Whole episodes with an intervention at every step (attention only).
+    /// Whole episodes with an intervention at every step (a model that takes interventions on
+    /// M: a native attention checkpoint, or a graph with the override inputs).
     ClosedLoop,
-    /// Counterfactual worlds edited at the start (attention only: they track M).
+    /// Counterfactual worlds edited at the start (every model; tracking of M needs maps).
     Counterfactuals,
 }
 
@@ -33,10 +34,11 @@ pub enum Part {
 #[command(after_long_help = "EXAMPLES:\n  \
     groundscope faithfulness --out faith\n  \
     groundscope faithfulness --checkpoint runs/att/model --sizes 10 --objects 6 --out faith10\n  \
-    groundscope faithfulness --checkpoint bundled:baseline --out faith-baseline")]
+    groundscope faithfulness --checkpoint bundled:baseline --out faith-baseline\n  \
+    groundscope faithfulness --checkpoint my_agent.onnx --out faith-onnx")]
 pub struct FaithfulnessArgs {
-    /// Checkpoints (repeatable): NAME, a run directory (its model) or bundled:NAME
-    /// [default: bundled:attention].
+    /// Checkpoints (repeatable): NAME, a run directory (its model), bundled:NAME or an ONNX
+    /// graph FILE.onnx (docs/onnx.md) [default: bundled:attention].
     #[arg(long, value_name = "NAME")]
     pub checkpoint: Vec<String>,
     /// Output directory.
@@ -67,7 +69,8 @@ pub struct FaithfulnessArgs {
     /// Sample actions instead of taking the most probable one.
     #[arg(long)]
     pub sample: bool,
-    /// Parts to compute [default: all for attention checkpoints, steps for baselines].
+    /// Parts to compute [default: all that the model supports: steps and counterfactuals for
+    /// every model, closed-loop where it takes interventions on M].
     #[arg(long, value_delimiter = ',', value_enum)]
     pub parts: Vec<Part>,
     /// Worker threads [default: the number of cores].
@@ -96,54 +99,38 @@ pub fn run(args: &FaithfulnessArgs) -> anyhow::Result<ExitStatus> {
     };
     let mut cells = Vec::new();
     for spec in &specs {
-        let ckpt = bundled::load(spec)?;
-        let attention = ckpt.meta.model.has_attention();
+        let agent = std::sync::Arc::new(Agent::load(spec)?);
+        let interventions = agent.acting().takes_interventions();
         let parts = if args.parts.is_empty() {
             Parts {
                 steps: true,
-                closed_loop: attention,
-                counterfactuals: attention,
-                attention,
+                closed_loop: interventions,
+                counterfactuals: true,
+                interventions,
             }
         } else {
             let wants = |p| args.parts.contains(&p);
-            if !attention {
-                let refused: Vec<&str> = [
-                    (Part::ClosedLoop, "closed-loop"),
-                    (Part::Counterfactuals, "counterfactuals"),
-                ]
-                .into_iter()
-                .filter(|(p, _)| wants(*p))
-                .map(|(_, n)| n)
-                .collect();
-                if !refused.is_empty() {
-                    anyhow::bail!(
-                        "--parts {}: need attention maps, and {spec} is a baseline (it gets occlusion and deletion only)",
-                        refused.join(",")
-                    );
-                }
+            if wants(Part::ClosedLoop) && !interventions {
+                anyhow::bail!(
+                    "--parts closed-loop: {spec} takes no interventions on M (a baseline, or a graph without the combined_override input of docs/onnx.md#interventions)"
+                );
             }
             Parts {
                 steps: wants(Part::Steps),
                 closed_loop: wants(Part::ClosedLoop),
                 counterfactuals: wants(Part::Counterfactuals),
-                attention,
+                interventions,
             }
         };
         for &size in &args.sizes {
             for &objects in &args.objects {
-                let mut level = ckpt.meta.level;
+                let mut level = agent.level();
                 level.room_size = size;
                 level.n_objects = objects;
                 level
                     .validate()
                     .map_err(|e| anyhow::anyhow!("--sizes {size} --objects {objects}: {e}"))?;
-                cells.push((
-                    spec.clone(),
-                    Net::new(ckpt.meta.model, ckpt.params.detached()),
-                    level,
-                    parts,
-                ));
+                cells.push((spec.clone(), agent.clone(), level, parts));
             }
         }
     }
@@ -168,12 +155,13 @@ pub fn run(args: &FaithfulnessArgs) -> anyhow::Result<ExitStatus> {
     let start = Instant::now();
     let mut entries: Vec<CheckpointFaithfulness> = Vec::new();
     let mut all: Vec<(String, Vec<EpisodeResult>)> = Vec::new();
-    for (i, (name, net, level, parts)) in cells.iter().enumerate() {
+    for (i, (name, agent, level, parts)) in cells.iter().enumerate() {
         let offset = (i * plan.len()) as u64;
-        let eps = faithfulness::run(net, level, &plan, mode, *parts, jobs, &|done| {
+        let acting = agent.acting();
+        let eps = faithfulness::run(acting, level, &plan, mode, *parts, jobs, &|done| {
             bar.set_position(offset + done as u64);
         })?;
-        let mut entry = summarise(name, net.cfg.variant.name(), &eps);
+        let mut entry = summarise(name, acting.variant().name(), &eps);
         entry.level = level.to_string();
         entries.push(entry);
         all.push((format!("{name} {level}"), eps));

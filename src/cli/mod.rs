@@ -1,6 +1,8 @@
 //! Command-line arguments (clap) and dispatch to the library.
 
 mod bench;
+#[cfg(feature = "onnx")]
+mod bench_onnx;
 mod curve;
 mod env_cmd;
 mod eval;

@@ -69,16 +69,6 @@ pub fn load_checkpoint(spec: Option<&str>) -> anyhow::Result<(Checkpoint, String
     Ok((ckpt, spec))
 }
 
-/// The checkpoint's training level with the room size and object count given on the command
-/// line, checked.
-pub fn level_with(
-    ckpt: &Checkpoint,
-    size: Option<usize>,
-    objects: Option<usize>,
-) -> anyhow::Result<groundscope::env::LevelConfig> {
-    level_from(ckpt.meta.level, size, objects)
-}
-
 /// A training level with the room size and object count given on the command line, checked.
 pub fn level_from(
     mut level: groundscope::env::LevelConfig,

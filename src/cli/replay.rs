@@ -113,11 +113,6 @@ pub fn replay(args: &ReplayArgs) -> anyhow::Result<ExitStatus> {
             .unwrap_or_default()
     });
     let agent = Agent::load(&name)?;
-    if args.faithfulness && agent.native().is_none() {
-        anyhow::bail!(
-            "--faithfulness with {name}: the per-step probes need a native checkpoint (ONNX support for them is issue #32's next step)"
-        );
-    }
     let level = level_from(agent.level(), args.size, args.objects)?;
     let mode = if args.sample {
         ActionMode::Sampled
@@ -169,7 +164,7 @@ pub fn replay(args: &ReplayArgs) -> anyhow::Result<ExitStatus> {
         let (tx, rx) = std::sync::mpsc::sync_channel(1);
         let stop_worker = &stop;
         let (agent, name, alpha, spec) = (&agent, &name, args.alpha, &spec);
-        let faithful = args.faithfulness.then(|| agent.native()).flatten();
+        let faithful = args.faithfulness.then(|| agent.acting());
         scope.spawn(move || {
             for seed in args.seed..=last {
                 if stop_worker.load(Ordering::Relaxed) {
@@ -178,8 +173,8 @@ pub fn replay(args: &ReplayArgs) -> anyhow::Result<ExitStatus> {
                 let item = initial_world(&spec(seed))
                     .and_then(|world| run_from(agent.acting(), name, &spec(seed), world))
                     .and_then(|mut trace| {
-                        if let Some(net) = faithful {
-                            annotate(net, &mut trace)?;
+                        if let Some(acting) = faithful {
+                            annotate(acting, &mut trace)?;
                         }
                         Ok(trace)
                     })

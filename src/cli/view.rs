@@ -8,21 +8,23 @@ use groundscope::app::{self, StartOptions, WindowOptions};
 
 use crate::ExitStatus;
 use crate::cli::check_extension;
-use crate::cli::policy_cmd::{level_with, load_checkpoint};
+use crate::cli::policy_cmd::level_from;
 
 /// `groundscope view`.
 #[derive(Debug, Args, Default)]
 #[command(
     after_long_help = "KEYS:\n  ← / →  step back / forward    space  play / pause    Home / End  first / last step\n\n\
 EXAMPLES:\n  groundscope\n  groundscope view --seed 7 --compare bundled:baseline\n  \
+groundscope view --checkpoint my_agent.onnx --compare bundled:attention\n  \
 xvfb-run -a groundscope view --screenshot shot.png --seed 3 --step 4 --size 1400x900"
 )]
 pub struct ViewArgs {
-    /// Checkpoint: NAME (NAME.json + NAME.safetensors), a run directory (its model) or
-    /// bundled:attention / bundled:baseline [default: bundled:attention].
+    /// Checkpoint: NAME (NAME.json + NAME.safetensors), a run directory (its model),
+    /// bundled:attention / bundled:baseline or an ONNX graph FILE.onnx (docs/onnx.md)
+    /// [default: bundled:attention].
     #[arg(long, value_name = "NAME")]
     pub checkpoint: Option<String>,
-    /// A second checkpoint, run on the same seed side by side.
+    /// A second checkpoint (any form --checkpoint takes), run on the same seed side by side.
     #[arg(long, value_name = "NAME")]
     pub compare: Option<String>,
     /// Level seed.
@@ -89,11 +91,15 @@ pub fn run(args: &ViewArgs) -> anyhow::Result<ExitStatus> {
         check_extension(p, "png", "--screenshot")?;
     }
     // Load once here so that a bad checkpoint or level is a one-line error, not a window.
-    let (ckpt, checkpoint) = load_checkpoint(args.checkpoint.as_deref())?;
+    let checkpoint = args
+        .checkpoint
+        .clone()
+        .unwrap_or_else(|| groundscope::policy::bundled::names()[0].clone());
+    let agent = groundscope::policy::Agent::load(&checkpoint)?;
     if let Some(c) = &args.compare {
-        groundscope::policy::bundled::load(c)?;
+        groundscope::policy::Agent::load(c)?;
     }
-    let level = level_with(&ckpt, args.room_size, args.objects)?;
+    let level = level_from(agent.level(), args.room_size, args.objects)?;
     if let Some(m) = &args.mission {
         groundscope::env::Instruction::parse(m)?;
     }

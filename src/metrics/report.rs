@@ -197,6 +197,10 @@ pub struct Report {
     pub first_seed: u64,
     /// Episodes per seed.
     pub episodes_per_seed: u64,
+    /// `eval --saliency`: for models without maps the failure classes read the occlusion
+    /// saliency where they read `M` (absent when false).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub saliency: bool,
     /// Checkpoints evaluated.
     pub checkpoints: Vec<CheckpointInfo>,
     /// One per checkpoint × size × objects.

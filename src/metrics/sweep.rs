@@ -78,8 +78,27 @@ pub fn evaluate_cell<P: Acting + ?Sized>(
     mode: ActionMode,
     progress: &mut dyn FnMut(u64),
 ) -> Result<Vec<EpisodeSummary>, MetricsError> {
-    let eps = evaluate_cell_explored(net, level, seeds, episodes, alpha, mode, progress)?;
+    let opts = EvalOptions {
+        alpha,
+        mode,
+        saliency: false,
+    };
+    let eps = evaluate_cell_explored(net, level, seeds, episodes, &opts, progress)?;
     Ok(eps.into_iter().map(|(s, _)| s).collect())
+}
+
+/// How a sweep evaluates its episodes.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EvalOptions {
+    /// The accuracies' `α` (threshold `τ = α / n`).
+    pub alpha: f64,
+    /// Greedy or sampled actions.
+    pub mode: ActionMode,
+    /// For a model without maps: compute the occlusion saliency
+    /// ([`super::faithfulness::step::occlusion_of`]) at every step with a target in view and
+    /// let it stand in for `M` in the failure classes (so `grounding` is decidable). Costs one
+    /// forward of up to 48 perturbed views per such step; ignored for a model with maps.
+    pub saliency: bool,
 }
 
 /// [`evaluate_cell`], each summary with its episode's exploration coverage
@@ -89,14 +108,13 @@ pub fn evaluate_cell_explored<P: Acting + ?Sized>(
     level: &LevelConfig,
     seeds: Range<u64>,
     episodes: u64,
-    alpha: f64,
-    mode: ActionMode,
+    opts: &EvalOptions,
     progress: &mut dyn FnMut(u64),
 ) -> Result<Vec<(EpisodeSummary, EpisodeExploration)>, MetricsError> {
     let plan: Vec<(u64, u64)> = seeds
         .flat_map(|s| (0..episodes).map(move |e| (s, eval_level_seed(s, e))))
         .collect();
-    evaluate_episodes_explored(net, level, &plan, alpha, mode, progress)
+    evaluate_episodes_explored(net, level, &plan, opts, progress)
 }
 
 /// Runs one episode per `(eval_seed, level_seed)` of `plan` in lockstep; summaries come back
@@ -109,7 +127,12 @@ pub fn evaluate_episodes<P: Acting + ?Sized>(
     mode: ActionMode,
     progress: &mut dyn FnMut(u64),
 ) -> Result<Vec<EpisodeSummary>, MetricsError> {
-    let eps = evaluate_episodes_explored(net, level, plan, alpha, mode, progress)?;
+    let opts = EvalOptions {
+        alpha,
+        mode,
+        saliency: false,
+    };
+    let eps = evaluate_episodes_explored(net, level, plan, &opts, progress)?;
     Ok(eps.into_iter().map(|(s, _)| s).collect())
 }
 
@@ -120,10 +143,14 @@ pub fn evaluate_episodes_explored<P: Acting + ?Sized>(
     net: &P,
     level: &LevelConfig,
     plan: &[(u64, u64)],
-    alpha: f64,
-    mode: ActionMode,
+    opts: &EvalOptions,
     progress: &mut dyn FnMut(u64),
 ) -> Result<Vec<(EpisodeSummary, EpisodeExploration)>, MetricsError> {
+    let EvalOptions {
+        alpha,
+        mode,
+        saliency,
+    } = *opts;
     let mut running = Vec::new();
     for &(s, level_seed) in plan {
         {
@@ -175,12 +202,27 @@ pub fn evaluate_episodes_explored<P: Acting + ?Sized>(
             mission.as_ref(),
             &memory,
             want_traces,
+            None,
         )?;
         let mut keep = Vec::with_capacity(active.len());
         for (row, &i) in active.iter().enumerate() {
             let r = &mut running[i];
             let trace_row = out.traces.as_ref().and_then(|t| t.get(row));
-            let combined = trace_row.map(|t| t.combined);
+            let mut combined = trace_row.map(|t| t.combined);
+            if saliency
+                && trace_row.is_none()
+                && !super::failure::visible_targets(&r.world, &obs[row]).is_empty()
+            {
+                combined = Some(saliency_map(
+                    net,
+                    &obs[row],
+                    dirs[row],
+                    &r.tokens,
+                    &memory,
+                    row,
+                    &out.probs[row],
+                )?);
+            }
             if let Some(traces) = &out.traces {
                 let trace = &traces[row];
                 let words: Vec<(&str, &crate::policy::ViewMap)> = trace
@@ -260,6 +302,26 @@ pub fn evaluate_episodes_explored<P: Acting + ?Sized>(
         }
     }
     Ok(done.into_iter().flatten().collect())
+}
+
+/// The occlusion saliency of row `row` as a map (agent-up), from that row's memory before
+/// the step.
+fn saliency_map<P: Acting + ?Sized>(
+    net: &P,
+    obs: &crate::env::view::Observation,
+    direction: u8,
+    tokens: &[u32],
+    memory: &Memory,
+    row: usize,
+    probs: &[f32],
+) -> Result<crate::policy::ViewMap, PolicyError> {
+    let one = Memory {
+        h: memory.h.narrow(0, row, 1)?,
+        c: memory.c.narrow(0, row, 1)?,
+    };
+    let delta = super::faithfulness::step::occlusion_of(net, obs, direction, tokens, &one, probs)?;
+    let delta: Vec<f32> = delta.iter().map(|x| *x as f32).collect();
+    Ok(crate::policy::trace::to_map(&delta))
 }
 
 /// Mean and population standard deviation (numpy's default, ddof = 0).

@@ -46,6 +46,10 @@ pub trait Acting {
     fn prepare_batch(&self, missions: &[&[u32]]) -> Result<Option<MissionInputs>, PolicyError>;
 
     /// One step of B environments; `prepared` holds their rows of [`Self::prepare_batch`].
+    #[expect(
+        clippy::too_many_arguments,
+        reason = "one step's whole input, as the acting functions take it"
+    )]
     fn act_batch(
         &self,
         obs: &[Observation],
@@ -54,7 +58,12 @@ pub trait Acting {
         prepared: Option<&MissionInputs>,
         memory: &Memory,
         with_traces: bool,
+        intervention: Option<&Intervention>,
     ) -> Result<ActOutput, PolicyError>;
+
+    /// Whether [`Intervention`]s on the attention can be applied (a native attention network;
+    /// an imported graph with maps that takes the override inputs of docs/onnx.md).
+    fn takes_interventions(&self) -> bool;
 }
 
 impl Acting for Net {
@@ -79,6 +88,7 @@ impl Acting for Net {
         prepared: Option<&MissionInputs>,
         memory: &Memory,
         with_traces: bool,
+        intervention: Option<&Intervention>,
     ) -> Result<ActOutput, PolicyError> {
         let owned;
         let mission = if let Some(m) = prepared {
@@ -87,7 +97,19 @@ impl Acting for Net {
             owned = self.mission_inputs(&super::TokenBatch::new(missions)?)?;
             &owned
         };
-        super::act_missions(self, obs, missions, mission, memory, with_traces)
+        super::act_missions(
+            self,
+            obs,
+            missions,
+            mission,
+            memory,
+            with_traces,
+            intervention,
+        )
+    }
+
+    fn takes_interventions(&self) -> bool {
+        self.cfg.has_attention()
     }
 
     fn zero_memory(&self) -> Result<Memory, PolicyError> {
@@ -176,9 +198,14 @@ impl Acting for super::onnx::OnnxAgent {
         _prepared: Option<&MissionInputs>,
         memory: &Memory,
         with_traces: bool,
+        intervention: Option<&Intervention>,
     ) -> Result<ActOutput, PolicyError> {
         let mem = memory.h.flatten_all()?.to_vec1::<f32>()?;
-        let step = self.step(obs, directions, missions, &mem)?;
+        let overrides = match intervention {
+            None => None,
+            Some(iv) => Some(self.overrides(obs, directions, missions, &mem, iv)?),
+        };
+        let step = self.step(obs, directions, missions, &mem, overrides.as_deref())?;
         let traces = match (&step.maps, with_traces) {
             (Some(maps), true) => Some(
                 missions
@@ -199,6 +226,10 @@ impl Acting for super::onnx::OnnxAgent {
         })
     }
 
+    fn takes_interventions(&self) -> bool {
+        self.takes_overrides()
+    }
+
     fn act_one(
         &self,
         obs: Observation,
@@ -209,13 +240,59 @@ impl Acting for super::onnx::OnnxAgent {
         with_traces: bool,
         intervention: Option<&Intervention>,
     ) -> Result<ActOutput, PolicyError> {
-        if intervention.is_some() {
+        self.act_batch(
+            &[obs],
+            &[direction],
+            &[tokens],
+            None,
+            memory,
+            with_traces,
+            intervention,
+        )
+    }
+}
+
+#[cfg(feature = "onnx")]
+impl super::onnx::OnnxAgent {
+    /// The `M` each row gets under `iv` (B × 49, agent-up): the given maps for
+    /// [`Intervention::SetM`]; for [`Intervention::ScaleWeights`] the graph's own word maps
+    /// recombined with its weights scaled and renormalised — the native model's definition
+    /// (`attention::attend_with`), from one unperturbed forward.
+    fn overrides(
+        &self,
+        obs: &[Observation],
+        directions: &[u8],
+        missions: &[&[u32]],
+        memory: &[f32],
+        iv: &Intervention,
+    ) -> Result<Vec<f32>, PolicyError> {
+        let factors = match iv {
+            Intervention::SetM(m) => return Ok(m.flatten_all()?.to_vec1::<f32>()?),
+            Intervention::ScaleWeights(f) => f.to_vec2::<f32>()?,
+        };
+        if !self.has_weights() {
             return Err(PolicyError::Input(format!(
-                "{}: interventions on the attention need a graph that takes the map as an input, which contract 1 does not define",
+                "{}: scaling the word weights needs a graph that outputs word_weights",
                 self.path.display()
             )));
         }
-        self.act_batch(&[obs], &[direction], &[tokens], None, memory, with_traces)
+        let base = self.step(obs, directions, missions, memory, None)?;
+        let maps = base.maps.unwrap_or_default();
+        let mut out = vec![0f32; obs.len() * super::obs::N_CELLS];
+        for (r, (m, f)) in maps.iter().zip(&factors).enumerate() {
+            let (Some(words), Some(w)) = (&m.words, &m.weights) else {
+                continue;
+            };
+            let scaled: Vec<f32> = w.iter().zip(f).map(|(w, f)| w * f).collect();
+            let total = scaled.iter().sum::<f32>().max(1e-30);
+            let row = &mut out[r * super::obs::N_CELLS..][..super::obs::N_CELLS];
+            for (map, x) in words.iter().zip(&scaled) {
+                for (j, v) in map.iter().flatten().enumerate() {
+                    row[j] += x / total * v;
+                }
+            }
+        }
+        Ok(out)
     }
 }
 
@@ -326,7 +403,12 @@ impl Acting for super::onnx::OnnxAgent {
         _prepared: Option<&MissionInputs>,
         _memory: &Memory,
         _with_traces: bool,
+        _intervention: Option<&Intervention>,
     ) -> Result<ActOutput, PolicyError> {
         Err(PolicyError::Input("built without the onnx feature".into()))
+    }
+
+    fn takes_interventions(&self) -> bool {
+        false
     }
 }

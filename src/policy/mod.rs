@@ -163,6 +163,7 @@ pub fn act_missions(
     mission: &MissionInputs,
     memory: &Memory,
     with_traces: bool,
+    intervention: Option<&Intervention>,
 ) -> Result<ActOutput, PolicyError> {
     same_batch(
         obs.len(),
@@ -179,7 +180,7 @@ pub fn act_missions(
         missions,
         memory,
         with_traces,
-        None,
+        intervention,
     )
 }
 

@@ -49,7 +49,7 @@ impl Debugger {
                     }
                 });
             ui.add(egui::TextEdit::singleline(&mut self.checkpoint_text).desired_width(160.0))
-                .on_hover_text("bundled:attention, bundled:baseline, or a checkpoint NAME (NAME.json + NAME.safetensors)");
+                .on_hover_text("bundled:attention, bundled:baseline, a checkpoint NAME (NAME.json + NAME.safetensors) or an ONNX graph FILE.onnx");
             ui.checkbox(&mut self.compare, "compare with");
             ui.add_enabled(
                 self.compare,

@@ -41,7 +41,7 @@ impl Debugger {
     pub(super) fn load_checkpoints(&mut self) {
         match Agent::load(self.checkpoint_text.trim()) {
             Ok(a) => {
-                self.level = a.ckpt.meta.level;
+                self.level = a.level();
                 self.info(format!("loaded {}", a.spec));
                 self.agent = Some(a);
             }

@@ -118,7 +118,7 @@ impl Debugger {
         });
         let level = opts
             .level
-            .or_else(|| agent.as_ref().map(|a| a.ckpt.meta.level))
+            .or_else(|| agent.as_ref().map(Agent::level))
             .unwrap_or_default();
         let mut me = Self {
             checkpoint_text: opts.checkpoint.clone(),
@@ -244,11 +244,15 @@ impl Debugger {
                 ui.separator();
                 self.attention_panel(ui, step, scene);
                 ui.separator();
-                ui.checkbox(
-                    &mut self.show_faithfulness,
-                    "faithfulness: does this step's behaviour depend on M?",
-                );
-                if self.show_faithfulness
+                // A model without maps gets its occlusion saliency in their place, always.
+                let mapless = step.attention.is_none();
+                if !mapless {
+                    ui.checkbox(
+                        &mut self.show_faithfulness,
+                        "faithfulness: does this step's behaviour depend on M?",
+                    );
+                }
+                if (self.show_faithfulness || mapless)
                     && let Some(agent) = self.agent.clone()
                 {
                     let side = (ui.available_width() / 4.0).clamp(90.0, 170.0);

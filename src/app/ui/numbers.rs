@@ -18,7 +18,9 @@ impl Debugger {
         scene: &StepScene,
     ) {
         let Some(att) = &step.attention else {
-            ui.label("baseline model: no attention maps");
+            ui.label(
+                "no attention maps: the occlusion saliency below (how much the action distribution changes when a cell becomes floor) stands in for them",
+            );
             return;
         };
         // One row for every word map plus M: the gaps between the panels come off the width

@@ -9,7 +9,7 @@ use crate::env::object::{Color, ObjectKind, WorldObj};
 use crate::env::view::Observation;
 use crate::env::world::World;
 use crate::episode::{ActionMode, EpisodeSpec, initial_world, run_from};
-use crate::metrics::sweep::evaluate_cell_explored;
+use crate::metrics::sweep::{EvalOptions, evaluate_cell_explored};
 use crate::policy::{Net, bundled};
 
 /// An empty `size`×`size` room (walls on the ring), the agent at `pos` facing `dir`, the
@@ -299,7 +299,12 @@ fn sweep_exploration_matches_the_replayed_trace_and_is_deterministic() {
     level.room_size = 10;
     level.n_objects = 6;
     let sweep = || {
-        evaluate_cell_explored(&net, &level, 0..1, 6, 0.5, ActionMode::Greedy, &mut |_| {}).unwrap()
+        let opts = EvalOptions {
+            alpha: 0.5,
+            mode: ActionMode::Greedy,
+            saliency: false,
+        };
+        evaluate_cell_explored(&net, &level, 0..1, 6, &opts, &mut |_| {}).unwrap()
     };
     let eps = sweep();
     assert_eq!(eps, sweep(), "deterministic");

@@ -21,7 +21,7 @@ use crate::episode::{ActionMode, choose, episode_rng};
 use crate::metrics::failure::{Relation, relation};
 use crate::metrics::grounding::{related_objects, target_objects};
 use crate::policy::obs::N_CELLS;
-use crate::policy::{ActOutput, Intervention, Memory, Net, PolicyError, act_with};
+use crate::policy::{ActOutput, Acting, Intervention, Memory, PolicyError};
 
 /// Interventions applied at every step of a closed-loop re-run, in report order.
 pub const CLOSED_LOOP: [&str; 5] = [
@@ -49,12 +49,12 @@ pub const COUNTERFACTUALS: [&str; 4] = [
 pub struct Parts {
     /// Occlusion, deletion/insertion, one-step interventions, localisation (per step).
     pub steps: bool,
-    /// Closed-loop re-runs (attention model only).
+    /// Closed-loop re-runs (a model that takes interventions on `M`).
     pub closed_loop: bool,
     /// Counterfactual worlds.
     pub counterfactuals: bool,
-    /// The model has attention (interventions on `M`, localisation).
-    pub attention: bool,
+    /// The model takes interventions on `M` ([`crate::policy::Acting::takes_interventions`]).
+    pub interventions: bool,
 }
 
 /// What a rollout did.
@@ -115,7 +115,7 @@ pub enum Loop {
 /// tokens and the memory before the step (steering needs one unperturbed forward to know
 /// `M`). The one definition used by closed-loop runs here and the debugger's probes.
 pub fn intervention(
-    net: &Net,
+    agent: &(dyn Acting + Sync),
     how: Loop,
     world: &World,
     obs: &Observation,
@@ -141,7 +141,7 @@ pub fn intervention(
             )?))
         }
         Loop::Steered => {
-            let base = act_with(net, &[*obs], &[tokens], memory, true, None)?;
+            let base = agent.act_one(*obs, world.agent_dir, tokens, None, memory, true, None)?;
             let targets = target_objects(obs, world.instr.desc);
             let objects = related_objects(obs, |_, _| true);
             base.traces
@@ -173,6 +173,7 @@ pub fn word_position(world: &World, tokens: &[u32], color: bool) -> Option<usize
 struct Visit {
     memory: Memory,
     obs: Observation,
+    direction: u8,
     out: ActOutput,
     action: usize,
 }
@@ -184,7 +185,7 @@ fn argmax_m(out: &ActOutput) -> Option<usize> {
 /// Runs `world` to its end with `how` applied at every step; `visits` collects the steps for
 /// the analysis when given (unperturbed runs only).
 fn rollout(
-    net: &Net,
+    agent: &(dyn Acting + Sync),
     mut world: World,
     seed: u64,
     mode: ActionMode,
@@ -192,15 +193,23 @@ fn rollout(
     mut visits: Option<&mut Vec<Visit>>,
 ) -> Result<Rollout, PolicyError> {
     let tokens = vocab::tokenize(&world.mission)?;
-    let missions = [tokens.as_slice()];
-    let mut memory = Memory::zeros(1, net.cfg.lstm_hidden)?;
+    let mut memory = agent.zero_memory()?;
     let mut rng = episode_rng(seed);
     let mut r = Rollout::default();
-    let attention = net.cfg.has_attention();
+    let attention = agent.variant() == crate::policy::Variant::Attention;
     while !world.ended() {
         let obs = world.observe();
-        let iv = intervention(net, *how, &world, &obs, &tokens, &memory)?;
-        let out = act_with(net, &[obs], &missions, &memory, attention, iv.as_ref())?;
+        let direction = world.agent_dir;
+        let iv = intervention(agent, *how, &world, &obs, &tokens, &memory)?;
+        let out = agent.act_one(
+            obs,
+            direction,
+            &tokens,
+            None,
+            &memory,
+            attention,
+            iv.as_ref(),
+        )?;
         let probs = out.probs.first().cloned().unwrap_or_default();
         let action = choose(&probs, mode, &mut rng);
         let targets: Vec<usize> = target_objects(&obs, world.instr.desc)
@@ -223,6 +232,7 @@ fn rollout(
             v.push(Visit {
                 memory: memory.clone(),
                 obs,
+                direction,
                 out,
                 action: action as usize,
             });
@@ -348,7 +358,7 @@ fn counterfactual(name: &str, world: &World, rng: &mut Pcg64Mcg) -> Result<World
 
 /// Runs and analyses one episode of `level` at `level_seed`.
 pub fn analyse_episode(
-    net: &Net,
+    agent: &(dyn Acting + Sync),
     level: &LevelConfig,
     eval_seed: u64,
     level_seed: u64,
@@ -360,7 +370,7 @@ pub fn analyse_episode(
     let mut rng = Pcg64Mcg::seed_from_u64(level_seed ^ 0xFA17_4F11);
     let mut visits = Vec::new();
     let base = rollout(
-        net,
+        agent,
         world.clone(),
         level_seed,
         mode,
@@ -375,7 +385,8 @@ pub fn analyse_episode(
             }
             let probs = v.out.probs.first().cloned().unwrap_or_default();
             let input = StepInput {
-                net,
+                agent,
+                direction: v.direction,
                 tokens: &tokens,
                 memory: &v.memory,
                 obs: v.obs,
@@ -388,7 +399,7 @@ pub fn analyse_episode(
         }
     }
     let mut closed_loop = BTreeMap::new();
-    if parts.closed_loop && parts.attention {
+    if parts.closed_loop && parts.interventions {
         for name in CLOSED_LOOP {
             let how = match name {
                 "none" => Some(Loop::None),
@@ -400,7 +411,7 @@ pub fn analyse_episode(
             if let Some(how) = how {
                 let r = match how {
                     Loop::None => base,
-                    _ => rollout(net, world.clone(), level_seed, mode, &how, None)?,
+                    _ => rollout(agent, world.clone(), level_seed, mode, &how, None)?,
                 };
                 closed_loop.insert(name, r);
             }
@@ -410,9 +421,14 @@ pub fn analyse_episode(
     if parts.counterfactuals {
         for name in COUNTERFACTUALS {
             let outcome = match counterfactual(name, &world, &mut rng) {
-                Ok(edited) => {
-                    Counterfactual::Ran(rollout(net, edited, level_seed, mode, &Loop::None, None)?)
-                }
+                Ok(edited) => Counterfactual::Ran(rollout(
+                    agent,
+                    edited,
+                    level_seed,
+                    mode,
+                    &Loop::None,
+                    None,
+                )?),
                 Err(reason) => Counterfactual::Skipped(reason),
             };
             counterfactuals.insert(name, outcome);

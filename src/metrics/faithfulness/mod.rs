@@ -1,6 +1,7 @@
-//! Faithfulness: does the attention explain the behaviour? A consumer of the policy (through
-//! [`crate::policy::act_with`] and its [`crate::policy::Intervention`]s) and of the world;
-//! definitions in docs/faithfulness.md.
+//! Faithfulness: does the attention explain the behaviour? A consumer of the policy (any
+//! [`crate::policy::Acting`]: a native network or an imported graph, with its
+//! [`crate::policy::Intervention`]s where it takes them) and of the world; definitions in
+//! docs/faithfulness.md.
 //!
 //! Every measure is aggregated like `eval`: over the analysed steps of an episode, then over
 //! the episodes of an evaluation seed, then mean ± std over seeds, and every one sits next
@@ -22,12 +23,12 @@ use rand::SeedableRng as _;
 
 use crate::env::level::LevelConfig;
 use crate::episode::{ActionMode, EpisodeTrace, InterventionOutcome, StepFaithfulness};
-use crate::policy::{Memory, Net, PolicyError, act, trace::to_map};
+use crate::policy::{Acting, PolicyError, trace::to_map};
 
 /// Analyses one episode per `(eval_seed, level_seed)` of `plan` on `jobs` threads; results
 /// come back in plan order. `progress` is called after each episode with the number done.
 pub fn run(
-    net: &Net,
+    agent: &(dyn Acting + Sync),
     level: &LevelConfig,
     plan: &[(u64, u64)],
     mode: ActionMode,
@@ -47,7 +48,7 @@ pub fn run(
                     let Some(&(s, seed)) = plan.get(i) else {
                         break;
                     };
-                    let r = episode::analyse_episode(net, level, s, seed, mode, parts);
+                    let r = episode::analyse_episode(agent, level, s, seed, mode, parts);
                     let failed = r.is_err();
                     if let Ok(mut v) = slots.lock() {
                         v[i] = Some(r);
@@ -76,25 +77,37 @@ pub fn run(
     Ok(out)
 }
 
-/// Adds [`StepFaithfulness`] to every step of `trace` (which `net` produced): the memory of
+/// Adds [`StepFaithfulness`] to every step of `trace` (which `agent` produced): the memory of
 /// each step is rebuilt by feeding the trace's observations again, then the step is analysed
 /// with it held fixed. The same trace gives the same numbers.
-pub fn annotate(net: &Net, trace: &mut EpisodeTrace) -> Result<(), PolicyError> {
+pub fn annotate(agent: &(dyn Acting + Sync), trace: &mut EpisodeTrace) -> Result<(), PolicyError> {
     let tokens = trace.tokens.clone();
-    let mut memory = Memory::zeros(1, net.cfg.lstm_hidden)?;
+    let mut memory = agent.zero_memory()?;
     let mut rng = annotation_rng(trace);
     for s in &mut trace.steps {
-        s.faithfulness = Some(step_faithfulness(net, s, &tokens, &memory, &mut rng)?);
-        memory = act(net, &[s.obs], &[&tokens], &memory, false)?.memory;
+        s.faithfulness = Some(step_faithfulness(agent, s, &tokens, &memory, &mut rng)?);
+        memory = feed(agent, s, &tokens, &memory)?;
     }
     Ok(())
+}
+
+/// The memory after step `s`, from the memory before it.
+fn feed(
+    agent: &(dyn Acting + Sync),
+    s: &crate::episode::StepRecord,
+    tokens: &[u32],
+    memory: &crate::policy::Memory,
+) -> Result<crate::policy::Memory, PolicyError> {
+    Ok(agent
+        .act_one(s.obs, s.world.agent_dir, tokens, None, memory, false, None)?
+        .memory)
 }
 
 /// The measures of step `k` alone (the debugger's on-demand view): the memory is rebuilt
 /// from steps `0..k`. Equal to what [`annotate`] gives step `k` except for the permutation
 /// drawn for the `permuted` intervention.
 pub fn annotate_step(
-    net: &Net,
+    agent: &(dyn Acting + Sync),
     trace: &EpisodeTrace,
     k: usize,
 ) -> Result<StepFaithfulness, PolicyError> {
@@ -104,12 +117,12 @@ pub fn annotate_step(
             trace.steps.len()
         )));
     };
-    let mut memory = Memory::zeros(1, net.cfg.lstm_hidden)?;
+    let mut memory = agent.zero_memory()?;
     for s in &trace.steps[..k] {
-        memory = act(net, &[s.obs], &[&trace.tokens], &memory, false)?.memory;
+        memory = feed(agent, s, &trace.tokens, &memory)?;
     }
     step_faithfulness(
-        net,
+        agent,
         step,
         &trace.tokens,
         &memory,
@@ -122,14 +135,15 @@ fn annotation_rng(trace: &EpisodeTrace) -> rand_pcg::Pcg64Mcg {
 }
 
 fn step_faithfulness(
-    net: &Net,
+    agent: &(dyn Acting + Sync),
     s: &crate::episode::StepRecord,
     tokens: &[u32],
-    memory: &Memory,
+    memory: &crate::policy::Memory,
     rng: &mut rand_pcg::Pcg64Mcg,
 ) -> Result<StepFaithfulness, PolicyError> {
     let input = step::StepInput {
-        net,
+        agent,
+        direction: s.world.agent_dir,
         tokens,
         memory,
         obs: s.obs,

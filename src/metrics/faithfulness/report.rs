@@ -371,10 +371,21 @@ pub fn summarise(checkpoint: &str, variant: &str, eps: &[EpisodeResult]) -> Chec
             CounterfactualEffect {
                 ran: n_ran,
                 skipped,
+                // Tracking needs `M`: not measured (null) for a model without maps.
                 tracking: Paired {
-                    value: agg(eps, |e| ran(e).map(|r| tracking(&r)).into_iter().collect()),
+                    value: agg(eps, |e| {
+                        ran(e)
+                            .filter(|_| attention)
+                            .map(|r| tracking(&r))
+                            .into_iter()
+                            .collect()
+                    }),
                     control: agg(eps, |e| {
-                        ran(e).map(|_| tracking(&e.rollout)).into_iter().collect()
+                        ran(e)
+                            .filter(|_| attention)
+                            .map(|_| tracking(&e.rollout))
+                            .into_iter()
+                            .collect()
                     }),
                     control_is: "the same episodes unedited",
                 },

@@ -17,7 +17,7 @@ use crate::env::mission::ObjDesc;
 use crate::env::view::{AGENT_IN_VIEW, Observation, VIEW_SIZE, ViewCell};
 use crate::metrics::grounding::{WordKind, related_objects, target_objects};
 use crate::policy::obs::N_CELLS;
-use crate::policy::{AttentionTrace, Intervention, Memory, Net, PolicyError, act_with};
+use crate::policy::{Acting, AttentionTrace, Intervention, Memory, PolicyError};
 
 /// What an occluded cell becomes: empty floor, `(1, 0, 0)`.
 pub const EMPTY_FLOOR: [u8; 3] = [1, 0, 0];
@@ -43,8 +43,10 @@ pub fn index_cell(j: usize) -> ViewCell {
 
 /// Everything about one step the perturbations start from.
 pub struct StepInput<'a> {
-    /// The network.
-    pub net: &'a Net,
+    /// The policy: a native network or an imported graph.
+    pub agent: &'a (dyn Acting + Sync),
+    /// The agent's direction (0–3), for a graph that reads it.
+    pub direction: u8,
     /// The mission's tokens.
     pub tokens: &'a [u32],
     /// The memory before this step, (1, H), from the unperturbed rollout.
@@ -133,8 +135,20 @@ fn forward(
         return Ok(Vec::new());
     }
     let missions = vec![input.tokens; obs.len()];
+    let directions = vec![input.direction; obs.len()];
     let memory = repeat(input.memory, obs.len())?;
-    Ok(act_with(input.net, obs, &missions, &memory, false, intervention)?.probs)
+    Ok(input
+        .agent
+        .act_batch(
+            obs,
+            &directions,
+            &missions,
+            None,
+            &memory,
+            false,
+            intervention,
+        )?
+        .probs)
 }
 
 fn with_cells(
@@ -165,15 +179,50 @@ pub fn occludable(obs: &Observation) -> Vec<ViewCell> {
 
 /// Δ of every cell: one forward over all occluded observations.
 pub fn occlusion(input: &StepInput<'_>) -> Result<Vec<f64>, PolicyError> {
-    let cells = occludable(&input.obs);
+    occlusion_of(
+        input.agent,
+        &input.obs,
+        input.direction,
+        input.tokens,
+        input.memory,
+        input.probs,
+    )
+}
+
+/// Occlusion saliency, the one definition: Δ of every view cell (agent-up `j = vy·7 + vx`),
+/// the total-variation distance between `probs` (the unperturbed action distribution) and the
+/// distribution when that cell alone is replaced by empty floor, from the same `memory`
+/// (1 row); 0 for cells not [`occludable`]. One forward over all occluded observations. Any
+/// policy: this is what stands in for the maps of a model that exports none.
+pub fn occlusion_of<P: Acting + ?Sized>(
+    agent: &P,
+    obs: &Observation,
+    direction: u8,
+    tokens: &[u32],
+    memory: &Memory,
+    probs: &[f32],
+) -> Result<Vec<f64>, PolicyError> {
+    let cells = occludable(obs);
+    let mut delta = vec![0.0; N_CELLS];
+    if cells.is_empty() {
+        return Ok(delta);
+    }
     let batch: Vec<Observation> = cells
         .iter()
-        .map(|&c| with_cells(&input.obs, &[c], |_| EMPTY_FLOOR))
+        .map(|&c| with_cells(obs, &[c], |_| EMPTY_FLOOR))
         .collect();
-    let probs = forward(input, &batch, None)?;
-    let mut delta = vec![0.0; N_CELLS];
-    for (c, p) in cells.iter().zip(&probs) {
-        delta[cell_index(*c)] = total_variation(input.probs, p);
+    let n = batch.len();
+    let out = agent.act_batch(
+        &batch,
+        &vec![direction; n],
+        &vec![tokens; n],
+        None,
+        &repeat(memory, n)?,
+        false,
+        None,
+    )?;
+    for (c, p) in cells.iter().zip(&out.probs) {
+        delta[cell_index(*c)] = total_variation(probs, p);
     }
     Ok(delta)
 }
@@ -335,7 +384,7 @@ pub fn analyse(input: &StepInput<'_>, rng: &mut Pcg64Mcg) -> Result<StepResult, 
         }
     }
     // One-step interventions on M, one forward for all of them.
-    if let (Some(m), Some(mp)) = (&m, &permuted) {
+    if let (Some(m), Some(mp), true) = (&m, &permuted, input.agent.takes_interventions()) {
         let mut named: Vec<(&'static str, Vec<f64>)> = vec![
             ("uniform", vec![1.0 / N_CELLS as f64; N_CELLS]),
             ("permuted", mp.clone()),

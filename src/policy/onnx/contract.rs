@@ -15,6 +15,9 @@ pub const CONTRACT: &str = "1";
 
 /// Inputs the contract requires.
 pub const REQUIRED_INPUTS: [&str; 3] = ["image", "mission", "memory"];
+/// Inputs a graph may take: the agent's direction, and the pair that sets `M` for
+/// interventions (`M' = (1 − α)·M + α·combined_override`, α = `override_weight`).
+pub const OPTIONAL_INPUTS: [&str; 3] = ["direction", "combined_override", "override_weight"];
 /// Outputs the contract requires.
 pub const REQUIRED_OUTPUTS: [&str; 3] = ["logits", "value", "memory_out"];
 /// Outputs groundscope shows when a graph has them.

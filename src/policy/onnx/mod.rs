@@ -8,7 +8,7 @@ pub mod contract;
 mod runtime;
 
 #[cfg(feature = "onnx")]
-pub use runtime::OnnxAgent;
+pub use runtime::{OnnxAgent, StepTimes};
 
 use crate::policy::trace::ViewMap;
 

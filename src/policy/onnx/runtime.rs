@@ -8,8 +8,8 @@ use tract_onnx::pb;
 use tract_onnx::prelude::*;
 
 use super::contract::{
-    self, MapLayout, Meta, ONNX_FLOAT, ONNX_INT64, OPTIONAL_OUTPUTS, Props, REQUIRED_INPUTS,
-    REQUIRED_OUTPUTS,
+    self, MapLayout, Meta, ONNX_FLOAT, ONNX_INT64, OPTIONAL_INPUTS, OPTIONAL_OUTPUTS, Props,
+    REQUIRED_INPUTS, REQUIRED_OUTPUTS,
 };
 use super::{MapOutputs, OnnxStep};
 use crate::env::view::{Observation, VIEW_SIZE};
@@ -28,10 +28,51 @@ pub struct OnnxAgent {
     /// Its metadata.
     pub meta: Meta,
     plan: Arc<TypedRunnableModel>,
-    image_int: bool,
-    has_direction: bool,
+    inputs: Inputs,
     optional: [bool; 3],
     tokens: Vec<Option<i64>>,
+    clock: Clock,
+}
+
+/// Where an agent's step time went, summed over its life (for `bench onnx`).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct StepTimes {
+    /// Calls of [`OnnxAgent::step`].
+    pub steps: u64,
+    /// Graph runs (one per mission length in a step).
+    pub runs: u64,
+    /// Seconds inside tract's plan.
+    pub graph_secs: f64,
+    /// Seconds in [`OnnxAgent::step`] in all: the graph, plus building its inputs and reading
+    /// its outputs.
+    pub step_secs: f64,
+}
+
+/// Nanosecond counters behind [`StepTimes`] (atomics: sweeps step one agent from threads).
+#[derive(Debug, Default)]
+struct Clock {
+    steps: std::sync::atomic::AtomicU64,
+    runs: std::sync::atomic::AtomicU64,
+    graph_ns: std::sync::atomic::AtomicU64,
+    step_ns: std::sync::atomic::AtomicU64,
+}
+
+impl Clock {
+    fn add(counter: &std::sync::atomic::AtomicU64, since: std::time::Instant) {
+        let ns = u64::try_from(since.elapsed().as_nanos()).unwrap_or(u64::MAX);
+        counter.fetch_add(ns, std::sync::atomic::Ordering::Relaxed);
+    }
+}
+
+/// Which form and which optional inputs the graph takes.
+#[derive(Clone, Copy, Debug)]
+struct Inputs {
+    /// `image` is int64 (else float).
+    image_int: bool,
+    /// It takes `direction`.
+    direction: bool,
+    /// It takes `combined_override` and `override_weight` (interventions on `M`).
+    overrides: bool,
 }
 
 impl std::fmt::Debug for OnnxAgent {
@@ -152,8 +193,14 @@ impl OnnxAgent {
             .graph
             .as_ref()
             .ok_or_else(|| bad(path, "the model has no graph"))?;
-        let (image_int, has_direction) = check_inputs(path, graph, meta.memory_size)?;
+        let inputs = check_inputs(path, graph, meta.memory_size)?;
         let optional = check_outputs(path, graph, meta.memory_size)?;
+        if inputs.overrides && !(optional[0] && optional[2]) {
+            return Err(bad(
+                path,
+                "the graph takes combined_override but does not output word_maps and combined_map (docs/onnx.md#interventions)",
+            ));
+        }
         let mut ops = Vec::new();
         operators(graph, &mut ops);
         if let Some((op, node)) = ops
@@ -170,23 +217,15 @@ impl OnnxAgent {
                 format!("operator {op}{node} is not supported by the ONNX runtime (tract)"),
             ));
         }
-        let plan = build(
-            path,
-            &onnx,
-            &proto,
-            image_int,
-            has_direction,
-            &meta,
-            optional,
-        )?;
+        let plan = build(path, &onnx, &proto, inputs, &meta, optional)?;
         Ok(Self {
             path: path.to_owned(),
             meta,
             plan,
-            image_int,
-            has_direction,
+            inputs,
             optional,
             tokens,
+            clock: Clock::default(),
         })
     }
 
@@ -195,17 +234,72 @@ impl OnnxAgent {
         self.optional[0]
     }
 
+    /// Whether the graph outputs the word weights `w`.
+    pub fn has_weights(&self) -> bool {
+        self.optional[1]
+    }
+
+    /// Whether the graph takes the override inputs, so that `M` can be set.
+    pub fn takes_overrides(&self) -> bool {
+        self.inputs.overrides
+    }
+
+    /// Where the time of its steps went so far.
+    pub fn step_times(&self) -> StepTimes {
+        use std::sync::atomic::Ordering::Relaxed;
+        let c = &self.clock;
+        StepTimes {
+            steps: c.steps.load(Relaxed),
+            runs: c.runs.load(Relaxed),
+            graph_secs: c.graph_ns.load(Relaxed) as f64 * 1e-9,
+            step_secs: c.step_ns.load(Relaxed) as f64 * 1e-9,
+        }
+    }
+
     /// One step for B environments: `obs`, their agents' `directions` (0–3), missions (our
     /// token ids) and `memory` (B × M, row-major). Rows are run in groups of equal mission
-    /// length (the contract has no padding) and put back in order.
+    /// length (the contract has no padding) and put back in order. `overrides` (B × 49,
+    /// agent-up `j = vy·7 + vx`) replaces each row's `M` through the graph's override inputs.
     pub fn step(
         &self,
         obs: &[Observation],
         directions: &[u8],
         missions: &[&[u32]],
         memory: &[f32],
+        overrides: Option<&[f32]>,
+    ) -> Result<OnnxStep, PolicyError> {
+        let start = std::time::Instant::now();
+        let out = self.step_timed(obs, directions, missions, memory, overrides);
+        self.clock
+            .steps
+            .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        Clock::add(&self.clock.step_ns, start);
+        out
+    }
+
+    fn step_timed(
+        &self,
+        obs: &[Observation],
+        directions: &[u8],
+        missions: &[&[u32]],
+        memory: &[f32],
+        overrides: Option<&[f32]>,
     ) -> Result<OnnxStep, PolicyError> {
         let (b, m) = (obs.len(), self.meta.memory_size);
+        if let Some(o) = overrides {
+            if !self.inputs.overrides {
+                return Err(bad(
+                    &self.path,
+                    "interventions on M need a graph that takes combined_override and override_weight (docs/onnx.md#interventions)",
+                ));
+            }
+            if o.len() != b * N_CELLS {
+                return Err(PolicyError::Input(format!(
+                    "{} override values for a batch of {b}",
+                    o.len()
+                )));
+            }
+        }
         if missions.len() != b || directions.len() != b || memory.len() != b * m {
             return Err(PolicyError::Input(format!(
                 "batch sizes differ: {b} observations, {} missions, {} directions, {} memory values for M = {m}",
@@ -225,20 +319,28 @@ impl OnnxAgent {
         lengths.dedup();
         for len in lengths {
             let rows: Vec<usize> = (0..b).filter(|&r| missions[r].len() == len).collect();
-            self.run_group(&rows, obs, directions, missions, memory, &mut out)?;
+            let group = Group {
+                rows: &rows,
+                obs,
+                directions,
+                missions,
+                memory,
+                overrides,
+            };
+            self.run_group(&group, &mut out)?;
         }
         Ok(out)
     }
 
-    fn run_group(
-        &self,
-        rows: &[usize],
-        obs: &[Observation],
-        directions: &[u8],
-        missions: &[&[u32]],
-        memory: &[f32],
-        out: &mut OnnxStep,
-    ) -> Result<(), PolicyError> {
+    fn run_group(&self, g: &Group<'_>, out: &mut OnnxStep) -> Result<(), PolicyError> {
+        let Group {
+            rows,
+            obs,
+            directions,
+            missions,
+            memory,
+            overrides,
+        } = *g;
         let (n, m) = (rows.len(), self.meta.memory_size);
         let len = missions[rows[0]].len();
         let mut image = Vec::with_capacity(n * N_CELLS * 3);
@@ -250,7 +352,7 @@ impl OnnxAgent {
             }
         }
         let shape = [n, VIEW_SIZE, VIEW_SIZE, 3];
-        let image = if self.image_int {
+        let image = if self.inputs.image_int {
             tract_ndarray::Array::from_shape_vec(shape, image)
                 .map(Tensor::from)
                 .map_err(|e| PolicyError::Input(e.to_string()))?
@@ -291,14 +393,38 @@ impl OnnxAgent {
             .map(Tensor::from)
             .map_err(|e| PolicyError::Input(e.to_string()))?;
         let mut inputs: TVec<TValue> = tvec![image.into(), mission.into(), mem.into()];
-        if self.has_direction {
+        if self.inputs.direction {
             let d: Vec<i64> = rows.iter().map(|&r| i64::from(directions[r])).collect();
             inputs.push(Tensor::from(tract_ndarray::Array::from_vec(d)).into());
         }
-        let outputs = self
-            .plan
-            .run(inputs)
-            .map_err(|e| bad(&self.path, format!("running the graph: {}", one_line(&e))))?;
+        if self.inputs.overrides {
+            let layout = self.meta.map_layout;
+            let mut maps = vec![0f32; n * N_CELLS];
+            let mut weight = vec![0f32; n];
+            if let Some(o) = overrides {
+                for (k, &r) in rows.iter().enumerate() {
+                    graph_map(
+                        &o[r * N_CELLS..][..N_CELLS],
+                        layout,
+                        &mut maps[k * N_CELLS..][..N_CELLS],
+                    );
+                    weight[k] = 1.0;
+                }
+            }
+            let maps = tract_ndarray::Array::from_shape_vec([n, VIEW_SIZE, VIEW_SIZE], maps)
+                .map(Tensor::from)
+                .map_err(|e| PolicyError::Input(e.to_string()))?;
+            inputs.push(maps.into());
+            inputs.push(Tensor::from(tract_ndarray::Array::from_vec(weight)).into());
+        }
+        let ran = std::time::Instant::now();
+        let outputs = self.plan.run(inputs);
+        Clock::add(&self.clock.graph_ns, ran);
+        self.clock
+            .runs
+            .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        let outputs =
+            outputs.map_err(|e| bad(&self.path, format!("running the graph: {}", one_line(&e))))?;
         let get = |i: usize, name: &str, per_row: usize| -> Result<Vec<f32>, PolicyError> {
             let t = outputs[i]
                 .cast_to::<f32>()
@@ -358,6 +484,28 @@ impl OnnxAgent {
     }
 }
 
+/// The rows of one mission length, and everything a step of them reads.
+#[derive(Clone, Copy)]
+struct Group<'a> {
+    rows: &'a [usize],
+    obs: &'a [Observation],
+    directions: &'a [u8],
+    missions: &'a [&'a [u32]],
+    memory: &'a [f32],
+    overrides: Option<&'a [f32]>,
+}
+
+/// 49 agent-up values (`j = vy·7 + vx`) → the graph's layout, into `out`.
+fn graph_map(v: &[f32], layout: MapLayout, out: &mut [f32]) {
+    for (j, x) in v.iter().enumerate().take(N_CELLS) {
+        let (vy, vx) = (j / VIEW_SIZE, j % VIEW_SIZE);
+        match layout {
+            MapLayout::Image => out[vx * VIEW_SIZE + vy] = *x,
+            MapLayout::AgentUp => out[j] = *x,
+        }
+    }
+}
+
 /// 49 values in the graph's layout → an agent-up map (`map[vy][vx]`).
 fn view_map(v: &[f32], layout: MapLayout) -> ViewMap {
     let mut map = [[0.0; VIEW_SIZE]; VIEW_SIZE];
@@ -371,13 +519,13 @@ fn view_map(v: &[f32], layout: MapLayout) -> ViewMap {
     map
 }
 
-/// Checks the inputs' names, types and static sizes; returns whether `image` is int64 and
-/// whether the graph takes `direction`.
+/// Checks the inputs' names, types and static sizes; returns which form and which optional
+/// inputs the graph takes.
 fn check_inputs(
     path: &Path,
     graph: &pb::GraphProto,
     memory_size: usize,
-) -> Result<(bool, bool), PolicyError> {
+) -> Result<Inputs, PolicyError> {
     let init: std::collections::HashSet<&str> =
         graph.initializer.iter().map(|t| t.name.as_str()).collect();
     let inputs: Vec<&pb::ValueInfoProto> = graph
@@ -396,10 +544,9 @@ fn check_inputs(
             ));
         }
     }
-    if let Some(extra) = inputs
-        .iter()
-        .find(|v| !REQUIRED_INPUTS.contains(&v.name.as_str()) && v.name != "direction")
-    {
+    if let Some(extra) = inputs.iter().find(|v| {
+        !REQUIRED_INPUTS.contains(&v.name.as_str()) && !OPTIONAL_INPUTS.contains(&v.name.as_str())
+    }) {
         return Err(bad(
             path,
             format!("input \"{}\" is not in the contract", extra.name),
@@ -413,6 +560,8 @@ fn check_inputs(
             "image" => (&[ONNX_FLOAT, ONNX_INT64], 4, &[(1, 7), (2, 7), (3, 3)]),
             "mission" => (&[ONNX_INT64], 2, &[]),
             "memory" => (&[ONNX_FLOAT], 2, &[]),
+            "combined_override" => (&[ONNX_FLOAT], 3, &[(1, 7), (2, 7)]),
+            "override_weight" => (&[ONNX_FLOAT], 1, &[]),
             _ => (&[ONNX_INT64], 1, &[]),
         };
         if let Some(ty) = ty
@@ -438,7 +587,31 @@ fn check_inputs(
         }
         check_dims(path, "input", &v.name, dims.as_deref(), rank, &fixed)?;
     }
-    Ok((image_int, find("direction").is_some()))
+    let overrides = match (
+        find("combined_override").is_some(),
+        find("override_weight").is_some(),
+    ) {
+        (true, true) => true,
+        (false, false) => false,
+        (has, _) => {
+            let (given, missing) = if has {
+                ("combined_override", "override_weight")
+            } else {
+                ("override_weight", "combined_override")
+            };
+            return Err(bad(
+                path,
+                format!(
+                    "the graph takes \"{given}\" but not \"{missing}\"; the contract wants both or neither"
+                ),
+            ));
+        }
+    };
+    Ok(Inputs {
+        image_int,
+        direction: find("direction").is_some(),
+        overrides,
+    })
 }
 
 /// Checks a declared shape's rank and static sizes, where the graph declares them.
@@ -534,31 +707,42 @@ fn build(
     path: &Path,
     onnx: &tract_onnx::Onnx,
     proto: &pb::ModelProto,
-    image_int: bool,
-    has_direction: bool,
+    given: Inputs,
     meta: &Meta,
     optional: [bool; 3],
 ) -> Result<Arc<TypedRunnableModel>, PolicyError> {
     let fail = |e: anyhow::Error| bad(path, format!("tract: {}", one_line(&e)));
     let mut model = onnx.model_for_proto_model(proto).map_err(fail)?;
     let mut inputs = vec!["image", "mission", "memory"];
-    if has_direction {
+    if given.direction {
         inputs.push("direction");
+    }
+    if given.overrides {
+        inputs.extend(["combined_override", "override_weight"]);
     }
     model.set_input_names(&inputs).map_err(fail)?;
     let (b, l) = (model.symbols.sym("B"), model.symbols.sym("L"));
-    let image_type = if image_int {
+    let image_type = if given.image_int {
         i64::datum_type()
     } else {
         f32::datum_type()
     };
-    let facts = [
+    let mut facts = vec![
         InferenceFact::dt_shape(image_type, [b.to_dim(), 7.to_dim(), 7.to_dim(), 3.to_dim()]),
         InferenceFact::dt_shape(i64::datum_type(), [b.to_dim(), l.to_dim()]),
         InferenceFact::dt_shape(f32::datum_type(), [b.to_dim(), meta.memory_size.to_dim()]),
-        InferenceFact::dt_shape(i64::datum_type(), [b.to_dim()]),
     ];
-    for (i, fact) in facts.into_iter().take(inputs.len()).enumerate() {
+    if given.direction {
+        facts.push(InferenceFact::dt_shape(i64::datum_type(), [b.to_dim()]));
+    }
+    if given.overrides {
+        facts.push(InferenceFact::dt_shape(
+            f32::datum_type(),
+            [b.to_dim(), 7.to_dim(), 7.to_dim()],
+        ));
+        facts.push(InferenceFact::dt_shape(f32::datum_type(), [b.to_dim()]));
+    }
+    for (i, fact) in facts.into_iter().enumerate() {
         model.set_input_fact(i, fact).map_err(fail)?;
     }
     let mut outputs: Vec<&str> = REQUIRED_OUTPUTS.to_vec();

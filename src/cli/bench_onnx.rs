@@ -1,0 +1,123 @@
+//! `groundscope bench onnx`: an evaluation sweep on an ONNX graph and on a native checkpoint,
+//! side by side in one process, and where the graph's time goes.
+
+use std::time::Instant;
+
+use clap::Args;
+use groundscope::episode::ActionMode;
+use groundscope::metrics::sweep::evaluate_cell;
+use groundscope::policy::Agent;
+
+use crate::ExitStatus;
+
+/// `bench onnx`.
+#[derive(Debug, Args)]
+pub struct BenchOnnxArgs {
+    /// The ONNX graph.
+    #[arg(long, value_name = "FILE.onnx")]
+    pub checkpoint: String,
+    /// The native checkpoint it is compared with (the one it was exported from, for a ratio
+    /// that measures the runtime alone).
+    #[arg(long, value_name = "NAME", default_value = "bundled:attention")]
+    pub native: String,
+    /// Room sizes of the sweep.
+    #[arg(long, value_delimiter = ',', default_value = "8,10,12,14,16")]
+    pub sizes: Vec<usize>,
+    /// Object counts of the sweep.
+    #[arg(long, value_delimiter = ',', default_value = "4,6,8,10")]
+    pub objects: Vec<usize>,
+    /// Evaluation seeds.
+    #[arg(long, default_value_t = 5, allow_negative_numbers = true)]
+    pub seeds: u64,
+    /// Episodes per seed.
+    #[arg(long, default_value_t = 100, allow_negative_numbers = true)]
+    pub episodes: u64,
+    /// Times each sweep runs, alternating native and ONNX; the fastest of each is reported.
+    #[arg(long, default_value_t = 2, allow_negative_numbers = true)]
+    pub rounds: u32,
+}
+
+/// One sweep of `agent`, one thread; returns its seconds and the steps taken.
+fn sweep(agent: &Agent, args: &BenchOnnxArgs) -> anyhow::Result<(f64, u64)> {
+    let start = Instant::now();
+    let mut steps = 0u64;
+    for &size in &args.sizes {
+        for &objects in &args.objects {
+            let mut level = agent.level();
+            level.room_size = size;
+            level.n_objects = objects;
+            level
+                .validate()
+                .map_err(|e| anyhow::anyhow!("--sizes {size} --objects {objects}: {e}"))?;
+            let eps = evaluate_cell(
+                agent.acting(),
+                &level,
+                0..args.seeds,
+                args.episodes,
+                0.5,
+                ActionMode::Greedy,
+                &mut |_| {},
+            )?;
+            steps += eps.iter().map(|e| u64::from(e.length)).sum::<u64>();
+        }
+    }
+    Ok((start.elapsed().as_secs_f64(), steps))
+}
+
+/// Runs `bench onnx`.
+pub fn run(args: &BenchOnnxArgs) -> anyhow::Result<ExitStatus> {
+    if !(1..=1000).contains(&args.seeds) || !(1..1_000_000).contains(&args.episodes) {
+        anyhow::bail!("--seeds must be in 1..=1000 and --episodes in 1..1000000");
+    }
+    if !(1..=10).contains(&args.rounds) {
+        anyhow::bail!("--rounds {}: must be in 1..=10", args.rounds);
+    }
+    let graph = Agent::load(&args.checkpoint)?;
+    let Agent::Onnx(onnx) = &graph else {
+        anyhow::bail!(
+            "--checkpoint {}: not an ONNX graph (a file ending in .onnx)",
+            args.checkpoint
+        );
+    };
+    let native = Agent::load(&args.native)?;
+    let (mut native_secs, mut onnx_secs) = (f64::INFINITY, f64::INFINITY);
+    let (mut native_steps, mut onnx_steps) = (0, 0);
+    let mut split = onnx.step_times();
+    for _ in 0..args.rounds {
+        let (secs, steps) = sweep(&native, args)?;
+        (native_secs, native_steps) = (native_secs.min(secs), steps);
+        let before = onnx.step_times();
+        let (secs, steps) = sweep(&graph, args)?;
+        if secs < onnx_secs {
+            let after = onnx.step_times();
+            split = groundscope::policy::onnx::StepTimes {
+                steps: after.steps - before.steps,
+                runs: after.runs - before.runs,
+                graph_secs: after.graph_secs - before.graph_secs,
+                step_secs: after.step_secs - before.step_secs,
+            };
+        }
+        (onnx_secs, onnx_steps) = (onnx_secs.min(secs), steps);
+    }
+    let line = serde_json::json!({
+        "bench": "onnx",
+        "checkpoint": args.checkpoint,
+        "native": args.native,
+        "cells": args.sizes.len() * args.objects.len(),
+        "episodes": args.sizes.len() as u64 * args.objects.len() as u64 * args.seeds * args.episodes,
+        "native_env_steps": native_steps,
+        "onnx_env_steps": onnx_steps,
+        "native_secs": native_secs,
+        "onnx_secs": onnx_secs,
+        "ratio": onnx_secs / native_secs,
+        "onnx_graph_secs": split.graph_secs,
+        "onnx_io_secs": split.step_secs - split.graph_secs,
+        "onnx_rest_secs": onnx_secs - split.step_secs,
+        "onnx_batched_steps": split.steps,
+        "onnx_graph_runs": split.runs,
+        "rounds": args.rounds,
+        "threads": 1,
+    });
+    println!("{line}");
+    Ok(ExitStatus::Success)
+}
