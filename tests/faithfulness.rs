@@ -193,19 +193,19 @@ fn the_command_writes_a_complete_report_with_controls() {
 }
 
 #[test]
-fn baselines_get_occlusion_only_and_bad_outputs_leave_nothing() {
+fn baselines_get_occlusion_and_input_loops_and_bad_outputs_leave_nothing() {
     let tmp = tempfile::tempdir().unwrap();
     let out = tmp.path().join("b");
     let o = gs(&[
         "faithfulness",
         "--checkpoint",
         "bundled:baseline",
-        "--parts",
-        "steps,closed-loop",
+        "--episodes",
+        "0",
         "--out",
         out.to_str().unwrap(),
     ]);
-    assert_bad_input(&o, "--parts closed-loop");
+    assert_bad_input(&o, "--episodes");
     assert!(!out.exists());
     let o = gs(&[
         "faithfulness",
@@ -230,7 +230,15 @@ fn baselines_get_occlusion_only_and_bad_outputs_leave_nothing() {
     let c = &j["checkpoints"][0];
     assert!(c["occlusion"]["rank_correlation"].is_null());
     assert!(c["occlusion"]["target_most_effective"]["value"]["mean"].is_number());
-    assert!(c["closed_loop"].as_object().unwrap().is_empty());
+    // Without M its closed loop occludes the input: the most salient object, or a random one.
+    let loops: Vec<&String> = c["closed_loop"].as_object().unwrap().keys().collect();
+    assert_eq!(loops, ["none", "occlude_random", "occlude_salient"]);
+    for name in loops {
+        assert!(
+            c["closed_loop"][name]["success"]["mean"].is_number(),
+            "{name}: {c}"
+        );
+    }
     // A directory that cannot be written: one line, exit 2, nothing behind.
     let file = tmp.path().join("plain");
     std::fs::write(&file, b"x").unwrap();

@@ -224,31 +224,32 @@ fn faithfulness_and_eval_explain_a_graph_without_maps_by_occlusion() {
     let entry = &report["checkpoints"][0];
     assert_eq!(entry["variant"], "baseline");
     assert!(entry["analysed_steps"].as_u64().unwrap() > 0, "{entry}");
-    // Counterfactual worlds run (tracking M is not measured without M); no closed loop.
+    // Counterfactual worlds run (tracking M is not measured without M); the closed loop
+    // occludes the input, since M cannot be set.
     let cf = entry["counterfactuals"].as_object().unwrap();
     assert!(!cf.is_empty(), "{entry}");
     for (name, c) in cf {
         assert!(c["tracking"]["value"]["mean"].is_null(), "{name}: {c}");
     }
-    assert!(
-        entry["closed_loop"]
-            .as_object()
-            .is_none_or(serde_json::Map::is_empty),
+    let loops: Vec<&String> = entry["closed_loop"].as_object().unwrap().keys().collect();
+    assert_eq!(
+        loops,
+        ["none", "occlude_random", "occlude_salient"],
         "{entry}"
     );
-    // Asking for closed-loop re-runs is refused, naming the missing input; nothing written.
+    // A bad request is still one line and leaves nothing.
     let refused = dir.path().join("refused");
     assert_bad_input(
         &gs(&[
             "faithfulness",
             "--checkpoint",
             spec,
-            "--parts",
-            "closed-loop",
+            "--seeds",
+            "0",
             "--out",
             refused.to_str().unwrap(),
         ]),
-        "combined_override",
+        "--seeds",
     );
     assert!(!refused.exists());
     // eval --saliency: the occlusion map stands in for M, so `grounding` is decided.

@@ -22,8 +22,9 @@ use crate::ExitStatus;
 pub enum Part {
     /// Per step: occlusion, deletion/insertion, one-step interventions, localisation.
     Steps,
-    /// Whole episodes with an intervention at every step (a model that takes interventions on
-    /// M: a native attention checkpoint, or a graph with the override inputs).
+    /// Whole episodes with an intervention at every step: on M for a model that takes
+    /// interventions (a native attention checkpoint, a graph with the override inputs), on
+    /// the input (the most salient or a random object occluded) for any other.
     ClosedLoop,
     /// Counterfactual worlds edited at the start (every model; tracking of M needs maps).
     Counterfactuals,
@@ -69,8 +70,7 @@ pub struct FaithfulnessArgs {
     /// Sample actions instead of taking the most probable one.
     #[arg(long)]
     pub sample: bool,
-    /// Parts to compute [default: all that the model supports: steps and counterfactuals for
-    /// every model, closed-loop where it takes interventions on M].
+    /// Parts to compute [default: all three].
     #[arg(long, value_delimiter = ',', value_enum)]
     pub parts: Vec<Part>,
     /// Worker threads [default: the number of cores].
@@ -104,17 +104,12 @@ pub fn run(args: &FaithfulnessArgs) -> anyhow::Result<ExitStatus> {
         let parts = if args.parts.is_empty() {
             Parts {
                 steps: true,
-                closed_loop: interventions,
+                closed_loop: true,
                 counterfactuals: true,
                 interventions,
             }
         } else {
             let wants = |p| args.parts.contains(&p);
-            if wants(Part::ClosedLoop) && !interventions {
-                anyhow::bail!(
-                    "--parts closed-loop: {spec} takes no interventions on M (a baseline, or a graph without the combined_override input of docs/onnx.md#interventions)"
-                );
-            }
             Parts {
                 steps: wants(Part::Steps),
                 closed_loop: wants(Part::ClosedLoop),

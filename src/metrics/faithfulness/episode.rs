@@ -23,14 +23,21 @@ use crate::metrics::grounding::{related_objects, target_objects};
 use crate::policy::obs::N_CELLS;
 use crate::policy::{ActOutput, Acting, Intervention, Memory, PolicyError};
 
-/// Interventions applied at every step of a closed-loop re-run, in report order.
-pub const CLOSED_LOOP: [&str; 5] = [
+/// Interventions applied at every step of a closed-loop re-run, in report order: the first
+/// five change `M` (models that take interventions), the last two the observation the policy
+/// sees (any model: the closed loop of a model without maps).
+pub const CLOSED_LOOP: [&str; 7] = [
     "none",
     "uniform",
     "steered",
     "color_word_zero",
     "object_word_zero",
+    "occlude_salient",
+    "occlude_random",
 ];
+
+/// The closed loops that change the input rather than `M`.
+pub const INPUT_LOOPS: [&str; 2] = ["occlude_salient", "occlude_random"];
 
 /// Counterfactual edits of the initial world, in report order.
 pub const COUNTERFACTUALS: [&str; 4] = [
@@ -109,6 +116,12 @@ pub enum Loop {
     Steered,
     /// The weight of the word at this position set to 0 and the rest renormalised.
     ZeroWord(usize),
+    /// The object in view whose occlusion changes the action distribution most
+    /// ([`super::step::occlusion_of`]) replaced by floor in what the policy sees.
+    OccludeSalient,
+    /// A random object in view replaced by floor in what the policy sees (the control of
+    /// [`Loop::OccludeSalient`]).
+    OccludeRandom,
 }
 
 /// The intervention `how` makes at a step, given the world, its observation, the mission's
@@ -123,7 +136,7 @@ pub fn intervention(
     memory: &Memory,
 ) -> Result<Option<Intervention>, PolicyError> {
     Ok(match how {
-        Loop::None => None,
+        Loop::None | Loop::OccludeSalient | Loop::OccludeRandom => None,
         Loop::Uniform => Some(Intervention::SetM(Tensor::full(
             1f32 / N_CELLS as f32,
             (1, N_CELLS),
@@ -197,12 +210,23 @@ fn rollout(
     let mut rng = episode_rng(seed);
     let mut r = Rollout::default();
     let attention = agent.variant() == crate::policy::Variant::Attention;
+    // Its own stream, so that the random occlusions leave the action sampling as it was.
+    let mut occlusion_rng = Pcg64Mcg::seed_from_u64(seed ^ 0x0CC1_0DED);
     while !world.ended() {
         let obs = world.observe();
         let direction = world.agent_dir;
+        let seen = occluded(
+            agent,
+            *how,
+            &obs,
+            direction,
+            &tokens,
+            &memory,
+            &mut occlusion_rng,
+        )?;
         let iv = intervention(agent, *how, &world, &obs, &tokens, &memory)?;
         let out = agent.act_one(
-            obs,
+            seen,
             direction,
             &tokens,
             None,
@@ -244,6 +268,40 @@ fn rollout(
         }
     }
     Ok(r)
+}
+
+/// What the policy sees at this step under `how`: `obs` itself, or with one object in view
+/// replaced by floor ([`Loop::OccludeSalient`], [`Loop::OccludeRandom`]).
+fn occluded(
+    agent: &(dyn Acting + Sync),
+    how: Loop,
+    obs: &Observation,
+    direction: u8,
+    tokens: &[u32],
+    memory: &Memory,
+    rng: &mut Pcg64Mcg,
+) -> Result<Observation, PolicyError> {
+    let objects = related_objects(obs, |_, _| true);
+    let cell = match how {
+        Loop::OccludeSalient if !objects.is_empty() => {
+            let base = agent.act_one(*obs, direction, tokens, None, memory, false, None)?;
+            let probs = base.probs.first().cloned().unwrap_or_default();
+            let delta = super::step::occlusion_of(agent, obs, direction, tokens, memory, &probs)?;
+            objects
+                .iter()
+                .copied()
+                .max_by(|a, b| delta[cell_index(*a)].total_cmp(&delta[cell_index(*b)]))
+        }
+        Loop::OccludeRandom if !objects.is_empty() => {
+            Some(objects[rng.random_range(0..objects.len())])
+        }
+        _ => None,
+    };
+    let mut seen = *obs;
+    if let Some((vx, vy)) = cell {
+        seen.image[vx][vy] = super::step::EMPTY_FLOOR;
+    }
+    Ok(seen)
 }
 
 /// Free interior cells of `world` other than the agent's, in scan order.
@@ -399,12 +457,18 @@ pub fn analyse_episode(
         }
     }
     let mut closed_loop = BTreeMap::new();
-    if parts.closed_loop && parts.interventions {
-        for name in CLOSED_LOOP {
+    if parts.closed_loop {
+        // A model that takes interventions on M gets those; any other the input occlusions.
+        let names = CLOSED_LOOP
+            .into_iter()
+            .filter(|n| *n == "none" || INPUT_LOOPS.contains(n) != parts.interventions);
+        for name in names {
             let how = match name {
                 "none" => Some(Loop::None),
                 "uniform" => Some(Loop::Uniform),
                 "steered" => Some(Loop::Steered),
+                "occlude_salient" => Some(Loop::OccludeSalient),
+                "occlude_random" => Some(Loop::OccludeRandom),
                 "color_word_zero" => word_position(&world, &tokens, true).map(Loop::ZeroWord),
                 _ => word_position(&world, &tokens, false).map(Loop::ZeroWord),
             };
