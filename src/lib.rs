@@ -16,3 +16,4 @@ pub mod metrics;
 pub mod policy;
 pub mod record;
 pub mod render;
+pub mod table;

@@ -372,22 +372,20 @@ fn train_in(
         let log = trainer.update()?;
         let elapsed = start.elapsed().as_secs_f64();
         let fps = (trainer.state.frames - frames_at_start) as f64 / elapsed.max(1e-9);
-        writeln!(
-            log_file,
-            "{},{},{:.0},{},{:.4},{:.4},{:.2},{:.5},{:.5},{:.4},{:.4},{:.1}",
-            log.update,
-            log.frames,
-            fps,
-            log.episodes,
-            log.success_rate,
-            log.mean_reward,
-            log.mean_length,
-            log.policy_loss,
-            log.value_loss,
-            log.entropy,
-            log.grad_norm,
-            elapsed
-        )?;
+        let row = groundscope::table::Record::new()
+            .field(log.update)
+            .field(log.frames)
+            .field(format!("{fps:.0}"))
+            .field(log.episodes)
+            .field(format!("{:.4}", log.success_rate))
+            .field(format!("{:.4}", log.mean_reward))
+            .field(format!("{:.2}", log.mean_length))
+            .field(format!("{:.5}", log.policy_loss))
+            .field(format!("{:.5}", log.value_loss))
+            .field(format!("{:.4}", log.entropy))
+            .field(format!("{:.4}", log.grad_norm))
+            .field(format!("{elapsed:.1}"));
+        log_file.write_all(groundscope::table::line(&row).as_bytes())?;
         bar.set_position(trainer.state.frames);
         bar.set_message(format!(
             "{fps:.0} fps, success {:.2}, reward {:.3}",
@@ -408,7 +406,7 @@ fn train_in(
                 log.update,
                 log.frames,
             )?;
-            writeln!(eval_file, "{}", row.csv_row())?;
+            eval_file.write_all(groundscope::table::line(&row.record()).as_bytes())?;
             if args.quiet {
                 println!(
                     "eval update {} frames {} greedy success {:.3} object acc_ng {:.3} colour acc_ng {:.3} ({:.1} s)",

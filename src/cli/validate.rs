@@ -10,6 +10,7 @@ use groundscope::files::{OutputKind, output_kind, parent_dir};
 use groundscope::metrics::tracking::{EVAL_LOG_HEADER, track};
 use groundscope::policy::Agent;
 use groundscope::policy::checkpoint::write_atomic;
+use groundscope::table::{Record, Table};
 
 use crate::ExitStatus;
 
@@ -29,15 +30,6 @@ pub struct ValidateArgs {
     /// Write the rows to this CSV file instead of stdout.
     #[arg(long, value_name = "FILE")]
     pub out: Option<PathBuf>,
-}
-
-/// `value` as one CSV field (quoted where it holds a comma, a quote or a line break).
-fn csv_field(value: &str) -> String {
-    if value.contains([',', '"', '\n', '\r']) {
-        format!("\"{}\"", value.replace('"', "\"\""))
-    } else {
-        value.to_owned()
-    }
 }
 
 /// Runs `validate`: every checkpoint is loaded before any is evaluated, and the output is
@@ -61,7 +53,7 @@ pub fn run(args: &ValidateArgs) -> anyhow::Result<ExitStatus> {
     for name in &args.checkpoints {
         ckpts.push((name, Agent::load(name)?));
     }
-    let mut text = format!("checkpoint,{EVAL_LOG_HEADER}\n");
+    let mut table = Table::new(&format!("checkpoint,{EVAL_LOG_HEADER}"));
     for (name, agent) in ckpts {
         // An imported graph's metadata carries no training counters: its row says 0.
         let (updates, frames) = match &agent {
@@ -75,26 +67,13 @@ pub fn run(args: &ValidateArgs) -> anyhow::Result<ExitStatus> {
             updates,
             frames,
         )?;
-        text.push_str(&csv_field(name));
-        text.push(',');
-        text.push_str(&row.csv_row());
-        text.push('\n');
+        // The name is quoted where it holds a comma, a quote or a line break.
+        table.push(&Record::new().field(name).extend(row.record()));
     }
+    let text = table.finish();
     match &args.out {
         Some(path) => write_atomic(path, text.as_bytes())?,
         None => print!("{text}"),
     }
     Ok(ExitStatus::Success)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::csv_field;
-
-    #[test]
-    fn fields_are_quoted_only_where_csv_needs_it() {
-        assert_eq!(csv_field("runs/a/model"), "runs/a/model");
-        assert_eq!(csv_field("a,b"), "\"a,b\"");
-        assert_eq!(csv_field("say \"hi\""), "\"say \"\"hi\"\"\"");
-    }
 }

@@ -6,8 +6,9 @@
 use std::fmt::Write;
 
 use super::grounding::{AROUND, AROUND_NAMES, WordKind};
-use super::report::{Report, csv};
+use super::report::Report;
 use super::sweep::GroundingStats;
+use crate::table::{Record, Table};
 
 impl Report {
     /// The attention cells' grounding stats per word kind, in report order.
@@ -24,21 +25,23 @@ impl Report {
     /// `around.csv`: one line per attention cell, word kind and offset (`dx` right, `dy`
     /// back, as seen from the agent), mean and std over seeds.
     pub fn around_csv(&self) -> String {
-        let mut s = String::from("checkpoint,size,objects,word,offset,dx,dy,mean,std\n");
+        let mut t = Table::new("checkpoint,size,objects,word,offset,dx,dy,mean,std");
         for (c, kind, g) in self.around_rows() {
             for ((name, (dx, dy)), m) in AROUND_NAMES.iter().zip(AROUND).zip(&g.around) {
-                let _ = writeln!(
-                    s,
-                    "{},{},{},{},{name},{dx},{dy},{}",
-                    c.checkpoint,
-                    c.size,
-                    c.objects,
-                    kind.name(),
-                    csv(m)
+                t.push(
+                    &Record::new()
+                        .field(&c.checkpoint)
+                        .field(c.size)
+                        .field(c.objects)
+                        .field(kind.name())
+                        .field(name)
+                        .field(dx)
+                        .field(dy)
+                        .mean_std(m),
                 );
             }
         }
-        s
+        t.finish()
     }
 
     /// The `report.md` section: one row per attention cell and word kind, one column per

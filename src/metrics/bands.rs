@@ -101,8 +101,12 @@ pub fn read_columns(path: &Path, names: &[&str]) -> Result<Vec<Vec<f64>>, Metric
         reason: e.to_string(),
     };
     let text = std::fs::read_to_string(path).map_err(io)?;
-    let mut lines = text.lines();
-    let header: Vec<&str> = lines.next().unwrap_or_default().split(',').collect();
+    // The one CSV reader (quoted fields, ragged lines named by their number).
+    let (header, records) = crate::table::read(&text).map_err(|reason| MetricsError::Format {
+        path: path.to_path_buf(),
+        field: "CSV".into(),
+        reason,
+    })?;
     let cols = names
         .iter()
         .map(|name| {
@@ -117,12 +121,11 @@ pub fn read_columns(path: &Path, names: &[&str]) -> Result<Vec<Vec<f64>>, Metric
         })
         .collect::<Result<Vec<usize>, _>>()?;
     let mut rows = Vec::new();
-    for (i, line) in lines.enumerate() {
-        let cells: Vec<&str> = line.split(',').collect();
+    for (i, cells) in records.iter().enumerate() {
         let row = cols
             .iter()
-            .map(|&c| match cells.get(c) {
-                Some(&"") => Ok(f64::NAN),
+            .map(|&c| match cells.get(c).map(String::as_str) {
+                Some("") => Ok(f64::NAN),
                 Some(v) => v.parse::<f64>().map_err(|_| ()),
                 None => Err(()),
             })

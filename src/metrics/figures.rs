@@ -155,36 +155,8 @@ pub fn save_rgb(buf: &[u8], w: u32, h: u32, path: &Path) -> Result<(), MetricsEr
 
 /// Reads `(frames, mean_reward)` from a training `log.csv`.
 pub fn read_training_log(path: &Path) -> Result<Vec<(f64, f64)>, MetricsError> {
-    let text = std::fs::read_to_string(path).map_err(|e| plot_err(path, e))?;
-    let mut lines = text.lines();
-    let header: Vec<&str> = lines.next().unwrap_or_default().split(',').collect();
-    let col = |name: &str| {
-        header
-            .iter()
-            .position(|h| *h == name)
-            .ok_or_else(|| MetricsError::Format {
-                path: path.to_path_buf(),
-                field: name.to_owned(),
-                reason: "column missing from the header".into(),
-            })
-    };
-    let (fc, rc) = (col("frames")?, col("mean_reward")?);
-    let mut out = Vec::new();
-    for (i, line) in lines.enumerate() {
-        let cells: Vec<&str> = line.split(',').collect();
-        let parse = |c: usize| -> Result<f64, MetricsError> {
-            cells
-                .get(c)
-                .and_then(|v| v.parse::<f64>().ok())
-                .ok_or_else(|| MetricsError::Format {
-                    path: path.to_path_buf(),
-                    field: format!("line {}", i + 2),
-                    reason: format!("column {} is not a number", header[c]),
-                })
-        };
-        out.push((parse(fc)?, parse(rc)?));
-    }
-    Ok(out)
+    let rows = super::bands::read_columns(path, &["frames", "mean_reward"])?;
+    Ok(rows.iter().map(|r| (r[0], r[1])).collect())
 }
 
 #[cfg(test)]

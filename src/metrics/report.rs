@@ -16,6 +16,7 @@ use super::figures::{save_rgb, series_color};
 use super::grounding::WordKind;
 use super::sweep::{EpisodeSummary, GroundingStats, MeanStd, Performance};
 use crate::env::level::LevelConfig;
+use crate::table::{Record, Table};
 
 /// A figure point: x, mean, std.
 type Point = (f64, f64, f64);
@@ -258,14 +259,6 @@ pub fn worst_episodes(
     failed
 }
 
-/// `mean,std` for a CSV row (two empty fields when nothing was measured).
-pub(super) fn csv(m: &MeanStd) -> String {
-    match (m.mean, m.std) {
-        (Some(a), Some(b)) => format!("{a:.6},{b:.6}"),
-        _ => ",".into(),
-    }
-}
-
 impl Report {
     /// `report.md`: the tables.
     pub fn markdown(&self, failures: &[Failure]) -> String {
@@ -412,52 +405,50 @@ impl Report {
 
     /// `performance.csv`.
     pub fn performance_csv(&self) -> String {
-        let mut s = String::from(
-            "checkpoint,variant,size,objects,episodes,reward_mean,reward_std,success_mean,success_std,length_mean,length_std,reward_given_success_mean,reward_given_success_std\n",
+        let mut t = Table::new(
+            "checkpoint,variant,size,objects,episodes,reward_mean,reward_std,success_mean,success_std,length_mean,length_std,reward_given_success_mean,reward_given_success_std",
         );
         for c in &self.cells {
-            let _ = writeln!(
-                s,
-                "{},{},{},{},{},{},{},{},{}",
-                c.checkpoint,
-                c.variant,
-                c.size,
-                c.objects,
-                c.episodes,
-                csv(&c.reward),
-                csv(&c.success),
-                csv(&c.length),
-                csv(&c.reward_given_success)
+            t.push(
+                &Record::new()
+                    .field(&c.checkpoint)
+                    .field(&c.variant)
+                    .field(c.size)
+                    .field(c.objects)
+                    .field(c.episodes)
+                    .mean_std(&c.reward)
+                    .mean_std(&c.success)
+                    .mean_std(&c.length)
+                    .mean_std(&c.reward_given_success),
             );
         }
-        s
+        t.finish()
     }
 
     /// `accuracy.csv`: one line per attention cell and word kind.
     pub fn accuracy_csv(&self) -> String {
-        let mut s = String::from(
-            "checkpoint,size,objects,word,acc_mean,acc_std,acc_ng_mean,acc_ng_std,acc_bs_mean,acc_bs_std,acc_cmb_mean,acc_cmb_std,evaluated_steps,episodes_without\n",
+        let mut t = Table::new(
+            "checkpoint,size,objects,word,acc_mean,acc_std,acc_ng_mean,acc_ng_std,acc_bs_mean,acc_bs_std,acc_cmb_mean,acc_cmb_std,evaluated_steps,episodes_without",
         );
         for c in &self.cells {
             let Some(a) = &c.accuracy else { continue };
             for (kind, g) in a.by_kind() {
-                let _ = writeln!(
-                    s,
-                    "{},{},{},{},{},{},{},{},{},{}",
-                    c.checkpoint,
-                    c.size,
-                    c.objects,
-                    kind.name(),
-                    csv(&g.acc),
-                    csv(&g.acc_ng),
-                    csv(&g.acc_bs),
-                    csv(&g.acc_cmb),
-                    g.evaluated_steps,
-                    g.episodes_without
+                t.push(
+                    &Record::new()
+                        .field(&c.checkpoint)
+                        .field(c.size)
+                        .field(c.objects)
+                        .field(kind.name())
+                        .mean_std(&g.acc)
+                        .mean_std(&g.acc_ng)
+                        .mean_std(&g.acc_bs)
+                        .mean_std(&g.acc_cmb)
+                        .field(g.evaluated_steps)
+                        .field(g.episodes_without),
                 );
             }
         }
-        s
+        t.finish()
     }
 
     /// Writes every file into `dir` (created if needed) via a temporary directory and renames.

@@ -48,8 +48,8 @@ pub struct TrackedEval {
 }
 
 impl TrackedEval {
-    /// The CSV row (no newline); NaNs are written as empty fields.
-    pub fn csv_row(&self) -> String {
+    /// The row's fields ([`EVAL_LOG_HEADER`]'s columns); NaNs are written as empty fields.
+    pub fn record(&self) -> crate::table::Record {
         let f = |x: f64| {
             if x.is_finite() {
                 format!("{x:.4}")
@@ -57,22 +57,20 @@ impl TrackedEval {
                 String::new()
             }
         };
-        format!(
-            "{},{},{},{},{},{},{},{},{},{},{},{},{:.2}",
-            self.update,
-            self.frames,
-            self.episodes,
-            f(self.greedy_success),
-            f(self.mean_reward),
-            f(self.mean_length),
-            f(self.object.0),
-            f(self.object.1),
-            f(self.color.0),
-            f(self.color.1),
-            f(self.combined.0),
-            f(self.combined.1),
-            self.eval_secs
-        )
+        crate::table::Record::new()
+            .field(self.update)
+            .field(self.frames)
+            .field(self.episodes)
+            .field(f(self.greedy_success))
+            .field(f(self.mean_reward))
+            .field(f(self.mean_length))
+            .field(f(self.object.0))
+            .field(f(self.object.1))
+            .field(f(self.color.0))
+            .field(f(self.color.1))
+            .field(f(self.combined.0))
+            .field(f(self.combined.1))
+            .field(format!("{:.2}", self.eval_secs))
     }
 }
 
@@ -127,8 +125,10 @@ mod tests {
             combined: (0.3, 0.4),
             eval_secs: 1.5,
         }
-        .csv_row();
+        .record();
+        let row = crate::table::line(&row);
         assert_eq!(row.split(',').count(), EVAL_LOG_HEADER.split(',').count());
+        assert!(row.ends_with("1.50\n"), "{row}");
         assert!(row.contains(",0.2000,,,0.3000,"), "{row}");
     }
 

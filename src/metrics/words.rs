@@ -9,10 +9,11 @@ use std::fmt::Write;
 use serde::{Deserialize, Serialize};
 
 use super::grounding::WordKind;
-use super::report::{Report, csv};
+use super::report::Report;
 use super::sweep::{EpisodeSummary, GroundingStats, grounding};
 use crate::env::mission::Instruction;
 use crate::env::object::{Color, ObjectKind};
+use crate::table::{Record, Table};
 
 /// One word's grounding in a cell.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -63,28 +64,27 @@ pub fn by_word(eps: &[EpisodeSummary]) -> Vec<WordStats> {
 impl Report {
     /// `words.csv`: one line per attention cell and word named in it.
     pub fn words_csv(&self) -> String {
-        let mut s = String::from(
-            "checkpoint,size,objects,kind,word,episodes,acc_mean,acc_std,acc_ng_mean,acc_ng_std,evaluated_steps\n",
+        let mut t = Table::new(
+            "checkpoint,size,objects,kind,word,episodes,acc_mean,acc_std,acc_ng_mean,acc_ng_std,evaluated_steps",
         );
         for c in &self.cells {
             let Some(a) = &c.accuracy else { continue };
             for w in &a.words {
-                let _ = writeln!(
-                    s,
-                    "{},{},{},{},{},{},{},{},{}",
-                    c.checkpoint,
-                    c.size,
-                    c.objects,
-                    w.kind.name(),
-                    w.word,
-                    w.episodes,
-                    csv(&w.stats.acc),
-                    csv(&w.stats.acc_ng),
-                    w.stats.evaluated_steps
+                t.push(
+                    &Record::new()
+                        .field(&c.checkpoint)
+                        .field(c.size)
+                        .field(c.objects)
+                        .field(w.kind.name())
+                        .field(&w.word)
+                        .field(w.episodes)
+                        .mean_std(&w.stats.acc)
+                        .mean_std(&w.stats.acc_ng)
+                        .field(w.stats.evaluated_steps),
                 );
             }
         }
-        s
+        t.finish()
     }
 
     /// The `report.md` section: one row per attention cell, one column per word (`acc`, mean

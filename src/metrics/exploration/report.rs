@@ -7,8 +7,9 @@ use std::path::Path;
 
 use super::{CellExploration, CellMapStats, ExplorationStats};
 use crate::metrics::error::MetricsError;
-use crate::metrics::report::{Cell, Report, csv};
+use crate::metrics::report::{Cell, Report};
 use crate::metrics::sweep::MeanStd;
+use crate::table::{Record, Table};
 
 /// The `exploration.csv` header (documented in `docs/exploration.md`).
 pub const EXPLORATION_CSV_HEADER: &str = "checkpoint,variant,size,objects,outcome,episodes,\
@@ -30,20 +31,19 @@ pub const FIG_EXPLORATION_MAPS: &str = "fig_exploration_maps.png";
 /// The map columns of one CSV row: the steps, then each measure hidden and visible. A set
 /// without maps (a baseline's, or no episode) leaves all 18 fields empty: its steps were not
 /// split, which is not zero.
-fn map_fields(s: &ExplorationStats) -> String {
+fn map_fields(s: &ExplorationStats) -> Record {
     let Some(m) = &s.maps else {
-        return ",".repeat(17);
+        return (0..18).fold(Record::new(), |r, _| r.field(""));
     };
-    let pair =
-        |f: fn(&CellMapStats) -> &MeanStd| format!("{},{}", csv(f(&m.hidden)), csv(f(&m.visible)));
-    format!(
-        "{},{},{},{},{},{}",
-        m.hidden.steps,
-        m.visible.steps,
-        pair(|x| &x.m_entropy),
-        pair(|x| &x.m_max),
-        pair(|x| &x.w_entropy),
-        pair(|x| &x.word_entropy)
+    let stats: [fn(&CellMapStats) -> &MeanStd; 4] = [
+        |x| &x.m_entropy,
+        |x| &x.m_max,
+        |x| &x.w_entropy,
+        |x| &x.word_entropy,
+    ];
+    stats.iter().fold(
+        Record::new().field(m.hidden.steps).field(m.visible.steps),
+        |r, f| r.mean_std(f(&m.hidden)).mean_std(f(&m.visible)),
     )
 }
 
@@ -122,33 +122,33 @@ fn maps_table(with: &[&Cell], s: &mut String) {
 impl Report {
     /// `exploration.csv`: one line per cell and outcome (`all`, `success`, `failure`).
     pub fn exploration_csv(&self) -> String {
-        let mut s = format!("{EXPLORATION_CSV_HEADER}\n");
+        let mut t = Table::new(EXPLORATION_CSV_HEADER);
         for c in &self.cells {
             let Some(x) = &c.exploration else { continue };
             for (outcome, e) in x.outcomes() {
-                let _ = writeln!(
-                    s,
-                    "{},{},{},{},{outcome},{},{},{},{},{},{},{},{},{},{},{},{}",
-                    c.checkpoint,
-                    c.variant,
-                    c.size,
-                    c.objects,
-                    e.episodes,
-                    csv(&e.steps),
-                    csv(&e.visited),
-                    csv(&e.visited_frac),
-                    csv(&e.seen_frac),
-                    csv(&e.turn_frac),
-                    csv(&e.longest_turn_run),
-                    csv(&e.revisit_frac),
-                    e.never_visible,
-                    e.truncated,
-                    csv(&e.first_visible_step),
-                    map_fields(e)
+                t.push(
+                    &Record::new()
+                        .field(&c.checkpoint)
+                        .field(&c.variant)
+                        .field(c.size)
+                        .field(c.objects)
+                        .field(outcome)
+                        .field(e.episodes)
+                        .mean_std(&e.steps)
+                        .mean_std(&e.visited)
+                        .mean_std(&e.visited_frac)
+                        .mean_std(&e.seen_frac)
+                        .mean_std(&e.turn_frac)
+                        .mean_std(&e.longest_turn_run)
+                        .mean_std(&e.revisit_frac)
+                        .field(e.never_visible)
+                        .field(e.truncated)
+                        .mean_std(&e.first_visible_step)
+                        .extend(map_fields(e)),
                 );
             }
         }
-        s
+        t.finish()
     }
 
     /// The `report.md` sections: the failures' coverage per cell, one column per checkpoint;

@@ -566,8 +566,8 @@ impl FaithfulnessReport {
 
 /// One CSV row per analysed step of every checkpoint.
 pub fn steps_csv(rows: &[(String, &[EpisodeResult])]) -> String {
-    let mut out = String::from(
-        "checkpoint,eval_seed,level_seed,step,rank_correlation,chance_rank_correlation,argmax_agreement,object_agreement,target_most_effective,deletion_auc_m,deletion_auc_random,deletion_auc_oracle,insertion_auc_m,insertion_auc_random,insertion_auc_oracle,tv_uniform,tv_permuted,tv_steered\n",
+    let mut out = crate::table::Table::new(
+        "checkpoint,eval_seed,level_seed,step,rank_correlation,chance_rank_correlation,argmax_agreement,object_agreement,target_most_effective,deletion_auc_m,deletion_auc_random,deletion_auc_oracle,insertion_auc_m,insertion_auc_random,insertion_auc_oracle,tv_uniform,tv_permuted,tv_steered",
     );
     let num = |x: Option<f64>| x.map_or(String::new(), |v| format!("{v:.6}"));
     let b = |x: Option<bool>| x.map_or(String::new(), |v| u8::from(v).to_string());
@@ -576,28 +576,29 @@ pub fn steps_csv(rows: &[(String, &[EpisodeResult])]) -> String {
         for e in *eps {
             for (i, s) in e.steps.iter().enumerate() {
                 let tv = |n: &str| num(s.interventions.get(n).map(|e| e.tv));
-                let _ = writeln!(
-                    out,
-                    "{name},{},{},{i},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
-                    e.eval_seed,
-                    e.level_seed,
-                    num(s.rank_correlation),
-                    num(s.chance_rank_correlation),
-                    b(s.argmax_agreement),
-                    b(s.object_agreement),
-                    b(s.target_most_effective),
-                    auc(&s.deletion.by_m),
-                    auc(&s.deletion.random),
-                    auc(&s.deletion.oracle),
-                    auc(&s.insertion.by_m),
-                    auc(&s.insertion.random),
-                    auc(&s.insertion.oracle),
-                    tv("uniform"),
-                    tv("permuted"),
-                    tv("steered"),
+                out.push(
+                    &crate::table::Record::new()
+                        .field(name)
+                        .field(e.eval_seed)
+                        .field(e.level_seed)
+                        .field(i)
+                        .field(num(s.rank_correlation))
+                        .field(num(s.chance_rank_correlation))
+                        .field(b(s.argmax_agreement))
+                        .field(b(s.object_agreement))
+                        .field(b(s.target_most_effective))
+                        .field(auc(&s.deletion.by_m))
+                        .field(auc(&s.deletion.random))
+                        .field(auc(&s.deletion.oracle))
+                        .field(auc(&s.insertion.by_m))
+                        .field(auc(&s.insertion.random))
+                        .field(auc(&s.insertion.oracle))
+                        .field(tv("uniform"))
+                        .field(tv("permuted"))
+                        .field(tv("steered")),
                 );
             }
         }
     }
-    out
+    out.finish()
 }
