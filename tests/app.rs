@@ -274,7 +274,7 @@ fn the_faithfulness_box_adds_this_steps_occlusion_map() {
 }
 
 fn onnx_fixture(name: &str) -> String {
-    format!("{}/tests/fixtures/onnx/{name}", env!("CARGO_MANIFEST_DIR"))
+    common::onnx_fixture(name).to_string_lossy().into_owned()
 }
 
 #[test]

@@ -21,11 +21,7 @@ use groundscope::env::world::Action;
 use groundscope::policy::onnx::OnnxAgent;
 use groundscope::policy::{self, Memory, Net, bundled};
 
-fn fixture(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/fixtures/onnx")
-        .join(name)
-}
+use common::onnx_fixture as fixture;
 
 fn argmax(v: &[f32]) -> usize {
     v.iter()

@@ -18,11 +18,7 @@ use groundscope::env::view::Observation;
 use groundscope::policy::onnx::OnnxAgent;
 use serde_json::Value;
 
-fn fixture(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/fixtures/onnx")
-        .join(name)
-}
+use common::onnx_fixture as fixture;
 
 fn read(p: &Path) -> Value {
     serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap()

@@ -43,12 +43,7 @@ fn sweep(agent: &Agent, args: &BenchOnnxArgs) -> anyhow::Result<(f64, u64)> {
     let mut steps = 0u64;
     for &size in &args.sizes {
         for &objects in &args.objects {
-            let mut level = agent.level();
-            level.room_size = size;
-            level.n_objects = objects;
-            level
-                .validate()
-                .map_err(|e| anyhow::anyhow!("--sizes {size} --objects {objects}: {e}"))?;
+            let level = super::policy_cmd::sweep_level(agent.level(), size, objects)?;
             let eps = evaluate_cell(
                 agent.acting(),
                 &level,

@@ -162,12 +162,7 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitStatus> {
     for (name, ckpt) in &ckpts {
         for &size in &args.sizes {
             for &objects in &args.objects {
-                let mut level = ckpt.level();
-                level.room_size = size;
-                level.n_objects = objects;
-                level
-                    .validate()
-                    .map_err(|e| anyhow::anyhow!("--sizes {size} --objects {objects}: {e}"))?;
+                let level = super::policy_cmd::sweep_level(ckpt.level(), size, objects)?;
                 cells.push((name.clone(), ckpt, level));
             }
         }

@@ -119,12 +119,7 @@ pub fn run(args: &FaithfulnessArgs) -> anyhow::Result<ExitStatus> {
         };
         for &size in &args.sizes {
             for &objects in &args.objects {
-                let mut level = agent.level();
-                level.room_size = size;
-                level.n_objects = objects;
-                level
-                    .validate()
-                    .map_err(|e| anyhow::anyhow!("--sizes {size} --objects {objects}: {e}"))?;
+                let level = super::policy_cmd::sweep_level(agent.level(), size, objects)?;
                 cells.push((spec.clone(), agent.clone(), level, parts));
             }
         }

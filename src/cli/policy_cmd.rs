@@ -69,6 +69,17 @@ pub fn load_checkpoint(spec: Option<&str>) -> anyhow::Result<(Checkpoint, String
     Ok((ckpt, spec))
 }
 
+/// The level of one cell of a sweep: `base` with `size` and `objects`, checked; an error
+/// names both flags.
+pub fn sweep_level(
+    base: groundscope::env::LevelConfig,
+    size: usize,
+    objects: usize,
+) -> anyhow::Result<groundscope::env::LevelConfig> {
+    level_from(base, Some(size), Some(objects))
+        .map_err(|e| anyhow::anyhow!("--sizes {size} --objects {objects}: {e}"))
+}
+
 /// A training level with the room size and object count given on the command line, checked.
 pub fn level_from(
     mut level: groundscope::env::LevelConfig,

@@ -105,6 +105,13 @@ pub fn assert_bad_input(o: &Output, what: &str) {
     );
 }
 
+/// `tests/fixtures/onnx/<name>`: an ONNX fixture (made by `export/make_fixtures.sh`).
+pub fn onnx_fixture(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/fixtures/onnx")
+        .join(name)
+}
+
 /// The fixture files of `tests/fixtures/<set>`, sorted.
 pub fn fixtures(set: &str) -> Vec<PathBuf> {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR"))
