@@ -134,7 +134,12 @@ fn env_show_prints_the_level_and_writes_pictures() {
     // The snapshot replays in the verifier (no steps, so it passes trivially but must load).
     let o = gs(&["env", "verify", snap.to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    // `--room-size` is the room everywhere; the old `--size` is kept as a hidden alias.
+    assert_bad_input(&gs(&["env", "show", "--room-size", "4"]), "room_size");
     assert_bad_input(&gs(&["env", "show", "--size", "4"]), "room_size");
+    let shown = |flag: &str| stdout(&gs(&["env", "show", flag, "10", "--objects", "3"]));
+    assert!(shown("--room-size").starts_with("level: S10N3"));
+    assert_eq!(shown("--room-size"), shown("--size"));
     assert_bad_input(
         &gs(&["env", "show", "--size", "5", "--objects", "9"]),
         "n_objects",

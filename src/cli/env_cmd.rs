@@ -11,9 +11,10 @@ use crate::ExitStatus;
 /// Level flags shared by every command that generates worlds.
 #[derive(Clone, Debug, Args)]
 pub struct LevelArgs {
-    /// Room side S, walls included (the paper trains on 8).
+    /// Room side S, walls included (the paper trains on 8; `--size` is still accepted).
     #[arg(
-        long,
+        long = "room-size",
+        alias = "size",
         value_name = "S",
         default_value_t = 8,
         allow_negative_numbers = true

@@ -253,7 +253,7 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitStatus> {
     let sample = if args.sample { " --sample" } else { "" };
     let mut failures = worst_episodes(&all_eps, args.top_k, &|ckpt, size, objects, seed| {
         format!(
-            "groundscope replay --checkpoint {ckpt} --size {size} --objects {objects} --seed {seed}{sample}"
+            "groundscope replay --checkpoint {ckpt} --room-size {size} --objects {objects} --seed {seed}{sample}"
         )
     });
     add_counterfactuals(&mut failures, &ckpts, mode)?;

@@ -52,8 +52,14 @@ pub struct ReplayArgs {
     /// Sample actions instead of taking the most probable one.
     #[arg(long)]
     pub sample: bool,
-    /// Room size; defaults to the level the checkpoint was trained on.
-    #[arg(long, value_name = "S", allow_negative_numbers = true)]
+    /// Room side S, walls included; defaults to the level the checkpoint was trained on
+    /// (`--size` is still accepted).
+    #[arg(
+        long = "room-size",
+        alias = "size",
+        value_name = "S",
+        allow_negative_numbers = true
+    )]
     pub size: Option<usize>,
     /// Number of objects; defaults to the checkpoint's level.
     #[arg(long, value_name = "N", allow_negative_numbers = true)]
