@@ -11,7 +11,7 @@
 
 mod common;
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use common::{assert_bad_input, gs, stderr};
 use groundscope::env::view::Observation;
@@ -248,6 +248,23 @@ fn faithfulness_and_eval_explain_a_graph_without_maps_by_occlusion() {
         "--seeds",
     );
     assert!(!refused.exists());
+    // A graph that outputs NaN stops the run in one line, and the new directory goes too.
+    let nan = dir.path().join("nan");
+    assert_bad_input(
+        &gs(&[
+            "faithfulness",
+            "--checkpoint",
+            fixture("bad_nan.onnx").to_str().unwrap(),
+            "--seeds",
+            "1",
+            "--episodes",
+            "1",
+            "--out",
+            nan.to_str().unwrap(),
+        ]),
+        "NaN",
+    );
+    assert!(!nan.exists());
     // eval --saliency: the occlusion map stands in for M, so `grounding` is decided.
     let eval = dir.path().join("eval");
     let o = gs(&[

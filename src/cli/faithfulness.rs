@@ -203,6 +203,8 @@ pub fn run(args: &FaithfulnessArgs) -> anyhow::Result<ExitStatus> {
 struct Staging {
     dir: Option<tempfile::TempDir>,
     out: PathBuf,
+    /// DIR did not exist before: a run that fails removes it again, leaving nothing.
+    created: bool,
 }
 
 impl Staging {
@@ -210,6 +212,7 @@ impl Staging {
         if out.exists() && !out.is_dir() {
             anyhow::bail!("--out {}: not a directory", out.display());
         }
+        let created = !out.exists();
         std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
         let dir = tempfile::Builder::new()
             .prefix(".groundscope-faithfulness-")
@@ -218,6 +221,7 @@ impl Staging {
         Ok(Self {
             dir: Some(dir),
             out: out.to_path_buf(),
+            created,
         })
     }
 
@@ -248,5 +252,18 @@ impl Staging {
         }
         groundscope::files::sync_dir(&self.out)?;
         Ok(n)
+    }
+}
+
+impl Drop for Staging {
+    /// Not committed (the run failed): the temporary goes, and DIR too if this run made it
+    /// (`remove_dir` removes only an empty directory).
+    fn drop(&mut self) {
+        if let Some(dir) = self.dir.take() {
+            drop(dir);
+            if self.created {
+                let _ = std::fs::remove_dir(&self.out);
+            }
+        }
     }
 }
