@@ -81,7 +81,10 @@ pub enum Command {
         accuracy: curve::Accuracy,
     },
     /// Speed benchmarks that print JSON lines.
-    #[command(subcommand)]
+    #[command(
+        subcommand,
+        after_long_help = "EXAMPLES:\n  groundscope bench env --steps 1000000\n  groundscope bench policy --model baseline --secs 2\n  groundscope bench train --frames 20480\n  groundscope bench onnx --checkpoint tests/fixtures/onnx/bundled_attention.onnx --rounds 1"
+    )]
     Bench(bench::BenchCommand),
 }
 

@@ -29,10 +29,12 @@ const DEFAULT_VIEWER_URL: &str = "rerun+http://127.0.0.1:9876/proxy";
     groundscope replay --seed 3 --spawn\n  \
     groundscope replay --seed 3 --episodes 5 --save five.rrd --mcap five.mcap\n  \
     groundscope replay --checkpoint bundled:baseline --mission \"go to the red ball\" --save red.rrd\n  \
-    groundscope replay --checkpoint runs/untrained --seed 3 --trace out.json")]
+    groundscope replay --checkpoint runs/untrained --seed 3 --trace out.json\n  \
+    groundscope replay --checkpoint my_agent.onnx --room-size 12 --faithfulness --save mine.rrd")]
 pub struct ReplayArgs {
-    /// Checkpoint: NAME (NAME.json + NAME.safetensors), a run directory (its model) or
-    /// bundled:attention / bundled:baseline [default: bundled:attention].
+    /// Checkpoint: NAME (NAME.json + NAME.safetensors), a run directory (its model),
+    /// bundled:attention / bundled:baseline or an ONNX graph FILE.onnx [default:
+    /// bundled:attention].
     #[arg(long, value_name = "NAME")]
     pub checkpoint: Option<String>,
     /// Level seed (of the first episode).
