@@ -84,13 +84,7 @@ pub fn run(args: &BenchOnnxArgs) -> anyhow::Result<ExitStatus> {
         let before = onnx.step_times();
         let (secs, steps) = sweep(&graph, args)?;
         if secs < onnx_secs {
-            let after = onnx.step_times();
-            split = groundscope::policy::onnx::StepTimes {
-                steps: after.steps - before.steps,
-                runs: after.runs - before.runs,
-                graph_secs: after.graph_secs - before.graph_secs,
-                step_secs: after.step_secs - before.step_secs,
-            };
+            split = onnx.step_times().since(&before);
         }
         (onnx_secs, onnx_steps) = (onnx_secs.min(secs), steps);
     }

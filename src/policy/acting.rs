@@ -285,12 +285,9 @@ impl super::onnx::OnnxAgent {
             };
             let scaled: Vec<f32> = w.iter().zip(f).map(|(w, f)| w * f).collect();
             let total = scaled.iter().sum::<f32>().max(1e-30);
-            let row = &mut out[r * super::obs::N_CELLS..][..super::obs::N_CELLS];
-            for (map, x) in words.iter().zip(&scaled) {
-                for (j, v) in map.iter().flatten().enumerate() {
-                    row[j] += x / total * v;
-                }
-            }
+            let renormalised: Vec<f32> = scaled.iter().map(|x| x / total).collect();
+            let m = super::onnx::combine(words, &renormalised);
+            out[r * super::obs::N_CELLS..][..super::obs::N_CELLS].copy_from_slice(m.as_flattened());
         }
         Ok(out)
     }
@@ -348,14 +345,6 @@ impl Agent {
         match self {
             Self::Native(ckpt, _) => ckpt.meta.training.frames,
             Self::Onnx(_) => 0,
-        }
-    }
-
-    /// The native network, for what only it supports (interventions, faithfulness).
-    pub fn native(&self) -> Option<&Net> {
-        match self {
-            Self::Native(_, net) => Some(net),
-            Self::Onnx(_) => None,
         }
     }
 }

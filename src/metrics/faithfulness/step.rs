@@ -131,20 +131,37 @@ fn forward(
     obs: &[Observation],
     intervention: Option<&Intervention>,
 ) -> Result<Vec<Vec<f32>>, PolicyError> {
+    probs_of(
+        input.agent,
+        obs,
+        input.direction,
+        input.tokens,
+        input.memory,
+        intervention,
+    )
+}
+
+/// Action probabilities of `obs`, every row one view of the same step: the same direction,
+/// mission and memory (1 row, repeated), one batched forward.
+fn probs_of<P: Acting + ?Sized>(
+    agent: &P,
+    obs: &[Observation],
+    direction: u8,
+    tokens: &[u32],
+    memory: &Memory,
+    intervention: Option<&Intervention>,
+) -> Result<Vec<Vec<f32>>, PolicyError> {
     if obs.is_empty() {
         return Ok(Vec::new());
     }
-    let missions = vec![input.tokens; obs.len()];
-    let directions = vec![input.direction; obs.len()];
-    let memory = repeat(input.memory, obs.len())?;
-    Ok(input
-        .agent
+    let n = obs.len();
+    Ok(agent
         .act_batch(
             obs,
-            &directions,
-            &missions,
+            &vec![direction; n],
+            &vec![tokens; n],
             None,
-            &memory,
+            &repeat(memory, n)?,
             false,
             intervention,
         )?
@@ -203,25 +220,15 @@ pub fn occlusion_of<P: Acting + ?Sized>(
     probs: &[f32],
 ) -> Result<Vec<f64>, PolicyError> {
     let cells = occludable(obs);
-    let mut delta = vec![0.0; N_CELLS];
-    if cells.is_empty() {
-        return Ok(delta);
-    }
     let batch: Vec<Observation> = cells
         .iter()
         .map(|&c| with_cells(obs, &[c], |_| EMPTY_FLOOR))
         .collect();
-    let n = batch.len();
-    let out = agent.act_batch(
-        &batch,
-        &vec![direction; n],
-        &vec![tokens; n],
-        None,
-        &repeat(memory, n)?,
-        false,
-        None,
-    )?;
-    for (c, p) in cells.iter().zip(&out.probs) {
+    let mut delta = vec![0.0; N_CELLS];
+    for (c, p) in cells
+        .iter()
+        .zip(&probs_of(agent, &batch, direction, tokens, memory, None)?)
+    {
         delta[cell_index(*c)] = total_variation(probs, p);
     }
     Ok(delta)

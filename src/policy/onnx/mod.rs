@@ -61,6 +61,19 @@ impl OnnxAgent {
     }
 }
 
+/// `M = Σ_i w_i A_i` from word maps and their weights (agent-up).
+pub fn combine(words: &[ViewMap], weights: &[f32]) -> ViewMap {
+    let mut combined = [[0.0; crate::env::view::VIEW_SIZE]; crate::env::view::VIEW_SIZE];
+    for (map, w) in words.iter().zip(weights) {
+        for (row, src) in combined.iter_mut().zip(map) {
+            for (c, a) in row.iter_mut().zip(src) {
+                *c += w * a;
+            }
+        }
+    }
+    combined
+}
+
 /// The attention trace of one step of an imported graph, from the maps it output. The
 /// entropies are computed here (`H = −Σ A ln A`, as the native model does); a graph without
 /// `word_weights` gets equal weights, and one without `combined_map` gets `M = Σ w A` — both
@@ -83,14 +96,7 @@ pub fn trace(
         .weights
         .clone()
         .unwrap_or_else(|| vec![1.0 / n; tokens.len()]);
-    let mut combined = [[0.0; crate::env::view::VIEW_SIZE]; crate::env::view::VIEW_SIZE];
-    for (map, w) in words.iter().zip(&weights) {
-        for (row, src) in combined.iter_mut().zip(map) {
-            for (c, a) in row.iter_mut().zip(src) {
-                *c += w * a;
-            }
-        }
-    }
+    let combined = combine(words, &weights);
     Ok(AttentionTrace {
         words: tokens
             .iter()

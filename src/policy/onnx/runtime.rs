@@ -48,6 +48,19 @@ pub struct StepTimes {
     pub step_secs: f64,
 }
 
+impl StepTimes {
+    /// What was spent since `before` (an earlier reading of the same agent).
+    #[must_use]
+    pub fn since(&self, before: &Self) -> Self {
+        Self {
+            steps: self.steps - before.steps,
+            runs: self.runs - before.runs,
+            graph_secs: self.graph_secs - before.graph_secs,
+            step_secs: self.step_secs - before.step_secs,
+        }
+    }
+}
+
 /// Nanosecond counters behind [`StepTimes`] (atomics: sweeps step one agent from threads).
 #[derive(Debug, Default)]
 struct Clock {
