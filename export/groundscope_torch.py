@@ -91,6 +91,10 @@ def model_config(meta: dict) -> dict:
     cfg.update(meta["model"])
     if cfg["variant"] not in ("attention", "baseline"):
         raise ValueError(f"model.variant = {cfg['variant']!r} must be attention or baseline")
+    if cfg.get("search_query"):
+        # The big-room study's part 5 (src/policy/config.rs, search_query): not mirrored here
+        # unless that recipe is chosen.
+        raise ValueError("model.search_query = true is not supported by this export")
     if cfg["colour_codes"] not in ("all", "objects"):
         raise ValueError(f"model.colour_codes = {cfg['colour_codes']!r} must be all or objects")
     return cfg

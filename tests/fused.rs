@@ -261,10 +261,19 @@ fn training_sequence_matches_step_by_step_acting() {
         word_temperature: groundscope::policy::WordTemperature(3.89),
         ..ModelConfig::new(Variant::Attention)
     };
+    // The search query (the big-room study's part 5) adds a second filtered copy of `Õ`,
+    // through the fused op on the training path and the composite maps on the acting path.
+    let search = ModelConfig {
+        search_query: true,
+        attend_words: groundscope::policy::AttendWords::Content,
+        word_temperature: groundscope::policy::WordTemperature(3.89),
+        ..ModelConfig::new(Variant::Attention)
+    };
     for cfg in [
         ModelConfig::new(Variant::Attention),
         ModelConfig::new(Variant::Baseline),
         split,
+        search,
     ] {
         let net = Net::new(cfg, Params::init(&cfg, 2).unwrap().detached());
         let level = LevelConfig::default();

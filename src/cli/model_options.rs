@@ -36,6 +36,11 @@ pub struct ModelOptions {
     /// model only.
     #[arg(long, default_value = "all")]
     pub attend_words: String,
+    /// Give the search a map of its own: a learned query of no word, whose map S over the same
+    /// keys filters a second copy of the features beside M's (the LSTM reads both; w and M are
+    /// unchanged). Departs from the paper. Attention model with shared keys only.
+    #[arg(long)]
+    pub search_query: bool,
 }
 
 /// Parses `--key-kernel`: `shared` or a kernel side (checked by [`ModelConfig::validate`]).
@@ -63,13 +68,14 @@ impl ModelOptions {
             word_temperature: WordTemperature(self.word_temperature),
             key_kernel: parse_key_kernel(&self.key_kernel)?,
             attend_words: AttendWords::parse(&self.attend_words)?,
+            search_query: self.search_query,
             ..cfg
         })
     }
 
     /// Each option as `(clap id, the value given, the value in cfg)`, for comparing a command
     /// line with a checkpoint.
-    pub fn against(&self, cfg: &ModelConfig) -> [(&'static str, String, String); 6] {
+    pub fn against(&self, cfg: &ModelConfig) -> [(&'static str, String, String); 7] {
         [
             (
                 "conv_kernel",
@@ -101,6 +107,11 @@ impl ModelOptions {
                 "attend_words",
                 self.attend_words.clone(),
                 cfg.attend_words.name().to_owned(),
+            ),
+            (
+                "search_query",
+                self.search_query.to_string(),
+                cfg.search_query.to_string(),
             ),
         ]
     }

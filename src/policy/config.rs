@@ -221,6 +221,12 @@ pub struct ModelConfig {
     /// neighbours (the big-room study's split keys). Attention only; written only when set.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub key_kernel: Option<usize>,
+    /// A learned query of no word (`attention.search.weight`, the big-room study's part 5):
+    /// its map `S` over the same keys is the search's own channel, and the LSTM reads
+    /// `[s · M ⊙ Õ | s · S ⊙ Õ]`. `w` and `M` are unchanged by it. Attention only, not with
+    /// split keys; written only when set.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub search_query: bool,
     /// E: word embedding size.
     pub word_dim: usize,
     /// d_k: query/key size.
@@ -245,6 +251,7 @@ impl ModelConfig {
             word_temperature: WordTemperature::PAPER,
             key_kernel: None,
             attend_words: AttendWords::All,
+            search_query: false,
             word_dim: 32,
             key_dim: 32,
             lstm_hidden: 128,
@@ -321,6 +328,12 @@ impl ModelConfig {
                 ));
             }
         }
+        if self.search_query && (!self.has_attention() || self.key_kernel.is_some()) {
+            return Err(super::PolicyError::Input(
+                "model setting search_query is for the attention model with shared keys only"
+                    .into(),
+            ));
+        }
         if self.attend_words != AttendWords::All && !self.has_attention() {
             return Err(super::PolicyError::Input(
                 "model setting attend_words is for the attention model only".into(),
@@ -352,6 +365,11 @@ impl ModelConfig {
     /// Whether the network has the attention module.
     pub fn has_attention(&self) -> bool {
         self.variant == Variant::Attention
+    }
+
+    /// Width of the LSTM's input: `49·K`, twice that with the [`Self::search_query`].
+    pub fn lstm_input_size(&self) -> usize {
+        49 * self.conv_channels * if self.search_query { 2 } else { 1 }
     }
 }
 
@@ -449,6 +467,35 @@ mod tests {
             if !ok {
                 assert!(format!("{r:?}").contains("word_temperature"), "{r:?}");
             }
+        }
+    }
+
+    #[test]
+    fn search_query_is_written_only_when_set_and_needs_shared_attention_keys() {
+        let plain = ModelConfig::new(Variant::Attention);
+        let json = serde_json::to_string(&plain).unwrap();
+        assert!(!json.contains("search_query"), "{json}");
+        let search = ModelConfig {
+            search_query: true,
+            ..plain
+        };
+        let json = serde_json::to_string(&search).unwrap();
+        assert!(json.contains("\"search_query\":true"), "{json}");
+        assert_eq!(serde_json::from_str::<ModelConfig>(&json).unwrap(), search);
+        assert!(search.validate().is_ok());
+        assert_eq!(search.lstm_input_size(), 2 * plain.lstm_input_size());
+        for bad in [
+            ModelConfig {
+                key_kernel: Some(1),
+                ..search
+            },
+            ModelConfig {
+                search_query: true,
+                ..ModelConfig::new(Variant::Baseline)
+            },
+        ] {
+            let e = bad.validate().unwrap_err().to_string();
+            assert!(e.contains("search_query"), "{e}");
         }
     }
 

@@ -84,10 +84,12 @@ impl Memory {
 /// Output of the visual path for a batch of frames.
 #[derive(Clone, Debug)]
 pub struct Visual {
-    /// (B, 49·K) LSTM input.
+    /// (B, 49·K) LSTM input; (B, 2·49·K) with the search query.
     pub x: Tensor,
     /// Attention tensors (attention variant only).
     pub attention: Option<AttentionOut>,
+    /// (B, 49) the search query's map `S` ([`ModelConfig::search_query`] only).
+    pub search: Option<Tensor>,
 }
 
 impl Net {
@@ -269,14 +271,29 @@ impl Net {
                     self.cfg.word_temperature.0,
                     intervention,
                 )?;
+                let f = out.f.reshape((b, n * k))?;
+                let (x, search) = if self.cfg.search_query {
+                    let qs = self
+                        .p("attention.search.weight")?
+                        .unsqueeze(0)?
+                        .broadcast_as((b, 1, self.cfg.key_dim))?
+                        .contiguous()?;
+                    let s_map = super::attention::attention_maps(&qs, &kc)?.squeeze(1)?;
+                    let fs = super::attention::filter_features(o, &s_map, self.cfg.filter_scale)?;
+                    (Tensor::cat(&[f, fs.reshape((b, n * k))?], 1)?, Some(s_map))
+                } else {
+                    (f, None)
+                };
                 Ok(Visual {
-                    x: out.f.reshape((b, n * k))?,
+                    x,
                     attention: Some(out),
+                    search,
                 })
             }
             _ => Ok(Visual {
                 x: o.reshape((b, n * k))?,
                 attention: None,
+                search: None,
             }),
         }
     }
@@ -300,7 +317,21 @@ impl Net {
         match (keyed, o_key) {
             (Some((qk, mask)), None) if self.cfg.has_attention() => {
                 let f = super::fused_attention::attention_filter(qk, mask, o, scale, t)?;
-                Ok(f.reshape((b, n * k))?)
+                let f = f.reshape((b, n * k))?;
+                if !self.cfg.search_query {
+                    return Ok(f);
+                }
+                // The search map through the same fused op: one "word" that always counts,
+                // so its weight is 1 and its filter is `s · S ⊙ Õ` (T plays no part).
+                let qs = super::attention::keyed_queries(
+                    &self.p("attention.search.weight")?.unsqueeze(0)?,
+                    self.p("attention.k.weight")?,
+                )?
+                .broadcast_as((b, 1, k))?
+                .contiguous()?;
+                let ones = Tensor::ones((b, 1), DType::F32, o.device())?;
+                let fs = super::fused_attention::attention_filter(&qs, &ones, o, scale, t)?;
+                Ok(Tensor::cat(&[f, fs.reshape((b, n * k))?], 1)?)
             }
             (Some((qk, mask)), Some(ok)) if self.cfg.has_attention() => {
                 let both = Tensor::cat(&[ok, o], 2)?;

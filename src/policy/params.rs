@@ -72,7 +72,7 @@ pub fn param_specs(cfg: &ModelConfig) -> Vec<ParamSpec> {
         spec("word_emb.weight", &[VOCAB_SIZE, e], Init::Normal),
         spec(
             "lstm.weight_ih_l0",
-            &[4 * hl, 49 * k],
+            &[4 * hl, cfg.lstm_input_size()],
             Init::Uniform(lstm_b),
         ),
         spec("lstm.weight_hh_l0", &[4 * hl, hl], Init::Uniform(lstm_b)),
@@ -104,6 +104,9 @@ pub fn param_specs(cfg: &ModelConfig) -> Vec<ParamSpec> {
     if cfg.has_attention() {
         v.push(spec("attention.q.weight", &[dk, e], Init::RowNormal));
         v.push(spec("attention.k.weight", &[dk, k], Init::RowNormal));
+        if cfg.search_query {
+            v.push(spec("attention.search.weight", &[1, dk], Init::RowNormal));
+        }
     }
     v.sort_by(|a, b| a.name.cmp(&b.name));
     v
