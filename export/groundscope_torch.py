@@ -33,8 +33,8 @@ The network, step by step (DESIGN.md §1):
    over the mission's word embeddings, its last state;
 7. ``z = cat(h, gru)``; actor ``Linear → tanh → Linear`` (7 logits), critic likewise (value).
 
-Only ops that tract runs are used: the one-hot is ``Equal`` against constant code ranges (no
-``OneHot``), the LSTM step is an ``nn.LSTMCell`` (primitive ops), the text encoder one
+Only ops that tract runs are used: the convolution over one-hot codes is written as table
+lookups (``Gather``, :func:`lookup_conv`; no ``OneHot``), the LSTM step is an ``nn.LSTMCell`` (primitive ops), the text encoder one
 ``nn.GRU`` (a single ``GRU`` op, no ``sequence_lens``).
 """
 
@@ -100,30 +100,56 @@ def model_config(meta: dict) -> dict:
     return cfg
 
 
+# A cell code that contributes nothing: outside the view (the conv's zero padding) and, under
+# colour_codes = objects, the colour of a cell that is not an object.
+NO_CODE = CELL_CODES
+
+
 class CellEncoder(nn.Module):
-    """MiniGrid codes (B, 7, 7, 3) ``[vx][vy]`` → one-hot planes (B, 20, 7, 7) ``[vy][vx]``."""
+    """MiniGrid codes (B, 7, 7, 3) ``[vx][vy]`` → each cell's three one-hot positions
+    (B, vy, vx, 3), whole numbers as float32: type ``0–10``, colour ``11–16``, state ``17–19``
+    (``NO_CODE`` for a colour that ``colour_codes = objects`` leaves out)."""
 
     def __init__(self, colour_codes: str):
         super().__init__()
         self.objects_only = colour_codes == "objects"
-        self.register_buffer("types", torch.arange(11, dtype=torch.float32), persistent=False)
-        self.register_buffer("colours", torch.arange(6, dtype=torch.float32), persistent=False)
-        self.register_buffer("states", torch.arange(3, dtype=torch.float32), persistent=False)
 
     def forward(self, image: torch.Tensor) -> torch.Tensor:
         # Integer codes as floats (exact up to 2^24): clamp as obs.rs's `min` does.
         x = image.to(torch.float32)
-        t = torch.clamp(x[..., 0], 0.0, 10.0).unsqueeze(-1)
-        c = torch.clamp(x[..., 1], 0.0, 5.0).unsqueeze(-1)
-        s = torch.clamp(x[..., 2], 0.0, 2.0).unsqueeze(-1)
-        t_hot = (t == self.types).to(torch.float32)  # (B, vx, vy, 11)
-        c_hot = (c == self.colours).to(torch.float32)  # (B, vx, vy, 6)
-        s_hot = (s == self.states).to(torch.float32)  # (B, vx, vy, 3)
+        t = torch.clamp(x[..., 0], 0.0, 10.0)
+        c = torch.clamp(x[..., 1], 0.0, 5.0) + 11.0
+        s = torch.clamp(x[..., 2], 0.0, 2.0) + 17.0
         if self.objects_only:
-            c_hot = c_hot * (t >= FIRST_COLOURED_TYPE).to(torch.float32)
-        codes = torch.cat([t_hot, c_hot, s_hot], dim=-1)  # (B, vx, vy, 20)
-        # (B, vx, vy, 20) → (B, 20, vy, vx): channels first, rows = vy (agent-up).
-        return codes.permute(0, 3, 2, 1)
+            c = torch.where(t >= FIRST_COLOURED_TYPE, c, torch.full_like(c, float(NO_CODE)))
+        idx = torch.stack([t, c, s], dim=-1)  # (B, vx, vy, 3)
+        return idx.permute(0, 2, 1, 3)  # (B, vy, vx, 3): rows = vy (agent-up)
+
+
+def lookup_conv(idx: torch.Tensor, conv: nn.Conv2d) -> torch.Tensor:
+    """``Conv(one-hot codes)`` as table lookups, (B, 49, K), cells ``j = vy·7 + vx``, before the
+    ReLU. A cell's one-hot planes have three ones, so the cross-correlation at a cell is the
+    bias plus, for each kernel offset and each of the neighbour's three codes, one column of
+    the weight: a table of ``k·k·21`` rows (the 21st of each offset zero, for ``NO_CODE``)
+    gathered by ``offset·21 + code``. The same sums as ``conv`` over one-hot planes (in another
+    order, ~1e-7); tract runs a ``Gather`` and a sum several times faster than the one-hot
+    ``Equal``s and the padded convolution (docs/onnx.md#speed)."""
+    k_out, _, ks, _ = conv.weight.shape
+    p = ks // 2
+    rows = CELL_CODES + 1
+    table = conv.weight.permute(2, 3, 1, 0).reshape(ks * ks, CELL_CODES, k_out)
+    table = F.pad(table, (0, 0, 0, 1)).reshape(ks * ks * rows, k_out)
+    # Padded and offset as floats (whole numbers, exact), cast once: tract's Pad does not take
+    # the int64 codes of a cast.
+    padded = F.pad(idx, (0, 0, p, p, p, p), value=float(NO_CODE))  # (B, 7 + 2p, 7 + 2p, 3)
+    windows = [
+        padded[:, ky : ky + VIEW, kx : kx + VIEW, :] + float((ky * ks + kx) * rows)
+        for ky in range(ks)
+        for kx in range(ks)
+    ]
+    which = torch.cat(windows, dim=-1).to(torch.int64)  # (B, 7, 7, 3·k·k)
+    o = F.embedding(which, table).sum(dim=3) + conv.bias  # (B, 7, 7, K)
+    return o.reshape(o.shape[0], N_CELLS, k_out)
 
 
 class GroundscopeNet(nn.Module):
@@ -205,14 +231,13 @@ class GroundscopeNet(nn.Module):
         ``(1 − α)·M + α·combined_override`` (α = ``override_weight``, (B,); the map (B, 7, 7)
         in the image layout ``[vx][vy]``) before the filter; the outputs show that ``M``."""
         b = image.shape[0]
-        codes = self.cells(image)  # (B, 20, vy, vx)
-        o = F.relu(self.conv(codes))  # (B, K, vy, vx)
-        o = o.flatten(2).transpose(1, 2)  # (B, 49, K), j = vy·7 + vx
+        codes = self.cells(image)  # (B, vy, vx, 3) one-hot positions
+        o = F.relu(lookup_conv(codes, self.conv))  # (B, 49, K), j = vy·7 + vx
         emb = self.word_emb(mission)  # (B, L, E)
         maps = None
         if self.attention:
             if self.key_conv is not None:
-                o_key = F.relu(self.key_conv(codes)).flatten(2).transpose(1, 2)
+                o_key = F.relu(lookup_conv(codes, self.key_conv))
             else:
                 o_key = o
             q = self.q(emb)  # (B, L, d_k)

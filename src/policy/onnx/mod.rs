@@ -74,6 +74,18 @@ pub fn combine(words: &[ViewMap], weights: &[f32]) -> ViewMap {
     combined
 }
 
+/// `H = −Σ_j A_j ln A_j` in nats, with `0 · ln 0 = 0` as the native model computes it
+/// (`attention::entropies`, whose clamp at 1e-30 makes every smaller value's term vanish in
+/// f32). Values below 1e-30 are skipped rather than clamped: a sharp softmax leaves most cells
+/// subnormal, and arithmetic on subnormals costs this CPU about a hundred cycles a value — it
+/// was most of the time an imported graph's traces took (docs/onnx.md#speed).
+fn entropy(map: &ViewMap) -> f32 {
+    -map.iter()
+        .flatten()
+        .map(|&a| if a > 1e-30 { a * a.ln() } else { 0.0 })
+        .sum::<f32>()
+}
+
 /// The attention trace of one step of an imported graph, from the maps it output. The
 /// entropies are computed here (`H = −Σ A ln A`, as the native model does); a graph without
 /// `word_weights` gets equal weights, and one without `combined_map` gets `M = Σ w A` — both
@@ -96,7 +108,6 @@ pub fn trace(
         .weights
         .clone()
         .unwrap_or_else(|| vec![1.0 / n; tokens.len()]);
-    let combined = combine(words, &weights);
     Ok(AttentionTrace {
         words: tokens
             .iter()
@@ -105,14 +116,12 @@ pub fn trace(
                 word: crate::env::vocab::word(t).unwrap_or("?").to_owned(),
                 token: t,
                 map: *map,
-                entropy: -map
-                    .iter()
-                    .flatten()
-                    .map(|&a| a * a.clamp(1e-30, 1.0).ln())
-                    .sum::<f32>(),
+                entropy: entropy(map),
                 weight,
             })
             .collect(),
-        combined: maps.combined.unwrap_or(combined),
+        combined: maps
+            .combined
+            .unwrap_or_else(|| combine(words, &weights)),
     })
 }
