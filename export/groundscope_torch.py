@@ -23,7 +23,8 @@ The network, step by step (DESIGN.md §1):
    padding ``conv_kernel // 2`` over (vy, vx): the weight ``encoder.conv.weight`` [K, 20, k, k]
    is a PyTorch ``Conv2d`` weight as it stands; cells are then flattened ``j = vy·7 + vx``;
 3. ``Q = g̃ W_qᵀ``, ``Kc = Õ_key W_kᵀ`` (no biases), with ``Õ_key = ReLU(Conv_key(codes))``
-   when ``key_kernel`` is set (``encoder.key_conv.*``), else ``Õ`` itself;
+   when ``key_kernel`` is set (``encoder.key_conv.*``), else ``Õ`` itself (computed as
+   ``(Q W_k / √d_k) Õ_keyᵀ``, the same scores regrouped);
 4. ``A = softmax(Q Kcᵀ / √d_k)`` over the 49 cells; ``H = −Σ A ln max(A, 1e-30)``;
    ``w = softmax(−H / T)`` (T = ``word_temperature``, default 1; over the object and colour
    words only with ``attend_words = content``); ``M = Σ_i w_i A_i``;
@@ -241,9 +242,12 @@ class GroundscopeNet(nn.Module):
             else:
                 o_key = o
             q = self.q(emb)  # (B, L, d_k)
-            kc = self.k(o_key)  # (B, 49, d_k)
             d_k = self.cfg["key_dim"]
-            a = torch.softmax(torch.matmul(q, kc.transpose(1, 2)) / math.sqrt(d_k), dim=-1)
+            # Q Kcᵀ / √d_k with Kc = Õ_key W_kᵀ, regrouped as (Q W_k / √d_k) Õ_keyᵀ (the native
+            # training path's keyed queries, attention.rs): the bracket reads the mission
+            # alone, so groundscope computes it once per mission (docs/onnx.md#speed).
+            keyed = torch.matmul(q, self.k.weight) / math.sqrt(d_k)  # (B, L, K)
+            a = torch.softmax(torch.matmul(keyed, o_key.transpose(1, 2)), dim=-1)
             h = -(a * torch.log(torch.clamp(a, TINY, 1.0))).sum(-1)  # (B, L)
             t = float(self.cfg["word_temperature"])
             neg_h = -h if t == 1.0 else -h / t

@@ -136,6 +136,66 @@ fn broken_graphs_are_refused_naming_what_is_wrong() {
 }
 
 #[test]
+fn the_mission_encoder_is_cut_off_and_runs_once_per_mission() {
+    // Every fixture encodes its mission with a GRU that reads nothing else, so each one is
+    // cut (docs/onnx.md#speed): the encoder runs for missions not seen before, once per
+    // mission length in a step, and a kept mission gives the same numbers as a fresh one.
+    let level = LevelConfig::default();
+    let worlds: Vec<_> = (0..8).map(|s| level.generate(s).unwrap()).collect();
+    let tokens: Vec<Vec<u32>> = worlds
+        .iter()
+        .map(|w| vocab::tokenize(&w.mission).unwrap())
+        .collect();
+    let missions: Vec<&[u32]> = tokens.iter().map(Vec::as_slice).collect();
+    let obs: Vec<_> = worlds
+        .iter()
+        .map(groundscope::env::World::observe)
+        .collect();
+    let dirs: Vec<u8> = worlds.iter().map(|w| w.agent_dir).collect();
+    let lengths = |rows: std::ops::Range<usize>| {
+        let mut l: Vec<usize> = missions[rows].iter().map(|m| m.len()).collect();
+        l.sort_unstable();
+        l.dedup();
+        l.len() as u64
+    };
+    let first = 0..5;
+    let unseen = 5..8;
+    assert!(
+        missions[unseen.clone()]
+            .iter()
+            .any(|m| !missions[first.clone()].contains(m)),
+        "levels 5-7 bring a mission levels 0-4 do not have"
+    );
+    for file in ["bundled_attention.onnx", "acmodel.onnx", "torch_reference.onnx"] {
+        let agent = OnnxAgent::load(&fixture(file)).unwrap();
+        let m = agent.meta.memory_size;
+        let step = |rows: std::ops::Range<usize>| {
+            agent
+                .step(
+                    &obs[rows.clone()],
+                    &dirs[rows.clone()],
+                    &missions[rows.clone()],
+                    &vec![0.1; rows.len() * m],
+                    None,
+                )
+                .unwrap()
+        };
+        let a = step(first.clone());
+        assert_eq!(agent.step_times().encoder_runs, lengths(first.clone()), "{file}");
+        let b = step(first.clone());
+        assert_eq!(agent.step_times().encoder_runs, lengths(first.clone()), "{file}: kept");
+        assert_eq!(a.logits, b.logits, "{file}");
+        assert_eq!(a.memory, b.memory, "{file}");
+        agent.forget_missions();
+        let c = step(first.clone());
+        assert_eq!(agent.step_times().encoder_runs, 2 * lengths(first.clone()), "{file}");
+        assert_eq!(a.logits, c.logits, "{file}: encoded again");
+        step(unseen.clone());
+        assert!(agent.step_times().encoder_runs > 2 * lengths(first.clone()), "{file}");
+    }
+}
+
+#[test]
 fn foreign_architectures_load_and_step_in_batches_of_mixed_mission_lengths() {
     let level = LevelConfig::default();
     let worlds: Vec<_> = (0..6).map(|s| level.generate(s).unwrap()).collect();

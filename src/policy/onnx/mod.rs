@@ -5,6 +5,8 @@
 
 pub mod contract;
 #[cfg(feature = "onnx")]
+mod load;
+mod mission_cache;
 mod runtime;
 
 #[cfg(feature = "onnx")]

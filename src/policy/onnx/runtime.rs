@@ -4,13 +4,11 @@
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use tract_onnx::pb;
 use tract_onnx::prelude::*;
 
-use super::contract::{
-    self, MapLayout, Meta, ONNX_FLOAT, ONNX_INT64, OPTIONAL_INPUTS, OPTIONAL_OUTPUTS, Props,
-    REQUIRED_INPUTS, REQUIRED_OUTPUTS,
-};
+use super::contract::{self, MapLayout, Meta};
+use super::load::{Inputs, bad, build, check_inputs, check_outputs, one_line, operators, props};
+use super::mission_cache::MissionCache;
 use super::{MapOutputs, OnnxStep};
 use crate::env::view::{Observation, VIEW_SIZE};
 use crate::env::vocab;
@@ -28,6 +26,8 @@ pub struct OnnxAgent {
     /// Its metadata.
     pub meta: Meta,
     plan: Arc<TypedRunnableModel>,
+    /// The mission encoder cut from the graph, when it could be cut.
+    missions: Option<MissionCache>,
     inputs: Inputs,
     optional: [bool; 3],
     tokens: Vec<Option<i64>>,
@@ -41,7 +41,10 @@ pub struct StepTimes {
     pub steps: u64,
     /// Graph runs (one per mission length in a step).
     pub runs: u64,
-    /// Seconds inside tract's plan.
+    /// Runs of the mission encoder cut from the graph (docs/onnx.md#speed): one per step
+    /// that meets missions not seen before; 0 for a graph that is not cut.
+    pub encoder_runs: u64,
+    /// Seconds inside tract's plans (the step graph and the mission encoder).
     pub graph_secs: f64,
     /// Seconds in [`OnnxAgent::step`] in all: the graph, plus building its inputs and reading
     /// its outputs.
@@ -55,6 +58,7 @@ impl StepTimes {
         Self {
             steps: self.steps - before.steps,
             runs: self.runs - before.runs,
+            encoder_runs: self.encoder_runs - before.encoder_runs,
             graph_secs: self.graph_secs - before.graph_secs,
             step_secs: self.step_secs - before.step_secs,
         }
@@ -66,6 +70,7 @@ impl StepTimes {
 struct Clock {
     steps: std::sync::atomic::AtomicU64,
     runs: std::sync::atomic::AtomicU64,
+    encoder_runs: std::sync::atomic::AtomicU64,
     graph_ns: std::sync::atomic::AtomicU64,
     step_ns: std::sync::atomic::AtomicU64,
 }
@@ -77,16 +82,6 @@ impl Clock {
     }
 }
 
-/// Which form and which optional inputs the graph takes.
-#[derive(Clone, Copy, Debug)]
-struct Inputs {
-    /// `image` is int64 (else float).
-    image_int: bool,
-    /// It takes `direction`.
-    direction: bool,
-    /// It takes `combined_override` and `override_weight` (interventions on `M`).
-    overrides: bool,
-}
 
 impl std::fmt::Debug for OnnxAgent {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
@@ -95,94 +90,6 @@ impl std::fmt::Debug for OnnxAgent {
             .field("meta", &self.meta)
             .finish_non_exhaustive()
     }
-}
-
-/// One line naming the file.
-fn bad(path: &Path, what: impl std::fmt::Display) -> PolicyError {
-    PolicyError::Input(format!("{}: {what}", path.display()))
-}
-
-/// tract's error chain on one line.
-fn one_line(e: &anyhow::Error) -> String {
-    format!("{e:#}").replace('\n', " ")
-}
-
-/// The declared element type and static dimensions (`None` for a symbolic one) of a value.
-fn declared(v: &pb::ValueInfoProto) -> (Option<i32>, Option<Vec<Option<i64>>>) {
-    let Some(pb::type_proto::Value::TensorType(t)) =
-        v.r#type.as_ref().and_then(|t| t.value.as_ref())
-    else {
-        return (None, None);
-    };
-    let dims = t.shape.as_ref().map(|s| {
-        s.dim
-            .iter()
-            .map(|d| match d.value {
-                Some(pb::tensor_shape_proto::dimension::Value::DimValue(n)) => Some(n),
-                _ => None,
-            })
-            .collect()
-    });
-    (Some(t.elem_type), dims)
-}
-
-fn type_name(code: i32) -> String {
-    match code {
-        ONNX_FLOAT => "float32".into(),
-        ONNX_INT64 => "int64".into(),
-        2 => "uint8".into(),
-        6 => "int32".into(),
-        11 => "float64".into(),
-        other => format!("ONNX type {other}"),
-    }
-}
-
-/// Every operator of `graph` and its subgraphs (a `Loop`'s body, an `If`'s branches).
-fn operators<'a>(graph: &'a pb::GraphProto, out: &mut Vec<(&'a str, &'a str)>) {
-    for node in &graph.node {
-        out.push((node.op_type.as_str(), node.name.as_str()));
-        for a in &node.attribute {
-            if let Some(g) = &a.g {
-                operators(g, out);
-            }
-            for g in &a.graphs {
-                operators(g, out);
-            }
-        }
-    }
-}
-
-/// The metadata: the protobuf's `groundscope.*` keys, overridden by a sidecar `FILE.json`.
-fn props(path: &Path, proto: &pb::ModelProto) -> Result<Props, PolicyError> {
-    let mut props: Props = proto
-        .metadata_props
-        .iter()
-        .filter_map(|e| {
-            Some((
-                e.key.strip_prefix("groundscope.")?.to_owned(),
-                e.value.clone(),
-            ))
-        })
-        .collect();
-    let mut sidecar = path.as_os_str().to_owned();
-    sidecar.push(".json");
-    let sidecar = PathBuf::from(sidecar);
-    if sidecar.exists() {
-        let text = std::fs::read_to_string(&sidecar).map_err(|e| PolicyError::Io {
-            path: sidecar.clone(),
-            reason: e.to_string(),
-        })?;
-        let map: serde_json::Map<String, serde_json::Value> = serde_json::from_str(&text)
-            .map_err(|e| bad(&sidecar, format!("not a JSON object of metadata: {e}")))?;
-        for (k, v) in map {
-            let v = match v {
-                serde_json::Value::String(s) => s,
-                other => other.to_string(),
-            };
-            props.insert(k, v);
-        }
-    }
-    Ok(props)
 }
 
 impl OnnxAgent {
@@ -230,11 +137,12 @@ impl OnnxAgent {
                 format!("operator {op}{node} is not supported by the ONNX runtime (tract)"),
             ));
         }
-        let plan = build(path, &onnx, &proto, inputs, &meta, optional)?;
+        let (plan, missions) = build(path, &onnx, &proto, inputs, &meta, optional)?;
         Ok(Self {
             path: path.to_owned(),
             meta,
             plan,
+            missions,
             inputs,
             optional,
             tokens,
@@ -257,6 +165,14 @@ impl OnnxAgent {
         self.inputs.overrides
     }
 
+    /// Forgets every mission the encoder cut from the graph has encoded (for timing runs
+    /// that should each start as a fresh process would).
+    pub fn forget_missions(&self) {
+        if let Some(cache) = &self.missions {
+            cache.clear();
+        }
+    }
+
     /// Where the time of its steps went so far.
     pub fn step_times(&self) -> StepTimes {
         use std::sync::atomic::Ordering::Relaxed;
@@ -264,6 +180,7 @@ impl OnnxAgent {
         StepTimes {
             steps: c.steps.load(Relaxed),
             runs: c.runs.load(Relaxed),
+            encoder_runs: c.encoder_runs.load(Relaxed),
             graph_secs: c.graph_ns.load(Relaxed) as f64 * 1e-9,
             step_secs: c.step_ns.load(Relaxed) as f64 * 1e-9,
         }
@@ -395,6 +312,22 @@ impl OnnxAgent {
                 ids.push(id);
             }
         }
+        let cached = match &self.missions {
+            Some(cache) => {
+                let ran = std::time::Instant::now();
+                let (extra, encoded) = cache.inputs(&ids, len).map_err(|e| {
+                    bad(&self.path, format!("running the mission encoder: {}", one_line(&e)))
+                })?;
+                Clock::add(&self.clock.graph_ns, ran);
+                if encoded {
+                    self.clock
+                        .encoder_runs
+                        .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                }
+                extra
+            }
+            None => TVec::new(),
+        };
         let mission = tract_ndarray::Array::from_shape_vec([n, len], ids)
             .map(Tensor::from)
             .map_err(|e| PolicyError::Input(e.to_string()))?;
@@ -430,6 +363,7 @@ impl OnnxAgent {
             inputs.push(maps.into());
             inputs.push(Tensor::from(tract_ndarray::Array::from_vec(weight)).into());
         }
+        inputs.extend(cached);
         let ran = std::time::Instant::now();
         let outputs = self.plan.run(inputs);
         clean_upper_registers();
@@ -502,7 +436,7 @@ impl OnnxAgent {
 /// AVX-512 kernels return without `vzeroupper`, and while the upper state stays dirty every
 /// later scalar floating-point instruction of this thread pays for it: `ln` took ~80 ns a call
 /// instead of ~5 (docs/onnx.md#speed).
-fn clean_upper_registers() {
+pub(super) fn clean_upper_registers() {
     #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx") {
         // SAFETY: the CPU has AVX (checked above), the only requirement of `vzeroupper`; it
@@ -547,245 +481,4 @@ fn view_map(v: &[f32], layout: MapLayout) -> ViewMap {
         }
     }
     map
-}
-
-/// Checks the inputs' names, types and static sizes; returns which form and which optional
-/// inputs the graph takes.
-fn check_inputs(
-    path: &Path,
-    graph: &pb::GraphProto,
-    memory_size: usize,
-) -> Result<Inputs, PolicyError> {
-    let init: std::collections::HashSet<&str> =
-        graph.initializer.iter().map(|t| t.name.as_str()).collect();
-    let inputs: Vec<&pb::ValueInfoProto> = graph
-        .input
-        .iter()
-        .filter(|v| !init.contains(v.name.as_str()))
-        .collect();
-    let find = |name: &str| inputs.iter().find(|v| v.name == name);
-    for name in REQUIRED_INPUTS {
-        if find(name).is_none() {
-            return Err(bad(
-                path,
-                format!(
-                    "the graph has no input \"{name}\" (the contract's inputs: image, mission, memory and optionally direction)"
-                ),
-            ));
-        }
-    }
-    if let Some(extra) = inputs.iter().find(|v| {
-        !REQUIRED_INPUTS.contains(&v.name.as_str()) && !OPTIONAL_INPUTS.contains(&v.name.as_str())
-    }) {
-        return Err(bad(
-            path,
-            format!("input \"{}\" is not in the contract", extra.name),
-        ));
-    }
-    let m = memory_size as i64;
-    let mut image_int = false;
-    for v in &inputs {
-        let (ty, dims) = declared(v);
-        let (types, rank, fixed): (&[i32], usize, &[(usize, i64)]) = match v.name.as_str() {
-            "image" => (&[ONNX_FLOAT, ONNX_INT64], 4, &[(1, 7), (2, 7), (3, 3)]),
-            "mission" => (&[ONNX_INT64], 2, &[]),
-            "memory" => (&[ONNX_FLOAT], 2, &[]),
-            "combined_override" => (&[ONNX_FLOAT], 3, &[(1, 7), (2, 7)]),
-            "override_weight" => (&[ONNX_FLOAT], 1, &[]),
-            _ => (&[ONNX_INT64], 1, &[]),
-        };
-        if let Some(ty) = ty
-            && !types.contains(&ty)
-        {
-            let want: Vec<String> = types.iter().map(|&t| type_name(t)).collect();
-            return Err(bad(
-                path,
-                format!(
-                    "input \"{}\" is {}; the contract wants {}",
-                    v.name,
-                    type_name(ty),
-                    want.join(" or ")
-                ),
-            ));
-        }
-        if v.name == "image" {
-            image_int = ty == Some(ONNX_INT64);
-        }
-        let mut fixed = fixed.to_vec();
-        if v.name == "memory" {
-            fixed.push((1, m));
-        }
-        check_dims(path, "input", &v.name, dims.as_deref(), rank, &fixed)?;
-    }
-    let overrides = match (
-        find("combined_override").is_some(),
-        find("override_weight").is_some(),
-    ) {
-        (true, true) => true,
-        (false, false) => false,
-        (has, _) => {
-            let (given, missing) = if has {
-                ("combined_override", "override_weight")
-            } else {
-                ("override_weight", "combined_override")
-            };
-            return Err(bad(
-                path,
-                format!(
-                    "the graph takes \"{given}\" but not \"{missing}\"; the contract wants both or neither"
-                ),
-            ));
-        }
-    };
-    Ok(Inputs {
-        image_int,
-        direction: find("direction").is_some(),
-        overrides,
-    })
-}
-
-/// Checks a declared shape's rank and static sizes, where the graph declares them.
-fn check_dims(
-    path: &Path,
-    kind: &str,
-    name: &str,
-    dims: Option<&[Option<i64>]>,
-    rank: usize,
-    fixed: &[(usize, i64)],
-) -> Result<(), PolicyError> {
-    let Some(dims) = dims else { return Ok(()) };
-    let shown = || {
-        let d: Vec<String> = dims
-            .iter()
-            .map(|d| d.map_or_else(|| "?".into(), |n| n.to_string()))
-            .collect();
-        format!("({})", d.join(", "))
-    };
-    if dims.len() != rank {
-        return Err(bad(
-            path,
-            format!(
-                "{kind} \"{name}\" has shape {}; the contract wants {rank} dimensions",
-                shown()
-            ),
-        ));
-    }
-    for &(axis, size) in fixed {
-        if let Some(Some(n)) = dims.get(axis)
-            && *n != size
-        {
-            return Err(bad(
-                path,
-                format!(
-                    "{kind} \"{name}\" has shape {}; the contract wants {size} on axis {axis}",
-                    shown()
-                ),
-            ));
-        }
-    }
-    Ok(())
-}
-
-/// Checks the outputs; returns which optional ones are present.
-fn check_outputs(
-    path: &Path,
-    graph: &pb::GraphProto,
-    memory_size: usize,
-) -> Result<[bool; 3], PolicyError> {
-    let find = |name: &str| graph.output.iter().find(|v| v.name == name);
-    for name in REQUIRED_OUTPUTS {
-        let Some(v) = find(name) else {
-            return Err(bad(
-                path,
-                format!(
-                    "the graph has no output \"{name}\" (the contract's outputs: logits, value, memory_out)"
-                ),
-            ));
-        };
-        let (ty, dims) = declared(v);
-        if let Some(ty) = ty
-            && ty != ONNX_FLOAT
-        {
-            return Err(bad(
-                path,
-                format!(
-                    "output \"{name}\" is {}; the contract wants float32",
-                    type_name(ty)
-                ),
-            ));
-        }
-        match name {
-            "logits" => check_dims(path, "output", name, dims.as_deref(), 2, &[(1, 7)])?,
-            "memory_out" => check_dims(
-                path,
-                "output",
-                name,
-                dims.as_deref(),
-                2,
-                &[(1, memory_size as i64)],
-            )?,
-            _ => {}
-        }
-    }
-    Ok(OPTIONAL_OUTPUTS.map(|name| find(name).is_some()))
-}
-
-/// Builds the optimised plan: inputs in the order image, mission, memory (, direction) with a
-/// symbolic batch `B` and mission length `L`; outputs the required ones, then the optional
-/// ones present.
-fn build(
-    path: &Path,
-    onnx: &tract_onnx::Onnx,
-    proto: &pb::ModelProto,
-    given: Inputs,
-    meta: &Meta,
-    optional: [bool; 3],
-) -> Result<Arc<TypedRunnableModel>, PolicyError> {
-    let fail = |e: anyhow::Error| bad(path, format!("tract: {}", one_line(&e)));
-    let mut model = onnx.model_for_proto_model(proto).map_err(fail)?;
-    let mut inputs = vec!["image", "mission", "memory"];
-    if given.direction {
-        inputs.push("direction");
-    }
-    if given.overrides {
-        inputs.extend(["combined_override", "override_weight"]);
-    }
-    model.set_input_names(&inputs).map_err(fail)?;
-    let (b, l) = (model.symbols.sym("B"), model.symbols.sym("L"));
-    let image_type = if given.image_int {
-        i64::datum_type()
-    } else {
-        f32::datum_type()
-    };
-    let mut facts = vec![
-        InferenceFact::dt_shape(image_type, [b.to_dim(), 7.to_dim(), 7.to_dim(), 3.to_dim()]),
-        InferenceFact::dt_shape(i64::datum_type(), [b.to_dim(), l.to_dim()]),
-        InferenceFact::dt_shape(f32::datum_type(), [b.to_dim(), meta.memory_size.to_dim()]),
-    ];
-    if given.direction {
-        facts.push(InferenceFact::dt_shape(i64::datum_type(), [b.to_dim()]));
-    }
-    if given.overrides {
-        facts.push(InferenceFact::dt_shape(
-            f32::datum_type(),
-            [b.to_dim(), 7.to_dim(), 7.to_dim()],
-        ));
-        facts.push(InferenceFact::dt_shape(f32::datum_type(), [b.to_dim()]));
-    }
-    for (i, fact) in facts.into_iter().enumerate() {
-        model.set_input_fact(i, fact).map_err(fail)?;
-    }
-    let mut outputs: Vec<&str> = REQUIRED_OUTPUTS.to_vec();
-    outputs.extend(
-        OPTIONAL_OUTPUTS
-            .iter()
-            .zip(optional)
-            .filter(|(_, on)| *on)
-            .map(|(n, _)| *n),
-    );
-    model.select_outputs_by_name(&outputs).map_err(fail)?;
-    model
-        .into_optimized()
-        .and_then(IntoRunnable::into_runnable)
-        .map_err(fail)
 }

@@ -1,0 +1,364 @@
+//! Reading an ONNX file: every check of the contract (docs/onnx.md) on the graph as written —
+//! metadata, inputs, outputs, operators — and building tract's optimised plans from it.
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use tract_onnx::pb;
+use tract_onnx::prelude::*;
+
+use super::contract::{
+    Meta, ONNX_FLOAT, ONNX_INT64, OPTIONAL_INPUTS, OPTIONAL_OUTPUTS, Props,
+    REQUIRED_INPUTS, REQUIRED_OUTPUTS,
+};
+use super::mission_cache::MissionCache;
+use crate::policy::error::PolicyError;
+
+/// Which form and which optional inputs the graph takes.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Inputs {
+    /// `image` is int64 (else float).
+    pub(super) image_int: bool,
+    /// It takes `direction`.
+    pub(super) direction: bool,
+    /// It takes `combined_override` and `override_weight` (interventions on `M`).
+    pub(super) overrides: bool,
+}
+
+/// One line naming the file.
+pub(super) fn bad(path: &Path, what: impl std::fmt::Display) -> PolicyError {
+    PolicyError::Input(format!("{}: {what}", path.display()))
+}
+
+/// tract's error chain on one line.
+pub(super) fn one_line(e: &anyhow::Error) -> String {
+    format!("{e:#}").replace('\n', " ")
+}
+
+/// The declared element type and static dimensions (`None` for a symbolic one) of a value.
+pub(super) fn declared(v: &pb::ValueInfoProto) -> (Option<i32>, Option<Vec<Option<i64>>>) {
+    let Some(pb::type_proto::Value::TensorType(t)) =
+        v.r#type.as_ref().and_then(|t| t.value.as_ref())
+    else {
+        return (None, None);
+    };
+    let dims = t.shape.as_ref().map(|s| {
+        s.dim
+            .iter()
+            .map(|d| match d.value {
+                Some(pb::tensor_shape_proto::dimension::Value::DimValue(n)) => Some(n),
+                _ => None,
+            })
+            .collect()
+    });
+    (Some(t.elem_type), dims)
+}
+
+pub(super) fn type_name(code: i32) -> String {
+    match code {
+        ONNX_FLOAT => "float32".into(),
+        ONNX_INT64 => "int64".into(),
+        2 => "uint8".into(),
+        6 => "int32".into(),
+        11 => "float64".into(),
+        other => format!("ONNX type {other}"),
+    }
+}
+
+/// Every operator of `graph` and its subgraphs (a `Loop`'s body, an `If`'s branches).
+pub(super) fn operators<'a>(graph: &'a pb::GraphProto, out: &mut Vec<(&'a str, &'a str)>) {
+    for node in &graph.node {
+        out.push((node.op_type.as_str(), node.name.as_str()));
+        for a in &node.attribute {
+            if let Some(g) = &a.g {
+                operators(g, out);
+            }
+            for g in &a.graphs {
+                operators(g, out);
+            }
+        }
+    }
+}
+
+/// The metadata: the protobuf's `groundscope.*` keys, overridden by a sidecar `FILE.json`.
+pub(super) fn props(path: &Path, proto: &pb::ModelProto) -> Result<Props, PolicyError> {
+    let mut props: Props = proto
+        .metadata_props
+        .iter()
+        .filter_map(|e| {
+            Some((
+                e.key.strip_prefix("groundscope.")?.to_owned(),
+                e.value.clone(),
+            ))
+        })
+        .collect();
+    let mut sidecar = path.as_os_str().to_owned();
+    sidecar.push(".json");
+    let sidecar = PathBuf::from(sidecar);
+    if sidecar.exists() {
+        let text = std::fs::read_to_string(&sidecar).map_err(|e| PolicyError::Io {
+            path: sidecar.clone(),
+            reason: e.to_string(),
+        })?;
+        let map: serde_json::Map<String, serde_json::Value> = serde_json::from_str(&text)
+            .map_err(|e| bad(&sidecar, format!("not a JSON object of metadata: {e}")))?;
+        for (k, v) in map {
+            let v = match v {
+                serde_json::Value::String(s) => s,
+                other => other.to_string(),
+            };
+            props.insert(k, v);
+        }
+    }
+    Ok(props)
+}
+
+/// Checks the inputs' names, types and static sizes; returns which form and which optional
+/// inputs the graph takes.
+pub(super) fn check_inputs(
+    path: &Path,
+    graph: &pb::GraphProto,
+    memory_size: usize,
+) -> Result<Inputs, PolicyError> {
+    let init: std::collections::HashSet<&str> =
+        graph.initializer.iter().map(|t| t.name.as_str()).collect();
+    let inputs: Vec<&pb::ValueInfoProto> = graph
+        .input
+        .iter()
+        .filter(|v| !init.contains(v.name.as_str()))
+        .collect();
+    let find = |name: &str| inputs.iter().find(|v| v.name == name);
+    for name in REQUIRED_INPUTS {
+        if find(name).is_none() {
+            return Err(bad(
+                path,
+                format!(
+                    "the graph has no input \"{name}\" (the contract's inputs: image, mission, memory and optionally direction)"
+                ),
+            ));
+        }
+    }
+    if let Some(extra) = inputs.iter().find(|v| {
+        !REQUIRED_INPUTS.contains(&v.name.as_str()) && !OPTIONAL_INPUTS.contains(&v.name.as_str())
+    }) {
+        return Err(bad(
+            path,
+            format!("input \"{}\" is not in the contract", extra.name),
+        ));
+    }
+    let m = memory_size as i64;
+    let mut image_int = false;
+    for v in &inputs {
+        let (ty, dims) = declared(v);
+        let (types, rank, fixed): (&[i32], usize, &[(usize, i64)]) = match v.name.as_str() {
+            "image" => (&[ONNX_FLOAT, ONNX_INT64], 4, &[(1, 7), (2, 7), (3, 3)]),
+            "mission" => (&[ONNX_INT64], 2, &[]),
+            "memory" => (&[ONNX_FLOAT], 2, &[]),
+            "combined_override" => (&[ONNX_FLOAT], 3, &[(1, 7), (2, 7)]),
+            "override_weight" => (&[ONNX_FLOAT], 1, &[]),
+            _ => (&[ONNX_INT64], 1, &[]),
+        };
+        if let Some(ty) = ty
+            && !types.contains(&ty)
+        {
+            let want: Vec<String> = types.iter().map(|&t| type_name(t)).collect();
+            return Err(bad(
+                path,
+                format!(
+                    "input \"{}\" is {}; the contract wants {}",
+                    v.name,
+                    type_name(ty),
+                    want.join(" or ")
+                ),
+            ));
+        }
+        if v.name == "image" {
+            image_int = ty == Some(ONNX_INT64);
+        }
+        let mut fixed = fixed.to_vec();
+        if v.name == "memory" {
+            fixed.push((1, m));
+        }
+        check_dims(path, "input", &v.name, dims.as_deref(), rank, &fixed)?;
+    }
+    let overrides = match (
+        find("combined_override").is_some(),
+        find("override_weight").is_some(),
+    ) {
+        (true, true) => true,
+        (false, false) => false,
+        (has, _) => {
+            let (given, missing) = if has {
+                ("combined_override", "override_weight")
+            } else {
+                ("override_weight", "combined_override")
+            };
+            return Err(bad(
+                path,
+                format!(
+                    "the graph takes \"{given}\" but not \"{missing}\"; the contract wants both or neither"
+                ),
+            ));
+        }
+    };
+    Ok(Inputs {
+        image_int,
+        direction: find("direction").is_some(),
+        overrides,
+    })
+}
+
+/// Checks a declared shape's rank and static sizes, where the graph declares them.
+pub(super) fn check_dims(
+    path: &Path,
+    kind: &str,
+    name: &str,
+    dims: Option<&[Option<i64>]>,
+    rank: usize,
+    fixed: &[(usize, i64)],
+) -> Result<(), PolicyError> {
+    let Some(dims) = dims else { return Ok(()) };
+    let shown = || {
+        let d: Vec<String> = dims
+            .iter()
+            .map(|d| d.map_or_else(|| "?".into(), |n| n.to_string()))
+            .collect();
+        format!("({})", d.join(", "))
+    };
+    if dims.len() != rank {
+        return Err(bad(
+            path,
+            format!(
+                "{kind} \"{name}\" has shape {}; the contract wants {rank} dimensions",
+                shown()
+            ),
+        ));
+    }
+    for &(axis, size) in fixed {
+        if let Some(Some(n)) = dims.get(axis)
+            && *n != size
+        {
+            return Err(bad(
+                path,
+                format!(
+                    "{kind} \"{name}\" has shape {}; the contract wants {size} on axis {axis}",
+                    shown()
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Checks the outputs; returns which optional ones are present.
+pub(super) fn check_outputs(
+    path: &Path,
+    graph: &pb::GraphProto,
+    memory_size: usize,
+) -> Result<[bool; 3], PolicyError> {
+    let find = |name: &str| graph.output.iter().find(|v| v.name == name);
+    for name in REQUIRED_OUTPUTS {
+        let Some(v) = find(name) else {
+            return Err(bad(
+                path,
+                format!(
+                    "the graph has no output \"{name}\" (the contract's outputs: logits, value, memory_out)"
+                ),
+            ));
+        };
+        let (ty, dims) = declared(v);
+        if let Some(ty) = ty
+            && ty != ONNX_FLOAT
+        {
+            return Err(bad(
+                path,
+                format!(
+                    "output \"{name}\" is {}; the contract wants float32",
+                    type_name(ty)
+                ),
+            ));
+        }
+        match name {
+            "logits" => check_dims(path, "output", name, dims.as_deref(), 2, &[(1, 7)])?,
+            "memory_out" => check_dims(
+                path,
+                "output",
+                name,
+                dims.as_deref(),
+                2,
+                &[(1, memory_size as i64)],
+            )?,
+            _ => {}
+        }
+    }
+    Ok(OPTIONAL_OUTPUTS.map(|name| find(name).is_some()))
+}
+
+/// Builds the optimised plan: inputs in the order image, mission, memory (, direction) with a
+/// symbolic batch `B` and mission length `L`; outputs the required ones, then the optional
+/// ones present.
+pub(super) fn build(
+    path: &Path,
+    onnx: &tract_onnx::Onnx,
+    proto: &pb::ModelProto,
+    given: Inputs,
+    meta: &Meta,
+    optional: [bool; 3],
+) -> Result<(Arc<TypedRunnableModel>, Option<MissionCache>), PolicyError> {
+    let fail = |e: anyhow::Error| bad(path, format!("tract: {}", one_line(&e)));
+    let mut model = onnx.model_for_proto_model(proto).map_err(fail)?;
+    let mut inputs = vec!["image", "mission", "memory"];
+    if given.direction {
+        inputs.push("direction");
+    }
+    if given.overrides {
+        inputs.extend(["combined_override", "override_weight"]);
+    }
+    model.set_input_names(&inputs).map_err(fail)?;
+    let (b, l) = (model.symbols.sym("B"), model.symbols.sym("L"));
+    let image_type = if given.image_int {
+        i64::datum_type()
+    } else {
+        f32::datum_type()
+    };
+    let mut facts = vec![
+        InferenceFact::dt_shape(image_type, [b.to_dim(), 7.to_dim(), 7.to_dim(), 3.to_dim()]),
+        InferenceFact::dt_shape(i64::datum_type(), [b.to_dim(), l.to_dim()]),
+        InferenceFact::dt_shape(f32::datum_type(), [b.to_dim(), meta.memory_size.to_dim()]),
+    ];
+    if given.direction {
+        facts.push(InferenceFact::dt_shape(i64::datum_type(), [b.to_dim()]));
+    }
+    if given.overrides {
+        facts.push(InferenceFact::dt_shape(
+            f32::datum_type(),
+            [b.to_dim(), 7.to_dim(), 7.to_dim()],
+        ));
+        facts.push(InferenceFact::dt_shape(f32::datum_type(), [b.to_dim()]));
+    }
+    for (i, fact) in facts.into_iter().enumerate() {
+        model.set_input_fact(i, fact).map_err(fail)?;
+    }
+    let mut outputs: Vec<&str> = REQUIRED_OUTPUTS.to_vec();
+    outputs.extend(
+        OPTIONAL_OUTPUTS
+            .iter()
+            .zip(optional)
+            .filter(|(_, on)| *on)
+            .map(|(n, _)| *n),
+    );
+    model.select_outputs_by_name(&outputs).map_err(fail)?;
+    let typed = model
+        .into_typed()
+        .and_then(TypedModel::into_decluttered)
+        .map_err(fail)?;
+    let runnable = |m: TypedModel| m.into_optimized().and_then(IntoRunnable::into_runnable);
+    // The mission (input 1) is cut off when it can be; a cut that tract cannot optimise
+    // falls back to the whole graph, which is what every contract check above was made on.
+    if let Ok(Some(parts)) = super::mission_cache::cut(&typed, 1, &b)
+        && let (Ok(step), Ok(encoder)) = (runnable(parts.step), runnable(parts.encoder))
+    {
+        return Ok((step, Some(MissionCache::new(encoder, parts.axes))));
+    }
+    Ok((runnable(typed).map_err(fail)?, None))
+}
