@@ -59,7 +59,7 @@ fn screenshot_renders_the_real_panels() {
         "3",
         "--step",
         "2",
-        "--size",
+        "--window",
         "1200x800",
     ]);
     assert!(
@@ -108,7 +108,9 @@ fn no_display_is_a_clear_error_that_suggests_a_recording() {
 #[test]
 fn bad_view_arguments_are_one_line_errors() {
     for (args, what) in [
-        (vec!["view", "--size", "big"], "--size"),
+        (vec!["view", "--window", "big"], "--window"),
+        // The window's old spelling is still accepted.
+        (vec!["view", "--size", "big"], "--window"),
         (vec!["view", "--checkpoint", "nope/missing"], "nope/missing"),
         (vec!["view", "--mission", "go to the pink key"], "pink"),
         (vec!["view", "--screenshot", "out.jpg"], ".png"),
@@ -324,7 +326,7 @@ fn screenshot_of_an_onnx_graph_beside_a_native_checkpoint() {
         "3",
         "--step",
         "2",
-        "--size",
+        "--window",
         "1200x800",
     ]);
     assert!(

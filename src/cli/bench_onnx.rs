@@ -4,10 +4,10 @@
 use std::time::Instant;
 
 use clap::Args;
-use groundscope::episode::ActionMode;
 use groundscope::metrics::sweep::evaluate_cell;
 use groundscope::policy::Agent;
 
+use super::flags::SweepArgs;
 use crate::ExitStatus;
 
 /// `bench onnx`.
@@ -20,18 +20,8 @@ pub struct BenchOnnxArgs {
     /// that measures the runtime alone).
     #[arg(long, value_name = "NAME", default_value = "bundled:attention")]
     pub native: String,
-    /// Room sizes of the sweep.
-    #[arg(long, value_delimiter = ',', default_value = "8,10,12,14,16")]
-    pub sizes: Vec<usize>,
-    /// Object counts of the sweep.
-    #[arg(long, value_delimiter = ',', default_value = "4,6,8,10")]
-    pub objects: Vec<usize>,
-    /// Evaluation seeds.
-    #[arg(long, default_value_t = 5, allow_negative_numbers = true)]
-    pub seeds: u64,
-    /// Episodes per seed.
-    #[arg(long, default_value_t = 100, allow_negative_numbers = true)]
-    pub episodes: u64,
+    #[command(flatten)]
+    pub sweep: SweepArgs,
     /// Times each sweep runs, alternating native and ONNX; the fastest of each is reported.
     #[arg(long, default_value_t = 2, allow_negative_numbers = true)]
     pub rounds: u32,
@@ -41,29 +31,24 @@ pub struct BenchOnnxArgs {
 fn sweep(agent: &Agent, args: &BenchOnnxArgs) -> anyhow::Result<(f64, u64)> {
     let start = Instant::now();
     let mut steps = 0u64;
-    for &size in &args.sizes {
-        for &objects in &args.objects {
-            let level = super::policy_cmd::sweep_level(agent.level(), size, objects)?;
-            let eps = evaluate_cell(
-                agent.acting(),
-                &level,
-                0..args.seeds,
-                args.episodes,
-                0.5,
-                ActionMode::Greedy,
-                &mut |_| {},
-            )?;
-            steps += eps.iter().map(|e| u64::from(e.length)).sum::<u64>();
-        }
+    for level in args.sweep.levels(agent.level())? {
+        let eps = evaluate_cell(
+            agent.acting(),
+            &level,
+            args.sweep.seed_range(),
+            args.sweep.episodes,
+            0.5,
+            args.sweep.mode(),
+            &mut |_| {},
+        )?;
+        steps += eps.iter().map(|e| u64::from(e.length)).sum::<u64>();
     }
     Ok((start.elapsed().as_secs_f64(), steps))
 }
 
 /// Runs `bench onnx`.
 pub fn run(args: &BenchOnnxArgs) -> anyhow::Result<ExitStatus> {
-    if !(1..=1000).contains(&args.seeds) || !(1..1_000_000).contains(&args.episodes) {
-        anyhow::bail!("--seeds must be in 1..=1000 and --episodes in 1..1000000");
-    }
+    args.sweep.check()?;
     if !(1..=10).contains(&args.rounds) {
         anyhow::bail!("--rounds {}: must be in 1..=10", args.rounds);
     }
@@ -94,8 +79,8 @@ pub fn run(args: &BenchOnnxArgs) -> anyhow::Result<ExitStatus> {
         "bench": "onnx",
         "checkpoint": args.checkpoint,
         "native": args.native,
-        "cells": args.sizes.len() * args.objects.len(),
-        "episodes": args.sizes.len() as u64 * args.objects.len() as u64 * args.seeds * args.episodes,
+        "cells": args.sweep.sizes.len() * args.sweep.objects.len(),
+        "episodes": args.sweep.sizes.len() as u64 * args.sweep.objects.len() as u64 * args.sweep.seeds * args.sweep.episodes,
         "native_env_steps": native_steps,
         "onnx_env_steps": onnx_steps,
         "native_secs": native_secs,

@@ -15,21 +15,18 @@ use groundscope::metrics::report::{
     Cell, CellAccuracy, CheckpointInfo, Report, SCHEMA_VERSION, worst_episodes,
 };
 use groundscope::metrics::sweep::{
-    EpisodeSummary, EvalOptions, MAX_EVAL_SEEDS, evaluate_cell_explored, grounding, performance,
+    EpisodeSummary, EvalOptions, evaluate_cell_explored, grounding, performance,
 };
 use groundscope::metrics::words::by_word;
 use groundscope::policy::{Agent, Variant};
 
+use super::flags::SweepArgs;
 use crate::ExitStatus;
 
 /// `groundscope eval`.
 #[derive(Debug, Args)]
 #[command(
     after_long_help = "EXAMPLES:\n  groundscope eval --out report/\n  groundscope eval --checkpoint runs/att/model --sizes 8,10 --objects 4,6 --seeds 2 --episodes 50 --out quick/ --min-success 0.9\n  groundscope eval --checkpoint my_agent.onnx --saliency --out mine/"
-)]
-#[expect(
-    clippy::struct_excessive_bools,
-    reason = "one field per on/off flag of the command line"
 )]
 pub struct EvalArgs {
     /// Checkpoints to evaluate (repeatable): NAME, a run directory (its model),
@@ -40,43 +37,11 @@ pub struct EvalArgs {
     /// Report directory: report.json, report.md, CSVs, PNG figures, failures.json.
     #[arg(long, value_name = "DIR")]
     pub out: PathBuf,
-    /// Room sizes of the sweep.
-    #[arg(
-        long,
-        value_delimiter = ',',
-        default_value = "8,10,12,14,16",
-        allow_negative_numbers = true
-    )]
-    pub sizes: Vec<usize>,
-    /// Object counts of the sweep.
-    #[arg(
-        long,
-        value_delimiter = ',',
-        default_value = "4,6,8,10",
-        allow_negative_numbers = true
-    )]
-    pub objects: Vec<usize>,
-    /// Evaluation seeds per cell (mean ± std is over these).
-    #[arg(long, default_value_t = 5, allow_negative_numbers = true)]
-    pub seeds: u64,
-    /// The first evaluation seed: the sweep uses seeds S .. S + --seeds − 1. Reports so far
-    /// use seeds from 0; a later S gives levels none of them has seen (held-out levels).
-    #[arg(
-        long,
-        value_name = "S",
-        default_value_t = 0,
-        allow_negative_numbers = true
-    )]
-    pub first_seed: u64,
-    /// Episodes per seed.
-    #[arg(long, default_value_t = 100, allow_negative_numbers = true)]
-    pub episodes: u64,
+    #[command(flatten)]
+    pub sweep: SweepArgs,
     /// Threshold factor α of the grounding accuracies (τ = α / n).
     #[arg(long, default_value_t = 0.5, allow_negative_numbers = true)]
     pub alpha: f64,
-    /// Sample actions instead of taking the most probable one.
-    #[arg(long)]
-    pub sample: bool,
     /// For a model without attention maps (a baseline, an ONNX graph that exports none): let
     /// the occlusion saliency stand in for M in the failure classes, so `grounding` is decided
     /// for it too (docs/evaluation.md#failure-classes). Slower: one forward of the perturbed
@@ -108,30 +73,7 @@ fn check(args: &EvalArgs) -> anyhow::Result<()> {
     if !(0.0..=1.0).contains(&args.alpha) {
         anyhow::bail!("--alpha {} is outside [0, 1]", args.alpha);
     }
-    if args.sizes.is_empty() || args.objects.is_empty() || args.seeds == 0 || args.episodes == 0 {
-        anyhow::bail!(
-            "the sweep is empty: --sizes, --objects, --seeds and --episodes must each give at least one"
-        );
-    }
-    if args.episodes >= 1_000_000 {
-        anyhow::bail!(
-            "--episodes {} must be below 1000000 (level seeds are seed·10⁶ + episode)",
-            args.episodes
-        );
-    }
-    // Level seeds s·10⁶ + e must stay under the tracked evaluation's 2³¹ (and training's 2³²).
-    if args
-        .first_seed
-        .checked_add(args.seeds)
-        .is_none_or(|end| end > MAX_EVAL_SEEDS)
-    {
-        anyhow::bail!(
-            "--first-seed {} --seeds {} reaches past evaluation seed {} (level seeds are seed·10⁶ + episode, below 2³¹)",
-            args.first_seed,
-            args.seeds,
-            MAX_EVAL_SEEDS - 1
-        );
-    }
+    args.sweep.check()?;
     for (flag, v) in [
         ("--min-success", args.min_success),
         ("--min-acc-ng", args.min_acc_ng),
@@ -160,19 +102,12 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitStatus> {
     // Check every cell's level before running anything: no partial report.
     let mut cells = Vec::new();
     for (name, ckpt) in &ckpts {
-        for &size in &args.sizes {
-            for &objects in &args.objects {
-                let level = super::policy_cmd::sweep_level(ckpt.level(), size, objects)?;
-                cells.push((name.clone(), ckpt, level));
-            }
+        for level in args.sweep.levels(ckpt.level())? {
+            cells.push((name.clone(), ckpt, level));
         }
     }
-    let mode = if args.sample {
-        ActionMode::Sampled
-    } else {
-        ActionMode::Greedy
-    };
-    let total = cells.len() as u64 * args.seeds * args.episodes;
+    let mode = args.sweep.mode();
+    let total = cells.len() as u64 * args.sweep.seeds * args.sweep.episodes;
     let bar = if args.quiet {
         indicatif::ProgressBar::hidden()
     } else {
@@ -233,10 +168,10 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitStatus> {
         schema_version: SCHEMA_VERSION,
         groundscope_version: env!("CARGO_PKG_VERSION").into(),
         alpha: args.alpha,
-        mode: if args.sample { "sampled" } else { "greedy" }.into(),
-        seeds: args.seeds,
-        first_seed: args.first_seed,
-        episodes_per_seed: args.episodes,
+        mode: if args.sweep.sample { "sampled" } else { "greedy" }.into(),
+        seeds: args.sweep.seeds,
+        first_seed: args.sweep.first_seed,
+        episodes_per_seed: args.sweep.episodes,
         saliency: args.saliency,
         checkpoints: ckpts
             .iter()
@@ -250,7 +185,7 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitStatus> {
         cells: report_cells,
         elapsed_secs: elapsed,
     };
-    let sample = if args.sample { " --sample" } else { "" };
+    let sample = if args.sweep.sample { " --sample" } else { "" };
     let mut failures = worst_episodes(&all_eps, args.top_k, &|ckpt, size, objects, seed| {
         format!(
             "groundscope replay --checkpoint {ckpt} --room-size {size} --objects {objects} --seed {seed}{sample}"
@@ -346,8 +281,8 @@ fn run_cells(
                     let r = evaluate_cell_explored(
                         net,
                         level,
-                        args.first_seed..args.first_seed + args.seeds,
-                        args.episodes,
+                        args.sweep.seed_range(),
+                        args.sweep.episodes,
                         &EvalOptions {
                             alpha: args.alpha,
                             mode,

@@ -7,7 +7,6 @@ use std::time::Instant;
 
 use anyhow::Context as _;
 use clap::{Args, ValueEnum};
-use groundscope::episode::ActionMode;
 use groundscope::metrics::faithfulness::report::{
     CheckpointFaithfulness, FaithfulnessReport, SCHEMA_VERSION, steps_csv,
 };
@@ -15,6 +14,7 @@ use groundscope::metrics::faithfulness::{self, EpisodeResult, Parts, figures, su
 use groundscope::metrics::sweep::eval_level_seed;
 use groundscope::policy::{Agent, bundled};
 
+use super::flags::SweepArgs;
 use crate::ExitStatus;
 
 /// The parts of the analysis.
@@ -36,7 +36,10 @@ pub enum Part {
     groundscope faithfulness --out faith\n  \
     groundscope faithfulness --checkpoint runs/att/model --sizes 10 --objects 6 --out faith10\n  \
     groundscope faithfulness --checkpoint bundled:baseline --out faith-baseline\n  \
-    groundscope faithfulness --checkpoint my_agent.onnx --out faith-onnx")]
+    groundscope faithfulness --checkpoint my_agent.onnx --out faith-onnx",
+    // One cell by default: the paper's training level.
+    mut_arg("sizes", |a| a.default_value("8")),
+    mut_arg("objects", |a| a.default_value("4")))]
 pub struct FaithfulnessArgs {
     /// Checkpoints (repeatable): NAME, a run directory (its model), bundled:NAME or an ONNX
     /// graph FILE.onnx (docs/onnx.md) [default: bundled:attention].
@@ -45,31 +48,8 @@ pub struct FaithfulnessArgs {
     /// Output directory.
     #[arg(long, value_name = "DIR")]
     pub out: PathBuf,
-    /// Room sizes.
-    #[arg(
-        long,
-        value_delimiter = ',',
-        default_value = "8",
-        allow_negative_numbers = true
-    )]
-    pub sizes: Vec<usize>,
-    /// Object counts.
-    #[arg(
-        long,
-        value_delimiter = ',',
-        default_value = "4",
-        allow_negative_numbers = true
-    )]
-    pub objects: Vec<usize>,
-    /// Evaluation seeds (mean ± std is over these).
-    #[arg(long, default_value_t = 5, allow_negative_numbers = true)]
-    pub seeds: u64,
-    /// Episodes per seed.
-    #[arg(long, default_value_t = 100, allow_negative_numbers = true)]
-    pub episodes: u64,
-    /// Sample actions instead of taking the most probable one.
-    #[arg(long)]
-    pub sample: bool,
+    #[command(flatten)]
+    pub sweep: SweepArgs,
     /// Parts to compute [default: all three].
     #[arg(long, value_delimiter = ',', value_enum)]
     pub parts: Vec<Part>,
@@ -83,12 +63,7 @@ pub struct FaithfulnessArgs {
 
 /// Runs `faithfulness`.
 pub fn run(args: &FaithfulnessArgs) -> anyhow::Result<ExitStatus> {
-    if args.seeds == 0 || args.episodes == 0 {
-        anyhow::bail!("--seeds and --episodes must be at least 1");
-    }
-    if args.episodes >= 1_000_000 || args.seeds > 1000 {
-        anyhow::bail!("--episodes must be below 1000000 and --seeds at most 1000");
-    }
+    args.sweep.check()?;
     if args.jobs == Some(0) {
         anyhow::bail!("--jobs 0: give at least one worker");
     }
@@ -117,22 +92,18 @@ pub fn run(args: &FaithfulnessArgs) -> anyhow::Result<ExitStatus> {
                 interventions,
             }
         };
-        for &size in &args.sizes {
-            for &objects in &args.objects {
-                let level = super::policy_cmd::sweep_level(agent.level(), size, objects)?;
-                cells.push((spec.clone(), agent.clone(), level, parts));
-            }
+        for level in args.sweep.levels(agent.level())? {
+            cells.push((spec.clone(), agent.clone(), level, parts));
         }
     }
     // Fail on an unwritable directory before the work, and write nothing partial after it.
     let staging = Staging::new(&args.out)?;
-    let mode = if args.sample {
-        ActionMode::Sampled
-    } else {
-        ActionMode::Greedy
-    };
-    let plan: Vec<(u64, u64)> = (0..args.seeds)
-        .flat_map(|s| (0..args.episodes).map(move |e| (s, eval_level_seed(s, e))))
+    let mode = args.sweep.mode();
+    let episodes = args.sweep.episodes;
+    let plan: Vec<(u64, u64)> = args
+        .sweep
+        .seed_range()
+        .flat_map(|s| (0..episodes).map(move |e| (s, eval_level_seed(s, e))))
         .collect();
     let jobs = args
         .jobs
@@ -166,8 +137,9 @@ pub fn run(args: &FaithfulnessArgs) -> anyhow::Result<ExitStatus> {
             .into_iter()
             .collect::<Vec<_>>()
             .join(", "),
-        seeds: args.seeds,
-        episodes_per_seed: args.episodes,
+        seeds: args.sweep.seeds,
+        first_seed: args.sweep.first_seed,
+        episodes_per_seed: args.sweep.episodes,
         actions: mode.name(),
         seconds: start.elapsed().as_secs_f64(),
         checkpoints: entries,

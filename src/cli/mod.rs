@@ -7,6 +7,7 @@ mod curve;
 mod env_cmd;
 mod eval;
 mod faithfulness;
+mod flags;
 mod model_options;
 mod policy_cmd;
 mod replay;

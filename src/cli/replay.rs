@@ -9,16 +9,16 @@ use std::time::Instant;
 use anyhow::Context as _;
 use clap::Args;
 use groundscope::env::vocab::{tokenize, words};
-use groundscope::episode::{ActionMode, EpisodeSpec, EpisodeTrace, initial_world, run_from};
+use groundscope::episode::{EpisodeSpec, EpisodeTrace, initial_world, run_from};
 use groundscope::metrics::faithfulness::annotate;
 use groundscope::policy::Agent;
 use groundscope::record::{
     McapRecorder, RecordError, RerunRecorder, RerunTargets, StopFlag, episode_scenes, word_paths,
 };
 
+use super::flags::EpisodeArgs;
 use crate::ExitStatus;
 use crate::cli::check_extension;
-use crate::cli::policy_cmd::level_from;
 
 /// The default `--connect` URL: a viewer on this machine.
 const DEFAULT_VIEWER_URL: &str = "rerun+http://127.0.0.1:9876/proxy";
@@ -30,16 +30,15 @@ const DEFAULT_VIEWER_URL: &str = "rerun+http://127.0.0.1:9876/proxy";
     groundscope replay --seed 3 --episodes 5 --save five.rrd --mcap five.mcap\n  \
     groundscope replay --checkpoint bundled:baseline --mission \"go to the red ball\" --save red.rrd\n  \
     groundscope replay --checkpoint runs/untrained --seed 3 --trace out.json\n  \
-    groundscope replay --checkpoint my_agent.onnx --room-size 12 --faithfulness --save mine.rrd")]
+    groundscope replay --checkpoint my_agent.onnx --room-size 12 --faithfulness --save mine.rrd",
+    // The room's old spelling here, kept for scripts (hidden).
+    mut_arg("room_size", |a| a.alias("size")))]
 pub struct ReplayArgs {
     /// Checkpoint: NAME (NAME.json + NAME.safetensors), a run directory (its model),
     /// bundled:attention / bundled:baseline or an ONNX graph FILE.onnx [default:
     /// bundled:attention].
     #[arg(long, value_name = "NAME")]
     pub checkpoint: Option<String>,
-    /// Level seed (of the first episode).
-    #[arg(long, default_value_t = 0, allow_negative_numbers = true)]
-    pub seed: u64,
     /// Number of episodes, on consecutive seeds from --seed.
     #[arg(
         long,
@@ -48,24 +47,8 @@ pub struct ReplayArgs {
         allow_negative_numbers = true
     )]
     pub episodes: u64,
-    /// Replace the generated mission (vocabulary words only).
-    #[arg(long, value_name = "TEXT")]
-    pub mission: Option<String>,
-    /// Sample actions instead of taking the most probable one.
-    #[arg(long)]
-    pub sample: bool,
-    /// Room side S, walls included; defaults to the level the checkpoint was trained on
-    /// (`--size` is still accepted).
-    #[arg(
-        long = "room-size",
-        alias = "size",
-        value_name = "S",
-        allow_negative_numbers = true
-    )]
-    pub size: Option<usize>,
-    /// Number of objects; defaults to the checkpoint's level.
-    #[arg(long, value_name = "N", allow_negative_numbers = true)]
-    pub objects: Option<usize>,
+    #[command(flatten)]
+    pub episode: EpisodeArgs,
     /// Write the episode trace here (JSON; one episode only).
     #[arg(long, value_name = "FILE")]
     pub trace: Option<PathBuf>,
@@ -121,20 +104,17 @@ pub fn replay(args: &ReplayArgs) -> anyhow::Result<ExitStatus> {
             .unwrap_or_default()
     });
     let agent = Agent::load(&name)?;
-    let level = level_from(agent.level(), args.size, args.objects)?;
-    let mode = if args.sample {
-        ActionMode::Sampled
-    } else {
-        ActionMode::Greedy
-    };
+    let level = args.episode.level(agent.level())?;
+    let mode = args.episode.mode();
     let last = args
+        .episode
         .seed
         .checked_add(args.episodes - 1)
         .context("--seed + --episodes overflows")?;
     let spec = |seed| EpisodeSpec {
         level,
         seed,
-        mission: args.mission.clone(),
+        mission: args.episode.mission.clone(),
         mode,
     };
     let wants_rerun = args.save.is_some() || args.spawn || args.connect.is_some();
@@ -145,7 +125,7 @@ pub fn replay(args: &ReplayArgs) -> anyhow::Result<ExitStatus> {
     let variant = agent.acting().variant();
     if wants_rerun && variant.name() == "attention" {
         let mut missions = std::collections::BTreeSet::new();
-        for seed in args.seed..=last {
+        for seed in args.episode.seed..=last {
             if stop.load(Ordering::Relaxed) {
                 return Err(RecordError::Interrupted.into());
             }
@@ -174,7 +154,7 @@ pub fn replay(args: &ReplayArgs) -> anyhow::Result<ExitStatus> {
         let (agent, name, alpha, spec) = (&agent, &name, args.alpha, &spec);
         let faithful = args.faithfulness.then(|| agent.acting());
         scope.spawn(move || {
-            for seed in args.seed..=last {
+            for seed in args.episode.seed..=last {
                 if stop_worker.load(Ordering::Relaxed) {
                     break;
                 }

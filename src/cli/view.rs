@@ -6,9 +6,9 @@ use anyhow::Context as _;
 use clap::Args;
 use groundscope::app::{self, StartOptions, WindowOptions};
 
+use super::flags::EpisodeArgs;
 use crate::ExitStatus;
 use crate::cli::check_extension;
-use crate::cli::policy_cmd::level_from;
 
 /// `groundscope view`.
 #[derive(Debug, Args, Default)]
@@ -27,9 +27,6 @@ pub struct ViewArgs {
     /// A second checkpoint (any form --checkpoint takes), run on the same seed side by side.
     #[arg(long, value_name = "NAME")]
     pub compare: Option<String>,
-    /// Level seed.
-    #[arg(long, default_value_t = 0, allow_negative_numbers = true)]
-    pub seed: u64,
     /// Step shown first.
     #[arg(
         long,
@@ -38,21 +35,11 @@ pub struct ViewArgs {
         allow_negative_numbers = true
     )]
     pub step: usize,
-    /// Sample actions instead of taking the most probable one.
-    #[arg(long)]
-    pub sample: bool,
-    /// Replace the generated mission (vocabulary words only).
-    #[arg(long, value_name = "TEXT")]
-    pub mission: Option<String>,
-    /// Room size; defaults to the checkpoint's level.
-    #[arg(long, value_name = "S", allow_negative_numbers = true)]
-    pub room_size: Option<usize>,
-    /// Number of objects; defaults to the checkpoint's level.
-    #[arg(long, value_name = "N", allow_negative_numbers = true)]
-    pub objects: Option<usize>,
-    /// Window size in logical pixels.
-    #[arg(long, value_name = "WxH", default_value = "1400x900")]
-    pub size: String,
+    #[command(flatten)]
+    pub episode: EpisodeArgs,
+    /// Window size in logical pixels (`--size` is still accepted).
+    #[arg(long, alias = "size", value_name = "WxH", default_value = "1400x900")]
+    pub window: String,
     /// Render one frame of the debugger to this PNG and exit (needs a display; use xvfb-run
     /// on a headless machine).
     #[arg(long, value_name = "FILE.png")]
@@ -65,14 +52,14 @@ pub struct ViewArgs {
 fn parse_size(s: &str) -> anyhow::Result<[f32; 2]> {
     let (w, h) = s
         .split_once(['x', 'X'])
-        .with_context(|| format!("--size {s:?} is not WIDTHxHEIGHT, e.g. 1400x900"))?;
+        .with_context(|| format!("--window {s:?} is not WIDTHxHEIGHT, e.g. 1400x900"))?;
     let parse = |v: &str| -> anyhow::Result<f32> {
         let n: u32 = v
             .trim()
             .parse()
-            .with_context(|| format!("--size {s:?}: {v:?} is not a whole number of pixels"))?;
+            .with_context(|| format!("--window {s:?}: {v:?} is not a whole number of pixels"))?;
         if !(200..=8192).contains(&n) {
-            anyhow::bail!("--size {s:?}: {n} is outside 200..=8192 pixels");
+            anyhow::bail!("--window {s:?}: {n} is outside 200..=8192 pixels");
         }
         Ok(n as f32)
     };
@@ -82,10 +69,10 @@ fn parse_size(s: &str) -> anyhow::Result<[f32; 2]> {
 /// Runs `view`.
 pub fn run(args: &ViewArgs) -> anyhow::Result<ExitStatus> {
     // `groundscope` with no arguments builds `ViewArgs::default()`, whose size is empty.
-    let size = if args.size.is_empty() {
+    let size = if args.window.is_empty() {
         [1400.0, 900.0]
     } else {
-        parse_size(&args.size)?
+        parse_size(&args.window)?
     };
     if let Some(p) = &args.screenshot {
         check_extension(p, "png", "--screenshot")?;
@@ -99,18 +86,18 @@ pub fn run(args: &ViewArgs) -> anyhow::Result<ExitStatus> {
     if let Some(c) = &args.compare {
         groundscope::policy::Agent::load(c)?;
     }
-    let level = level_from(agent.level(), args.room_size, args.objects)?;
-    if let Some(m) = &args.mission {
+    let level = args.episode.level(agent.level())?;
+    if let Some(m) = &args.episode.mission {
         groundscope::env::Instruction::parse(m)?;
     }
     let start = StartOptions {
         checkpoint,
         compare: args.compare.clone(),
         level: Some(level),
-        seed: args.seed,
-        sample: args.sample,
+        seed: args.episode.seed,
+        sample: args.episode.sample,
         step: args.step,
-        mission: args.mission.clone(),
+        mission: args.episode.mission.clone(),
         faithfulness: args.faithfulness,
     };
     app::run(

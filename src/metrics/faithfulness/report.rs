@@ -151,6 +151,10 @@ pub struct FaithfulnessReport {
     pub level: String,
     /// Evaluation seeds.
     pub seeds: u64,
+    /// The first evaluation seed (`--first-seed`); written only when not 0, so reports of
+    /// the standard seeds are as before.
+    #[serde(skip_serializing_if = "is_zero")]
+    pub first_seed: u64,
     /// Episodes per seed.
     pub episodes_per_seed: u64,
     /// greedy or sampled.
@@ -159,6 +163,14 @@ pub struct FaithfulnessReport {
     pub seconds: f64,
     /// One entry per checkpoint.
     pub checkpoints: Vec<CheckpointFaithfulness>,
+}
+
+#[expect(
+    clippy::trivially_copy_pass_by_ref,
+    reason = "serde's skip_serializing_if passes a reference"
+)]
+fn is_zero(x: &u64) -> bool {
+    *x == 0
 }
 
 /// Mean ± std over seeds of per-seed means of per-episode means of `f`'s values (an episode

@@ -1,0 +1,148 @@
+//! Flags that several commands share, defined once (`#[command(flatten)]`) so that a flag
+//! means the same everywhere: the evaluation sweep (`eval`, `faithfulness`, `bench onnx`) and
+//! the episode a replay shows (`replay`, `view`). The level flags of `env` and `train` are
+//! [`super::env_cmd::LevelArgs`]. A command that needs another default changes it with
+//! `#[command(mut_arg(...))]`, and help says so.
+
+use std::ops::Range;
+
+use clap::Args;
+use groundscope::env::LevelConfig;
+use groundscope::episode::ActionMode;
+use groundscope::metrics::sweep::MAX_EVAL_SEEDS;
+
+/// The evaluation sweep: its cells (room sizes × object counts), seeds, episodes and how
+/// actions are chosen.
+#[derive(Args, Clone, Debug)]
+pub struct SweepArgs {
+    /// Room sizes of the sweep.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "8,10,12,14,16",
+        allow_negative_numbers = true
+    )]
+    pub sizes: Vec<usize>,
+    /// Object counts of the sweep.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "4,6,8,10",
+        allow_negative_numbers = true
+    )]
+    pub objects: Vec<usize>,
+    /// Evaluation seeds per cell (mean ± std is over these).
+    #[arg(long, default_value_t = 5, allow_negative_numbers = true)]
+    pub seeds: u64,
+    /// The first evaluation seed: the sweep uses seeds S .. S + --seeds − 1. Reports so far
+    /// use seeds from 0; a later S gives levels none of them has seen (held-out levels).
+    #[arg(
+        long,
+        value_name = "S",
+        default_value_t = 0,
+        allow_negative_numbers = true
+    )]
+    pub first_seed: u64,
+    /// Episodes per seed.
+    #[arg(long, default_value_t = 100, allow_negative_numbers = true)]
+    pub episodes: u64,
+    /// Sample actions instead of taking the most probable one.
+    #[arg(long)]
+    pub sample: bool,
+}
+
+impl SweepArgs {
+    /// Refuses a sweep that cannot run, naming the flag, before anything is loaded.
+    pub fn check(&self) -> anyhow::Result<()> {
+        if self.sizes.is_empty() || self.objects.is_empty() || self.seeds == 0 || self.episodes == 0
+        {
+            anyhow::bail!(
+                "the sweep is empty: --sizes, --objects, --seeds and --episodes must each give at least one"
+            );
+        }
+        if self.episodes >= 1_000_000 {
+            anyhow::bail!(
+                "--episodes {} must be below 1000000 (level seeds are seed·10⁶ + episode)",
+                self.episodes
+            );
+        }
+        // Level seeds s·10⁶ + e must stay under the tracked evaluation's 2³¹ (and training's
+        // 2³²).
+        if self
+            .first_seed
+            .checked_add(self.seeds)
+            .is_none_or(|end| end > MAX_EVAL_SEEDS)
+        {
+            anyhow::bail!(
+                "--first-seed {} --seeds {} reaches past evaluation seed {} (level seeds are seed·10⁶ + episode, below 2³¹)",
+                self.first_seed,
+                self.seeds,
+                MAX_EVAL_SEEDS - 1
+            );
+        }
+        Ok(())
+    }
+
+    /// The evaluation seeds, `--first-seed` .. `--first-seed + --seeds`.
+    pub fn seed_range(&self) -> Range<u64> {
+        self.first_seed..self.first_seed + self.seeds
+    }
+
+    /// Greedy, or sampled with `--sample`.
+    pub fn mode(&self) -> ActionMode {
+        action_mode(self.sample)
+    }
+
+    /// The sweep's levels for a model trained on `base`, room sizes outermost, each checked
+    /// (an error names the cell's flags).
+    pub fn levels(&self, base: LevelConfig) -> anyhow::Result<Vec<LevelConfig>> {
+        let mut levels = Vec::with_capacity(self.sizes.len() * self.objects.len());
+        for &size in &self.sizes {
+            for &objects in &self.objects {
+                levels.push(super::policy_cmd::sweep_level(base, size, objects)?);
+            }
+        }
+        Ok(levels)
+    }
+}
+
+/// The episode a command shows: its level seed, mission, room and how actions are chosen.
+/// `Default` gives the command line's defaults.
+#[derive(Args, Clone, Debug, Default)]
+pub struct EpisodeArgs {
+    /// Level seed (of the first episode).
+    #[arg(long, default_value_t = 0, allow_negative_numbers = true)]
+    pub seed: u64,
+    /// Replace the generated mission (vocabulary words only).
+    #[arg(long, value_name = "TEXT")]
+    pub mission: Option<String>,
+    /// Sample actions instead of taking the most probable one.
+    #[arg(long)]
+    pub sample: bool,
+    /// Room side S, walls included; defaults to the level the checkpoint was trained on.
+    #[arg(long, value_name = "S", allow_negative_numbers = true)]
+    pub room_size: Option<usize>,
+    /// Number of objects; defaults to the checkpoint's level.
+    #[arg(long, value_name = "N", allow_negative_numbers = true)]
+    pub objects: Option<usize>,
+}
+
+impl EpisodeArgs {
+    /// Greedy, or sampled with `--sample`.
+    pub fn mode(&self) -> ActionMode {
+        action_mode(self.sample)
+    }
+
+    /// The checkpoint's level `base` with `--room-size` and `--objects` applied, checked.
+    pub fn level(&self, base: LevelConfig) -> anyhow::Result<LevelConfig> {
+        super::policy_cmd::level_from(base, self.room_size, self.objects)
+    }
+}
+
+fn action_mode(sample: bool) -> ActionMode {
+    if sample {
+        ActionMode::Sampled
+    } else {
+        ActionMode::Greedy
+    }
+}
