@@ -3,7 +3,8 @@
 use candle_core::backprop::GradStore;
 use candle_core::{D, DType, Device, Tensor};
 
-use super::{PhaseTimes, PpoConfig, Rollout, secs};
+use super::rollout::Rollout;
+use super::{PhaseTimes, PpoConfig, secs};
 use crate::env::view::Observation;
 use crate::policy::error::PolicyError;
 use crate::policy::model::{Memory, Net, log_probs};

@@ -3,36 +3,35 @@
 //! with episode masks (stored memories refreshed during the epochs), global grad-norm
 //! clipping, Adam.
 //!
+//! The rollout ([`rollout`], with [`gae`]) and the update ([`update`], losses in [`loss`]) are
+//! methods of [`Trainer`] in modules of their own.
+//!
 //! Buffers are proc-major (frame `i = p·T + t`), as torch-ac's; minibatches are t-major inside
 //! (row = k·n + j for step k of sequence j). Training level seeds start at
 //! [`TRAIN_SEED_OFFSET`], so evaluation seeds (small integers) are never trained on.
 
 mod config;
+mod gae;
 mod loss;
 mod missions;
+mod rollout;
 mod state;
+mod update;
 
-use candle_core::backprop::GradStore;
-use candle_core::{Device, Tensor};
-use rand::seq::SliceRandom as _;
-use rand::{Rng as _, SeedableRng as _};
+use rand::SeedableRng as _;
 use rand_pcg::Pcg64Mcg;
 use serde::{Deserialize, Serialize};
 
 use super::ModelConfig;
 use super::adam::{Adam, AdamConfig};
 use super::error::PolicyError;
-use super::grads::{clip_factor, with_minibatch_grads};
-use super::model::{Memory, Net};
 use super::params::Params;
 use crate::env::level::LevelConfig;
-use crate::env::view::Observation;
 use crate::env::vocab;
-use crate::env::world::{Action, World};
+use crate::env::world::World;
 
 pub use config::{PpoConfig, TemperatureAnneal};
 pub use loss::{PpoLosses, ppo_loss, tensor_to_vec};
-use loss::{ShardOut, shard_step};
 
 /// Level seeds used in training are `TRAIN_SEED_OFFSET + k`.
 pub const TRAIN_SEED_OFFSET: u64 = 1 << 32;
@@ -187,20 +186,6 @@ fn secs(t: std::time::Instant) -> f64 {
     t.elapsed().as_secs_f64()
 }
 
-/// Rollout buffers, proc-major.
-struct Rollout {
-    obs: Vec<Observation>,
-    tokens: Vec<Vec<u32>>,
-    actions: Vec<u32>,
-    values: Vec<f32>,
-    logps: Vec<f32>,
-    rewards: Vec<f32>,
-    masks: Vec<f32>,
-    h: Vec<Vec<f32>>,
-    c: Vec<Vec<f32>>,
-    advantages: Vec<f32>,
-    returns: Vec<f32>,
-}
 
 impl Trainer {
     /// A fresh run: weights from `seed`, P environments on the first training seeds.
@@ -313,256 +298,9 @@ impl Trainer {
         Ok(log)
     }
 
-    fn collect(&mut self) -> Result<(Rollout, EpisodeStats), PolicyError> {
-        let (p_n, t_n, hid) = (
-            self.ppo.procs,
-            self.ppo.frames_per_proc,
-            self.model.lstm_hidden,
-        );
-        let n = p_n * t_n;
-        let net = Net::new(self.model, self.params.detached());
-        let mut missions = std::mem::take(&mut self.missions);
-        missions.renew();
-        let mut ro = Rollout {
-            obs: vec![
-                Observation {
-                    image: [[[0; 3]; 7]; 7]
-                };
-                n
-            ],
-            tokens: vec![Vec::new(); n],
-            actions: vec![0; n],
-            values: vec![0.0; n],
-            logps: vec![0.0; n],
-            rewards: vec![0.0; n],
-            masks: vec![0.0; n],
-            h: vec![Vec::new(); n],
-            c: vec![Vec::new(); n],
-            advantages: vec![0.0; n],
-            returns: vec![0.0; n],
-        };
-        let mut stats = EpisodeStats::default();
-        for t in 0..t_n {
-            let out = self.act_all(&net, &mut missions)?;
-            let env_t = std::time::Instant::now();
-            let st = &mut self.state;
-            for (p, env) in st.envs.iter_mut().enumerate() {
-                let i = p * t_n + t;
-                let probs = &out.probs[p];
-                let u: f32 = st.act_rng.random();
-                let mut acc = 0.0;
-                let a = probs
-                    .iter()
-                    .position(|&q| {
-                        acc += q;
-                        u < acc
-                    })
-                    .unwrap_or(probs.len() - 1);
-                ro.obs[i] = env.world.observe();
-                ro.tokens[i].clone_from(&env.tokens);
-                ro.actions[i] = a as u32;
-                ro.values[i] = out.values[p];
-                ro.logps[i] = probs[a].max(1e-12).ln();
-                ro.masks[i] = env.mask;
-                ro.h[i].clone_from(&env.h);
-                ro.c[i].clone_from(&env.c);
-                let action = Action::from_index(a).unwrap_or(Action::Done);
-                let outcome = env.world.step(action)?;
-                ro.rewards[i] = (outcome.reward * self.ppo.reward_scale) as f32;
-                env.h.clone_from(&out.h[p]);
-                env.c.clone_from(&out.c[p]);
-                env.ep_return += outcome.reward;
-                env.ep_len += 1;
-                if outcome.terminated || outcome.truncated {
-                    stats.episodes += 1;
-                    stats.successes += u64::from(outcome.reward > 0.0);
-                    stats.return_sum += env.ep_return;
-                    stats.length_sum += u64::from(env.ep_len);
-                    let fresh = new_slot(&self.level, st.next_seed, hid)?;
-                    st.next_seed += 1;
-                    *env = EnvSlot {
-                        mask: 0.0,
-                        h: std::mem::take(&mut env.h),
-                        c: std::mem::take(&mut env.c),
-                        ..fresh
-                    };
-                } else {
-                    env.mask = 1.0;
-                }
-            }
-            self.times.rollout_env += secs(env_t);
-        }
-        // Bootstrap values with the memory the next step would use.
-        let last = self.act_all(&net, &mut missions)?;
-        self.missions = missions;
-        let gae_t = std::time::Instant::now();
-        let (gamma, lambda) = (self.ppo.discount as f32, self.ppo.gae_lambda as f32);
-        for p in 0..p_n {
-            let mut next_adv = 0.0;
-            for t in (0..t_n).rev() {
-                let i = p * t_n + t;
-                let (next_mask, next_value) = if t + 1 < t_n {
-                    (ro.masks[i + 1], ro.values[i + 1])
-                } else {
-                    (self.state.envs[p].mask, last.values[p])
-                };
-                let delta = ro.rewards[i] + gamma * next_value * next_mask - ro.values[i];
-                next_adv = delta + gamma * lambda * next_adv * next_mask;
-                ro.advantages[i] = next_adv;
-                ro.returns[i] = ro.values[i] + next_adv;
-            }
-        }
-        if self.ppo.normalize_advantages {
-            normalize(&mut ro.advantages);
-        }
-        self.times.gae += secs(gae_t);
-        Ok((ro, stats))
-    }
-
-    /// One gradient-free step for every environment with its masked memory.
-    fn act_all(
-        &mut self,
-        net: &Net,
-        cache: &mut missions::MissionCache,
-    ) -> Result<ActAll, PolicyError> {
-        let encode_t = std::time::Instant::now();
-        let hid = self.model.lstm_hidden;
-        let envs = &self.state.envs;
-        let obs: Vec<Observation> = envs.iter().map(|e| e.world.observe()).collect();
-        let missions: Vec<&[u32]> = envs.iter().map(|e| e.tokens.as_slice()).collect();
-        let mut h = Vec::with_capacity(envs.len() * hid);
-        let mut c = Vec::with_capacity(envs.len() * hid);
-        for e in envs {
-            h.extend(e.h.iter().map(|x| x * e.mask));
-            c.extend(e.c.iter().map(|x| x * e.mask));
-        }
-        let mem = Memory {
-            h: Tensor::from_vec(h, (envs.len(), hid), &Device::Cpu)?,
-            c: Tensor::from_vec(c, (envs.len(), hid), &Device::Cpu)?,
-        };
-        let codes = super::obs::CellCodes::new(&obs);
-        let encoded = secs(encode_t);
-        let forward_t = std::time::Instant::now();
-        let mission = cache.inputs(net, &missions)?;
-        let (logits, values, memory) = net.step_untraced(&codes, &mission, &mem)?;
-        let out = ActAll {
-            probs: super::model::probs_host(&logits)?,
-            values: values.to_vec1::<f32>()?,
-            h: memory.h.to_vec2::<f32>()?,
-            c: memory.c.to_vec2::<f32>()?,
-        };
-        self.times.rollout_encode += encoded;
-        self.times.rollout_forward += secs(forward_t);
-        Ok(out)
-    }
-
-    /// torch-ac's `_get_batches_starting_indexes`.
-    fn batch_starts(&mut self) -> Vec<Vec<usize>> {
-        let (rec, fpp) = (self.ppo.recurrence, self.ppo.frames_per_proc);
-        let n = self.ppo.frames_per_update();
-        let mut idx: Vec<usize> = (0..n).step_by(rec).collect();
-        idx.shuffle(&mut self.state.batch_rng);
-        if self.state.batch_num % 2 == 1 {
-            idx.retain(|&i| (i + rec) % fpp != 0);
-            for i in &mut idx {
-                *i += rec / 2;
-            }
-        }
-        self.state.batch_num += 1;
-        idx.chunks(self.ppo.batch_size / rec)
-            .map(<[usize]>::to_vec)
-            .collect()
-    }
-
-    fn optimise(&mut self, ro: &mut Rollout) -> Result<UpdateLog, PolicyError> {
-        let net = Net::new(self.model, self.params.tracked());
-        let mut log = UpdateLog::default();
-        let mut n_batches = 0.0;
-        for _ in 0..self.ppo.epochs {
-            for starts in self.batch_starts() {
-                let per = starts.len().div_ceil(self.ppo.update_threads);
-                let parts: Vec<&[usize]> = starts.chunks(per).collect();
-                let outs: Vec<(GradStore, ShardOut)> = if let [only] = parts.as_slice() {
-                    vec![shard_step(&net, ro, only, &self.ppo)?]
-                } else {
-                    let ro_ref: &Rollout = ro;
-                    let (net, ppo) = (&net, &self.ppo);
-                    std::thread::scope(|scope| {
-                        let handles: Vec<_> = parts
-                            .iter()
-                            .map(|part| scope.spawn(move || shard_step(net, ro_ref, part, ppo)))
-                            .collect();
-                        handles
-                            .into_iter()
-                            .map(|h| {
-                                h.join().map_err(|_| {
-                                    PolicyError::Input("an update thread panicked".into())
-                                })?
-                            })
-                            .collect::<Result<Vec<_>, PolicyError>>()
-                    })?
-                };
-                // Each shard's loss is a mean over its frames: its share of the minibatch.
-                let shares: Vec<f64> = parts
-                    .iter()
-                    .map(|p| p.len() as f64 / starts.len() as f64)
-                    .collect();
-                let (stores, outs): (Vec<GradStore>, Vec<ShardOut>) = outs.into_iter().unzip();
-                let opt_t = std::time::Instant::now();
-                for ((part, out), w) in parts.iter().zip(&outs).zip(&shares) {
-                    // Refresh the stored memories inside each chunk, as torch-ac does.
-                    for (k, (hs, cs)) in out.mems.iter().enumerate() {
-                        for (j, &s) in part.iter().enumerate() {
-                            ro.h[s + k + 1].clone_from(&hs[j]);
-                            ro.c[s + k + 1].clone_from(&cs[j]);
-                        }
-                    }
-                    log.policy_loss += w * out.policy;
-                    log.value_loss += w * out.value;
-                    log.entropy += w * out.entropy;
-                    self.times.add(&out.times);
-                }
-                let (adam, threads) = (&mut self.adam, self.ppo.update_threads);
-                let norm =
-                    with_minibatch_grads(&self.params.vars, &stores, &shares, threads, |grads| {
-                        let (norm, clip) = clip_factor(grads, self.ppo.max_grad_norm);
-                        adam.step_host(grads, clip, threads)?;
-                        Ok(norm)
-                    })?;
-                self.times.optimizer += secs(opt_t);
-                log.grad_norm += norm;
-                n_batches += 1.0;
-            }
-        }
-        log.policy_loss /= n_batches;
-        log.value_loss /= n_batches;
-        log.entropy /= n_batches;
-        log.grad_norm /= n_batches;
-        Ok(log)
-    }
 }
 
-/// `x ← (x − mean) / (std + 1e-8)`, the population statistics taken in f64.
-fn normalize(xs: &mut [f32]) {
-    let n = xs.len().max(1) as f64;
-    let mean = xs.iter().map(|&x| f64::from(x)).sum::<f64>() / n;
-    let var = xs
-        .iter()
-        .map(|&x| (f64::from(x) - mean).powi(2))
-        .sum::<f64>()
-        / n;
-    let scale = 1.0 / (var.sqrt() + 1e-8);
-    for x in xs {
-        *x = ((f64::from(*x) - mean) * scale) as f32;
-    }
-}
 
-struct ActAll {
-    probs: Vec<Vec<f32>>,
-    values: Vec<f32>,
-    h: Vec<Vec<f32>>,
-    c: Vec<Vec<f32>>,
-}
 
 fn new_slot(level: &LevelConfig, k: u64, hidden: usize) -> Result<EnvSlot, PolicyError> {
     let world = level.generate(TRAIN_SEED_OFFSET + k)?;

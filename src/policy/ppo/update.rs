@@ -1,0 +1,99 @@
+//! The update half of a PPO update: epochs of shuffled minibatches of BPTT chunks (torch-ac's
+//! batching), each split over threads, gradients combined, clipped and applied by Adam.
+
+use candle_core::backprop::GradStore;
+use rand::seq::SliceRandom as _;
+
+use super::loss::{ShardOut, shard_step};
+use super::rollout::Rollout;
+use super::{Trainer, UpdateLog, secs};
+use crate::policy::error::PolicyError;
+use crate::policy::grads::{clip_factor, with_minibatch_grads};
+use crate::policy::model::Net;
+
+impl Trainer {
+    /// torch-ac's `_get_batches_starting_indexes`.
+    fn batch_starts(&mut self) -> Vec<Vec<usize>> {
+        let (rec, fpp) = (self.ppo.recurrence, self.ppo.frames_per_proc);
+        let n = self.ppo.frames_per_update();
+        let mut idx: Vec<usize> = (0..n).step_by(rec).collect();
+        idx.shuffle(&mut self.state.batch_rng);
+        if self.state.batch_num % 2 == 1 {
+            idx.retain(|&i| (i + rec) % fpp != 0);
+            for i in &mut idx {
+                *i += rec / 2;
+            }
+        }
+        self.state.batch_num += 1;
+        idx.chunks(self.ppo.batch_size / rec)
+            .map(<[usize]>::to_vec)
+            .collect()
+    }
+
+    pub(super) fn optimise(&mut self, ro: &mut Rollout) -> Result<UpdateLog, PolicyError> {
+        let net = Net::new(self.model, self.params.tracked());
+        let mut log = UpdateLog::default();
+        let mut n_batches = 0.0;
+        for _ in 0..self.ppo.epochs {
+            for starts in self.batch_starts() {
+                let per = starts.len().div_ceil(self.ppo.update_threads);
+                let parts: Vec<&[usize]> = starts.chunks(per).collect();
+                let outs: Vec<(GradStore, ShardOut)> = if let [only] = parts.as_slice() {
+                    vec![shard_step(&net, ro, only, &self.ppo)?]
+                } else {
+                    let ro_ref: &Rollout = ro;
+                    let (net, ppo) = (&net, &self.ppo);
+                    std::thread::scope(|scope| {
+                        let handles: Vec<_> = parts
+                            .iter()
+                            .map(|part| scope.spawn(move || shard_step(net, ro_ref, part, ppo)))
+                            .collect();
+                        handles
+                            .into_iter()
+                            .map(|h| {
+                                h.join().map_err(|_| {
+                                    PolicyError::Input("an update thread panicked".into())
+                                })?
+                            })
+                            .collect::<Result<Vec<_>, PolicyError>>()
+                    })?
+                };
+                // Each shard's loss is a mean over its frames: its share of the minibatch.
+                let shares: Vec<f64> = parts
+                    .iter()
+                    .map(|p| p.len() as f64 / starts.len() as f64)
+                    .collect();
+                let (stores, outs): (Vec<GradStore>, Vec<ShardOut>) = outs.into_iter().unzip();
+                let opt_t = std::time::Instant::now();
+                for ((part, out), w) in parts.iter().zip(&outs).zip(&shares) {
+                    // Refresh the stored memories inside each chunk, as torch-ac does.
+                    for (k, (hs, cs)) in out.mems.iter().enumerate() {
+                        for (j, &s) in part.iter().enumerate() {
+                            ro.h[s + k + 1].clone_from(&hs[j]);
+                            ro.c[s + k + 1].clone_from(&cs[j]);
+                        }
+                    }
+                    log.policy_loss += w * out.policy;
+                    log.value_loss += w * out.value;
+                    log.entropy += w * out.entropy;
+                    self.times.add(&out.times);
+                }
+                let (adam, threads) = (&mut self.adam, self.ppo.update_threads);
+                let norm =
+                    with_minibatch_grads(&self.params.vars, &stores, &shares, threads, |grads| {
+                        let (norm, clip) = clip_factor(grads, self.ppo.max_grad_norm);
+                        adam.step_host(grads, clip, threads)?;
+                        Ok(norm)
+                    })?;
+                self.times.optimizer += secs(opt_t);
+                log.grad_norm += norm;
+                n_batches += 1.0;
+            }
+        }
+        log.policy_loss /= n_batches;
+        log.value_loss /= n_batches;
+        log.entropy /= n_batches;
+        log.grad_norm /= n_batches;
+        Ok(log)
+    }
+}
