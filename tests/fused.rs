@@ -116,7 +116,7 @@ fn fused_attention_matches_the_autograd_reference() {
 
 fn fused_attention_matches_reference(scale: u32, t: f32) {
     use groundscope::policy::attention::{attend, keyed_queries};
-    use groundscope::policy::fused_attention::attention_filter;
+    use groundscope::policy::kernels::attention::attention_filter;
     let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(11);
     let (b, m, dk, k) = (5, 6, 8, 16);
     let q = Var::from_tensor(
@@ -333,7 +333,7 @@ fn training_sequence_matches_step_by_step_acting() {
 
 #[test]
 fn fused_lstm_sequence_matches_the_stepped_reference() {
-    use groundscope::policy::fused_sequence::lstm_sequence;
+    use groundscope::policy::kernels::sequence::lstm_sequence;
     let cfg = ModelConfig::new(Variant::Attention);
     let params = Params::init(&cfg, 4).unwrap();
     let net = Net::new(cfg, params.tracked());
@@ -410,7 +410,7 @@ fn fused_lstm_sequence_matches_the_stepped_reference() {
 
 #[test]
 fn fused_two_biases_match_broadcast_adds() {
-    use groundscope::policy::fused_bias::add_two_biases;
+    use groundscope::policy::kernels::bias::add_two_biases;
     let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(5);
     let x = Var::from_tensor(&random(&mut rng, (37, 12), 3.0)).unwrap();
     let b1 = Var::from_tensor(&random(&mut rng, (1, 12), 1.0).flatten_all().unwrap()).unwrap();
@@ -450,8 +450,8 @@ fn fused_two_biases_match_broadcast_adds() {
 #[test]
 fn every_simd_level_gives_the_same_bits() {
     use groundscope::env::LevelConfig;
+    use groundscope::policy::kernels::simd::{Level, detected, with_cap};
     use groundscope::policy::obs::{CellCodes, TokenBatch};
-    use groundscope::policy::simd::{Level, detected, with_cap};
     // The fused loops are compiled for AVX-512, AVX2 and baseline x86-64 and chosen at run
     // time; every clone must compute the training step and the acting step to the bit, so a
     // run's numbers do not depend on the CPU it runs on.

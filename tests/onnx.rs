@@ -166,7 +166,11 @@ fn the_mission_encoder_is_cut_off_and_runs_once_per_mission() {
             .any(|m| !missions[first.clone()].contains(m)),
         "levels 5-7 bring a mission levels 0-4 do not have"
     );
-    for file in ["bundled_attention.onnx", "acmodel.onnx", "torch_reference.onnx"] {
+    for file in [
+        "bundled_attention.onnx",
+        "acmodel.onnx",
+        "torch_reference.onnx",
+    ] {
         let agent = OnnxAgent::load(&fixture(file)).unwrap();
         let m = agent.meta.memory_size;
         let step = |rows: std::ops::Range<usize>| {
@@ -181,17 +185,32 @@ fn the_mission_encoder_is_cut_off_and_runs_once_per_mission() {
                 .unwrap()
         };
         let a = step(first.clone());
-        assert_eq!(agent.step_times().encoder_runs, lengths(first.clone()), "{file}");
+        assert_eq!(
+            agent.step_times().encoder_runs,
+            lengths(first.clone()),
+            "{file}"
+        );
         let b = step(first.clone());
-        assert_eq!(agent.step_times().encoder_runs, lengths(first.clone()), "{file}: kept");
+        assert_eq!(
+            agent.step_times().encoder_runs,
+            lengths(first.clone()),
+            "{file}: kept"
+        );
         assert_eq!(a.logits, b.logits, "{file}");
         assert_eq!(a.memory, b.memory, "{file}");
         agent.forget_missions();
         let c = step(first.clone());
-        assert_eq!(agent.step_times().encoder_runs, 2 * lengths(first.clone()), "{file}");
+        assert_eq!(
+            agent.step_times().encoder_runs,
+            2 * lengths(first.clone()),
+            "{file}"
+        );
         assert_eq!(a.logits, c.logits, "{file}: encoded again");
         step(unseen.clone());
-        assert!(agent.step_times().encoder_runs > 2 * lengths(first.clone()), "{file}");
+        assert!(
+            agent.step_times().encoder_runs > 2 * lengths(first.clone()),
+            "{file}"
+        );
     }
 }
 

@@ -2,25 +2,17 @@
 //! (candle), attention traces, checkpoints.
 
 pub mod acting;
-pub mod adam;
 pub mod attention;
 pub mod bundled;
 pub mod checkpoint;
 pub mod config;
 pub mod error;
-pub mod fused;
-pub mod fused_act;
-pub mod fused_attention;
-pub mod fused_bias;
-pub mod fused_conv;
-pub mod fused_sequence;
-pub mod grads;
+pub mod kernels;
 pub mod model;
 pub mod obs;
 pub mod onnx;
 pub mod params;
 pub mod ppo;
-pub mod simd;
 pub mod trace;
 
 use candle_core::{Device, Tensor};

@@ -14,7 +14,7 @@ use candle_core::{D, DType, Device, Tensor};
 use super::attention::{AttentionOut, Intervention, attend_with};
 use super::config::{AttendWords, ColourCodes, ModelConfig};
 use super::error::PolicyError;
-use super::fused_act;
+use super::kernels::{act, times_transposed};
 use super::obs::{CellCodes, N_CELLS, TokenBatch, patch_len};
 use crate::env::world::Action;
 
@@ -27,22 +27,6 @@ pub const TRANSPOSED: [&str; 4] = [
     "gru.weight_ih_l0",
     "gru.weight_hh_l0",
 ];
-
-/// `x · Wᵀ` for a 2-D `x`, by `wt` (`Wᵀ` contiguous, where the caller keeps one) from two rows
-/// on: for the [`TRANSPOSED`] matrices gemm gives the same bits with either layout
-/// (`tests/policy.rs` checks every row count to 64 and larger ones, and acting and rollout
-/// steps bit for bit), while one row takes gemm's matrix-vector path, which rounds differently
-/// with the two layouts, so it stays strided.
-pub(crate) fn times_transposed(
-    x: &Tensor,
-    w: &Tensor,
-    wt: Option<&Tensor>,
-) -> candle_core::Result<Tensor> {
-    match wt {
-        Some(wt) if x.dim(0)? >= 2 => x.matmul(wt),
-        _ => x.matmul(&w.t()?),
-    }
-}
 
 /// The network's weights plus its config; cheap to clone (tensors share storage).
 #[derive(Clone, Debug)]
@@ -130,13 +114,13 @@ impl Net {
     }
 
     /// `Õ = ReLU(Conv(O))` (3×3 or 1×1, `conv_kernel`) for the B frames of `codes`:
-    /// (B, 49, K), through the sparse op of [`super::fused_conv`]. The codes are read as the
+    /// (B, 49, K), through the sparse op of [`super::kernels::conv`]. The codes are read as the
     /// model's `colour_codes` says ([`CellCodes::encoded`]).
     pub fn cells(&self, codes: &CellCodes) -> Result<Tensor, PolicyError> {
         let (k, ks) = (self.cfg.conv_channels, self.cfg.conv_kernel);
         let w = self.p("encoder.conv.weight")?.reshape((k, patch_len(ks)))?;
         let b = self.p("encoder.conv.bias")?;
-        Ok(super::fused_conv::conv_codes(
+        Ok(super::kernels::conv::conv_codes(
             &self.read_codes(codes),
             ks,
             &w,
@@ -156,7 +140,7 @@ impl Net {
             .p("encoder.key_conv.weight")?
             .reshape((k, patch_len(ks)))?;
         let b = self.p("encoder.key_conv.bias")?;
-        Ok(Some(super::fused_conv::conv_codes(
+        Ok(Some(super::kernels::conv::conv_codes(
             &self.read_codes(codes),
             ks,
             &w,
@@ -212,11 +196,10 @@ impl Net {
         for t in 0..l {
             let gx = gx_all.narrow(1, t, 1)?.squeeze(1)?;
             let gh = self.times_t(&h, "gru.weight_hh_l0")?.broadcast_add(b_hh)?;
-            let rz = fused_act::sigmoid(&(gx.narrow(1, 0, 2 * hg)? + gh.narrow(1, 0, 2 * hg)?)?)?;
+            let rz = act::sigmoid(&(gx.narrow(1, 0, 2 * hg)? + gh.narrow(1, 0, 2 * hg)?)?)?;
             let r = rz.narrow(1, 0, hg)?;
             let z = rz.narrow(1, hg, hg)?;
-            let n =
-                fused_act::tanh(&(gx.narrow(1, 2 * hg, hg)? + (r * gh.narrow(1, 2 * hg, hg)?)?)?)?;
+            let n = act::tanh(&(gx.narrow(1, 2 * hg, hg)? + (r * gh.narrow(1, 2 * hg, hg)?)?)?)?;
             let h_new = ((&n + (&z * (&h - &n)?)?)?).clone();
             // Padding steps keep the state: h = h_new·valid + h·(1 − valid).
             let valid = tb.mask.narrow(1, t, 1)?;
@@ -299,7 +282,7 @@ impl Net {
     }
 
     /// The visual path for training: `F` only, through the fused attention op
-    /// ([`super::fused_attention::attention_filter`], same maths as [`Self::visual`] with its
+    /// ([`super::kernels::attention::attention_filter`], same maths as [`Self::visual`] with its
     /// own backward). `keyed` is the per-frame `Q̂ = Q W_k / √d_k` (B, L, K) and mask (B, L);
     /// the baseline's path is unchanged.
     ///
@@ -316,7 +299,7 @@ impl Net {
         let (scale, t) = (self.cfg.filter_scale, self.cfg.word_temperature.0);
         match (keyed, o_key) {
             (Some((qk, mask)), None) if self.cfg.has_attention() => {
-                let f = super::fused_attention::attention_filter(qk, mask, o, scale, t)?;
+                let f = super::kernels::attention::attention_filter(qk, mask, o, scale, t)?;
                 let f = f.reshape((b, n * k))?;
                 if !self.cfg.search_query {
                     return Ok(f);
@@ -330,13 +313,14 @@ impl Net {
                 .broadcast_as((b, 1, k))?
                 .contiguous()?;
                 let ones = Tensor::ones((b, 1), DType::F32, o.device())?;
-                let fs = super::fused_attention::attention_filter(&qs, &ones, o, scale, t)?;
+                let fs = super::kernels::attention::attention_filter(&qs, &ones, o, scale, t)?;
                 Ok(Tensor::cat(&[f, fs.reshape((b, n * k))?], 1)?)
             }
             (Some((qk, mask)), Some(ok)) if self.cfg.has_attention() => {
                 let both = Tensor::cat(&[ok, o], 2)?;
                 let padded = Tensor::cat(&[qk, &qk.zeros_like()?], 2)?;
-                let f = super::fused_attention::attention_filter(&padded, mask, &both, scale, t)?;
+                let f =
+                    super::kernels::attention::attention_filter(&padded, mask, &both, scale, t)?;
                 Ok(f.narrow(2, k, k)?.reshape((b, n * k))?)
             }
             _ => Ok(o.reshape((b, n * k))?),
@@ -391,10 +375,10 @@ impl Net {
     }
 
     /// One LSTM step from the projected input `gx` (B, 4H); the gates run as one fused op
-    /// with a hand-written backward ([`super::fused::lstm_gates`]).
+    /// with a hand-written backward ([`super::kernels::lstm::lstm_gates`]).
     pub fn lstm_cell(&self, gx: &Tensor, mem: &Memory) -> Result<Memory, PolicyError> {
         let g = self.lstm_preactivations(gx, mem)?;
-        let (h, c) = super::fused::lstm_gates(&g, &mem.c)?;
+        let (h, c) = super::kernels::lstm::lstm_gates(&g, &mem.c)?;
         Ok(Memory { h, c })
     }
 
@@ -416,8 +400,8 @@ impl Net {
     /// Actor logits (B, 7) and critic values (B,) from the LSTM output and the text code.
     pub fn heads(&self, h: &Tensor, text: &Tensor) -> Result<(Tensor, Tensor), PolicyError> {
         let z = Tensor::cat(&[h, text], 1)?;
-        let a = self.linear(&fused_act::tanh(&self.linear(&z, "actor.0")?)?, "actor.2")?;
-        let v = self.linear(&fused_act::tanh(&self.linear(&z, "critic.0")?)?, "critic.2")?;
+        let a = self.linear(&act::tanh(&self.linear(&z, "actor.0")?)?, "actor.2")?;
+        let v = self.linear(&act::tanh(&self.linear(&z, "critic.0")?)?, "critic.2")?;
         Ok((a, v.squeeze(1)?))
     }
 
@@ -519,7 +503,7 @@ impl Net {
     }
 
     /// The LSTM over a chunk of T steps of n sequences (t-major rows of `x`, `keep` (T, n)) as
-    /// one fused op ([`super::fused_sequence`]): every step's `h` (T·n, H) with gradient, and
+    /// one fused op ([`super::kernels::sequence`]): every step's `h` (T·n, H) with gradient, and
     /// the memory after each step.
     fn lstm_chunk(
         &self,
@@ -530,12 +514,12 @@ impl Net {
         let (t_len, n) = keep.dims2()?;
         let hd = self.cfg.lstm_hidden;
         // The same sums as `lstm_input(x) + b_hh`, with one pass over the rows in backward.
-        let gx = super::fused_bias::add_two_biases(
+        let gx = super::kernels::bias::add_two_biases(
             &self.times_t(x, "lstm.weight_ih_l0")?,
             self.p("lstm.bias_ih_l0")?,
             self.p("lstm.bias_hh_l0")?,
         )?;
-        let out = super::fused_sequence::lstm_sequence(
+        let out = super::kernels::sequence::lstm_sequence(
             &gx,
             self.p("lstm.weight_hh_l0")?,
             self.wt.get("lstm.weight_hh_l0"),

@@ -80,7 +80,7 @@ fn push_patches(cell: &[u8], kernel: usize, out: &mut Vec<f32>) {
 
 /// The one-hot codes set in every cell of a batch of views: 3 per cell (object type, colour,
 /// state, as indices into the [`CELL_CODES`]), cells in the order of [`push_patches`]. The
-/// compact form of the patches that [`super::fused_conv`] reads: 147 bytes per frame instead
+/// compact form of the patches that [`super::kernels::conv`] reads: 147 bytes per frame instead
 /// of 35 KB; cheap to clone.
 #[derive(Clone, Debug)]
 pub struct CellCodes {

@@ -8,8 +8,8 @@ use tract_onnx::pb;
 use tract_onnx::prelude::*;
 
 use super::contract::{
-    Meta, ONNX_FLOAT, ONNX_INT64, OPTIONAL_INPUTS, OPTIONAL_OUTPUTS, Props,
-    REQUIRED_INPUTS, REQUIRED_OUTPUTS,
+    Meta, ONNX_FLOAT, ONNX_INT64, OPTIONAL_INPUTS, OPTIONAL_OUTPUTS, Props, REQUIRED_INPUTS,
+    REQUIRED_OUTPUTS,
 };
 use super::mission_cache::MissionCache;
 use crate::policy::error::PolicyError;

@@ -122,8 +122,6 @@ pub fn trace(
                 weight,
             })
             .collect(),
-        combined: maps
-            .combined
-            .unwrap_or_else(|| combine(words, &weights)),
+        combined: maps.combined.unwrap_or_else(|| combine(words, &weights)),
     })
 }

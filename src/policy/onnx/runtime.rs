@@ -82,7 +82,6 @@ impl Clock {
     }
 }
 
-
 impl std::fmt::Debug for OnnxAgent {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("OnnxAgent")
@@ -316,7 +315,10 @@ impl OnnxAgent {
             Some(cache) => {
                 let ran = std::time::Instant::now();
                 let (extra, encoded) = cache.inputs(&ids, len).map_err(|e| {
-                    bad(&self.path, format!("running the mission encoder: {}", one_line(&e)))
+                    bad(
+                        &self.path,
+                        format!("running the mission encoder: {}", one_line(&e)),
+                    )
                 })?;
                 Clock::add(&self.clock.graph_ns, ran);
                 if encoded {
@@ -441,7 +443,10 @@ pub(super) fn clean_upper_registers() {
     if std::arch::is_x86_feature_detected!("avx") {
         // SAFETY: the CPU has AVX (checked above), the only requirement of `vzeroupper`; it
         // changes no register a Rust value can live in across this call.
-        #[expect(unsafe_code, reason = "an intrinsic for a CPU feature checked just above")]
+        #[expect(
+            unsafe_code,
+            reason = "an intrinsic for a CPU feature checked just above"
+        )]
         unsafe {
             std::arch::x86_64::_mm256_zeroupper();
         }

@@ -139,7 +139,10 @@ mod tests {
             .collect();
         for t in 0..t_n {
             assert!((f64::from(a[t]) - want[t]).abs() < 1e-4, "frame {t}");
-            assert!((f64::from(r[t]) - (v(t) + want[t])).abs() < 1e-4, "frame {t}");
+            assert!(
+                (f64::from(r[t]) - (v(t) + want[t])).abs() < 1e-4,
+                "frame {t}"
+            );
         }
     }
 }

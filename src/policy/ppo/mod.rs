@@ -10,8 +10,10 @@
 //! (row = k·n + j for step k of sequence j). Training level seeds start at
 //! [`TRAIN_SEED_OFFSET`], so evaluation seeds (small integers) are never trained on.
 
+pub mod adam;
 mod config;
 mod gae;
+pub mod grads;
 mod loss;
 mod missions;
 mod rollout;
@@ -23,12 +25,12 @@ use rand_pcg::Pcg64Mcg;
 use serde::{Deserialize, Serialize};
 
 use super::ModelConfig;
-use super::adam::{Adam, AdamConfig};
 use super::error::PolicyError;
 use super::params::Params;
 use crate::env::level::LevelConfig;
 use crate::env::vocab;
 use crate::env::world::World;
+use adam::{Adam, AdamConfig};
 
 pub use config::{PpoConfig, TemperatureAnneal};
 pub use loss::{PpoLosses, ppo_loss, tensor_to_vec};
@@ -186,7 +188,6 @@ fn secs(t: std::time::Instant) -> f64 {
     t.elapsed().as_secs_f64()
 }
 
-
 impl Trainer {
     /// A fresh run: weights from `seed`, P environments on the first training seeds.
     pub fn new(
@@ -297,10 +298,7 @@ impl Trainer {
         }
         Ok(log)
     }
-
 }
-
-
 
 fn new_slot(level: &LevelConfig, k: u64, hidden: usize) -> Result<EnvSlot, PolicyError> {
     let world = level.generate(TRAIN_SEED_OFFSET + k)?;

@@ -4,11 +4,11 @@
 use candle_core::backprop::GradStore;
 use rand::seq::SliceRandom as _;
 
+use super::grads::{clip_factor, with_minibatch_grads};
 use super::loss::{ShardOut, shard_step};
 use super::rollout::Rollout;
 use super::{Trainer, UpdateLog, secs};
 use crate::policy::error::PolicyError;
-use crate::policy::grads::{clip_factor, with_minibatch_grads};
 use crate::policy::model::Net;
 
 impl Trainer {

@@ -4,69 +4,14 @@
 //! the full input gradient: work that grows with the square of the recurrence. Here the
 //! forward runs the steps on the host (the recurrent product through candle's matmul) and a
 //! hand-written backward through time returns the gradients of the projected inputs, `W_hh`
-//! and the initial memory at once. [`super::model::Net::lstm_cell_reference`] stepped in a
+//! and the initial memory at once. [`crate::policy::model::Net::lstm_cell_reference`] stepped in a
 //! loop is the reference; `tests/fused.rs` compares.
 
 use std::sync::Arc;
 
 use candle_core::{CpuStorage, CustomOp3, Device, Layout, Result, Shape, Tensor};
 
-use super::fused::{cpu_f32, f32_slice as slice};
-
-/// `tanh` as Eigen's `ptanh_float` computes it: a [13/6] rational approximation on
-/// [−7.905, 7.905] (±1 beyond), within a few ulp of the true value. glibc's `tanhf` (through
-/// `expm1f`) was the largest single cost of this op. Plain multiply-adds: `mul_add` would
-/// call the software `fmaf` on builds without the FMA target feature.
-#[inline]
-pub fn tanh_fast(x: f32) -> f32 {
-    const CLAMP: f32 = 7.905_311;
-    const A: [f32; 7] = [
-        4.893_524_6e-3,
-        6.372_619_3e-4,
-        1.485_722_4e-5,
-        5.122_297e-8,
-        -8.604_672e-11,
-        2.000_188e-13,
-        -2.760_768_5e-16,
-    ];
-    const B: [f32; 4] = [4.893_525e-3, 2.268_434_6e-3, 1.185_347_1e-4, 1.198_258_4e-6];
-    if x.abs() < 4e-4 {
-        return x;
-    }
-    let x = x.clamp(-CLAMP, CLAMP);
-    let x2 = x * x;
-    let mut p = A[6];
-    for a in A[..6].iter().rev() {
-        p = p * x2 + a;
-    }
-    let mut q = B[3];
-    for b in B[..3].iter().rev() {
-        q = q * x2 + b;
-    }
-    x * p / q
-}
-
-/// `σ(x) = (1 + tanh(x/2)) / 2`, through [`tanh_fast`].
-#[inline]
-pub(super) fn sigmoid(x: f32) -> f32 {
-    0.5 * tanh_fast(0.5 * x) + 0.5
-}
-
-/// The activations of unit `k` from one row of gate pre-activations `g` (4H, PyTorch's order
-/// i, f, g, o): `(σ(i), σ(f), tanh(g), σ(o))`, shared by every LSTM loop.
-#[expect(
-    clippy::inline_always,
-    reason = "the loops that call it are compiled per vector unit; a call would keep them scalar"
-)]
-#[inline(always)]
-pub(super) fn gate_activations(g: &[f32], h: usize, k: usize) -> (f32, f32, f32, f32) {
-    (
-        sigmoid(g[k]),
-        sigmoid(g[h + k]),
-        tanh_fast(g[2 * h + k]),
-        sigmoid(g[3 * h + k]),
-    )
-}
+use super::{cpu_f32, f32_slice as slice, gate_activations, tanh_fast};
 
 /// The op: inputs `gx` (T·n, 4H, both biases included), `W_hh` (4H, H) and `[h0 | c0]`
 /// (n, 2H); output per frame `[h | c | g]` (T·n, 6H) with `g` the gate pre-activations,
@@ -79,7 +24,7 @@ struct LstmSequence {
     w_hh_t: Option<Tensor>,
 }
 
-/// `W_hh` for the steps' `x · W_hhᵀ` ([`super::model::times_transposed`]), with its
+/// `W_hh` for the steps' `x · W_hhᵀ` ([`super::times_transposed`]), with its
 /// contiguous transpose from two rows on: candle hands a strided `W.t()` to gemm, which then
 /// repacks all of it at every step.
 struct Recurrent {
@@ -102,7 +47,7 @@ impl Recurrent {
     /// `x · W_hhᵀ` for `x` (rows, H) on the host through candle's matmul.
     fn times(&self, x: &[f32], rows: usize) -> Result<Vec<f32>> {
         let x = Tensor::from_slice(x, (rows, self.w.dim(1)?), &Device::Cpu)?;
-        super::model::times_transposed(&x, &self.w, self.wt.as_ref())?
+        super::times_transposed(&x, &self.w, self.wt.as_ref())?
             .flatten_all()?
             .to_vec1()
     }
@@ -356,7 +301,7 @@ pub fn lstm_sequence(
 
 #[cfg(test)]
 mod tests {
-    use super::tanh_fast;
+    use crate::policy::kernels::tanh_fast;
 
     #[test]
     fn fast_tanh_is_within_a_few_ulp() {

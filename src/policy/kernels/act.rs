@@ -5,8 +5,8 @@
 
 use candle_core::{CpuStorage, CustomOp1, CustomOp2, Layout, Result, Shape, Tensor};
 
-use super::fused::f32_slice;
-use super::fused_sequence::{sigmoid as sigmoid_fast, tanh_fast};
+use super::f32_slice;
+use super::{sigmoid as sigmoid_fast, tanh_fast};
 
 /// Which activation an op computes.
 #[derive(Clone, Copy)]

@@ -1,13 +1,13 @@
-//! Fused kernels with hand-written backward passes, where candle's per-op overhead dominates
-//! this model's small tensors (issue #16). Each has a composite reference built from candle
-//! ops in [`super::model`]; tests compare outputs and gradients.
+//! The element-wise part of one LSTM step (the acting path's gates) as one op with a
+//! hand-written backward; [`crate::policy::model::Net::lstm_cell_reference`] is its
+//! composite reference.
 
 use candle_core::{CpuStorage, CustomOp2, CustomOp3, Layout, Result, Shape, Tensor};
 
 // The same activations as the training path's LSTM op, so that acting (evaluation, replays,
 // the debugger) computes what the rollouts trained on; glibc's `tanhf`/`expf` were also a
 // fifth of a batch-256 inference step.
-use super::fused_sequence::{gate_activations, tanh_fast};
+use super::{f32_slice, gate_activations, tanh_fast};
 
 /// The element-wise part of one LSTM step, PyTorch's gate order (i, f, g, o): from the gate
 /// pre-activations `g` (B, 4H) and the previous cell state `c` (B, H), the new `[h, c]` as one
@@ -17,30 +17,6 @@ pub struct LstmGates;
 /// Its backward: from `g`, `c` and the gradient of `[h, c]`, the gradients `[dg, dc]` as one
 /// (B, 5H) tensor.
 struct LstmGatesBackward;
-
-/// The f32 values of a contiguous storage; `what` names the op and input in errors.
-pub(super) fn f32_slice<'a>(s: &'a CpuStorage, l: &Layout, what: &str) -> Result<&'a [f32]> {
-    let CpuStorage::F32(v) = s else {
-        return Err(candle_core::Error::Msg(format!("{what} must be f32")));
-    };
-    l.contiguous_offsets()
-        .map(|(a, b)| &v[a..b])
-        .ok_or_else(|| candle_core::Error::Msg(format!("{what} must be contiguous")))
-}
-
-/// The f32 values of a contiguous CPU tensor's storage (as `storage_and_layout` gives it).
-pub(super) fn cpu_f32<'a>(
-    s: &'a candle_core::Storage,
-    l: &Layout,
-    what: &str,
-) -> Result<&'a [f32]> {
-    match s {
-        candle_core::Storage::Cpu(c) => f32_slice(c, l, what),
-        _ => Err(candle_core::Error::Msg(format!(
-            "{what} must be on the CPU"
-        ))),
-    }
-}
 
 fn dims(l1: &Layout, l2: &Layout) -> Result<(usize, usize)> {
     let (b, h4) = l1.shape().dims2()?;

@@ -1,15 +1,15 @@
 //! The attention block, fused for training: from the keyed queries `Q̂ = Q W_k / √d_k`
-//! (B, m, K, see [`super::attention::keyed_queries`]), the word mask (B, m) and the cell
+//! (B, m, K, see [`crate::policy::attention::keyed_queries`]), the word mask (B, m) and the cell
 //! features `Õ` (B, 49, K), the filtered features `F` (B, 49, K) — the scores
-//! `S = Q̂ Õᵀ = Q Kcᵀ / √d_k`, eqs. 4–7 and the filter of [`super::attention`] in one CPU op
+//! `S = Q̂ Õᵀ = Q Kcᵀ / √d_k`, eqs. 4–7 and the filter of [`crate::policy::attention`] in one CPU op
 //! with a hand-written backward. The cells' keys `Kc` are never formed. The composite version
 //! in `attention.rs` stays the definition (and computes the traces); `tests/fused.rs`
 //! compares.
 
 use candle_core::{CpuStorage, CustomOp3, Layout, Result, Shape, Tensor};
 
-use super::fused::f32_slice as slice;
-use super::obs::N_CELLS;
+use super::f32_slice as slice;
+use crate::policy::obs::N_CELLS;
 
 /// Smallest probability fed to `ln`, as in `attention.rs`.
 const TINY: f32 = 1e-30;
@@ -292,8 +292,8 @@ impl CustomOp3 for AttentionFilterBackward {
 
 /// `F` (B, 49, K) from the keyed queries `Q̂` (B, m, K), the word mask (B, m) and `Õ`
 /// (B, 49, K), with the filter's factor `scale` (`F_j = scale · M_j · Õ_j`; see
-/// [`super::attention::filter_features`]) and the word temperature `t` (see
-/// [`super::attention::word_weights`]).
+/// [`crate::policy::attention::filter_features`]) and the word temperature `t` (see
+/// [`crate::policy::attention::word_weights`]).
 pub fn attention_filter(
     keyed: &Tensor,
     mask: &Tensor,

@@ -3,14 +3,14 @@
 //! patch has 180 entries of which at most 27 are 1, so the dense GEMM did 6.7× the necessary
 //! work and built 35 KB of patches per frame; here each output cell adds the ≤ 27 weight
 //! columns its codes select (3 for a 1×1 kernel). The backward scatters into the same columns
-//! (the input is a constant and needs no gradient). [`super::model::Net::cells_reference`]
+//! (the input is a constant and needs no gradient). [`crate::policy::model::Net::cells_reference`]
 //! keeps the dense version; `tests/fused.rs` compares.
 
 use candle_core::{CpuStorage, CustomOp2, Layout, Result, Shape, Tensor};
 
-use super::fused::f32_slice as slice;
-use super::obs::{CellCodes, N_CELLS, NO_CODE, patch_len};
+use super::f32_slice as slice;
 use crate::env::view::VIEW_SIZE;
+use crate::policy::obs::{CellCodes, N_CELLS, NO_CODE, patch_len};
 
 /// The forward op: inputs the weight (K, patch) and bias (K); output (B, 49, K).
 struct ConvCodes {
@@ -27,7 +27,7 @@ struct ConvCodesBackward {
 
 /// The patch columns feeding output cell `cell` of a `kernel`×`kernel` convolution (1 or 3),
 /// `(column, …)` with `column = c·kernel² + ky·kernel + kx` as in
-/// [`super::obs::patches`], passed to `f` one at a time; an unset slot ([`NO_CODE`]) has none.
+/// [`crate::policy::obs::patches`], passed to `f` one at a time; an unset slot ([`NO_CODE`]) has none.
 #[inline]
 fn for_each_column(codes: &[u8], kernel: usize, cell: usize, mut f: impl FnMut(usize)) {
     if kernel == 1 {

@@ -62,7 +62,7 @@ pub fn with_cap<R>(cap: Level, f: impl FnOnce() -> R) -> R {
 }
 
 /// Defines a function whose body is compiled for AVX-512, for AVX2+FMA and for baseline
-/// x86-64, and which runs the widest clone that [`level`](crate::policy::simd::level) allows.
+/// x86-64, and which runs the widest clone that [`level`](crate::policy::kernels::simd::level) allows.
 /// Arguments are plain `name: Type` pairs (no patterns, no generics).
 #[macro_export]
 macro_rules! multiversion {
@@ -76,12 +76,12 @@ macro_rules! multiversion {
                 fn v4($($arg: $ty),*) $(-> $ret)? $body
                 #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
                 fn v3($($arg: $ty),*) $(-> $ret)? $body
-                match $crate::policy::simd::level() {
+                match $crate::policy::kernels::simd::level() {
                     #[expect(unsafe_code, reason = "level() never exceeds the features the CPU reports")]
-                    $crate::policy::simd::Level::Avx512 => return unsafe { v4($($arg),*) },
+                    $crate::policy::kernels::simd::Level::Avx512 => return unsafe { v4($($arg),*) },
                     #[expect(unsafe_code, reason = "level() never exceeds the features the CPU reports")]
-                    $crate::policy::simd::Level::Avx2 => return unsafe { v3($($arg),*) },
-                    $crate::policy::simd::Level::Base => {}
+                    $crate::policy::kernels::simd::Level::Avx2 => return unsafe { v3($($arg),*) },
+                    $crate::policy::kernels::simd::Level::Base => {}
                 }
             }
             base($($arg),*)

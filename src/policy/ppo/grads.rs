@@ -8,8 +8,8 @@ use std::collections::BTreeMap;
 use candle_core::backprop::GradStore;
 use candle_core::{Tensor, Var};
 
-use super::error::PolicyError;
-use super::fused::cpu_f32;
+use crate::policy::error::PolicyError;
+use crate::policy::kernels::cpu_f32;
 
 /// One parameter's gradient: its name, its variable and the values in row-major order.
 pub type ParamGrad<'a> = (&'a str, &'a Var, &'a [f32]);

@@ -5,7 +5,7 @@
 
 use candle_core::{CpuStorage, CustomOp3, Layout, Result, Shape, Tensor};
 
-use super::fused::{cpu_f32, f32_slice};
+use super::{cpu_f32, f32_slice};
 
 /// `(x + b1) + b2` for `x` (R, C) and biases (C,), in that order, so the sum rounds exactly as
 /// two `broadcast_add`s do.

@@ -6,9 +6,9 @@ use std::collections::BTreeMap;
 use candle_core::backprop::GradStore;
 use candle_core::{Device, Tensor, Var};
 
-use super::error::PolicyError;
-use super::fused::cpu_f32;
 use super::grads::{ParamGrad, on_threads, with_minibatch_grads};
+use crate::policy::error::PolicyError;
+use crate::policy::kernels::cpu_f32;
 
 /// Adam hyper-parameters.
 #[derive(Clone, Copy, Debug, PartialEq)]
