@@ -90,9 +90,15 @@ pub fn sync_dir(dir: &Path) -> std::io::Result<()> {
 /// creation error is the system's reason alone: `tempfile` adds the temporary's own name,
 /// which the user never gave (the caller names the output's path).
 pub fn temp_file_in(dir: &Path) -> std::io::Result<tempfile::NamedTempFile> {
+    temp_file_named(dir, ".tmp")
+}
+
+/// [`temp_file_in`] with this suffix (a recording's `.rrd.partial`, say, so that a file left
+/// by a killed process says what it was).
+pub fn temp_file_named(dir: &Path, suffix: &str) -> std::io::Result<tempfile::NamedTempFile> {
     tempfile::Builder::new()
         .prefix(".groundscope-")
-        .suffix(".tmp")
+        .suffix(suffix)
         .tempfile_in(dir)
         .map_err(|e| {
             // tempfile's error reads "<system's reason> at path \"<temporary>\"" and keeps no
@@ -116,14 +122,21 @@ pub fn write_output(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
         }
         OutputKind::Replace(p) => {
             let dir = parent_dir(&p);
-            let mut tmp = temp_file_in(dir)?;
-            tmp.write_all(bytes)?;
-            tmp.as_file().sync_all()?;
-            make_shareable(tmp.path())?;
-            tmp.persist(&p).map_err(|e| e.error)?;
+            staged(dir, bytes)?.persist(&p).map_err(|e| e.error)?;
             sync_dir(dir)
         }
     }
+}
+
+/// `bytes` in a temporary file of `dir`, on disk and readable as the final file will be: what
+/// [`write_output`] renames into place, and what a writer of several files that must change
+/// together (a checkpoint's pair) renames itself.
+pub fn staged(dir: &Path, bytes: &[u8]) -> std::io::Result<tempfile::TempPath> {
+    let mut tmp = temp_file_in(dir)?;
+    tmp.write_all(bytes)?;
+    tmp.as_file().sync_all()?;
+    make_shareable(tmp.path())?;
+    Ok(tmp.into_temp_path())
 }
 
 /// Renames a finished temporary file onto `dest` durably (data flushed first, then the

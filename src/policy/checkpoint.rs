@@ -149,22 +149,14 @@ const LOAD_RETRY_PAUSE: std::time::Duration = std::time::Duration::from_millis(5
 /// switch the old checkpoint is untouched; if the JSON cannot be renamed, the old weights are
 /// put back.
 fn save_pair(st: &Path, js: &Path, weights: &[u8], json: &[u8]) -> Result<(), PolicyError> {
-    use std::io::Write as _;
     for p in [st, js] {
         if std::fs::symlink_metadata(p).is_ok_and(|m| !m.is_file()) {
             return Err(io_err(p, "is not a regular file; refusing to replace it"));
         }
     }
     let dir = crate::files::parent_dir(st);
-    let temp = |path: &Path, bytes: &[u8]| -> Result<tempfile::TempPath, PolicyError> {
-        let mut f = crate::files::temp_file_in(dir).map_err(|e| io_err(path, e))?;
-        f.write_all(bytes).map_err(|e| io_err(path, e))?;
-        f.as_file().sync_all().map_err(|e| io_err(path, e))?;
-        crate::files::make_shareable(f.path()).map_err(|e| io_err(path, e))?;
-        Ok(f.into_temp_path())
-    };
-    let tmp_w = temp(st, weights)?;
-    let tmp_j = temp(js, json)?;
+    let tmp_w = crate::files::staged(dir, weights).map_err(|e| io_err(st, e))?;
+    let tmp_j = crate::files::staged(dir, json).map_err(|e| io_err(js, e))?;
     let prev = prev_weights_path(st);
     let had_old = st.exists();
     if had_old {

@@ -73,12 +73,12 @@ impl PendingFile {
             crate::files::OutputKind::InPlace(p) => (None, p),
             crate::files::OutputKind::Replace(target) => {
                 let ext = dest.extension().and_then(|e| e.to_str()).unwrap_or("tmp");
-                let tmp = tempfile::Builder::new()
-                    .prefix(".groundscope-")
-                    .suffix(&format!(".{ext}.partial"))
-                    .tempfile_in(crate::files::parent_dir(&target))
-                    .map_err(|e| io_err(dest, &e))?
-                    .into_temp_path();
+                let tmp = crate::files::temp_file_named(
+                    crate::files::parent_dir(&target),
+                    &format!(".{ext}.partial"),
+                )
+                .map_err(|e| io_err(dest, &e))?
+                .into_temp_path();
                 (Some(tmp), target)
             }
         };
