@@ -148,9 +148,159 @@ pub fn commit_temp(tmp: tempfile::TempPath, dest: &Path) -> std::io::Result<()> 
     sync_dir(parent_dir(dest))
 }
 
+/// An I/O error and the path it concerns (the path the user gave, never a temporary's).
+#[derive(Debug, thiserror::Error)]
+#[error("{}: {reason}", path.display())]
+pub struct PathError {
+    /// The file or directory.
+    pub path: PathBuf,
+    /// What went wrong.
+    pub reason: String,
+}
+
+impl PathError {
+    fn new(path: &Path, reason: impl std::fmt::Display) -> Self {
+        Self {
+            path: path.to_path_buf(),
+            reason: reason.to_string(),
+        }
+    }
+}
+
+/// A directory of outputs that change together (an evaluation report, a faithfulness report):
+/// every file is written into a hidden directory inside it and moved into place only when all
+/// are complete ([`Self::commit`]). Dropped before that — the run failed — it removes the
+/// hidden directory, and the output directory too when this run created it and it is empty,
+/// so a failed run leaves nothing behind.
+#[derive(Debug)]
+pub struct StagedDir {
+    staging: Option<tempfile::TempDir>,
+    out: PathBuf,
+    created: bool,
+}
+
+impl StagedDir {
+    /// Creates `out` if needed and a hidden staging directory inside it.
+    pub fn new(out: &Path) -> Result<Self, PathError> {
+        if out.exists() && !out.is_dir() {
+            return Err(PathError::new(out, "not a directory"));
+        }
+        let created = !out.exists();
+        std::fs::create_dir_all(out).map_err(|e| PathError::new(out, e))?;
+        let staging = tempfile::Builder::new()
+            .prefix(".groundscope-staging-")
+            .tempdir_in(out)
+            .map_err(|e| PathError::new(out, e));
+        let staging = match staging {
+            Ok(s) => s,
+            Err(e) => {
+                if created {
+                    let _ = std::fs::remove_dir(out);
+                }
+                return Err(e);
+            }
+        };
+        Ok(Self {
+            staging: Some(staging),
+            out: out.to_path_buf(),
+            created,
+        })
+    }
+
+    /// Where the file `name` is written now (inside the staging directory).
+    pub fn path(&self, name: &str) -> PathBuf {
+        self.staging
+            .as_ref()
+            .map_or_else(|| self.out.join(name), |d| d.path().join(name))
+    }
+
+    /// The staging directory itself, for writers that name their own files in it.
+    pub fn dir(&self) -> &Path {
+        self.staging
+            .as_ref()
+            .map_or(&self.out, tempfile::TempDir::path)
+    }
+
+    /// The file `name` will end up here.
+    pub fn final_path(&self, name: &str) -> PathBuf {
+        self.out.join(name)
+    }
+
+    /// Writes the file `name`; an error names its final path.
+    pub fn write(&self, name: &str, bytes: &[u8]) -> Result<(), PathError> {
+        std::fs::write(self.path(name), bytes)
+            .map_err(|e| PathError::new(&self.final_path(name), e))
+    }
+
+    /// Moves every staged file into the output directory (replacing older ones), flushes the
+    /// directory and returns how many files moved.
+    pub fn commit(mut self) -> Result<usize, PathError> {
+        let Some(staging) = self.staging.take() else {
+            return Ok(0);
+        };
+        let mut n = 0;
+        let entries =
+            std::fs::read_dir(staging.path()).map_err(|e| PathError::new(&self.out, e))?;
+        for entry in entries {
+            let entry = entry.map_err(|e| PathError::new(&self.out, e))?;
+            let dest = self.out.join(entry.file_name());
+            std::fs::rename(entry.path(), &dest).map_err(|e| PathError::new(&dest, e))?;
+            n += 1;
+        }
+        sync_dir(&self.out).map_err(|e| PathError::new(&self.out, e))?;
+        Ok(n)
+    }
+}
+
+impl Drop for StagedDir {
+    fn drop(&mut self) {
+        if let Some(staging) = self.staging.take() {
+            drop(staging);
+            if self.created {
+                // `remove_dir` removes only an empty directory.
+                let _ = std::fs::remove_dir(&self.out);
+            }
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_staged_directory_appears_whole_or_not_at_all() {
+        let root = tempfile::tempdir().unwrap();
+        let out = root.path().join("report");
+        // Dropped before commit: nothing is left, not even the directory it created.
+        {
+            let staged = StagedDir::new(&out).unwrap();
+            staged.write("a.json", b"1").unwrap();
+            assert!(!out.join("a.json").exists());
+        }
+        assert!(!out.exists());
+        // Committed: every file, and no staging directory beside them.
+        let staged = StagedDir::new(&out).unwrap();
+        staged.write("a.json", b"1").unwrap();
+        staged.write("b.csv", b"2").unwrap();
+        assert_eq!(staged.commit().unwrap(), 2);
+        let mut names: Vec<String> = std::fs::read_dir(&out)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        names.sort();
+        assert_eq!(names, ["a.json", "b.csv"]);
+        // A directory it did not create stays when a later run fails.
+        drop(StagedDir::new(&out).unwrap());
+        assert!(out.join("a.json").exists());
+        let file = out.join("a.json");
+        assert!(
+            StagedDir::new(&file)
+                .unwrap_err()
+                .to_string()
+                .contains("not a directory")
+        );
+    }
 
     #[test]
     fn a_missing_directory_is_reported_without_the_temporary_name() {

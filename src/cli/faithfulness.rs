@@ -2,10 +2,9 @@
 //! deletion/insertion, interventions on `M`, closed-loop re-runs, counterfactual worlds and
 //! localisation, each beside its control; see docs/faithfulness.md.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::time::Instant;
 
-use anyhow::Context as _;
 use clap::{Args, ValueEnum};
 use groundscope::metrics::faithfulness::report::{
     CheckpointFaithfulness, FaithfulnessReport, SCHEMA_VERSION, steps_csv,
@@ -97,7 +96,8 @@ pub fn run(args: &FaithfulnessArgs) -> anyhow::Result<ExitStatus> {
         }
     }
     // Fail on an unwritable directory before the work, and write nothing partial after it.
-    let staging = Staging::new(&args.out)?;
+    let staging =
+        groundscope::files::StagedDir::new(&args.out).map_err(|e| anyhow::anyhow!("--out {e}"))?;
     let mode = args.sweep.mode();
     let episodes = args.sweep.episodes;
     let plan: Vec<(u64, u64)> = args
@@ -168,74 +168,4 @@ pub fn run(args: &FaithfulnessArgs) -> anyhow::Result<ExitStatus> {
     print!("{}", report.markdown());
     println!("wrote {} files to {}", written, args.out.display());
     Ok(ExitStatus::Success)
-}
-
-/// Output files are written into a hidden directory inside DIR and moved into place only
-/// when all of them are complete; dropped before that, it removes itself.
-struct Staging {
-    dir: Option<tempfile::TempDir>,
-    out: PathBuf,
-    /// DIR did not exist before: a run that fails removes it again, leaving nothing.
-    created: bool,
-}
-
-impl Staging {
-    fn new(out: &Path) -> anyhow::Result<Self> {
-        if out.exists() && !out.is_dir() {
-            anyhow::bail!("--out {}: not a directory", out.display());
-        }
-        let created = !out.exists();
-        std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
-        let dir = tempfile::Builder::new()
-            .prefix(".groundscope-faithfulness-")
-            .tempdir_in(out)
-            .with_context(|| format!("cannot write into {}", out.display()))?;
-        Ok(Self {
-            dir: Some(dir),
-            out: out.to_path_buf(),
-            created,
-        })
-    }
-
-    fn path(&self, name: &str) -> PathBuf {
-        self.dir
-            .as_ref()
-            .map_or_else(|| self.out.join(name), |d| d.path().join(name))
-    }
-
-    fn write(&self, name: &str, bytes: &[u8]) -> anyhow::Result<()> {
-        let p = self.path(name);
-        std::fs::write(&p, bytes)
-            .with_context(|| format!("cannot write {}", self.out.join(name).display()))
-    }
-
-    /// Moves every file into DIR (replacing older ones) and returns how many.
-    fn commit(mut self) -> anyhow::Result<usize> {
-        let Some(dir) = self.dir.take() else {
-            return Ok(0);
-        };
-        let mut n = 0;
-        for entry in std::fs::read_dir(dir.path())? {
-            let entry = entry?;
-            let dest = self.out.join(entry.file_name());
-            std::fs::rename(entry.path(), &dest)
-                .with_context(|| format!("cannot write {}", dest.display()))?;
-            n += 1;
-        }
-        groundscope::files::sync_dir(&self.out)?;
-        Ok(n)
-    }
-}
-
-impl Drop for Staging {
-    /// Not committed (the run failed): the temporary goes, and DIR too if this run made it
-    /// (`remove_dir` removes only an empty directory).
-    fn drop(&mut self) {
-        if let Some(dir) = self.dir.take() {
-            drop(dir);
-            if self.created {
-                let _ = std::fs::remove_dir(&self.out);
-            }
-        }
-    }
 }

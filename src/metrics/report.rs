@@ -451,14 +451,14 @@ impl Report {
         t.finish()
     }
 
-    /// Writes every file into `dir` (created if needed) via a temporary directory and renames.
+    /// Writes every file into `dir` (created if needed) through a [`crate::files::StagedDir`]:
+    /// all of them appear together, or none.
     pub fn write(&self, dir: &Path, failures: &[Failure]) -> Result<(), MetricsError> {
         let io = |p: &Path, e: std::io::Error| MetricsError::Io {
             path: p.to_path_buf(),
             reason: e.to_string(),
         };
-        std::fs::create_dir_all(dir).map_err(|e| io(dir, e))?;
-        let tmp = tempfile::tempdir_in(dir).map_err(|e| io(dir, e))?;
+        let staged = crate::files::StagedDir::new(dir).map_err(staged_err)?;
         // Plain data with string keys cannot fail to serialise.
         let files: Vec<(&str, String)> = vec![
             (
@@ -477,14 +477,13 @@ impl Report {
             ("exploration.csv", self.exploration_csv()),
         ];
         for (name, text) in &files {
-            let p = tmp.path().join(name);
-            std::fs::write(&p, text).map_err(|e| io(&p, e))?;
+            staged.write(name, text.as_bytes()).map_err(staged_err)?;
         }
         let mut figs = vec!["fig6_reward.png", "fig6_success.png"];
-        self.figure(&tmp.path().join(figs[0]), "Mean reward (Fig. 6)", &|c| {
+        self.figure(&staged.path(figs[0]), "Mean reward (Fig. 6)", &|c| {
             vec![(c.checkpoint.clone(), c.reward)]
         })?;
-        self.figure(&tmp.path().join(figs[1]), "Success rate (Fig. 6)", &|c| {
+        self.figure(&staged.path(figs[1]), "Success rate (Fig. 6)", &|c| {
             vec![(c.checkpoint.clone(), c.success)]
         })?;
         if self.cells.iter().any(|c| c.accuracy.is_some()) {
@@ -501,7 +500,7 @@ impl Report {
                     "Colour-word map accuracy (Fig. 8)",
                 ),
             ] {
-                self.figure(&tmp.path().join(name), title, &|c| {
+                self.figure(&staged.path(name), title, &|c| {
                     let Some(a) = &c.accuracy else {
                         return Vec::new();
                     };
@@ -530,8 +529,7 @@ impl Report {
                 })?;
             }
         }
-        figs.extend(self.exploration_figures(tmp.path())?);
-        let mut names: Vec<&str> = files.iter().map(|(n, _)| *n).collect();
+        figs.extend(self.exploration_figures(staged.dir())?);
         // A directory reused from an evaluation with attention checkpoints must not keep
         // that run's accuracy figures beside this run's report.
         for stale in [
@@ -547,13 +545,7 @@ impl Report {
                 }
             }
         }
-        names.extend(figs);
-        let kept = tmp.keep();
-        for name in names {
-            let (from, to) = (kept.join(name), dir.join(name));
-            std::fs::rename(&from, &to).map_err(|e| io(&to, e))?;
-        }
-        std::fs::remove_dir(&kept).map_err(|e| io(&kept, e))?;
+        staged.commit().map_err(staged_err)?;
         Ok(())
     }
 
@@ -656,5 +648,12 @@ impl Report {
             root.present().map_err(|e| err(&e))?;
         }
         save_rgb(&buf, w, h, path)
+    }
+}
+
+fn staged_err(e: crate::files::PathError) -> MetricsError {
+    MetricsError::Io {
+        path: e.path,
+        reason: e.reason,
     }
 }
