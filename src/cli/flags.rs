@@ -8,8 +8,8 @@ use std::ops::Range;
 
 use clap::Args;
 use groundscope::env::LevelConfig;
+use groundscope::env::seeds::{EPISODES_PER_EVAL_SEED, MAX_EVAL_SEEDS};
 use groundscope::episode::ActionMode;
-use groundscope::metrics::sweep::MAX_EVAL_SEEDS;
 
 /// The evaluation sweep: its cells (room sizes × object counts), seeds, episodes and how
 /// actions are chosen.
@@ -60,7 +60,7 @@ impl SweepArgs {
                 "the sweep is empty: --sizes, --objects, --seeds and --episodes must each give at least one"
             );
         }
-        if self.episodes >= 1_000_000 {
+        if self.episodes >= EPISODES_PER_EVAL_SEED {
             anyhow::bail!(
                 "--episodes {} must be below 1000000 (level seeds are seed·10⁶ + episode)",
                 self.episodes

@@ -35,7 +35,7 @@ pub struct ValidateArgs {
 /// Runs `validate`: every checkpoint is loaded before any is evaluated, and the output is
 /// written whole at the end, so bad input leaves no partial file.
 pub fn run(args: &ValidateArgs) -> anyhow::Result<ExitStatus> {
-    if args.episodes == 0 || args.episodes > 1_000_000 {
+    if args.episodes == 0 || args.episodes > groundscope::env::seeds::EPISODES_PER_EVAL_SEED {
         anyhow::bail!("--episodes {} must be between 1 and 1000000", args.episodes);
     }
     if let Some(path) = &args.out {

@@ -11,6 +11,7 @@ pub mod grid;
 pub mod level;
 pub mod mission;
 pub mod object;
+pub mod seeds;
 pub mod snapshot;
 pub mod view;
 pub mod vocab;

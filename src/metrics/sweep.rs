@@ -22,16 +22,7 @@ use candle_core::{Device, Tensor};
 
 use crate::policy::{Acting, Memory, PolicyError};
 
-/// The level seed of episode `e` of evaluation seed `s`: `s · 1_000_000 + e` (training
-/// seeds start at 2³², so the two never meet). `groundscope replay --seed` takes it.
-pub fn eval_level_seed(eval_seed: u64, episode: u64) -> u64 {
-    eval_seed * 1_000_000 + episode
-}
-
-/// Evaluation seeds are below this, so that their level seeds stay under the tracked
-/// evaluation's (`2³¹ + e`, [`super::tracking::VALIDATION_SEED_BASE`]).
-pub const MAX_EVAL_SEEDS: u64 = 2147;
-const _: () = assert!(MAX_EVAL_SEEDS * 1_000_000 <= super::tracking::VALIDATION_SEED_BASE);
+pub use crate::env::seeds::{MAX_EVAL_SEEDS, eval_level_seed};
 
 /// What one evaluated episode produced.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -531,10 +522,5 @@ mod tests {
         assert_eq!(p.reward.mean, Some(f64::midpoint(0.45, 0.25)));
         assert_eq!(p.reward_given_success.mean, Some(f64::midpoint(0.9, 0.5)));
         assert_eq!(grounding(&eps, WordKind::Color).acc.mean, None);
-    }
-
-    #[test]
-    fn eval_seeds_never_reach_training_seeds() {
-        assert!(eval_level_seed(4000, 999_999) < crate::policy::ppo::TRAIN_SEED_OFFSET);
     }
 }

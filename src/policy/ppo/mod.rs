@@ -35,8 +35,7 @@ use adam::{Adam, AdamConfig};
 pub use config::{PpoConfig, TemperatureAnneal};
 pub use loss::{PpoLosses, ppo_loss, tensor_to_vec};
 
-/// Level seeds used in training are `TRAIN_SEED_OFFSET + k`.
-pub const TRAIN_SEED_OFFSET: u64 = 1 << 32;
+pub use crate::env::seeds::TRAIN_SEED_OFFSET;
 
 /// A warm-started run's level seeds start this far past its parent's frame count, which is
 /// more than any parent's number of environments.
