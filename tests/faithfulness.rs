@@ -16,7 +16,7 @@ use groundscope::env::edit::{Edit, apply};
 use groundscope::episode::{ActionMode, EpisodeSpec, initial_world, run_episode, run_from};
 use groundscope::metrics::faithfulness::annotate;
 use groundscope::metrics::faithfulness::step::{StepInput, analyse, cell_index, occludable};
-use groundscope::policy::{Intervention, Memory, Net, act, act_with, bundled};
+use groundscope::policy::{ActOptions, Intervention, Memory, Net, act, bundled};
 use rand::SeedableRng as _;
 
 fn attention_net() -> (groundscope::policy::Checkpoint, Net) {
@@ -41,7 +41,17 @@ fn identity_interventions_reproduce_the_step() {
     let tokens = groundscope::env::vocab::tokenize(&world.mission).unwrap();
     let obs = world.observe();
     let mem = Memory::zeros(1, net.cfg.lstm_hidden).unwrap();
-    let base = act(&net, &[obs], &[&tokens], &mem, true).unwrap();
+    let base = act(
+        &net,
+        &[obs],
+        &[&tokens],
+        &mem,
+        ActOptions {
+            traces: true,
+            ..ActOptions::default()
+        },
+    )
+    .unwrap();
     let m: Vec<f32> = base.traces.as_ref().unwrap()[0]
         .combined
         .iter()
@@ -50,14 +60,36 @@ fn identity_interventions_reproduce_the_step() {
         .collect();
     // M set to itself: bit for bit the same step.
     let same = Intervention::SetM(Tensor::from_vec(m, (1, 49), &Device::Cpu).unwrap());
-    let out = act_with(&net, &[obs], &[&tokens], &mem, true, Some(&same)).unwrap();
+    let out = act(
+        &net,
+        &[obs],
+        &[&tokens],
+        &mem,
+        ActOptions {
+            traces: true,
+            intervention: Some(&same),
+            ..ActOptions::default()
+        },
+    )
+    .unwrap();
     assert_eq!(out.probs, base.probs);
     assert_eq!(out.values, base.values);
     // Every word weight scaled by 1: the same up to the renormalisation's rounding.
     let ones = Intervention::ScaleWeights(
         Tensor::ones((1, tokens.len()), candle_core::DType::F32, &Device::Cpu).unwrap(),
     );
-    let out = act_with(&net, &[obs], &[&tokens], &mem, true, Some(&ones)).unwrap();
+    let out = act(
+        &net,
+        &[obs],
+        &[&tokens],
+        &mem,
+        ActOptions {
+            traces: true,
+            intervention: Some(&ones),
+            ..ActOptions::default()
+        },
+    )
+    .unwrap();
     for (a, b) in out.probs[0].iter().zip(&base.probs[0]) {
         assert!((a - b).abs() < 1e-6, "{a} vs {b}");
     }
@@ -66,7 +98,18 @@ fn identity_interventions_reproduce_the_step() {
     f[tokens.len() - 1] = 0.0;
     let zero =
         Intervention::ScaleWeights(Tensor::from_vec(f, (1, tokens.len()), &Device::Cpu).unwrap());
-    let out = act_with(&net, &[obs], &[&tokens], &mem, true, Some(&zero)).unwrap();
+    let out = act(
+        &net,
+        &[obs],
+        &[&tokens],
+        &mem,
+        ActOptions {
+            traces: true,
+            intervention: Some(&zero),
+            ..ActOptions::default()
+        },
+    )
+    .unwrap();
     let w = &out.traces.unwrap()[0].words;
     assert_eq!(w.last().unwrap().weight, 0.0);
     assert!((w.iter().map(|x| x.weight).sum::<f32>() - 1.0).abs() < 1e-5);

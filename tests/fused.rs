@@ -494,8 +494,17 @@ fn every_simd_level_gives_the_same_bits() {
             for t in tracked.values() {
                 out.push(bits(grads.get(t).expect("every parameter has a gradient")));
             }
-            let acted =
-                groundscope::policy::act(&net, &obs[..n], &missions[..n], &mem0, true).unwrap();
+            let acted = groundscope::policy::act(
+                &net,
+                &obs[..n],
+                &missions[..n],
+                &mem0,
+                groundscope::policy::ActOptions {
+                    traces: true,
+                    ..Default::default()
+                },
+            )
+            .unwrap();
             out.push(bits(&acted.memory.h));
             out.push(bits(&acted.memory.c));
             out

@@ -64,8 +64,18 @@ fn the_bundled_model_through_onnx_acts_and_attends_as_the_native_one() {
         let mut onnx_memory = vec![0f32; 2 * hid];
         while !world.ended() {
             let obs = world.observe();
-            let native =
-                policy::act_episode(&net, obs, &tokens, &mission, &memory, true, None).unwrap();
+            let native = policy::act(
+                &net,
+                &[obs],
+                &[&tokens],
+                &memory,
+                policy::ActOptions {
+                    traces: true,
+                    prepared: Some(&mission),
+                    ..policy::ActOptions::default()
+                },
+            )
+            .unwrap();
             let theirs = onnx
                 .step(&[obs], &[world.agent_dir], &[&tokens], &onnx_memory, None)
                 .unwrap();

@@ -14,8 +14,8 @@ use groundscope::episode::{ActionMode, EpisodeSpec, run_episode};
 use groundscope::policy::model::TRANSPOSED;
 use groundscope::policy::obs::{CellCodes, TokenBatch};
 use groundscope::policy::{
-    AttendWords, Checkpoint, ColourCodes, Memory, ModelConfig, Net, Params, TrainingState, Variant,
-    WordTemperature, act,
+    ActOptions, AttendWords, Checkpoint, ColourCodes, Memory, ModelConfig, Net, Params,
+    TrainingState, Variant, WordTemperature, act,
 };
 
 fn tiny(variant: Variant) -> ModelConfig {
@@ -190,7 +190,7 @@ fn outputs(ckpt: &Checkpoint) -> Vec<Vec<f32>> {
     let t = groundscope::env::vocab::tokenize(&w.mission).unwrap();
     let net = Net::new(ckpt.meta.model, ckpt.params.detached());
     let mem = Memory::zeros(1, ckpt.meta.model.lstm_hidden).unwrap();
-    act(&net, &[w.observe()], &[&t], &mem, false)
+    act(&net, &[w.observe()], &[&t], &mem, ActOptions::default())
         .unwrap()
         .logits
 }

@@ -146,7 +146,7 @@ fn bench_policy(model: &str, secs: f64, rec: usize) -> anyhow::Result<ExitStatus
     use groundscope::env::vocab::tokenize;
     use groundscope::policy::obs::{CellCodes, TokenBatch};
     use groundscope::policy::ppo::{PpoConfig, ppo_loss};
-    use groundscope::policy::{Memory, ModelConfig, Net, Params, act};
+    use groundscope::policy::{ActOptions, Memory, ModelConfig, Net, Params, act};
 
     let threads = std::env::var("RAYON_NUM_THREADS").unwrap_or_else(|_| "default".into());
     let variant = crate::cli::policy_cmd::parse_variant(model)?;
@@ -169,7 +169,7 @@ fn bench_policy(model: &str, secs: f64, rec: usize) -> anyhow::Result<ExitStatus
         let missions: Vec<&[u32]> = tokens[..batch].iter().map(Vec::as_slice).collect();
         let mem = Memory::zeros(batch, cfg.lstm_hidden)?;
         let calls = rate(secs, || {
-            act(&net, &obs[..batch], &missions, &mem, false)?;
+            act(&net, &obs[..batch], &missions, &mem, ActOptions::default())?;
             Ok(())
         })?;
         println!(

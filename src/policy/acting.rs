@@ -7,7 +7,7 @@ use super::attention::Intervention;
 use super::config::Variant;
 use super::error::PolicyError;
 use super::model::{Memory, MissionInputs, Net};
-use super::{ActOutput, act_episode, episode_mission};
+use super::{ActOptions, ActOutput, episode_mission};
 use crate::env::view::Observation;
 
 /// A policy that acts in one environment at a time.
@@ -90,21 +90,16 @@ impl Acting for Net {
         with_traces: bool,
         intervention: Option<&Intervention>,
     ) -> Result<ActOutput, PolicyError> {
-        let owned;
-        let mission = if let Some(m) = prepared {
-            m
-        } else {
-            owned = self.mission_inputs(&super::TokenBatch::new(missions)?)?;
-            &owned
-        };
-        super::act_missions(
+        super::act(
             self,
             obs,
             missions,
-            mission,
             memory,
-            with_traces,
-            intervention,
+            ActOptions {
+                traces: with_traces,
+                intervention,
+                prepared,
+            },
         )
     }
 
@@ -137,14 +132,16 @@ impl Acting for Net {
             owned = episode_mission(self, tokens)?;
             &owned
         };
-        act_episode(
+        super::act(
             self,
-            obs,
-            tokens,
-            mission,
+            &[obs],
+            &[tokens],
             memory,
-            with_traces,
-            intervention,
+            ActOptions {
+                traces: with_traces,
+                intervention,
+                prepared: Some(mission),
+            },
         )
     }
 }

@@ -44,136 +44,63 @@ pub struct ActOutput {
     pub traces: Option<Vec<AttentionTrace>>,
 }
 
-/// Steps B environments at once with detached weights (no gradient graph is built).
-/// `missions[b]` are environment b's tokens; `memory` is (B, H), already reset where an
-/// episode starts.
+/// How [`act`] steps: whether it returns attention traces, an [`Intervention`] on the
+/// attention (the traces then show the changed weights and `M`), and the batch's mission
+/// inputs when they were computed before — once per episode ([`episode_mission`]), or once for
+/// many steps and [`MissionInputs::select`]ed — which gives the same numbers as computing them.
+#[derive(Clone, Copy, Default)]
+pub struct ActOptions<'a> {
+    /// Return one attention trace per environment (attention variant).
+    pub traces: bool,
+    /// Change the attention inside the forward pass.
+    pub intervention: Option<&'a Intervention>,
+    /// The missions' inputs, computed before.
+    pub prepared: Option<&'a MissionInputs>,
+}
+
+/// Steps B environments at once with detached weights (no gradient graph is built): the one
+/// entry for acting. `missions[b]` are environment b's tokens; `memory` is (B, H), already
+/// reset where an episode starts.
 pub fn act(
     net: &Net,
     obs: &[Observation],
     missions: &[&[u32]],
     memory: &Memory,
-    with_traces: bool,
-) -> Result<ActOutput, PolicyError> {
-    act_with(net, obs, missions, memory, with_traces, None)
-}
-
-/// [`act`] with an [`Intervention`] on the attention: the returned traces show the changed
-/// weights and `M`.
-pub fn act_with(
-    net: &Net,
-    obs: &[Observation],
-    missions: &[&[u32]],
-    memory: &Memory,
-    with_traces: bool,
-    intervention: Option<&Intervention>,
+    opts: ActOptions<'_>,
 ) -> Result<ActOutput, PolicyError> {
     same_batch(obs.len(), missions.len(), &[("memories", memory.h.dim(0)?)])?;
-    act_encoded(
-        net,
-        &Encoded::new(obs, missions)?,
-        missions,
+    let owned;
+    let mission = if let Some(m) = opts.prepared {
+        same_batch(
+            obs.len(),
+            missions.len(),
+            &[("mission inputs", m.text.dim(0)?)],
+        )?;
+        m
+    } else {
+        owned = net.mission_inputs(&TokenBatch::new(missions)?)?;
+        &owned
+    };
+    let codes = obs::CellCodes::new(obs);
+    let (logits, values, memory, vis) =
+        net.step_with(&codes, mission, memory, opts.intervention)?;
+    let traces = match (&vis.attention, opts.traces) {
+        (Some(att), true) => Some(trace::extract(att, missions)?),
+        _ => None,
+    };
+    Ok(ActOutput {
+        probs: model::probs_host(&logits)?,
+        logits: logits.to_vec2::<f32>()?,
+        values: values.to_vec1::<f32>()?,
         memory,
-        with_traces,
-        intervention,
-    )
-}
-
-/// A batch's inputs encoded on the host: token batch and cell codes.
-pub struct Encoded {
-    /// The missions, deduplicated.
-    pub tokens: TokenBatch,
-    /// The observations' cell codes.
-    pub codes: obs::CellCodes,
-}
-
-impl Encoded {
-    /// Encodes observations and missions (the same length).
-    pub fn new(obs: &[Observation], missions: &[&[u32]]) -> Result<Self, PolicyError> {
-        Ok(Self {
-            tokens: TokenBatch::new(missions)?,
-            codes: obs::CellCodes::new(obs),
-        })
-    }
-}
-
-/// The forward half of [`act_with`], from inputs already encoded (so callers can time the
-/// two apart); `missions` name the words of the traces.
-pub fn act_encoded(
-    net: &Net,
-    enc: &Encoded,
-    missions: &[&[u32]],
-    memory: &Memory,
-    with_traces: bool,
-    intervention: Option<&Intervention>,
-) -> Result<ActOutput, PolicyError> {
-    let mission = net.mission_inputs(&enc.tokens)?;
-    act_prepared(
-        net,
-        &enc.codes,
-        &mission,
-        missions,
-        memory,
-        with_traces,
-        intervention,
-    )
+        traces,
+    })
 }
 
 /// The mission's inputs (text code, queries) of a single episode, computed once: they do not
 /// change while it runs, and computing them is most of a batch-1 step (the GRU).
 pub fn episode_mission(net: &Net, tokens: &[u32]) -> Result<MissionInputs, PolicyError> {
     net.mission_inputs(&TokenBatch::new(&[tokens])?)
-}
-
-/// [`act_with`] for one environment whose mission inputs come from [`episode_mission`]: the
-/// same numbers as recomputing them, without the recomputation.
-pub fn act_episode(
-    net: &Net,
-    obs: Observation,
-    tokens: &[u32],
-    mission: &MissionInputs,
-    memory: &Memory,
-    with_traces: bool,
-    intervention: Option<&Intervention>,
-) -> Result<ActOutput, PolicyError> {
-    act_prepared(
-        net,
-        &obs::CellCodes::new(&[obs]),
-        mission,
-        &[tokens],
-        memory,
-        with_traces,
-        intervention,
-    )
-}
-
-/// [`act`] for B environments whose mission inputs were computed beforehand (once for many
-/// steps, then [`MissionInputs::select`]ed): the same numbers as recomputing them.
-pub fn act_missions(
-    net: &Net,
-    obs: &[Observation],
-    missions: &[&[u32]],
-    mission: &MissionInputs,
-    memory: &Memory,
-    with_traces: bool,
-    intervention: Option<&Intervention>,
-) -> Result<ActOutput, PolicyError> {
-    same_batch(
-        obs.len(),
-        missions.len(),
-        &[
-            ("mission inputs", mission.text.dim(0)?),
-            ("memories", memory.h.dim(0)?),
-        ],
-    )?;
-    act_prepared(
-        net,
-        &obs::CellCodes::new(obs),
-        mission,
-        missions,
-        memory,
-        with_traces,
-        intervention,
-    )
 }
 
 /// Checks that a batch's parts have one row per observation, naming the sizes if not.
@@ -190,29 +117,6 @@ fn same_batch(obs: usize, missions: usize, others: &[(&str, usize)]) -> Result<(
         "batch sizes differ: {}",
         parts.join(", ")
     )))
-}
-
-fn act_prepared(
-    net: &Net,
-    codes: &obs::CellCodes,
-    mission: &MissionInputs,
-    missions: &[&[u32]],
-    memory: &Memory,
-    with_traces: bool,
-    intervention: Option<&Intervention>,
-) -> Result<ActOutput, PolicyError> {
-    let (logits, values, memory, vis) = net.step_with(codes, mission, memory, intervention)?;
-    let traces = match (&vis.attention, with_traces) {
-        (Some(att), true) => Some(trace::extract(att, missions)?),
-        _ => None,
-    };
-    Ok(ActOutput {
-        probs: model::probs_host(&logits)?,
-        logits: logits.to_vec2::<f32>()?,
-        values: values.to_vec1::<f32>()?,
-        memory,
-        traces,
-    })
 }
 
 /// A (B,) f32 tensor on the CPU.
