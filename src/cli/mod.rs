@@ -11,7 +11,6 @@ mod flags;
 mod model_options;
 mod policy_cmd;
 mod replay;
-mod run_dir;
 mod train;
 mod train_start;
 mod validate;

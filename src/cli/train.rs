@@ -18,8 +18,8 @@ use crate::ExitStatus;
 use crate::cli::env_cmd::LevelArgs;
 use crate::cli::model_options::ModelOptions;
 use crate::cli::policy_cmd::parse_variant;
-use crate::cli::run_dir::{self, Tracking};
 use crate::cli::train_start::{resume_run, tracking, warm_start};
+use groundscope::policy::ppo::run_dir::{self, Tracking};
 
 /// `groundscope train`.
 #[derive(Debug, Args)]

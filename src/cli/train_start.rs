@@ -9,8 +9,8 @@ use clap::parser::ValueSource;
 use groundscope::policy::TrainingState;
 use groundscope::policy::ppo::{PpoConfig, Trainer};
 
-use crate::cli::run_dir::{self, Tracking};
 use crate::cli::train::{TrainArgs, ppo_config};
+use groundscope::policy::ppo::run_dir::{self, Tracking};
 
 /// The tracking settings of this invocation: the flags given, and on `--resume` the run's own
 /// settings for those left out (a run saved before they were kept takes the defaults).

@@ -17,6 +17,7 @@ pub mod grads;
 mod loss;
 mod missions;
 mod rollout;
+pub mod run_dir;
 mod state;
 mod update;
 

@@ -12,11 +12,11 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
+use super::{PpoConfig, Trainer};
+use crate::policy::checkpoint::{checkpoint_paths, write_atomic};
+use crate::policy::{Checkpoint, TrainingState};
 use anyhow::Context as _;
 use candle_core::{Device, Tensor};
-use groundscope::policy::checkpoint::{checkpoint_paths, write_atomic};
-use groundscope::policy::ppo::{PpoConfig, Trainer};
-use groundscope::policy::{Checkpoint, TrainingState};
 use serde::{Deserialize, Serialize};
 
 /// Generations kept: the newest, and the one before it in case the newest is damaged later.
@@ -123,7 +123,7 @@ pub fn save(
         &tmp.path().join("resume.json"),
         serde_json::to_string(&resume)?.as_bytes(),
     )?;
-    groundscope::files::sync_dir(tmp.path())?;
+    crate::files::sync_dir(tmp.path())?;
     let dest = parent.join(format!("update-{:08}", trainer.state.updates));
     if dest.exists() {
         // The same update saved again (a run resumed from this generation): the new copy wins.
@@ -134,7 +134,7 @@ pub fn save(
         let _ = std::fs::remove_dir_all(&kept);
         return Err(e).with_context(|| format!("saving {}", dest.display()));
     }
-    groundscope::files::sync_dir(&parent)?;
+    crate::files::sync_dir(&parent)?;
     ckpt.save(&run.join("model"))?;
     let gens = generations(run);
     for (_, old) in gens
@@ -304,13 +304,13 @@ pub struct RunInfo {
     /// Its PPO settings.
     pub ppo: PpoConfig,
     /// Its level.
-    pub level: groundscope::env::level::LevelConfig,
+    pub level: crate::env::level::LevelConfig,
     /// Its hidden size.
     pub hidden: usize,
     /// Its network (sizes and model options).
-    pub model: groundscope::policy::ModelConfig,
+    pub model: crate::policy::ModelConfig,
     /// Its model variant.
-    pub variant: groundscope::policy::Variant,
+    pub variant: crate::policy::Variant,
     /// Its progress.
     pub training: TrainingState,
     /// Its tracking settings, where the run recorded them.
