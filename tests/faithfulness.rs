@@ -41,17 +41,16 @@ fn identity_interventions_reproduce_the_step() {
     let tokens = groundscope::env::vocab::tokenize(&world.mission).unwrap();
     let obs = world.observe();
     let mem = Memory::zeros(1, net.cfg.lstm_hidden).unwrap();
-    let base = act(
-        &net,
-        &[obs],
-        &[&tokens],
-        &mem,
-        ActOptions {
+    // One traced step, under an intervention or none.
+    let step = |intervention: Option<&Intervention>| {
+        let opts = ActOptions {
             traces: true,
+            intervention,
             ..ActOptions::default()
-        },
-    )
-    .unwrap();
+        };
+        act(&net, &[obs], &[&tokens], &mem, opts).unwrap()
+    };
+    let base = step(None);
     let m: Vec<f32> = base.traces.as_ref().unwrap()[0]
         .combined
         .iter()
@@ -60,36 +59,14 @@ fn identity_interventions_reproduce_the_step() {
         .collect();
     // M set to itself: bit for bit the same step.
     let same = Intervention::SetM(Tensor::from_vec(m, (1, 49), &Device::Cpu).unwrap());
-    let out = act(
-        &net,
-        &[obs],
-        &[&tokens],
-        &mem,
-        ActOptions {
-            traces: true,
-            intervention: Some(&same),
-            ..ActOptions::default()
-        },
-    )
-    .unwrap();
+    let out = step(Some(&same));
     assert_eq!(out.probs, base.probs);
     assert_eq!(out.values, base.values);
     // Every word weight scaled by 1: the same up to the renormalisation's rounding.
     let ones = Intervention::ScaleWeights(
         Tensor::ones((1, tokens.len()), candle_core::DType::F32, &Device::Cpu).unwrap(),
     );
-    let out = act(
-        &net,
-        &[obs],
-        &[&tokens],
-        &mem,
-        ActOptions {
-            traces: true,
-            intervention: Some(&ones),
-            ..ActOptions::default()
-        },
-    )
-    .unwrap();
+    let out = step(Some(&ones));
     for (a, b) in out.probs[0].iter().zip(&base.probs[0]) {
         assert!((a - b).abs() < 1e-6, "{a} vs {b}");
     }
@@ -98,18 +75,7 @@ fn identity_interventions_reproduce_the_step() {
     f[tokens.len() - 1] = 0.0;
     let zero =
         Intervention::ScaleWeights(Tensor::from_vec(f, (1, tokens.len()), &Device::Cpu).unwrap());
-    let out = act(
-        &net,
-        &[obs],
-        &[&tokens],
-        &mem,
-        ActOptions {
-            traces: true,
-            intervention: Some(&zero),
-            ..ActOptions::default()
-        },
-    )
-    .unwrap();
+    let out = step(Some(&zero));
     let w = &out.traces.unwrap()[0].words;
     assert_eq!(w.last().unwrap().weight, 0.0);
     assert!((w.iter().map(|x| x.weight).sum::<f32>() - 1.0).abs() < 1e-5);

@@ -145,23 +145,35 @@ fn broken_graphs_are_refused_naming_what_is_wrong() {
     assert!(e.contains("output logits holds NaN"), "{e}");
 }
 
+/// The first views, agent directions and missions of the default level's seeds `0..n`.
+fn levels(
+    n: u64,
+) -> (
+    Vec<groundscope::env::view::Observation>,
+    Vec<u8>,
+    Vec<Vec<u32>>,
+) {
+    let level = LevelConfig::default();
+    let worlds: Vec<_> = (0..n).map(|s| level.generate(s).unwrap()).collect();
+    let obs = worlds
+        .iter()
+        .map(groundscope::env::World::observe)
+        .collect();
+    let dirs = worlds.iter().map(|w| w.agent_dir).collect();
+    let tokens = worlds
+        .iter()
+        .map(|w| vocab::tokenize(&w.mission).unwrap())
+        .collect();
+    (obs, dirs, tokens)
+}
+
 #[test]
 fn the_mission_encoder_is_cut_off_and_runs_once_per_mission() {
     // Every fixture encodes its mission with a GRU that reads nothing else, so each one is
     // cut (docs/onnx.md#speed): the encoder runs for missions not seen before, once per
     // mission length in a step, and a kept mission gives the same numbers as a fresh one.
-    let level = LevelConfig::default();
-    let worlds: Vec<_> = (0..8).map(|s| level.generate(s).unwrap()).collect();
-    let tokens: Vec<Vec<u32>> = worlds
-        .iter()
-        .map(|w| vocab::tokenize(&w.mission).unwrap())
-        .collect();
+    let (obs, dirs, tokens) = levels(8);
     let missions: Vec<&[u32]> = tokens.iter().map(Vec::as_slice).collect();
-    let obs: Vec<_> = worlds
-        .iter()
-        .map(groundscope::env::World::observe)
-        .collect();
-    let dirs: Vec<u8> = worlds.iter().map(|w| w.agent_dir).collect();
     let lengths = |rows: std::ops::Range<usize>| {
         let mut l: Vec<usize> = missions[rows].iter().map(|m| m.len()).collect();
         l.sort_unstable();
@@ -226,18 +238,8 @@ fn the_mission_encoder_is_cut_off_and_runs_once_per_mission() {
 
 #[test]
 fn foreign_architectures_load_and_step_in_batches_of_mixed_mission_lengths() {
-    let level = LevelConfig::default();
-    let worlds: Vec<_> = (0..6).map(|s| level.generate(s).unwrap()).collect();
-    let tokens: Vec<Vec<u32>> = worlds
-        .iter()
-        .map(|w| vocab::tokenize(&w.mission).unwrap())
-        .collect();
+    let (obs, dirs, tokens) = levels(6);
     let missions: Vec<&[u32]> = tokens.iter().map(Vec::as_slice).collect();
-    let obs: Vec<_> = worlds
-        .iter()
-        .map(groundscope::env::World::observe)
-        .collect();
-    let dirs: Vec<u8> = worlds.iter().map(|w| w.agent_dir).collect();
     for (file, maps) in [("acmodel.onnx", false), ("torch_reference.onnx", true)] {
         let agent = OnnxAgent::load(&fixture(file)).unwrap();
         assert_eq!(agent.has_maps(), maps, "{file}");
