@@ -8,17 +8,12 @@ use std::time::Instant;
 use anyhow::Context as _;
 use clap::Args;
 use groundscope::episode::{ActionMode, EpisodeSpec};
-use groundscope::metrics::exploration::{EpisodeExploration, cell_exploration};
-use groundscope::metrics::failure::{class_counts, counterfactual};
-use groundscope::metrics::grounding::WordKind;
-use groundscope::metrics::report::{
-    Cell, CellAccuracy, CheckpointInfo, Report, SCHEMA_VERSION, worst_episodes,
-};
-use groundscope::metrics::sweep::{
-    EpisodeSummary, EvalOptions, evaluate_cell_explored, grounding, performance,
-};
-use groundscope::metrics::words::by_word;
-use groundscope::policy::{Agent, Variant};
+use groundscope::metrics::assemble::cell_from_episodes;
+use groundscope::metrics::exploration::EpisodeExploration;
+use groundscope::metrics::failure::counterfactual;
+use groundscope::metrics::report::{CheckpointInfo, Report, SCHEMA_VERSION, worst_episodes};
+use groundscope::metrics::sweep::{EpisodeSummary, EvalOptions, evaluate_cell_explored};
+use groundscope::policy::Agent;
 
 use super::flags::SweepArgs;
 use crate::ExitStatus;
@@ -134,32 +129,14 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitStatus> {
             .ok()
             .flatten()
             .unwrap_or_else(|| Err(anyhow::anyhow!("evaluation stopped early")))?;
-        let exploration = cell_exploration(&explored);
-        let eps: Vec<EpisodeSummary> = explored.into_iter().map(|(s, _)| s).collect();
-        let attention = ckpt.acting().variant() == Variant::Attention;
-        let accuracy = attention.then(|| CellAccuracy {
-            object: grounding(&eps, WordKind::Object),
-            color: grounding(&eps, WordKind::Color),
-            combined: grounding(&eps, WordKind::Combined),
-            words: by_word(&eps),
-        });
-        let classes = class_counts(
-            eps.iter().filter_map(|e| e.failure.as_ref()),
-            attention || args.saliency,
+        let (cell, eps) = cell_from_episodes(
+            name,
+            ckpt.acting().variant(),
+            level,
+            explored,
+            args.saliency,
         );
-        report_cells.push(
-            Cell::new(
-                name,
-                ckpt.acting().variant().name(),
-                level.room_size,
-                level.n_objects,
-                eps.len() as u64,
-                &performance(&eps),
-                accuracy,
-            )
-            .with_failure_classes(classes)
-            .with_exploration(exploration),
-        );
+        report_cells.push(cell);
         all_eps.push((name.clone(), level.room_size, level.n_objects, eps));
     }
     bar.finish_and_clear();

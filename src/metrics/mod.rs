@@ -1,6 +1,7 @@
 //! Metrics and reports: the paper's grounding accuracies, evaluation sweeps, figures.
 
 mod around;
+pub mod assemble;
 pub mod bands;
 pub mod error;
 pub mod exploration;

@@ -1,0 +1,51 @@
+//! A report's rows from evaluated episodes: what `eval` computes for each cell once its
+//! episodes have run, in the library so that every consumer of a sweep (the command line, a
+//! test, another tool) assembles a cell the same way.
+
+use super::exploration::{EpisodeExploration, cell_exploration};
+use super::failure::class_counts;
+use super::grounding::WordKind;
+use super::report::{Cell, CellAccuracy};
+use super::sweep::{EpisodeSummary, grounding, performance};
+use super::words::by_word;
+use crate::env::level::LevelConfig;
+use crate::policy::Variant;
+
+/// One cell's row of the report from its episodes and their exploration records: success and
+/// reward, the grounding accuracies (object, colour, `M`, every word) of a model with maps,
+/// the failure classes — `grounding` decided from `M`, or from the occlusion saliency that
+/// stands in for it when `saliency` is set — and the exploration. Returns the row and the
+/// episodes' summaries (for the worst-episode lists).
+pub fn cell_from_episodes(
+    checkpoint: &str,
+    variant: Variant,
+    level: &LevelConfig,
+    explored: Vec<(EpisodeSummary, EpisodeExploration)>,
+    saliency: bool,
+) -> (Cell, Vec<EpisodeSummary>) {
+    let exploration = cell_exploration(&explored);
+    let eps: Vec<EpisodeSummary> = explored.into_iter().map(|(s, _)| s).collect();
+    let attention = variant == Variant::Attention;
+    let accuracy = attention.then(|| CellAccuracy {
+        object: grounding(&eps, WordKind::Object),
+        color: grounding(&eps, WordKind::Color),
+        combined: grounding(&eps, WordKind::Combined),
+        words: by_word(&eps),
+    });
+    let classes = class_counts(
+        eps.iter().filter_map(|e| e.failure.as_ref()),
+        attention || saliency,
+    );
+    let cell = Cell::new(
+        checkpoint,
+        variant.name(),
+        level.room_size,
+        level.n_objects,
+        eps.len() as u64,
+        &performance(&eps),
+        accuracy,
+    )
+    .with_failure_classes(classes)
+    .with_exploration(exploration);
+    (cell, eps)
+}
