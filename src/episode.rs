@@ -356,7 +356,7 @@ pub fn run_episode(
     name: &str,
     spec: &EpisodeSpec,
 ) -> Result<EpisodeTrace, PolicyError> {
-    let net = Net::new(ckpt.meta.model, ckpt.params.detached());
+    let net = Net::new(ckpt.meta.model, ckpt.params.detached())?;
     run_from(&net, name, spec, initial_world(spec)?)
 }
 

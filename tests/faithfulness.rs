@@ -21,7 +21,7 @@ use rand::SeedableRng as _;
 
 fn attention_net() -> (groundscope::policy::Checkpoint, Net) {
     let ckpt = bundled::load("bundled:attention").unwrap();
-    let net = Net::new(ckpt.meta.model, ckpt.params.detached());
+    let net = Net::new(ckpt.meta.model, ckpt.params.detached()).unwrap();
     (ckpt, net)
 }
 

@@ -54,7 +54,7 @@ fn close(a: &Tensor, b: &Tensor, what: &str) {
 fn fused_lstm_gates_match_the_autograd_reference() {
     let cfg = ModelConfig::new(Variant::Attention);
     let params = Params::init(&cfg, 3).unwrap();
-    let net = Net::new(cfg, params.tracked());
+    let net = Net::new(cfg, params.tracked()).unwrap();
     let hid = cfg.lstm_hidden;
     let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(7);
     let b = 9;
@@ -195,7 +195,7 @@ fn sparse_conv_matches_dense(channels: usize, kernel: usize, colours: ColourCode
     cfg.conv_kernel = kernel;
     cfg.colour_codes = colours;
     let params = Params::init(&cfg, 5).unwrap();
-    let net = Net::new(cfg, params.tracked());
+    let net = Net::new(cfg, params.tracked()).unwrap();
     let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(11);
     // Random views, codes out of range included (they clamp like the encoder's).
     let obs: Vec<Observation> = (0..13)
@@ -275,7 +275,7 @@ fn training_sequence_matches_step_by_step_acting() {
         split,
         search,
     ] {
-        let net = Net::new(cfg, Params::init(&cfg, 2).unwrap().detached());
+        let net = Net::new(cfg, Params::init(&cfg, 2).unwrap().detached()).unwrap();
         let level = LevelConfig::default();
         let (t_len, n) = (3, 4);
         let (obs, tokens) = real_inputs(&level, 0, t_len * n);
@@ -336,7 +336,7 @@ fn fused_lstm_sequence_matches_the_stepped_reference() {
     use groundscope::policy::kernels::sequence::lstm_sequence;
     let cfg = ModelConfig::new(Variant::Attention);
     let params = Params::init(&cfg, 4).unwrap();
-    let net = Net::new(cfg, params.tracked());
+    let net = Net::new(cfg, params.tracked()).unwrap();
     let hid = cfg.lstm_hidden;
     let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(9);
     let (t_len, n) = (5, 3);
@@ -458,7 +458,7 @@ fn every_simd_level_gives_the_same_bits() {
     let cfg = ModelConfig::new(Variant::Attention);
     let params = Params::init(&cfg, 4).unwrap();
     let tracked = params.tracked();
-    let net = Net::new(cfg, tracked.clone());
+    let net = Net::new(cfg, tracked.clone()).unwrap();
     let level = LevelConfig::default();
     let (t_len, n) = (4, 6);
     let (obs, tokens) = real_inputs(&level, 100, t_len * n);

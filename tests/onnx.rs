@@ -50,7 +50,7 @@ fn the_bundled_model_through_onnx_acts_and_attends_as_the_native_one() {
     let onnx = OnnxAgent::load(&fixture("bundled_attention.onnx")).unwrap();
     assert!(onnx.has_maps());
     let ckpt = bundled::load("bundled:attention").unwrap();
-    let net = Net::new(ckpt.meta.model, ckpt.params.detached());
+    let net = Net::new(ckpt.meta.model, ckpt.params.detached()).unwrap();
     let level = LevelConfig::default();
     let hid = net.cfg.lstm_hidden;
     assert_eq!(onnx.meta.memory_size, 2 * hid);

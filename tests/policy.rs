@@ -128,7 +128,7 @@ fn gradients_reach_every_parameter_and_match_finite_differences() {
             cfg.search_query,
         );
         let params = Params::init(&cfg, 3).unwrap();
-        let net = Net::new(cfg, params.tracked());
+        let net = Net::new(cfg, params.tracked()).unwrap();
         let grads = loss(&net, &level).backward().unwrap();
         let mut failures = Vec::new();
         for (name, var) in &params.vars {
@@ -160,7 +160,9 @@ fn gradients_reach_every_parameter_and_match_finite_differences() {
                     name.clone(),
                     Tensor::from_vec(v, var.as_tensor().dims(), &Device::Cpu).unwrap(),
                 );
-                loss(&Net::new(cfg, w), &level).to_scalar::<f32>().unwrap()
+                loss(&Net::new(cfg, w).unwrap(), &level)
+                    .to_scalar::<f32>()
+                    .unwrap()
             };
             let off = |fd: f32| (fd - ad).abs() > 0.05 * ad.abs().max(fd.abs()) + 2e-3;
             // A step of 1e-2 can straddle ReLU kinks (every empty cell of a view shares one
@@ -188,7 +190,7 @@ fn outputs(ckpt: &Checkpoint) -> Vec<Vec<f32>> {
     let level = LevelConfig::default();
     let w = level.generate(5).unwrap();
     let t = groundscope::env::vocab::tokenize(&w.mission).unwrap();
-    let net = Net::new(ckpt.meta.model, ckpt.params.detached());
+    let net = Net::new(ckpt.meta.model, ckpt.params.detached()).unwrap();
     let mem = Memory::zeros(1, ckpt.meta.model.lstm_hidden).unwrap();
     act(&net, &[w.observe()], &[&t], &mem, ActOptions::default())
         .unwrap()
@@ -379,8 +381,8 @@ fn contiguous_transposes_change_no_bit() {
                 );
             }
         }
-        let acting = Net::new(cfg, params.detached());
-        let tracked = Net::new(cfg, params.tracked());
+        let acting = Net::new(cfg, params.detached()).unwrap();
+        let tracked = Net::new(cfg, params.tracked()).unwrap();
         let level = LevelConfig::default();
         for batch in [1, 2, 16, 40] {
             let worlds: Vec<_> = (0..batch)

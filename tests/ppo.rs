@@ -57,7 +57,7 @@ fn ppo_learns_the_tiny_level() {
     for _ in 0..120 {
         t.update().unwrap();
     }
-    let net = Net::new(t.model, t.params.detached());
+    let net = Net::new(t.model, t.params.detached()).unwrap();
     let mut successes = 0;
     for seed in 0..100 {
         let spec = EpisodeSpec {

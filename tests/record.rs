@@ -331,7 +331,7 @@ fn mcap_has_foxglove_topics_and_one_message_per_step() {
 fn faithfulness_annotations_are_recorded_beside_the_maps() {
     let mut eps = episodes("attention", 3..4);
     let ckpt = bundled::load("bundled:attention").unwrap();
-    let net = groundscope::policy::Net::new(ckpt.meta.model, ckpt.params.detached());
+    let net = groundscope::policy::Net::new(ckpt.meta.model, ckpt.params.detached()).unwrap();
     groundscope::metrics::faithfulness::annotate(&net, &mut eps[0]).unwrap();
     let steps = eps[0].steps.len();
     let dir = tempfile::tempdir().unwrap();

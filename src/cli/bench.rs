@@ -164,7 +164,7 @@ fn bench_policy(model: &str, secs: f64, rec: usize) -> anyhow::Result<ExitStatus
         .iter()
         .map(groundscope::env::World::observe)
         .collect();
-    let net = Net::new(cfg, params.detached());
+    let net = Net::new(cfg, params.detached())?;
     for batch in [1usize, 16, 256] {
         let missions: Vec<&[u32]> = tokens[..batch].iter().map(Vec::as_slice).collect();
         let mem = Memory::zeros(batch, cfg.lstm_hidden)?;
@@ -178,7 +178,7 @@ fn bench_policy(model: &str, secs: f64, rec: usize) -> anyhow::Result<ExitStatus
                 "steps_per_sec": (calls * batch as f64).round(), "calls_per_sec": calls, "threads": threads})
         );
     }
-    let train_net = Net::new(cfg, params.tracked());
+    let train_net = Net::new(cfg, params.tracked())?;
     let ppo = PpoConfig::default();
     for frames in [256usize, 2048] {
         let n = frames / rec;

@@ -398,7 +398,7 @@ fn train_in(
             );
         }
         if track.eval_interval > 0 && log.update % track.eval_interval == 0 {
-            let net = Net::new(trainer.model, trainer.params.detached());
+            let net = Net::new(trainer.model, trainer.params.detached())?;
             let row = groundscope::metrics::tracking::track(
                 &net,
                 &trainer.level,

@@ -302,7 +302,7 @@ pub fn softmax(logits: &[f32]) -> Vec<f32> {
 #[derive(Debug)]
 pub enum Agent {
     /// A groundscope checkpoint.
-    Native(Box<super::Checkpoint>, Net),
+    Native(Box<super::Checkpoint>, Box<Net>),
     /// An imported graph (docs/onnx.md).
     Onnx(Box<super::onnx::OnnxAgent>),
 }
@@ -317,8 +317,8 @@ impl Agent {
             )?)));
         }
         let ckpt = super::bundled::load(spec)?;
-        let net = Net::new(ckpt.meta.model, ckpt.params.detached());
-        Ok(Self::Native(Box::new(ckpt), net))
+        let net = Net::new(ckpt.meta.model, ckpt.params.detached())?;
+        Ok(Self::Native(Box::new(ckpt), Box::new(net)))
     }
 
     /// The level it was trained on.
@@ -332,7 +332,7 @@ impl Agent {
     /// The policy, to run episodes with.
     pub fn acting(&self) -> &(dyn Acting + Send + Sync) {
         match self {
-            Self::Native(_, net) => net,
+            Self::Native(_, net) => &**net,
             Self::Onnx(a) => a.as_ref(),
         }
     }

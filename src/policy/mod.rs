@@ -14,6 +14,7 @@ pub mod onnx;
 pub mod params;
 pub mod ppo;
 pub mod trace;
+pub mod weights;
 
 use candle_core::{Device, Tensor};
 

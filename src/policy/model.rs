@@ -18,25 +18,16 @@ use super::kernels::{act, times_transposed};
 use super::obs::{CellCodes, N_CELLS, TokenBatch, patch_len};
 use crate::env::world::Action;
 
-/// The matrices an acting net also keeps transposed ([`Net::new`]): the large ones. The small
-/// ones (heads, attention projections) are cheap to repack, and gemm's small-size paths do
-/// not give the same bits for both layouts.
-pub const TRANSPOSED: [&str; 4] = [
-    "lstm.weight_ih_l0",
-    "lstm.weight_hh_l0",
-    "gru.weight_ih_l0",
-    "gru.weight_hh_l0",
-];
+pub use super::weights::TRANSPOSED;
+use super::weights::{Linear, Matrix, Weights};
 
 /// The network's weights plus its config; cheap to clone (tensors share storage).
 #[derive(Clone, Debug)]
 pub struct Net {
     /// Sizes and variant.
     pub cfg: ModelConfig,
-    w: BTreeMap<String, Tensor>,
-    /// Contiguous transposes `Wᵀ` of the matrices of a detached (acting) net, for
-    /// [`Self::times_t`]; empty for a net whose weights are tracked for training.
-    wt: BTreeMap<String, Tensor>,
+    /// The weights by block.
+    weights: Weights,
 }
 
 /// Recurrent memory of B environments: LSTM `h` and `c`, each (B, H).
@@ -77,40 +68,33 @@ pub struct Visual {
 }
 
 impl Net {
-    /// Wraps named weights (tracked for training, detached for acting). The recurrent nets'
-    /// detached matrices ([`TRANSPOSED`]) also get a contiguous copy of their transpose:
-    /// candle hands `x · W.t()` to gemm with `W` strided, and gemm then repacks all of `W` on
-    /// every call, which for the rollout's 16 rows cost more than the product itself (issue
-    /// #16). The copies are taken here, so a net of detached weights must not outlive an
-    /// update of those weights (the trainer makes a new one for every rollout).
-    pub fn new(cfg: ModelConfig, w: BTreeMap<String, Tensor>) -> Self {
-        let wt = TRANSPOSED
-            .iter()
-            .filter_map(|&k| Some((k, w.get(k)?)))
-            .filter(|(_, t)| t.rank() == 2 && !t.is_variable())
-            // A transpose that cannot be made leaves the strided product, which is also right.
-            .filter_map(|(k, t)| Some((k.to_owned(), t.t().ok()?.contiguous().ok()?)))
-            .collect();
-        Self { cfg, w, wt }
+    /// Wraps named weights (tracked for training, detached for acting), taking each block's
+    /// tensors by name once ([`Weights::new`]; a missing one is an error here). A net of
+    /// detached weights keeps contiguous transposes of its large matrices, so it must not
+    /// outlive an update of those weights (the trainer makes a new one for every rollout).
+    pub fn new(cfg: ModelConfig, w: BTreeMap<String, Tensor>) -> Result<Self, PolicyError> {
+        Ok(Self {
+            cfg,
+            weights: Weights::new(&cfg, w)?,
+        })
     }
 
-    fn p(&self, name: &str) -> Result<&Tensor, PolicyError> {
-        self.w
-            .get(name)
-            .ok_or_else(|| PolicyError::Input(format!("missing parameter {name}")))
+    /// The attention's weights (attention variant).
+    fn attention_weights(&self) -> Result<&super::weights::Attention, PolicyError> {
+        self.weights
+            .attention
+            .as_ref()
+            .ok_or_else(|| PolicyError::Input("the baseline has no attention weights".into()))
     }
 
-    /// `x · Wᵀ` for a 2-D `x` and the matrix `name`, through [`times_transposed`] with the
-    /// net's contiguous transpose where it keeps one.
-    fn times_t(&self, x: &Tensor, name: &str) -> Result<Tensor, PolicyError> {
-        Ok(times_transposed(x, self.p(name)?, self.wt.get(name))?)
+    /// `x · Wᵀ` for a 2-D `x`, through [`times_transposed`] with the net's contiguous
+    /// transpose where it keeps one.
+    fn times_t(x: &Tensor, m: &Matrix) -> Result<Tensor, PolicyError> {
+        Ok(times_transposed(x, &m.w, m.wt.as_ref())?)
     }
 
-    fn linear(&self, x: &Tensor, prefix: &str) -> Result<Tensor, PolicyError> {
-        let b = self.p(&format!("{prefix}.bias"))?;
-        Ok(self
-            .times_t(x, &format!("{prefix}.weight"))?
-            .broadcast_add(b)?)
+    fn linear(x: &Tensor, l: &Linear) -> Result<Tensor, PolicyError> {
+        Ok(Self::times_t(x, &l.w)?.broadcast_add(&l.b)?)
     }
 
     /// `Õ = ReLU(Conv(O))` (3×3 or 1×1, `conv_kernel`) for the B frames of `codes`:
@@ -118,8 +102,8 @@ impl Net {
     /// model's `colour_codes` says ([`CellCodes::encoded`]).
     pub fn cells(&self, codes: &CellCodes) -> Result<Tensor, PolicyError> {
         let (k, ks) = (self.cfg.conv_channels, self.cfg.conv_kernel);
-        let w = self.p("encoder.conv.weight")?.reshape((k, patch_len(ks)))?;
-        let b = self.p("encoder.conv.bias")?;
+        let w = self.weights.encoder.w.reshape((k, patch_len(ks)))?;
+        let b = &self.weights.encoder.b;
         Ok(super::kernels::conv::conv_codes(
             &self.read_codes(codes),
             ks,
@@ -136,10 +120,11 @@ impl Net {
             return Ok(None);
         };
         let k = self.cfg.conv_channels;
-        let w = self
-            .p("encoder.key_conv.weight")?
-            .reshape((k, patch_len(ks)))?;
-        let b = self.p("encoder.key_conv.bias")?;
+        let conv = self.weights.key_encoder.as_ref().ok_or_else(|| {
+            PolicyError::Input("missing parameter encoder.key_conv.weight".into())
+        })?;
+        let w = conv.w.reshape((k, patch_len(ks)))?;
+        let b = &conv.b;
         Ok(Some(super::kernels::conv::conv_codes(
             &self.read_codes(codes),
             ks,
@@ -162,9 +147,11 @@ impl Net {
     pub fn cells_reference(&self, patches: &Tensor) -> Result<Tensor, PolicyError> {
         let k = self.cfg.conv_channels;
         let w = self
-            .p("encoder.conv.weight")?
+            .weights
+            .encoder
+            .w
             .reshape((k, patch_len(self.cfg.conv_kernel)))?;
-        let b = self.p("encoder.conv.bias")?;
+        let b = &self.weights.encoder.b;
         let rows = patches.dim(0)?;
         let o = patches.matmul(&w.t()?)?.broadcast_add(b)?.relu()?;
         Ok(o.reshape((rows / N_CELLS, N_CELLS, k))?)
@@ -173,7 +160,7 @@ impl Net {
     /// Word embeddings `g̃` of the distinct missions: (U, L, E).
     pub fn embed(&self, tb: &TokenBatch) -> Result<Tensor, PolicyError> {
         let (u, l) = tb.tokens.dims2()?;
-        let emb = self.p("word_emb.weight")?;
+        let emb = &self.weights.word_emb;
         Ok(emb
             .index_select(&tb.tokens.flatten_all()?, 0)?
             .reshape((u, l, self.cfg.word_dim))?)
@@ -183,19 +170,15 @@ impl Net {
     pub fn encode_text(&self, tb: &TokenBatch, emb: &Tensor) -> Result<Tensor, PolicyError> {
         let (u, l) = tb.tokens.dims2()?;
         let hg = self.cfg.gru_hidden;
-        let b_ih = self.p("gru.bias_ih_l0")?;
-        let b_hh = self.p("gru.bias_hh_l0")?;
-        let gx_all = self
-            .times_t(
-                &emb.reshape((u * l, self.cfg.word_dim))?,
-                "gru.weight_ih_l0",
-            )?
+        let gru = &self.weights.gru;
+        let (b_ih, b_hh) = (&gru.b_ih, &gru.b_hh);
+        let gx_all = Self::times_t(&emb.reshape((u * l, self.cfg.word_dim))?, &gru.w_ih)?
             .broadcast_add(b_ih)?
             .reshape((u, l, 3 * hg))?;
         let mut h = Tensor::zeros((u, hg), DType::F32, &Device::Cpu)?;
         for t in 0..l {
             let gx = gx_all.narrow(1, t, 1)?.squeeze(1)?;
-            let gh = self.times_t(&h, "gru.weight_hh_l0")?.broadcast_add(b_hh)?;
+            let gh = Self::times_t(&h, &gru.w_hh)?.broadcast_add(b_hh)?;
             let rz = act::sigmoid(&(gx.narrow(1, 0, 2 * hg)? + gh.narrow(1, 0, 2 * hg)?)?)?;
             let r = rz.narrow(1, 0, hg)?;
             let z = rz.narrow(1, hg, hg)?;
@@ -211,9 +194,13 @@ impl Net {
     /// Word queries `Q = g̃ W_q` of the distinct missions: (U, L, d_k).
     pub fn queries(&self, emb: &Tensor) -> Result<Tensor, PolicyError> {
         let (u, l, e) = emb.dims3()?;
-        Ok(self
-            .times_t(&emb.reshape((u * l, e))?, "attention.q.weight")?
-            .reshape((u, l, self.cfg.key_dim))?)
+        Ok(
+            Self::times_t(&emb.reshape((u * l, e))?, &self.attention_weights()?.q)?.reshape((
+                u,
+                l,
+                self.cfg.key_dim,
+            ))?,
+        )
     }
 
     /// The visual path for B frames: `Õ`, then (attention variant) `Kc`, A, H, w, M and `F`.
@@ -239,11 +226,8 @@ impl Net {
         let (b, n, k) = o.dims3()?;
         match q {
             Some((q, mask)) if self.cfg.has_attention() => {
-                let kc = self
-                    .times_t(
-                        &o_key.unwrap_or(o).reshape((b * n, k))?,
-                        "attention.k.weight",
-                    )?
+                let att = self.attention_weights()?;
+                let kc = times_transposed(&o_key.unwrap_or(o).reshape((b * n, k))?, &att.k, None)?
                     .reshape((b, n, self.cfg.key_dim))?;
                 let out = attend_with(
                     q,
@@ -256,8 +240,7 @@ impl Net {
                 )?;
                 let f = out.f.reshape((b, n * k))?;
                 let (x, search) = if self.cfg.search_query {
-                    let qs = self
-                        .p("attention.search.weight")?
+                    let qs = search_query(att)?
                         .unsqueeze(0)?
                         .broadcast_as((b, 1, self.cfg.key_dim))?
                         .contiguous()?;
@@ -306,12 +289,11 @@ impl Net {
                 }
                 // The search map through the same fused op: one "word" that always counts,
                 // so its weight is 1 and its filter is `s · S ⊙ Õ` (T plays no part).
-                let qs = super::attention::keyed_queries(
-                    &self.p("attention.search.weight")?.unsqueeze(0)?,
-                    self.p("attention.k.weight")?,
-                )?
-                .broadcast_as((b, 1, k))?
-                .contiguous()?;
+                let att = self.attention_weights()?;
+                let qs =
+                    super::attention::keyed_queries(&search_query(att)?.unsqueeze(0)?, &att.k)?
+                        .broadcast_as((b, 1, k))?
+                        .contiguous()?;
                 let ones = Tensor::ones((b, 1), DType::F32, o.device())?;
                 let fs = super::kernels::attention::attention_filter(&qs, &ones, o, scale, t)?;
                 Ok(Tensor::cat(&[f, fs.reshape((b, n * k))?], 1)?)
@@ -334,7 +316,7 @@ impl Net {
         let emb = self.embed(tb)?;
         let text = self.encode_text(tb, &emb)?.index_select(&tb.index, 0)?;
         let queries = if self.cfg.has_attention() {
-            let wk = self.p("attention.k.weight")?;
+            let wk = &self.attention_weights()?.k;
             let qk = super::attention::keyed_queries(&self.queries(&emb)?, wk)?
                 .index_select(&tb.index, 0)?;
             let mask = self.attention_mask(tb)?.index_select(&tb.index, 0)?;
@@ -361,17 +343,14 @@ impl Net {
 
     /// The LSTM input projection for all frames at once: `x W_ihᵀ + b_ih`, (B, 4H).
     pub fn lstm_input(&self, x: &Tensor) -> Result<Tensor, PolicyError> {
-        Ok(self
-            .times_t(x, "lstm.weight_ih_l0")?
-            .broadcast_add(self.p("lstm.bias_ih_l0")?)?)
+        let lstm = &self.weights.lstm;
+        Ok(Self::times_t(x, &lstm.w_ih)?.broadcast_add(&lstm.b_ih)?)
     }
 
     /// The gate pre-activations of an LSTM step: `gx + h W_hhᵀ + b_hh`, (B, 4H).
     fn lstm_preactivations(&self, gx: &Tensor, mem: &Memory) -> Result<Tensor, PolicyError> {
-        Ok((gx
-            + self
-                .times_t(&mem.h, "lstm.weight_hh_l0")?
-                .broadcast_add(self.p("lstm.bias_hh_l0")?)?)?)
+        let lstm = &self.weights.lstm;
+        Ok((gx + Self::times_t(&mem.h, &lstm.w_hh)?.broadcast_add(&lstm.b_hh)?)?)
     }
 
     /// One LSTM step from the projected input `gx` (B, 4H); the gates run as one fused op
@@ -400,8 +379,9 @@ impl Net {
     /// Actor logits (B, 7) and critic values (B,) from the LSTM output and the text code.
     pub fn heads(&self, h: &Tensor, text: &Tensor) -> Result<(Tensor, Tensor), PolicyError> {
         let z = Tensor::cat(&[h, text], 1)?;
-        let a = self.linear(&act::tanh(&self.linear(&z, "actor.0")?)?, "actor.2")?;
-        let v = self.linear(&act::tanh(&self.linear(&z, "critic.0")?)?, "critic.2")?;
+        let (actor, critic) = (&self.weights.actor, &self.weights.critic);
+        let a = Self::linear(&act::tanh(&Self::linear(&z, &actor.hidden)?)?, &actor.out)?;
+        let v = Self::linear(&act::tanh(&Self::linear(&z, &critic.hidden)?)?, &critic.out)?;
         Ok((a, v.squeeze(1)?))
     }
 
@@ -514,15 +494,16 @@ impl Net {
         let (t_len, n) = keep.dims2()?;
         let hd = self.cfg.lstm_hidden;
         // The same sums as `lstm_input(x) + b_hh`, with one pass over the rows in backward.
+        let lstm = &self.weights.lstm;
         let gx = super::kernels::bias::add_two_biases(
-            &self.times_t(x, "lstm.weight_ih_l0")?,
-            self.p("lstm.bias_ih_l0")?,
-            self.p("lstm.bias_hh_l0")?,
+            &Self::times_t(x, &lstm.w_ih)?,
+            &lstm.b_ih,
+            &lstm.b_hh,
         )?;
         let out = super::kernels::sequence::lstm_sequence(
             &gx,
-            self.p("lstm.weight_hh_l0")?,
-            self.wt.get("lstm.weight_hh_l0"),
+            &lstm.w_hh.w,
+            lstm.w_hh.wt.as_ref(),
             &mem0.h,
             &mem0.c,
             keep,
@@ -575,4 +556,11 @@ pub fn probs_host(logits: &Tensor) -> Result<Vec<Vec<f32>>, PolicyError> {
 /// Log-probabilities (B, A) with gradient.
 pub fn log_probs(logits: &Tensor) -> Result<Tensor, PolicyError> {
     Ok(candle_nn::ops::log_softmax(logits, D::Minus1)?)
+}
+
+/// The search query `q_s` of a model with [`ModelConfig::search_query`].
+fn search_query(att: &super::weights::Attention) -> Result<&Tensor, PolicyError> {
+    att.search
+        .as_ref()
+        .ok_or_else(|| PolicyError::Input("missing parameter attention.search.weight".into()))
 }

@@ -294,7 +294,7 @@ fn cells_average_over_episodes_and_split_by_outcome() {
 #[test]
 fn sweep_exploration_matches_the_replayed_trace_and_is_deterministic() {
     let ckpt = bundled::load("bundled:attention").unwrap();
-    let net = Net::new(ckpt.meta.model, ckpt.params.detached());
+    let net = Net::new(ckpt.meta.model, ckpt.params.detached()).unwrap();
     let mut level = ckpt.meta.level;
     level.room_size = 10;
     level.n_objects = 6;

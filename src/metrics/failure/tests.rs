@@ -283,7 +283,7 @@ fn removing_distractors_keeps_the_targets_and_the_mission() {
 #[test]
 fn sweep_failures_are_classed_and_rerun_without_distractors() {
     let ckpt = bundled::load("bundled:baseline").unwrap();
-    let net = Net::new(ckpt.meta.model, ckpt.params.detached());
+    let net = Net::new(ckpt.meta.model, ckpt.params.detached()).unwrap();
     let mut level = ckpt.meta.level;
     // A big room: the bundled baseline fails about a fifth of S16N10 (docs/results.md#big-rooms).
     level.room_size = 16;

@@ -103,7 +103,7 @@ mod tests {
             let mut cache = MissionCache::default();
             for step in 0..16usize {
                 // A new rollout with new weights every 8 steps.
-                let net = Net::new(cfg, Params::init(&cfg, 3 + step as u64 / 8)?.detached());
+                let net = Net::new(cfg, Params::init(&cfg, 3 + step as u64 / 8)?.detached())?;
                 if step == 8 {
                     let met = cache.distinct.len();
                     cache.renew();

@@ -33,7 +33,7 @@ impl Trainer {
             self.model.lstm_hidden,
         );
         let n = p_n * t_n;
-        let net = Net::new(self.model, self.params.detached());
+        let net = Net::new(self.model, self.params.detached())?;
         let mut missions = std::mem::take(&mut self.missions);
         missions.renew();
         let mut ro = Rollout {

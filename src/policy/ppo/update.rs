@@ -31,7 +31,7 @@ impl Trainer {
     }
 
     pub(super) fn optimise(&mut self, ro: &mut Rollout) -> Result<UpdateLog, PolicyError> {
-        let net = Net::new(self.model, self.params.tracked());
+        let net = Net::new(self.model, self.params.tracked())?;
         let mut log = UpdateLog::default();
         let mut n_batches = 0.0;
         for _ in 0..self.ppo.epochs {
