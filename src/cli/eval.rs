@@ -145,12 +145,7 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitStatus> {
         schema_version: SCHEMA_VERSION,
         groundscope_version: env!("CARGO_PKG_VERSION").into(),
         alpha: args.alpha,
-        mode: if args.sweep.sample {
-            "sampled"
-        } else {
-            "greedy"
-        }
-        .into(),
+        mode: mode.name().into(),
         seeds: args.sweep.seeds,
         first_seed: args.sweep.first_seed,
         episodes_per_seed: args.sweep.episodes,

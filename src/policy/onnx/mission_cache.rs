@@ -153,17 +153,23 @@ impl MissionCache {
             .kept
             .lock()
             .map_err(|_| anyhow::anyhow!("the mission cache was poisoned by a panic"))?;
-        let mut missing: Vec<&[i64]> = Vec::new();
-        for m in ids.chunks(len) {
-            if !kept.contains_key(m) && !missing.contains(&m) {
-                missing.push(m);
+        let unseen = |kept: &HashMap<Vec<i64>, Vec<Tensor>>| {
+            let mut missing: Vec<&[i64]> = Vec::new();
+            for m in ids.chunks(len) {
+                if !kept.contains_key(m) && !missing.contains(&m) {
+                    missing.push(m);
+                }
             }
+            missing
+        };
+        let mut missing = unseen(&kept);
+        if kept.len() + missing.len() > KEPT {
+            // Starting over forgets this batch's kept missions too: encode all of them.
+            kept.clear();
+            missing = unseen(&kept);
         }
         let ran = !missing.is_empty();
         if ran {
-            if kept.len() + missing.len() > KEPT {
-                kept.clear();
-            }
             let flat: Vec<i64> = missing.concat();
             let batch = Tensor::from_shape(&[missing.len(), len], &flat)?;
             let out = self.encoder.run(tvec![batch.into()]);
