@@ -141,3 +141,112 @@ fn update_threads_share_a_minibatch_without_changing_the_maths() {
         assert!(diff < 1e-3, "{name} moved apart by {diff}");
     }
 }
+
+/// Every parameter's values, by name.
+fn weights(t: &Trainer) -> Vec<(String, Vec<f32>)> {
+    t.params
+        .vars
+        .iter()
+        .map(|(k, v)| {
+            let x = v
+                .as_tensor()
+                .flatten_all()
+                .unwrap()
+                .to_vec1::<f32>()
+                .unwrap();
+            (k.clone(), x)
+        })
+        .collect()
+}
+
+#[test]
+fn freezing_the_maps_stops_exactly_their_parameters_from_the_given_frame() {
+    let ppo = PpoConfig {
+        procs: 4,
+        frames_per_proc: 16,
+        batch_size: 32,
+        ..PpoConfig::default()
+    };
+    let per = ppo.frames_per_update() as u64;
+    // Frozen from the second update on, and a freeze that never comes.
+    let mut frozen = trainer(
+        5,
+        PpoConfig {
+            freeze_attention_at: Some(per),
+            ..ppo
+        },
+    );
+    let mut later = trainer(
+        5,
+        PpoConfig {
+            freeze_attention_at: Some(1_000 * per),
+            ..ppo
+        },
+    );
+    let mut plain = trainer(5, ppo);
+    let first = frozen.update().unwrap();
+    assert_eq!(
+        format!("{first:?}"),
+        format!("{:?}", plain.update().unwrap())
+    );
+    later.update().unwrap();
+    let after_one = weights(&frozen);
+    for _ in 0..2 {
+        frozen.update().unwrap();
+        // Before its frame a freeze changes nothing, bit for bit.
+        assert_eq!(
+            format!("{:?}", later.update().unwrap()),
+            format!("{:?}", plain.update().unwrap())
+        );
+    }
+    assert_eq!(weights(&later), weights(&plain));
+    let (mut kept, mut moved) = (Vec::new(), Vec::new());
+    for ((name, was), (_, now)) in after_one.iter().zip(weights(&frozen)) {
+        if *was == now {
+            kept.push(name.clone());
+        } else {
+            moved.push(name.clone());
+        }
+    }
+    let maps: Vec<String> = after_one
+        .iter()
+        .map(|(n, _)| n.clone())
+        .filter(|n| groundscope::policy::params::computes_maps(n))
+        .collect();
+    assert_eq!(
+        maps,
+        [
+            "attention.k.weight",
+            "attention.q.weight",
+            "encoder.conv.bias",
+            "encoder.conv.weight",
+            "word_emb.weight"
+        ]
+    );
+    assert_eq!(kept, maps, "moved: {moved:?}");
+    for part in ["lstm.", "gru.", "actor.", "critic."] {
+        assert!(
+            moved.iter().any(|n| n.starts_with(part)),
+            "{part}: {moved:?}"
+        );
+    }
+}
+
+#[test]
+fn a_baseline_has_no_maps_to_freeze() {
+    let model = small_model(Variant::Baseline);
+    let ppo = PpoConfig {
+        freeze_attention_at: Some(0),
+        ..small_ppo()
+    };
+    let Err(e) = Trainer::new(
+        model,
+        tiny_level(),
+        ppo,
+        Params::init(&model, 1).unwrap(),
+        1,
+    ) else {
+        panic!("a baseline run with a freeze started");
+    };
+    assert!(e.to_string().contains("--freeze-attention-at"), "{e}");
+}

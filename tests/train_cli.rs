@@ -472,3 +472,41 @@ fn curve_reads_bundled_flat_logs_as_seed_bands() {
     assert_bad_input(&bad_eval, "object_acc_ng");
     assert!(!fresh.exists(), "no reward figure either");
 }
+
+#[test]
+fn a_run_with_frozen_maps_resumes_exactly_and_keeps_its_freeze() {
+    // 64 frames per update: the maps train for two updates, then stop.
+    let dir = tempfile::tempdir().unwrap();
+    let freeze = ["--freeze-attention-at", "128"];
+    let whole = dir.path().join("whole");
+    let o = train(&whole, "128", &freeze);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    // The resume leaves the flag out and keeps the run's.
+    let o = train(&whole, "320", &["--resume"]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let straight = dir.path().join("straight");
+    let o = train(&straight, "320", &freeze);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert_eq!(
+        std::fs::read(whole.join("model.safetensors")).unwrap(),
+        std::fs::read(straight.join("model.safetensors")).unwrap(),
+        "a resumed run with a freeze ends with other weights than an uninterrupted one"
+    );
+    assert_bad_input(
+        &train(&whole, "384", &["--resume", "--freeze-attention-at", "64"]),
+        "--freeze-attention-at 128, not 64",
+    );
+    let refused = dir.path().join("baseline");
+    let mut args = train_args(&refused, "128", &freeze);
+    let at = args.iter().position(|a| *a == "attention").unwrap();
+    args[at] = "baseline";
+    assert_bad_input(&gs(&args), "--freeze-attention-at");
+    assert!(!refused.exists());
+    for bad in ["-1", "x"] {
+        assert_bad_input(
+            &train(&refused, "128", &["--freeze-attention-at", bad]),
+            "--freeze-attention-at",
+        );
+        assert!(!refused.exists(), "{bad}");
+    }
+}

@@ -105,6 +105,11 @@ pub struct TrainArgs {
     /// the paper's, linearly between START and END frames: START:END, e.g. 6000000:9000000.
     #[arg(long, value_name = "START:END", allow_hyphen_values = true)]
     pub word_temperature_anneal: Option<String>,
+    /// From this many frames on, stop training the parameters that compute the word maps
+    /// (word embeddings, encoder, query and key projections); the LSTM, the mission GRU, actor
+    /// and critic keep learning. Attention models only.
+    #[arg(long, value_name = "FRAMES", allow_negative_numbers = true)]
+    pub freeze_attention_at: Option<u64>,
     /// Evaluate greedily on the held-out validation levels every this many updates and append
     /// the result to eval_log.csv (0: never).
     #[arg(long, default_value_t = 50, allow_negative_numbers = true)]
@@ -151,6 +156,7 @@ pub(super) fn ppo_config(a: &TrainArgs, from: f32) -> anyhow::Result<PpoConfig> 
         reward_scale: a.reward_scale,
         normalize_advantages: a.normalize_advantages,
         temperature_anneal,
+        freeze_attention_at: a.freeze_attention_at,
     })
 }
 

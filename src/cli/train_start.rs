@@ -142,8 +142,13 @@ impl Fixed {
             p.temperature_anneal
                 .map_or_else(String::new, |a| format!("{}:{}", a.start, a.end))
         };
-        let pairs: [(&str, String, String); 22] = [
+        let freeze = |p: &PpoConfig| {
+            p.freeze_attention_at
+                .map_or_else(String::new, |f| f.to_string())
+        };
+        let pairs: [(&str, String, String); 23] = [
             ("word_temperature_anneal", schedule(&now), schedule(run)),
+            ("freeze_attention_at", freeze(&now), freeze(run)),
             (
                 "reward_scale",
                 now.reward_scale.to_string(),

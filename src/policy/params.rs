@@ -112,6 +112,16 @@ pub fn param_specs(cfg: &ModelConfig) -> Vec<ParamSpec> {
     v
 }
 
+/// Whether parameter `name` computes the word maps (or the search map): the word
+/// embeddings, the encoders that give the keys and `Õ`, and the query, key and search
+/// projections. What `train --freeze-attention-at` stops training; the LSTM, the mission
+/// GRU, actor and critic are the rest.
+pub fn computes_maps(name: &str) -> bool {
+    ["word_emb.", "encoder.", "attention."]
+        .iter()
+        .any(|p| name.starts_with(p))
+}
+
 /// Draws the values of one parameter.
 fn draw(spec: &ParamSpec, rng: &mut Pcg64Mcg) -> Vec<f32> {
     let n: usize = spec.shape.iter().product();

@@ -51,6 +51,12 @@ pub struct PpoConfig {
     /// model's. Written only when set, so older run settings read as before.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub temperature_anneal: Option<TemperatureAnneal>,
+    /// From this frame count on, every update leaves the parameters that compute the word
+    /// maps as they are ([`crate::policy::params::computes_maps`]): no Adam step, moments
+    /// kept, gradients left out of the norm clip. `None` trains every parameter throughout,
+    /// as the paper does. Written only when set, so older run settings read as before.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub freeze_attention_at: Option<u64>,
 }
 
 /// The word temperature annealed over training: `from` until `start` frames, then linearly
@@ -136,6 +142,7 @@ impl Default for PpoConfig {
             reward_scale: 1.0,
             normalize_advantages: false,
             temperature_anneal: None,
+            freeze_attention_at: None,
         }
     }
 }
@@ -221,6 +228,11 @@ impl PpoConfig {
         Ok(())
     }
 
+    /// Whether an update that starts at `frames` leaves the map parameters as they are.
+    pub fn maps_frozen(&self, frames: u64) -> bool {
+        self.freeze_attention_at.is_some_and(|f| frames >= f)
+    }
+
     /// Frames collected per update.
     pub fn frames_per_update(&self) -> usize {
         self.procs * self.frames_per_proc
@@ -252,5 +264,6 @@ mod tests {
         // Without a schedule the settings serialise as before.
         let json = serde_json::to_string(&PpoConfig::default()).unwrap();
         assert!(!json.contains("anneal"), "{json}");
+        assert!(!json.contains("freeze"), "{json}");
     }
 }

@@ -199,6 +199,12 @@ impl Trainer {
     ) -> Result<Self, PolicyError> {
         ppo.validate()?;
         level.validate()?;
+        if ppo.freeze_attention_at.is_some() && !model.has_attention() {
+            return Err(PolicyError::Input(
+                "--freeze-attention-at: a baseline has no word maps to freeze; use --model attention"
+                    .into(),
+            ));
+        }
         let adam = Adam::new(
             AdamConfig {
                 lr: ppo.lr,

@@ -4,12 +4,13 @@
 use candle_core::backprop::GradStore;
 use rand::seq::SliceRandom as _;
 
-use super::grads::{clip_factor, with_minibatch_grads};
+use super::grads::{ParamGrad, clip_factor, with_minibatch_grads};
 use super::loss::{ShardOut, shard_step};
 use super::rollout::Rollout;
 use super::{Trainer, UpdateLog, secs};
 use crate::policy::error::PolicyError;
 use crate::policy::model::Net;
+use crate::policy::params::computes_maps;
 
 impl Trainer {
     /// torch-ac's `_get_batches_starting_indexes`.
@@ -32,6 +33,7 @@ impl Trainer {
 
     pub(super) fn optimise(&mut self, ro: &mut Rollout) -> Result<UpdateLog, PolicyError> {
         let net = Net::new(self.model, self.params.tracked())?;
+        let frozen = self.ppo.maps_frozen(self.state.frames);
         let mut log = UpdateLog::default();
         let mut n_batches = 0.0;
         for _ in 0..self.ppo.epochs {
@@ -81,6 +83,17 @@ impl Trainer {
                 let (adam, threads) = (&mut self.adam, self.ppo.update_threads);
                 let norm =
                     with_minibatch_grads(&self.params.vars, &stores, &shares, threads, |grads| {
+                        let kept: Vec<ParamGrad<'_>>;
+                        let grads = if frozen {
+                            kept = grads
+                                .iter()
+                                .filter(|(name, _, _)| !computes_maps(name))
+                                .copied()
+                                .collect();
+                            &kept[..]
+                        } else {
+                            grads
+                        };
                         let (norm, clip) = clip_factor(grads, self.ppo.max_grad_norm);
                         adam.step_host(grads, clip, threads)?;
                         Ok(norm)
