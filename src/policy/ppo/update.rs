@@ -1,10 +1,13 @@
 //! The update half of a PPO update: epochs of shuffled minibatches of BPTT chunks (torch-ac's
 //! batching), each split over threads, gradients combined, clipped and applied by Adam.
 
+use std::collections::BTreeMap;
+
+use candle_core::Var;
 use candle_core::backprop::GradStore;
 use rand::seq::SliceRandom as _;
 
-use super::grads::{ParamGrad, clip_factor, with_minibatch_grads};
+use super::grads::{clip_factor, with_minibatch_grads};
 use super::loss::{ShardOut, shard_step};
 use super::rollout::Rollout;
 use super::{Trainer, UpdateLog, secs};
@@ -33,7 +36,15 @@ impl Trainer {
 
     pub(super) fn optimise(&mut self, ro: &mut Rollout) -> Result<UpdateLog, PolicyError> {
         let net = Net::new(self.model, self.params.tracked())?;
+        // Frozen map parameters leave the merge of the shards' gradients, the clip and Adam.
         let frozen = self.ppo.maps_frozen(self.state.frames);
+        let trainable: BTreeMap<String, Var> = self
+            .params
+            .vars
+            .iter()
+            .filter(|(name, _)| !(frozen && computes_maps(name)))
+            .map(|(name, var)| (name.clone(), var.clone()))
+            .collect();
         let mut log = UpdateLog::default();
         let mut n_batches = 0.0;
         for _ in 0..self.ppo.epochs {
@@ -81,23 +92,11 @@ impl Trainer {
                     self.times.add(&out.times);
                 }
                 let (adam, threads) = (&mut self.adam, self.ppo.update_threads);
-                let norm =
-                    with_minibatch_grads(&self.params.vars, &stores, &shares, threads, |grads| {
-                        let kept: Vec<ParamGrad<'_>>;
-                        let grads = if frozen {
-                            kept = grads
-                                .iter()
-                                .filter(|(name, _, _)| !computes_maps(name))
-                                .copied()
-                                .collect();
-                            &kept[..]
-                        } else {
-                            grads
-                        };
-                        let (norm, clip) = clip_factor(grads, self.ppo.max_grad_norm);
-                        adam.step_host(grads, clip, threads)?;
-                        Ok(norm)
-                    })?;
+                let norm = with_minibatch_grads(&trainable, &stores, &shares, threads, |grads| {
+                    let (norm, clip) = clip_factor(grads, self.ppo.max_grad_norm);
+                    adam.step_host(grads, clip, threads)?;
+                    Ok(norm)
+                })?;
                 self.times.optimizer += secs(opt_t);
                 log.grad_norm += norm;
                 n_batches += 1.0;
