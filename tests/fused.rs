@@ -109,14 +109,17 @@ fn fused_lstm_gates_match_the_autograd_reference() {
 #[test]
 fn fused_attention_matches_the_autograd_reference() {
     // Our filter factor 49 and the paper's 1; the paper's word weights and warmer ones.
-    for (scale, t) in [(49, 1.0), (1, 1.0), (1, 3.89), (49, 0.5)] {
-        fused_attention_matches_reference(scale, t);
+    // With and without the null key (the big-room study's part 9).
+    for null in [false, true] {
+        for (scale, t) in [(49, 1.0), (1, 1.0), (1, 3.89), (49, 0.5)] {
+            fused_attention_matches_reference(scale, t, null);
+        }
     }
 }
 
-fn fused_attention_matches_reference(scale: u32, t: f32) {
-    use groundscope::policy::attention::{attend, keyed_queries};
-    use groundscope::policy::kernels::attention::attention_filter;
+fn fused_attention_matches_reference(scale: u32, t: f32, null: bool) {
+    use groundscope::policy::attention::{attend_with, keyed_queries, null_logits};
+    use groundscope::policy::kernels::attention::{attention_filter, attention_filter_null};
     let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(11);
     let (b, m, dk, k) = (5, 6, 8, 16);
     let q = Var::from_tensor(
@@ -144,10 +147,18 @@ fn fused_attention_matches_reference(scale: u32, t: f32) {
     let weights = random(&mut rng, (b * 49, k), 1.0)
         .reshape((b, 49, k))
         .unwrap();
+    // The null key k₀ (1, d_k), large enough that some words put most of their mass on it.
+    let k0 = Var::from_tensor(&random(&mut rng, (1, dk), 3.0)).unwrap();
     let run = |fused: bool| {
         let f = if fused {
             let qk = keyed_queries(q.as_tensor(), wk.as_tensor()).unwrap();
-            attention_filter(&qk, &mask, o.as_tensor(), scale, t).unwrap()
+            if null {
+                let n = null_logits(q.as_tensor(), k0.as_tensor()).unwrap();
+                let qk = Tensor::cat(&[&qk, &n], 2).unwrap();
+                attention_filter_null(&qk, &mask, o.as_tensor(), scale, t).unwrap()
+            } else {
+                attention_filter(&qk, &mask, o.as_tensor(), scale, t).unwrap()
+            }
         } else {
             let kc = o
                 .as_tensor()
@@ -157,7 +168,8 @@ fn fused_attention_matches_reference(scale: u32, t: f32) {
                 .unwrap()
                 .reshape((b, 49, dk))
                 .unwrap();
-            attend(q.as_tensor(), &kc, &mask, o.as_tensor(), scale, t)
+            let k0 = null.then(|| k0.as_tensor());
+            attend_with(q.as_tensor(), &kc, &mask, o.as_tensor(), scale, t, k0, None)
                 .unwrap()
                 .f
         };
@@ -173,6 +185,15 @@ fn fused_attention_matches_reference(scale: u32, t: f32) {
             gr.get(v.as_tensor()).unwrap(),
             name,
         );
+    }
+    if null {
+        let (gk_f, gk_r) = (gf.get(k0.as_tensor()), gr.get(k0.as_tensor()));
+        close(gk_f.unwrap(), gk_r.unwrap(), "k0");
+        // The null key takes part: some words' maps are mostly its even share.
+        let sum = gk_r.unwrap().abs().unwrap().sum_all().unwrap();
+        assert!(sum.to_scalar::<f32>().unwrap() > 1e-4);
+    } else {
+        assert!(gf.get(k0.as_tensor()).is_none());
     }
 }
 
@@ -269,11 +290,23 @@ fn training_sequence_matches_step_by_step_acting() {
         word_temperature: groundscope::policy::WordTemperature(3.89),
         ..ModelConfig::new(Variant::Attention)
     };
+    // The null key (part 9), with shared and with split keys.
+    let null = ModelConfig {
+        null_key: true,
+        search_query: false,
+        ..search
+    };
+    let null_split = ModelConfig {
+        null_key: true,
+        ..split
+    };
     for cfg in [
         ModelConfig::new(Variant::Attention),
         ModelConfig::new(Variant::Baseline),
         split,
         search,
+        null,
+        null_split,
     ] {
         let net = Net::new(cfg, Params::init(&cfg, 2).unwrap().detached()).unwrap();
         let level = LevelConfig::default();

@@ -29,6 +29,7 @@ fn tiny(variant: Variant) -> ModelConfig {
         key_kernel: None,
         attend_words: AttendWords::All,
         search_query: false,
+        null_key: false,
         word_dim: 4,
         key_dim: 4,
         lstm_hidden: 5,
@@ -108,7 +109,18 @@ fn gradients_reach_every_parameter_and_match_finite_differences() {
         search_query: true,
         ..tiny(Variant::Attention)
     };
+    // The null key (the big-room study's part 9), with shared and with split keys.
+    let null_key = ModelConfig {
+        null_key: true,
+        ..tiny(Variant::Attention)
+    };
+    let null_split = ModelConfig {
+        null_key: true,
+        ..split_keys
+    };
     for cfg in [
+        null_key,
+        null_split,
         search_query,
         split_keys,
         tiny(Variant::Attention),
@@ -126,6 +138,7 @@ fn gradients_reach_every_parameter_and_match_finite_differences() {
             cfg.word_temperature,
             cfg.key_kernel,
             cfg.search_query,
+            cfg.null_key,
         );
         let params = Params::init(&cfg, 3).unwrap();
         let net = Net::new(cfg, params.tracked()).unwrap();

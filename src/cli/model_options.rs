@@ -41,6 +41,12 @@ pub struct ModelOptions {
     /// unchanged). Departs from the paper. Attention model with shared keys only.
     #[arg(long)]
     pub search_query: bool,
+    /// Give every word's map a place for "nothing I name is in view": a learned key of no
+    /// cell joins each word's softmax and its share is spread evenly over the view (a map
+    /// wholly on it is flat, and the filter then passes the whole view). Departs from the
+    /// paper. Attention model without --search-query only.
+    #[arg(long)]
+    pub null_key: bool,
 }
 
 /// Parses `--key-kernel`: `shared` or a kernel side (checked by [`ModelConfig::validate`]).
@@ -69,13 +75,14 @@ impl ModelOptions {
             key_kernel: parse_key_kernel(&self.key_kernel)?,
             attend_words: AttendWords::parse(&self.attend_words)?,
             search_query: self.search_query,
+            null_key: self.null_key,
             ..cfg
         })
     }
 
     /// Each option as `(clap id, the value given, the value in cfg)`, for comparing a command
     /// line with a checkpoint.
-    pub fn against(&self, cfg: &ModelConfig) -> [(&'static str, String, String); 7] {
+    pub fn against(&self, cfg: &ModelConfig) -> [(&'static str, String, String); 8] {
         [
             (
                 "conv_kernel",
@@ -112,6 +119,11 @@ impl ModelOptions {
                 "search_query",
                 self.search_query.to_string(),
                 cfg.search_query.to_string(),
+            ),
+            (
+                "null_key",
+                self.null_key.to_string(),
+                cfg.null_key.to_string(),
             ),
         ]
     }

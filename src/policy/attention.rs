@@ -47,6 +47,26 @@ pub fn attention_maps(q: &Tensor, kc: &Tensor) -> Result<Tensor, PolicyError> {
     Ok(candle_nn::ops::softmax(&scores(q, kc)?, D::Minus1)?)
 }
 
+/// Eq. 4 with the null key `k₀` (1, d_k) of [`crate::policy::ModelConfig::null_key`]: each
+/// word's softmax runs over the 49 cells and `k₀`, `[p_i1 … p_i49, p_i0] = softmax([Q_i Kcᵀ,
+/// Q_i k₀ᵀ] / √d_k)`, and the null key's share is spread evenly over the cells:
+/// `A_ij = p_ij + p_i0 / 49`, (B, m, 49), each row still summing to 1. A word that finds
+/// nothing it names can so make its map flat, and a flat `M` passes the whole view.
+pub fn attention_maps_null(q: &Tensor, kc: &Tensor, k0: &Tensor) -> Result<Tensor, PolicyError> {
+    let s0 = null_logits(q, k0)?;
+    let p = candle_nn::ops::softmax(&Tensor::cat(&[&scores(q, kc)?, &s0], D::Minus1)?, D::Minus1)?;
+    let n = kc.dim(1)?;
+    let spread = (p.narrow(D::Minus1, n, 1)? / n as f64)?;
+    Ok(p.narrow(D::Minus1, 0, n)?.broadcast_add(&spread)?)
+}
+
+/// The null key's logits `Q k₀ᵀ / √d_k`, (…, m, 1), for `q` (…, m, d_k) and `k₀` (1, d_k):
+/// the column the fused training path appends to the keyed queries.
+pub fn null_logits(q: &Tensor, k0: &Tensor) -> Result<Tensor, PolicyError> {
+    let d_k = q.dim(D::Minus1)? as f64;
+    Ok((q.broadcast_matmul(&k0.t()?)? / d_k.sqrt())?)
+}
+
 /// Eq. 5: `H_i = −Σ_j A_ij ln A_ij` (nats), (B, m).
 pub fn entropies(a: &Tensor) -> Result<Tensor, PolicyError> {
     let ln_a = a.clamp(TINY, 1.0)?.log()?;
@@ -115,10 +135,12 @@ pub fn attend(
     scale: u32,
     t: f32,
 ) -> Result<AttentionOut, PolicyError> {
-    attend_with(q, kc, mask, o, scale, t, None)
+    attend_with(q, kc, mask, o, scale, t, None, None)
 }
 
-/// [`attend`] with an optional [`Intervention`] applied to `w` or `M` before the filter.
+/// [`attend`] with the model's null key `k₀` (maps by [`attention_maps_null`]; `None` for the
+/// paper's eq. 4) and an optional [`Intervention`] applied to `w` or `M` before the filter.
+#[allow(clippy::too_many_arguments)]
 pub fn attend_with(
     q: &Tensor,
     kc: &Tensor,
@@ -126,9 +148,13 @@ pub fn attend_with(
     o: &Tensor,
     scale: u32,
     t: f32,
+    null_key: Option<&Tensor>,
     intervention: Option<&Intervention>,
 ) -> Result<AttentionOut, PolicyError> {
-    let a = attention_maps(q, kc)?;
+    let a = match null_key {
+        Some(k0) => attention_maps_null(q, kc, k0)?,
+        None => attention_maps(q, kc)?,
+    };
     let h = entropies(&a)?;
     let mut w = word_weights(&h, mask, t)?;
     if let Some(Intervention::ScaleWeights(factors)) = intervention {
@@ -174,6 +200,39 @@ mod tests {
         assert!((a[1] - 2f32.exp() / z).abs() < 1e-6);
         assert!((a[2] - 1.0 / z).abs() < 1e-6);
         assert!((a.iter().sum::<f32>() - 1.0).abs() < 1e-5);
+    }
+
+    #[test]
+    fn the_null_keys_share_is_spread_evenly_over_the_cells() {
+        // One frame, two words, d_k = 2; cell 3 matches both words' queries by 4 (score 4/√2).
+        let q = Tensor::from_vec(vec![1f32, 0., 0., 1.], (1, 2, 2), &Device::Cpu).unwrap();
+        let mut keys = vec![0f32; 49 * 2];
+        keys[3 * 2] = 4.0;
+        keys[3 * 2 + 1] = 4.0;
+        let kc = Tensor::from_vec(keys, (1, 49, 2), &Device::Cpu).unwrap();
+        // k₀ matches word 1 by 10 (score 10/√2) and word 0 not at all (score 0).
+        let k0 = Tensor::from_vec(vec![0f32, 10.], (1, 2), &Device::Cpu).unwrap();
+        let a = attention_maps_null(&q, &kc, &k0)
+            .unwrap()
+            .to_vec3::<f32>()
+            .unwrap();
+        let r = 2f32.sqrt();
+        for (i, null_score) in [(0, 0.0), (1, 10.0 / r)] {
+            let z = (4.0 / r).exp() + 48.0 + f32::exp(null_score);
+            let spread = f32::exp(null_score) / z / 49.0;
+            assert!((a[0][i][3] - ((4.0 / r).exp() / z + spread)).abs() < 1e-6);
+            assert!((a[0][i][0] - (1.0 / z + spread)).abs() < 1e-6);
+            assert!((a[0][i].iter().sum::<f32>() - 1.0).abs() < 1e-5);
+        }
+        // Word 0's map is peaked on cell 3; word 1's is mostly the null key's even share,
+        // nearly flat (entropy close to ln 49) and still highest where its query matches.
+        let h = entropies(&Tensor::from_vec(a[0].concat(), (1, 2, 49), &Device::Cpu).unwrap())
+            .unwrap()
+            .to_vec2::<f32>()
+            .unwrap();
+        assert!(a[0][0][3] > 0.2 && h[0][0] < h[0][1], "{h:?}");
+        assert!(h[0][1] > 0.99 * 49f32.ln(), "{h:?}");
+        assert!(a[0][1][3] > a[0][1][0]);
     }
 
     #[test]

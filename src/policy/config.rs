@@ -227,6 +227,13 @@ pub struct ModelConfig {
     /// split keys; written only when set.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub search_query: bool,
+    /// A learned key of no cell (`attention.null.weight`, the big-room study's part 9): it
+    /// joins every word's softmax as a 50th entry and its share is spread evenly over the 49
+    /// cells ([`super::attention::attention_maps_null`]), so a word can make its map flat
+    /// when nothing it names is in view. Attention only, not with the search query; written
+    /// only when set.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub null_key: bool,
     /// E: word embedding size.
     pub word_dim: usize,
     /// d_k: query/key size.
@@ -252,6 +259,7 @@ impl ModelConfig {
             key_kernel: None,
             attend_words: AttendWords::All,
             search_query: false,
+            null_key: false,
             word_dim: 32,
             key_dim: 32,
             lstm_hidden: 128,
@@ -331,6 +339,12 @@ impl ModelConfig {
         if self.search_query && (!self.has_attention() || self.key_kernel.is_some()) {
             return Err(super::PolicyError::Input(
                 "model setting search_query is for the attention model with shared keys only"
+                    .into(),
+            ));
+        }
+        if self.null_key && (!self.has_attention() || self.search_query) {
+            return Err(super::PolicyError::Input(
+                "model setting null_key is for the attention model without search_query only"
                     .into(),
             ));
         }
@@ -496,6 +510,36 @@ mod tests {
         ] {
             let e = bad.validate().unwrap_err().to_string();
             assert!(e.contains("search_query"), "{e}");
+        }
+    }
+
+    #[test]
+    fn null_key_is_written_only_when_set_and_needs_attention_without_search() {
+        let plain = ModelConfig::new(Variant::Attention);
+        let null = ModelConfig {
+            null_key: true,
+            key_kernel: Some(1),
+            ..plain
+        };
+        let json = serde_json::to_string(&null).unwrap();
+        assert!(json.contains("\"null_key\":true"), "{json}");
+        assert!(!serde_json::to_string(&plain).unwrap().contains("null_key"));
+        assert_eq!(serde_json::from_str::<ModelConfig>(&json).unwrap(), null);
+        assert!(null.validate().is_ok());
+        assert_eq!(null.lstm_input_size(), plain.lstm_input_size());
+        for bad in [
+            ModelConfig {
+                search_query: true,
+                key_kernel: None,
+                ..null
+            },
+            ModelConfig {
+                null_key: true,
+                ..ModelConfig::new(Variant::Baseline)
+            },
+        ] {
+            let e = bad.validate().unwrap_err().to_string();
+            assert!(e.contains("null_key"), "{e}");
         }
     }
 

@@ -236,6 +236,7 @@ impl Net {
                     o,
                     self.cfg.filter_scale,
                     self.cfg.word_temperature.0,
+                    att.null.as_ref(),
                     intervention,
                 )?;
                 let f = out.f.reshape((b, n * k))?;
@@ -281,6 +282,10 @@ impl Net {
         let (b, n, k) = o.dims3()?;
         let (scale, t) = (self.cfg.filter_scale, self.cfg.word_temperature.0);
         match (keyed, o_key) {
+            (Some((qk, mask)), None) if self.cfg.has_attention() && self.cfg.null_key => {
+                let f = super::kernels::attention::attention_filter_null(qk, mask, o, scale, t)?;
+                Ok(f.reshape((b, n * k))?)
+            }
             (Some((qk, mask)), None) if self.cfg.has_attention() => {
                 let f = super::kernels::attention::attention_filter(qk, mask, o, scale, t)?;
                 let f = f.reshape((b, n * k))?;
@@ -300,9 +305,17 @@ impl Net {
             }
             (Some((qk, mask)), Some(ok)) if self.cfg.has_attention() => {
                 let both = Tensor::cat(&[ok, o], 2)?;
-                let padded = Tensor::cat(&[qk, &qk.zeros_like()?], 2)?;
-                let f =
-                    super::kernels::attention::attention_filter(&padded, mask, &both, scale, t)?;
+                let f = if self.cfg.null_key {
+                    // The null logit stays the last column, after the zeros on `Õ`'s channels.
+                    let kq = qk.narrow(2, 0, k)?;
+                    let padded = Tensor::cat(&[&kq, &kq.zeros_like()?, &qk.narrow(2, k, 1)?], 2)?;
+                    super::kernels::attention::attention_filter_null(
+                        &padded, mask, &both, scale, t,
+                    )?
+                } else {
+                    let padded = Tensor::cat(&[qk, &qk.zeros_like()?], 2)?;
+                    super::kernels::attention::attention_filter(&padded, mask, &both, scale, t)?
+                };
                 Ok(f.narrow(2, k, k)?.reshape((b, n * k))?)
             }
             _ => Ok(o.reshape((b, n * k))?),
@@ -310,15 +323,22 @@ impl Net {
     }
 
     /// The mission inputs of the training path: text codes per frame and, for attention, the
-    /// keyed queries `Q̂` ([`super::attention::keyed_queries`], computed per distinct mission)
+    /// keyed queries `Q̂` ([`super::attention::keyed_queries`], computed per distinct mission;
+    /// with the null key one more column, [`super::attention::null_logits`])
     /// and the mask, gathered per frame.
     pub fn mission_inputs_keyed(&self, tb: &TokenBatch) -> Result<MissionInputs, PolicyError> {
         let emb = self.embed(tb)?;
         let text = self.encode_text(tb, &emb)?.index_select(&tb.index, 0)?;
         let queries = if self.cfg.has_attention() {
-            let wk = &self.attention_weights()?.k;
-            let qk = super::attention::keyed_queries(&self.queries(&emb)?, wk)?
-                .index_select(&tb.index, 0)?;
+            let att = self.attention_weights()?;
+            let q = self.queries(&emb)?;
+            let qk = super::attention::keyed_queries(&q, &att.k)?;
+            // With the null key each row also carries its null logit, as the fused op reads it.
+            let qk = match &att.null {
+                Some(k0) => Tensor::cat(&[&qk, &super::attention::null_logits(&q, k0)?], 2)?,
+                None => qk,
+            }
+            .index_select(&tb.index, 0)?;
             let mask = self.attention_mask(tb)?.index_select(&tb.index, 0)?;
             Some((qk, mask))
         } else {

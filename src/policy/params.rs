@@ -107,14 +107,20 @@ pub fn param_specs(cfg: &ModelConfig) -> Vec<ParamSpec> {
         if cfg.search_query {
             v.push(spec("attention.search.weight", &[1, dk], Init::RowNormal));
         }
+        if cfg.null_key {
+            v.push(spec(NULL_KEY, &[1, dk], Init::RowNormal));
+        }
     }
     v.sort_by(|a, b| a.name.cmp(&b.name));
     v
 }
 
+/// The null key's parameter ([`ModelConfig::null_key`]).
+const NULL_KEY: &str = "attention.null.weight";
+
 /// Whether parameter `name` computes the word maps (or the search map): the word
-/// embeddings, the encoders that give the keys and `Õ`, and the query, key and search
-/// projections. What `train --freeze-attention-at` stops training; the LSTM, the mission
+/// embeddings, the encoders that give the keys and `Õ`, and the query, key, search and
+/// null-key projections. What `train --freeze-attention-at` stops training; the LSTM, the mission
 /// GRU, actor and critic are the rest.
 pub fn computes_maps(name: &str) -> bool {
     ["word_emb.", "encoder.", "attention."]
@@ -155,7 +161,13 @@ impl Params {
     pub fn init(cfg: &ModelConfig, seed: u64) -> Result<Self, PolicyError> {
         let mut rng = Pcg64Mcg::seed_from_u64(seed);
         let mut vars = BTreeMap::new();
-        for s in param_specs(cfg) {
+        // The null key is drawn last, so that every other parameter starts as it does
+        // without the option (a run with it differs from its twin by the option alone).
+        let (mut specs, last): (Vec<_>, Vec<_>) = param_specs(cfg)
+            .into_iter()
+            .partition(|s| s.name != NULL_KEY);
+        specs.extend(last);
+        for s in specs {
             let data = draw(&s, &mut rng);
             let t = Tensor::from_vec(data, s.shape.as_slice(), &Device::Cpu)?;
             vars.insert(s.name, Var::from_tensor(&t)?);
@@ -226,5 +238,33 @@ mod tests {
         let w = get(&a, "actor.2.weight");
         let row: f32 = w[..64].iter().map(|x| x * x).sum();
         assert!((row - 1.0).abs() < 1e-5);
+    }
+
+    #[test]
+    fn the_null_key_leaves_every_other_parameter_as_drawn_without_it() {
+        let plain = ModelConfig {
+            key_kernel: Some(1),
+            ..ModelConfig::new(Variant::Attention)
+        };
+        let null = ModelConfig {
+            null_key: true,
+            ..plain
+        };
+        let (a, b) = (
+            Params::init(&plain, 5).unwrap(),
+            Params::init(&null, 5).unwrap(),
+        );
+        assert_eq!(b.vars.len(), a.vars.len() + 1);
+        let k0 = b.vars[NULL_KEY].as_tensor().flatten_all().unwrap();
+        let norm: f32 = k0.sqr().unwrap().sum_all().unwrap().to_scalar().unwrap();
+        assert!((norm - 1.0).abs() < 1e-5, "{norm}");
+        for (name, v) in &a.vars {
+            let bits = |t: &Tensor| t.flatten_all().unwrap().to_vec1::<f32>().unwrap();
+            assert_eq!(
+                bits(v.as_tensor()),
+                bits(b.vars[name].as_tensor()),
+                "{name}"
+            );
+        }
     }
 }

@@ -70,6 +70,8 @@ pub(crate) struct Attention {
     pub k: Tensor,
     /// The search query `q_s` (1, d_k), [`ModelConfig::search_query`] only.
     pub search: Option<Tensor>,
+    /// The null key `k₀` (1, d_k), [`ModelConfig::null_key`] only.
+    pub null: Option<Tensor>,
 }
 
 /// The actor's or the critic's two layers around a tanh.
@@ -116,6 +118,11 @@ impl Weights {
                 k: take(w, "attention.k.weight")?,
                 search: if cfg.search_query {
                     Some(take(w, "attention.search.weight")?)
+                } else {
+                    None
+                },
+                null: if cfg.null_key {
+                    Some(take(w, "attention.null.weight")?)
                 } else {
                     None
                 },
