@@ -27,8 +27,9 @@ struct AttentionFilter {
     null: bool,
 }
 
-/// Its backward: from `Q̂`, `Õ` and `dF` (the mask held in the op), returns `[dQ̂ (m·K) | dÕ (49·K)]` per
-/// frame as one (B, m·K + 49·K) tensor.
+/// Its backward: from `Q̂`, `Õ` and `dF` (the mask held in the op), returns every frame's `dQ̂`
+/// (m × K, or m × (K + 1) with the null key) followed by every frame's `dÕ` (49 × K), as one
+/// flat tensor.
 struct AttentionFilterBackward {
     m: usize,
     k: usize,
@@ -129,10 +130,11 @@ fn shapes(l1: &Layout, l2: &Layout, l3: &Layout, null: bool) -> Result<(usize, u
     let (b3, n3, k) = l3.shape().dims3()?;
     if k1 != k + usize::from(null) || n3 != N_CELLS || b2 != b || b3 != b || m2 != m {
         return Err(candle_core::Error::Msg(format!(
-            "attention: shapes {:?}, {:?}, {:?} do not fit (B, m, K), (B, m), (B, 49, K)",
+            "attention: shapes {:?}, {:?}, {:?} do not fit (B, m, K{}), (B, m), (B, 49, K)",
             l1.shape(),
             l2.shape(),
-            l3.shape()
+            l3.shape(),
+            if null { " + 1" } else { "" }
         )));
     }
     Ok((b, m, k))
