@@ -100,6 +100,10 @@ def model_config(meta: dict) -> dict:
         # The big-room study's part 9 (src/policy/config.rs, null_key): not mirrored here
         # unless that recipe is chosen.
         raise ValueError("model.null_key = true is not supported by this export")
+    if cfg.get("key_context"):
+        # The big-room study's part 11 (src/policy/config.rs, key_context): not mirrored here
+        # unless that recipe is chosen.
+        raise ValueError("model.key_context = true is not supported by this export")
     if cfg["colour_codes"] not in ("all", "objects"):
         raise ValueError(f"model.colour_codes = {cfg['colour_codes']!r} must be all or objects")
     return cfg

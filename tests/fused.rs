@@ -300,6 +300,12 @@ fn training_sequence_matches_step_by_step_acting() {
         null_key: true,
         ..split
     };
+    // Split keys that also read `Õ` (part 11): `Q̂` spans both halves of the channels.
+    let context = ModelConfig {
+        key_context: true,
+        attend_words: groundscope::policy::AttendWords::Content,
+        ..split
+    };
     for cfg in [
         ModelConfig::new(Variant::Attention),
         ModelConfig::new(Variant::Baseline),
@@ -307,6 +313,7 @@ fn training_sequence_matches_step_by_step_acting() {
         search,
         null,
         null_split,
+        context,
     ] {
         let net = Net::new(cfg, Params::init(&cfg, 2).unwrap().detached()).unwrap();
         let level = LevelConfig::default();

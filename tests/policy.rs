@@ -30,6 +30,7 @@ fn tiny(variant: Variant) -> ModelConfig {
         attend_words: AttendWords::All,
         search_query: false,
         null_key: false,
+        key_context: false,
         word_dim: 4,
         key_dim: 4,
         lstm_hidden: 5,
@@ -118,7 +119,13 @@ fn gradients_reach_every_parameter_and_match_finite_differences() {
         null_key: true,
         ..split_keys
     };
+    // Split keys that also read `Õ` (part 11).
+    let key_context = ModelConfig {
+        key_context: true,
+        ..split_keys
+    };
     for cfg in [
+        key_context,
         null_key,
         null_split,
         search_query,
@@ -139,6 +146,7 @@ fn gradients_reach_every_parameter_and_match_finite_differences() {
             cfg.key_kernel,
             cfg.search_query,
             cfg.null_key,
+            cfg.key_context,
         );
         let params = Params::init(&cfg, 3).unwrap();
         let net = Net::new(cfg, params.tracked()).unwrap();

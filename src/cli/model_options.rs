@@ -47,6 +47,11 @@ pub struct ModelOptions {
     /// paper. Attention model without --search-query only.
     #[arg(long)]
     pub null_key: bool,
+    /// With split keys: let the keys read the filter's features too, `Kc = [Õ_key | Õ] W_k`,
+    /// so a map has a cell's own codes and its neighbourhood to point by. Not with
+    /// --null-key.
+    #[arg(long)]
+    pub key_context: bool,
 }
 
 /// Parses `--key-kernel`: `shared` or a kernel side (checked by [`ModelConfig::validate`]).
@@ -76,13 +81,14 @@ impl ModelOptions {
             attend_words: AttendWords::parse(&self.attend_words)?,
             search_query: self.search_query,
             null_key: self.null_key,
+            key_context: self.key_context,
             ..cfg
         })
     }
 
     /// Each option as `(clap id, the value given, the value in cfg)`, for comparing a command
     /// line with a checkpoint.
-    pub fn against(&self, cfg: &ModelConfig) -> [(&'static str, String, String); 8] {
+    pub fn against(&self, cfg: &ModelConfig) -> [(&'static str, String, String); 9] {
         [
             (
                 "conv_kernel",
@@ -124,6 +130,11 @@ impl ModelOptions {
                 "null_key",
                 self.null_key.to_string(),
                 cfg.null_key.to_string(),
+            ),
+            (
+                "key_context",
+                self.key_context.to_string(),
+                cfg.key_context.to_string(),
             ),
         ]
     }

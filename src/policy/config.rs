@@ -234,6 +234,12 @@ pub struct ModelConfig {
     /// only when set.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub null_key: bool,
+    /// With split keys ([`Self::key_kernel`]): the keys read the split keys' own features and
+    /// the filter's features together, `Kc = [Õ_key | Õ] W_k` with `W_k` (d_k × 2K), so a map
+    /// has both a cell's own codes and its neighbourhood to point by (the big-room study's
+    /// part 11). Not with the null key; written only when set.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub key_context: bool,
     /// E: word embedding size.
     pub word_dim: usize,
     /// d_k: query/key size.
@@ -260,6 +266,7 @@ impl ModelConfig {
             attend_words: AttendWords::All,
             search_query: false,
             null_key: false,
+            key_context: false,
             word_dim: 32,
             key_dim: 32,
             lstm_hidden: 128,
@@ -346,6 +353,11 @@ impl ModelConfig {
             return Err(super::PolicyError::Input(
                 "model setting null_key is for the attention model without search_query only"
                     .into(),
+            ));
+        }
+        if self.key_context && (self.key_kernel.is_none() || self.null_key) {
+            return Err(super::PolicyError::Input(
+                "model setting key_context needs split keys (key_kernel) and no null_key".into(),
             ));
         }
         if self.attend_words != AttendWords::All && !self.has_attention() {
@@ -540,6 +552,44 @@ mod tests {
         ] {
             let e = bad.validate().unwrap_err().to_string();
             assert!(e.contains("null_key"), "{e}");
+        }
+    }
+
+    #[test]
+    fn key_context_is_written_only_when_set_and_needs_split_keys() {
+        let split = ModelConfig {
+            key_kernel: Some(1),
+            ..ModelConfig::new(Variant::Attention)
+        };
+        let context = ModelConfig {
+            key_context: true,
+            ..split
+        };
+        let json = serde_json::to_string(&context).unwrap();
+        assert!(json.contains("\"key_context\":true"), "{json}");
+        assert!(
+            !serde_json::to_string(&split)
+                .unwrap()
+                .contains("key_context")
+        );
+        assert_eq!(serde_json::from_str::<ModelConfig>(&json).unwrap(), context);
+        assert!(context.validate().is_ok());
+        for bad in [
+            ModelConfig {
+                key_kernel: None,
+                ..context
+            },
+            ModelConfig {
+                null_key: true,
+                ..context
+            },
+            ModelConfig {
+                key_context: true,
+                ..ModelConfig::new(Variant::Baseline)
+            },
+        ] {
+            let e = bad.validate().unwrap_err().to_string();
+            assert!(e.contains("key_context"), "{e}");
         }
     }
 

@@ -227,7 +227,13 @@ impl Net {
         match q {
             Some((q, mask)) if self.cfg.has_attention() => {
                 let att = self.attention_weights()?;
-                let kc = times_transposed(&o_key.unwrap_or(o).reshape((b * n, k))?, &att.k, None)?
+                let key_in = match o_key {
+                    Some(ok) if self.cfg.key_context => Tensor::cat(&[ok, o], 2)?,
+                    Some(ok) => ok.clone(),
+                    None => o.clone(),
+                };
+                let width = key_in.dim(2)?;
+                let kc = times_transposed(&key_in.reshape((b * n, width))?, &att.k, None)?
                     .reshape((b, n, self.cfg.key_dim))?;
                 let out = attend_with(
                     q,
@@ -273,6 +279,8 @@ impl Net {
     /// With split keys (`o_key`) the same op runs on the channels `[Õ_key | Õ]` with `Q̂`
     /// padded by zeros on `Õ`'s channels — the scores are then `Q̂ Õ_keyᵀ` — and only `Õ`'s
     /// channels of its output are kept, so `Õ_key` gets its gradient through the maps alone.
+    /// With [`ModelConfig::key_context`] `Q̂` is 2K wide and is not padded: the scores read
+    /// both halves.
     pub fn visual_features(
         &self,
         o: &Tensor,
@@ -305,7 +313,10 @@ impl Net {
             }
             (Some((qk, mask)), Some(ok)) if self.cfg.has_attention() => {
                 let both = Tensor::cat(&[ok, o], 2)?;
-                let f = if self.cfg.null_key {
+                let f = if self.cfg.key_context {
+                    // Q̂ is already 2K wide: the scores read both halves of the channels.
+                    super::kernels::attention::attention_filter(qk, mask, &both, scale, t)?
+                } else if self.cfg.null_key {
                     // The null logit stays the last column, after the zeros on `Õ`'s channels.
                     let kq = qk.narrow(2, 0, k)?;
                     let padded = Tensor::cat(&[&kq, &kq.zeros_like()?, &qk.narrow(2, k, 1)?], 2)?;

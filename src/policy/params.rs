@@ -103,7 +103,9 @@ pub fn param_specs(cfg: &ModelConfig) -> Vec<ParamSpec> {
     }
     if cfg.has_attention() {
         v.push(spec("attention.q.weight", &[dk, e], Init::RowNormal));
-        v.push(spec("attention.k.weight", &[dk, k], Init::RowNormal));
+        // With key context the keys read [Õ_key | Õ], 2K channels.
+        let key_in = if cfg.key_context { 2 * k } else { k };
+        v.push(spec("attention.k.weight", &[dk, key_in], Init::RowNormal));
         if cfg.search_query {
             v.push(spec("attention.search.weight", &[1, dk], Init::RowNormal));
         }
