@@ -140,7 +140,10 @@ pub fn attend(
 
 /// [`attend`] with the model's null key `k₀` (maps by [`attention_maps_null`]; `None` for the
 /// paper's eq. 4) and an optional [`Intervention`] applied to `w` or `M` before the filter.
-#[allow(clippy::too_many_arguments)]
+#[expect(
+    clippy::too_many_arguments,
+    reason = "the composite attention's whole input: queries, keys, mask, features, the two model constants, the null key and an intervention"
+)]
 pub fn attend_with(
     q: &Tensor,
     kc: &Tensor,

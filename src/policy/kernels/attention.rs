@@ -43,7 +43,10 @@ struct AttentionFilterBackward {
 /// Per frame: maps `a` (m × 49), weights `w` (m) and `M` (49) from the scores and mask, at
 /// word temperature `t`. With `null` logits (m) each word's softmax also runs over its null
 /// entry, whose probability goes to `p0` (m) and is spread evenly over the word's map.
-#[allow(clippy::too_many_arguments)]
+#[expect(
+    clippy::too_many_arguments,
+    reason = "one frame's inputs and the four buffers the forward and backward passes both fill"
+)]
 fn maps(
     s: &[f32],
     null: Option<&[f32]>,
