@@ -118,7 +118,7 @@ pub fn param_specs(cfg: &ModelConfig) -> Vec<ParamSpec> {
 }
 
 /// The null key's parameter ([`ModelConfig::null_key`]).
-const NULL_KEY: &str = "attention.null.weight";
+pub(crate) const NULL_KEY: &str = "attention.null.weight";
 
 /// Whether parameter `name` computes the word maps (or the search map): the word
 /// embeddings, the encoders that give the keys and `Õ`, and the query, key, search and

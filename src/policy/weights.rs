@@ -122,7 +122,7 @@ impl Weights {
                     None
                 },
                 null: if cfg.null_key {
-                    Some(take(w, "attention.null.weight")?)
+                    Some(take(w, super::params::NULL_KEY)?)
                 } else {
                     None
                 },

@@ -207,6 +207,7 @@ impl CustomOp3 for AttentionFilter {
         grad: &Tensor,
     ) -> Result<(Option<Tensor>, Option<Tensor>, Option<Tensor>)> {
         let (b, m, width) = qk.dims3()?;
+        let k = width - usize::from(self.null);
         // The mask (no gradient, B·m floats) rides in the op, leaving its inputs to Q̂, Õ, dF.
         let mask: Vec<f32> = mask.flatten_all()?.to_vec1()?;
         let both = qk.contiguous()?.apply_op3_no_bwd(
@@ -214,14 +215,13 @@ impl CustomOp3 for AttentionFilter {
             &grad.contiguous()?,
             &AttentionFilterBackward {
                 m,
-                k: width - usize::from(self.null),
+                k,
                 scale: self.scale,
                 t: self.t,
                 null: self.null,
                 mask,
             },
         )?;
-        let k = width - usize::from(self.null);
         let dqk = both.narrow(0, 0, b * m * width)?.reshape((b, m, width))?;
         let d_o = both
             .narrow(0, b * m * width, b * N_CELLS * k)?
