@@ -306,6 +306,14 @@ fn training_sequence_matches_step_by_step_acting() {
         attend_words: groundscope::policy::AttendWords::Content,
         ..split
     };
+    // Keys from a 3×3 encoder of their own, `Õ` from the 1×1 one, the paper's filter (part 12).
+    let cell_values = ModelConfig {
+        conv_kernel: 1,
+        key_kernel: Some(3),
+        filter_scale: 1,
+        attend_words: groundscope::policy::AttendWords::Content,
+        ..split
+    };
     for cfg in [
         ModelConfig::new(Variant::Attention),
         ModelConfig::new(Variant::Baseline),
@@ -314,6 +322,7 @@ fn training_sequence_matches_step_by_step_acting() {
         null,
         null_split,
         context,
+        cell_values,
     ] {
         let net = Net::new(cfg, Params::init(&cfg, 2).unwrap().detached()).unwrap();
         let level = LevelConfig::default();

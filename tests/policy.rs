@@ -124,7 +124,15 @@ fn gradients_reach_every_parameter_and_match_finite_differences() {
         key_context: true,
         ..split_keys
     };
+    // Keys from a 3×3 encoder, `Õ` from the 1×1 one, the paper's filter (part 12).
+    let cell_values = ModelConfig {
+        conv_kernel: 1,
+        key_kernel: Some(3),
+        filter_scale: 1,
+        ..tiny(Variant::Attention)
+    };
     for cfg in [
+        cell_values,
         key_context,
         null_key,
         null_split,
