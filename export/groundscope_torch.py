@@ -35,8 +35,8 @@ The network, step by step (DESIGN.md §1):
 7. ``z = cat(h, gru)``; actor ``Linear → tanh → Linear`` (7 logits), critic likewise (value).
 
 Only ops that tract runs are used: the convolution over one-hot codes is written as table
-lookups (``Gather``, :func:`lookup_conv`; no ``OneHot``), the LSTM step is an ``nn.LSTMCell`` (primitive ops), the text encoder one
-``nn.GRU`` (a single ``GRU`` op, no ``sequence_lens``).
+lookups (``Gather``, :func:`lookup_conv`; no ``OneHot``), the LSTM step is an ``nn.LSTMCell``
+(primitive ops), the text encoder one ``nn.GRU`` (a single ``GRU`` op, no ``sequence_lens``).
 """
 
 from __future__ import annotations
@@ -109,56 +109,104 @@ def model_config(meta: dict) -> dict:
     return cfg
 
 
-# A cell code that contributes nothing: outside the view (the conv's zero padding) and, under
-# colour_codes = objects, the colour of a cell that is not an object.
-NO_CODE = CELL_CODES
+# The colour of a cell that ``colour_codes = objects`` leaves out: a seventh colour, whose
+# code contributes nothing (combo_table).
+NO_COLOUR = 6
+# A cell as one index: its type (11), colour (6 + NO_COLOUR) and state (3) together,
+# ``(t·7 + c)·3 + s``; one more index stands for a cell outside the view (the conv's zero
+# padding).
+COMBOS = 11 * 7 * 3
+OUTSIDE = COMBOS
 
 
 class CellEncoder(nn.Module):
-    """MiniGrid codes (B, 7, 7, 3) ``[vx][vy]`` → each cell's three one-hot positions
-    (B, vy, vx, 3), whole numbers as float32: type ``0–10``, colour ``11–16``, state ``17–19``
-    (``NO_CODE`` for a colour that ``colour_codes = objects`` leaves out)."""
+    """MiniGrid codes (B, 7, 7, 3) ``[vx][vy]`` → each cell's combined index (B, vy, vx),
+    whole numbers as float32, ``0 … COMBOS − 1``: type ``min(t, 10)``, colour ``min(c, 5)``
+    (``NO_COLOUR`` for one that ``colour_codes = objects`` leaves out) and state
+    ``min(s, 2)``."""
 
     def __init__(self, colour_codes: str):
         super().__init__()
         self.objects_only = colour_codes == "objects"
 
     def forward(self, image: torch.Tensor) -> torch.Tensor:
-        # Integer codes as floats (exact up to 2^24): clamp as obs.rs's `min` does.
+        # Integer codes as floats (exact up to 2^24), cast to int64 once for the lookup:
+        # tract's elementwise ops on int64 run many times slower than on float32. Clamped as
+        # obs.rs's `min` does.
         x = image.to(torch.float32)
         t = torch.clamp(x[..., 0], 0.0, 10.0)
-        c = torch.clamp(x[..., 1], 0.0, 5.0) + 11.0
-        s = torch.clamp(x[..., 2], 0.0, 2.0) + 17.0
+        c = torch.clamp(x[..., 1], 0.0, 5.0)
+        s = torch.clamp(x[..., 2], 0.0, 2.0)
         if self.objects_only:
-            c = torch.where(t >= FIRST_COLOURED_TYPE, c, torch.full_like(c, float(NO_CODE)))
-        idx = torch.stack([t, c, s], dim=-1)  # (B, vx, vy, 3)
-        return idx.permute(0, 2, 1, 3)  # (B, vy, vx, 3): rows = vy (agent-up)
+            c = torch.where(t >= FIRST_COLOURED_TYPE, c, torch.full_like(c, float(NO_COLOUR)))
+        combos = (t * 7.0 + c) * 3.0 + s  # (B, vx, vy)
+        return combos.transpose(1, 2)  # (B, vy, vx): rows = vy (agent-up)
 
 
-def lookup_conv(idx: torch.Tensor, conv: nn.Conv2d) -> torch.Tensor:
+def combo_table(weight: torch.Tensor) -> torch.Tensor:
+    """A conv's weight (K, 20, k, k) → one row per kernel offset and combined cell index,
+    (k·k·(COMBOS + 1), K): the sum of the weight columns of the cell's three codes (a colour
+    of ``NO_COLOUR`` and a cell outside the view add nothing). A function of the weights alone,
+    so the exporter folds it into one constant."""
+    # Built as a list, so that the exporter sees one constant rather than the assignments.
+    hot = [[0.0] * CELL_CODES for _ in range(COMBOS + 1)]
+    for t in range(11):
+        for c in range(7):
+            for s in range(3):
+                row = hot[(t * 7 + c) * 3 + s]
+                row[t] = row[17 + s] = 1.0
+                if c != NO_COLOUR:
+                    row[11 + c] = 1.0
+    k_out, _, ks, _ = weight.shape
+    per_offset = weight.permute(2, 3, 1, 0).reshape(ks * ks, CELL_CODES, k_out)
+    return torch.matmul(torch.tensor(hot), per_offset).reshape(ks * ks * (COMBOS + 1), k_out)
+
+
+def lookup_conv(combos: torch.Tensor, conv: nn.Conv2d) -> torch.Tensor:
     """``Conv(one-hot codes)`` as table lookups, (B, 49, K), cells ``j = vy·7 + vx``, before the
-    ReLU. A cell's one-hot planes have three ones, so the cross-correlation at a cell is the
-    bias plus, for each kernel offset and each of the neighbour's three codes, one column of
-    the weight: a table of ``k·k·21`` rows (the 21st of each offset zero, for ``NO_CODE``)
-    gathered by ``offset·21 + code``. The same sums as ``conv`` over one-hot planes (in another
-    order, ~1e-7); tract runs a ``Gather`` and a sum several times faster than the one-hot
-    ``Equal``s and the padded convolution (docs/onnx.md#speed)."""
-    k_out, _, ks, _ = conv.weight.shape
+    ReLU. The cross-correlation at a cell is the bias plus, for each kernel offset, the
+    neighbour's row of :func:`combo_table` (the bias is folded into the centre's rows, which
+    every cell reads once): one ``Gather`` of each cell's rows, one of its neighbours' and a
+    sum over the k·k offsets. The same sums as ``conv`` over one-hot planes (in another
+    order, ~1e-7); tract runs them several times faster than one-hot ``Equal``s and a padded
+    convolution (docs/onnx.md#speed)."""
+    # The module's own ints: the weight's shape is traced, and tests on it would warn.
+    k_out, ks = conv.out_channels, conv.kernel_size[0]
+    rows = COMBOS + 1
     p = ks // 2
-    rows = CELL_CODES + 1
-    table = conv.weight.permute(2, 3, 1, 0).reshape(ks * ks, CELL_CODES, k_out)
-    table = F.pad(table, (0, 0, 0, 1)).reshape(ks * ks * rows, k_out)
-    # Padded and offset as floats (whole numbers, exact), cast once: tract's Pad does not take
-    # the int64 codes of a cast.
-    padded = F.pad(idx, (0, 0, p, p, p, p), value=float(NO_CODE))  # (B, 7 + 2p, 7 + 2p, 3)
-    windows = [
-        padded[:, ky : ky + VIEW, kx : kx + VIEW, :] + float((ky * ks + kx) * rows)
-        for ky in range(ks)
-        for kx in range(ks)
-    ]
-    which = torch.cat(windows, dim=-1).to(torch.int64)  # (B, 7, 7, 3·k·k)
-    o = F.embedding(which, table).sum(dim=3) + conv.bias  # (B, 7, 7, K)
-    return o.reshape(o.shape[0], N_CELLS, k_out)
+    centre = p * ks + p
+    none = torch.zeros(1, 1, k_out)
+    after = ks * ks - 1 - centre
+    bias = torch.cat([none] * centre + [conv.bias.reshape(1, 1, k_out)] + [none] * after)
+    table = (combo_table(conv.weight).reshape(ks * ks, rows, k_out) + bias).reshape(-1, k_out)
+    flat = combos.reshape(-1, N_CELLS)
+    if ks == 1:
+        # A 1×1 conv reads the cell alone: one row each.
+        return F.embedding(flat.to(torch.int64), table)  # (B, 49, K)
+    # Index N_CELLS stands for a cell outside the view: one column appended, no Pad. Each
+    # cell's rows for all k·k offsets are looked up at once, then each cell picks its
+    # neighbours' rows, offset by offset, with one constant index: the only cast is of the
+    # cells' indices, and nothing is added to an index (each costs a slow pass in tract).
+    flat = torch.cat([flat, torch.full_like(flat[:, :1], float(OUTSIDE))], dim=1)  # (B, 50)
+    by_cell = table.reshape(ks * ks, rows, k_out).transpose(0, 1).reshape(rows, -1)
+    rows_of = F.embedding(flat.to(torch.int64), by_cell)  # (B, 50, k·k·K)
+    rows_of = rows_of.reshape(-1, (N_CELLS + 1) * ks * ks, k_out)  # row n·k·k + offset
+
+    def at(y: int, x: int) -> int:
+        return y * VIEW + x if 0 <= y < VIEW and 0 <= x < VIEW else N_CELLS
+
+    near = torch.tensor(
+        [
+            [
+                at(vy + ky - p, vx + kx - p) * ks * ks + ky * ks + kx
+                for ky in range(ks)
+                for kx in range(ks)
+            ]
+            for vy in range(VIEW)
+            for vx in range(VIEW)
+        ]
+    )  # (49, k·k): each cell's neighbour at each offset, and the offset's row
+    return rows_of[:, near].sum(dim=2)  # (B, 49, K)
 
 
 class GroundscopeNet(nn.Module):
@@ -240,13 +288,13 @@ class GroundscopeNet(nn.Module):
         ``(1 − α)·M + α·combined_override`` (α = ``override_weight``, (B,); the map (B, 7, 7)
         in the image layout ``[vx][vy]``) before the filter; the outputs show that ``M``."""
         b = image.shape[0]
-        codes = self.cells(image)  # (B, vy, vx, 3) one-hot positions
-        o = F.relu(lookup_conv(codes, self.conv))  # (B, 49, K), j = vy·7 + vx
+        combos = self.cells(image)  # (B, vy, vx)
+        o = F.relu(lookup_conv(combos, self.conv))  # (B, 49, K), j = vy·7 + vx
         emb = self.word_emb(mission)  # (B, L, E)
         maps = None
         if self.attention:
             if self.key_conv is not None:
-                o_key = F.relu(lookup_conv(codes, self.key_conv))
+                o_key = F.relu(lookup_conv(combos, self.key_conv))
             else:
                 o_key = o
             q = self.q(emb)  # (B, L, d_k)
