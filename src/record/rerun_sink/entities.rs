@@ -1,0 +1,286 @@
+//! What one recording logs: the static entities, and each step's images, maps, labels,
+//! grounding points, policy outputs and faithfulness measures (the paths in the parent's
+//! table).
+
+use std::fmt::Write as _;
+
+use rerun::RecordingStream;
+
+use super::{RecordError, sdk, word_path};
+use crate::episode::EpisodeTrace;
+use crate::metrics::grounding::{EvaluatedMap, WordKind};
+use crate::policy::ViewMap;
+use crate::record::RERUN_SDK_VERSION;
+use crate::record::scene::{
+    StepScene, TILE_PX, action_label, action_names, cell_centre, hit_color,
+};
+
+pub(super) fn log_static(
+    rec: &RecordingStream,
+    first: &EpisodeTrace,
+    n: usize,
+) -> Result<(), RecordError> {
+    let meta = format!(
+        "# groundscope recording\n\n\
+         | | |\n|---|---|\n\
+         | groundscope | {} |\n| Rerun SDK | {RERUN_SDK_VERSION} |\n\
+         | checkpoint | {} |\n| model | {} |\n| level | {} |\n| episodes | {n} (seeds from {}) |\n| actions | {} |\n",
+        env!("CARGO_PKG_VERSION"),
+        first.checkpoint,
+        first.variant.name(),
+        first.level,
+        first.seed,
+        first.mode.name(),
+    );
+    rec.log_static("meta", &rerun::TextDocument::from_markdown(meta))
+        .map_err(sdk)?;
+    if n == 1 {
+        rec.log_static("mission", &rerun::TextDocument::new(first.mission.as_str()))
+            .map_err(sdk)?;
+    }
+    // The overlay has one pixel per world cell; scaling it by the tile size lays it over the
+    // world render.
+    let s = TILE_PX as f32;
+    rec.log_static(
+        "world/attention",
+        &rerun::Transform3D::from_scale((s, s, 1.0)),
+    )
+    .map_err(sdk)?;
+    rec.log_static(
+        "policy/value",
+        &rerun::SeriesLines::new()
+            .with_names(["value"])
+            .with_colors([[31, 119, 180]]),
+    )
+    .map_err(sdk)?;
+    rec.log_static(
+        "policy/reward",
+        &rerun::SeriesLines::new()
+            .with_names(["reward"])
+            .with_colors([[44, 160, 44]]),
+    )
+    .map_err(sdk)?;
+    for kind in WordKind::ALL {
+        rec.log_static(
+            format!("metrics/{}", kind.name()),
+            &rerun::SeriesPoints::new().with_names(
+                crate::metrics::grounding::Accuracies::NAMES
+                    .map(|a| format!("{} {a}", kind.name())),
+            ),
+        )
+        .map_err(sdk)?;
+    }
+    Ok(())
+}
+
+/// A 7×7 map as a colour-mapped depth image on `[0, hi]`.
+fn map_image(map: &ViewMap, hi: f32) -> rerun::DepthImage {
+    let bytes: Vec<u8> = map.iter().flatten().flat_map(|v| v.to_le_bytes()).collect();
+    rerun::DepthImage::from_data_type_and_bytes(bytes, [7, 7], rerun::ChannelDatatype::F32)
+        .with_colormap(rerun::components::Colormap::Viridis)
+        .with_depth_range([0.0, f64::from(hi)])
+}
+
+/// Hit/miss markers at the related objects: green when the map is at or above the threshold
+/// on the object's cell (`acc`), yellow when only next to it (`acc_ng` or `acc_bs`), red for
+/// a miss.
+fn grounding_points(g: &EvaluatedMap) -> rerun::Points2D {
+    let colors: Vec<[u8; 3]> = g.hits.iter().map(hit_color).collect();
+    let labels: Vec<String> = g
+        .hits
+        .iter()
+        .map(|h| {
+            let m = |b: bool| if b { "hit" } else { "miss" };
+            format!(
+                "{} acc {} · ng {} · bs {} · cmb {}",
+                g.kind.name(),
+                m(h.acc),
+                m(h.acc_ng),
+                m(h.acc_bs),
+                m(h.acc_cmb)
+            )
+        })
+        .collect();
+    rerun::Points2D::new(g.hits.iter().map(|h| cell_centre(h.cell)))
+        .with_colors(colors)
+        .with_radii([0.22])
+        .with_labels(labels)
+        .with_show_labels(false)
+}
+
+fn label_box(text: String) -> rerun::Boxes2D {
+    rerun::Boxes2D::from_mins_and_sizes([(0.0, 0.0)], [(7.0, 7.0)])
+        .with_labels([text])
+        .with_show_labels(true)
+        .with_colors([[255, 255, 255]])
+}
+
+/// Occlusion Δ as a depth image beside the maps (on [0, 1], the range of a total-variation
+/// distance) and ρ and the intervention effects as scalars.
+fn log_faithfulness(
+    rec: &RecordingStream,
+    f: &crate::episode::StepFaithfulness,
+) -> Result<(), RecordError> {
+    rec.log("faithfulness/occlusion", &map_image(&f.occlusion, 1.0))
+        .map_err(sdk)?;
+    if let Some(rho) = f.rank_correlation {
+        rec.log(
+            "faithfulness/rank_correlation",
+            &rerun::Scalars::single(rho),
+        )
+        .map_err(sdk)?;
+    }
+    for (name, e) in &f.interventions {
+        rec.log(
+            format!("faithfulness/interventions/{name}"),
+            &rerun::Scalars::single(e.tv),
+        )
+        .map_err(sdk)?;
+    }
+    Ok(())
+}
+
+pub(super) fn log_step(
+    rec: &RecordingStream,
+    ep: &EpisodeTrace,
+    episode: usize,
+    step: &crate::episode::StepRecord,
+    scene: &StepScene,
+) -> Result<(), RecordError> {
+    let (w, h) = scene.world.dimensions();
+    rec.log(
+        "world/grid",
+        &rerun::Image::from_rgb24(scene.world.as_raw().as_slice(), [w, h]),
+    )
+    .map_err(sdk)?;
+    let (vw, vh) = scene.view.dimensions();
+    rec.log(
+        "view/image",
+        &rerun::Image::from_rgb24(scene.view.as_raw().as_slice(), [vw, vh]),
+    )
+    .map_err(sdk)?;
+
+    if let Some(f) = &step.faithfulness {
+        log_faithfulness(rec, f)?;
+    }
+    let names = action_names();
+    rec.log("policy/probs", &rerun::BarChart::new(step.probs.to_vec()))
+        .map_err(sdk)?;
+    rec.log(
+        "policy/value",
+        &rerun::Scalars::single(f64::from(step.value)),
+    )
+    .map_err(sdk)?;
+    rec.log("policy/reward", &rerun::Scalars::single(step.reward))
+        .map_err(sdk)?;
+    rec.log(
+        "policy/action",
+        &rerun::TextLog::new(format!(
+            "episode {episode} step {}: {} (value {:.3}, reward {:.3})",
+            step.t,
+            action_label(step),
+            step.value,
+            step.reward
+        )),
+    )
+    .map_err(sdk)?;
+    let mut status = format!(
+        "**{}**\n\nepisode {episode} (seed {}) · step {} of {} · {}\n\n\
+         action **{}** · value {:.3} · reward {:.3}\n\n| action | p |\n|---|---|\n",
+        ep.mission,
+        ep.seed,
+        step.t,
+        ep.steps.len(),
+        if ep.success() { "success" } else { "failure" },
+        action_label(step),
+        step.value,
+        step.reward,
+    );
+    for (i, (n, p)) in names.iter().zip(step.probs).enumerate() {
+        let mark = if i == step.action as usize {
+            " ◀"
+        } else {
+            ""
+        };
+        let _ = writeln!(status, "| {i} {n} | {p:.3}{mark} |");
+    }
+    rec.log("policy/status", &rerun::TextDocument::from_markdown(status))
+        .map_err(sdk)?;
+
+    let Some(att) = &step.attention else {
+        return Ok(());
+    };
+    let hi = scene.scale_max;
+    let mut legend = String::from("| # | word | w | H |\n|---|---|---|---|\n");
+    for (i, wa) in att.words.iter().enumerate() {
+        let path = word_path(i, &wa.word);
+        rec.log(path.as_str(), &map_image(&wa.map, hi))
+            .map_err(sdk)?;
+        rec.log(
+            format!("{path}/label"),
+            &label_box(format!(
+                "{} · w {:.2} · H {:.2}",
+                wa.word, wa.weight, wa.entropy
+            )),
+        )
+        .map_err(sdk)?;
+        log_grounding(rec, &format!("{path}/grounding"), scene.hits_of(Some(i)))?;
+        let _ = writeln!(
+            legend,
+            "| {i} | {} | {:.3} | {:.3} |",
+            wa.word, wa.weight, wa.entropy
+        );
+    }
+    rec.log("attention/combined", &map_image(&att.combined, hi))
+        .map_err(sdk)?;
+    rec.log(
+        "attention/combined/label",
+        &label_box(format!("M · colour scale 0–{hi:.2}")),
+    )
+    .map_err(sdk)?;
+    log_grounding(rec, "attention/combined/grounding", scene.hits_of(None))?;
+    rec.log(
+        "attention/weights",
+        &rerun::BarChart::new(att.words.iter().map(|w| w.weight).collect::<Vec<f32>>()),
+    )
+    .map_err(sdk)?;
+    rec.log(
+        "attention/entropy",
+        &rerun::BarChart::new(att.words.iter().map(|w| w.entropy).collect::<Vec<f32>>()),
+    )
+    .map_err(sdk)?;
+    rec.log(
+        "attention/legend",
+        &rerun::TextDocument::from_markdown(legend),
+    )
+    .map_err(sdk)?;
+    if let Some(overlay) = &scene.overlay {
+        let (ow, oh) = overlay.dimensions();
+        rec.log(
+            "world/attention",
+            &rerun::Image::from_rgba32(overlay.as_raw().as_slice(), [ow, oh]).with_draw_order(10.0),
+        )
+        .map_err(sdk)?;
+    }
+    for g in &scene.grounding {
+        rec.log(
+            format!("metrics/{}", g.kind.name()),
+            &rerun::Scalars::new(g.accuracies.values()),
+        )
+        .map_err(sdk)?;
+    }
+    Ok(())
+}
+
+/// Logs the markers of a map, or clears them when the map was not evaluated at this step.
+fn log_grounding(
+    rec: &RecordingStream,
+    path: &str,
+    g: Option<&EvaluatedMap>,
+) -> Result<(), RecordError> {
+    match g {
+        Some(g) => rec.log(path, &grounding_points(g)),
+        None => rec.log(path, &rerun::Clear::flat()),
+    }
+    .map_err(sdk)
+}
