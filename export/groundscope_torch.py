@@ -17,7 +17,8 @@ The network, step by step (DESIGN.md §1):
 
 1. each view cell is one-hot encoded over 20 codes: object type ``min(t, 10)``, then
    ``11 + min(colour, 5)``, then ``17 + min(state, 2)``; with ``colour_codes: objects`` the
-   colour code is set only on cells whose type is ≥ 3 (objects, not unseen/empty/wall);
+   colour code is set only on cells whose type is ≥ 3 (objects, not unseen/empty/wall), with
+   ``walls-objects`` also on walls (type 2);
 2. the codes are laid out agent-up, ``[vy][vx]`` (the transpose of MiniGrid's image), and
    ``Õ = ReLU(Conv(codes))``, a ``conv_kernel``×``conv_kernel`` cross-correlation with
    padding ``conv_kernel // 2`` over (vy, vx): the weight ``encoder.conv.weight`` [K, 20, k, k]
@@ -56,6 +57,8 @@ N_ACTIONS = 7
 # Object types below this one (unseen 0, empty 1, wall 2) carry no colour of their own under
 # colour_codes = objects (src/policy/obs.rs, FIRST_COLOURED_TYPE).
 FIRST_COLOURED_TYPE = 3
+# The wall, which keeps its colour under colour_codes = walls-objects (src/policy/obs.rs).
+WALL_TYPE = 2
 # Smallest probability fed to ln (src/policy/attention.rs, TINY): 0 · ln 0 evaluates to 0.
 TINY = 1e-30
 
@@ -104,12 +107,14 @@ def model_config(meta: dict) -> dict:
         # The big-room study's part 11 (src/policy/config.rs, key_context): not mirrored here
         # unless that recipe is chosen.
         raise ValueError("model.key_context = true is not supported by this export")
-    if cfg["colour_codes"] not in ("all", "objects"):
-        raise ValueError(f"model.colour_codes = {cfg['colour_codes']!r} must be all or objects")
+    if cfg["colour_codes"] not in ("all", "objects", "walls-objects"):
+        raise ValueError(
+            f"model.colour_codes = {cfg['colour_codes']!r} must be all, objects or walls-objects"
+        )
     return cfg
 
 
-# The colour of a cell that ``colour_codes = objects`` leaves out: a seventh colour, whose
+# The colour of a cell that ``colour_codes`` leaves out: a seventh colour, whose
 # code contributes nothing (combo_table).
 NO_COLOUR = 6
 # A cell as one index: its type (11), colour (6 + NO_COLOUR) and state (3) together,
@@ -122,12 +127,12 @@ OUTSIDE = COMBOS
 class CellEncoder(nn.Module):
     """MiniGrid codes (B, 7, 7, 3) ``[vx][vy]`` → each cell's combined index (B, vy, vx),
     whole numbers as float32, ``0 … COMBOS − 1``: type ``min(t, 10)``, colour ``min(c, 5)``
-    (``NO_COLOUR`` for one that ``colour_codes = objects`` leaves out) and state
+    (``NO_COLOUR`` for one that ``colour_codes`` leaves out) and state
     ``min(s, 2)``."""
 
     def __init__(self, colour_codes: str):
         super().__init__()
-        self.objects_only = colour_codes == "objects"
+        self.colour_codes = colour_codes
 
     def forward(self, image: torch.Tensor) -> torch.Tensor:
         # Integer codes as floats (exact up to 2^24), cast to int64 once for the lookup:
@@ -137,8 +142,11 @@ class CellEncoder(nn.Module):
         t = torch.clamp(x[..., 0], 0.0, 10.0)
         c = torch.clamp(x[..., 1], 0.0, 5.0)
         s = torch.clamp(x[..., 2], 0.0, 2.0)
-        if self.objects_only:
-            c = torch.where(t >= FIRST_COLOURED_TYPE, c, torch.full_like(c, float(NO_COLOUR)))
+        if self.colour_codes != "all":
+            coloured = t >= FIRST_COLOURED_TYPE
+            if self.colour_codes == "walls-objects":
+                coloured = coloured | (t == WALL_TYPE)
+            c = torch.where(coloured, c, torch.full_like(c, float(NO_COLOUR)))
         combos = (t * 7.0 + c) * 3.0 + s  # (B, vx, vy)
         return combos.transpose(1, 2)  # (B, vy, vx): rows = vy (agent-up)
 

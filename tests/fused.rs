@@ -200,8 +200,13 @@ fn fused_attention_matches_reference(scale: u32, t: f32, null: bool) {
 #[test]
 fn sparse_conv_matches_the_dense_patch_gemm() {
     // 16 channels take the fixed-width loops, 8 the general ones; 3×3 and 1×1 kernels; colour
-    // codes on every cell (MiniGrid's) or on objects only (unset slots skipped).
-    for colours in [ColourCodes::All, ColourCodes::Objects] {
+    // codes on every cell (MiniGrid's), on objects only, or on walls and objects (unset slots
+    // skipped).
+    for colours in [
+        ColourCodes::All,
+        ColourCodes::Objects,
+        ColourCodes::WallsObjects,
+    ] {
         for (channels, kernel) in [(16, 3), (8, 3), (16, 1), (8, 1)] {
             sparse_conv_matches_dense(channels, kernel, colours);
         }

@@ -116,6 +116,13 @@ fn model_options_train_resume_and_are_kept() {
         ("--conv-kernel", "conv_kernel", "1", "3", "2"),
         ("--filter-scale", "filter_scale", "1", "49", "7"),
         ("--colour-codes", "colour_codes", "objects", "all", "none"),
+        (
+            "--colour-codes",
+            "colour_codes",
+            "walls-objects",
+            "all",
+            "walls",
+        ),
         ("--word-temperature", "word_temperature", "3.89", "1", "0"),
         ("--key-kernel", "key_kernel", "1", "shared", "2"),
     ] {

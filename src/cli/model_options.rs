@@ -17,7 +17,8 @@ pub struct ModelOptions {
     #[arg(long, default_value_t = 49, allow_negative_numbers = true)]
     pub filter_scale: u32,
     /// Which cells carry a colour code: all (MiniGrid's encoding: empty and unseen cells read
-    /// red, walls grey) or objects (only cells holding a coloured object).
+    /// red, walls grey), objects (only cells holding a coloured object) or walls-objects
+    /// (walls and objects: only empty and unseen cells lose their red).
     #[arg(long, default_value = "all")]
     pub colour_codes: String,
     /// The word weights' temperature T in w = softmax(−H/T), in (0, 100]: 1 is the paper's; a

@@ -42,6 +42,10 @@ pub enum ColourCodes {
     /// Only cells holding an object with a colour: unseen, empty and wall cells keep their type
     /// and state codes, so every colour's code picks out objects of that colour.
     Objects,
+    /// Walls and objects: only unseen and empty cells lose their colour code (MiniGrid's red),
+    /// so red marks red objects alone while walls still read grey.
+    #[serde(rename = "walls-objects")]
+    WallsObjects,
 }
 
 impl ColourCodes {
@@ -50,16 +54,18 @@ impl ColourCodes {
         match self {
             Self::All => "all",
             Self::Objects => "objects",
+            Self::WallsObjects => "walls-objects",
         }
     }
 
-    /// Parses `all` or `objects`, naming the setting otherwise.
+    /// Parses `all`, `objects` or `walls-objects`, naming the setting otherwise.
     pub fn parse(s: &str) -> Result<Self, super::PolicyError> {
         match s {
             "all" => Ok(Self::All),
             "objects" => Ok(Self::Objects),
+            "walls-objects" => Ok(Self::WallsObjects),
             _ => Err(super::PolicyError::Input(format!(
-                "model setting colour_codes = {s} must be all or objects"
+                "model setting colour_codes = {s} must be all, objects or walls-objects"
             ))),
         }
     }
@@ -458,6 +464,16 @@ mod tests {
         let json = serde_json::to_string(&objects).unwrap();
         assert!(json.contains("\"colour_codes\":\"objects\""), "{json}");
         assert_eq!(serde_json::from_str::<ModelConfig>(&json).unwrap(), objects);
+        let walls = ModelConfig {
+            colour_codes: ColourCodes::parse("walls-objects").unwrap(),
+            ..all
+        };
+        let json = serde_json::to_string(&walls).unwrap();
+        assert!(
+            json.contains("\"colour_codes\":\"walls-objects\""),
+            "{json}"
+        );
+        assert_eq!(serde_json::from_str::<ModelConfig>(&json).unwrap(), walls);
         let bad = ColourCodes::parse("none").unwrap_err().to_string();
         assert!(bad.contains("colour_codes = none"), "{bad}");
     }

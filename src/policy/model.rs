@@ -137,7 +137,9 @@ impl Net {
     fn read_codes<'a>(&self, codes: &'a CellCodes) -> std::borrow::Cow<'a, CellCodes> {
         match self.cfg.colour_codes {
             ColourCodes::All => std::borrow::Cow::Borrowed(codes),
-            ColourCodes::Objects => std::borrow::Cow::Owned(codes.encoded(ColourCodes::Objects)),
+            c @ (ColourCodes::Objects | ColourCodes::WallsObjects) => {
+                std::borrow::Cow::Owned(codes.encoded(c))
+            }
         }
     }
 

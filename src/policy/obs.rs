@@ -48,6 +48,10 @@ pub const NO_CODE: u8 = u8::MAX;
 /// [`ColourCodes::Objects`].
 const FIRST_COLOURED_TYPE: u8 = 3;
 
+/// The wall's type code: the one type below [`FIRST_COLOURED_TYPE`] that keeps its colour
+/// under [`ColourCodes::WallsObjects`].
+const WALL_TYPE: u8 = 2;
+
 /// Appends the 49 patches of the `cell` codes of one frame (49 × 3, as in [`CellCodes`]) for
 /// a `kernel`×`kernel` convolution (49 × [`patch_len`]`(kernel)` floats) to `out`.
 fn push_patches(cell: &[u8], kernel: usize, out: &mut Vec<f32>) {
@@ -108,15 +112,21 @@ impl CellCodes {
 
     /// The codes the encoder of a model with `colour_codes` reads: these codes themselves for
     /// [`ColourCodes::All`]; for [`ColourCodes::Objects`] the colour slot of unseen, empty and
-    /// wall cells is [`NO_CODE`].
+    /// wall cells is [`NO_CODE`], for [`ColourCodes::WallsObjects`] that of unseen and empty
+    /// cells.
     #[must_use]
     pub fn encoded(&self, colour_codes: ColourCodes) -> Self {
+        let uncoloured = |t: u8| match colour_codes {
+            ColourCodes::All => false,
+            ColourCodes::Objects => t < FIRST_COLOURED_TYPE,
+            ColourCodes::WallsObjects => t < FIRST_COLOURED_TYPE && t != WALL_TYPE,
+        };
         match colour_codes {
             ColourCodes::All => self.clone(),
-            ColourCodes::Objects => {
+            ColourCodes::Objects | ColourCodes::WallsObjects => {
                 let mut codes = self.codes.to_vec();
                 for cell in codes.chunks_exact_mut(3) {
-                    if cell[0] < FIRST_COLOURED_TYPE {
+                    if uncoloured(cell[0]) {
                         cell[1] = NO_CODE;
                     }
                 }
@@ -280,6 +290,16 @@ mod tests {
         let colour_hits: f32 = p.iter().map(|row| row[11..17].iter().sum::<f32>()).sum();
         assert_eq!(colour_hits, 2.0);
         assert_eq!(p.iter().flatten().sum::<f32>(), (2 * 49 + 2) as f32);
+        // Walls and objects: the wall keeps its grey, floor and unseen lose their red.
+        let walls = all.encoded(ColourCodes::WallsObjects);
+        assert_eq!(cell(&walls, 5, 5), [1, NO_CODE, 17]);
+        assert_eq!(cell(&walls, 1, 0), [0, NO_CODE, 17]);
+        assert_eq!(cell(&walls, 0, 0), [2, 16, 17], "the wall keeps its grey");
+        assert_eq!(cell(&walls, 2, 4), [6, 11, 17]);
+        assert_eq!(cell(&walls, 3, 3), [5, 16, 17]);
+        let p = patches(&walls, 1).unwrap().to_vec2::<f32>().unwrap();
+        let colour_hits: f32 = p.iter().map(|row| row[11..17].iter().sum::<f32>()).sum();
+        assert_eq!(colour_hits, 3.0);
     }
 
     #[test]
