@@ -153,7 +153,7 @@ class CellEncoder(nn.Module):
 
 def combo_table(weight: torch.Tensor) -> torch.Tensor:
     """A conv's weight (K, 20, k, k) → one row per kernel offset and combined cell index,
-    (k·k·(COMBOS + 1), K): the sum of the weight columns of the cell's three codes (a colour
+    (k·k, COMBOS + 1, K): the sum of the weight columns of the cell's three codes (a colour
     of ``NO_COLOUR`` and a cell outside the view add nothing). A function of the weights alone,
     so the exporter folds it into one constant."""
     # Built as a list, so that the exporter sees one constant rather than the assignments.
@@ -167,7 +167,7 @@ def combo_table(weight: torch.Tensor) -> torch.Tensor:
                     row[11 + c] = 1.0
     k_out, _, ks, _ = weight.shape
     per_offset = weight.permute(2, 3, 1, 0).reshape(ks * ks, CELL_CODES, k_out)
-    return torch.matmul(torch.tensor(hot), per_offset).reshape(ks * ks * (COMBOS + 1), k_out)
+    return torch.matmul(torch.tensor(hot), per_offset)
 
 
 def lookup_conv(combos: torch.Tensor, conv: nn.Conv2d) -> torch.Tensor:
@@ -186,17 +186,17 @@ def lookup_conv(combos: torch.Tensor, conv: nn.Conv2d) -> torch.Tensor:
     none = torch.zeros(1, 1, k_out)
     after = ks * ks - 1 - centre
     bias = torch.cat([none] * centre + [conv.bias.reshape(1, 1, k_out)] + [none] * after)
-    table = (combo_table(conv.weight).reshape(ks * ks, rows, k_out) + bias).reshape(-1, k_out)
+    table = combo_table(conv.weight) + bias  # (k·k, rows, K)
     flat = combos.reshape(-1, N_CELLS)
     if ks == 1:
         # A 1×1 conv reads the cell alone: one row each.
-        return F.embedding(flat.to(torch.int64), table)  # (B, 49, K)
+        return F.embedding(flat.to(torch.int64), table[0])  # (B, 49, K)
     # Index N_CELLS stands for a cell outside the view: one column appended, no Pad. Each
     # cell's rows for all k·k offsets are looked up at once, then each cell picks its
     # neighbours' rows, offset by offset, with one constant index: the only cast is of the
     # cells' indices, and nothing is added to an index (each costs a slow pass in tract).
     flat = torch.cat([flat, torch.full_like(flat[:, :1], float(OUTSIDE))], dim=1)  # (B, 50)
-    by_cell = table.reshape(ks * ks, rows, k_out).transpose(0, 1).reshape(rows, -1)
+    by_cell = table.transpose(0, 1).reshape(rows, -1)
     rows_of = F.embedding(flat.to(torch.int64), by_cell)  # (B, 50, k·k·K)
     rows_of = rows_of.reshape(-1, (N_CELLS + 1) * ks * ks, k_out)  # row n·k·k + offset
 

@@ -137,9 +137,7 @@ impl Net {
     fn read_codes<'a>(&self, codes: &'a CellCodes) -> std::borrow::Cow<'a, CellCodes> {
         match self.cfg.colour_codes {
             ColourCodes::All => std::borrow::Cow::Borrowed(codes),
-            c @ (ColourCodes::Objects | ColourCodes::WallsObjects) => {
-                std::borrow::Cow::Owned(codes.encoded(c))
-            }
+            c => std::borrow::Cow::Owned(codes.encoded(c)),
         }
     }
 

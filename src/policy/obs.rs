@@ -121,20 +121,15 @@ impl CellCodes {
             ColourCodes::Objects => t < FIRST_COLOURED_TYPE,
             ColourCodes::WallsObjects => t < FIRST_COLOURED_TYPE && t != WALL_TYPE,
         };
-        match colour_codes {
-            ColourCodes::All => self.clone(),
-            ColourCodes::Objects | ColourCodes::WallsObjects => {
-                let mut codes = self.codes.to_vec();
-                for cell in codes.chunks_exact_mut(3) {
-                    if uncoloured(cell[0]) {
-                        cell[1] = NO_CODE;
-                    }
-                }
-                Self {
-                    frames: self.frames,
-                    codes: codes.into(),
-                }
+        let mut codes = self.codes.to_vec();
+        for cell in codes.chunks_exact_mut(3) {
+            if uncoloured(cell[0]) {
+                cell[1] = NO_CODE;
             }
+        }
+        Self {
+            frames: self.frames,
+            codes: codes.into(),
         }
     }
 
