@@ -8,7 +8,6 @@ use rand_pcg::Pcg64Mcg;
 use serde::Serialize;
 
 use crate::env::level::LevelConfig;
-use crate::env::mission::Instruction;
 use crate::env::snapshot::Snapshot;
 use crate::env::view::Observation;
 use crate::env::vocab;
@@ -171,7 +170,7 @@ pub struct EpisodeSpec {
 pub fn initial_world(spec: &EpisodeSpec) -> Result<World, PolicyError> {
     let mut world = spec.level.generate(spec.seed)?;
     if let Some(text) = &spec.mission {
-        world.set_instruction(Instruction::parse(text)?)?;
+        world.set_instruction(crate::env::parse_mission(text)?)?;
     }
     Ok(world)
 }

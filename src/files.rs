@@ -10,6 +10,19 @@
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
 
+/// Reads a text file, gunzipping it when its name ends in `.gz` (the compressed minigrid
+/// dumps). Invalid UTF-8 or a broken gzip stream is an `InvalidData` error.
+pub fn read_text_maybe_gz(path: &Path) -> std::io::Result<String> {
+    use std::io::Read as _;
+    let bytes = std::fs::read(path)?;
+    if path.extension().is_some_and(|e| e == "gz") {
+        let mut text = String::new();
+        flate2::read::GzDecoder::new(bytes.as_slice()).read_to_string(&mut text)?;
+        return Ok(text);
+    }
+    String::from_utf8(bytes).map_err(|e| std::io::Error::new(std::io::ErrorKind::InvalidData, e))
+}
+
 /// Gives a finished temporary file (which `tempfile` creates with mode 0600) the mode of a
 /// normally created file, 0644, before it is renamed into place.
 pub fn make_shareable(path: &Path) -> std::io::Result<()> {

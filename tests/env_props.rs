@@ -25,6 +25,7 @@ fn level() -> impl Strategy<Value = LevelConfig> {
                     tasks: [TaskSet::GoTo, TaskSet::Pickup, TaskSet::Both][t],
                     done_required,
                     color_optional,
+                    babyai: None,
                 };
                 cfg.validate().is_ok().then_some(cfg)
             },
@@ -41,7 +42,7 @@ proptest! {
         prop_assert!(all_reachable(&a.grid, a.agent_pos));
         let n = a.grid.objects().filter(|(_, o)| o.kind != ObjectKind::Wall).count();
         prop_assert_eq!(n, cfg.n_objects);
-        prop_assert!(!a.verifier.obj_set.is_empty());
+        prop_assert!(!a.targets().is_empty());
         prop_assert_eq!(a.max_steps as usize, cfg.room_size * cfg.room_size);
     }
 

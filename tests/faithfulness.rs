@@ -102,7 +102,7 @@ fn a_no_op_counterfactual_reproduces_the_trace_exactly() {
         let s = spec(ckpt.meta.level, seed);
         let original = run_episode(&ckpt, "bundled:attention", &s).unwrap();
         let world = initial_world(&s).unwrap();
-        let target = world.verifier.obj_poss[0];
+        let target = world.target_positions()[0];
         let color = world.grid.get(target).unwrap().color;
         let edited = apply(&world, &Edit::Recolor(target, color)).unwrap();
         let again = run_from(&net, "bundled:attention", &s, edited).unwrap();
@@ -122,7 +122,7 @@ fn occlusion_is_zero_where_nothing_is_replaced_and_annotation_is_deterministic()
         tokens: &trace.tokens,
         memory: &mem,
         obs: step.obs,
-        desc: step.world.instr.desc,
+        desc: step.world.desc(),
         probs: &step.probs,
         action: step.action as usize,
         attention: step.attention.as_ref(),

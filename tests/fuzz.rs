@@ -26,6 +26,7 @@ fn level() -> LevelConfig {
         tasks: TaskSet::Both,
         done_required: true,
         color_optional: true,
+        babyai: None,
     }
 }
 

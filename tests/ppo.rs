@@ -18,6 +18,7 @@ fn tiny_level() -> LevelConfig {
         tasks: TaskSet::GoTo,
         done_required: false,
         color_optional: false,
+        babyai: None,
     }
 }
 

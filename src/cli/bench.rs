@@ -13,12 +13,19 @@ use crate::ExitStatus;
 /// `bench` subcommands.
 #[derive(Debug, Subcommand)]
 pub enum BenchCommand {
-    /// Environment steps/s: random actions with auto-reset on the paper's level, one thread,
-    /// observation included.
+    /// Environment speed, one thread: resets/s (level generation and first observation), then
+    /// steps/s of random actions with auto-reset, observation included; the paper's level or
+    /// `--level ID`.
     Env {
         /// Steps to time.
         #[arg(long, default_value_t = 5_000_000, allow_negative_numbers = true)]
         steps: u64,
+        /// Resets (level generations) to time on their own.
+        #[arg(long, default_value_t = 20_000, allow_negative_numbers = true)]
+        resets: u64,
+        /// A BabyAI level by its gym id (default: the paper's level).
+        #[arg(long, value_name = "ID")]
+        level: Option<String>,
     },
     /// Policy speed, one thread: batched inference steps/s at batch 1, 16 (a rollout step) and
     /// 256, and training forward+backward frames/s on PPO minibatches (256 and 2048 frames,
@@ -66,7 +73,11 @@ pub enum BenchCommand {
 /// Runs a benchmark.
 pub fn run(cmd: &BenchCommand) -> anyhow::Result<ExitStatus> {
     match cmd {
-        BenchCommand::Env { steps } => bench_env(*steps),
+        BenchCommand::Env {
+            steps,
+            resets,
+            level,
+        } => bench_env(*steps, *resets, level.as_deref()),
         BenchCommand::Train {
             model,
             frames,
@@ -96,11 +107,22 @@ pub fn run(cmd: &BenchCommand) -> anyhow::Result<ExitStatus> {
     }
 }
 
-fn bench_env(steps: u64) -> anyhow::Result<ExitStatus> {
+fn bench_env(steps: u64, resets: u64, level: Option<&str>) -> anyhow::Result<ExitStatus> {
     if steps == 0 {
         anyhow::bail!("--steps 0: must be at least 1");
     }
-    let cfg = LevelConfig::default();
+    if resets == 0 {
+        anyhow::bail!("--resets 0: must be at least 1");
+    }
+    let cfg = match level {
+        Some(id) => LevelConfig::babyai(groundscope::env::LevelId::parse(id)?, true),
+        None => LevelConfig::default(),
+    };
+    let start = Instant::now();
+    for seed in 0..resets {
+        black_box(cfg.generate(seed)?.observe());
+    }
+    let reset_secs = start.elapsed().as_secs_f64();
     let mut rng = Pcg64Mcg::seed_from_u64(0);
     let mut seed = 0;
     let mut world = cfg.generate(seed)?;
@@ -120,6 +142,8 @@ fn bench_env(steps: u64) -> anyhow::Result<ExitStatus> {
     let line = serde_json::json!({
         "bench": "env",
         "steps_per_sec": (steps as f64 / secs).round(),
+        "resets_per_sec": (resets as f64 / reset_secs).round(),
+        "resets": resets,
         "level": cfg.to_string(),
         "steps": steps,
         "episodes": episodes,

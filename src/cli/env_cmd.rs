@@ -4,7 +4,7 @@ use std::path::PathBuf;
 
 use anyhow::Context as _;
 use clap::{Args, Subcommand};
-use groundscope::env::{LevelConfig, Snapshot, TaskSet, verify_dump};
+use groundscope::env::{LevelConfig, LevelId, Snapshot, TaskSet, verify_dump};
 
 use crate::ExitStatus;
 
@@ -37,17 +37,30 @@ pub struct LevelArgs {
     /// Always name the colour in missions.
     #[arg(long)]
     pub always_color: bool,
+    /// A BabyAI level by its gym id (e.g. BabyAI-GoToObjMaze-v0), generated exactly as
+    /// minigrid 3.2.0 generates it; `--room-size`, `--objects` and `--tasks` describe the
+    /// paper's level only. `groundscope env list` lists the ids.
+    #[arg(
+        long,
+        value_name = "ID",
+        conflicts_with_all = ["size", "objects", "tasks", "always_color"]
+    )]
+    pub level: Option<String>,
 }
 
 impl LevelArgs {
     /// The level these flags describe, validated.
     pub fn config(&self) -> anyhow::Result<LevelConfig> {
+        if let Some(id) = &self.level {
+            return Ok(LevelConfig::babyai(LevelId::parse(id)?, !self.no_done));
+        }
         let cfg = LevelConfig {
             room_size: self.size,
             n_objects: self.objects,
             tasks: TaskSet::parse(&self.tasks)?,
             done_required: !self.no_done,
             color_optional: !self.always_color,
+            babyai: None,
         };
         cfg.validate()?;
         Ok(cfg)
@@ -77,12 +90,20 @@ pub enum EnvCommand {
         #[arg(long, value_name = "FILE")]
         snapshot: Option<PathBuf>,
     },
+    /// List every BabyAI level id with its rooms and mechanics.
+    #[command(
+        after_long_help = "EXAMPLES:\n  groundscope env list\n  groundscope env show --level BabyAI-KeyCorridorS3R3-v0 --seed 1"
+    )]
+    List,
     /// Replay dumps of the Python reference and compare every step.
     ///
-    /// Each FILE is a dump_minigrid.py JSON episode: its actions are replayed from its initial
-    /// state and every observation, reward, terminated/truncated flag, agent pose, carried object
-    /// and changed grid is compared. Prints the first mismatch of each failing file and ends with
-    /// `N passed, M failed`.
+    /// Each FILE is a dump_minigrid.py JSON episode (`.json`, or `.json.gz`). A dump of a
+    /// BabyAI level is first regenerated from its `env_id` and `seed` and its initial state
+    /// compared (grid, agent pose, carried object, box contents, mission, instruction tree with
+    /// matched positions); then its actions are replayed and every observation, reward,
+    /// terminated/truncated flag, agent pose, carried object, changed grid and box contents is
+    /// compared. Prints the first mismatch of each failing file and ends with `N passed, M
+    /// failed`.
     #[command(
         after_long_help = "EXAMPLES:\n  groundscope env verify tests/fixtures/minigrid/*.json"
     )]
@@ -103,6 +124,10 @@ pub fn run(cmd: EnvCommand) -> anyhow::Result<ExitStatus> {
             tile,
             snapshot,
         } => show(seed, &level, png, tile, snapshot),
+        EnvCommand::List => {
+            list();
+            Ok(ExitStatus::Success)
+        }
         EnvCommand::Verify { files } => verify(&files),
     }
 }
@@ -116,7 +141,10 @@ fn show(
 ) -> anyhow::Result<ExitStatus> {
     let cfg = level.config()?;
     let world = cfg.generate(seed)?;
-    let snap = Snapshot::from_world(&world, Some(cfg.to_string()), Some(seed));
+    let env_id = cfg
+        .babyai
+        .map_or_else(|| cfg.to_string(), |id| id.id().to_owned());
+    let snap = Snapshot::from_world(&world, Some(env_id), Some(seed));
     println!("level: {cfg}  seed: {seed}  max_steps: {}", world.max_steps);
     println!("mission: {}", world.mission);
     for line in &snap.grid_ascii {
@@ -137,12 +165,35 @@ fn show(
     Ok(ExitStatus::Success)
 }
 
+fn list() {
+    let levels = groundscope::env::babyai::registry::LEVELS;
+    println!(
+        "{:<36} {:>5} {:>6} {:>9}  {:<18} {:<26} instructions",
+        "id", "rooms", "room", "grid", "doors", "locks"
+    );
+    for l in levels {
+        let m = l.mechanics();
+        let (w, h) = l.rooms.grid_size();
+        println!(
+            "{:<36} {:>5} {:>6} {:>9}  {:<18} {:<26} {}",
+            l.id,
+            format!("{}×{}", l.rooms.num_cols, l.rooms.num_rows),
+            l.rooms.room_size,
+            format!("{w}×{h}"),
+            m.doors,
+            m.locks,
+            m.instructions
+        );
+    }
+    println!("{} levels (minigrid 3.2.0)", levels.len());
+}
+
 fn verify(files: &[PathBuf]) -> anyhow::Result<ExitStatus> {
     // Read and parse everything first: an unreadable file is bad input (exit 2), not a mismatch.
     let mut dumps = Vec::with_capacity(files.len());
     for f in files {
-        let text =
-            std::fs::read_to_string(f).with_context(|| format!("reading {}", f.display()))?;
+        let text = groundscope::files::read_text_maybe_gz(f)
+            .with_context(|| format!("reading {}", f.display()))?;
         let snap =
             Snapshot::from_json(&text).with_context(|| format!("reading {}", f.display()))?;
         dumps.push((f, snap));

@@ -125,6 +125,10 @@ pub struct EpisodeArgs {
     /// Number of objects; defaults to the checkpoint's level.
     #[arg(long, value_name = "N", allow_negative_numbers = true)]
     pub objects: Option<usize>,
+    /// A BabyAI level by its gym id (`groundscope env list`), instead of the paper's; the
+    /// done-action mode stays the checkpoint's.
+    #[arg(long, value_name = "ID", conflicts_with_all = ["room_size", "objects"])]
+    pub level: Option<String>,
 }
 
 impl EpisodeArgs {
@@ -135,6 +139,10 @@ impl EpisodeArgs {
 
     /// The checkpoint's level `base` with `--room-size` and `--objects` applied, checked.
     pub fn level(&self, base: LevelConfig) -> anyhow::Result<LevelConfig> {
+        if let Some(id) = &self.level {
+            let id = groundscope::env::LevelId::parse(id)?;
+            return Ok(LevelConfig::babyai(id, base.done_required));
+        }
         super::policy_cmd::level_from(base, self.room_size, self.objects)
     }
 }

@@ -88,7 +88,7 @@ pub fn run(args: &ViewArgs) -> anyhow::Result<ExitStatus> {
     }
     let level = args.episode.level(agent.level())?;
     if let Some(m) = &args.episode.mission {
-        groundscope::env::Instruction::parse(m)?;
+        groundscope::env::parse_mission(m)?;
     }
     let start = StartOptions {
         checkpoint,

@@ -7,7 +7,7 @@
 
 use super::error::EnvError;
 use super::grid::Pos;
-use super::mission::Instruction;
+use super::instr::parse_mission;
 use super::object::{Color, ObjectKind, WorldObj};
 use super::world::World;
 
@@ -78,7 +78,7 @@ pub fn apply(world: &World, edit: &Edit) -> Result<World, EnvError> {
     let mut instr = world.instr.clone();
     let mut next_id = world.next_id;
     match edit {
-        Edit::Mission(text) => instr = Instruction::parse(text)?,
+        Edit::Mission(text) => instr = parse_mission(text)?,
         Edit::MoveAgent(to) => {
             if !grid.contains(*to) {
                 return Err(refuse("agent_pos", format!("{to:?} is outside the grid")));
@@ -130,8 +130,9 @@ pub fn apply(world: &World, edit: &Edit) -> Result<World, EnvError> {
             grid.set(*to, Some(obj));
         }
     }
-    let mut edited = World::new(
+    let mut edited = World::with_tree(
         grid,
+        world.rooms,
         pos,
         dir,
         world.carrying,
@@ -141,6 +142,8 @@ pub fn apply(world: &World, edit: &Edit) -> Result<World, EnvError> {
         next_id,
     )?;
     edited.step_count = world.step_count;
+    edited.box_contents.clone_from(&world.box_contents);
+    edited.moved.clone_from(&world.moved);
     Ok(edited)
 }
 
@@ -209,6 +212,6 @@ mod tests {
         let text = format!("pick up the {} {}", obj.color, obj.kind);
         let m = apply(&w, &Edit::Mission(text)).unwrap();
         assert!(m.mission.starts_with("pick up"));
-        assert!(m.verifier.obj_set.contains(&obj.id));
+        assert!(m.targets().contains(&obj.id));
     }
 }

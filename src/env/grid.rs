@@ -8,6 +8,53 @@ pub type Pos = (i32, i32);
 /// MiniGrid's `DIR_TO_VEC`: 0 = right (+x), 1 = down (+y), 2 = left (−x), 3 = up (−y).
 pub const DIR_TO_VEC: [Pos; 4] = [(1, 0), (0, 1), (-1, 0), (0, -1)];
 
+/// RoomGrid's geometry: `num_cols × num_rows` rooms of `room_size` cells a side (walls
+/// included), neighbours sharing a wall. A one-room level is 1 × 1.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
+pub struct Rooms {
+    /// Side of one room, walls included.
+    pub room_size: i32,
+    /// Rooms per row (x).
+    pub num_cols: i32,
+    /// Rooms per column (y).
+    pub num_rows: i32,
+}
+
+impl Rooms {
+    /// One room filling a `width × height` grid.
+    pub fn single(width: usize, height: usize) -> Self {
+        Self {
+            room_size: width.max(height) as i32,
+            num_cols: 1,
+            num_rows: 1,
+        }
+    }
+
+    /// Grid width and height: `(room_size − 1) · n + 1`.
+    pub fn grid_size(self) -> (usize, usize) {
+        (
+            ((self.room_size - 1) * self.num_cols + 1) as usize,
+            ((self.room_size - 1) * self.num_rows + 1) as usize,
+        )
+    }
+
+    /// `room_from_pos`: the room `(i, j)` holding `pos` (clamped to the grid's rooms, where
+    /// Python would assert).
+    pub fn room_of(self, (x, y): Pos) -> (i32, i32) {
+        let step = (self.room_size - 1).max(1);
+        (
+            (x.max(0) / step).min(self.num_cols - 1),
+            (y.max(0) / step).min(self.num_rows - 1),
+        )
+    }
+
+    /// `Room.pos_inside`: whether `pos` lies in room `(i, j)`'s square, walls included.
+    pub fn pos_inside(self, (i, j): (i32, i32), (x, y): Pos) -> bool {
+        let (tx, ty) = (i * (self.room_size - 1), j * (self.room_size - 1));
+        x >= tx && y >= ty && x < tx + self.room_size && y < ty + self.room_size
+    }
+}
+
 /// How far the view codes extend past each side of the grid: the view reaches 6 cells ahead.
 pub(crate) const VIEW_PAD: i32 = 6;
 

@@ -1,24 +1,21 @@
-//! Level configurations and BabyAI's GoToLocal-style generator.
+//! The paper's level configurations, generated as BabyAI's GoToLocal.
 //!
-//! The generator reproduces `GoToLocal.gen_mission` in distribution (not bit for bit: numpy's
-//! PCG64 stream is not reproduced): the agent first, on a uniform interior cell with a uniform
-//! direction; then N objects of uniform type (key, ball, box) and colour, on uniform empty
-//! cells at Manhattan distance ≥ 2 from the agent (duplicates allowed); the whole layout is
-//! redrawn when an object is unreachable; the target is a uniform pick among the objects and
-//! every object with its type and colour counts. Task kind is uniform over the configured
-//! kinds. With `color_optional` the colour is left out with probability 1/7, the chance
-//! BabyAI's `rand_obj` gives `None` among `[None, *COLOR_NAMES]`.
+//! `BabyAI-GoToLocalS{S}N{N}-v0` is generated bit for bit ([`crate::env::babyai`]): the agent
+//! first, then N distractors (colour then type, duplicates allowed) at Manhattan distance ≥ 2
+//! from it, the whole level redrawn when an object is unreachable, the target a uniform pick
+//! among them. The paper's level adds two draws after BabyAI's: the task (go to / pick up)
+//! when both are configured, and, with `color_optional`, the colour left out when
+//! `integers(0, 7) == 0` (the chance BabyAI's `rand_obj` gives `None` among `[None,
+//! *COLOR_NAMES]`). docs/world.md gives the Python that generates it in minigrid.
 
 use std::fmt;
 
-use rand::{Rng, SeedableRng};
-use rand_pcg::Pcg64Mcg;
 use serde::{Deserialize, Serialize};
 
+use super::babyai::{Family, LevelSpec};
 use super::error::EnvError;
-use super::grid::{Grid, Pos};
-use super::mission::{Instruction, ObjDesc, TaskKind};
-use super::object::{Color, ObjectKind, WorldObj};
+use super::grid::{Grid, Pos, Rooms};
+use super::mission::TaskKind;
 use super::world::World;
 
 /// Which task kinds a level draws missions from.
@@ -71,6 +68,55 @@ pub struct LevelConfig {
     pub done_required: bool,
     /// Descriptions may omit the colour ("go to the ball").
     pub color_optional: bool,
+    /// A registered BabyAI level instead of the paper's: then only `done_required` applies
+    /// (the other fields describe the paper's level and are ignored).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub babyai: Option<LevelId>,
+}
+
+/// A registered BabyAI level, by its gym id (serialised as the id).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct LevelId(u16);
+
+impl LevelId {
+    /// The level registered as `id`; an unknown id names the closest ones.
+    pub fn parse(id: &str) -> Result<Self, EnvError> {
+        super::babyai::registry::LEVELS
+            .iter()
+            .position(|l| l.id == id)
+            .map(|i| Self(i as u16))
+            .ok_or_else(|| EnvError::InvalidConfig {
+                field: "level".into(),
+                reason: format!(
+                    "{id:?} is not a BabyAI level of minigrid 3.2.0 (closest: {}; `groundscope \
+                     env list` lists all 96)",
+                    super::babyai::closest_ids(id).join(", ")
+                ),
+            })
+    }
+
+    /// The level's spec.
+    pub fn spec(self) -> &'static LevelSpec {
+        &super::babyai::registry::LEVELS[usize::from(self.0)]
+    }
+
+    /// The gym id.
+    pub fn id(self) -> &'static str {
+        self.spec().id
+    }
+}
+
+impl Serialize for LevelId {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(self.id())
+    }
+}
+
+impl<'de> Deserialize<'de> for LevelId {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let id = String::deserialize(d)?;
+        Self::parse(&id).map_err(serde::de::Error::custom)
+    }
 }
 
 impl Default for LevelConfig {
@@ -82,12 +128,17 @@ impl Default for LevelConfig {
             tasks: TaskSet::Both,
             done_required: true,
             color_optional: true,
+            babyai: None,
         }
     }
 }
 
 impl fmt::Display for LevelConfig {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        if let Some(id) = self.babyai {
+            let done = if self.done_required { " done" } else { "" };
+            return write!(f, "{}{done}", id.id());
+        }
         let tasks = match self.tasks {
             TaskSet::GoTo => "goto",
             TaskSet::Pickup => "pickup",
@@ -111,12 +162,12 @@ impl fmt::Display for LevelConfig {
 /// Largest room the generator accepts (the view and grids have no limit; this bounds work).
 pub const MAX_ROOM_SIZE: usize = 64;
 
-/// Attempts before generation gives up (BabyAI retries forever; a valid config never gets close).
-const MAX_LAYOUT_TRIES: u32 = 10_000;
-
 impl LevelConfig {
     /// Checks the config, naming the field at fault.
     pub fn validate(&self) -> Result<(), EnvError> {
+        if self.babyai.is_some() {
+            return Ok(());
+        }
         let bad = |field: &str, reason: String| {
             Err(EnvError::InvalidConfig {
                 field: field.into(),
@@ -164,94 +215,62 @@ impl LevelConfig {
         Ok(())
     }
 
-    /// `max_steps = S²` (BabyAI: one navigation in a 1×1 maze).
+    /// A registered BabyAI level with the done-action mode `done_required`.
+    pub fn babyai(id: LevelId, done_required: bool) -> Self {
+        let spec = id.spec();
+        Self {
+            room_size: spec.rooms.room_size as usize,
+            n_objects: 0,
+            babyai: Some(id),
+            done_required,
+            ..Self::default()
+        }
+    }
+
+    /// `max_steps = S²` (BabyAI: one navigation in a 1×1 maze); a BabyAI level's horizon
+    /// may depend on its instruction, so use the generated world's.
     pub fn max_steps(&self) -> u32 {
         (self.room_size * self.room_size) as u32
     }
 
-    /// Generates the level for `seed`; the same config and seed give the same world.
+    /// The level as a BabyAI level spec: one room of `room_size`, BabyAI's GoToLocal
+    /// generation (see [`crate::env::babyai::goto::paper`]).
+    pub fn spec(&self) -> LevelSpec {
+        LevelSpec {
+            id: "groundscope-paper",
+            rooms: Rooms {
+                room_size: self.room_size as i32,
+                num_cols: 1,
+                num_rows: 1,
+            },
+            max_steps: Some(self.max_steps()),
+            family: Family::Paper {
+                num_dists: self.n_objects,
+                tasks: self.tasks,
+                color_optional: self.color_optional,
+            },
+        }
+    }
+
+    /// The registered BabyAI id this config generates exactly, if any (go-to only, colour
+    /// always named, a registered size).
+    pub fn babyai_id(&self) -> Option<&'static str> {
+        if self.tasks != TaskSet::GoTo || self.color_optional {
+            return None;
+        }
+        let id = format!("BabyAI-GoToLocalS{}N{}-v0", self.room_size, self.n_objects);
+        crate::env::babyai::spec(&id).map(|s| s.id)
+    }
+
+    /// Generates the level for `seed` as minigrid's `reset(seed=seed)` would; the same
+    /// config and seed give the same world.
     pub fn generate(&self, seed: u64) -> Result<World, EnvError> {
         self.validate()?;
-        let mut rng = Pcg64Mcg::seed_from_u64(seed);
-        for _ in 0..MAX_LAYOUT_TRIES {
-            if let Some(world) = self.try_layout(&mut rng)? {
-                return Ok(world);
-            }
+        if let Some(id) = self.babyai {
+            return crate::env::babyai::generate(id.spec(), seed, self.done_required);
         }
-        Err(EnvError::GenerationFailed {
-            seed,
-            tries: MAX_LAYOUT_TRIES,
-        })
+        crate::env::babyai::generate(&self.spec(), seed, self.done_required)
     }
-
-    /// One layout attempt; `None` when rejection sampling failed (BabyAI regenerates).
-    fn try_layout(&self, rng: &mut Pcg64Mcg) -> Result<Option<World>, EnvError> {
-        let s = self.room_size as i32;
-        let mut grid = Grid::new(self.room_size, self.room_size);
-        let mut next_id = 0;
-        grid.wall_ring(&mut next_id);
-        let agent_pos = (rng.random_range(1..s - 1), rng.random_range(1..s - 1));
-        let agent_dir = rng.random_range(0..4u8);
-        let mut objs: Vec<WorldObj> = Vec::with_capacity(self.n_objects);
-        for _ in 0..self.n_objects {
-            let kind = ObjectKind::PICKABLE[rng.random_range(0..3)];
-            let color = Color::ALL[rng.random_range(0..6)];
-            let obj = WorldObj::new(kind, color, next_id);
-            next_id += 1;
-            let Some(pos) = place_obj(&grid, agent_pos, rng) else {
-                return Ok(None);
-            };
-            grid.set(pos, Some(obj));
-            objs.push(obj);
-        }
-        if !all_reachable(&grid, agent_pos) {
-            return Ok(None);
-        }
-        let task = self.tasks.kinds()[rng.random_range(0..self.tasks.kinds().len())];
-        let target = objs[rng.random_range(0..objs.len())];
-        let color = if self.color_optional && rng.random_ratio(1, 7) {
-            None
-        } else {
-            Some(target.color)
-        };
-        let instr = Instruction {
-            task,
-            desc: ObjDesc {
-                kind: Some(target.kind),
-                color,
-                loc: None,
-            },
-            strict: false,
-        };
-        World::new(
-            grid,
-            agent_pos,
-            agent_dir,
-            None,
-            instr,
-            self.max_steps(),
-            self.done_required,
-            next_id,
-        )
-        .map(Some)
-    }
-}
-
-/// `place_obj` with `reject_next_to`: uniform over the whole grid rectangle (walls rejected),
-/// not on the agent, Manhattan distance ≥ 2 from it; at most 1000 tries.
-fn place_obj(grid: &Grid, agent_pos: Pos, rng: &mut Pcg64Mcg) -> Option<Pos> {
-    let (w, h) = (grid.width() as i32, grid.height() as i32);
-    for _ in 0..1000 {
-        let pos = (rng.random_range(0..w), rng.random_range(0..h));
-        if grid.get(pos).is_some() || pos == agent_pos {
-            continue;
-        }
-        if (pos.0 - agent_pos.0).abs() + (pos.1 - agent_pos.1).abs() < 2 {
-            continue;
-        }
-        return Some(pos);
-    }
-    None
 }
 
 /// `check_objs_reachable`: every non-wall object is 4-adjacent to the agent's component of
@@ -263,6 +282,9 @@ pub fn all_reachable(grid: &Grid, agent_pos: Pos) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::env::object::{Color, ObjectKind, WorldObj};
+    use rand::{Rng, SeedableRng};
+    use rand_pcg::Pcg64Mcg;
 
     /// The flood fill as first written, on positions: the reference for the index version.
     fn reachable_reference(grid: &Grid, agent_pos: Pos) -> bool {
@@ -363,7 +385,7 @@ mod tests {
         for seed in 0..2000 {
             let w = cfg.generate(seed).unwrap();
             assert_eq!(w.max_steps, 64);
-            let n = w.verifier.obj_set.len();
+            let n = w.targets().len();
             assert!(n >= 1);
             if w.mission.contains(" the ") {
                 the += 1;
@@ -372,8 +394,8 @@ mod tests {
                 a += 1;
                 assert!(n > 1, "{}", w.mission);
             }
-            no_color += usize::from(w.instr.desc.color.is_none());
-            pickup += usize::from(w.instr.task == TaskKind::Pickup);
+            no_color += usize::from(w.desc().color.is_none());
+            pickup += usize::from(w.instr.first().instr.task == TaskKind::Pickup);
             for (p, o) in w.grid.objects() {
                 if o.kind != ObjectKind::Wall {
                     let d = (p.0 - w.agent_pos.0).abs() + (p.1 - w.agent_pos.1).abs();

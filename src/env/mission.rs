@@ -1,14 +1,15 @@
-//! BabyAI instructions ("go to …", "pick up …") and their surface text (`verifier.py`).
+//! BabyAI's action clauses ("go to …", "pick up …", "open …", "put … next to …"), object
+//! descriptions and their surface text (`verifier.py`). Sequences of clauses: [`super::instr`].
 
 use std::fmt;
 
 use serde::{Deserialize, Serialize};
 
 use super::error::EnvError;
-use super::grid::{DIR_TO_VEC, Grid, Pos};
+use super::grid::{DIR_TO_VEC, Grid, Pos, Rooms};
 use super::object::{Color, ObjectKind, WorldObj};
 
-/// The kind of task an instruction asks for.
+/// The kind of task an action instruction asks for.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum TaskKind {
@@ -16,22 +17,37 @@ pub enum TaskKind {
     GoTo,
     /// `PickupInstr`: pick up a matching object.
     Pickup,
+    /// `OpenInstr`: open a matching door.
+    Open,
+    /// `PutNextInstr`: put a matching object next to another.
+    PutNext,
 }
 
 impl TaskKind {
-    /// The class name the Python dumps use (`"GoToInstr"`, `"PickupInstr"`).
+    /// The class name the Python dumps use (`"GoToInstr"`, `"PickupInstr"`, ...).
     pub fn instr_class(self) -> &'static str {
         match self {
             Self::GoTo => "GoToInstr",
             Self::Pickup => "PickupInstr",
+            Self::Open => "OpenInstr",
+            Self::PutNext => "PutNextInstr",
         }
     }
 
-    /// The verb phrase that starts the mission.
+    /// The kind with class name `name`, if any.
+    pub fn from_class(name: &str) -> Option<Self> {
+        [Self::GoTo, Self::Pickup, Self::Open, Self::PutNext]
+            .into_iter()
+            .find(|k| k.instr_class() == name)
+    }
+
+    /// The verb phrase that starts the clause.
     pub fn verb(self) -> &'static str {
         match self {
             Self::GoTo => "go to",
             Self::Pickup => "pick up",
+            Self::Open => "open",
+            Self::PutNext => "put",
         }
     }
 }
@@ -41,6 +57,8 @@ impl fmt::Display for TaskKind {
         f.write_str(match self {
             Self::GoTo => "goto",
             Self::Pickup => "pickup",
+            Self::Open => "open",
+            Self::PutNext => "putnext",
         })
     }
 }
@@ -95,16 +113,20 @@ impl ObjDesc {
         self.kind.is_none_or(|k| k == obj.kind) && self.color.is_none_or(|c| c == obj.color)
     }
 
-    /// `find_matching_objs(use_location=True)`: the ids and positions of all matching objects,
-    /// in MiniGrid's x-major scan order, for an agent at `agent_pos` facing `agent_dir`.
+    /// `find_matching_objs(use_location=True)`: the ids and positions of all matching objects
+    /// (walls included, as BabyAI scans every cell), in MiniGrid's x-major scan order, for an
+    /// agent at `agent_pos` facing `agent_dir`. A location word keeps only the objects of the
+    /// agent's room on that side of it.
     pub fn find_matching(
         &self,
         grid: &Grid,
+        rooms: Rooms,
         agent_pos: Pos,
         agent_dir: u8,
     ) -> (Vec<u32>, Vec<Pos>) {
         let d1 = DIR_TO_VEC[usize::from(agent_dir & 3)];
         let d2 = (-d1.1, d1.0);
+        let room = rooms.room_of(agent_pos);
         let mut ids = Vec::new();
         let mut poss = Vec::new();
         for (pos, obj) in grid.objects() {
@@ -112,7 +134,9 @@ impl ObjDesc {
                 continue;
             }
             if let Some(loc) = self.loc {
-                // One room per level here, so every cell is in the agent's room.
+                if !rooms.pos_inside(room, pos) {
+                    continue;
+                }
                 let v = (pos.0 - agent_pos.0, pos.1 - agent_pos.1);
                 let dot = |d: Pos| v.0 * d.0 + v.1 * d.1;
                 let ok = match loc {
@@ -152,69 +176,134 @@ impl ObjDesc {
     }
 }
 
-/// A single-clause instruction: what to do with which objects.
+/// A single-clause (action) instruction: what to do with which objects.
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Instruction {
-    /// Go to or pick up.
+    /// Go to, pick up, open or put next to.
     pub task: TaskKind,
-    /// The description of the target(s).
+    /// The description of the object(s) acted on (PutNext: the object to move).
     pub desc: ObjDesc,
-    /// `PickupInstr(strict=True)`: picking up a wrong object fails (PickupDistDebug).
+    /// PutNext's second description, the object(s) to put the first next to.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fixed: Option<ObjDesc>,
+    /// BabyAI's `strict` flag: picking up (or opening) a wrong object fails.
     pub strict: bool,
 }
 
 impl Instruction {
-    /// The mission text, e.g. `"go to the red key"`.
+    /// A clause on one description (GoTo, Pickup, Open).
+    pub fn new(task: TaskKind, desc: ObjDesc) -> Self {
+        Self {
+            task,
+            desc,
+            fixed: None,
+            strict: false,
+        }
+    }
+
+    /// PutNext: put an object matching `moved` next to one matching `fixed`.
+    pub fn put_next(moved: ObjDesc, fixed: ObjDesc) -> Self {
+        Self {
+            task: TaskKind::PutNext,
+            desc: moved,
+            fixed: Some(fixed),
+            strict: false,
+        }
+    }
+
+    /// The mission text for a one-description clause, e.g. `"go to the red key"`; PutNext
+    /// reads its second description as matching `n_matches` objects too (see
+    /// [`Self::surface_with`]).
     pub fn surface(&self, n_matches: usize) -> String {
-        format!("{} {}", self.task.verb(), self.desc.surface(n_matches))
+        self.surface_with(n_matches, n_matches)
+    }
+
+    /// The mission text with the number of objects each description matched.
+    pub fn surface_with(&self, n_matches: usize, n_fixed: usize) -> String {
+        match (self.task, self.fixed) {
+            (TaskKind::PutNext, Some(fixed)) => format!(
+                "put {} next to {}",
+                self.desc.surface(n_matches),
+                fixed.surface(n_fixed)
+            ),
+            _ => format!("{} {}", self.task.verb(), self.desc.surface(n_matches)),
+        }
+    }
+
+    /// Parses one BabyAI clause: `("go to" | "pick up" | "open") DESC` or `"put" DESC "next"
+    /// "to" DESC`, where `DESC` is `("the" | "a") [colour] (type | "object") [location]`.
+    pub fn parse(text: &str) -> Result<Self, EnvError> {
+        let words = super::vocab::split_words(text);
+        let w: Vec<&str> = words.iter().map(String::as_str).collect();
+        Self::parse_words(&w).map_err(|reason| EnvError::InvalidMission {
+            mission: text.to_owned(),
+            reason,
+        })
+    }
+
+    /// [`Self::parse`] on words already split.
+    pub(crate) fn parse_words(w: &[&str]) -> Result<Self, String> {
+        let (task, rest) = match w {
+            ["go", "to", rest @ ..] => (TaskKind::GoTo, rest),
+            ["pick", "up", rest @ ..] => (TaskKind::Pickup, rest),
+            ["open", rest @ ..] => (TaskKind::Open, rest),
+            ["put", rest @ ..] => (TaskKind::PutNext, rest),
+            _ => {
+                return Err(
+                    "a clause must start with \"go to\", \"pick up\", \"open\" or \"put\"".into(),
+                );
+            }
+        };
+        if task == TaskKind::PutNext {
+            let Some(at) = rest.windows(2).position(|p| p == ["next", "to"]) else {
+                return Err("\"put\" needs \"next to\"".into());
+            };
+            let moved = parse_desc(&rest[..at])?;
+            let fixed = parse_desc(&rest[at + 2..])?;
+            if moved.kind == Some(ObjectKind::Door) {
+                return Err("a door cannot be put next to anything".into());
+            }
+            return Ok(Self::put_next(moved, fixed));
+        }
+        let desc = parse_desc(rest)?;
+        match (task, desc.kind) {
+            (TaskKind::Pickup, Some(ObjectKind::Door)) => Err("a door cannot be picked up".into()),
+            (TaskKind::Open, k) if k != Some(ObjectKind::Door) => {
+                Err("only a door can be opened".into())
+            }
+            _ => Ok(Self::new(task, desc)),
+        }
     }
 }
 
-impl Instruction {
-    /// Parses a BabyAI mission: `("go to" | "pick up") ("the" | "a") [colour] (type | "object")
-    /// [location phrase]`, lowercased and split as BabyAI's tokenizer does.
-    pub fn parse(text: &str) -> Result<Self, EnvError> {
-        let words = super::vocab::split_words(text);
-        super::vocab::tokenize(text)?;
-        let bad = |reason: &str| EnvError::InvalidMission {
-            mission: text.to_owned(),
-            reason: reason.to_owned(),
-        };
-        let w: Vec<&str> = words.iter().map(String::as_str).collect();
-        let (task, rest) = match w.as_slice() {
-            ["go", "to", rest @ ..] => (TaskKind::GoTo, rest),
-            ["pick", "up", rest @ ..] => (TaskKind::Pickup, rest),
-            _ => return Err(bad("it must start with \"go to\" or \"pick up\"")),
-        };
-        let ["the" | "a", rest @ ..] = rest else {
-            return Err(bad("an article (\"the\" or \"a\") must follow the verb"));
-        };
-        let (color, rest) = match rest {
-            [c, rest @ ..] if Color::from_name(c).is_some() => (Color::from_name(c), rest),
-            _ => (None, rest),
-        };
-        let (kind, rest) = match rest {
-            ["object", rest @ ..] => (None, rest),
-            [t, rest @ ..] => match ObjectKind::from_name(t).filter(|k| k.can_pickup()) {
+/// `("the" | "a") [colour] (type | "object") [location phrase]`.
+fn parse_desc(w: &[&str]) -> Result<ObjDesc, String> {
+    let ["the" | "a", rest @ ..] = w else {
+        return Err("an article (\"the\" or \"a\") must start each description".into());
+    };
+    let (color, rest) = match rest {
+        [c, rest @ ..] if Color::from_name(c).is_some() => (Color::from_name(c), rest),
+        _ => (None, rest),
+    };
+    let (kind, rest) = match rest {
+        ["object", rest @ ..] => (None, rest),
+        [t, rest @ ..] => {
+            match ObjectKind::from_name(t).filter(|k| k.can_pickup() || *k == ObjectKind::Door) {
                 Some(k) => (Some(k), rest),
-                None => return Err(bad(&format!("{t:?} is not key, ball, box or object"))),
-            },
-            [] => return Err(bad("it names no object")),
-        };
-        let loc = match rest {
-            [] => None,
-            ["in", "front", "of", "you"] => Some(Loc::Front),
-            ["behind", "you"] => Some(Loc::Behind),
-            ["on", "your", "left"] => Some(Loc::Left),
-            ["on", "your", "right"] => Some(Loc::Right),
-            _ => return Err(bad("unexpected words after the object")),
-        };
-        Ok(Self {
-            task,
-            desc: ObjDesc { kind, color, loc },
-            strict: false,
-        })
-    }
+                None => return Err(format!("{t:?} is not key, ball, box, door or object")),
+            }
+        }
+        [] => return Err("it names no object".into()),
+    };
+    let loc = match rest {
+        [] => None,
+        ["in", "front", "of", "you"] => Some(Loc::Front),
+        ["behind", "you"] => Some(Loc::Behind),
+        ["on", "your", "left"] => Some(Loc::Left),
+        ["on", "your", "right"] => Some(Loc::Right),
+        _ => return Err("unexpected words after the object".into()),
+    };
+    Ok(ObjDesc { kind, color, loc })
 }
 
 #[cfg(test)]
@@ -231,6 +320,7 @@ mod tests {
         let goto = Instruction {
             task: TaskKind::GoTo,
             desc,
+            fixed: None,
             strict: false,
         };
         assert_eq!(goto.surface(1), "go to the red key");
@@ -242,6 +332,7 @@ mod tests {
                 color: Some(Color::Blue),
                 loc: Some(Loc::Left),
             },
+            fixed: None,
             strict: false,
         };
         assert_eq!(pick.surface(3), "pick up a blue object on your left");

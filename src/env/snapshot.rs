@@ -7,36 +7,75 @@
 
 mod verify;
 
-pub use verify::{Mismatch, verify_dump};
+pub use verify::{MINIGRID_VERSION, Mismatch, verify_dump, verify_generation};
 
 use serde::{Deserialize, Serialize};
 
 use super::error::EnvError;
-use super::grid::{Grid, Pos};
+use super::grid::{Grid, Pos, Rooms};
+use super::instr::{Instr, SeqKind, Targets};
 use super::mission::{Instruction, Loc, ObjDesc, TaskKind};
 use super::object::{Cell, Color, DoorState, ObjectKind, WorldObj};
 use super::view::Observation;
 use super::world::World;
 
-/// `instr` of a dump.
+/// An object description of a dump, with the positions it matched.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DescJson {
+    /// Object type name or null ("object").
+    #[serde(rename = "type", default)]
+    pub kind_name: Option<String>,
+    /// Colour name or null.
+    #[serde(default)]
+    pub color: Option<String>,
+    /// Location name or null.
+    #[serde(default)]
+    pub loc: Option<String>,
+    /// Positions of the matching objects, `[x, y]`.
+    #[serde(default)]
+    pub match_positions: Vec<[i64; 2]>,
+}
+
+/// `instr` of a dump: a tree. GoTo / Pickup / Open carry one description inline; PutNext
+/// `move` and `fixed`; And / Before / After `a` and `b`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct InstrJson {
-    /// `"GoToInstr"` or `"PickupInstr"`.
+    /// `"GoToInstr"`, `"PickupInstr"`, `"OpenInstr"`, `"PutNextInstr"`, `"AndInstr"`,
+    /// `"BeforeInstr"` or `"AfterInstr"`.
     pub kind: String,
-    /// Object type name or null.
-    #[serde(rename = "type")]
+    /// Object type name or null (one-description clauses).
+    #[serde(rename = "type", default, skip_serializing_if = "Option::is_none")]
     pub kind_name: Option<String>,
     /// Colour name or null.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub color: Option<String>,
     /// Location name or null.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub loc: Option<String>,
     /// Positions of the matching objects, `[x, y]`.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub match_positions: Vec<[i64; 2]>,
-    /// `PickupInstr(strict=…)`.
+    /// BabyAI's `strict`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub strict: Option<bool>,
+    /// PutNext: the object to move.
+    #[serde(rename = "move", default, skip_serializing_if = "Option::is_none")]
+    pub moved: Option<DescJson>,
+    /// PutNext: the object to put it next to.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fixed: Option<DescJson>,
+    /// A sequence's first part.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub a: Option<Box<InstrJson>>,
+    /// A sequence's second part.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub b: Option<Box<InstrJson>>,
 }
+
+/// What a box holds: `[x, y, [type, colour, state]]`.
+pub type BoxJson = (i64, i64, [i64; 3]);
 
 /// An observation as dumped.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -80,6 +119,9 @@ pub struct StepJson {
     /// The world grid, present only when the step changed it.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub grid: Option<Vec<Vec<Vec<i64>>>>,
+    /// What each box holds, present only when the step changed the grid.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub box_contents: Option<Vec<BoxJson>>,
 }
 
 /// A world snapshot / episode dump (the `dump_minigrid.py` format).
@@ -121,6 +163,9 @@ pub struct Snapshot {
     pub layout_note: Option<String>,
     /// Grid encoding, `grid[x][y] = [type, colour, state]`.
     pub grid: Vec<Vec<Vec<i64>>>,
+    /// What each box holds (the grid encoding does not show it).
+    #[serde(default)]
+    pub box_contents: Vec<BoxJson>,
     /// MiniGrid's `pprint_grid` lines.
     #[serde(default)]
     pub grid_ascii: Vec<String>,
@@ -339,40 +384,50 @@ impl Snapshot {
                 }
             }
         };
-        let instr = self.instruction()?;
-        let mut obj_set = Vec::new();
-        let mut obj_poss = Vec::new();
-        for (i, p) in self.instr.match_positions.iter().enumerate() {
-            let field = format!("instr.match_positions[{i}]");
-            let pos = pos_of(*p, &field)?;
-            match grid.get(pos) {
-                Some(o) if instr.desc.matches(&o) => {
-                    obj_set.push(o.id);
-                    obj_poss.push(pos);
-                }
-                Some(o) => {
-                    return Err(invalid(
-                        field,
-                        format!("{pos:?} holds a {}, which does not match", o.describe()),
-                    ));
-                }
-                None => return Err(invalid(field, format!("{pos:?} holds no object"))),
-            }
+        let mut box_contents = Vec::with_capacity(self.box_contents.len());
+        for (i, (x, y, inner)) in self.box_contents.iter().enumerate() {
+            let field = format!("box_contents[{i}]");
+            let pos = pos_of([*x, *y], &field)?;
+            let Some(bx) = grid.get(pos).filter(|o| o.kind == ObjectKind::Box) else {
+                return Err(invalid(field, format!("{pos:?} holds no box")));
+            };
+            let Some(obj) = decode_cell(inner, next_id, &format!("{field}[2]"))? else {
+                return Err(invalid(field, "a box holds an object, not an empty cell"));
+            };
+            next_id += 1;
+            box_contents.push((bx.id, obj));
         }
+        let rooms = self.rooms();
+        let tree = instr_from_json(&self.instr, "instr")?;
         let max_steps = u32::try_from(self.max_steps)
             .map_err(|_| invalid("max_steps", format!("{} is out of range", self.max_steps)))?;
-        let mut world = World::from_parts(
-            grid,
-            agent_pos,
-            agent_dir,
-            carrying,
-            instr,
-            max_steps,
-            self.done_actions,
-            next_id,
-            obj_set,
-            obj_poss,
-        )?;
+        // A PutNext "Carrying" dump at reset: the carried object's match position is empty.
+        let lifted = carrying.is_some()
+            && self.step_count == 0
+            && self.instr.moved.as_ref().is_some_and(|m| {
+                m.match_positions.iter().any(|p| {
+                    pos_of(*p, "instr.move")
+                        .is_ok_and(|p| grid.contains(p) && grid.get(p).is_none())
+                })
+            });
+        let mut world = if lifted {
+            self.world_with_lifted(carrying, rooms, max_steps, next_id, box_contents.clone())?
+        } else {
+            World::with_tree(
+                grid,
+                rooms,
+                agent_pos,
+                agent_dir,
+                carrying,
+                tree,
+                max_steps,
+                self.done_actions,
+                next_id,
+            )?
+        };
+        world.box_contents = box_contents;
+        override_targets(&mut world, &self.instr)?;
+        world.mission = world.instr.surface();
         world.step_count = u32::try_from(self.step_count)
             .ok()
             .filter(|s| *s < max_steps)
@@ -394,46 +449,67 @@ impl Snapshot {
         Ok(world)
     }
 
-    fn instruction(&self) -> Result<Instruction, EnvError> {
-        let task = match self.instr.kind.as_str() {
-            "GoToInstr" => TaskKind::GoTo,
-            "PickupInstr" => TaskKind::Pickup,
-            other => {
-                return Err(invalid(
-                    "instr.kind",
-                    format!("{other:?} is not GoToInstr or PickupInstr"),
-                ));
-            }
+    /// The rooms of the dump: `room_size` splits the grid when it tiles it, else one room.
+    pub fn rooms(&self) -> Rooms {
+        let (w, h) = (self.width, self.height);
+        match self.room_size {
+            Some(rs) if rs >= 3 && (w - 1) % (rs - 1) == 0 && (h - 1) % (rs - 1) == 0 => Rooms {
+                room_size: rs as i32,
+                num_cols: ((w - 1) / (rs - 1)) as i32,
+                num_rows: ((h - 1) / (rs - 1)) as i32,
+            },
+            _ => Rooms::single(w as usize, h as usize),
+        }
+    }
+
+    /// A PutNext "Carrying" dump: the carried object stood at its match position when the
+    /// verifier was reset; put it back there, reset, and lift it again.
+    fn world_with_lifted(
+        &self,
+        carrying: Option<WorldObj>,
+        rooms: Rooms,
+        max_steps: u32,
+        next_id: u32,
+        box_contents: Vec<(u32, WorldObj)>,
+    ) -> Result<World, EnvError> {
+        let Some(obj) = carrying else {
+            return Err(invalid("carrying", "nothing carried"));
         };
-        let kind = match &self.instr.kind_name {
-            None => None,
-            Some(t) => Some(
-                ObjectKind::from_name(t)
-                    .filter(|k| k.can_pickup())
-                    .ok_or_else(|| {
-                        invalid("instr.type", format!("{t:?} is not key, ball or box"))
-                    })?,
-            ),
+        let Some(moved) = self.instr.moved.as_ref() else {
+            return Err(invalid(
+                "instr",
+                "a description matches no object of the grid",
+            ));
         };
-        let color = match &self.instr.color {
-            None => None,
-            Some(c) => Some(
-                Color::from_name(c)
-                    .ok_or_else(|| invalid("instr.color", format!("{c:?} is not a colour")))?,
-            ),
-        };
-        let loc = match &self.instr.loc {
-            None => None,
-            Some(l) => Some(
-                Loc::from_name(l)
-                    .ok_or_else(|| invalid("instr.loc", format!("{l:?} is not a location")))?,
-            ),
-        };
-        Ok(Instruction {
-            task,
-            desc: ObjDesc { kind, color, loc },
-            strict: self.instr.strict.unwrap_or(false),
-        })
+        let mut grid = decode_grid(&self.grid, self.width, self.height, "grid")?;
+        let floor = moved
+            .match_positions
+            .iter()
+            .map(|p| pos_of(*p, "instr.move.match_positions"))
+            .collect::<Result<Vec<_>, _>>()?
+            .into_iter()
+            .find(|p| grid.contains(*p) && grid.get(*p).is_none())
+            .ok_or_else(|| invalid("instr", "a description matches no object of the grid"))?;
+        grid.set(floor, Some(obj));
+        let agent_pos = pos_of(self.agent_pos, "agent_pos")?;
+        let agent_dir = u8_in(self.agent_dir, 3, || "agent_dir".into())?;
+        let tree = instr_from_json(&self.instr, "instr")?;
+        let mut world = World::with_tree(
+            grid,
+            rooms,
+            agent_pos,
+            agent_dir,
+            None,
+            tree,
+            max_steps,
+            self.done_actions,
+            next_id,
+        )?;
+        world.grid.set(floor, None);
+        world.carrying = Some(obj);
+        world.reset_floor = Some(floor);
+        world.box_contents = box_contents;
+        Ok(world)
     }
 
     /// The snapshot of `world` (no steps), with its observation as `initial_obs`.
@@ -445,7 +521,6 @@ impl Snapshot {
             .map(|col| col.into_iter().map(encode_i64).collect())
             .collect();
         let obs = world.observe();
-        let desc = world.instr.desc;
         let carrying = world.carrying.map(|c| {
             let e = c.encode();
             [i64::from(e[0]), i64::from(e[1]), i64::from(e[2])]
@@ -456,27 +531,16 @@ impl Snapshot {
             seed,
             width: world.grid.width() as i64,
             height: world.grid.height() as i64,
-            room_size: Some(world.grid.width() as i64),
+            room_size: Some(i64::from(world.rooms.room_size)),
             agent_view_size: Some(7),
             see_through_walls: Some(false),
             done_actions: world.done_actions,
             max_steps: i64::from(world.max_steps),
             mission: world.mission.clone(),
-            instr: InstrJson {
-                kind: world.instr.task.instr_class().into(),
-                kind_name: desc.kind.map(|k| k.name().into()),
-                color: desc.color.map(|c| c.name().into()),
-                loc: desc.loc.map(|l| l.name().into()),
-                match_positions: world
-                    .verifier
-                    .obj_poss
-                    .iter()
-                    .map(|p| [i64::from(p.0), i64::from(p.1)])
-                    .collect(),
-                strict: (world.instr.task == TaskKind::Pickup).then_some(world.instr.strict),
-            },
+            instr: instr_to_json(&world.instr),
             layout_note: None,
             grid,
+            box_contents: box_contents_json(world),
             grid_ascii: ascii_grid(&world.grid, world.agent_pos, world.agent_dir),
             agent_pos: [i64::from(world.agent_pos.0), i64::from(world.agent_pos.1)],
             agent_dir: i64::from(world.agent_dir),
@@ -497,4 +561,270 @@ fn obs_to_i64(obs: &Observation) -> Vec<Vec<Vec<i64>>> {
         .iter()
         .map(|col| col.iter().map(|&c| encode_i64(c)).collect())
         .collect()
+}
+
+/// The dump's `box_contents` of a world: `[x, y, inner]` for every box on the grid that holds
+/// something, x outer.
+pub(crate) fn box_contents_json(world: &World) -> Vec<BoxJson> {
+    let mut out = Vec::new();
+    for (pos, obj) in world.grid.objects() {
+        if obj.kind != ObjectKind::Box {
+            continue;
+        }
+        if let Some((_, inner)) = world.box_contents.iter().find(|(b, _)| *b == obj.id) {
+            let e = inner.encode();
+            out.push((
+                i64::from(pos.0),
+                i64::from(pos.1),
+                [i64::from(e[0]), i64::from(e[1]), i64::from(e[2])],
+            ));
+        }
+    }
+    out
+}
+
+fn name_opt<T>(
+    name: &Option<String>,
+    field: &str,
+    what: &str,
+    parse: impl Fn(&str) -> Option<T>,
+) -> Result<Option<T>, EnvError> {
+    match name {
+        None => Ok(None),
+        Some(n) => parse(n)
+            .map(Some)
+            .ok_or_else(|| invalid(field, format!("{n:?} is not {what}"))),
+    }
+}
+
+fn desc_from(
+    kind: &Option<String>,
+    color: &Option<String>,
+    loc: &Option<String>,
+    field: &str,
+) -> Result<ObjDesc, EnvError> {
+    Ok(ObjDesc {
+        kind: name_opt(
+            kind,
+            &format!("{field}.type"),
+            "key, ball, box or door",
+            |t| ObjectKind::from_name(t).filter(|k| k.can_pickup() || *k == ObjectKind::Door),
+        )?,
+        color: name_opt(
+            color,
+            &format!("{field}.color"),
+            "a colour",
+            Color::from_name,
+        )?,
+        loc: name_opt(loc, &format!("{field}.loc"), "a location", Loc::from_name)?,
+    })
+}
+
+/// The instruction tree a dump describes (verifier state fresh).
+pub fn instr_from_json(j: &InstrJson, field: &str) -> Result<Instr, EnvError> {
+    if let Some(kind) = SeqKind::from_class(&j.kind) {
+        let (Some(a), Some(b)) = (&j.a, &j.b) else {
+            return Err(invalid(field, format!("{} needs parts a and b", j.kind)));
+        };
+        let a = instr_from_json(a, &format!("{field}.a"))?;
+        let b = instr_from_json(b, &format!("{field}.b"))?;
+        if kind == SeqKind::And && (matches!(a, Instr::Seq(_)) || matches!(b, Instr::Seq(_))) {
+            return Err(invalid(field, "AndInstr joins two action clauses"));
+        }
+        if let (Instr::Seq(x), _) | (_, Instr::Seq(x)) = (&a, &b)
+            && x.kind != SeqKind::And
+        {
+            return Err(invalid(field, "a sequence's parts are clauses or AndInstr"));
+        }
+        let mut tree = Instr::seq(kind, a, b);
+        if let Instr::Seq(s) = &mut tree {
+            s.strict = j.strict.unwrap_or(false);
+        }
+        return Ok(tree);
+    }
+    let Some(task) = TaskKind::from_class(&j.kind) else {
+        return Err(invalid(
+            format!("{field}.kind"),
+            format!(
+                "{:?} is not GoToInstr, PickupInstr, OpenInstr, PutNextInstr, AndInstr, \
+                 BeforeInstr or AfterInstr",
+                j.kind
+            ),
+        ));
+    };
+    let mut instr = if task == TaskKind::PutNext {
+        let (Some(m), Some(f)) = (&j.moved, &j.fixed) else {
+            return Err(invalid(field, "PutNextInstr needs move and fixed"));
+        };
+        let moved = desc_from(&m.kind_name, &m.color, &m.loc, &format!("{field}.move"))?;
+        let fixed = desc_from(&f.kind_name, &f.color, &f.loc, &format!("{field}.fixed"))?;
+        if moved.kind == Some(ObjectKind::Door) {
+            return Err(invalid(
+                format!("{field}.move.type"),
+                "a door cannot be moved",
+            ));
+        }
+        Instruction::put_next(moved, fixed)
+    } else {
+        let desc = desc_from(&j.kind_name, &j.color, &j.loc, field)?;
+        let door = desc.kind == Some(ObjectKind::Door);
+        if (task == TaskKind::Open) != door && !(task == TaskKind::GoTo && door) {
+            return Err(invalid(
+                format!("{field}.type"),
+                format!(
+                    "{} cannot act on {}",
+                    j.kind,
+                    desc.kind.map_or("object", ObjectKind::name)
+                ),
+            ));
+        }
+        Instruction::new(task, desc)
+    };
+    instr.strict = j.strict.unwrap_or(false);
+    Ok(instr.into())
+}
+
+fn desc_json(desc: &ObjDesc, poss: &[Pos]) -> DescJson {
+    DescJson {
+        kind_name: desc.kind.map(|k| k.name().into()),
+        color: desc.color.map(|c| c.name().into()),
+        loc: desc.loc.map(|l| l.name().into()),
+        match_positions: poss
+            .iter()
+            .map(|p| [i64::from(p.0), i64::from(p.1)])
+            .collect(),
+    }
+}
+
+/// The dump form of an instruction tree, with each description's current positions.
+pub fn instr_to_json(tree: &Instr) -> InstrJson {
+    let empty = InstrJson {
+        kind: String::new(),
+        kind_name: None,
+        color: None,
+        loc: None,
+        match_positions: Vec::new(),
+        strict: None,
+        moved: None,
+        fixed: None,
+        a: None,
+        b: None,
+    };
+    match tree {
+        Instr::Seq(s) => InstrJson {
+            kind: s.kind.instr_class().into(),
+            strict: Some(s.strict),
+            a: Some(Box::new(instr_to_json(&s.a))),
+            b: Some(Box::new(instr_to_json(&s.b))),
+            ..empty
+        },
+        Instr::Action(n) => {
+            let strict = (n.instr.task != TaskKind::GoTo).then_some(n.instr.strict);
+            match n.instr.fixed {
+                Some(fixed) => InstrJson {
+                    kind: n.instr.task.instr_class().into(),
+                    strict,
+                    moved: Some(desc_json(&n.instr.desc, &n.targets.obj_poss)),
+                    fixed: Some(desc_json(&fixed, &n.fixed_targets.obj_poss)),
+                    ..empty
+                },
+                None => {
+                    let d = desc_json(&n.instr.desc, &n.targets.obj_poss);
+                    InstrJson {
+                        kind: n.instr.task.instr_class().into(),
+                        kind_name: d.kind_name,
+                        color: d.color,
+                        loc: d.loc,
+                        match_positions: d.match_positions,
+                        strict,
+                        ..empty
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// Replaces each clause's targets by the objects at the dump's match positions (a snapshot
+/// taken mid-episode lists where they are now), checking that each matches its description.
+fn override_targets(world: &mut World, j: &InstrJson) -> Result<(), EnvError> {
+    let grid = world.grid.clone();
+    let carried = world.carrying.filter(|_| world.reset_floor.is_some());
+    let floor = world.reset_floor;
+    set_targets(&mut world.instr, j, "instr", &grid, carried, floor)
+}
+
+fn resolve(
+    d: &DescJson,
+    desc: &ObjDesc,
+    field: &str,
+    grid: &Grid,
+    carried: Option<WorldObj>,
+    floor: Option<Pos>,
+) -> Result<Targets, EnvError> {
+    let mut t = Targets::default();
+    for (i, p) in d.match_positions.iter().enumerate() {
+        let f = format!("{field}.match_positions[{i}]");
+        let pos = pos_of(*p, &f)?;
+        match grid.get(pos) {
+            Some(o) if desc.matches(&o) => t.obj_set.push(o.id),
+            Some(o) => {
+                return Err(invalid(
+                    f,
+                    format!("{pos:?} holds a {}, which does not match", o.describe()),
+                ));
+            }
+            None => match carried {
+                Some(c) if Some(pos) == floor && desc.matches(&c) => t.obj_set.push(c.id),
+                _ => return Err(invalid(f, format!("{pos:?} holds no object"))),
+            },
+        }
+        t.obj_poss.push(pos);
+    }
+    Ok(t)
+}
+
+fn set_targets(
+    tree: &mut Instr,
+    j: &InstrJson,
+    field: &str,
+    grid: &Grid,
+    carried: Option<WorldObj>,
+    floor: Option<Pos>,
+) -> Result<(), EnvError> {
+    match tree {
+        Instr::Seq(s) => {
+            let (Some(a), Some(b)) = (&j.a, &j.b) else {
+                return Err(invalid(field, "a sequence needs parts a and b"));
+            };
+            set_targets(&mut s.a, a, &format!("{field}.a"), grid, carried, floor)?;
+            set_targets(&mut s.b, b, &format!("{field}.b"), grid, carried, floor)
+        }
+        Instr::Action(n) => {
+            if let (Some(fixed), Some(m), Some(f)) = (n.instr.fixed, &j.moved, &j.fixed) {
+                n.targets = resolve(
+                    m,
+                    &n.instr.desc,
+                    &format!("{field}.move"),
+                    grid,
+                    carried,
+                    floor,
+                )?;
+                n.fixed_targets =
+                    resolve(f, &fixed, &format!("{field}.fixed"), grid, carried, floor)?;
+            } else {
+                let d = DescJson {
+                    kind_name: j.kind_name.clone(),
+                    color: j.color.clone(),
+                    loc: j.loc.clone(),
+                    match_positions: j.match_positions.clone(),
+                };
+                n.targets = resolve(&d, &n.instr.desc, field, grid, carried, floor)?;
+            }
+            if n.targets.obj_set.is_empty() {
+                return Err(invalid(field, "no object matches the description"));
+            }
+            Ok(())
+        }
+    }
 }

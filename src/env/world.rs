@@ -1,4 +1,4 @@
-//! A BabyAI single-room world and its step function (`MiniGridEnv.step` + `RoomGridLevel.step`
+//! A BabyAI world and its step function (`MiniGridEnv.step` + `RoomGridLevel.step`
 //! + the instruction verifier), ported from minigrid 3.2.0.
 
 use std::fmt;
@@ -6,9 +6,10 @@ use std::fmt;
 use serde::{Deserialize, Serialize};
 
 use super::error::EnvError;
-use super::grid::{DIR_TO_VEC, Grid, Pos};
-use super::mission::{Instruction, TaskKind};
-use super::object::{DoorState, ObjectKind, WorldObj};
+use super::grid::{DIR_TO_VEC, Grid, Pos, Rooms};
+use super::instr::{Instr, Status, Verify};
+use super::mission::{Instruction, ObjDesc};
+use super::object::{DoorState, ObjectId, ObjectKind, WorldObj};
 use super::view::{Observation, observe};
 
 /// MiniGrid's seven actions (`minigrid/core/actions.py`).
@@ -83,52 +84,52 @@ pub struct StepOutcome {
     pub truncated: bool,
 }
 
-/// Verifier state of an `ActionInstr` (BabyAI's `verifier.py`).
-#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
-pub struct Verifier {
-    /// Identities of the matching objects, fixed at reset (`desc.obj_set`).
-    pub obj_set: Vec<u32>,
-    /// Their positions (`desc.obj_poss`); refreshed only after a `drop`, as BabyAI does.
-    pub obj_poss: Vec<Pos>,
-    /// `PickupInstr.preCarrying`: id of what was carried after the previous verified step.
-    pub pre_carrying: Option<u32>,
-    /// `ActionInstr.lastStepMatch`: the previous step satisfied the instruction.
-    pub last_step_match: bool,
-}
-
-/// The full state of one episode: grid, agent, instruction and verifier.
+/// The full state of one episode: grid, agent, instruction tree and verifier state.
 /// Serialises in full (verifier included) for training-state files; the interchange format
 /// with Python is [`super::snapshot::Snapshot`].
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct World {
     /// The world grid (the agent is not in it).
     pub grid: Grid,
+    /// The rooms the grid is made of (for location words and room-level analyses).
+    pub rooms: Rooms,
     /// Agent position `(x, y)`.
     pub agent_pos: Pos,
     /// Agent direction, 0 = right, 1 = down, 2 = left, 3 = up.
     pub agent_dir: u8,
     /// The carried object, if any.
     pub carrying: Option<WorldObj>,
+    /// What each box holds, by the box's id (a key in KeyInBox); opening the box puts it on
+    /// the box's cell.
+    #[serde(default)]
+    pub box_contents: Vec<(ObjectId, WorldObj)>,
     /// Steps taken so far.
     pub step_count: u32,
     /// Truncation horizon.
     pub max_steps: u32,
-    /// The instruction.
-    pub instr: Instruction,
+    /// The instruction tree with its verifier state.
+    pub instr: Instr,
     /// The mission text.
     pub mission: String,
     /// BabyAI's done-action mode: `done` succeeds right after a satisfying step, else fails.
     pub done_actions: bool,
-    /// Verifier state.
-    pub verifier: Verifier,
     /// Next free object id (for objects added by edits).
     pub next_id: u32,
+    /// Python's `cur_pos` of the objects moved since generation (picked up: `(-1, -1)`;
+    /// dropped: the drop cell); every other object's is where it stands or stood at reset.
+    #[serde(default)]
+    pub moved: Vec<(ObjectId, Pos)>,
+    /// The PutNext "Carrying" levels observe the world at reset with the carried object still
+    /// on this cell (minigrid lifts it after the first observation).
+    #[serde(default)]
+    pub reset_floor: Option<Pos>,
     ended: bool,
 }
 
 impl World {
-    /// A world at step 0; resolves the instruction's matching set at the given pose
-    /// (`reset_verifier`). Errors if nothing matches or the agent is on a blocking cell.
+    /// A one-room world at step 0 with a one-clause instruction; resolves the instruction's
+    /// matching set at the given pose (`reset_verifier`). Errors if nothing matches or the
+    /// agent is on a blocking cell.
     #[expect(clippy::too_many_arguments, reason = "mirrors the state a dump holds")]
     pub fn new(
         grid: Grid,
@@ -140,41 +141,39 @@ impl World {
         done_actions: bool,
         next_id: u32,
     ) -> Result<Self, EnvError> {
-        check_pose(&grid, agent_pos, agent_dir)?;
-        let (obj_set, obj_poss) = instr.desc.find_matching(&grid, agent_pos, agent_dir);
-        Self::from_parts(
+        let rooms = Rooms::single(grid.width(), grid.height());
+        Self::with_tree(
             grid,
+            rooms,
             agent_pos,
             agent_dir,
             carrying,
-            instr,
+            instr.into(),
             max_steps,
             done_actions,
             next_id,
-            obj_set,
-            obj_poss,
         )
     }
 
-    /// A world at step 0 whose targets are the objects at `obj_poss` (as a dump lists them).
+    /// A world at step 0 with any instruction tree, reset at the given pose.
     #[expect(clippy::too_many_arguments, reason = "mirrors the state a dump holds")]
-    pub fn from_parts(
+    pub fn with_tree(
         grid: Grid,
+        rooms: Rooms,
         agent_pos: Pos,
         agent_dir: u8,
         carrying: Option<WorldObj>,
-        instr: Instruction,
+        mut instr: Instr,
         max_steps: u32,
         done_actions: bool,
         next_id: u32,
-        obj_set: Vec<u32>,
-        obj_poss: Vec<Pos>,
     ) -> Result<Self, EnvError> {
         check_pose(&grid, agent_pos, agent_dir)?;
-        if obj_set.is_empty() {
+        instr.reset(&grid, rooms, agent_pos, agent_dir);
+        if let Some(clause) = instr.unmatched() {
             return Err(EnvError::InvalidState {
                 field: "instr".into(),
-                reason: format!("no object matches \"{}\"", instr.surface(1)),
+                reason: format!("no object matches \"{}\"", clause.surface(1)),
             });
         }
         if max_steps == 0 {
@@ -183,26 +182,39 @@ impl World {
                 reason: "must be at least 1".into(),
             });
         }
-        let mission = instr.surface(obj_set.len());
+        let mission = instr.surface();
         Ok(Self {
             grid,
+            rooms,
             agent_pos,
             agent_dir,
             carrying,
+            box_contents: Vec::new(),
             step_count: 0,
             max_steps,
             instr,
             mission,
             done_actions,
-            verifier: Verifier {
-                obj_set,
-                obj_poss,
-                pre_carrying: None,
-                last_step_match: false,
-            },
             next_id,
+            moved: Vec::new(),
+            reset_floor: None,
             ended: false,
         })
+    }
+
+    /// The first clause's description (the whole instruction on the one-clause levels).
+    pub fn desc(&self) -> ObjDesc {
+        self.instr.first().instr.desc
+    }
+
+    /// The identities of the objects the first clause's description matched.
+    pub fn targets(&self) -> &[ObjectId] {
+        &self.instr.first().targets.obj_set
+    }
+
+    /// Where the first clause's targets are (refreshed after drops, as BabyAI does).
+    pub fn target_positions(&self) -> &[Pos] {
+        &self.instr.first().targets.obj_poss
     }
 
     /// Checks a world read from a file (a training run's state) for what every method relies
@@ -235,41 +247,37 @@ impl World {
                 format!("{} is past max_steps {}", self.step_count, self.max_steps),
             );
         }
-        if self.verifier.obj_set.is_empty() {
-            return bad("verifier.obj_set", "no target object".into());
+        if let Some(clause) = self.instr.unmatched() {
+            return bad(
+                "instr",
+                format!("no target object for \"{}\"", clause.surface(1)),
+            );
         }
-        if let Some(p) = self
-            .verifier
-            .obj_poss
-            .iter()
-            .find(|p| !self.grid.contains(**p))
-        {
-            return bad("verifier.obj_poss", format!("{p:?} is outside the grid"));
+        for clause in self.instr.clauses() {
+            let poss = clause.targets.obj_poss.iter();
+            if let Some(p) = poss
+                .chain(&clause.fixed_targets.obj_poss)
+                .find(|p| !self.grid.contains(**p))
+            {
+                return bad("instr.obj_poss", format!("{p:?} is outside the grid"));
+            }
         }
         Ok(())
     }
 
     /// Replaces the instruction (a mission override at step 0): targets are re-resolved at
-    /// the current pose and the verifier restarts. Errors if no object matches.
-    pub fn set_instruction(&mut self, instr: Instruction) -> Result<(), EnvError> {
-        let (obj_set, obj_poss) =
-            instr
-                .desc
-                .find_matching(&self.grid, self.agent_pos, self.agent_dir);
-        if obj_set.is_empty() {
+    /// the current pose and the verifier restarts. Errors if a description matches nothing.
+    pub fn set_instruction(&mut self, instr: impl Into<Instr>) -> Result<(), EnvError> {
+        let mut instr = instr.into();
+        instr.reset(&self.grid, self.rooms, self.agent_pos, self.agent_dir);
+        if let Some(clause) = instr.unmatched() {
             return Err(EnvError::InvalidMission {
-                mission: instr.surface(1),
+                mission: clause.surface(1),
                 reason: "no object in this level matches it".into(),
             });
         }
-        self.mission = instr.surface(obj_set.len());
+        self.mission = instr.surface();
         self.instr = instr;
-        self.verifier = Verifier {
-            obj_set,
-            obj_poss,
-            pre_carrying: None,
-            last_step_match: false,
-        };
         Ok(())
     }
 
@@ -288,7 +296,22 @@ impl World {
     /// The current egocentric observation.
     #[inline]
     pub fn observe(&self) -> Observation {
+        if self.step_count == 0
+            && let Some(floor) = self.reset_floor
+        {
+            // minigrid's reset observed the carried object still on the floor.
+            let mut grid = self.grid.clone();
+            grid.set(floor, self.carrying);
+            return observe(&grid, self.agent_pos, self.agent_dir, None);
+        }
         observe(&self.grid, self.agent_pos, self.agent_dir, self.carrying)
+    }
+
+    fn set_moved(&mut self, id: ObjectId, pos: Pos) {
+        match self.moved.iter_mut().find(|(o, _)| *o == id) {
+            Some(entry) => entry.1 = pos,
+            None => self.moved.push((id, pos)),
+        }
     }
 
     /// `1 − 0.9·(t / max_steps)`, in MiniGrid's operation order.
@@ -332,6 +355,7 @@ impl World {
                 {
                     self.carrying = Some(obj);
                     self.grid.set(fwd_pos, None);
+                    self.set_moved(obj.id, (-1, -1));
                 }
             }
             Action::Drop => {
@@ -339,13 +363,21 @@ impl World {
                     && let Some(obj) = self.carrying.take()
                 {
                     self.grid.set(fwd_pos, Some(obj));
+                    self.set_moved(obj.id, fwd_pos);
                 }
             }
             Action::Toggle => {
                 if let Some(mut obj) = fwd_cell {
                     match obj.kind {
-                        // BabyAI boxes are empty: the box is replaced by its (absent) contents.
-                        ObjectKind::Box => self.grid.set(fwd_pos, None),
+                        // The box is replaced by its contents (usually nothing).
+                        ObjectKind::Box => {
+                            let inside = self
+                                .box_contents
+                                .iter()
+                                .position(|(b, _)| *b == obj.id)
+                                .map(|i| self.box_contents.swap_remove(i).1);
+                            self.grid.set(fwd_pos, inside);
+                        }
                         ObjectKind::Door => {
                             obj.state = match obj.state {
                                 DoorState::Locked => {
@@ -371,7 +403,7 @@ impl World {
         }
         let truncated = self.step_count >= self.max_steps;
         if action == Action::Drop {
-            self.update_objs_poss();
+            self.instr.refresh_positions(&self.grid);
         }
         match self.verify(action) {
             Some(true) => {
@@ -392,58 +424,42 @@ impl World {
         })
     }
 
-    /// `find_matching_objs(use_location=False)`: positions of the tracked objects still in
-    /// the grid, in scan order.
-    fn update_objs_poss(&mut self) {
-        let set = &self.verifier.obj_set;
-        let poss = &mut self.verifier.obj_poss;
-        poss.clear();
-        poss.extend(
-            self.grid
-                .objects()
-                .filter(|(_, o)| set.contains(&o.id))
-                .map(|(p, _)| p),
-        );
-    }
-
-    /// `ActionInstr.verify`: `Some(true)` success, `Some(false)` failure, `None` continue.
+    /// `RoomGridLevel.step`'s verification: `Some(true)` success, `Some(false)` failure.
     fn verify(&mut self, action: Action) -> Option<bool> {
-        if !self.done_actions {
-            return self.verify_action(action);
+        let front = self.front_pos();
+        let (moved, grid, floor) = (&self.moved, &self.grid, self.reset_floor);
+        let cur_pos = |id| cur_pos_in(moved, grid, floor, id);
+        let v = Verify {
+            grid: &self.grid,
+            front,
+            carrying: self.carrying,
+            done_actions: self.done_actions,
+            cur_pos: &cur_pos,
+        };
+        let status = self.instr.verify(action, &v);
+        match status {
+            Status::Success => Some(true),
+            Status::Failure => Some(false),
+            Status::Continue => None,
         }
-        if action == Action::Done {
-            return Some(self.verifier.last_step_match);
-        }
-        let res = self.verify_action(action);
-        self.verifier.last_step_match = res == Some(true);
-        None
     }
+}
 
-    /// `GoToInstr` / `PickupInstr` `.verify_action`.
-    fn verify_action(&mut self, action: Action) -> Option<bool> {
-        match self.instr.task {
-            TaskKind::GoTo => {
-                let front = self.front_pos();
-                self.verifier.obj_poss.contains(&front).then_some(true)
-            }
-            TaskKind::Pickup => {
-                let carrying = self.carrying.map(|c| c.id);
-                let pre_carrying = std::mem::replace(&mut self.verifier.pre_carrying, carrying);
-                if action != Action::Pickup {
-                    return None;
-                }
-                if pre_carrying.is_none()
-                    && carrying.is_some_and(|id| self.verifier.obj_set.contains(&id))
-                {
-                    return Some(true);
-                }
-                if self.instr.strict && carrying.is_some() {
-                    return Some(false);
-                }
-                None
-            }
-        }
-    }
+/// Python's `cur_pos` of object `id` (see [`World::moved`]): where it was last moved to;
+/// else where it stands (it has not moved since reset); else, for the object a Carrying level
+/// lifted, the floor cell it was placed on.
+fn cur_pos_in(
+    moved: &[(ObjectId, Pos)],
+    grid: &Grid,
+    floor: Option<Pos>,
+    id: ObjectId,
+) -> Option<Pos> {
+    moved
+        .iter()
+        .find(|(o, _)| *o == id)
+        .map(|(_, p)| *p)
+        .or_else(|| grid.find_id(id))
+        .or(floor)
 }
 
 /// The agent must stand inside the grid, on a cell it could enter, facing a real direction.
@@ -484,7 +500,7 @@ fn check_pose(grid: &Grid, agent_pos: Pos, agent_dir: u8) -> Result<(), EnvError
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::env::mission::ObjDesc;
+    use crate::env::mission::{ObjDesc, TaskKind};
     use crate::env::object::Color;
 
     /// A 5×5 room, agent at (1, 2) facing right, a red ball at (2, 2) and a blue key at (3, 1).
@@ -507,6 +523,7 @@ mod tests {
                 color: Some(Color::Blue),
                 loc: None,
             },
+            fixed: None,
             strict: false,
         };
         World::new(grid, (1, 2), 0, None, instr, 25, done_actions, 200).unwrap()
@@ -612,6 +629,7 @@ mod tests {
                 color: None,
                 loc: None,
             },
+            fixed: None,
             strict: false,
         };
         let mut w = World::new(grid, (1, 2), 0, None, instr, 25, false, 60).unwrap();

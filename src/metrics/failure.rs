@@ -182,7 +182,7 @@ pub struct Diagnosis {
 /// View cells (not the agent's own) showing one of `world`'s targets in `obs`. Cells the
 /// observation marks unseen (occluded, or outside the grid) never count.
 pub fn visible_targets(world: &World, obs: &Observation) -> Vec<ViewCell> {
-    let targets = &world.verifier.obj_set;
+    let targets = &world.targets();
     let mut out = Vec::new();
     for vy in 0..VIEW_SIZE {
         for vx in 0..VIEW_SIZE {
@@ -217,7 +217,7 @@ pub fn m_points_at(m: &ViewMap, targets: &[ViewCell]) -> bool {
 pub fn relation(world: &World, obj: Option<crate::env::object::WorldObj>) -> Relation {
     match obj {
         Some(o) if o.kind.can_pickup() => {
-            if world.verifier.obj_set.contains(&o.id) {
+            if world.targets().contains(&o.id) {
                 Relation::Target
             } else {
                 Relation::NonTarget
@@ -353,7 +353,7 @@ pub struct Counterfactual {
 /// [`crate::env::edit`], so the result is a consistent world with the same targets), and the
 /// number removed.
 pub fn without_distractors(world: &World) -> Result<(World, u32), EnvError> {
-    let targets = &world.verifier.obj_set;
+    let targets = &world.targets();
     let distractors: Vec<_> = world
         .grid
         .objects()

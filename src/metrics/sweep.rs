@@ -221,13 +221,7 @@ pub fn evaluate_episodes_explored<P: Acting + ?Sized>(
                     .iter()
                     .map(|w| (w.word.as_str(), &w.map))
                     .collect();
-                let g = ground_step(
-                    &obs[row],
-                    &r.world.instr.desc,
-                    &words,
-                    &trace.combined,
-                    alpha,
-                );
+                let g = ground_step(&obs[row], &r.world.desc(), &words, &trace.combined, alpha);
                 for m in g.evaluated {
                     let e = r.sums.entry(m.kind).or_default();
                     e.0.add(&m.accuracies);

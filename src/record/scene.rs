@@ -131,7 +131,7 @@ pub fn episode_scenes(trace: &EpisodeTrace, alpha: f64) -> Vec<StepScene> {
     trace
         .steps
         .iter()
-        .map(|s| StepScene::new(s, &s.world.instr.desc, alpha))
+        .map(|s| StepScene::new(s, &s.world.desc(), alpha))
         .collect()
 }
 

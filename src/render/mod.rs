@@ -121,6 +121,7 @@ pub(crate) mod fixtures {
                 color: Some(Color::Red),
                 loc: None,
             },
+            fixed: None,
             strict: false,
         };
         World::new(grid, AGENT, AGENT_DIR, None, instr, 64, false, next_id)

@@ -1,9 +1,188 @@
 //! Replay checks: a dump's actions replayed from its initial state and compared, step by
 //! step, with what Python recorded.
 
-use super::{Snapshot, ascii_grid, encode_i64, invalid, obs_to_i64, u8_in};
+use super::{
+    Snapshot, ascii_grid, box_contents_json, encode_i64, instr_to_json, invalid, obs_to_i64, u8_in,
+};
+use crate::env::babyai;
 use crate::env::error::EnvError;
 use crate::env::world::Action;
+
+/// The minigrid version the port follows; dumps of another version are refused.
+pub const MINIGRID_VERSION: &str = "3.2.0";
+
+/// Regenerates a dump's level from its `env_id` and `seed` (a registered `BabyAI-*` id) and
+/// compares the initial state: size, grid, box contents, agent pose, carried object,
+/// horizon, mission and instruction tree with every matched position. `None` when they agree
+/// or the dump names no BabyAI level (a groundscope snapshot); an unknown id, a missing seed
+/// or another minigrid version is bad input.
+pub fn verify_generation(snap: &Snapshot) -> Result<Option<Mismatch>, EnvError> {
+    let Some(id) = snap
+        .env_id
+        .as_deref()
+        .filter(|id| id.starts_with("BabyAI-") || id.starts_with(PAPER_PREFIX))
+    else {
+        return Ok(None);
+    };
+    if let Some(v) = snap.minigrid_version.as_deref()
+        && v != MINIGRID_VERSION
+    {
+        return Err(invalid(
+            "minigrid_version",
+            format!("{v:?}: only dumps of minigrid {MINIGRID_VERSION} can be checked"),
+        ));
+    }
+    let paper = paper_spec(id)?;
+    let spec = paper.as_ref().or_else(|| babyai::spec(id)).ok_or_else(|| {
+        invalid(
+            "env_id",
+            format!(
+                "{id:?} is not a BabyAI level of minigrid {MINIGRID_VERSION} (closest: {})",
+                babyai::closest_ids(id).join(", ")
+            ),
+        )
+    })?;
+    let seed = snap
+        .seed
+        .ok_or_else(|| invalid("seed", "a BabyAI dump needs its seed to be regenerated"))?;
+    if snap.step_count != 0 {
+        return Err(invalid(
+            "step_count",
+            "only a dump of a reset level can be regenerated",
+        ));
+    }
+    let world = babyai::generate(spec, seed, snap.done_actions)?;
+    let fresh = Snapshot::from_world(&world, snap.env_id.clone(), Some(seed));
+    let differ = |what: &str, want: String, got: String| {
+        Some(Mismatch {
+            step: 0,
+            what: format!(
+                "regenerated {id} seed {seed}: {what}: the dump has {want}, groundscope made {got}"
+            ),
+        })
+    };
+    if (fresh.width, fresh.height) != (snap.width, snap.height) {
+        return Ok(differ(
+            "grid size",
+            format!("{}×{}", snap.width, snap.height),
+            format!("{}×{}", fresh.width, fresh.height),
+        ));
+    }
+    for (x, (a, b)) in snap.grid.iter().zip(&fresh.grid).enumerate() {
+        for (y, (ca, cb)) in a.iter().zip(b).enumerate() {
+            if ca != cb {
+                return Ok(differ(
+                    &format!("grid[{x}][{y}]"),
+                    format!("{ca:?}"),
+                    format!("{cb:?}"),
+                ));
+            }
+        }
+    }
+    if fresh.agent_pos != snap.agent_pos || fresh.agent_dir != snap.agent_dir {
+        return Ok(differ(
+            "agent pose",
+            format!("{:?} dir {}", snap.agent_pos, snap.agent_dir),
+            format!("{:?} dir {}", fresh.agent_pos, fresh.agent_dir),
+        ));
+    }
+    if fresh.carrying != snap.carrying {
+        return Ok(differ(
+            "carrying",
+            format!("{:?}", snap.carrying),
+            format!("{:?}", fresh.carrying),
+        ));
+    }
+    let boxes = box_contents_json(&world);
+    if boxes != snap.box_contents {
+        return Ok(differ(
+            "box_contents",
+            format!("{:?}", snap.box_contents),
+            format!("{boxes:?}"),
+        ));
+    }
+    if fresh.mission != snap.mission {
+        return Ok(differ(
+            "mission",
+            format!("{:?}", snap.mission),
+            format!("{:?}", fresh.mission),
+        ));
+    }
+    let tree = instr_to_json(&world.instr);
+    if !same_tree(&tree, &snap.instr) {
+        return Ok(differ(
+            "instruction tree",
+            serde_json::to_string(&snap.instr).unwrap_or_default(),
+            serde_json::to_string(&tree).unwrap_or_default(),
+        ));
+    }
+    if fresh.max_steps != snap.max_steps {
+        return Ok(differ(
+            "max_steps",
+            snap.max_steps.to_string(),
+            fresh.max_steps.to_string(),
+        ));
+    }
+    Ok(None)
+}
+
+/// The id prefix of the paper's level as docs/world.md registers it in minigrid:
+/// `groundscope-PaperLocalS{S}N{N}-v0` (go to and pick up, colour optional).
+pub const PAPER_PREFIX: &str = "groundscope-PaperLocalS";
+
+/// The spec of a paper-level id, `None` for other ids.
+fn paper_spec(id: &str) -> Result<Option<babyai::LevelSpec>, EnvError> {
+    let Some(rest) = id.strip_prefix(PAPER_PREFIX) else {
+        return Ok(None);
+    };
+    let bad = || {
+        invalid(
+            "env_id",
+            format!("{id:?} is not {PAPER_PREFIX}{{S}}N{{N}}-v0"),
+        )
+    };
+    let body = rest.strip_suffix("-v0").ok_or_else(bad)?;
+    let (s, n) = body.split_once('N').ok_or_else(bad)?;
+    let cfg = crate::env::LevelConfig {
+        room_size: s.parse().map_err(|_| bad())?,
+        n_objects: n.parse().map_err(|_| bad())?,
+        ..crate::env::LevelConfig::default()
+    };
+    cfg.validate()?;
+    Ok(Some(cfg.spec()))
+}
+
+/// Two instruction trees agree in kind, descriptions, strictness and matched positions (a
+/// dump writes `strict` only where the Python class has it and `type: null` explicitly).
+fn same_tree(a: &super::InstrJson, b: &super::InstrJson) -> bool {
+    let same_desc = |x: &super::DescJson, y: &super::DescJson| {
+        x.kind_name == y.kind_name
+            && x.color == y.color
+            && x.loc == y.loc
+            && x.match_positions == y.match_positions
+    };
+    let parts = |x: &Option<Box<super::InstrJson>>, y: &Option<Box<super::InstrJson>>| match (x, y)
+    {
+        (Some(x), Some(y)) => same_tree(x, y),
+        (None, None) => true,
+        _ => false,
+    };
+    let descs = |x: &Option<super::DescJson>, y: &Option<super::DescJson>| match (x, y) {
+        (Some(x), Some(y)) => same_desc(x, y),
+        (None, None) => true,
+        _ => false,
+    };
+    a.kind == b.kind
+        && a.kind_name == b.kind_name
+        && a.color == b.color
+        && a.loc == b.loc
+        && a.match_positions == b.match_positions
+        && a.strict.unwrap_or(false) == b.strict.unwrap_or(false)
+        && descs(&a.moved, &b.moved)
+        && descs(&a.fixed, &b.fixed)
+        && parts(&a.a, &b.a)
+        && parts(&a.b, &b.b)
+}
 
 /// The first difference between a replay and its dump.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -41,6 +220,9 @@ fn check_image(image: &[Vec<Vec<i64>>], field: &str) -> Result<(), EnvError> {
 /// flag, pose, carried object and changed grid; returns the first mismatch, or the number
 /// of steps checked. Invalid dumps are errors.
 pub fn verify_dump(snap: &Snapshot) -> Result<Result<usize, Mismatch>, EnvError> {
+    if let Some(m) = verify_generation(snap)? {
+        return Ok(Err(m));
+    }
     let mut world = snap.to_world()?;
     if let Some(obs) = &snap.initial_obs {
         check_image(&obs.image, "initial_obs.image")?;
@@ -157,6 +339,12 @@ pub fn verify_dump(snap: &Snapshot) -> Result<Result<usize, Mismatch>, EnvError>
                 .collect();
             if &got != g {
                 return mismatch("world grid differs".into());
+            }
+        }
+        if let Some(b) = &s.box_contents {
+            let got = box_contents_json(&world);
+            if &got != b {
+                return mismatch(format!("box contents: expected {b:?}, got {got:?}"));
             }
         }
     }

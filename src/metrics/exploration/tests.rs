@@ -26,6 +26,7 @@ fn room(size: usize, pos: Pos, dir: u8, key: Pos) -> World {
             color: Some(Color::Blue),
             loc: None,
         },
+        fixed: None,
         strict: false,
     };
     World::new(grid, pos, dir, None, instr, 200, true, 200).unwrap()

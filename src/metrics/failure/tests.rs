@@ -34,6 +34,7 @@ fn room(dir: u8, ball: (i32, i32), carrying: Option<WorldObj>) -> World {
             color: Some(Color::Blue),
             loc: None,
         },
+        fixed: None,
         strict: false,
     };
     World::new(grid, (3, 5), dir, carrying, instr, 49, true, 200).unwrap()
@@ -268,9 +269,9 @@ fn removing_distractors_keeps_the_targets_and_the_mission() {
             .filter(|(_, o)| o.kind.can_pickup())
             .count()
     };
-    assert_eq!(removed as usize + w.verifier.obj_set.len(), pickable(&w));
-    assert_eq!(pickable(&edited), w.verifier.obj_set.len());
-    assert_eq!(edited.verifier.obj_set, w.verifier.obj_set);
+    assert_eq!(removed as usize + w.targets().len(), pickable(&w));
+    assert_eq!(pickable(&edited), w.targets().len());
+    assert_eq!(edited.targets(), w.targets());
     assert_eq!(
         (edited.mission.as_str(), edited.agent_pos),
         (w.mission.as_str(), w.agent_pos)

@@ -155,7 +155,7 @@ pub fn intervention(
         }
         Loop::Steered => {
             let base = agent.act_one(*obs, world.agent_dir, tokens, None, memory, true, None)?;
-            let targets = target_objects(obs, world.instr.desc);
+            let targets = target_objects(obs, world.desc());
             let objects = related_objects(obs, |_, _| true);
             base.traces
                 .as_ref()
@@ -172,7 +172,7 @@ pub fn intervention(
 
 /// The position of the mission's colour word (`color`) or object word, if it has one.
 pub fn word_position(world: &World, tokens: &[u32], color: bool) -> Option<usize> {
-    let desc = world.instr.desc;
+    let desc = world.desc();
     let word = if color {
         desc.color.map(Color::name)
     } else {
@@ -236,7 +236,7 @@ fn rollout(
         )?;
         let probs = out.probs.first().cloned().unwrap_or_default();
         let action = choose(&probs, mode, &mut rng);
-        let targets: Vec<usize> = target_objects(&obs, world.instr.desc)
+        let targets: Vec<usize> = target_objects(&obs, world.desc())
             .into_iter()
             .map(cell_index)
             .collect();
@@ -321,17 +321,19 @@ fn rebuilt(
     color: Option<Color>,
     next_id: u32,
 ) -> Result<World, String> {
-    let mut instr = world.instr.clone();
+    // Counterfactuals edit the first clause's colour (the one-clause levels' instruction).
+    let mut instr = world.instr.first().instr.clone();
     instr.desc.color = color;
     if !all_reachable(&grid, world.agent_pos) {
         return Err("the edit leaves an object unreachable".into());
     }
-    World::new(
+    World::with_tree(
         grid,
+        world.rooms,
         world.agent_pos,
         world.agent_dir,
         world.carrying,
-        instr,
+        instr.into(),
         world.max_steps,
         world.done_actions,
         next_id,
@@ -354,13 +356,13 @@ fn unused_colors(world: &World, kind: ObjectKind) -> Vec<Color> {
 
 /// Applies counterfactual `name` to the initial `world`.
 fn counterfactual(name: &str, world: &World, rng: &mut Pcg64Mcg) -> Result<World, String> {
-    let Some(&target_pos) = world.verifier.obj_poss.first() else {
+    let Some(&target_pos) = world.target_positions().first() else {
         return Err("the mission names no object".into());
     };
     let Some(target) = world.grid.get(target_pos) else {
         return Err("the target is not on the grid".into());
     };
-    let desc = world.instr.desc;
+    let desc = world.desc();
     let pick = |v: &[Pos], rng: &mut Pcg64Mcg| -> Option<Pos> {
         (!v.is_empty()).then(|| v[rng.random_range(0..v.len())])
     };
@@ -448,7 +450,7 @@ pub fn analyse_episode(
                 tokens: &tokens,
                 memory: &v.memory,
                 obs: v.obs,
-                desc: world.instr.desc,
+                desc: world.desc(),
                 probs: &probs,
                 action: v.action,
                 attention: v.out.traces.as_ref().and_then(|t| t.first()),
@@ -527,25 +529,24 @@ mod tests {
                 *made.entry(name).or_default() += 1;
                 edited.validate().unwrap();
                 assert!(all_reachable(&edited.grid, edited.agent_pos));
-                assert!(!edited.verifier.obj_poss.is_empty(), "{name}: a target");
-                let desc = edited.instr.desc;
+                assert!(!edited.target_positions().is_empty(), "{name}: a target");
+                let desc = edited.desc();
                 match name {
                     // The twin differs in colour, so exactly the old targets still match.
                     "add_twin" => assert_eq!(
-                        edited.verifier.obj_poss.len(),
-                        world.verifier.obj_poss.len()
+                        edited.target_positions().len(),
+                        world.target_positions().len()
                     ),
                     "mission_color_to_distractor" => {
-                        assert_ne!(desc.color, world.instr.desc.color);
+                        assert_ne!(desc.color, world.desc().color);
                         assert!(
                             edited
-                                .verifier
-                                .obj_poss
+                                .target_positions()
                                 .iter()
-                                .all(|p| { !world.verifier.obj_poss.contains(p) })
+                                .all(|p| { !world.target_positions().contains(p) })
                         );
                     }
-                    "move_target" => assert_eq!(desc, world.instr.desc),
+                    "move_target" => assert_eq!(desc, world.desc()),
                     _ => {}
                 }
             }

@@ -147,7 +147,7 @@ fn step_faithfulness(
         tokens,
         memory,
         obs: s.obs,
-        desc: s.world.instr.desc,
+        desc: s.world.desc(),
         probs: &s.probs,
         action: s.action as usize,
         attention: s.attention.as_ref(),

@@ -1,0 +1,207 @@
+//! Every registered BabyAI level of minigrid 3.2.0, generated bit for bit: the same id and
+//! seed give the same grid, agent pose, box contents, mission and instruction as
+//! `gym.make(id).reset(seed=seed)`, because generation draws the same numbers from the same
+//! numpy stream ([`crate::env::rng`]) in the same order, rejection sampling included.
+//!
+//! One file per family, as minigrid splits them; [`roomgrid`] holds `RoomGrid`'s machinery
+//! and [`levelgen`] the random-instruction levels. docs/world.md lists the levels and the
+//! Python quirks kept.
+
+pub mod goto;
+pub mod levelgen;
+pub mod open;
+pub mod other;
+pub mod pickup;
+pub mod putnext;
+pub mod registry;
+pub mod roomgrid;
+pub mod unlock;
+
+pub use registry::{Family, LevelSpec, closest_ids, level_ids, spec};
+
+use roomgrid::{Gen, Retry};
+
+use super::error::EnvError;
+use super::grid::Pos;
+use super::instr::Instr;
+use super::mission::{ObjDesc, TaskKind};
+use super::object::{Color, ObjectId, ObjectKind};
+use super::rng::Call;
+use super::world::World;
+
+/// Attempts before generation gives up. minigrid retries forever; the levels measured need
+/// at most a few dozen (UnblockPickup, GoToRedBlueBall), so this bound names a level that
+/// cannot be generated instead of hanging.
+pub const MAX_ATTEMPTS: u32 = 10_000;
+
+/// What a level's `gen_mission` produced.
+pub struct Generated {
+    /// The instruction.
+    pub instr: Instr,
+    /// PutNext "Carrying": the object the agent holds after the first observation.
+    pub lift: Option<ObjectId>,
+    /// LevelGen's `unblocking`: keys of locked doors may not be named.
+    pub unblocking: bool,
+}
+
+impl From<Instr> for Generated {
+    fn from(instr: Instr) -> Self {
+        Self {
+            instr,
+            lift: None,
+            unblocking: false,
+        }
+    }
+}
+
+/// An object description with no location.
+pub fn desc(kind: Option<ObjectKind>, color: Option<Color>) -> ObjDesc {
+    ObjDesc {
+        kind,
+        color,
+        loc: None,
+    }
+}
+
+/// Every door of every room as `(id, colour)`, rooms column by column, each shared door
+/// listed once per room (as `Open` collects them).
+pub fn door_list(g: &Gen) -> Vec<(ObjectId, Color)> {
+    let mut out = Vec::new();
+    for i in 0..g.rooms.num_cols {
+        for j in 0..g.rooms.num_rows {
+            for slot in g.room_list[g.room_index(i, j)].doors {
+                if let roomgrid::Slot::Door(id, pos) = slot
+                    && let Some(d) = g.grid.get(pos)
+                {
+                    out.push((id, d.color));
+                }
+            }
+        }
+    }
+    out
+}
+
+/// `RoomGridLevel.validate_instrs`.
+fn validate(g: &Gen, instr: &mut Instr, unblocking: bool, locked: &[Color]) -> Result<(), Retry> {
+    match instr {
+        Instr::Seq(s) => {
+            validate(g, &mut s.a, unblocking, locked)?;
+            validate(g, &mut s.b, unblocking, locked)
+        }
+        Instr::Action(n) => {
+            if n.instr.task == TaskKind::PutNext {
+                let mut t = Instr::Action(n.clone());
+                t.reset(&g.grid, g.rooms, g.agent_pos, g.agent_dir);
+                let Instr::Action(m) = t else {
+                    return Ok(());
+                };
+                let (moved, fixed) = (&m.targets, &m.fixed_targets);
+                if moved.obj_set.iter().any(|id| fixed.obj_set.contains(id)) {
+                    return Err(Retry::Reject("objects match both sides of PutNext"));
+                }
+                let next = moved.obj_set.iter().any(|id| {
+                    g.pos_of(*id).is_some_and(|a: Pos| {
+                        fixed
+                            .obj_poss
+                            .iter()
+                            .any(|b| (a.0 - b.0).abs() + (a.1 - b.1).abs() == 1)
+                    })
+                });
+                if next {
+                    return Err(Retry::Reject("objs already next to each other"));
+                }
+            }
+            if unblocking {
+                let descs = std::iter::once(n.instr.desc).chain(n.instr.fixed);
+                for d in descs {
+                    if d.kind == Some(ObjectKind::Key)
+                        && d.color.is_some_and(|c| locked.contains(&c))
+                    {
+                        return Err(Retry::Reject("a key that opens a locked door"));
+                    }
+                }
+            }
+            Ok(())
+        }
+    }
+}
+
+/// One attempt: `RoomGrid._gen_grid`, the level's `gen_mission`, `validate_instrs`.
+fn attempt(spec: &LevelSpec, g: &mut Gen) -> Result<Generated, Retry> {
+    g.gen_grid();
+    let mut out = spec.family.gen_mission(g)?;
+    let locked = if out.unblocking {
+        g.locked_door_colors()
+    } else {
+        Vec::new()
+    };
+    validate(g, &mut out.instr, out.unblocking, &locked)?;
+    Ok(out)
+}
+
+/// The level `spec` for `seed`, as `reset(seed=seed)` makes it; `done_actions` is BabyAI's
+/// done-action mode (`BABYAI_DONE_ACTIONS` in Python).
+pub fn generate(spec: &LevelSpec, seed: u64, done_actions: bool) -> Result<World, EnvError> {
+    generate_with(spec, seed, done_actions, false).map(|(w, _)| w)
+}
+
+/// [`generate`], also returning every call made on numpy's stream (to compare with Python
+/// call by call).
+pub fn generate_logged(
+    spec: &LevelSpec,
+    seed: u64,
+    done_actions: bool,
+) -> Result<(World, Vec<Call>), EnvError> {
+    generate_with(spec, seed, done_actions, true)
+}
+
+fn generate_with(
+    spec: &LevelSpec,
+    seed: u64,
+    done_actions: bool,
+    log: bool,
+) -> Result<(World, Vec<Call>), EnvError> {
+    let mut g = Gen::new(spec.rooms, seed);
+    if log {
+        g.rng.record();
+    }
+    let mut tries = 0;
+    let out = loop {
+        if tries >= MAX_ATTEMPTS {
+            return Err(EnvError::GenerationFailed {
+                seed,
+                tries: MAX_ATTEMPTS,
+            });
+        }
+        tries += 1;
+        if let Ok(out) = attempt(spec, &mut g) {
+            break out;
+        }
+    };
+    let max_steps = spec.max_steps.unwrap_or_else(|| {
+        let rs = spec.rooms.room_size as u32;
+        out.instr.num_navs() * rs * rs * (spec.rooms.num_rows * spec.rooms.num_cols) as u32
+    });
+    let calls = g.rng.take_log();
+    let mut world = World::with_tree(
+        g.grid,
+        spec.rooms,
+        g.agent_pos,
+        g.agent_dir,
+        None,
+        out.instr,
+        max_steps,
+        done_actions,
+        g.next_id,
+    )?;
+    world.box_contents = g.box_contents;
+    if let Some(id) = out.lift
+        && let Some(pos) = world.grid.find_id(id)
+    {
+        // PutNext.reset: lift the object after the verifier and the first observation.
+        world.carrying = world.grid.get(pos);
+        world.grid.set(pos, None);
+        world.reset_floor = Some(pos);
+    }
+    Ok((world, calls))
+}

@@ -1,0 +1,533 @@
+//! minigrid's `RoomGrid` and the parts of `MiniGridEnv` a level's generation calls
+//! (`place_obj`, `place_agent`, the `_rand_*` helpers), drawing from numpy's stream in the
+//! same order as Python.
+
+use crate::env::grid::{DIR_TO_VEC, Grid, Pos, Rooms};
+use crate::env::object::{Color, DoorState, ObjectId, ObjectKind, WorldObj};
+use crate::env::rng::NumpyRng;
+
+/// `COLOR_NAMES`, which minigrid sorts: not in colour-code order.
+pub const COLOR_NAMES: [Color; 6] = [
+    Color::Blue,
+    Color::Green,
+    Color::Grey,
+    Color::Purple,
+    Color::Red,
+    Color::Yellow,
+];
+
+/// The distractor types of `add_object` / `add_distractors`, in their order.
+pub const DISTRACTOR_TYPES: [ObjectKind; 3] = [ObjectKind::Key, ObjectKind::Ball, ObjectKind::Box];
+
+/// Why one attempt at a level was thrown away; minigrid then regenerates the whole level,
+/// drawing on from the same stream.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Retry {
+    /// `RejectSampling`: the level broke one of its rules.
+    Reject(&'static str),
+    /// `RecursionError`: a placement loop ran out of tries.
+    Recursion(&'static str),
+}
+
+/// A wall slot of a room: nothing, a removed wall (`True` in Python), or a door.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Slot {
+    /// A wall.
+    Wall,
+    /// `remove_wall` opened it.
+    Open,
+    /// A door with this id at this cell.
+    Door(ObjectId, Pos),
+}
+
+impl Slot {
+    /// Python's truthiness of `room.doors[k]`.
+    fn connects(self) -> bool {
+        self != Self::Wall
+    }
+}
+
+/// `Room`.
+#[derive(Clone, Debug)]
+pub struct Room {
+    /// Top-left cell (a wall).
+    pub top: Pos,
+    /// `doors[k]`, k = 0 right, 1 down, 2 left, 3 up.
+    pub doors: [Slot; 4],
+    /// `door_pos[k]`.
+    pub door_pos: [Option<Pos>; 4],
+    /// `neighbors[k]` as a room index.
+    pub neighbors: [Option<usize>; 4],
+    /// `locked`.
+    pub locked: bool,
+    /// `(type, colour)` of the objects placed in it (`room.objs`).
+    pub objs: Vec<(ObjectKind, Color)>,
+}
+
+/// The state a level's `gen_mission` works on.
+pub struct Gen {
+    /// numpy's stream.
+    pub rng: NumpyRng,
+    /// The geometry.
+    pub rooms: Rooms,
+    /// The grid being built.
+    pub grid: Grid,
+    /// Rooms, row-major: index `j · num_cols + i`.
+    pub room_list: Vec<Room>,
+    /// `agent_pos` (the grid's centre until the agent is placed).
+    pub agent_pos: Pos,
+    /// `agent_dir`.
+    pub agent_dir: u8,
+    /// Next object id.
+    pub next_id: ObjectId,
+    /// What each box holds.
+    pub box_contents: Vec<(ObjectId, WorldObj)>,
+}
+
+impl Gen {
+    /// A generator for `rooms`, seeded as `reset(seed=seed)` seeds minigrid.
+    pub fn new(rooms: Rooms, seed: u64) -> Self {
+        let (w, h) = rooms.grid_size();
+        Self {
+            rng: NumpyRng::new(seed),
+            rooms,
+            grid: Grid::new(w, h),
+            room_list: Vec::new(),
+            agent_pos: (-1, -1),
+            agent_dir: 0,
+            next_id: 0,
+            box_contents: Vec::new(),
+        }
+    }
+
+    /// A new object id.
+    pub fn obj(&mut self, kind: ObjectKind, color: Color) -> WorldObj {
+        let o = WorldObj::new(kind, color, self.next_id);
+        self.next_id += 1;
+        o
+    }
+
+    /// `_rand_int(low, high)`.
+    pub fn rand_int(&mut self, low: i32, high: i32) -> i32 {
+        self.rng.integers(i64::from(low), i64::from(high)) as i32
+    }
+
+    /// `_rand_bool()`: `integers(0, 2) == 0`.
+    pub fn rand_bool(&mut self) -> bool {
+        self.rng.integers(0, 2) == 0
+    }
+
+    /// `_rand_elem(list)`.
+    pub fn rand_elem<T: Copy>(&mut self, items: &[T]) -> T {
+        items[self.rng.below(0, items.len())]
+    }
+
+    /// `_rand_color()`.
+    pub fn rand_color(&mut self) -> Color {
+        self.rand_elem(&COLOR_NAMES)
+    }
+
+    /// `_rand_subset(list, n)`: repeated `_rand_elem`, removing each pick.
+    pub fn rand_subset<T: Copy>(&mut self, items: &[T], n: usize) -> Vec<T> {
+        let mut left = items.to_vec();
+        let mut out = Vec::with_capacity(n);
+        while out.len() < n && !left.is_empty() {
+            let i = self.rng.below(0, left.len());
+            out.push(left.remove(i));
+        }
+        out
+    }
+
+    /// Room `(i, j)`'s index.
+    pub fn room_index(&self, i: i32, j: i32) -> usize {
+        (j * self.rooms.num_cols + i) as usize
+    }
+
+    /// `room_from_pos`.
+    pub fn room_at(&self, pos: Pos) -> usize {
+        let (i, j) = self.rooms.room_of(pos);
+        self.room_index(i, j)
+    }
+
+    /// `RoomGrid._gen_grid`: walls of every room, door positions (drawn here), the agent at
+    /// the centre facing right.
+    pub fn gen_grid(&mut self) {
+        let (w, h) = self.rooms.grid_size();
+        self.grid = Grid::new(w, h);
+        self.box_contents.clear();
+        let rs = self.rooms.room_size;
+        let (cols, rows) = (self.rooms.num_cols, self.rooms.num_rows);
+        self.room_list.clear();
+        for j in 0..rows {
+            for i in 0..cols {
+                let top = (i * (rs - 1), j * (rs - 1));
+                self.wall_rect(top, rs);
+                self.room_list.push(Room {
+                    top,
+                    doors: [Slot::Wall; 4],
+                    door_pos: [None; 4],
+                    neighbors: [None; 4],
+                    locked: false,
+                    objs: Vec::new(),
+                });
+            }
+        }
+        for j in 0..rows {
+            for i in 0..cols {
+                let r = self.room_index(i, j);
+                let top = self.room_list[r].top;
+                let (xl, yl) = (top.0 + 1, top.1 + 1);
+                let (xm, ym) = (top.0 + rs - 1, top.1 + rs - 1);
+                if i < cols - 1 {
+                    self.room_list[r].neighbors[0] = Some(self.room_index(i + 1, j));
+                    let y = self.rand_int(yl, ym);
+                    self.room_list[r].door_pos[0] = Some((xm, y));
+                }
+                if j < rows - 1 {
+                    self.room_list[r].neighbors[1] = Some(self.room_index(i, j + 1));
+                    let x = self.rand_int(xl, xm);
+                    self.room_list[r].door_pos[1] = Some((x, ym));
+                }
+                if i > 0 {
+                    let n = self.room_index(i - 1, j);
+                    self.room_list[r].neighbors[2] = Some(n);
+                    self.room_list[r].door_pos[2] = self.room_list[n].door_pos[0];
+                }
+                if j > 0 {
+                    let n = self.room_index(i, j - 1);
+                    self.room_list[r].neighbors[3] = Some(n);
+                    self.room_list[r].door_pos[3] = self.room_list[n].door_pos[1];
+                }
+            }
+        }
+        self.agent_pos = (
+            (cols / 2) * (rs - 1) + rs / 2,
+            (rows / 2) * (rs - 1) + rs / 2,
+        );
+        self.agent_dir = 0;
+    }
+
+    /// `Grid.wall_rect(x, y, size, size)`.
+    fn wall_rect(&mut self, (x, y): Pos, size: i32) {
+        for k in 0..size {
+            for pos in [
+                (x + k, y),
+                (x + k, y + size - 1),
+                (x, y + k),
+                (x + size - 1, y + k),
+            ] {
+                let wall = self.obj(ObjectKind::Wall, Color::Grey);
+                self.grid.set(pos, Some(wall));
+            }
+        }
+    }
+
+    /// `place_obj(obj, top, size, reject_fn, max_tries)`: a uniform cell of the rectangle
+    /// (clipped to the grid) that is empty, not the agent's, and not rejected.
+    pub fn place_obj(
+        &mut self,
+        obj: Option<WorldObj>,
+        top: Pos,
+        size: (i32, i32),
+        reject_next_to: bool,
+        max_tries: u32,
+    ) -> Result<Pos, Retry> {
+        let top = (top.0.max(0), top.1.max(0));
+        let (w, h) = (self.grid.width() as i32, self.grid.height() as i32);
+        let mut tries = 0u32;
+        loop {
+            if tries > max_tries {
+                return Err(Retry::Recursion("rejection sampling failed in place_obj"));
+            }
+            tries += 1;
+            let x = self.rand_int(top.0, (top.0 + size.0).min(w));
+            let y = self.rand_int(top.1, (top.1 + size.1).min(h));
+            let pos = (x, y);
+            if self.grid.get(pos).is_some() || pos == self.agent_pos {
+                continue;
+            }
+            if reject_next_to && (self.agent_pos.0 - x).abs() + (self.agent_pos.1 - y).abs() < 2 {
+                continue;
+            }
+            self.grid.set(pos, obj);
+            return Ok(pos);
+        }
+    }
+
+    /// `place_in_room(i, j, obj)`.
+    pub fn place_in_room(&mut self, i: i32, j: i32, obj: WorldObj) -> Result<Pos, Retry> {
+        let r = self.room_index(i, j);
+        let (top, rs) = (self.room_list[r].top, self.rooms.room_size);
+        let pos = self.place_obj(Some(obj), top, (rs, rs), true, 1000)?;
+        self.room_list[r].objs.push((obj.kind, obj.color));
+        Ok(pos)
+    }
+
+    /// `add_object(i, j, kind, color)`: the kind is drawn before the colour.
+    pub fn add_object(
+        &mut self,
+        i: i32,
+        j: i32,
+        kind: Option<ObjectKind>,
+        color: Option<Color>,
+    ) -> Result<(WorldObj, Pos), Retry> {
+        let kind = match kind {
+            Some(k) => k,
+            None => self.rand_elem(&DISTRACTOR_TYPES),
+        };
+        let color = match color {
+            Some(c) => c,
+            None => self.rand_color(),
+        };
+        let obj = self.obj(kind, color);
+        let pos = self.place_in_room(i, j, obj)?;
+        Ok((obj, pos))
+    }
+
+    /// `add_door(i, j, door_idx, color, locked)`; sets the room's `locked` to `locked`.
+    pub fn add_door(
+        &mut self,
+        i: i32,
+        j: i32,
+        door_idx: Option<usize>,
+        color: Option<Color>,
+        locked: Option<bool>,
+    ) -> (WorldObj, Pos) {
+        let r = self.room_index(i, j);
+        let k = match door_idx {
+            Some(k) => k,
+            None => loop {
+                let k = self.rng.below(0, 4);
+                let room = &self.room_list[r];
+                if room.neighbors[k].is_some() && room.doors[k] == Slot::Wall {
+                    break k;
+                }
+            },
+        };
+        let color = match color {
+            Some(c) => c,
+            None => self.rand_color(),
+        };
+        let locked = match locked {
+            Some(l) => l,
+            None => self.rand_bool(),
+        };
+        self.room_list[r].locked = locked;
+        let mut door = self.obj(ObjectKind::Door, color);
+        door.state = if locked {
+            DoorState::Locked
+        } else {
+            DoorState::Closed
+        };
+        // Every caller passes a wall slot with a neighbour (Python asserts it).
+        let pos = self.room_list[r].door_pos[k].unwrap_or((0, 0));
+        self.grid.set(pos, Some(door));
+        self.room_list[r].doors[k] = Slot::Door(door.id, pos);
+        if let Some(n) = self.room_list[r].neighbors[k] {
+            self.room_list[n].doors[(k + 2) % 4] = Slot::Door(door.id, pos);
+        }
+        (door, pos)
+    }
+
+    /// `remove_wall(i, j, wall_idx)`.
+    pub fn remove_wall(&mut self, i: i32, j: i32, k: usize) {
+        let r = self.room_index(i, j);
+        let (tx, ty) = self.room_list[r].top;
+        let s = self.rooms.room_size;
+        for t in 1..s - 1 {
+            let pos = match k {
+                0 => (tx + s - 1, ty + t),
+                1 => (tx + t, ty + s - 1),
+                2 => (tx, ty + t),
+                _ => (tx + t, ty),
+            };
+            self.grid.set(pos, None);
+        }
+        self.room_list[r].doors[k] = Slot::Open;
+        if let Some(n) = self.room_list[r].neighbors[k] {
+            self.room_list[n].doors[(k + 2) % 4] = Slot::Open;
+        }
+    }
+
+    /// `RoomGrid.place_agent(i, j)`: a free cell of the room and a direction, redrawn while
+    /// the agent faces anything but a wall or an empty cell.
+    pub fn place_agent(&mut self, i: Option<i32>, j: Option<i32>) -> Result<Pos, Retry> {
+        let i = match i {
+            Some(i) => i,
+            None => self.rand_int(0, self.rooms.num_cols),
+        };
+        let j = match j {
+            Some(j) => j,
+            None => self.rand_int(0, self.rooms.num_rows),
+        };
+        let r = self.room_index(i, j);
+        let (top, rs) = (self.room_list[r].top, self.rooms.room_size);
+        loop {
+            self.agent_pos = (-1, -1);
+            let pos = self.place_obj(None, top, (rs, rs), false, 1000)?;
+            self.agent_pos = pos;
+            self.agent_dir = self.rng.below(0, 4) as u8;
+            let d = DIR_TO_VEC[usize::from(self.agent_dir)];
+            let front = self.grid.get((pos.0 + d.0, pos.1 + d.1));
+            if front.is_none_or(|o| o.kind == ObjectKind::Wall) {
+                return Ok(pos);
+            }
+        }
+    }
+
+    /// `connect_all(door_colors)`: doors between random neighbours until every room is
+    /// reachable from the agent's room.
+    pub fn connect_all(&mut self, door_colors: &[Color]) -> Result<(), Retry> {
+        let start = self.room_at(self.agent_pos);
+        let total = self.room_list.len();
+        let mut itrs = 0u32;
+        loop {
+            if itrs > 5000 {
+                return Err(Retry::Recursion("connect_all failed"));
+            }
+            itrs += 1;
+            if self.reach(start) == total {
+                return Ok(());
+            }
+            let i = self.rand_int(0, self.rooms.num_cols);
+            let j = self.rand_int(0, self.rooms.num_rows);
+            let k = self.rng.below(0, 4);
+            let r = self.room_index(i, j);
+            let room = &self.room_list[r];
+            if room.door_pos[k].is_none() || room.doors[k].connects() {
+                continue;
+            }
+            let Some(n) = room.neighbors[k] else {
+                continue;
+            };
+            if room.locked || self.room_list[n].locked {
+                continue;
+            }
+            let color = self.rand_elem(door_colors);
+            self.add_door(i, j, Some(k), Some(color), Some(false));
+        }
+    }
+
+    /// How many rooms the agent's room reaches through doors and removed walls.
+    fn reach(&self, start: usize) -> usize {
+        let mut seen = vec![false; self.room_list.len()];
+        let mut stack = vec![start];
+        let mut n = 0;
+        while let Some(r) = stack.pop() {
+            if seen[r] {
+                continue;
+            }
+            seen[r] = true;
+            n += 1;
+            for k in 0..4 {
+                if self.room_list[r].doors[k].connects()
+                    && let Some(nb) = self.room_list[r].neighbors[k]
+                {
+                    stack.push(nb);
+                }
+            }
+        }
+        n
+    }
+
+    /// `add_distractors(i, j, num_distractors, all_unique)`: colour drawn before type, the
+    /// room drawn per object when not given.
+    pub fn add_distractors(
+        &mut self,
+        i: Option<i32>,
+        j: Option<i32>,
+        n: usize,
+        all_unique: bool,
+    ) -> Result<Vec<WorldObj>, Retry> {
+        let mut objs: Vec<(ObjectKind, Color)> = self
+            .room_list
+            .iter()
+            .flat_map(|r| r.objs.iter().copied())
+            .collect();
+        let mut dists = Vec::with_capacity(n);
+        while dists.len() < n {
+            let color = self.rand_color();
+            let kind = self.rand_elem(&DISTRACTOR_TYPES);
+            if all_unique && objs.contains(&(kind, color)) {
+                continue;
+            }
+            let ri = match i {
+                Some(i) => i,
+                None => self.rand_int(0, self.rooms.num_cols),
+            };
+            let rj = match j {
+                Some(j) => j,
+                None => self.rand_int(0, self.rooms.num_rows),
+            };
+            let (dist, _) = self.add_object(ri, rj, Some(kind), Some(color))?;
+            objs.push((kind, color));
+            dists.push(dist);
+        }
+        Ok(dists)
+    }
+
+    /// `check_objs_reachable`: every non-wall object reachable from the agent.
+    pub fn objs_reachable(&self) -> bool {
+        self.grid.all_objects_reachable(self.agent_pos)
+    }
+
+    /// `check_objs_reachable()` raising `RejectSampling`.
+    pub fn check_objs_reachable(&self) -> Result<(), Retry> {
+        if self.objs_reachable() {
+            Ok(())
+        } else {
+            Err(Retry::Reject("unreachable object"))
+        }
+    }
+
+    /// The position of the object with id `id` on the grid.
+    pub fn pos_of(&self, id: ObjectId) -> Option<Pos> {
+        self.grid.find_id(id)
+    }
+
+    /// Recolours the object with id `id` on the grid (GoToRedBallGrey greys its distractors).
+    pub fn recolor(&mut self, id: ObjectId, color: Color) {
+        if let Some(pos) = self.pos_of(id)
+            && let Some(mut o) = self.grid.get(pos)
+        {
+            o.color = color;
+            self.grid.set(pos, Some(o));
+        }
+    }
+}
+
+impl Gen {
+    /// `open_all_doors`: every door of every room open (`is_open = True`).
+    pub fn open_all_doors(&mut self) {
+        for r in 0..self.room_list.len() {
+            for k in 0..4 {
+                if let Slot::Door(_, pos) = self.room_list[r].doors[k]
+                    && let Some(mut d) = self.grid.get(pos)
+                {
+                    // A locked door set open would keep `is_locked` in Python; the levels
+                    // that open all doors have none.
+                    d.state = DoorState::Open;
+                    self.grid.set(pos, Some(d));
+                }
+            }
+        }
+    }
+
+    /// The colours of the locked doors, room by room (`validate_instrs` with unblocking).
+    pub fn locked_door_colors(&self) -> Vec<Color> {
+        let mut out = Vec::new();
+        for i in 0..self.rooms.num_cols {
+            for j in 0..self.rooms.num_rows {
+                for slot in self.room_list[self.room_index(i, j)].doors {
+                    if let Slot::Door(_, pos) = slot
+                        && let Some(d) = self.grid.get(pos)
+                        && d.state == DoorState::Locked
+                    {
+                        out.push(d.color);
+                    }
+                }
+            }
+        }
+        out
+    }
+}

@@ -1,0 +1,263 @@
+//! numpy's randomness, exactly as minigrid 3.2.0 draws a level: `reset(seed=s)` builds
+//! `np.random.Generator(np.random.PCG64(np.random.SeedSequence(s)))`, and level generation
+//! calls only `integers(low, high)` and `uniform(0, 1)` on it.
+//!
+//! One draw out of step changes every level after it, so this follows numpy's C code to the
+//! bit: SeedSequence's hash pool, PCG64's XSL-RR output (the generator `rand_pcg`'s
+//! `Lcg128Xsl64` also implements, but numpy's 32-bit draws differ), the buffered 32-bit draws
+//! (a 64-bit draw's high half is kept for the next 32-bit draw, even across 64-bit draws) and
+//! Lemire's bounded integers (a range of one value draws nothing). The specification and test
+//! vectors are in docs/world.md; `tests/` checks call sequences against numpy itself.
+
+/// PCG64's 128-bit LCG multiplier.
+const PCG_MULT: u128 = 0x2360_ed05_1fc6_5da4_4385_df64_9fcc_f645;
+
+const INIT_A: u32 = 0x43b0_d7e5;
+const MULT_A: u32 = 0x931e_8875;
+const INIT_B: u32 = 0x8b51_f9dd;
+const MULT_B: u32 = 0x58f3_8ded;
+const MIX_MULT_L: u32 = 0xca01_f9dd;
+const MIX_MULT_R: u32 = 0x4973_f715;
+const POOL_SIZE: usize = 4;
+
+/// `SeedSequence(seed).generate_state(4, uint64)`: the four words PCG64 is seeded from.
+pub fn seed_sequence_state(seed: u64) -> [u64; 4] {
+    // The entropy as 32-bit words, least significant first (seed 0 → [0]).
+    let entropy: Vec<u32> = if seed >> 32 == 0 {
+        vec![seed as u32]
+    } else {
+        vec![seed as u32, (seed >> 32) as u32]
+    };
+    let mut hash_const = INIT_A;
+    let mut hashmix = |value: u32| -> u32 {
+        let mut v = value ^ hash_const;
+        hash_const = hash_const.wrapping_mul(MULT_A);
+        v = v.wrapping_mul(hash_const);
+        v ^ (v >> 16)
+    };
+    let mix = |x: u32, y: u32| -> u32 {
+        let r = MIX_MULT_L
+            .wrapping_mul(x)
+            .wrapping_sub(MIX_MULT_R.wrapping_mul(y));
+        r ^ (r >> 16)
+    };
+    let mut pool = [0u32; POOL_SIZE];
+    for (i, slot) in pool.iter_mut().enumerate() {
+        *slot = hashmix(entropy.get(i).copied().unwrap_or(0));
+    }
+    for src in 0..POOL_SIZE {
+        for dst in 0..POOL_SIZE {
+            if src != dst {
+                let h = hashmix(pool[src]);
+                pool[dst] = mix(pool[dst], h);
+            }
+        }
+    }
+    // Words past the fourth (never for a u64 seed) would be mixed into all four here.
+    let mut hash_b = INIT_B;
+    let mut words = [0u32; 8];
+    for (i, w) in words.iter_mut().enumerate() {
+        let mut v = pool[i % POOL_SIZE] ^ hash_b;
+        hash_b = hash_b.wrapping_mul(MULT_B);
+        v = v.wrapping_mul(hash_b);
+        *w = v ^ (v >> 16);
+    }
+    std::array::from_fn(|k| u64::from(words[2 * k]) | (u64::from(words[2 * k + 1]) << 32))
+}
+
+/// One call of a generator method with its result, for per-call comparisons with Python.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Call {
+    /// `integers(low, high)` returned the value.
+    Integers(i64, i64, i64),
+    /// `uniform(low, high)` returned the value.
+    Uniform(f64, f64, f64),
+}
+
+/// numpy's `Generator(PCG64(SeedSequence(seed)))`, with the two methods level generation uses.
+#[derive(Clone, Debug, PartialEq)]
+pub struct NumpyRng {
+    state: u128,
+    inc: u128,
+    /// The high half of the last 64-bit draw, waiting for the next 32-bit draw.
+    buffered: Option<u32>,
+    draws: u64,
+    log: Option<Vec<Call>>,
+}
+
+impl NumpyRng {
+    /// The generator `reset(seed=seed)` builds.
+    pub fn new(seed: u64) -> Self {
+        let s = seed_sequence_state(seed);
+        let initstate = (u128::from(s[0]) << 64) | u128::from(s[1]);
+        let initseq = (u128::from(s[2]) << 64) | u128::from(s[3]);
+        let mut rng = Self {
+            state: 0,
+            inc: (initseq << 1) | 1,
+            buffered: None,
+            draws: 0,
+            log: None,
+        };
+        rng.step();
+        rng.state = rng.state.wrapping_add(initstate);
+        rng.step();
+        rng
+    }
+
+    /// Starts recording every `integers` / `uniform` call (see [`Self::take_log`]).
+    pub fn record(&mut self) {
+        self.log = Some(Vec::new());
+    }
+
+    /// The calls recorded since [`Self::record`].
+    pub fn take_log(&mut self) -> Vec<Call> {
+        self.log.take().unwrap_or_default()
+    }
+
+    /// The LCG state and increment (numpy's `bit_generator.state`), for test vectors.
+    pub fn state(&self) -> (u128, u128) {
+        (self.state, self.inc)
+    }
+
+    /// How many calls of `integers` / `uniform` drew at least one number (a diagnostic: it
+    /// lets a test say where two streams part).
+    pub fn calls(&self) -> u64 {
+        self.draws
+    }
+
+    #[inline]
+    fn step(&mut self) {
+        self.state = self.state.wrapping_mul(PCG_MULT).wrapping_add(self.inc);
+    }
+
+    /// A raw 64-bit draw: step, then XSL-RR of the new state.
+    #[inline]
+    pub fn next_u64(&mut self) -> u64 {
+        self.step();
+        let s = self.state;
+        let x = ((s >> 64) as u64) ^ (s as u64);
+        x.rotate_right((s >> 122) as u32)
+    }
+
+    /// numpy's 32-bit draw: the low half of a fresh 64-bit draw, or the kept high half.
+    #[inline]
+    pub fn next_u32(&mut self) -> u32 {
+        if let Some(v) = self.buffered.take() {
+            return v;
+        }
+        let n = self.next_u64();
+        self.buffered = Some((n >> 32) as u32);
+        n as u32
+    }
+
+    /// `integers(low, high)` (int64, `high` exclusive), Lemire's method as numpy draws it.
+    /// `high <= low` is a caller's bug; it returns `low` (numpy raises).
+    pub fn integers(&mut self, low: i64, high: i64) -> i64 {
+        let v = self.integers_unlogged(low, high);
+        if let Some(log) = &mut self.log {
+            log.push(Call::Integers(low, high, v));
+        }
+        v
+    }
+
+    fn integers_unlogged(&mut self, low: i64, high: i64) -> i64 {
+        if high <= low {
+            return low;
+        }
+        let rng = (high - low - 1) as u64;
+        if rng == 0 {
+            return low;
+        }
+        self.draws += 1;
+        if rng <= u64::from(u32::MAX) {
+            let rng = rng as u32;
+            if rng == u32::MAX {
+                return low + i64::from(self.next_u32());
+            }
+            let excl = rng + 1;
+            let mut m = u64::from(self.next_u32()) * u64::from(excl);
+            let mut left = m as u32;
+            if left < excl {
+                let threshold = (u32::MAX - rng) % excl;
+                while left < threshold {
+                    m = u64::from(self.next_u32()) * u64::from(excl);
+                    left = m as u32;
+                }
+            }
+            return low + (m >> 32) as i64;
+        }
+        if rng == u64::MAX {
+            return low.wrapping_add(self.next_u64() as i64);
+        }
+        let excl = rng + 1;
+        let mut m = u128::from(self.next_u64()) * u128::from(excl);
+        let mut left = m as u64;
+        if left < excl {
+            let threshold = (u64::MAX - rng) % excl;
+            while left < threshold {
+                m = u128::from(self.next_u64()) * u128::from(excl);
+                left = m as u64;
+            }
+        }
+        low.wrapping_add((m >> 64) as i64)
+    }
+
+    /// `integers(low, high)` for indices and coordinates (`0 <= low < high`).
+    #[inline]
+    pub fn below(&mut self, low: usize, high: usize) -> usize {
+        self.integers(low as i64, high as i64) as usize
+    }
+
+    /// `uniform(a, b)`: `a + (b − a) · ((next64 >> 11) · 2⁻⁵³)`.
+    pub fn uniform(&mut self, a: f64, b: f64) -> f64 {
+        self.draws += 1;
+        let unit = (self.next_u64() >> 11) as f64 * (1.0 / 9_007_199_254_740_992.0);
+        let v = a + (b - a) * unit;
+        if let Some(log) = &mut self.log {
+            log.push(Call::Uniform(a, b, v));
+        }
+        v
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// numpy 2.4: `PCG64(SeedSequence(0)).state` and its first three `random_raw()`.
+    #[test]
+    fn seed_zero_matches_numpy() {
+        let mut g = NumpyRng::new(0);
+        assert_eq!(
+            g.state(),
+            (
+                0x1aa1_b534_5996_452d_0958_5eb7_a695_61e3,
+                0x418d_dadb_3af7_1a82_5881_33bc_4478_73a9
+            )
+        );
+        assert_eq!(g.next_u64(), 0xa30f_ebcf_d9c2_825f);
+        assert_eq!(g.next_u64(), 0x4510_bdf8_82d9_d721);
+        assert_eq!(g.next_u64(), 0x0a7d_3da9_4ecd_e8b8);
+    }
+
+    #[test]
+    fn a_range_of_one_value_draws_nothing() {
+        let mut a = NumpyRng::new(7);
+        let mut b = NumpyRng::new(7);
+        assert_eq!(a.integers(3, 4), 3);
+        assert_eq!(a.calls(), 0);
+        assert_eq!(a.integers(0, 10), b.integers(0, 10));
+    }
+
+    #[test]
+    fn thirty_two_bit_draws_keep_the_high_half_across_64_bit_draws() {
+        let mut a = NumpyRng::new(1);
+        let mut raw = NumpyRng::new(1);
+        let first = raw.next_u64();
+        let second = raw.next_u64();
+        assert_eq!(a.next_u32(), first as u32);
+        // A 64-bit draw in between does not drop the kept half.
+        assert_eq!(a.next_u64(), second);
+        assert_eq!(a.next_u32(), (first >> 32) as u32);
+    }
+}

@@ -1,0 +1,149 @@
+//! Every BabyAI level against minigrid 3.2.0: numpy's stream, the calls level generation
+//! makes, and 576 episode dumps (96 ids × 2 done modes × 3 seeds, BabyAIBot plus random
+//! actions) regenerated from their id and seed and replayed.
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::float_cmp,
+    reason = "test helpers fail loudly"
+)]
+
+mod common;
+
+use std::path::Path;
+
+use groundscope::env::babyai::{self, registry::LEVELS};
+use groundscope::env::rng::{Call, NumpyRng};
+use groundscope::env::{Snapshot, verify_dump};
+use serde_json::Value;
+
+fn fixture_json(name: &str) -> Value {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/fixtures/numpy")
+        .join(name);
+    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
+}
+
+fn hex128(v: &Value) -> u128 {
+    u128::from_str_radix(v.as_str().unwrap().trim_start_matches("0x"), 16).unwrap()
+}
+
+/// numpy's own streams: the seeded state and 300 mixed calls per seed, 64-bit seeds included.
+#[test]
+fn numpy_streams_match_numpy() {
+    let streams = fixture_json("streams.json");
+    for s in streams.as_array().unwrap() {
+        let seed = s["seed"].as_u64().unwrap();
+        let mut g = NumpyRng::new(seed);
+        assert_eq!(
+            g.state(),
+            (hex128(&s["state"]), hex128(&s["inc"])),
+            "seed {seed}"
+        );
+        for (k, c) in s["calls"].as_array().unwrap().iter().enumerate() {
+            if let Some(u) = c.get("uniform") {
+                let (a, b) = (u[0].as_f64().unwrap(), u[1].as_f64().unwrap());
+                assert_eq!(
+                    g.uniform(a, b),
+                    c["value"].as_f64().unwrap(),
+                    "seed {seed} call {k}"
+                );
+            } else {
+                let r = &c["integers"];
+                let (lo, hi) = (r[0].as_i64().unwrap(), r[1].as_i64().unwrap());
+                assert_eq!(
+                    g.integers(lo, hi),
+                    c["value"].as_i64().unwrap(),
+                    "seed {seed} call {k}"
+                );
+            }
+        }
+    }
+}
+
+/// Level generation calls numpy exactly as Python does, call by call (arguments and results).
+#[test]
+fn level_generation_draws_as_python_does() {
+    let logs = fixture_json("calls.json");
+    let mut checked = 0;
+    for l in logs.as_array().unwrap() {
+        let id = l["env_id"].as_str().unwrap();
+        let seed = l["seed"].as_u64().unwrap();
+        let spec = babyai::spec(id).unwrap();
+        let (world, calls) = babyai::generate_logged(spec, seed, false).unwrap();
+        let want = l["calls"].as_array().unwrap();
+        for (k, (w, got)) in want.iter().zip(&calls).enumerate() {
+            let w = w.as_array().unwrap();
+            let same = match got {
+                Call::Integers(lo, hi, v) => {
+                    w[0] == "i"
+                        && w[1].as_i64() == Some(*lo)
+                        && w[2].as_i64() == Some(*hi)
+                        && w[3].as_i64() == Some(*v)
+                }
+                Call::Uniform(lo, hi, v) => {
+                    w[0] == "u"
+                        && w[1].as_f64() == Some(*lo)
+                        && w[2].as_f64() == Some(*hi)
+                        && w[3].as_f64() == Some(*v)
+                }
+            };
+            assert!(
+                same,
+                "{id} seed {seed}: call {k}: Python {w:?}, groundscope {got:?}"
+            );
+        }
+        assert_eq!(calls.len(), want.len(), "{id} seed {seed}: number of calls");
+        assert_eq!(
+            world.mission,
+            l["mission"].as_str().unwrap(),
+            "{id} seed {seed}"
+        );
+        checked += 1;
+    }
+    assert_eq!(checked, 15);
+}
+
+/// Each dump's level regenerated from its id and seed, then its steps replayed.
+#[test]
+fn every_babyai_dump_regenerates_and_replays() {
+    let n = common::for_each_fixture("babyai", |path| {
+        let text = groundscope::files::read_text_maybe_gz(path).map_err(|e| e.to_string())?;
+        let snap = Snapshot::from_json(&text).map_err(|e| e.to_string())?;
+        match verify_dump(&snap).map_err(|e| e.to_string())? {
+            Ok(steps) if steps == snap.steps.len() => Ok(()),
+            Ok(steps) => Err(format!("replayed {steps} of {} steps", snap.steps.len())),
+            Err(m) => Err(format!("step {}: {}", m.step, m.what)),
+        }
+    });
+    assert_eq!(n, 576, "all 576 dumps are present");
+}
+
+/// Every registered id generates for many seeds, the same world twice.
+#[test]
+fn every_level_generates_deterministically() {
+    for spec in LEVELS {
+        for seed in 0..20 {
+            let a = babyai::generate(spec, seed, false).unwrap();
+            let b = babyai::generate(spec, seed, false).unwrap();
+            assert_eq!(a, b, "{} seed {seed}", spec.id);
+            assert!(!a.mission.is_empty());
+        }
+    }
+}
+
+/// The paper's level generated by minigrid itself (docs/world.md's class), regenerated and
+/// replayed: 3 sizes × 2 done modes × 20 seeds.
+#[test]
+fn the_paper_level_is_minigrid_s_own() {
+    let n = common::for_each_fixture("paper", |path| {
+        let text = groundscope::files::read_text_maybe_gz(path).map_err(|e| e.to_string())?;
+        let snap = Snapshot::from_json(&text).map_err(|e| e.to_string())?;
+        match verify_dump(&snap).map_err(|e| e.to_string())? {
+            Ok(steps) if steps == snap.steps.len() => Ok(()),
+            Ok(steps) => Err(format!("replayed {steps} of {} steps", snap.steps.len())),
+            Err(m) => Err(format!("step {}: {}", m.step, m.what)),
+        }
+    });
+    assert_eq!(n, 120);
+}
