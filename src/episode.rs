@@ -172,6 +172,9 @@ pub fn initial_world(spec: &EpisodeSpec) -> Result<World, PolicyError> {
     if let Some(text) = &spec.mission {
         world.set_instruction(crate::env::parse_mission(text)?)?;
     }
+    vocab::tokenize_on_level(&world.mission, || {
+        format!("{} seed {}", spec.level, spec.seed)
+    })?;
     Ok(world)
 }
 

@@ -147,3 +147,69 @@ fn the_paper_level_is_minigrid_s_own() {
     });
     assert_eq!(n, 120);
 }
+
+/// `env verify` names the first difference of a regenerated level (exit 1) and refuses
+/// dumps it cannot regenerate (exit 2, one line); `--level` refuses unknown ids by name.
+#[test]
+fn env_verify_and_level_flags_refuse_what_they_cannot_check() {
+    let dir = tempfile::tempdir().unwrap();
+    let src = groundscope::files::read_text_maybe_gz(&common::fixtures("babyai")[0]).unwrap();
+    let base: Value = serde_json::from_str(&src).unwrap();
+    let write = |name: &str, v: &Value| {
+        let p = dir.path().join(name);
+        std::fs::write(&p, v.to_string()).unwrap();
+        p.display().to_string()
+    };
+    // Another seed: a mismatch at step 0 naming the regenerated level.
+    let mut v = base.clone();
+    v["seed"] = (v["seed"].as_u64().unwrap() + 1).into();
+    let o = common::gs(&["env", "verify", &write("seed.json", &v)]);
+    assert_eq!(o.status.code(), Some(1));
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(out.contains("step 0: regenerated BabyAI-"), "{out}");
+    // An unknown id, another minigrid version, a missing seed: bad input.
+    let mut v = base.clone();
+    v["env_id"] = "BabyAI-GoToObjMaz-v0".into();
+    common::assert_bad_input(
+        &common::gs(&["env", "verify", &write("id.json", &v)]),
+        "BabyAI-GoToObjMaze-v0",
+    );
+    let mut v = base.clone();
+    v["minigrid_version"] = "2.3.1".into();
+    common::assert_bad_input(
+        &common::gs(&["env", "verify", &write("ver.json", &v)]),
+        "minigrid_version",
+    );
+    let mut v = base;
+    v.as_object_mut().unwrap().remove("seed");
+    common::assert_bad_input(
+        &common::gs(&["env", "verify", &write("noseed.json", &v)]),
+        "seed",
+    );
+    // --level: an unknown id names the closest; the paper's flags conflict with it.
+    common::assert_bad_input(
+        &common::gs(&["env", "show", "--level", "BabyAI-KeyCorridorS3R4-v0"]),
+        "BabyAI-KeyCorridorS3R3-v0",
+    );
+    let o = common::gs(&["env", "show", "--level", "BabyAI-GoTo-v0", "--objects", "3"]);
+    assert_eq!(o.status.code(), Some(2));
+    let o = common::gs(&["env", "list"]);
+    assert_eq!(o.status.code(), Some(0));
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert_eq!(out.lines().filter(|l| l.starts_with("BabyAI-")).count(), 96);
+    assert!(
+        out.contains("BabyAI-BossLevel-v0") && out.contains("22×22"),
+        "{out}"
+    );
+}
+
+/// A mission word outside the agent's vocabulary is one line naming the word and the level.
+#[test]
+fn an_unknown_mission_word_names_the_level() {
+    common::assert_bad_input(
+        &common::gs(&["replay", "--level", "BabyAI-OpenRedDoor-v0", "--seed", "0"]),
+        "\"open\" in mission \"open the red door\" of level BabyAI-OpenRedDoor-v0",
+    );
+    let o = common::gs(&["replay", "--level", "BabyAI-GoToObjMaze-v0", "--seed", "1"]);
+    assert_eq!(o.status.code(), Some(0), "{}", common::stderr(&o));
+}

@@ -39,6 +39,18 @@ pub enum EnvError {
         /// The known words, space-separated.
         vocabulary: String,
     },
+    /// A level's mission with a word outside the vocabulary.
+    #[error(
+        "unknown word \"{word}\" in mission \"{mission}\" of level {level}: the agent's vocabulary does not cover it"
+    )]
+    UnknownWordOnLevel {
+        /// The word.
+        word: String,
+        /// The whole mission.
+        mission: String,
+        /// The level (and seed).
+        level: String,
+    },
     /// A mission text that names no object of the world or is not a BabyAI instruction.
     #[error("invalid mission \"{mission}\": {reason}")]
     InvalidMission {

@@ -494,7 +494,7 @@ mod tests {
             "open a door on your left",
             "put the blue key next to a box",
             "pick up the ball and go to a grey door",
-            "open the red door, then go to the box after you pick up a key",
+            "open the red door and go to the box after you pick up a key",
             "go to a key, then pick up the purple box",
             "put a ball next to the green ball after you open the yellow door",
         ] {

@@ -62,6 +62,21 @@ pub fn tokenize(mission: &str) -> Result<Vec<u32>, EnvError> {
         .collect()
 }
 
+/// [`tokenize`] for a level's own mission: an unknown word names the level too.
+pub fn tokenize_on_level(
+    mission: &str,
+    level: impl FnOnce() -> String,
+) -> Result<Vec<u32>, EnvError> {
+    tokenize(mission).map_err(|e| match e {
+        EnvError::UnknownWord { word, mission, .. } => EnvError::UnknownWordOnLevel {
+            word,
+            mission,
+            level: level(),
+        },
+        e => e,
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -146,7 +146,9 @@ pub fn evaluate_episodes_explored<P: Acting + ?Sized>(
     for &(s, level_seed) in plan {
         {
             let world = level.generate(level_seed).map_err(PolicyError::from)?;
-            let tokens = vocab::tokenize(&world.mission).map_err(PolicyError::from)?;
+            let tokens =
+                vocab::tokenize_on_level(&world.mission, || format!("{level} seed {level_seed}"))
+                    .map_err(PolicyError::from)?;
             running.push(Running {
                 summary: EpisodeSummary {
                     eval_seed: s,

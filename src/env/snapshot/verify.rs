@@ -220,15 +220,16 @@ fn check_image(image: &[Vec<Vec<i64>>], field: &str) -> Result<(), EnvError> {
 /// flag, pose, carried object and changed grid; returns the first mismatch, or the number
 /// of steps checked. Invalid dumps are errors.
 pub fn verify_dump(snap: &Snapshot) -> Result<Result<usize, Mismatch>, EnvError> {
-    if let Some(m) = verify_generation(snap)? {
-        return Ok(Err(m));
-    }
+    // A malformed dump is bad input before it is a mismatch.
     let mut world = snap.to_world()?;
     if let Some(obs) = &snap.initial_obs {
         check_image(&obs.image, "initial_obs.image")?;
     }
     for (i, s) in snap.steps.iter().enumerate() {
         check_image(&s.image, &format!("steps[{i}].image"))?;
+    }
+    if let Some(m) = verify_generation(snap)? {
+        return Ok(Err(m));
     }
     if let Some(obs) = &snap.initial_obs {
         if obs.direction != i64::from(world.agent_dir) {
