@@ -45,13 +45,13 @@ pub struct Targets {
 
 impl Targets {
     /// `find_matching_objs(use_location=True)`.
-    pub fn find(desc: &ObjDesc, grid: &Grid, rooms: Rooms, agent_pos: Pos, agent_dir: u8) -> Self {
+    pub fn find(desc: ObjDesc, grid: &Grid, rooms: Rooms, agent_pos: Pos, agent_dir: u8) -> Self {
         let (obj_set, obj_poss) = desc.find_matching(grid, rooms, agent_pos, agent_dir);
         Self { obj_set, obj_poss }
     }
 
     /// `find_matching_objs(use_location=False)`: the tracked objects' positions, scan order.
-    fn refresh(&mut self, desc: &ObjDesc, grid: &Grid) {
+    fn refresh(&mut self, desc: ObjDesc, grid: &Grid) {
         self.obj_poss.clear();
         for (p, o) in grid.objects() {
             if self.obj_set.contains(&o.id) && desc.matches(&o) {
@@ -189,11 +189,11 @@ impl Instr {
     pub fn reset(&mut self, grid: &Grid, rooms: Rooms, agent_pos: Pos, agent_dir: u8) {
         match self {
             Self::Action(n) => {
-                n.targets = Targets::find(&n.instr.desc, grid, rooms, agent_pos, agent_dir);
+                n.targets = Targets::find(n.instr.desc, grid, rooms, agent_pos, agent_dir);
                 n.fixed_targets = n
                     .instr
                     .fixed
-                    .map(|f| Targets::find(&f, grid, rooms, agent_pos, agent_dir))
+                    .map(|f| Targets::find(f, grid, rooms, agent_pos, agent_dir))
                     .unwrap_or_default();
                 n.pre_carrying = None;
             }
@@ -265,9 +265,9 @@ impl Instr {
     pub(crate) fn refresh_positions(&mut self, grid: &Grid) {
         match self {
             Self::Action(n) => {
-                n.targets.refresh(&n.instr.desc, grid);
+                n.targets.refresh(n.instr.desc, grid);
                 if let Some(f) = n.instr.fixed {
-                    n.fixed_targets.refresh(&f, grid);
+                    n.fixed_targets.refresh(f, grid);
                 }
             }
             Self::Seq(s) => {
@@ -489,6 +489,24 @@ mod tests {
 
     #[test]
     fn missions_parse_into_trees_that_read_back() {
+        /// Reads a tree back with the article each description was written with.
+        fn surf(t: &Instr, text: &str, out: &mut String) {
+            match t {
+                Instr::Action(n) => {
+                    let the = |d: &ObjDesc| {
+                        let one = d.surface(1);
+                        if text.contains(&one) { 1 } else { 2 }
+                    };
+                    let nf = n.instr.fixed.map_or(1, |f| the(&f));
+                    out.push_str(&n.instr.surface_with(the(&n.instr.desc), nf));
+                }
+                Instr::Seq(s) => {
+                    surf(&s.a, text, out);
+                    out.push_str(s.kind.joiner());
+                    surf(&s.b, text, out);
+                }
+            }
+        }
         for text in [
             "go to the red ball",
             "open a door on your left",
@@ -501,23 +519,6 @@ mod tests {
             let tree = parse_mission(text).unwrap();
             // Read back with the article each description was written with.
             let mut out = String::new();
-            fn surf(t: &Instr, text: &str, out: &mut String) {
-                match t {
-                    Instr::Action(n) => {
-                        let the = |d: &ObjDesc| {
-                            let one = d.surface(1);
-                            if text.contains(&one) { 1 } else { 2 }
-                        };
-                        let nf = n.instr.fixed.map_or(1, |f| the(&f));
-                        out.push_str(&n.instr.surface_with(the(&n.instr.desc), nf));
-                    }
-                    Instr::Seq(s) => {
-                        surf(&s.a, text, out);
-                        out.push_str(s.kind.joiner());
-                        surf(&s.b, text, out);
-                    }
-                }
-            }
             surf(&tree, text, &mut out);
             assert_eq!(out, text);
         }

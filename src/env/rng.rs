@@ -169,8 +169,7 @@ impl NumpyRng {
             return low;
         }
         self.draws += 1;
-        if rng <= u64::from(u32::MAX) {
-            let rng = rng as u32;
+        if let Ok(rng) = u32::try_from(rng) {
             if rng == u32::MAX {
                 return low + i64::from(self.next_u32());
             }

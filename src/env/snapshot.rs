@@ -584,7 +584,7 @@ pub(crate) fn box_contents_json(world: &World) -> Vec<BoxJson> {
 }
 
 fn name_opt<T>(
-    name: &Option<String>,
+    name: Option<&String>,
     field: &str,
     what: &str,
     parse: impl Fn(&str) -> Option<T>,
@@ -598,9 +598,9 @@ fn name_opt<T>(
 }
 
 fn desc_from(
-    kind: &Option<String>,
-    color: &Option<String>,
-    loc: &Option<String>,
+    kind: Option<&String>,
+    color: Option<&String>,
+    loc: Option<&String>,
     field: &str,
 ) -> Result<ObjDesc, EnvError> {
     Ok(ObjDesc {
@@ -656,8 +656,18 @@ pub fn instr_from_json(j: &InstrJson, field: &str) -> Result<Instr, EnvError> {
         let (Some(m), Some(f)) = (&j.moved, &j.fixed) else {
             return Err(invalid(field, "PutNextInstr needs move and fixed"));
         };
-        let moved = desc_from(&m.kind_name, &m.color, &m.loc, &format!("{field}.move"))?;
-        let fixed = desc_from(&f.kind_name, &f.color, &f.loc, &format!("{field}.fixed"))?;
+        let moved = desc_from(
+            m.kind_name.as_ref(),
+            m.color.as_ref(),
+            m.loc.as_ref(),
+            &format!("{field}.move"),
+        )?;
+        let fixed = desc_from(
+            f.kind_name.as_ref(),
+            f.color.as_ref(),
+            f.loc.as_ref(),
+            &format!("{field}.fixed"),
+        )?;
         if moved.kind == Some(ObjectKind::Door) {
             return Err(invalid(
                 format!("{field}.move.type"),
@@ -666,7 +676,12 @@ pub fn instr_from_json(j: &InstrJson, field: &str) -> Result<Instr, EnvError> {
         }
         Instruction::put_next(moved, fixed)
     } else {
-        let desc = desc_from(&j.kind_name, &j.color, &j.loc, field)?;
+        let desc = desc_from(
+            j.kind_name.as_ref(),
+            j.color.as_ref(),
+            j.loc.as_ref(),
+            field,
+        )?;
         let door = desc.kind == Some(ObjectKind::Door);
         if (task == TaskKind::Open) != door && !(task == TaskKind::GoTo && door) {
             return Err(invalid(
@@ -684,7 +699,7 @@ pub fn instr_from_json(j: &InstrJson, field: &str) -> Result<Instr, EnvError> {
     Ok(instr.into())
 }
 
-fn desc_json(desc: &ObjDesc, poss: &[Pos]) -> DescJson {
+fn desc_json(desc: ObjDesc, poss: &[Pos]) -> DescJson {
     DescJson {
         kind_name: desc.kind.map(|k| k.name().into()),
         color: desc.color.map(|c| c.name().into()),
@@ -720,26 +735,25 @@ pub fn instr_to_json(tree: &Instr) -> InstrJson {
         },
         Instr::Action(n) => {
             let strict = (n.instr.task != TaskKind::GoTo).then_some(n.instr.strict);
-            match n.instr.fixed {
-                Some(fixed) => InstrJson {
-                    kind: n.instr.task.instr_class().into(),
+            let kind = n.instr.task.instr_class().into();
+            if let Some(fixed) = n.instr.fixed {
+                return InstrJson {
+                    kind,
                     strict,
-                    moved: Some(desc_json(&n.instr.desc, &n.targets.obj_poss)),
-                    fixed: Some(desc_json(&fixed, &n.fixed_targets.obj_poss)),
+                    moved: Some(desc_json(n.instr.desc, &n.targets.obj_poss)),
+                    fixed: Some(desc_json(fixed, &n.fixed_targets.obj_poss)),
                     ..empty
-                },
-                None => {
-                    let d = desc_json(&n.instr.desc, &n.targets.obj_poss);
-                    InstrJson {
-                        kind: n.instr.task.instr_class().into(),
-                        kind_name: d.kind_name,
-                        color: d.color,
-                        loc: d.loc,
-                        match_positions: d.match_positions,
-                        strict,
-                        ..empty
-                    }
-                }
+                };
+            }
+            let d = desc_json(n.instr.desc, &n.targets.obj_poss);
+            InstrJson {
+                kind,
+                kind_name: d.kind_name,
+                color: d.color,
+                loc: d.loc,
+                match_positions: d.match_positions,
+                strict,
+                ..empty
             }
         }
     }
@@ -756,7 +770,7 @@ fn override_targets(world: &mut World, j: &InstrJson) -> Result<(), EnvError> {
 
 fn resolve(
     d: &DescJson,
-    desc: &ObjDesc,
+    desc: ObjDesc,
     field: &str,
     grid: &Grid,
     carried: Option<WorldObj>,
@@ -804,14 +818,14 @@ fn set_targets(
             if let (Some(fixed), Some(m), Some(f)) = (n.instr.fixed, &j.moved, &j.fixed) {
                 n.targets = resolve(
                     m,
-                    &n.instr.desc,
+                    n.instr.desc,
                     &format!("{field}.move"),
                     grid,
                     carried,
                     floor,
                 )?;
                 n.fixed_targets =
-                    resolve(f, &fixed, &format!("{field}.fixed"), grid, carried, floor)?;
+                    resolve(f, fixed, &format!("{field}.fixed"), grid, carried, floor)?;
             } else {
                 let d = DescJson {
                     kind_name: j.kind_name.clone(),
@@ -819,7 +833,7 @@ fn set_targets(
                     loc: j.loc.clone(),
                     match_positions: j.match_positions.clone(),
                 };
-                n.targets = resolve(&d, &n.instr.desc, field, grid, carried, floor)?;
+                n.targets = resolve(&d, n.instr.desc, field, grid, carried, floor)?;
             }
             if n.targets.obj_set.is_empty() {
                 return Err(invalid(field, "no object matches the description"));

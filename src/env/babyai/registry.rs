@@ -191,6 +191,10 @@ const fn lg(p: Params) -> Family {
 
 const B: Params = Params::BOSS;
 
+#[expect(
+    clippy::unnecessary_wraps,
+    reason = "it fills the spec's optional horizon"
+)]
 const fn sq(s: u32, k: u32) -> Option<u32> {
     Some(k * s * s)
 }
@@ -806,13 +810,15 @@ impl LevelSpec {
             Family::GoToImpUnlock => m("closed", "locked room, key", "goto"),
             Family::GoToDoor => m("closed or locked", "locked, no key", "goto door"),
             Family::GoToObjDoor => m("closed or locked", "locked, no key", "goto"),
-            Family::Open => m("closed", "-", "open"),
-            Family::OpenRedDoor | Family::OpenDoor { .. } => m("closed", "-", "open"),
+            Family::Open | Family::OpenRedDoor | Family::OpenDoor { .. } => {
+                m("closed", "-", "open")
+            }
             Family::OpenTwoDoors { .. } => m("closed", "-", "open, before"),
             Family::OpenDoorsOrder { .. } => m("closed", "-", "open, before, after"),
-            Family::Pickup | Family::UnblockPickup | Family::FindObj => m("closed", "-", "pickup"),
+            Family::Pickup | Family::UnblockPickup | Family::FindObj | Family::PickupAbove => {
+                m("closed", "-", "pickup")
+            }
             Family::PickupDist { .. } | Family::OneRoom => m("-", "-", "pickup"),
-            Family::PickupAbove => m("closed", "-", "pickup"),
             Family::PutNextLocal { .. } => m("-", "-", "putnext"),
             Family::PutNext { start_carrying, .. } => m(
                 "wall removed",
