@@ -55,6 +55,10 @@ impl Rooms {
     }
 }
 
+/// The fixed arrays' size: grids whose padding by a wall on every side fits it are
+/// flood-filled on fixed arrays (every BabyAI grid: BossLevel's 22 × 22 pads to 576).
+const WIDE_PADDED: usize = 640;
+
 /// How far the view codes extend past each side of the grid: the view reaches 6 cells ahead.
 pub(crate) const VIEW_PAD: i32 = 6;
 
@@ -129,6 +133,28 @@ impl Grid {
             width: width as i32,
             height: height as i32,
             cells: vec![None; width * height],
+        }
+        .into()
+    }
+
+    /// The walls of `rooms` (every room's outer ring, shared between neighbours), with ids
+    /// from `next_id` in x-major order: `RoomGrid._gen_grid`'s grid before any door.
+    pub fn room_walls(rooms: Rooms, next_id: &mut u32) -> Self {
+        let (w, h) = rooms.grid_size();
+        let step = (rooms.room_size - 1).max(1) as usize;
+        let mut cells = vec![None; w * h];
+        for x in 0..w {
+            for y in 0..h {
+                if x % step == 0 || y % step == 0 {
+                    cells[x * h + y] = Some(WorldObj::new(ObjectKind::Wall, Color::Grey, *next_id));
+                    *next_id += 1;
+                }
+            }
+        }
+        GridCells {
+            width: w as i32,
+            height: h as i32,
+            cells,
         }
         .into()
     }
@@ -297,6 +323,9 @@ impl Grid {
         if n <= 64 {
             return self.all_reachable_bits(first);
         }
+        if (self.width as usize + 2) * (h + 2) <= WIDE_PADDED {
+            return self.all_reachable_wide(first);
+        }
         let mut seen = vec![false; n];
         let mut stack = Vec::with_capacity(64);
         seen[first] = true;
@@ -330,6 +359,60 @@ impl Grid {
             .iter()
             .zip(&seen)
             .all(|(c, s)| *s || c.is_none_or(|o| o.kind == ObjectKind::Wall))
+    }
+
+    /// [`Self::all_objects_reachable`] for grids that pad to at most [`WIDE_PADDED`] cells
+    /// (every BabyAI grid, BossLevel's 22 × 22 included): the same fill on fixed arrays, stopping as
+    /// soon as every object has been reached.
+    fn all_reachable_wide(&self, first: usize) -> bool {
+        const WALL: u8 = 0;
+        const EMPTY: u8 = 1;
+        const DOOR: u8 = 2;
+        const OBJECT: u8 = 3;
+        // Columns padded with a wall above and below, and a wall column on each side: every
+        // neighbour index is in range and no row test is needed.
+        let h = self.height as usize;
+        let ph = h + 2;
+        let mut kind = [WALL; WIDE_PADDED];
+        let mut left = 0usize;
+        for (column, padded) in self
+            .cells
+            .chunks_exact(h)
+            .zip(kind[ph..].chunks_exact_mut(ph))
+        {
+            for (c, k) in column.iter().zip(&mut padded[1..]) {
+                *k = match c {
+                    None => EMPTY,
+                    Some(o) if o.kind == ObjectKind::Wall => WALL,
+                    Some(o) if o.kind == ObjectKind::Door => DOOR,
+                    Some(_) => OBJECT,
+                };
+                left += usize::from(*k >= DOOR);
+            }
+        }
+        let first = (first / h + 1) * ph + first % h + 1;
+        let mut seen = [false; WIDE_PADDED];
+        let mut stack = [0u16; WIDE_PADDED];
+        seen[first] = true;
+        left -= usize::from(kind[first] >= DOOR);
+        stack[0] = first as u16;
+        let mut top = 1;
+        while top > 0 && left > 0 {
+            top -= 1;
+            let i = usize::from(stack[top]);
+            if i != first && kind[i] == OBJECT {
+                continue;
+            }
+            for j in [i + ph, i - ph, i + 1, i - 1] {
+                if !seen[j] && kind[j] != WALL {
+                    seen[j] = true;
+                    left -= usize::from(kind[j] >= DOOR);
+                    stack[top] = j as u16;
+                    top += 1;
+                }
+            }
+        }
+        left == 0
     }
 
     /// [`Self::all_objects_reachable`] for grids of at most 64 cells (the paper's 8×8 room),

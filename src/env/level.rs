@@ -323,12 +323,15 @@ mod tests {
             ObjectKind::Key,
         ];
         let (mut yes, mut no) = (0, 0);
-        for _ in 0..3000 {
-            let (w, h) = (rng.random_range(1..10usize), rng.random_range(1..10usize));
+        // Up to 9 × 9 (one word of bits and the multi-word mask), then up to 29 × 29 sparser
+        // (the multi-word mask up to 512 cells, the cell-by-cell fill beyond).
+        for k in 0..6000 {
+            let (max, num, den) = if k < 3000 { (10, 2, 5) } else { (30, 1, 12) };
+            let (w, h) = (rng.random_range(1..max), rng.random_range(1..max));
             let mut grid = Grid::new(w, h);
             for x in 0..w as i32 {
                 for y in 0..h as i32 {
-                    if rng.random_ratio(2, 5) {
+                    if rng.random_ratio(num, den) {
                         let kind = kinds[rng.random_range(0..kinds.len())];
                         grid.set((x, y), Some(WorldObj::new(kind, Color::Red, 1)));
                     }
@@ -339,7 +342,7 @@ mod tests {
             assert_eq!(all_reachable(&grid, agent), want, "{w}×{h} from {agent:?}");
             if want { yes += 1 } else { no += 1 }
         }
-        assert!(yes > 100 && no > 100, "both outcomes covered: {yes} / {no}");
+        assert!(yes > 200 && no > 200, "both outcomes covered: {yes} / {no}");
     }
 
     #[test]

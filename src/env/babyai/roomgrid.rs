@@ -6,6 +6,12 @@ use crate::env::grid::{DIR_TO_VEC, Grid, Pos, Rooms};
 use crate::env::object::{Color, DoorState, ObjectId, ObjectKind, WorldObj};
 use crate::env::rng::NumpyRng;
 
+thread_local! {
+    /// Wall-only grids by geometry, with the next free id (see [`Gen::gen_grid`]).
+    static WALLS: std::cell::RefCell<Vec<(Rooms, Grid, ObjectId)>> =
+        const { std::cell::RefCell::new(Vec::new()) };
+}
+
 /// `COLOR_NAMES`, which minigrid sorts: not in colour-code order.
 pub const COLOR_NAMES: [Color; 6] = [
     Color::Blue,
@@ -60,8 +66,6 @@ pub struct Room {
     pub neighbors: [Option<usize>; 4],
     /// `locked`.
     pub locked: bool,
-    /// `(type, colour)` of the objects placed in it (`room.objs`).
-    pub objs: Vec<(ObjectKind, Color)>,
 }
 
 /// The state a level's `gen_mission` works on.
@@ -82,21 +86,25 @@ pub struct Gen {
     pub next_id: ObjectId,
     /// What each box holds.
     pub box_contents: Vec<(ObjectId, WorldObj)>,
+    /// `(type, colour)` of every object placed in a room (the union of the rooms' `objs`,
+    /// which `add_distractors` reads only as a set).
+    pub placed: Vec<(ObjectKind, Color)>,
 }
 
 impl Gen {
     /// A generator for `rooms`, seeded as `reset(seed=seed)` seeds minigrid.
     pub fn new(rooms: Rooms, seed: u64) -> Self {
-        let (w, h) = rooms.grid_size();
         Self {
             rng: NumpyRng::new(seed),
             rooms,
-            grid: Grid::new(w, h),
+            // Built by `gen_grid`; an empty grid costs nothing.
+            grid: Grid::new(0, 0),
             room_list: Vec::new(),
             agent_pos: (-1, -1),
             agent_dir: 0,
             next_id: 0,
             box_contents: Vec::new(),
+            placed: Vec::new(),
         }
     }
 
@@ -152,23 +160,38 @@ impl Gen {
     /// `RoomGrid._gen_grid`: walls of every room, door positions (drawn here), the agent at
     /// the centre facing right.
     pub fn gen_grid(&mut self) {
-        let (w, h) = self.rooms.grid_size();
-        self.grid = Grid::new(w, h);
+        // The walls are the same for every attempt and every seed of a geometry: copy them
+        // from a per-thread template rather than building them (and their view codes) again.
+        let rooms = self.rooms;
+        self.next_id = WALLS.with(|cache| {
+            let mut cache = cache.borrow_mut();
+            if let Some((_, grid, n)) = cache.iter().find(|(r, _, _)| *r == rooms) {
+                self.grid.clone_from(grid);
+                return *n;
+            }
+            let mut n = 0;
+            let grid = Grid::room_walls(rooms, &mut n);
+            self.grid.clone_from(&grid);
+            if cache.len() >= 16 {
+                cache.remove(0);
+            }
+            cache.push((rooms, grid, n));
+            n
+        });
         self.box_contents.clear();
+        self.placed.clear();
         let rs = self.rooms.room_size;
         let (cols, rows) = (self.rooms.num_cols, self.rooms.num_rows);
         self.room_list.clear();
         for j in 0..rows {
             for i in 0..cols {
                 let top = (i * (rs - 1), j * (rs - 1));
-                self.wall_rect(top, rs);
                 self.room_list.push(Room {
                     top,
                     doors: [Slot::Wall; 4],
                     door_pos: [None; 4],
                     neighbors: [None; 4],
                     locked: false,
-                    objs: Vec::new(),
                 });
             }
         }
@@ -205,21 +228,6 @@ impl Gen {
             (rows / 2) * (rs - 1) + rs / 2,
         );
         self.agent_dir = 0;
-    }
-
-    /// `Grid.wall_rect(x, y, size, size)`.
-    fn wall_rect(&mut self, (x, y): Pos, size: i32) {
-        for k in 0..size {
-            for pos in [
-                (x + k, y),
-                (x + k, y + size - 1),
-                (x, y + k),
-                (x + size - 1, y + k),
-            ] {
-                let wall = self.obj(ObjectKind::Wall, Color::Grey);
-                self.grid.set(pos, Some(wall));
-            }
-        }
     }
 
     /// `place_obj(obj, top, size, reject_fn, max_tries)`: a uniform cell of the rectangle
@@ -259,7 +267,7 @@ impl Gen {
         let r = self.room_index(i, j);
         let (top, rs) = (self.room_list[r].top, self.rooms.room_size);
         let pos = self.place_obj(Some(obj), top, (rs, rs), true, 1000)?;
-        self.room_list[r].objs.push((obj.kind, obj.color));
+        self.placed.push((obj.kind, obj.color));
         Ok(pos)
     }
 
@@ -381,12 +389,14 @@ impl Gen {
         let start = self.room_at(self.agent_pos);
         let total = self.room_list.len();
         let mut itrs = 0u32;
+        // The rooms reached change only when a door is added.
+        let mut reached = self.reach(start);
         loop {
             if itrs > 5000 {
                 return Err(Retry::Recursion("connect_all failed"));
             }
             itrs += 1;
-            if self.reach(start) == total {
+            if reached == total {
                 return Ok(());
             }
             let i = self.rand_int(0, self.rooms.num_cols);
@@ -405,24 +415,49 @@ impl Gen {
             }
             let color = self.rand_elem(door_colors);
             self.add_door(i, j, Some(k), Some(color), Some(false));
+            reached = self.reach(start);
         }
     }
 
-    /// How many rooms the agent's room reaches through doors and removed walls.
+    /// How many rooms the agent's room reaches through doors and removed walls (a flood
+    /// fill on a bit mask of rooms; RoomGrid levels have at most nine).
     fn reach(&self, start: usize) -> usize {
+        if self.room_list.len() > 64 {
+            return self.reach_large(start);
+        }
+        let mut seen = 1u64 << start;
+        let mut frontier = seen;
+        while frontier != 0 {
+            let r = frontier.trailing_zeros() as usize;
+            frontier &= frontier - 1;
+            let room = &self.room_list[r];
+            for k in 0..4 {
+                if room.doors[k].connects()
+                    && let Some(nb) = room.neighbors[k]
+                    && seen & (1 << nb) == 0
+                {
+                    seen |= 1 << nb;
+                    frontier |= 1 << nb;
+                }
+            }
+        }
+        seen.count_ones() as usize
+    }
+
+    /// [`Self::reach`] for more than 64 rooms.
+    fn reach_large(&self, start: usize) -> usize {
         let mut seen = vec![false; self.room_list.len()];
         let mut stack = vec![start];
+        seen[start] = true;
         let mut n = 0;
         while let Some(r) = stack.pop() {
-            if seen[r] {
-                continue;
-            }
-            seen[r] = true;
             n += 1;
             for k in 0..4 {
                 if self.room_list[r].doors[k].connects()
                     && let Some(nb) = self.room_list[r].neighbors[k]
+                    && !seen[nb]
                 {
+                    seen[nb] = true;
                     stack.push(nb);
                 }
             }
@@ -439,16 +474,11 @@ impl Gen {
         n: usize,
         all_unique: bool,
     ) -> Result<Vec<WorldObj>, Retry> {
-        let mut objs: Vec<(ObjectKind, Color)> = self
-            .room_list
-            .iter()
-            .flat_map(|r| r.objs.iter().copied())
-            .collect();
         let mut dists = Vec::with_capacity(n);
         while dists.len() < n {
             let color = self.rand_color();
             let kind = self.rand_elem(&DISTRACTOR_TYPES);
-            if all_unique && objs.contains(&(kind, color)) {
+            if all_unique && self.placed.contains(&(kind, color)) {
                 continue;
             }
             let ri = match i {
@@ -460,7 +490,6 @@ impl Gen {
                 None => self.rand_int(0, self.rooms.num_rows),
             };
             let (dist, _) = self.add_object(ri, rj, Some(kind), Some(color))?;
-            objs.push((kind, color));
             dists.push(dist);
         }
         Ok(dists)

@@ -426,7 +426,7 @@ pub fn analyse_episode(
     parts: Parts,
 ) -> Result<EpisodeResult, PolicyError> {
     let world = level.generate(level_seed)?;
-    let tokens = vocab::tokenize(&world.mission)?;
+    let tokens = vocab::tokenize_on_level(&world.mission, || format!("{level} seed {level_seed}"))?;
     let mut rng = Pcg64Mcg::seed_from_u64(level_seed ^ 0xFA17_4F11);
     let mut visits = Vec::new();
     let base = rollout(

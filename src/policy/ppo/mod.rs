@@ -307,8 +307,9 @@ impl Trainer {
 }
 
 fn new_slot(level: &LevelConfig, k: u64, hidden: usize) -> Result<EnvSlot, PolicyError> {
-    let world = level.generate(TRAIN_SEED_OFFSET + k)?;
-    let tokens = vocab::tokenize(&world.mission)?;
+    let seed = TRAIN_SEED_OFFSET + k;
+    let world = level.generate(seed)?;
+    let tokens = vocab::tokenize_on_level(&world.mission, || format!("{level} seed {seed}"))?;
     Ok(EnvSlot {
         world,
         tokens,
