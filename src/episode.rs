@@ -166,6 +166,37 @@ pub struct EpisodeSpec {
     pub mode: ActionMode,
 }
 
+/// Refuses a step whose action probabilities, value or attention maps are not finite (a
+/// model that computes NaN), naming the step, as training refuses a diverged update.
+fn check_finite(
+    probs: &[f32; Action::COUNT],
+    value: f32,
+    attention: Option<&crate::policy::AttentionTrace>,
+    t: usize,
+    spec: &EpisodeSpec,
+) -> Result<(), PolicyError> {
+    let what = if probs.iter().any(|p| !p.is_finite()) {
+        "action probabilities"
+    } else if !value.is_finite() {
+        "value"
+    } else if attention.is_some_and(|a| {
+        a.combined.iter().flatten().any(|x| !x.is_finite())
+            || a.words.iter().any(|w| {
+                !w.entropy.is_finite()
+                    || !w.weight.is_finite()
+                    || w.map.iter().flatten().any(|x| !x.is_finite())
+            })
+    }) {
+        "attention maps"
+    } else {
+        return Ok(());
+    };
+    Err(PolicyError::Input(format!(
+        "the model computed non-finite {what} at step {t} of {} seed {}: it cannot be run",
+        spec.level, spec.seed
+    )))
+}
+
 /// The world an episode spec starts from.
 pub fn initial_world(spec: &EpisodeSpec) -> Result<World, PolicyError> {
     let mut world = spec.level.generate(spec.seed)?;
@@ -322,6 +353,9 @@ fn run_loop<P: Acting + ?Sized>(
         for (p, v) in probs.iter_mut().zip(&probs_v) {
             *p = *v;
         }
+        let value = out.values.first().copied().unwrap_or(0.0);
+        let attention = out.traces.and_then(|t| t.into_iter().next());
+        check_finite(&probs, value, attention.as_ref(), steps.len(), spec)?;
         let action = choose(&probs, spec.mode, &mut rng);
         let before = world.clone();
         let outcome = world.step(action)?;
@@ -329,9 +363,9 @@ fn run_loop<P: Acting + ?Sized>(
             t: steps.len(),
             world: before,
             obs,
-            attention: out.traces.and_then(|t| t.into_iter().next()),
+            attention,
             probs,
-            value: out.values.first().copied().unwrap_or(0.0),
+            value,
             action,
             reward: outcome.reward,
             terminated: outcome.terminated,
@@ -449,5 +483,53 @@ impl EpisodeTrace {
     /// Writes the JSON trace atomically.
     pub fn save_json(&self, path: &Path) -> Result<(), PolicyError> {
         policy::checkpoint::write_atomic(path, self.to_json().as_bytes())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::env::LevelConfig;
+    use crate::policy::{AttentionTrace, WordAttention};
+
+    #[test]
+    fn a_non_finite_step_is_refused_naming_the_step() {
+        let spec = EpisodeSpec {
+            level: LevelConfig::default(),
+            seed: 9,
+            mission: None,
+            mode: ActionMode::Greedy,
+        };
+        let probs = [1.0 / 7.0; Action::COUNT];
+        assert!(check_finite(&probs, 0.5, None, 3, &spec).is_ok());
+        let mut nan = probs;
+        nan[2] = f32::NAN;
+        let err = check_finite(&nan, 0.5, None, 3, &spec)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("action probabilities at step 3") && err.contains("seed 9"),
+            "{err}"
+        );
+        let err = check_finite(&probs, f32::INFINITY, None, 4, &spec)
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("value at step 4"), "{err}");
+        let mut map = [[0.0; 7]; 7];
+        map[1][1] = f32::NAN;
+        let trace = AttentionTrace {
+            words: vec![WordAttention {
+                word: "ball".into(),
+                token: 7,
+                map,
+                entropy: 1.0,
+                weight: 1.0,
+            }],
+            combined: [[0.0; 7]; 7],
+        };
+        let err = check_finite(&probs, 0.0, Some(&trace), 5, &spec)
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("attention maps at step 5"), "{err}");
     }
 }

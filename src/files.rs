@@ -10,11 +10,53 @@
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
 
+/// Reads a whole file that must be a regular file: a FIFO, socket, device or directory is
+/// refused (`InvalidInput`, naming what it is) before it is opened, since opening a FIFO for
+/// reading waits for a writer forever.
+pub fn read_regular(path: &Path) -> std::io::Result<Vec<u8>> {
+    let meta = std::fs::metadata(path)?;
+    if !meta.is_file() {
+        return Err(std::io::Error::new(
+            std::io::ErrorKind::InvalidInput,
+            format!("not a regular file ({})", file_kind(&meta)),
+        ));
+    }
+    std::fs::read(path)
+}
+
+/// [`read_regular`] as UTF-8 text.
+pub fn read_regular_to_string(path: &Path) -> std::io::Result<String> {
+    String::from_utf8(read_regular(path)?)
+        .map_err(|e| std::io::Error::new(std::io::ErrorKind::InvalidData, e))
+}
+
+/// What a non-regular file is, in words.
+fn file_kind(meta: &std::fs::Metadata) -> &'static str {
+    let t = meta.file_type();
+    if t.is_dir() {
+        return "a directory";
+    }
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileTypeExt as _;
+        if t.is_fifo() {
+            return "a FIFO";
+        }
+        if t.is_socket() {
+            return "a socket";
+        }
+        if t.is_block_device() || t.is_char_device() {
+            return "a device";
+        }
+    }
+    "not a plain file"
+}
+
 /// Reads a text file, gunzipping it when its name ends in `.gz` (the compressed minigrid
 /// dumps). Invalid UTF-8 or a broken gzip stream is an `InvalidData` error.
 pub fn read_text_maybe_gz(path: &Path) -> std::io::Result<String> {
     use std::io::Read as _;
-    let bytes = std::fs::read(path)?;
+    let bytes = read_regular(path)?;
     if path.extension().is_some_and(|e| e == "gz") {
         let mut text = String::new();
         flate2::read::GzDecoder::new(bytes.as_slice()).read_to_string(&mut text)?;

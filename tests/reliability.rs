@@ -387,3 +387,118 @@ fn bench_train_reports_every_phase() {
     );
     assert_bad_input(&gs(&["bench", "train", "--frames", "10"]), "--frames");
 }
+
+/// A FIFO (or any non-regular file) named as a checkpoint, ONNX graph or training log is
+/// refused by name at once: opening a FIFO for reading would wait for a writer forever.
+#[cfg(unix)]
+#[test]
+fn fifos_are_refused_not_waited_on() {
+    let dir = tempfile::tempdir().unwrap();
+    let fifo = |name: &str| {
+        let p = dir.path().join(name);
+        let ok = std::process::Command::new("mkfifo")
+            .arg(&p)
+            .status()
+            .unwrap();
+        assert!(ok.success(), "mkfifo {name}");
+        p.display().to_string()
+    };
+    let onnx = fifo("agent.onnx");
+    let json = fifo("model.json");
+    std::fs::write(dir.path().join("model.safetensors"), b"x").unwrap();
+    let model = dir.path().join("model").display().to_string();
+    let log = fifo("log.csv");
+    let out = dir.path().join("c.png").display().to_string();
+    for (args, what) in [
+        (vec!["replay", "--checkpoint", onnx.as_str()], "agent.onnx"),
+        (vec!["validate", onnx.as_str()], "agent.onnx"),
+        (vec!["replay", "--checkpoint", model.as_str()], "model.json"),
+        (
+            vec!["curve", log.as_str(), "--out", out.as_str()],
+            "log.csv",
+        ),
+    ] {
+        let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_groundscope"))
+            .args(&args)
+            .stdin(std::process::Stdio::null())
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap();
+        let status = common::wait_for_exit(&mut child, &format!("{args:?}"));
+        let o = child.wait_with_output().unwrap();
+        let o = std::process::Output { status, ..o };
+        assert_bad_input(&o, what);
+        assert!(
+            common::stderr(&o).contains("FIFO"),
+            "{}",
+            common::stderr(&o)
+        );
+    }
+    assert!(!std::path::Path::new(&out).exists());
+    let _ = json;
+}
+
+/// A training log with an infinite (or NaN) value on an axis is refused naming the line and
+/// column; `curve` used to loop forever drawing an axis to infinity.
+#[test]
+fn curve_refuses_non_finite_values() {
+    let dir = tempfile::tempdir().unwrap();
+    let header = "update,frames,fps,episodes,success_rate,mean_reward,mean_length,policy_loss,value_loss,entropy,grad_norm,elapsed_secs";
+    for (bad, column) in [
+        ("inf", "frames"),
+        ("NaN", "frames"),
+        ("-inf", "mean_reward"),
+    ] {
+        let (frames, reward) = if column == "frames" {
+            (bad, "0.5")
+        } else {
+            ("4096", bad)
+        };
+        let text = format!(
+            "{header}\n1,2048,2659,326,0.0184,0.0157,5.99,-0.04,0.01,1.93,0.09,0.8\n2,{frames},2970,359,0.0111,{reward},5.80,0.02,0.006,1.92,0.05,1.4\n"
+        );
+        let log = dir.path().join("log.csv");
+        std::fs::write(&log, text).unwrap();
+        let out = dir.path().join("c.png");
+        let mut child = Command::new(env!("CARGO_BIN_EXE_groundscope"))
+            .args([
+                "curve",
+                log.to_str().unwrap(),
+                "--out",
+                out.to_str().unwrap(),
+            ])
+            .stdin(Stdio::null())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        let status = common::wait_for_exit(&mut child, "curve");
+        let o = Output {
+            status,
+            ..child.wait_with_output().unwrap()
+        };
+        assert_bad_input(&o, &format!("line 3 column {column}"));
+        assert!(!out.exists(), "nothing written");
+    }
+}
+
+/// A word temperature small enough to underflow the word weights to NaN is refused.
+#[test]
+fn a_word_temperature_that_underflows_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("m");
+    for t in ["1e-45", "0.001"] {
+        let o = gs(&[
+            "init",
+            "--model",
+            "attention",
+            "--word-temperature",
+            t,
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert_bad_input(&o, "word_temperature");
+        assert!(!dir.path().join("m.json").exists());
+    }
+}

@@ -21,7 +21,7 @@ pub struct ModelOptions {
     /// (walls and objects: only empty and unseen cells lose their red).
     #[arg(long, default_value = "all")]
     pub colour_codes: String,
-    /// The word weights' temperature T in w = softmax(−H/T), in (0, 100]: 1 is the paper's; a
+    /// The word weights' temperature T in w = softmax(−H/T), in [0.01, 100]: 1 is the paper's; a
     /// larger T lets flat word maps keep some weight in M (ln 49 ≈ 3.89: entropy in units of
     /// its maximum).
     #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]

@@ -100,7 +100,7 @@ pub fn read_columns(path: &Path, names: &[&str]) -> Result<Vec<Vec<f64>>, Metric
         path: path.to_path_buf(),
         reason: e.to_string(),
     };
-    let text = std::fs::read_to_string(path).map_err(io)?;
+    let text = crate::files::read_regular_to_string(path).map_err(io)?;
     // The one CSV reader (quoted fields, ragged lines named by their number).
     let (header, records) = crate::table::read(&text).map_err(|reason| MetricsError::Format {
         path: path.to_path_buf(),
@@ -122,19 +122,24 @@ pub fn read_columns(path: &Path, names: &[&str]) -> Result<Vec<Vec<f64>>, Metric
         .collect::<Result<Vec<usize>, _>>()?;
     let mut rows = Vec::new();
     for (i, cells) in records.iter().enumerate() {
-        let row = cols
-            .iter()
-            .map(|&c| match cells.get(c).map(String::as_str) {
-                Some("") => Ok(f64::NAN),
-                Some(v) => v.parse::<f64>().map_err(|_| ()),
-                None => Err(()),
-            })
-            .collect::<Result<Vec<f64>, ()>>()
-            .map_err(|()| MetricsError::Format {
-                path: path.to_path_buf(),
-                field: format!("line {}", i + 2),
-                reason: "a value is missing or not a number".into(),
-            })?;
+        let mut row = Vec::with_capacity(cols.len());
+        for (&c, name) in cols.iter().zip(names) {
+            // An empty field is a metric not measured; an infinite or NaN value is refused
+            // (an axis cannot be drawn to infinity).
+            let value = match cells.get(c).map(String::as_str) {
+                Some("") => Some(f64::NAN),
+                Some(v) => v.parse::<f64>().ok().filter(|x| x.is_finite()),
+                None => None,
+            };
+            let Some(value) = value else {
+                return Err(MetricsError::Format {
+                    path: path.to_path_buf(),
+                    field: format!("line {} column {name}", i + 2),
+                    reason: "a value is missing or not a finite number".into(),
+                });
+            };
+            row.push(value);
+        }
         rows.push(row);
     }
     Ok(rows)

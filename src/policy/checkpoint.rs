@@ -249,12 +249,12 @@ impl Checkpoint {
         let mut tries = 0;
         loop {
             let before = (file_stamp(&js), file_stamp(&st));
-            let text = std::fs::read_to_string(&js).map_err(|e| io_err(&js, e))?;
-            let bytes = std::fs::read(&st).map_err(|e| io_err(&st, e))?;
+            let text = crate::files::read_regular_to_string(&js).map_err(|e| io_err(&js, e))?;
+            let bytes = crate::files::read_regular(&st).map_err(|e| io_err(&st, e))?;
             match Self::from_parts(&text, &bytes, &js, &st) {
                 Err(err @ PolicyError::Checkpoint { .. }) if is_hash_mismatch(&err) => {
                     let prev = prev_weights_path(&st);
-                    if let Ok(old) = std::fs::read(&prev)
+                    if let Ok(old) = crate::files::read_regular(&prev)
                         && let Ok(ckpt) = Self::from_parts(&text, &old, &js, &st)
                     {
                         return Ok(ckpt);

@@ -148,8 +148,8 @@ pub fn is_content_word(id: u32) -> bool {
 
 /// The word weights' temperature `T` in `w = softmax(−H / T)`: 1 is the paper's eq. 5; a
 /// larger `T` weighs the words more evenly, so a flat map keeps some weight in `M` (and some
-/// gradient). Compared and hashed by its bits; [`ModelConfig::validate`] keeps it finite and
-/// positive.
+/// gradient). Compared and hashed by its bits; [`ModelConfig::validate`] keeps it in
+/// [`Self::MIN`, `Self::MAX`].
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(transparent)]
 pub struct WordTemperature(pub f32);
@@ -159,6 +159,9 @@ impl WordTemperature {
     pub const PAPER: Self = Self(1.0);
     /// The largest temperature accepted: past it every weight is within 4% of uniform.
     pub const MAX: f32 = 100.0;
+    /// The smallest temperature accepted: `H / T` stays far from f32's overflow (entropies are
+    /// at most ln 49), and the weights are already one-hot to f32's precision.
+    pub const MIN: f32 = 0.01;
 
     /// Whether it is the paper's (checkpoints leave it out).
     #[expect(
@@ -325,9 +328,10 @@ impl ModelConfig {
     /// Checks every size is positive and bounded, naming the field.
     pub fn validate(&self) -> Result<(), super::PolicyError> {
         let t = self.word_temperature.0;
-        if !(t.is_finite() && t > 0.0 && t <= WordTemperature::MAX) {
+        if !(t.is_finite() && (WordTemperature::MIN..=WordTemperature::MAX).contains(&t)) {
             return Err(super::PolicyError::Input(format!(
-                "model setting word_temperature = {t} must be in (0, {}]",
+                "model setting word_temperature = {t} must be in [{}, {}]",
+                WordTemperature::MIN,
                 WordTemperature::MAX
             )));
         }
@@ -494,6 +498,9 @@ mod tests {
             (1.0, true),
             (0.5, true),
             (100.0, true),
+            (0.01, true),
+            (0.009, false),
+            (1e-45, false),
             (0.0, false),
             (-1.0, false),
             (100.5, false),

@@ -96,7 +96,7 @@ pub(super) fn props(path: &Path, proto: &pb::ModelProto) -> Result<Props, Policy
     sidecar.push(".json");
     let sidecar = PathBuf::from(sidecar);
     if sidecar.exists() {
-        let text = std::fs::read_to_string(&sidecar).map_err(|e| PolicyError::Io {
+        let text = crate::files::read_regular_to_string(&sidecar).map_err(|e| PolicyError::Io {
             path: sidecar.clone(),
             reason: e.to_string(),
         })?;

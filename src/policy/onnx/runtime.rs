@@ -95,7 +95,7 @@ impl OnnxAgent {
     /// Loads `path`, checking the contract (docs/onnx.md) before tract builds the plan: the
     /// metadata, the inputs' and outputs' names, types and static sizes, and every operator.
     pub fn load(path: &Path) -> Result<Self, PolicyError> {
-        let bytes = std::fs::read(path).map_err(|e| PolicyError::Io {
+        let bytes = crate::files::read_regular(path).map_err(|e| PolicyError::Io {
             path: path.to_owned(),
             reason: e.to_string(),
         })?;

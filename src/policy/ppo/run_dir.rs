@@ -187,7 +187,7 @@ pub struct Saved {
 fn read_saved(dir: &Path) -> anyhow::Result<Saved> {
     let ckpt = Checkpoint::load(&dir.join("model"))?;
     let resume_path = dir.join("resume.json");
-    let text = std::fs::read_to_string(&resume_path)
+    let text = crate::files::read_regular_to_string(&resume_path)
         .with_context(|| format!("reading {}", resume_path.display()))?;
     let resume: ResumeFile = serde_json::from_str(&text)
         .with_context(|| format!("reading {}", resume_path.display()))?;
@@ -205,7 +205,7 @@ fn read_saved(dir: &Path) -> anyhow::Result<Saved> {
         );
     }
     let state_path = dir.join("run_state.json");
-    let state = std::fs::read_to_string(&state_path)
+    let state = crate::files::read_regular_to_string(&state_path)
         .with_context(|| format!("reading {}", state_path.display()))?;
     let (opt_path, _) = checkpoint_paths(&dir.join("optimizer"));
     let optimizer: BTreeMap<String, Tensor> =
