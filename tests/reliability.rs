@@ -502,3 +502,96 @@ fn a_word_temperature_that_underflows_is_refused() {
         assert!(!dir.path().join("m.json").exists());
     }
 }
+
+/// `--jobs 0` is refused by `eval` as by `faithfulness`, before anything is written; user
+/// text in an error is escaped and cut (control characters, a 10,000-character mission).
+#[test]
+fn one_jobs_rule_and_user_text_shown_safely() {
+    let dir = tempfile::tempdir().unwrap();
+    for cmd in ["eval", "faithfulness"] {
+        let out = dir.path().join(cmd);
+        let o = gs(&[
+            cmd,
+            "--jobs",
+            "0",
+            "--episodes",
+            "1",
+            "--seeds",
+            "1",
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert_bad_input(&o, "--jobs 0");
+        assert!(!out.exists(), "{cmd} wrote nothing");
+    }
+    let o = gs(&["replay", "--mission", "go to the \u{1b}[31mred key"]);
+    let err = common::stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        !err.contains('\u{1b}') && err.contains("\\u{1b}"),
+        "{err:?}"
+    );
+    let long = format!("go to the {} key", "x".repeat(10_000));
+    let o = gs(&["replay", "--mission", &long]);
+    let err = common::stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.len() < 500, "a {} byte error line", err.len());
+}
+
+/// Graphs groundscope's ONNX runtime cannot run safely are refused by name before tract sees
+/// them: an opset outside tract's tested range (tract panicked on opset 99), an empty file;
+/// a graph that computes NaN is refused at its first step instead of writing `null`s.
+#[test]
+fn hostile_graphs_are_refused_by_name() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut bytes = std::fs::read(common::onnx_fixture("minimal.onnx")).unwrap();
+    // opset_import { domain: "", version: 17 } → version 99
+    let at = bytes
+        .windows(6)
+        .position(|w| w == [0x42, 0x04, 0x0a, 0x00, 0x10, 0x11])
+        .expect("minimal.onnx imports opset 17");
+    bytes[at + 5] = 99;
+    let future = dir.path().join("future.onnx");
+    std::fs::write(&future, &bytes).unwrap();
+    for cmd in [vec!["replay", "--checkpoint"], vec!["validate"]] {
+        let mut args = cmd.clone();
+        args.push(future.to_str().unwrap());
+        assert_bad_input(&gs(&args), "ONNX opset 99 is outside");
+    }
+    let empty = dir.path().join("empty.onnx");
+    std::fs::write(&empty, b"").unwrap();
+    assert_bad_input(
+        &gs(&["replay", "--checkpoint", empty.to_str().unwrap()]),
+        "empty",
+    );
+    let nan = common::onnx_fixture("bad_nan.onnx");
+    let trace = dir.path().join("t.json");
+    let o = gs(&[
+        "replay",
+        "--checkpoint",
+        nan.to_str().unwrap(),
+        "--trace",
+        trace.to_str().unwrap(),
+    ]);
+    assert_bad_input(&o, "NaN");
+    assert!(!trace.exists(), "no trace of NaNs written");
+}
+
+/// `train --init` names why a graph cannot seed training.
+#[test]
+fn a_graph_cannot_seed_training() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = dir.path().join("run");
+    let graph = common::onnx_fixture("minimal.onnx");
+    let o = gs(&[
+        "train",
+        "--model",
+        "attention",
+        "--out",
+        run.to_str().unwrap(),
+        "--init",
+        graph.to_str().unwrap(),
+    ]);
+    assert_bad_input(&o, "an ONNX graph cannot seed training");
+    assert!(!run.exists());
+}

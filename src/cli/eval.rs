@@ -65,6 +65,10 @@ pub struct EvalArgs {
 
 /// Refuses a sweep that cannot run, before anything is loaded or written.
 fn check(args: &EvalArgs) -> anyhow::Result<()> {
+    // One rule with `faithfulness --jobs`: zero workers is a mistake, not "as many as cores".
+    if args.jobs == Some(0) {
+        anyhow::bail!("--jobs 0: give at least one worker");
+    }
     if !(0.0..=1.0).contains(&args.alpha) {
         anyhow::bail!("--alpha {} is outside [0, 1]", args.alpha);
     }

@@ -74,6 +74,12 @@ pub(super) fn warm_start(
     args: &TrainArgs,
     matches: Option<&ArgMatches>,
 ) -> anyhow::Result<Trainer> {
+    if groundscope::policy::onnx::is_onnx(std::path::Path::new(name)) {
+        anyhow::bail!(
+            "--init {name}: an ONNX graph cannot seed training (it carries no trainable \
+             weights for groundscope's network); give a groundscope checkpoint NAME or run directory"
+        );
+    }
     let ckpt =
         groundscope::policy::bundled::load(name).with_context(|| format!("--init {name}"))?;
     if ckpt.meta.model.variant != variant {

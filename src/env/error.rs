@@ -30,7 +30,11 @@ pub enum EnvError {
         reason: String,
     },
     /// A mission word outside the vocabulary.
-    #[error("unknown word \"{word}\" in mission \"{mission}\" (vocabulary: {vocabulary})")]
+    #[error(
+        "unknown word {} in mission {} (vocabulary: {vocabulary})",
+        shown(word),
+        shown(mission)
+    )]
     UnknownWord {
         /// The word.
         word: String,
@@ -41,7 +45,9 @@ pub enum EnvError {
     },
     /// A level's mission with a word outside the vocabulary.
     #[error(
-        "unknown word \"{word}\" in mission \"{mission}\" of level {level}: the agent's vocabulary does not cover it"
+        "unknown word {} in mission {} of level {level}: the agent's vocabulary does not cover it",
+        shown(word),
+        shown(mission)
     )]
     UnknownWordOnLevel {
         /// The word.
@@ -52,7 +58,7 @@ pub enum EnvError {
         level: String,
     },
     /// A mission text that names no object of the world or is not a BabyAI instruction.
-    #[error("invalid mission \"{mission}\": {reason}")]
+    #[error("invalid mission {}: {reason}", shown(mission))]
     InvalidMission {
         /// The mission text.
         mission: String,
@@ -73,4 +79,37 @@ pub enum EnvError {
         /// Attempts made.
         tries: u32,
     },
+}
+
+/// Text from the user as an error shows it: quoted, control characters escaped (a terminal
+/// never receives them raw), and cut after 80 characters.
+pub fn shown(text: &str) -> String {
+    const MAX: usize = 80;
+    let mut out = String::from("\"");
+    for (i, c) in text.chars().enumerate() {
+        if i == MAX {
+            return format!("{out}…\" ({} characters)", text.chars().count());
+        }
+        if c.is_control() || c == '"' {
+            out.extend(c.escape_debug());
+        } else {
+            out.push(c);
+        }
+    }
+    out.push('"');
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn user_text_is_escaped_and_cut() {
+        assert_eq!(shown("go to the red key"), "\"go to the red key\"");
+        assert_eq!(shown("go \u{1b}[31mred"), "\"go \\u{1b}[31mred\"");
+        let long = "a".repeat(10_000);
+        let s = shown(&long);
+        assert!(s.len() < 120 && s.ends_with("(10000 characters)"), "{s}");
+    }
 }

@@ -290,7 +290,12 @@ fn parse_desc(w: &[&str]) -> Result<ObjDesc, String> {
         [t, rest @ ..] => {
             match ObjectKind::from_name(t).filter(|k| k.can_pickup() || *k == ObjectKind::Door) {
                 Some(k) => (Some(k), rest),
-                None => return Err(format!("{t:?} is not key, ball, box, door or object")),
+                None => {
+                    return Err(format!(
+                        "{} is not key, ball, box, door or object",
+                        super::error::shown(t)
+                    ));
+                }
             }
         }
         [] => return Err("it names no object".into()),

@@ -91,6 +91,9 @@ impl std::fmt::Debug for OnnxAgent {
     }
 }
 
+/// The default-domain opsets tract 0.23 is tested against (its parser warns outside them).
+pub const SUPPORTED_OPSETS: std::ops::RangeInclusive<i64> = 9..=18;
+
 impl OnnxAgent {
     /// Loads `path`, checking the contract (docs/onnx.md) before tract builds the plan: the
     /// metadata, the inputs' and outputs' names, types and static sizes, and every operator.
@@ -99,10 +102,30 @@ impl OnnxAgent {
             path: path.to_owned(),
             reason: e.to_string(),
         })?;
+        if bytes.is_empty() {
+            return Err(bad(path, "the file is empty (0 bytes), not an ONNX model"));
+        }
         let onnx = tract_onnx::onnx();
         let proto = onnx
             .proto_model_for_read(&mut bytes.as_slice())
             .map_err(|e| bad(path, format!("not an ONNX model: {}", one_line(&e))))?;
+        // tract is tested against opsets 9 to 18 and can panic on others: refuse them here.
+        let opset = proto
+            .opset_import
+            .iter()
+            .find(|o| o.domain.is_empty() || o.domain == "ai.onnx")
+            .map_or(0, |o| o.version);
+        if !SUPPORTED_OPSETS.contains(&opset) {
+            return Err(bad(
+                path,
+                format!(
+                    "ONNX opset {opset} is outside the opsets groundscope's runtime supports \
+                     ({}–{}); export with opset_version=17 (docs/onnx.md)",
+                    SUPPORTED_OPSETS.start(),
+                    SUPPORTED_OPSETS.end()
+                ),
+            ));
+        }
         let stem = path
             .file_stem()
             .map_or_else(|| "onnx".into(), |s| s.to_string_lossy().into_owned());
