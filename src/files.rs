@@ -289,21 +289,38 @@ impl StagedDir {
 
     /// Moves every staged file into the output directory (replacing older ones), flushes the
     /// directory and returns how many files moved.
-    pub fn commit(mut self) -> Result<usize, PathError> {
+    pub fn commit(self) -> Result<usize, PathError> {
+        self.commit_owned(|_| false)
+    }
+
+    /// [`Self::commit`], then removes the files of the output directory that `owns` (the names
+    /// the command writes) and this run did not write: a reused directory ends up holding this
+    /// run's outputs, not an earlier run's leftovers beside them. Other files are left alone.
+    pub fn commit_owned(mut self, owns: impl Fn(&str) -> bool) -> Result<usize, PathError> {
         let Some(staging) = self.staging.take() else {
             return Ok(0);
         };
-        let mut n = 0;
+        let mut moved = std::collections::HashSet::new();
         let entries =
             std::fs::read_dir(staging.path()).map_err(|e| PathError::new(&self.out, e))?;
         for entry in entries {
             let entry = entry.map_err(|e| PathError::new(&self.out, e))?;
             let dest = self.out.join(entry.file_name());
             std::fs::rename(entry.path(), &dest).map_err(|e| PathError::new(&dest, e))?;
-            n += 1;
+            moved.insert(entry.file_name());
+        }
+        let entries = std::fs::read_dir(&self.out).map_err(|e| PathError::new(&self.out, e))?;
+        for entry in entries.flatten() {
+            let name = entry.file_name();
+            let stale = !moved.contains(&name)
+                && entry.file_type().is_ok_and(|t| t.is_file())
+                && name.to_str().is_some_and(&owns);
+            if stale {
+                std::fs::remove_file(entry.path()).map_err(|e| PathError::new(&entry.path(), e))?;
+            }
         }
         sync_dir(&self.out).map_err(|e| PathError::new(&self.out, e))?;
-        Ok(n)
+        Ok(moved.len())
     }
 }
 

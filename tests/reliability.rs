@@ -595,3 +595,104 @@ fn a_graph_cannot_seed_training() {
     assert_bad_input(&o, "an ONNX graph cannot seed training");
     assert!(!run.exists());
 }
+
+/// A reused output directory ends up holding the new run's outputs only: eval's figures and
+/// `failures/` recordings, faithfulness's per-checkpoint figures; other files stay.
+#[test]
+fn a_reused_output_directory_keeps_no_earlier_outputs() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("report");
+    let o = out.to_str().unwrap();
+    let small = [
+        "--sizes",
+        "8",
+        "--objects",
+        "4",
+        "--seeds",
+        "1",
+        "--episodes",
+        "3",
+        "--quiet",
+    ];
+    let mut first = vec!["eval", "--out", o, "--export-failures", "--top-k", "2"];
+    first.extend(small);
+    assert_eq!(gs(&first).status.code(), Some(0));
+    assert!(out.join("fig7_object_accuracy.png").exists());
+    assert!(std::fs::read_dir(out.join("failures")).unwrap().count() > 0);
+    std::fs::write(out.join("notes.txt"), b"mine").unwrap();
+    let mut second = vec!["eval", "--out", o, "--checkpoint", "bundled:baseline"];
+    second.extend(small);
+    assert_eq!(gs(&second).status.code(), Some(0));
+    assert!(
+        !out.join("fig7_object_accuracy.png").exists(),
+        "no stale attention figure"
+    );
+    assert!(!out.join("failures").exists(), "no stale recordings");
+    assert!(
+        out.join("notes.txt").exists(),
+        "files it does not write are left alone"
+    );
+
+    let faith = dir.path().join("faith");
+    let f = faith.to_str().unwrap();
+    let fsmall = [
+        "--seeds",
+        "1",
+        "--episodes",
+        "2",
+        "--quiet",
+        "--parts",
+        "steps",
+    ];
+    let mut two = vec![
+        "faithfulness",
+        "--out",
+        f,
+        "--checkpoint",
+        "bundled:attention",
+        "--checkpoint",
+        "bundled:baseline",
+    ];
+    two.extend(fsmall);
+    let r = gs(&two);
+    assert_eq!(r.status.code(), Some(0), "{}", common::stderr(&r));
+    assert!(faith.join("deletion_1.png").exists());
+    let mut one = vec!["faithfulness", "--out", f];
+    one.extend(fsmall);
+    assert_eq!(gs(&one).status.code(), Some(0));
+    assert!(faith.join("deletion.png").exists());
+    assert!(!faith.join("deletion_1.png").exists() && !faith.join("deletion_0.png").exists());
+}
+
+/// Two trainings on one run directory: the second (new run or `--resume`) is refused naming
+/// the first's pid, and the lock goes with the process that held it (SIGKILL included).
+#[test]
+fn a_run_directory_holds_one_training_at_a_time() {
+    let tmp = tempfile::tempdir().unwrap();
+    let run = tmp.path().join("run");
+    let r = run.to_str().unwrap();
+    let mut first = Command::new(env!("CARGO_BIN_EXE_groundscope"))
+        .args(["train", "--out", r, "--quiet"])
+        .args(TINY_RUN)
+        .args(["--frames", "100000000", "--save-interval", "1"])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    common::wait_until("a checkpoint", || {
+        assert!(first.try_wait().unwrap().is_none(), "the run ended");
+        run.join("model.json").exists()
+    });
+    let pid = first.id().to_string();
+    let mut args = vec!["train", "--out", r, "--quiet"];
+    args.extend(TINY_RUN);
+    args.extend(["--frames", "100000"]);
+    let o = gs(&args);
+    assert_bad_input(&o, &format!("another training (pid {pid})"));
+    let o = gs(&["train", "--out", r, "--resume", "--quiet"]);
+    assert_bad_input(&o, &format!("another training (pid {pid})"));
+    first.kill().unwrap();
+    first.wait().unwrap();
+    let o = gs(&["train", "--out", r, "--resume", "--frames", "1", "--quiet"]);
+    assert_eq!(o.status.code(), Some(0), "{}", common::stderr(&o));
+}

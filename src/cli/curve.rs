@@ -2,6 +2,7 @@
 
 use std::path::{Path, PathBuf};
 
+use anyhow::Context as _;
 use groundscope::metrics::bands::{Band, band, band_panels, read_columns, recipe_of, run_files};
 use groundscope::metrics::figures::{Curve, learning_curve, read_training_log};
 
@@ -97,15 +98,22 @@ pub(super) fn curve(
         )?;
     }
     println!("wrote {}", out.display());
+    let stem = out.with_extension("");
+    let g = PathBuf::from(format!("{}_grounding.png", stem.display()));
     if let Some(panels) = panels {
-        let stem = out.with_extension("");
-        let g = PathBuf::from(format!("{}_grounding.png", stem.display()));
         band_panels(
             &panels,
             "Grounding emergence (tracked held-out evaluation)",
             &g,
         )?;
         println!("wrote {}", g.display());
+    } else if g.is_file() {
+        // An earlier run's grounding figure would pass for this one's.
+        std::fs::remove_file(&g).with_context(|| format!("removing {}", g.display()))?;
+        println!(
+            "removed {} (these logs have no tracked evaluation)",
+            g.display()
+        );
     }
     Ok(ExitStatus::Success)
 }

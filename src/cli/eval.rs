@@ -174,18 +174,21 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitStatus> {
     });
     add_counterfactuals(&mut failures, &ckpts, mode)?;
     report.write(&args.out, &failures)?;
+    let failures_dir = args.out.join("failures");
     if args.export_failures {
-        let n = export_failures(
-            &failures,
-            &ckpts,
-            &args.out.join("failures"),
-            mode,
-            args.alpha,
-        )?;
-        println!(
-            "recorded {n} failures in {}",
-            args.out.join("failures").display()
-        );
+        // Recorded into a hidden directory, then put in place of the earlier run's: the
+        // directory ends up holding this run's recordings only.
+        let staging = tempfile::Builder::new()
+            .prefix(".groundscope-failures-")
+            .tempdir_in(&args.out)
+            .with_context(|| format!("cannot create a directory in {}", args.out.display()))?;
+        let n = export_failures(&failures, &ckpts, staging.path(), mode, args.alpha)?;
+        remove_old_failures(&failures_dir)?;
+        std::fs::rename(staging.keep(), &failures_dir)
+            .with_context(|| format!("cannot move recordings to {}", failures_dir.display()))?;
+        println!("recorded {n} failures in {}", failures_dir.display());
+    } else {
+        remove_old_failures(&failures_dir)?;
     }
     println!(
         "evaluated {total} episodes in {elapsed:.1} s; report in {}",
@@ -320,6 +323,25 @@ fn add_counterfactuals(
 
 /// Replays every failure (the same level, seed and action mode as in the sweep) and records
 /// it as `DIR/<kind>-<checkpoint>-S<size>-N<objects>-seed<seed>.rrd`.
+/// Removes an earlier run's `failures/` recordings (`*.rrd`), and the directory when nothing
+/// else is in it.
+fn remove_old_failures(dir: &std::path::Path) -> anyhow::Result<()> {
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return Ok(());
+    };
+    for entry in entries.flatten() {
+        let path = entry.path();
+        if entry.file_type().is_ok_and(|t| t.is_file())
+            && path.extension().is_some_and(|e| e == "rrd")
+        {
+            std::fs::remove_file(&path).with_context(|| format!("removing {}", path.display()))?;
+        }
+    }
+    // Only an empty directory is removed.
+    let _ = std::fs::remove_dir(dir);
+    Ok(())
+}
+
 fn export_failures(
     failures: &[groundscope::metrics::report::Failure],
     ckpts: &[(String, Agent)],
@@ -328,7 +350,6 @@ fn export_failures(
     alpha: f64,
 ) -> anyhow::Result<usize> {
     use groundscope::record::{RerunTargets, record_rerun};
-    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     let mut recorded = 0;
     for f in failures {
         let Some((name, ckpt)) = ckpts.iter().find(|(n, _)| *n == f.checkpoint) else {

@@ -164,7 +164,16 @@ pub fn run(args: &FaithfulnessArgs) -> anyhow::Result<ExitStatus> {
             figures::effects(c, &staging.path(&format!("effects{suffix}.png")))?;
         }
     }
-    let written = staging.commit()?;
+    // A reused directory keeps no figure of an earlier run's other checkpoints (`*_1.png`).
+    let written = staging.commit_owned(|name| {
+        name.starts_with("faithfulness")
+            || (std::path::Path::new(name)
+                .extension()
+                .is_some_and(|e| e == "png")
+                && ["deletion", "rank_correlation", "effects"]
+                    .iter()
+                    .any(|p| name.starts_with(p)))
+    })?;
     print!("{}", report.markdown());
     println!("wrote {} files to {}", written, args.out.display());
     Ok(ExitStatus::Success)

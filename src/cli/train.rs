@@ -277,7 +277,7 @@ pub fn run(args: &TrainArgs, matches: Option<&ArgMatches>) -> anyhow::Result<Exi
     let result = train_in(args, matches, variant, model);
     if result.is_err() && !args.resume && !run_dir::holds_run(&args.out) {
         // A new run that failed before its first checkpoint leaves nothing behind.
-        for f in ["log.csv", "eval_log.csv", "curve.png"] {
+        for f in ["log.csv", "eval_log.csv", "curve.png", RUN_LOCK] {
             let _ = std::fs::remove_file(args.out.join(f));
         }
         let _ = std::fs::remove_dir(args.out.join("checkpoints"));
@@ -286,6 +286,43 @@ pub fn run(args: &TrainArgs, matches: Option<&ArgMatches>) -> anyhow::Result<Exi
         }
     }
     result
+}
+
+/// The run directory's lock file: a training holds an exclusive lock on it, and its pid in it.
+const RUN_LOCK: &str = ".train-lock";
+
+/// Locks the run directory for this process: a second training (a new run or a `--resume`)
+/// on the same directory is refused naming the holder, instead of both writing its files.
+/// The lock is the system's (`flock`): a crashed or killed training releases it.
+fn lock_run(dir: &Path) -> anyhow::Result<std::fs::File> {
+    use std::io::Write as _;
+    let path = dir.join(RUN_LOCK);
+    let mut file = std::fs::OpenOptions::new()
+        .create(true)
+        .read(true)
+        .write(true)
+        .truncate(false)
+        .open(&path)
+        .with_context(|| format!("opening {}", path.display()))?;
+    match file.try_lock() {
+        Ok(()) => {
+            file.set_len(0)?;
+            write!(file, "{}", std::process::id())?;
+            Ok(file)
+        }
+        Err(std::fs::TryLockError::WouldBlock) => {
+            let holder = std::fs::read_to_string(&path).unwrap_or_default();
+            anyhow::bail!(
+                "{}: another training (pid {}) is writing this run directory; wait for it to \
+                 end or choose another --out",
+                dir.display(),
+                holder.trim()
+            )
+        }
+        Err(std::fs::TryLockError::Error(e)) => {
+            Err(e).with_context(|| format!("locking {}", path.display()))
+        }
+    }
 }
 
 /// `train` once its run directory exists.
@@ -298,6 +335,8 @@ fn train_in(
     let probe = tempfile::NamedTempFile::new_in(&args.out)
         .with_context(|| format!("{} is not writable", args.out.display()))?;
     drop(probe);
+    // Held until this training ends (the system releases it if the process dies).
+    let _lock = lock_run(&args.out)?;
     let log_path = args.out.join("log.csv");
     let eval_path = args.out.join("eval_log.csv");
     let (mut trainer, seed, kept, track) = if args.resume {

@@ -403,7 +403,16 @@ impl Report {
                 }
             }
         }
-        staged.commit().map_err(staged_err)?;
+        // A reused directory keeps no figure or table an earlier run wrote and this one did
+        // not (fig7/fig8 without an attention model).
+        let names: Vec<&str> = files.iter().map(|(n, _)| *n).collect();
+        staged
+            .commit_owned(|n| {
+                names.contains(&n)
+                    || (n.starts_with("fig")
+                        && Path::new(n).extension().is_some_and(|e| e == "png"))
+            })
+            .map_err(staged_err)?;
         Ok(())
     }
 
