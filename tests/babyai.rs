@@ -104,18 +104,22 @@ fn level_generation_draws_as_python_does() {
     assert_eq!(checked, 15);
 }
 
+/// `env verify` on one dump: its level regenerated from its id and seed, then its steps
+/// replayed, every one of them.
+fn regenerates_and_replays(path: &Path) -> Result<(), String> {
+    let text = groundscope::files::read_text_maybe_gz(path).map_err(|e| e.to_string())?;
+    let snap = Snapshot::from_json(&text).map_err(|e| e.to_string())?;
+    match verify_dump(&snap).map_err(|e| e.to_string())? {
+        Ok(steps) if steps == snap.steps.len() => Ok(()),
+        Ok(steps) => Err(format!("replayed {steps} of {} steps", snap.steps.len())),
+        Err(m) => Err(format!("step {}: {}", m.step, m.what)),
+    }
+}
+
 /// Each dump's level regenerated from its id and seed, then its steps replayed.
 #[test]
 fn every_babyai_dump_regenerates_and_replays() {
-    let n = common::for_each_fixture("babyai", |path| {
-        let text = groundscope::files::read_text_maybe_gz(path).map_err(|e| e.to_string())?;
-        let snap = Snapshot::from_json(&text).map_err(|e| e.to_string())?;
-        match verify_dump(&snap).map_err(|e| e.to_string())? {
-            Ok(steps) if steps == snap.steps.len() => Ok(()),
-            Ok(steps) => Err(format!("replayed {steps} of {} steps", snap.steps.len())),
-            Err(m) => Err(format!("step {}: {}", m.step, m.what)),
-        }
-    });
+    let n = common::for_each_fixture("babyai", regenerates_and_replays);
     assert_eq!(n, 576, "all 576 dumps are present");
 }
 
@@ -136,15 +140,7 @@ fn every_level_generates_deterministically() {
 /// replayed: 3 sizes × 2 done modes × 20 seeds.
 #[test]
 fn the_paper_level_is_minigrid_s_own() {
-    let n = common::for_each_fixture("paper", |path| {
-        let text = groundscope::files::read_text_maybe_gz(path).map_err(|e| e.to_string())?;
-        let snap = Snapshot::from_json(&text).map_err(|e| e.to_string())?;
-        match verify_dump(&snap).map_err(|e| e.to_string())? {
-            Ok(steps) if steps == snap.steps.len() => Ok(()),
-            Ok(steps) => Err(format!("replayed {steps} of {} steps", snap.steps.len())),
-            Err(m) => Err(format!("step {}: {}", m.step, m.what)),
-        }
-    });
+    let n = common::for_each_fixture("paper", regenerates_and_replays);
     assert_eq!(n, 120);
 }
 

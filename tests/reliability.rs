@@ -418,16 +418,7 @@ fn fifos_are_refused_not_waited_on() {
             "log.csv",
         ),
     ] {
-        let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_groundscope"))
-            .args(&args)
-            .stdin(std::process::Stdio::null())
-            .stdout(std::process::Stdio::piped())
-            .stderr(std::process::Stdio::piped())
-            .spawn()
-            .unwrap();
-        let status = common::wait_for_exit(&mut child, &format!("{args:?}"));
-        let o = child.wait_with_output().unwrap();
-        let o = std::process::Output { status, ..o };
+        let o = common::gs_guarded(&args);
         assert_bad_input(&o, what);
         assert!(
             common::stderr(&o).contains("FIFO"),
@@ -461,23 +452,12 @@ fn curve_refuses_non_finite_values() {
         let log = dir.path().join("log.csv");
         std::fs::write(&log, text).unwrap();
         let out = dir.path().join("c.png");
-        let mut child = Command::new(env!("CARGO_BIN_EXE_groundscope"))
-            .args([
-                "curve",
-                log.to_str().unwrap(),
-                "--out",
-                out.to_str().unwrap(),
-            ])
-            .stdin(Stdio::null())
-            .stdout(Stdio::piped())
-            .stderr(Stdio::piped())
-            .spawn()
-            .unwrap();
-        let status = common::wait_for_exit(&mut child, "curve");
-        let o = Output {
-            status,
-            ..child.wait_with_output().unwrap()
-        };
+        let o = common::gs_guarded(&[
+            "curve",
+            log.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ]);
         assert_bad_input(&o, &format!("line 3 column {column}"));
         assert!(!out.exists(), "nothing written");
     }

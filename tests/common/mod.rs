@@ -42,6 +42,23 @@ pub fn wait_for_exit(child: &mut std::process::Child, what: &str) -> std::proces
     }
 }
 
+/// Runs groundscope with `args` and no input, failing after [`GUARD`] instead of hanging
+/// (for inputs that used to make it wait forever).
+pub fn gs_guarded(args: &[&str]) -> Output {
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_groundscope"))
+        .args(args)
+        .stdin(std::process::Stdio::null())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let status = wait_for_exit(&mut child, &format!("groundscope {args:?}"));
+    Output {
+        status,
+        ..child.wait_with_output().unwrap()
+    }
+}
+
 /// The lines of a child's output as they are printed, read on a thread until the pipe closes
 /// (which also keeps the pipe from filling up).
 pub fn lines(out: impl std::io::Read + Send + 'static) -> Receiver<String> {

@@ -94,25 +94,14 @@ pub fn maze(g: &mut Gen, num_dists: usize, doors_open: bool) -> Result<Generated
 /// locked room, and every room gets distractors.
 pub fn imp_unlock(g: &mut Gen) -> Result<Generated, Retry> {
     let (cols, rows) = (g.rooms.num_cols, g.rooms.num_rows);
-    let id = g.rand_int(0, cols);
-    let jd = g.rand_int(0, rows);
-    let (door, _) = g.add_door(id, jd, None, None, Some(true));
-    let locked_room = g.room_index(id, jd);
-    let ik = g.rand_int(0, cols);
-    let jk = g.rand_int(0, rows);
-    g.add_object(ik, jk, Some(ObjectKind::Key), Some(door.color))?;
+    let (_, (id, jd)) = super::unlock::locked_door_and_key(g)?;
     g.connect_all(&COLOR_NAMES)?;
     for i in 0..cols {
         for j in 0..rows {
             g.add_distractors(Some(i), Some(j), 2, false)?;
         }
     }
-    loop {
-        g.place_agent(None, None)?;
-        if g.room_at(g.agent_pos) != locked_room {
-            break;
-        }
-    }
+    super::unlock::place_agent_outside(g, (id, jd))?;
     g.check_objs_reachable()?;
     let objs = g.add_distractors(Some(id), Some(jd), 1, false)?;
     let obj = objs[0];

@@ -4,7 +4,7 @@ use super::roomgrid::{COLOR_NAMES, Gen, Retry};
 use super::{Generated, desc};
 use crate::env::instr::Instr;
 use crate::env::mission::{Instruction, TaskKind};
-use crate::env::object::{Color, ObjectKind};
+use crate::env::object::{Color, ObjectKind, WorldObj};
 
 fn open_door(color: Option<Color>) -> Instr {
     Instruction::new(TaskKind::Open, desc(Some(ObjectKind::Door), color)).into()
@@ -14,18 +14,38 @@ fn pickup(kind: ObjectKind, color: Option<Color>) -> Instr {
     Instruction::new(TaskKind::Pickup, desc(Some(kind), color)).into()
 }
 
+/// The start of `Unlock` and `GoToImpUnlock`: a locked door on a random room and its key in a
+/// random room. Python's `ik is id and jk is jd` compares numpy integers by identity, which
+/// never holds, so the key is never redrawn: it may land in the locked room. Returns the door
+/// and the locked room `(i, j)`.
+pub fn locked_door_and_key(g: &mut Gen) -> Result<(WorldObj, (i32, i32)), Retry> {
+    let (cols, rows) = (g.rooms.num_cols, g.rooms.num_rows);
+    let id = g.rand_int(0, cols);
+    let jd = g.rand_int(0, rows);
+    let (door, _) = g.add_door(id, jd, None, None, Some(true));
+    let ik = g.rand_int(0, cols);
+    let jk = g.rand_int(0, rows);
+    g.add_object(ik, jk, Some(ObjectKind::Key), Some(door.color))?;
+    Ok((door, (id, jd)))
+}
+
+/// Places the agent (a random room each try) until it is outside room `(i, j)`.
+pub fn place_agent_outside(g: &mut Gen, (i, j): (i32, i32)) -> Result<(), Retry> {
+    let room = g.room_index(i, j);
+    loop {
+        g.place_agent(None, None)?;
+        if g.room_at(g.agent_pos) != room {
+            return Ok(());
+        }
+    }
+}
+
 /// `Unlock`: open a locked door of the maze. As in `GoToImpUnlock`, Python's identity test
 /// of numpy integers never holds: the key may be in the locked room, every room gets three
 /// distractors.
 pub fn unlock(g: &mut Gen) -> Result<Generated, Retry> {
     let (cols, rows) = (g.rooms.num_cols, g.rooms.num_rows);
-    let id = g.rand_int(0, cols);
-    let jd = g.rand_int(0, rows);
-    let (door, _) = g.add_door(id, jd, None, None, Some(true));
-    let locked_room = g.room_index(id, jd);
-    let ik = g.rand_int(0, cols);
-    let jk = g.rand_int(0, rows);
-    g.add_object(ik, jk, Some(ObjectKind::Key), Some(door.color))?;
+    let (door, locked) = locked_door_and_key(g)?;
     if g.rand_bool() {
         let colors: Vec<Color> = COLOR_NAMES
             .into_iter()
@@ -40,12 +60,7 @@ pub fn unlock(g: &mut Gen) -> Result<Generated, Retry> {
             g.add_distractors(Some(i), Some(j), 3, false)?;
         }
     }
-    loop {
-        g.place_agent(None, None)?;
-        if g.room_at(g.agent_pos) != locked_room {
-            break;
-        }
-    }
+    place_agent_outside(g, locked)?;
     g.check_objs_reachable()?;
     Ok(open_door(Some(door.color)).into())
 }
