@@ -127,6 +127,7 @@ fn broken_graphs_are_refused_naming_what_is_wrong() {
         assert!(e.contains(expect), "{file}: {e}");
         assert!(e.contains(file), "{file}: names the file: {e}");
         assert_eq!(e.lines().count(), 1, "{e}");
+        assert_eq!(e.matches("invalid input").count(), 1, "one prefix: {e}");
     }
     let nan = OnnxAgent::load(&fixture("bad_nan.onnx")).unwrap();
     let world = LevelConfig::default().generate(0).unwrap();

@@ -130,7 +130,11 @@ impl OnnxAgent {
             .file_stem()
             .map_or_else(|| "onnx".into(), |s| s.to_string_lossy().into_owned());
         let meta = contract::meta(&props(path, &proto)?, &stem).map_err(|e| bad(path, e))?;
-        let tokens = contract::token_map(&meta.vocabulary).map_err(|e| bad(path, e))?;
+        // The message, not the error's own "invalid input:" prefix a second time.
+        let tokens = contract::token_map(&meta.vocabulary).map_err(|e| match e {
+            PolicyError::Input(m) => bad(path, m),
+            e => e,
+        })?;
         let graph = proto
             .graph
             .as_ref()
