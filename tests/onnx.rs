@@ -420,3 +420,25 @@ fn validate_scores_the_onnx_export_as_the_native_checkpoint() {
         "an imported graph has no training counters"
     );
 }
+
+/// A sidecar key the contract does not know is not silent: a one-line warning names it.
+#[test]
+fn an_unknown_sidecar_key_is_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let graph = dir.path().join("agent.onnx");
+    std::fs::copy(fixture("minimal.onnx"), &graph).unwrap();
+    std::fs::write(dir.path().join("agent.onnx.json"), r#"{"memroy_size": 8}"#).unwrap();
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_groundscope"))
+        .args([
+            "replay",
+            "--checkpoint",
+            graph.to_str().unwrap(),
+            "--seed",
+            "1",
+        ])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(0), "{err}");
+    assert!(err.contains("unknown key \"memroy_size\" ignored"), "{err}");
+}

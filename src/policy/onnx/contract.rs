@@ -23,6 +23,16 @@ pub const REQUIRED_OUTPUTS: [&str; 3] = ["logits", "value", "memory_out"];
 /// Outputs groundscope shows when a graph has them.
 pub const OPTIONAL_OUTPUTS: [&str; 3] = ["word_maps", "word_weights", "combined_map"];
 
+/// The metadata keys the contract reads (`groundscope.KEY` in the graph, `KEY` in a sidecar).
+pub const METADATA_KEYS: [&str; 6] = [
+    "contract",
+    "vocabulary",
+    "memory_size",
+    "level",
+    "map_layout",
+    "name",
+];
+
 /// ONNX's element type codes that the contract admits.
 pub const ONNX_FLOAT: i32 = 1;
 /// ONNX `INT64`.

@@ -103,6 +103,16 @@ pub(super) fn props(path: &Path, proto: &pb::ModelProto) -> Result<Props, Policy
         let map: serde_json::Map<String, serde_json::Value> = serde_json::from_str(&text)
             .map_err(|e| bad(&sidecar, format!("not a JSON object of metadata: {e}")))?;
         for (k, v) in map {
+            if !super::contract::METADATA_KEYS.contains(&k.as_str()) {
+                // Not an error (a newer exporter may add keys), but not silent either: a
+                // misspelt key would otherwise leave its value unused without a word.
+                eprintln!(
+                    "groundscope: warning: {}: unknown key {} ignored (the contract's keys: {})",
+                    sidecar.display(),
+                    crate::env::error::shown(&k),
+                    super::contract::METADATA_KEYS.join(", ")
+                );
+            }
             let v = match v {
                 serde_json::Value::String(s) => s,
                 other => other.to_string(),
