@@ -402,29 +402,36 @@ impl Snapshot {
         let max_steps = u32::try_from(self.max_steps)
             .map_err(|_| invalid("max_steps", format!("{} is out of range", self.max_steps)))?;
         // A PutNext "Carrying" dump at reset: the carried object's match position is empty.
-        let lifted = carrying.is_some()
-            && self.step_count == 0
-            && self.instr.moved.as_ref().is_some_and(|m| {
-                m.match_positions.iter().any(|p| {
-                    pos_of(*p, "instr.move")
-                        .is_ok_and(|p| grid.contains(p) && grid.get(p).is_none())
-                })
-            });
-        let mut world = if lifted {
-            self.world_with_lifted(carrying, rooms, max_steps, next_id, box_contents.clone())?
-        } else {
-            World::with_tree(
-                grid,
-                rooms,
-                agent_pos,
-                agent_dir,
-                carrying,
-                tree,
-                max_steps,
-                self.done_actions,
-                next_id,
-            )?
+        // The verifier was reset with the object still there: put it back for the reset and
+        // lift it again after.
+        let floor = match (&self.instr.moved, carrying) {
+            (Some(m), Some(_)) if self.step_count == 0 => m
+                .match_positions
+                .iter()
+                .filter_map(|p| pos_of(*p, "instr.move.match_positions").ok())
+                .find(|p| grid.contains(*p) && grid.get(*p).is_none()),
+            _ => None,
         };
+        let mut grid = grid;
+        if let Some(p) = floor {
+            grid.set(p, carrying);
+        }
+        let mut world = World::with_tree(
+            grid,
+            rooms,
+            agent_pos,
+            agent_dir,
+            if floor.is_some() { None } else { carrying },
+            tree,
+            max_steps,
+            self.done_actions,
+            next_id,
+        )?;
+        if let Some(p) = floor {
+            world.grid.set(p, None);
+            world.carrying = carrying;
+            world.reset_floor = Some(p);
+        }
         world.box_contents = box_contents;
         override_targets(&mut world, &self.instr)?;
         world.mission = world.instr.surface();
@@ -460,56 +467,6 @@ impl Snapshot {
             },
             _ => Rooms::single(w as usize, h as usize),
         }
-    }
-
-    /// A PutNext "Carrying" dump: the carried object stood at its match position when the
-    /// verifier was reset; put it back there, reset, and lift it again.
-    fn world_with_lifted(
-        &self,
-        carrying: Option<WorldObj>,
-        rooms: Rooms,
-        max_steps: u32,
-        next_id: u32,
-        box_contents: Vec<(u32, WorldObj)>,
-    ) -> Result<World, EnvError> {
-        let Some(obj) = carrying else {
-            return Err(invalid("carrying", "nothing carried"));
-        };
-        let Some(moved) = self.instr.moved.as_ref() else {
-            return Err(invalid(
-                "instr",
-                "a description matches no object of the grid",
-            ));
-        };
-        let mut grid = decode_grid(&self.grid, self.width, self.height, "grid")?;
-        let floor = moved
-            .match_positions
-            .iter()
-            .map(|p| pos_of(*p, "instr.move.match_positions"))
-            .collect::<Result<Vec<_>, _>>()?
-            .into_iter()
-            .find(|p| grid.contains(*p) && grid.get(*p).is_none())
-            .ok_or_else(|| invalid("instr", "a description matches no object of the grid"))?;
-        grid.set(floor, Some(obj));
-        let agent_pos = pos_of(self.agent_pos, "agent_pos")?;
-        let agent_dir = u8_in(self.agent_dir, 3, || "agent_dir".into())?;
-        let tree = instr_from_json(&self.instr, "instr")?;
-        let mut world = World::with_tree(
-            grid,
-            rooms,
-            agent_pos,
-            agent_dir,
-            None,
-            tree,
-            max_steps,
-            self.done_actions,
-            next_id,
-        )?;
-        world.grid.set(floor, None);
-        world.carrying = Some(obj);
-        world.reset_floor = Some(floor);
-        world.box_contents = box_contents;
-        Ok(world)
     }
 
     /// The snapshot of `world` (no steps), with its observation as `initial_obs`.

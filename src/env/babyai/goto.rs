@@ -101,7 +101,7 @@ pub fn imp_unlock(g: &mut Gen) -> Result<Generated, Retry> {
             g.add_distractors(Some(i), Some(j), 2, false)?;
         }
     }
-    super::unlock::place_agent_outside(g, (id, jd))?;
+    g.place_agent_outside(Some(g.room_index(id, jd)))?;
     g.check_objs_reachable()?;
     let objs = g.add_distractors(Some(id), Some(jd), 1, false)?;
     let obj = objs[0];

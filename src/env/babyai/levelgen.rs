@@ -80,12 +80,7 @@ pub fn gen_mission(g: &mut Gen, p: &Params) -> Result<Generated, Retry> {
     }
     g.connect_all(&COLOR_NAMES)?;
     g.add_distractors(None, None, p.num_dists, false)?;
-    loop {
-        g.place_agent(None, None)?;
-        if Some(g.room_at(g.agent_pos)) != locked_room {
-            break;
-        }
-    }
+    g.place_agent_outside(locked_room)?;
     if !p.unblocking {
         g.check_objs_reachable()?;
     }

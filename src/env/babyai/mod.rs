@@ -23,7 +23,7 @@ use roomgrid::{Gen, Retry};
 
 use super::error::EnvError;
 use super::grid::Pos;
-use super::instr::Instr;
+use super::instr::{Instr, Targets};
 use super::mission::{ObjDesc, TaskKind};
 use super::object::{Color, ObjectId, ObjectKind};
 use super::rng::Call;
@@ -82,20 +82,16 @@ pub fn door_list(g: &Gen) -> Vec<(ObjectId, Color)> {
 }
 
 /// `RoomGridLevel.validate_instrs`.
-fn validate(g: &Gen, instr: &mut Instr, unblocking: bool, locked: &[Color]) -> Result<(), Retry> {
+fn validate(g: &Gen, instr: &Instr, unblocking: bool, locked: &[Color]) -> Result<(), Retry> {
     match instr {
         Instr::Seq(s) => {
-            validate(g, &mut s.a, unblocking, locked)?;
-            validate(g, &mut s.b, unblocking, locked)
+            validate(g, &s.a, unblocking, locked)?;
+            validate(g, &s.b, unblocking, locked)
         }
         Instr::Action(n) => {
-            if n.instr.task == TaskKind::PutNext {
-                let mut t = Instr::Action(n.clone());
-                t.reset(&g.grid, g.rooms, g.agent_pos, g.agent_dir);
-                let Instr::Action(m) = t else {
-                    return Ok(());
-                };
-                let (moved, fixed) = (&m.targets, &m.fixed_targets);
+            if let (TaskKind::PutNext, Some(f)) = (n.instr.task, n.instr.fixed) {
+                let find = |d| Targets::find(d, &g.grid, g.rooms, g.agent_pos, g.agent_dir);
+                let (moved, fixed) = (&find(n.instr.desc), &find(f));
                 if moved.obj_set.iter().any(|id| fixed.obj_set.contains(id)) {
                     return Err(Retry::Reject("objects match both sides of PutNext"));
                 }
@@ -129,13 +125,13 @@ fn validate(g: &Gen, instr: &mut Instr, unblocking: bool, locked: &[Color]) -> R
 /// One attempt: `RoomGrid._gen_grid`, the level's `gen_mission`, `validate_instrs`.
 fn attempt(spec: &LevelSpec, g: &mut Gen) -> Result<Generated, Retry> {
     g.gen_grid();
-    let mut out = spec.family.gen_mission(g)?;
+    let out = spec.family.gen_mission(g)?;
     let locked = if out.unblocking {
         g.locked_door_colors()
     } else {
         Vec::new()
     };
-    validate(g, &mut out.instr, out.unblocking, &locked)?;
+    validate(g, &out.instr, out.unblocking, &locked)?;
     Ok(out)
 }
 

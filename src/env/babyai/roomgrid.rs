@@ -383,6 +383,17 @@ impl Gen {
         }
     }
 
+    /// `place_agent()` in a random room, redrawn while the agent lands in room index `room`
+    /// (the levels' locked room; `None`: once).
+    pub fn place_agent_outside(&mut self, room: Option<usize>) -> Result<(), Retry> {
+        loop {
+            self.place_agent(None, None)?;
+            if Some(self.room_at(self.agent_pos)) != room {
+                return Ok(());
+            }
+        }
+    }
+
     /// `connect_all(door_colors)`: doors between random neighbours until every room is
     /// reachable from the agent's room.
     pub fn connect_all(&mut self, door_colors: &[Color]) -> Result<(), Retry> {

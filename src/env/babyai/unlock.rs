@@ -29,17 +29,6 @@ pub fn locked_door_and_key(g: &mut Gen) -> Result<(WorldObj, (i32, i32)), Retry>
     Ok((door, (id, jd)))
 }
 
-/// Places the agent (a random room each try) until it is outside room `(i, j)`.
-pub fn place_agent_outside(g: &mut Gen, (i, j): (i32, i32)) -> Result<(), Retry> {
-    let room = g.room_index(i, j);
-    loop {
-        g.place_agent(None, None)?;
-        if g.room_at(g.agent_pos) != room {
-            return Ok(());
-        }
-    }
-}
-
 /// `Unlock`: open a locked door of the maze. As in `GoToImpUnlock`, Python's identity test
 /// of numpy integers never holds: the key may be in the locked room, every room gets three
 /// distractors.
@@ -60,7 +49,7 @@ pub fn unlock(g: &mut Gen) -> Result<Generated, Retry> {
             g.add_distractors(Some(i), Some(j), 3, false)?;
         }
     }
-    place_agent_outside(g, locked)?;
+    g.place_agent_outside(Some(g.room_index(locked.0, locked.1)))?;
     g.check_objs_reachable()?;
     Ok(open_door(Some(door.color)).into())
 }
