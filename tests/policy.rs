@@ -31,6 +31,7 @@ fn tiny(variant: Variant) -> ModelConfig {
         search_query: false,
         null_key: false,
         key_context: false,
+        vocab_size: groundscope::env::vocab::VOCAB_SIZE,
         word_dim: 4,
         key_dim: 4,
         lstm_hidden: 5,

@@ -11,7 +11,9 @@ use groundscope::episode::{ActionMode, EpisodeSpec};
 use groundscope::metrics::assemble::cell_from_episodes;
 use groundscope::metrics::exploration::EpisodeExploration;
 use groundscope::metrics::failure::counterfactual;
-use groundscope::metrics::report::{CheckpointInfo, Report, SCHEMA_VERSION, worst_episodes};
+use groundscope::metrics::report::{
+    CheckpointInfo, Report, SCHEMA_VERSION, episodes_csv, worst_episodes,
+};
 use groundscope::metrics::sweep::{EpisodeSummary, EvalOptions, evaluate_cell_explored};
 use groundscope::policy::Agent;
 
@@ -141,7 +143,7 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitStatus> {
             args.saliency,
         );
         report_cells.push(cell);
-        all_eps.push((name.clone(), level.room_size, level.n_objects, eps));
+        all_eps.push((name.clone(), *level, eps));
     }
     bar.finish_and_clear();
     let elapsed = start.elapsed().as_secs_f64();
@@ -167,13 +169,18 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitStatus> {
         elapsed_secs: elapsed,
     };
     let sample = if args.sweep.sample { " --sample" } else { "" };
-    let mut failures = worst_episodes(&all_eps, args.top_k, &|ckpt, size, objects, seed| {
-        format!(
-            "groundscope replay --checkpoint {ckpt} --room-size {size} --objects {objects} --seed {seed}{sample}"
-        )
+    let mut failures = worst_episodes(&all_eps, args.top_k, &|ckpt, level, seed| {
+        let on = match level.babyai {
+            Some(id) => format!("--level {}", id.spec().id),
+            None => format!(
+                "--room-size {} --objects {}",
+                level.room_size, level.n_objects
+            ),
+        };
+        format!("groundscope replay --checkpoint {ckpt} {on} --seed {seed}{sample}")
     });
     add_counterfactuals(&mut failures, &ckpts, mode)?;
-    report.write(&args.out, &failures)?;
+    report.write(&args.out, &failures, &episodes_csv(&all_eps))?;
     let failures_dir = args.out.join("failures");
     if args.export_failures {
         // Recorded into a hidden directory, then put in place of the earlier run's: the
@@ -195,17 +202,16 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitStatus> {
         args.out.display()
     );
     println!(
-        "{:<22} {:>4} {:>3}  {:>15}  {:>15}  {:>15}",
-        "checkpoint", "S", "N", "reward", "success", "obj acc_ng"
+        "{:<22} {:>8}  {:>15}  {:>15}  {:>15}",
+        "checkpoint", "level", "reward", "success", "obj acc_ng"
     );
     let mut failed_checks = Vec::new();
     for c in &report.cells {
         let acc_ng = c.accuracy.as_ref().map(|a| a.object.acc_ng);
         println!(
-            "{:<22} {:>4} {:>3}  {:>15}  {:>15}  {:>15}",
+            "{:<22} {:>8}  {:>15}  {:>15}  {:>15}",
             c.checkpoint,
-            c.size,
-            c.objects,
+            c.label(),
             c.reward.to_string(),
             c.success.to_string(),
             acc_ng.map_or("–".into(), |a| a.to_string())
@@ -214,16 +220,18 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitStatus> {
             && s < min
         {
             failed_checks.push(format!(
-                "success {s:.3} < --min-success {min} ({} S{} N{})",
-                c.checkpoint, c.size, c.objects
+                "success {s:.3} < --min-success {min} ({} {})",
+                c.checkpoint,
+                c.label()
             ));
         }
         if let (Some(min), Some(a)) = (args.min_acc_ng, acc_ng.and_then(|a| a.mean))
             && a < min
         {
             failed_checks.push(format!(
-                "object acc_ng {a:.3} < --min-acc-ng {min} ({} S{} N{})",
-                c.checkpoint, c.size, c.objects
+                "object acc_ng {a:.3} < --min-acc-ng {min} ({} {})",
+                c.checkpoint,
+                c.label()
             ));
         }
     }
@@ -260,7 +268,10 @@ fn run_cells(
                     let Some(&i) = order.get(k) else { break };
                     let (name, ckpt, level) = &cells[i];
                     let net = ckpt.acting();
-                    bar.set_message(format!("{name} S{} N{}", level.room_size, level.n_objects));
+                    bar.set_message(format!(
+                        "{name} {}",
+                        groundscope::metrics::report::level_name(level)
+                    ));
                     let mut last = 0u64;
                     let r = evaluate_cell_explored(
                         net,
@@ -304,11 +315,8 @@ fn add_counterfactuals(
         let Some((name, ckpt)) = ckpts.iter().find(|(n, _)| *n == f.checkpoint) else {
             continue;
         };
-        let mut level = ckpt.level();
-        level.room_size = f.size;
-        level.n_objects = f.objects;
         let spec = EpisodeSpec {
-            level,
+            level: f.level_config(ckpt.level())?,
             seed: f.seed,
             mission: None,
             mode,
@@ -355,11 +363,8 @@ fn export_failures(
         let Some((name, ckpt)) = ckpts.iter().find(|(n, _)| *n == f.checkpoint) else {
             continue;
         };
-        let mut level = ckpt.level();
-        level.room_size = f.size;
-        level.n_objects = f.objects;
         let spec = EpisodeSpec {
-            level,
+            level: f.level_config(ckpt.level())?,
             seed: f.seed,
             mission: None,
             mode,
@@ -384,10 +389,11 @@ fn export_failures(
                 }
             })
             .collect();
-        let path = dir.join(format!(
-            "{}-{short}-S{}-N{}-seed{}.rrd",
-            f.kind, f.size, f.objects, f.seed
-        ));
+        let on = f
+            .level
+            .clone()
+            .unwrap_or_else(|| format!("S{}-N{}", f.size, f.objects));
+        let path = dir.join(format!("{}-{short}-{on}-seed{}.rrd", f.kind, f.seed));
         let targets = RerunTargets {
             save: Some(path),
             ..RerunTargets::default()

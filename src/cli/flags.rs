@@ -49,6 +49,16 @@ pub struct SweepArgs {
     /// Sample actions instead of taking the most probable one.
     #[arg(long)]
     pub sample: bool,
+    /// Registered BabyAI levels to sweep instead of the paper's sizes and object counts,
+    /// comma-separated (`groundscope env list`): each level × seeds × episodes, in each
+    /// checkpoint's done-action mode.
+    #[arg(
+        long,
+        value_name = "ID,ID,...",
+        value_delimiter = ',',
+        conflicts_with_all = ["sizes", "objects"]
+    )]
+    pub levels: Vec<String>,
 }
 
 impl SweepArgs {
@@ -93,9 +103,29 @@ impl SweepArgs {
         action_mode(self.sample)
     }
 
-    /// The sweep's levels for a model trained on `base`, room sizes outermost, each checked
-    /// (an error names the cell's flags).
+    /// The sweep's levels for a model trained on `base`: the `--levels` given; else, for a
+    /// model of a BabyAI level, its own level; else the paper's level at every `--sizes` ×
+    /// `--objects`, room sizes outermost, each checked (an error names the cell's flags).
     pub fn levels(&self, base: LevelConfig) -> anyhow::Result<Vec<LevelConfig>> {
+        if !self.levels.is_empty() {
+            let mut out = Vec::new();
+            for id in &self.levels {
+                let id = groundscope::env::level::LevelId::parse(id.trim())
+                    .map_err(|e| anyhow::anyhow!("--levels: {e}"))?;
+                if out.iter().any(|l: &LevelConfig| l.babyai == Some(id)) {
+                    anyhow::bail!("--levels: {} is listed twice", id.spec().id);
+                }
+                out.push(LevelConfig {
+                    babyai: Some(id),
+                    ..base
+                });
+            }
+            return Ok(out);
+        }
+        // A model trained on a BabyAI level is swept on its own level.
+        if base.babyai.is_some() {
+            return Ok(vec![base]);
+        }
         let mut levels = Vec::with_capacity(self.sizes.len() * self.objects.len());
         for &size in &self.sizes {
             for &objects in &self.objects {

@@ -365,6 +365,11 @@ fn train_in(
                 parent_log_rows(name, "eval_log.csv", EVAL_LOG_HEADER, u),
             )
         } else {
+            // A model for a BabyAI level gets rows for all of BabyAI's words.
+            let model = ModelConfig {
+                vocab_size: ModelConfig::vocab_size_for(&level),
+                ..model
+            };
             let params = Params::init(&model, args.seed)?;
             let trainer = Trainer::new(model, level, ppo, params, args.seed)?;
             (trainer, String::new(), String::new())

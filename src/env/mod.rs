@@ -15,6 +15,7 @@ pub mod level;
 pub mod mission;
 pub mod object;
 pub mod rng;
+pub mod roles;
 pub mod seeds;
 pub mod snapshot;
 pub mod view;

@@ -2,7 +2,10 @@
 //!
 //! BabyAI assigns word ids in first-seen order; we fix one table instead so that checkpoints
 //! are portable. Id 0 is padding; ids 1..=25 cover every GoTo / Pickup mission BabyAI's local
-//! levels produce, location phrases and "object" included.
+//! levels produce, location phrases and "object" included (the paper's vocabulary, all a
+//! checkpoint trained on the paper's level knows); ids 26..=32 add the rest of BabyAI's
+//! grammar — Open, PutNext, doors and the sequences — appended so that every earlier id keeps
+//! its meaning.
 
 use super::error::EnvError;
 
@@ -10,11 +13,16 @@ use super::error::EnvError;
 pub const PAD: u32 = 0;
 
 /// The vocabulary, index = token id; index 0 is the padding token `<pad>`.
-pub const VOCABULARY: [&str; 26] = [
+pub const VOCABULARY: [&str; 33] = [
     "<pad>", "a", "the", "go", "to", "pick", "up", "ball", "box", "key", "object", "red", "green",
     "blue", "purple", "yellow", "grey", "in", "front", "of", "you", "behind", "on", "your", "left",
-    "right",
+    "right", "open", "door", "put", "next", "then", "after", "and",
 ];
+
+/// How many entries of [`VOCABULARY`] (padding included) the paper's level uses: the
+/// vocabulary of every checkpoint trained on it, and of every checkpoint made before BabyAI's
+/// whole grammar was added.
+pub const PAPER_VOCAB_SIZE: usize = 26;
 
 /// Vocabulary size including padding (the embedding table's rows).
 pub const VOCAB_SIZE: usize = VOCABULARY.len();
@@ -88,6 +96,27 @@ mod tests {
         assert_eq!(split_words("go to  the ball!"), ["go", "to", "the", "ball"]);
         let err = tokenize("go to the pink key").unwrap_err().to_string();
         assert!(err.contains("\"pink\"") && err.contains("purple"), "{err}");
+    }
+
+    #[test]
+    fn reads_the_whole_grammar_as_babyai_splits_it() {
+        // A comma is no word and "ball," is "ball": re.findall("([a-z]+)", mission.lower()).
+        let m = "open the red door, then put a ball next to the key after you go to a box";
+        assert_eq!(
+            words(&tokenize(m).unwrap()),
+            [
+                "open", "the", "red", "door", "then", "put", "a", "ball", "next", "to", "the",
+                "key", "after", "you", "go", "to", "a", "box"
+            ]
+        );
+        assert_eq!(
+            words(&tokenize("pick up the key and go to the grey door").unwrap())[4],
+            "and"
+        );
+        // The paper's words keep their ids: checkpoints trained before the grammar grew read
+        // their missions as before.
+        assert_eq!(VOCABULARY[PAPER_VOCAB_SIZE - 1], "right");
+        assert_eq!(token_id("open"), Some(PAPER_VOCAB_SIZE as u32));
     }
 
     #[test]

@@ -18,7 +18,7 @@ impl Report {
         self.cells.iter().flat_map(|c| {
             c.accuracy
                 .iter()
-                .flat_map(move |a| a.by_kind().map(|(kind, g)| (c, kind, g)))
+                .flat_map(move |a| a.by_kind().into_iter().map(move |(kind, g)| (c, kind, g)))
         })
     }
 

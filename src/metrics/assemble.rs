@@ -31,21 +31,29 @@ pub fn cell_from_episodes(
         color: grounding(&eps, WordKind::Color),
         combined: grounding(&eps, WordKind::Combined),
         words: by_word(&eps),
+        door: Some(grounding(&eps, WordKind::Door)).filter(|g| g.evaluated_steps > 0),
+        location: Some(grounding(&eps, WordKind::Location)).filter(|g| g.evaluated_steps > 0),
     });
     let classes = class_counts(
         eps.iter().filter_map(|e| e.failure.as_ref()),
         attention || saliency,
+        level.babyai.is_some(),
     );
+    let (size, objects) = match level.babyai {
+        Some(id) => (id.spec().rooms.room_size as usize, 0),
+        None => (level.room_size, level.n_objects),
+    };
     let cell = Cell::new(
         checkpoint,
         variant.name(),
-        level.room_size,
-        level.n_objects,
+        size,
+        objects,
         eps.len() as u64,
         &performance(&eps),
         accuracy,
     )
     .with_failure_classes(classes)
-    .with_exploration(exploration);
+    .with_exploration(exploration)
+    .with_level(level.babyai.map(|id| id.spec().id.to_owned()));
     (cell, eps)
 }

@@ -1,25 +1,41 @@
 //! Failure classes: why an evaluated episode failed. The one place the classes are defined.
 //!
+//! The targets are the objects the clauses the verifier is waiting on matched
+//! ([`crate::metrics::grounding::pending_targets`]: on the paper's level, the one clause's).
 //! Every failed episode gets exactly one class, decided in this order:
-//! 1. [`FailureClass::TargetNeverVisible`]: at no step was a target object in the agent's
+//! 1. [`FailureClass::LockedDoorNoKey`]: at the last step every target lay in rooms the agent
+//!    never entered, every door of those rooms stayed closed, and one of them was locked with
+//!    a key of its colour never carried.
+//! 2. [`FailureClass::DoorNeverOpened`]: as 1, the doors closed but none locked without its
+//!    key carried — or (rule 8) the verifier waited on an Open clause whose doors never opened.
+//! 3. [`FailureClass::TargetRoomNeverEntered`]: the targets lay in rooms never entered, and
+//!    some door of those rooms had been open.
+//! 4. [`FailureClass::TargetNeverVisible`]: at no step was a target object in the agent's
 //!    7×7 view. "Visible" uses the observation the policy saw: a view cell other than the
 //!    agent's own whose encoding is not "unseen" (so occluded cells do not count) and whose
 //!    world cell holds an object of the verifier's target set.
-//! 2. [`FailureClass::Grounding`]: the target was visible but the combined map `M` missed it.
+//! 5. [`FailureClass::Grounding`]: the target was visible but the combined map `M` missed it.
 //!    At each step with a visible target, `M` is "on the target" when its largest cell
 //!    ([`m_points_at`]) is a visible target's cell or the cell one step in front of one (the
 //!    two cells `acc_cmb` accepts); `M` missed the target when it was on it at fewer than half
 //!    of those steps. Needs `M`: never assigned to a baseline.
-//! 3. [`FailureClass::WrongObject`]: the episode terminated without success on a `done` or
-//!    `pickup` while the cell in front held a key/ball/box outside the target set, or while the
-//!    agent carried one.
-//! 4. [`FailureClass::TurningInPlace`]: the episode was truncated at the step limit and its
-//!    last [`TURN_WINDOW`] actions were all `left`/`right` turns.
-//! 5. [`FailureClass::Other`]: everything else (wandering to the limit, `done` in front of
-//!    nothing, ...).
+//! 6. [`FailureClass::WrongOrder`]: the agent picked up or opened an object of a clause the
+//!    sequence had not reached (Before's second part, After's first).
+//! 7. [`FailureClass::WrongNeighbour`]: the agent put PutNext's object down beside other
+//!    keys/balls/boxes, none of them one the clause named.
+//! 8. `door_never_opened` for an Open clause (rule 2).
+//! 9. [`FailureClass::WrongObject`]: the episode terminated without success on a `done` or
+//!    `pickup` while the cell in front held a key/ball/box outside every clause's objects, or
+//!    while the agent carried one.
+//! 10. [`FailureClass::TurningInPlace`]: the episode was truncated at the step limit and its
+//!     last [`TURN_WINDOW`] actions were all `left`/`right` turns.
+//! 11. [`FailureClass::Other`]: everything else (wandering to the limit, `done` in front of
+//!     nothing, ...).
 //!
-//! Without `M` (a baseline checkpoint) rule 2 is skipped: a baseline failure with the target
-//! visible is classed by rules 3–5 only, so its counts never contain `grounding`.
+//! Rules 1–3 and 6–8 ([`mechanics`]) need doors, rooms, sequences or PutNext: on the paper's
+//! level they never fire. Without `M` (a baseline checkpoint) rule 5 is skipped: a baseline
+//! failure with the target visible is classed by the later rules only, so its counts never
+//! contain `grounding`.
 //!
 //! Why the largest cell and the majority of visible steps: a threshold on `M`'s value (the
 //! report's `acc_cmb` at τ = α / n) depends on how many words share the weight — with a word
@@ -45,7 +61,7 @@ use super::faithfulness::measures::argmax;
 use super::faithfulness::step::index_cell;
 use crate::env::EnvError;
 use crate::env::edit::{Edit, apply};
-use crate::env::view::{AGENT_IN_VIEW, Observation, VIEW_SIZE, ViewCell, world_from_view};
+use crate::env::view::{Observation, ViewCell};
 use crate::env::world::{Action, World};
 use crate::episode::{EpisodeSpec, EpisodeTrace, initial_world, run_from};
 use crate::policy::{PolicyError, ViewMap};
@@ -68,16 +84,42 @@ pub enum FailureClass {
     TurningInPlace,
     /// None of the above.
     Other,
+    /// The targets lay behind closed doors of rooms never entered, one locked and its key
+    /// never carried.
+    LockedDoorNoKey,
+    /// The targets lay behind doors never opened (or an Open clause's door never opened).
+    DoorNeverOpened,
+    /// The targets lay in rooms never entered, though a door to them had been open.
+    TargetRoomNeverEntered,
+    /// An object of a later clause was picked up or opened first.
+    WrongOrder,
+    /// PutNext's object was put down beside the wrong objects.
+    WrongNeighbour,
 }
 
 impl FailureClass {
-    /// Every class, in report order.
-    pub const ALL: [Self; 5] = [
+    /// Every class, in report order (the order they are decided in).
+    pub const ALL: [Self; 10] = [
+        Self::LockedDoorNoKey,
+        Self::DoorNeverOpened,
+        Self::TargetRoomNeverEntered,
         Self::TargetNeverVisible,
         Self::Grounding,
+        Self::WrongOrder,
+        Self::WrongNeighbour,
         Self::WrongObject,
         Self::TurningInPlace,
         Self::Other,
+    ];
+
+    /// The classes of BabyAI's mechanics, reported only for cells whose levels have doors,
+    /// several rooms, sequences or PutNext.
+    pub const MECHANICS: [Self; 5] = [
+        Self::LockedDoorNoKey,
+        Self::DoorNeverOpened,
+        Self::TargetRoomNeverEntered,
+        Self::WrongOrder,
+        Self::WrongNeighbour,
     ];
 
     /// The name used in `report.json`, `report.md` and `failures.json`.
@@ -88,6 +130,11 @@ impl FailureClass {
             Self::WrongObject => "wrong_object",
             Self::TurningInPlace => "turning_in_place",
             Self::Other => "other",
+            Self::LockedDoorNoKey => "locked_door_no_key",
+            Self::DoorNeverOpened => "door_never_opened",
+            Self::TargetRoomNeverEntered => "target_room_never_entered",
+            Self::WrongOrder => "wrong_order",
+            Self::WrongNeighbour => "wrong_neighbour",
         }
     }
 
@@ -165,6 +212,8 @@ pub struct Evidence {
     pub recent_actions: Vec<Action>,
     /// The last step, once the episode ended.
     pub ending: Option<Ending>,
+    /// Rooms, doors, keys, sequences and PutNext ([`mechanics`]).
+    pub mechanics: Mechanics,
 }
 
 /// The class of one failed episode and the counts it rests on.
@@ -182,24 +231,18 @@ pub struct Diagnosis {
 /// View cells (not the agent's own) showing one of `world`'s targets in `obs`. Cells the
 /// observation marks unseen (occluded, or outside the grid) never count.
 pub fn visible_targets(world: &World, obs: &Observation) -> Vec<ViewCell> {
-    let targets = &world.targets();
-    let mut out = Vec::new();
-    for vy in 0..VIEW_SIZE {
-        for vx in 0..VIEW_SIZE {
-            if (vx, vy) == AGENT_IN_VIEW || !obs.visible((vx, vy)) {
-                continue;
-            }
-            let pos = world_from_view(world.agent_pos, world.agent_dir, (vx, vy));
-            if world
-                .grid
-                .get(pos)
-                .is_some_and(|o| o.kind.can_pickup() && targets.contains(&o.id))
-            {
-                out.push((vx, vy));
-            }
-        }
-    }
-    out
+    crate::metrics::grounding::pending_targets(world, obs)
+}
+
+/// The objects of every clause (both of PutNext's descriptions): what is not a distractor.
+pub fn all_targets(world: &World) -> Vec<crate::env::object::ObjectId> {
+    world
+        .instr
+        .clauses()
+        .iter()
+        .flat_map(|n| n.targets.obj_set.iter().chain(&n.fixed_targets.obj_set))
+        .copied()
+        .collect()
 }
 
 /// Whether `m`'s largest cell (the first in row order on ties) is one of `targets` or the
@@ -217,7 +260,7 @@ pub fn m_points_at(m: &ViewMap, targets: &[ViewCell]) -> bool {
 pub fn relation(world: &World, obj: Option<crate::env::object::WorldObj>) -> Relation {
     match obj {
         Some(o) if o.kind.can_pickup() => {
-            if world.targets().contains(&o.id) {
+            if all_targets(world).contains(&o.id) {
                 Relation::Target
             } else {
                 Relation::NonTarget
@@ -245,6 +288,7 @@ impl Evidence {
             self.recent_actions.remove(0);
         }
         self.recent_actions.push(step.action);
+        self.mechanics.push(step);
         if step.terminated || step.truncated {
             let w = step.world;
             self.ending = Some(Ending {
@@ -283,10 +327,14 @@ impl Evidence {
             return None;
         }
         let with_m = self.m_steps > 0;
-        let class = if self.target_visible_steps == 0 {
+        let class = if let Some(c) = self.mechanics.room_class() {
+            c
+        } else if self.target_visible_steps == 0 {
             FailureClass::TargetNeverVisible
         } else if with_m && 2 * self.m_on_target_steps < self.m_steps {
             FailureClass::Grounding
+        } else if let Some(c) = self.mechanics.act_class() {
+            c
         } else {
             match self.ending {
                 Some(e)
@@ -319,14 +367,16 @@ impl Evidence {
 
 /// Counts of each class over `failures`: every class decidable for a model with or without
 /// `M` is present (zero included); `grounding` is absent without `M` (not decidable, which
-/// is not zero). The counts sum to the number of diagnoses given.
+/// is not zero), and the classes of BabyAI's mechanics are absent on the paper's level
+/// (`mechanics` false), where they cannot occur. The counts sum to the number of diagnoses given.
 pub fn class_counts<'a>(
     failures: impl IntoIterator<Item = &'a Diagnosis>,
     with_m: bool,
+    mechanics: bool,
 ) -> BTreeMap<FailureClass, u64> {
     let mut counts: BTreeMap<FailureClass, u64> = FailureClass::ALL
         .iter()
-        .filter(|c| c.decidable(with_m))
+        .filter(|c| c.decidable(with_m) && (mechanics || !FailureClass::MECHANICS.contains(c)))
         .map(|&c| (c, 0))
         .collect();
     for d in failures {
@@ -353,7 +403,7 @@ pub struct Counterfactual {
 /// [`crate::env::edit`], so the result is a consistent world with the same targets), and the
 /// number removed.
 pub fn without_distractors(world: &World) -> Result<(World, u32), EnvError> {
-    let targets = &world.targets();
+    let targets = &all_targets(world);
     let distractors: Vec<_> = world
         .grid
         .objects()
@@ -385,6 +435,10 @@ pub fn counterfactual<P: crate::policy::Acting + ?Sized>(
         length: u32::try_from(trace.steps.len()).unwrap_or(u32::MAX),
     })
 }
+
+pub mod mechanics;
+
+pub use mechanics::Mechanics;
 
 #[cfg(test)]
 mod tests;

@@ -11,6 +11,15 @@
 //! - `acc_cmb`: `acc` or `acc_bs` (just `acc` when `y = 0`).
 //!
 //! Each is the fraction of the n_ω objects that hit. Maps are `map[vy][vx]`, agent-up.
+//!
+//! On every BabyAI instruction kind (docs/evaluation.md#what-each-word-names) each word is
+//! evaluated on its own clause's description ([`crate::env::roles`]): a type word on the
+//! visible objects of that type, a colour word on the visible objects of that colour and of
+//! its description's category (keys, balls and boxes, or doors), "door" on the visible doors,
+//! a location word on the objects its description matched (the verifier's set, visible cells
+//! only); verbs, articles and joining words are not scored. `M` is evaluated on the objects
+//! the clauses the verifier is waiting on matched ([`pending_targets`]). On the paper's level
+//! this is exactly the paper's definition: one clause, no doors, no location words.
 //! Beyond the paper, `around` says *where* in the neighbourhood a map passes τ: for each of
 //! the nine cells [`AROUND`] of an object's 3×3 neighbourhood, the fraction of objects whose
 //! cell at that offset is `≥ τ` (so `around[4]` is `acc` and `around[1]` is `acc_bs`). A map
@@ -19,8 +28,10 @@
 use serde::{Deserialize, Serialize};
 
 use crate::env::mission::ObjDesc;
-use crate::env::object::{Color, ObjectKind};
-use crate::env::view::{AGENT_IN_VIEW, Observation, VIEW_SIZE, ViewCell};
+use crate::env::object::{Color, ObjectId, ObjectKind};
+use crate::env::roles::{DescPart, WordClass, pending_clauses, word_roles};
+use crate::env::view::{AGENT_IN_VIEW, Observation, VIEW_SIZE, ViewCell, view_from_world};
+use crate::env::world::World;
 use crate::policy::ViewMap;
 
 /// The nine cells of an object's 3×3 neighbourhood as view offsets `(dx, dy)`, row by row
@@ -106,6 +117,15 @@ pub fn related_objects(
     obs: &Observation,
     pred: impl Fn(ObjectKind, Color) -> bool,
 ) -> Vec<ViewCell> {
+    visible_objects(obs, |k, c| k.can_pickup() && pred(k, c))
+}
+
+/// Visible objects of any kind but walls (keys, balls, boxes, doors) that satisfy `pred`,
+/// excluding the agent's own cell, in view order.
+pub fn visible_objects(
+    obs: &Observation,
+    pred: impl Fn(ObjectKind, Color) -> bool,
+) -> Vec<ViewCell> {
     let mut out = Vec::new();
     for vy in 0..VIEW_SIZE {
         for vx in 0..VIEW_SIZE {
@@ -117,7 +137,7 @@ pub fn related_objects(
             else {
                 continue;
             };
-            if kind.can_pickup() && pred(kind, color) {
+            if (kind.can_pickup() || kind == ObjectKind::Door) && pred(kind, color) {
                 out.push((vx, vy));
             }
         }
@@ -202,17 +222,27 @@ pub fn accuracies_of_hits(hits: &[ObjectHit]) -> Accuracies {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum WordKind {
-    /// The object-type word (key, ball, box): paper Fig. 7.
+    /// The object-type word (key, ball, box, object): paper Fig. 7.
     Object,
     /// The colour word: paper Fig. 8.
     Color,
     /// The combined map `M` on the target objects (not in the paper).
     Combined,
+    /// "door" (BabyAI's door levels).
+    Door,
+    /// A location word: front, behind, left, right (BabyAI's `Loc` levels).
+    Location,
 }
 
 impl WordKind {
     /// All kinds, in report order.
-    pub const ALL: [Self; 3] = [Self::Object, Self::Color, Self::Combined];
+    pub const ALL: [Self; 5] = [
+        Self::Object,
+        Self::Color,
+        Self::Combined,
+        Self::Door,
+        Self::Location,
+    ];
 
     /// Lowercase name.
     pub fn name(self) -> &'static str {
@@ -220,6 +250,8 @@ impl WordKind {
             Self::Object => "object",
             Self::Color => "color",
             Self::Combined => "combined",
+            Self::Door => "door",
+            Self::Location => "location",
         }
     }
 }
@@ -227,7 +259,7 @@ impl WordKind {
 /// One map evaluated at one step.
 #[derive(Clone, Debug, PartialEq)]
 pub struct EvaluatedMap {
-    /// Object word, colour word, or `M` on the targets.
+    /// Object word, colour word, door, location word, or `M` on the targets.
     pub kind: WordKind,
     /// Index of the map's word in the mission (`None` for `M`).
     pub word: Option<usize>,
@@ -237,19 +269,78 @@ pub struct EvaluatedMap {
     pub hits: Vec<ObjectHit>,
 }
 
-/// The evaluations of one step: one entry per word kind that was evaluated.
+/// The evaluations of one step: one entry per evaluated word map, then `M`'s.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct StepGrounding {
-    /// Per word kind: the map's word, its accuracies and each related object's hit.
+    /// Per word: the map's word, its accuracies and each related object's hit.
     pub evaluated: Vec<EvaluatedMap>,
 }
 
-/// Evaluates one step: the type word's map, the colour word's map, and `M` on the objects that
-/// match the whole description. `words` are the mission's words with their maps (the first
-/// word spelled like the description's type or colour is the one evaluated).
-pub fn ground_step(
+/// The cells each scored word of `world`'s mission names at this step, by word index, with
+/// the word's kind: the definitions of the module's header. Words that name nothing by
+/// themselves are left out; so is every word when the mission's words do not follow the
+/// instruction tree (a mission typed by hand that the tree does not read back).
+pub fn word_targets(
+    world: &World,
     obs: &Observation,
-    desc: &ObjDesc,
+    n_words: usize,
+) -> Vec<(usize, WordKind, Vec<ViewCell>)> {
+    let roles = word_roles(&world.instr);
+    if roles.len() != n_words {
+        return Vec::new();
+    }
+    let clauses = world.instr.clauses();
+    let mut out = Vec::new();
+    for (i, role) in roles.iter().enumerate() {
+        let (Some(c), Some(part)) = (role.clause, role.desc) else {
+            continue;
+        };
+        let Some(node) = clauses.get(c) else { continue };
+        let (desc, matched) = match part {
+            DescPart::Desc => (node.instr.desc, &node.targets),
+            DescPart::Fixed => match node.instr.fixed {
+                Some(f) => (f, &node.fixed_targets),
+                None => continue,
+            },
+        };
+        let doors = desc.kind == Some(ObjectKind::Door);
+        let category = |k: ObjectKind| {
+            if doors {
+                k == ObjectKind::Door
+            } else {
+                k.can_pickup()
+            }
+        };
+        let (kind, cells) = match role.class {
+            WordClass::Object => (
+                WordKind::Object,
+                visible_objects(obs, |k, _| category(k) && desc.kind.is_none_or(|d| d == k)),
+            ),
+            WordClass::Door => (
+                WordKind::Door,
+                visible_objects(obs, |k, _| k == ObjectKind::Door),
+            ),
+            WordClass::Color => (
+                WordKind::Color,
+                visible_objects(obs, |k, c| category(k) && desc.color == Some(c)),
+            ),
+            WordClass::Location => (
+                WordKind::Location,
+                visible_cells_of(world, obs, &matched.obj_set),
+            ),
+            WordClass::Other => continue,
+        };
+        out.push((i, kind, cells));
+    }
+    out
+}
+
+/// Evaluates one step of `world` (the world the agent saw, `obs`): each scored word's map on
+/// the cells [`word_targets`] gives it, and `M` on [`pending_targets`]. `words` are the
+/// mission's words with their maps, in order.
+pub fn ground_step(
+    world: &World,
+    obs: &Observation,
     words: &[(&str, &ViewMap)],
     combined: &ViewMap,
     alpha: f64,
@@ -266,30 +357,55 @@ pub fn ground_step(
             });
         }
     };
-    let find = |name: &str| words.iter().position(|(w, _)| *w == name);
-    if let Some(kind) = desc.kind
-        && let Some(i) = find(kind.name())
-    {
-        let objs = related_objects(obs, |k, _| k == kind);
-        evaluate(WordKind::Object, Some(i), words[i].1, &objs);
-    }
-    if let Some(color) = desc.color
-        && let Some(i) = find(color.name())
-    {
-        let objs = related_objects(obs, |_, c| c == color);
-        evaluate(WordKind::Color, Some(i), words[i].1, &objs);
+    for (i, kind, cells) in word_targets(world, obs, words.len()) {
+        evaluate(kind, Some(i), words[i].1, &cells);
     }
     evaluate(
         WordKind::Combined,
         None,
         combined,
-        &target_objects(obs, *desc),
+        &pending_targets(world, obs),
     );
     out
 }
 
-/// The visible objects matching the whole description (type and colour): the targets `M`
-/// is evaluated on.
+/// The visible objects the clauses the verifier is waiting on matched
+/// ([`crate::env::roles::pending_clauses`]), in view order: `M`'s targets. PutNext waits on the
+/// object to move until the agent carries one, then on the objects to put it next to.
+pub fn pending_targets(world: &World, obs: &Observation) -> Vec<ViewCell> {
+    let clauses = world.instr.clauses();
+    let carried = world.carrying.as_ref().map(|o| o.id);
+    let mut ids = Vec::new();
+    for c in pending_clauses(&world.instr) {
+        let Some(node) = clauses.get(c) else { continue };
+        let moving = node.instr.fixed.is_some()
+            && carried.is_some_and(|id| node.targets.obj_set.contains(&id));
+        let set = if moving {
+            &node.fixed_targets
+        } else {
+            &node.targets
+        };
+        ids.extend_from_slice(&set.obj_set);
+    }
+    visible_cells_of(world, obs, &ids)
+}
+
+/// The view cells of the objects `ids` that are on the grid and visible (not the agent's own
+/// cell), in view order (row by row from the far row).
+pub fn visible_cells_of(world: &World, obs: &Observation, ids: &[ObjectId]) -> Vec<ViewCell> {
+    let mut cells: Vec<ViewCell> = world
+        .grid
+        .objects()
+        .filter(|(_, o)| ids.contains(&o.id))
+        .filter_map(|(p, _)| view_from_world(world.agent_pos, world.agent_dir, p))
+        .filter(|&c| c != AGENT_IN_VIEW && obs.visible(c))
+        .collect();
+    cells.sort_by_key(|&(vx, vy)| (vy, vx));
+    cells.dedup();
+    cells
+}
+
+/// The visible objects matching the whole description (type and colour), any category.
 pub fn target_objects(obs: &Observation, desc: ObjDesc) -> Vec<ViewCell> {
     related_objects(obs, |k, c| {
         desc.kind.is_none_or(|d| d == k) && desc.color.is_none_or(|d| d == c)
@@ -375,22 +491,20 @@ mod tests {
     #[test]
     fn steps_without_related_objects_are_not_evaluated() {
         assert_eq!(accuracies(&UNIFORM, &[], 0.5), None);
+        // A world whose view shows nothing (every cell unseen): no word and no M evaluated.
+        let world = crate::env::level::LevelConfig::default()
+            .generate(0)
+            .unwrap();
         let obs = Observation {
-            image: [[[1, 0, 0]; 7]; 7],
+            image: [[[0, 0, 0]; 7]; 7],
         };
-        let desc = ObjDesc {
-            kind: Some(ObjectKind::Key),
-            color: Some(Color::Red),
-            loc: None,
-        };
-        let g = ground_step(
-            &obs,
-            &desc,
-            &[("key", &UNIFORM), ("red", &UNIFORM)],
-            &UNIFORM,
-            0.5,
+        let n = crate::env::vocab::split_words(&world.mission).len();
+        let words: Vec<(&str, &ViewMap)> = (0..n).map(|_| ("w", &UNIFORM)).collect();
+        assert!(
+            ground_step(&world, &obs, &words, &UNIFORM, 0.5)
+                .evaluated
+                .is_empty()
         );
-        assert!(g.evaluated.is_empty());
     }
 
     #[test]
@@ -401,30 +515,87 @@ mod tests {
         obs.image[3][6] = [5, 0, 0]; // carried red key in the agent's cell
         obs.image[0][0] = [2, 5, 0]; // grey wall
         obs.image[1][2] = [5, 0, 0]; // red key at vx 1, vy 2
+        obs.image[4][1] = [4, 0, 1]; // closed red door at vx 4, vy 1
         assert_eq!(
             related_objects(&obs, |k, _| k == ObjectKind::Key),
             vec![(1, 2)]
         );
         assert!(related_objects(&obs, |_, c| c == Color::Grey).is_empty());
-        let desc = ObjDesc {
-            kind: Some(ObjectKind::Key),
-            color: Some(Color::Red),
-            loc: None,
-        };
-        let map = one_hot(1, 2);
-        let g = ground_step(
-            &obs,
-            &desc,
-            &[("go", &UNIFORM), ("key", &map), ("red", &UNIFORM)],
-            &map,
-            0.5,
-        );
-        let kinds: Vec<WordKind> = g.evaluated.iter().map(|e| e.kind).collect();
+        assert_eq!(related_objects(&obs, |_, c| c == Color::Red), vec![(1, 2)]);
         assert_eq!(
-            kinds,
-            vec![WordKind::Object, WordKind::Color, WordKind::Combined]
+            visible_objects(&obs, |_, c| c == Color::Red),
+            vec![(4, 1), (1, 2)],
+            "doors count where a description names one"
         );
-        assert_eq!(g.evaluated[0].accuracies.acc, 1.0);
-        assert_eq!(g.evaluated[1].accuracies.acc, 0.0);
+    }
+
+    /// Every scored word's objects carry the word's meaning, on levels of every instruction
+    /// kind; `M`'s are objects of the clauses the verifier waits on.
+    #[test]
+    fn each_word_is_scored_on_what_it_names_on_every_instruction_kind() {
+        use crate::env::level::{LevelConfig, LevelId};
+        use crate::env::vocab::split_words;
+        let mut kinds_seen = std::collections::BTreeSet::new();
+        for id in [
+            "BabyAI-GoToLocal-v0",
+            "BabyAI-PickupLoc-v0",
+            "BabyAI-GoToObjDoor-v0",
+            "BabyAI-PutNextLocal-v0",
+            "BabyAI-SynthSeq-v0",
+            "BabyAI-OpenDoorLoc-v0",
+        ] {
+            let level = LevelConfig {
+                babyai: Some(LevelId::parse(id).unwrap()),
+                ..LevelConfig::default()
+            };
+            for seed in 0..40 {
+                let mut world = level.generate(seed).unwrap();
+                for step in 0..6 {
+                    let obs = world.observe();
+                    let words = split_words(&world.mission);
+                    let maps: Vec<(&str, &ViewMap)> =
+                        words.iter().map(|w| (w.as_str(), &UNIFORM)).collect();
+                    let g = ground_step(&world, &obs, &maps, &UNIFORM, 0.5);
+                    for e in &g.evaluated {
+                        kinds_seen.insert(e.kind);
+                        for h in &e.hits {
+                            let [t, c, _] = obs.at(h.cell);
+                            let (kind, color) = (
+                                ObjectKind::from_index(t).unwrap(),
+                                Color::from_index(c).unwrap(),
+                            );
+                            let word = e.word.map(|i| words[i].as_str());
+                            match e.kind {
+                                WordKind::Object if word != Some("object") => {
+                                    assert_eq!(Some(kind.name()), word, "{id} {seed}");
+                                }
+                                WordKind::Color => {
+                                    assert_eq!(Some(color.name()), word, "{id} {seed}");
+                                }
+                                WordKind::Door => assert_eq!(kind, ObjectKind::Door),
+                                _ => {}
+                            }
+                        }
+                    }
+                    // `M`'s targets are exactly the pending clauses' objects in view.
+                    let m = g.evaluated.iter().find(|e| e.kind == WordKind::Combined);
+                    let cells: Vec<ViewCell> = m
+                        .map(|e| e.hits.iter().map(|h| h.cell).collect())
+                        .unwrap_or_default();
+                    assert_eq!(cells, pending_targets(&world, &obs), "{id} {seed}");
+                    if world
+                        .step(crate::env::world::Action::Left)
+                        .unwrap()
+                        .terminated
+                    {
+                        break;
+                    }
+                    let _ = step;
+                }
+            }
+        }
+        for k in WordKind::ALL {
+            assert!(kinds_seen.contains(&k), "{k:?} never evaluated");
+        }
     }
 }

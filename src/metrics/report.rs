@@ -2,7 +2,10 @@
 //! list of worst episodes. Everything is written to a temporary directory first and moved into
 //! place only when complete, so a failure leaves no partial report.
 
+mod levels;
 mod markdown;
+
+pub use levels::{EPISODES_CSV_HEADER, episodes_csv, level_name};
 
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -37,21 +40,33 @@ pub struct CellAccuracy {
     /// The object and colour words one by one ([`super::words::by_word`]).
     #[serde(default)]
     pub words: Vec<super::words::WordStats>,
+    /// "door" (levels with doors in their missions only).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub door: Option<GroundingStats>,
+    /// Location words (levels with location phrases only).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub location: Option<GroundingStats>,
 }
 
 impl CellAccuracy {
-    /// The stats of one word kind.
-    pub fn of(&self, kind: WordKind) -> &GroundingStats {
+    /// The stats of one word kind, if the cell's missions hold such words.
+    pub fn of(&self, kind: WordKind) -> Option<&GroundingStats> {
         match kind {
-            WordKind::Object => &self.object,
-            WordKind::Color => &self.color,
-            WordKind::Combined => &self.combined,
+            WordKind::Object => Some(&self.object),
+            WordKind::Color => Some(&self.color),
+            WordKind::Combined => Some(&self.combined),
+            WordKind::Door => self.door.as_ref(),
+            WordKind::Location => self.location.as_ref(),
         }
     }
 
-    /// The three word kinds' stats, in report order.
-    pub fn by_kind(&self) -> [(WordKind, &GroundingStats); 3] {
-        WordKind::ALL.map(|k| (k, self.of(k)))
+    /// The word kinds' stats, in report order: object, colour, `M`, then door and location
+    /// where the cell has them.
+    pub fn by_kind(&self) -> Vec<(WordKind, &GroundingStats)> {
+        WordKind::ALL
+            .into_iter()
+            .filter_map(|k| self.of(k).map(|g| (k, g)))
+            .collect()
     }
 }
 
@@ -86,9 +101,28 @@ pub struct Cell {
     /// ([`super::exploration`]); absent in older reports.
     #[serde(default)]
     pub exploration: Option<CellExploration>,
+    /// The registered BabyAI level of the cell (`eval --levels`); absent for the paper's
+    /// level, which `size` and `objects` describe (for a BabyAI level they hold its room
+    /// size and 0).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub level: Option<String>,
 }
 
 impl Cell {
+    /// The cell's level as tables name it: the BabyAI id, or `S8 N4`.
+    pub fn label(&self) -> String {
+        self.level
+            .clone()
+            .unwrap_or_else(|| format!("S{} N{}", self.size, self.objects))
+    }
+
+    /// The cell on a registered BabyAI level (none: the paper's).
+    #[must_use]
+    pub fn with_level(mut self, level: Option<String>) -> Self {
+        self.level = level;
+        self
+    }
+
     /// A cell from its performance and accuracies.
     pub fn new(
         checkpoint: &str,
@@ -112,6 +146,7 @@ impl Cell {
             accuracy,
             failure_classes: BTreeMap::new(),
             exploration: None,
+            level: None,
         }
     }
 
@@ -179,6 +214,27 @@ pub struct Failure {
     /// by the caller, which holds the networks).
     #[serde(default)]
     pub counterfactual: Option<Counterfactual>,
+    /// The registered BabyAI level (absent: the paper's level of `size` and `objects`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub level: Option<String>,
+}
+
+impl Failure {
+    /// The level the episode ran on, for a model trained on `base`.
+    pub fn level_config(&self, base: LevelConfig) -> Result<LevelConfig, crate::env::EnvError> {
+        Ok(match &self.level {
+            Some(id) => LevelConfig {
+                babyai: Some(crate::env::level::LevelId::parse(id)?),
+                ..base
+            },
+            None => LevelConfig {
+                room_size: self.size,
+                n_objects: self.objects,
+                babyai: None,
+                ..base
+            },
+        })
+    }
 }
 
 /// `report.json`.
@@ -214,13 +270,15 @@ pub struct Report {
 /// Picks the K worst episodes of each kind: failures (lowest reward, then longest) and the
 /// lowest acc_cmb of `M` on visible targets.
 pub fn worst_episodes(
-    all: &[(String, usize, usize, Vec<EpisodeSummary>)],
+    all: &[(String, LevelConfig, Vec<EpisodeSummary>)],
     k: usize,
-    replay_args: &dyn Fn(&str, usize, usize, u64) -> String,
+    replay_args: &dyn Fn(&str, &LevelConfig, u64) -> String,
 ) -> Vec<Failure> {
     let mut failed = Vec::new();
     let mut low = Vec::new();
-    for (ckpt, size, objects, eps) in all {
+    for (ckpt, level, eps) in all {
+        let (size, objects) = (&level.room_size, &level.n_objects);
+        let level_id = level.babyai.map(|id| id.spec().id.to_owned());
         for e in eps {
             let acc_cmb = e.grounding.get(&WordKind::Combined).map(|(a, _)| a.acc_cmb);
             let f = |kind: &str| Failure {
@@ -233,7 +291,8 @@ pub fn worst_episodes(
                 reward: e.reward,
                 length: e.length,
                 acc_cmb,
-                replay: replay_args(ckpt, *size, *objects, e.level_seed),
+                replay: replay_args(ckpt, level, e.level_seed),
+                level: level_id.clone(),
                 class: e.failure.map(|d| d.class),
                 target_visible_steps: e.failure.map(|d| d.target_visible_steps),
                 m_on_target_steps: e.failure.and_then(|d| d.m_on_target_steps),
@@ -310,8 +369,13 @@ impl Report {
     }
 
     /// Writes every file into `dir` (created if needed) through a [`crate::files::StagedDir`]:
-    /// all of them appear together, or none.
-    pub fn write(&self, dir: &Path, failures: &[Failure]) -> Result<(), MetricsError> {
+    /// all of them appear together, or none. `episodes` is `episodes.csv` ([`episodes_csv`]).
+    pub fn write(
+        &self,
+        dir: &Path,
+        failures: &[Failure],
+        episodes: &str,
+    ) -> Result<(), MetricsError> {
         let io = |p: &Path, e: std::io::Error| MetricsError::Io {
             path: p.to_path_buf(),
             reason: e.to_string(),
@@ -333,32 +397,55 @@ impl Report {
             ("around.csv", self.around_csv()),
             ("words.csv", self.words_csv()),
             ("exploration.csv", self.exploration_csv()),
+            ("episodes.csv", episodes.to_owned()),
         ];
         for (name, text) in &files {
             staged.write(name, text.as_bytes()).map_err(staged_err)?;
         }
-        let mut figs = vec!["fig6_reward.png", "fig6_success.png"];
-        self.figure(&staged.path(figs[0]), "Mean reward (Fig. 6)", &|c| {
-            vec![(c.checkpoint.clone(), c.reward)]
-        })?;
-        self.figure(&staged.path(figs[1]), "Success rate (Fig. 6)", &|c| {
-            vec![(c.checkpoint.clone(), c.success)]
-        })?;
-        if self.cells.iter().any(|c| c.accuracy.is_some()) {
+        // The paper's figures plot the paper's level over room sizes and object counts; BabyAI
+        // levels get their own figure.
+        let paper = Self {
+            cells: self
+                .cells
+                .iter()
+                .filter(|c| c.level.is_none())
+                .cloned()
+                .collect(),
+            ..self.clone()
+        };
+        let mut figs = Vec::new();
+        if self.level_cells().next().is_some() {
+            figs.push("levels_success.png");
+            self.levels_figure(&staged.path("levels_success.png"))?;
+        }
+        if !paper.cells.is_empty() {
+            figs.extend(["fig6_reward.png", "fig6_success.png"]);
+            paper.figure(
+                &staged.path("fig6_reward.png"),
+                "Mean reward (Fig. 6)",
+                &|c| vec![(c.checkpoint.clone(), c.reward)],
+            )?;
+            paper.figure(
+                &staged.path("fig6_success.png"),
+                "Success rate (Fig. 6)",
+                &|c| vec![(c.checkpoint.clone(), c.success)],
+            )?;
+        }
+        if paper.cells.iter().any(|c| c.accuracy.is_some()) {
             figs.extend(["fig7_object_accuracy.png", "fig8_color_accuracy.png"]);
             for (name, kind, title) in [
                 (
-                    figs[2],
+                    "fig7_object_accuracy.png",
                     WordKind::Object,
                     "Object-word map accuracy (Fig. 7)",
                 ),
                 (
-                    figs[3],
+                    "fig8_color_accuracy.png",
                     WordKind::Color,
                     "Colour-word map accuracy (Fig. 8)",
                 ),
             ] {
-                self.figure(&staged.path(name), title, &|c| {
+                paper.figure(&staged.path(name), title, &|c| {
                     let Some(a) = &c.accuracy else {
                         return Vec::new();
                     };
@@ -391,6 +478,9 @@ impl Report {
         // A directory reused from an evaluation with attention checkpoints must not keep
         // that run's accuracy figures beside this run's report.
         for stale in [
+            "fig6_reward.png",
+            "fig6_success.png",
+            "levels_success.png",
             "fig7_object_accuracy.png",
             "fig8_color_accuracy.png",
             super::exploration::FIG_EXPLORATION,
@@ -409,6 +499,7 @@ impl Report {
         staged
             .commit_owned(|n| {
                 names.contains(&n)
+                    || n == "levels_success.png"
                     || (n.starts_with("fig")
                         && Path::new(n).extension().is_some_and(|e| e == "png"))
             })

@@ -44,6 +44,9 @@ pub struct EpisodeSummary {
     /// Why it failed (`None` for a success); see [`super::failure`].
     #[serde(default)]
     pub failure: Option<Diagnosis>,
+    /// The actions taken, as indices (`episodes.csv`).
+    #[serde(default)]
+    pub actions: Vec<u8>,
 }
 
 /// One running episode of the lockstep batch.
@@ -159,6 +162,7 @@ pub fn evaluate_episodes_explored<P: Acting + ?Sized>(
                     length: 0,
                     grounding: BTreeMap::new(),
                     failure: None,
+                    actions: Vec::new(),
                 },
                 world,
                 tokens,
@@ -223,7 +227,7 @@ pub fn evaluate_episodes_explored<P: Acting + ?Sized>(
                     .iter()
                     .map(|w| (w.word.as_str(), &w.map))
                     .collect();
-                let g = ground_step(&obs[row], &r.world.desc(), &words, &trace.combined, alpha);
+                let g = ground_step(&r.world, &obs[row], &words, &trace.combined, alpha);
                 for m in g.evaluated {
                     let e = r.sums.entry(m.kind).or_default();
                     e.0.add(&m.accuracies);
@@ -231,6 +235,7 @@ pub fn evaluate_episodes_explored<P: Acting + ?Sized>(
                 }
             }
             let action = choose(&out.probs[row], mode, &mut r.rng);
+            r.summary.actions.push(action as u8);
             // The failure classifier reads the world before the action, as a trace records it.
             let before = r.world.clone();
             let outcome = r.world.step(action).map_err(PolicyError::from)?;
@@ -480,6 +485,7 @@ mod tests {
             length: 4,
             grounding,
             failure: None,
+            actions: Vec::new(),
         }
     }
 

@@ -164,6 +164,7 @@ mod tests {
             length: 5,
             grounding,
             failure: None,
+            actions: Vec::new(),
         }
     }
 

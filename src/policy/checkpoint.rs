@@ -212,7 +212,10 @@ impl Checkpoint {
                 format: FORMAT.into(),
                 format_version: FORMAT_VERSION,
                 model,
-                vocabulary: VOCABULARY.iter().map(|w| (*w).to_owned()).collect(),
+                vocabulary: VOCABULARY[..model.vocab_size.min(VOCABULARY.len())]
+                    .iter()
+                    .map(|w| (*w).to_owned())
+                    .collect(),
                 level,
                 training,
                 crate_version: env!("CARGO_PKG_VERSION").into(),
@@ -305,22 +308,24 @@ impl Checkpoint {
                 ),
             ));
         }
-        if meta.vocabulary.len() != VOCABULARY.len()
-            || meta.vocabulary.iter().zip(VOCABULARY).any(|(a, b)| a != b)
+        // The model's rows are the first `vocab_size` words of this build's vocabulary.
+        let ours = &VOCABULARY[..meta.model.vocab_size.min(VOCABULARY.len())];
+        if meta.vocabulary.len() != ours.len()
+            || meta.vocabulary.iter().zip(ours).any(|(a, b)| a != b)
         {
             let first = meta
                 .vocabulary
                 .iter()
-                .zip(VOCABULARY)
+                .zip(ours)
                 .position(|(a, b)| a != b)
-                .unwrap_or(meta.vocabulary.len().min(VOCABULARY.len()));
+                .unwrap_or(meta.vocabulary.len().min(ours.len()));
             return Err(bad(
                 js,
                 "vocabulary",
                 format!(
                     "differs from this build's at id {first} ({:?} vs {:?}); the checkpoint cannot read these missions",
                     meta.vocabulary.get(first),
-                    VOCABULARY.get(first)
+                    ours.get(first)
                 ),
             ));
         }

@@ -1,5 +1,6 @@
 //! The serialisable model configuration: every size of the network.
 
+use crate::env::vocab::{PAPER_VOCAB_SIZE, VOCAB_SIZE};
 use serde::{Deserialize, Serialize};
 
 /// Which network: the paper's text-visual attention policy or its no-attention baseline.
@@ -249,6 +250,17 @@ pub struct ModelConfig {
     /// part 11). Not with the null key; written only when set.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub key_context: bool,
+    /// How many entries of groundscope's vocabulary the word embedding has rows for, padding
+    /// included: [`PAPER_VOCAB_SIZE`] (the paper's 25 words; what a model trained on the paper's
+    /// level has, and every checkpoint made before BabyAI's whole grammar was added) or
+    /// [`VOCAB_SIZE`] (all of BabyAI's words: a model trained on a BabyAI level). A mission
+    /// word past the rows is refused by name, never embedded with an untrained row. Written
+    /// only when not the paper's.
+    #[serde(
+        default = "ModelConfig::paper_vocab_size",
+        skip_serializing_if = "ModelConfig::is_paper_vocab_size"
+    )]
+    pub vocab_size: usize,
     /// E: word embedding size.
     pub word_dim: usize,
     /// d_k: query/key size.
@@ -276,6 +288,7 @@ impl ModelConfig {
             search_query: false,
             null_key: false,
             key_context: false,
+            vocab_size: PAPER_VOCAB_SIZE,
             word_dim: 32,
             key_dim: 32,
             lstm_hidden: 128,
@@ -304,6 +317,28 @@ impl ModelConfig {
     )]
     fn is_default_filter_scale(s: &u32) -> bool {
         *s == Self::DEFAULT_FILTER_SCALE
+    }
+
+    fn paper_vocab_size() -> usize {
+        PAPER_VOCAB_SIZE
+    }
+
+    #[expect(
+        clippy::trivially_copy_pass_by_ref,
+        reason = "serde's skip_serializing_if passes a reference"
+    )]
+    fn is_paper_vocab_size(n: &usize) -> bool {
+        *n == PAPER_VOCAB_SIZE
+    }
+
+    /// The vocabulary a model trained on `level` needs: the paper's words on the paper's
+    /// level, all of BabyAI's on a registered BabyAI level.
+    pub fn vocab_size_for(level: &crate::env::level::LevelConfig) -> usize {
+        if level.babyai.is_some() {
+            VOCAB_SIZE
+        } else {
+            PAPER_VOCAB_SIZE
+        }
     }
 
     fn default_kernel() -> usize {
@@ -374,6 +409,13 @@ impl ModelConfig {
             return Err(super::PolicyError::Input(
                 "model setting attend_words is for the attention model only".into(),
             ));
+        }
+        if ![PAPER_VOCAB_SIZE, VOCAB_SIZE].contains(&self.vocab_size) {
+            return Err(super::PolicyError::Input(format!(
+                "model setting vocab_size = {} must be {PAPER_VOCAB_SIZE} (the paper's words) or \
+                 {VOCAB_SIZE} (BabyAI's)",
+                self.vocab_size
+            )));
         }
         if !Self::KERNELS.contains(&self.conv_kernel) {
             return Err(super::PolicyError::Input(format!(

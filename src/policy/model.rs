@@ -159,6 +159,21 @@ impl Net {
 
     /// Word embeddings `g̃` of the distinct missions: (U, L, E).
     pub fn embed(&self, tb: &TokenBatch) -> Result<Tensor, PolicyError> {
+        // A word past the embedding's rows was never trained: refuse it by name.
+        if let Some(&t) = tb
+            .distinct
+            .iter()
+            .flatten()
+            .find(|&&t| t as usize >= self.cfg.vocab_size)
+        {
+            return Err(PolicyError::Input(format!(
+                "the mission word {:?} is not one this model was trained on: it knows the paper's \
+                 {} words (a model trained on the paper's level); train one on a BabyAI level \
+                 (`train --level ID`) for all of BabyAI's words",
+                crate::env::vocab::word(t).unwrap_or("?"),
+                self.cfg.vocab_size - 1
+            )));
+        }
         let (u, l) = tb.tokens.dims2()?;
         let emb = &self.weights.word_emb;
         Ok(emb

@@ -14,7 +14,6 @@ use rand_pcg::Pcg64Mcg;
 use super::config::ModelConfig;
 use super::error::PolicyError;
 use super::obs::CELL_CODES;
-use crate::env::vocab::VOCAB_SIZE;
 use crate::env::world::Action;
 
 /// How a tensor is initialised.
@@ -69,7 +68,7 @@ pub fn param_specs(cfg: &ModelConfig) -> Vec<ParamSpec> {
             &[k],
             Init::Uniform(1.0 / conv_fan_in.sqrt()),
         ),
-        spec("word_emb.weight", &[VOCAB_SIZE, e], Init::Normal),
+        spec("word_emb.weight", &[cfg.vocab_size, e], Init::Normal),
         spec(
             "lstm.weight_ih_l0",
             &[4 * hl, cfg.lstm_input_size()],

@@ -4,7 +4,6 @@
 
 use image::{RgbImage, RgbaImage};
 
-use crate::env::mission::ObjDesc;
 use crate::env::view::ViewCell;
 use crate::env::world::{Action, World};
 use crate::episode::{EpisodeTrace, StepRecord};
@@ -38,8 +37,8 @@ pub struct StepScene {
 }
 
 impl StepScene {
-    /// Computes the scene of `step` of an episode whose target description is `desc`.
-    pub fn new(step: &StepRecord, desc: &ObjDesc, alpha: f64) -> Self {
+    /// Computes the scene of `step` of an episode, each word grounded on its own clause.
+    pub fn new(step: &StepRecord, alpha: f64) -> Self {
         let world = render_world(&step.world, TILE_PX, true);
         let view = render_view(&step.obs, TILE_PX);
         let (overlay, scale_max, grounding) = match &step.attention {
@@ -57,7 +56,7 @@ impl StepScene {
                     .map(|w| (w.word.as_str(), &w.map))
                     .collect();
                 let grounding =
-                    ground_step(&step.obs, desc, &words, &att.combined, alpha).evaluated;
+                    ground_step(&step.world, &step.obs, &words, &att.combined, alpha).evaluated;
                 (Some(overlay), scale_max, grounding)
             }
             None => (None, 1.0, Vec::new()),
@@ -131,7 +130,7 @@ pub fn episode_scenes(trace: &EpisodeTrace, alpha: f64) -> Vec<StepScene> {
     trace
         .steps
         .iter()
-        .map(|s| StepScene::new(s, &s.world.desc(), alpha))
+        .map(|s| StepScene::new(s, alpha))
         .collect()
 }
 

@@ -229,6 +229,7 @@ fn summary(seed: u64, success: bool) -> EpisodeSummary {
         length: 1,
         grounding: std::collections::BTreeMap::new(),
         failure: None,
+        actions: Vec::new(),
     }
 }
 

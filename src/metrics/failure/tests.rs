@@ -6,6 +6,7 @@ use crate::env::grid::Grid;
 use crate::env::level::LevelConfig;
 use crate::env::mission::{Instruction, ObjDesc, TaskKind};
 use crate::env::object::{Color, ObjectKind, WorldObj};
+use crate::env::view::VIEW_SIZE;
 use crate::episode::ActionMode;
 use crate::metrics::sweep::evaluate_cell;
 use crate::policy::{Net, bundled};
@@ -247,16 +248,22 @@ fn counts_hold_every_decidable_class_and_sum_to_the_failures() {
     .iter()
     .filter_map(Evidence::diagnose)
     .collect();
-    let counts = class_counts(&diags, true);
-    assert_eq!(counts.len(), FailureClass::ALL.len());
+    let counts = class_counts(&diags, true, false);
+    assert_eq!(
+        counts.len(),
+        FailureClass::ALL.len() - FailureClass::MECHANICS.len()
+    );
     assert_eq!(counts.values().sum::<u64>(), 3);
     assert_eq!(counts[&FailureClass::Grounding], 1);
     assert_eq!(counts[&FailureClass::Other], 0);
     let json = serde_json::to_string(&counts).unwrap();
     assert!(json.contains("\"target_never_visible\":0"), "{json}");
-    let baseline = class_counts(&[], false);
+    let baseline = class_counts(&[], false, false);
     assert!(!baseline.contains_key(&FailureClass::Grounding));
-    assert_eq!(baseline.len(), FailureClass::ALL.len() - 1);
+    assert_eq!(
+        baseline.len(),
+        FailureClass::ALL.len() - FailureClass::MECHANICS.len() - 1
+    );
 }
 
 #[test]
@@ -293,7 +300,7 @@ fn sweep_failures_are_classed_and_rerun_without_distractors() {
     let failed: Vec<_> = eps.iter().filter(|e| !e.success).collect();
     assert!(!failed.is_empty(), "the baseline fails some of these");
     assert!(eps.iter().all(|e| e.success == e.failure.is_none()));
-    let counts = class_counts(eps.iter().filter_map(|e| e.failure.as_ref()), false);
+    let counts = class_counts(eps.iter().filter_map(|e| e.failure.as_ref()), false, false);
     assert_eq!(counts.values().sum::<u64>(), failed.len() as u64);
     for e in failed.iter().take(2) {
         let spec = EpisodeSpec {

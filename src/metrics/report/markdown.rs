@@ -54,7 +54,16 @@ impl Report {
                 WordKind::Combined,
                 "Combined map M on the target objects (not in the paper)",
             ),
+            (WordKind::Door, "\"door\" maps (BabyAI's door levels)"),
+            (
+                WordKind::Location,
+                "Location-word maps (BabyAI's Loc levels)",
+            ),
         ] {
+            let has = |c: &super::Cell| c.accuracy.as_ref().and_then(|a| a.of(kind)).is_some();
+            if !self.cells.iter().any(has) && matches!(kind, WordKind::Door | WordKind::Location) {
+                continue;
+            }
             let _ = writeln!(s, "\n## {title}\n");
             let _ = writeln!(
                 s,
@@ -62,8 +71,9 @@ impl Report {
             );
             let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|");
             for c in &self.cells {
-                let Some(a) = &c.accuracy else { continue };
-                let g = a.of(kind);
+                let Some(g) = c.accuracy.as_ref().and_then(|a| a.of(kind)) else {
+                    continue;
+                };
                 let _ = writeln!(
                     s,
                     "| {} | {} | {} | {} | {} | {} | {} | {} | {} |",
@@ -118,17 +128,22 @@ impl Report {
     /// The failure-class table of `report.md`: one row per cell, `–` where a class cannot be
     /// decided (grounding for baselines).
     fn failure_table(&self, s: &mut String) {
+        s.push_str(&self.levels_markdown());
         let _ = writeln!(s, "\n## Failure classes\n");
+        // BabyAI's mechanics' classes only where some cell could have them.
+        let classes: Vec<FailureClass> = FailureClass::ALL
+            .into_iter()
+            .filter(|k| {
+                !FailureClass::MECHANICS.contains(k)
+                    || self.cells.iter().any(|c| c.failure_classes.contains_key(k))
+            })
+            .collect();
         let mut header = String::from("| checkpoint | size | objects | failed |");
-        for c in FailureClass::ALL {
+        for &c in &classes {
             let _ = write!(header, " {} |", c.name().replace('_', " "));
         }
         let _ = writeln!(s, "{header}");
-        let _ = writeln!(
-            s,
-            "|---|---|---|---|{}",
-            "---|".repeat(FailureClass::ALL.len())
-        );
+        let _ = writeln!(s, "|---|---|---|---|{}", "---|".repeat(classes.len()));
         for c in &self.cells {
             let _ = write!(
                 s,
@@ -138,8 +153,8 @@ impl Report {
                 c.objects,
                 c.failure_classes.values().sum::<u64>()
             );
-            for k in FailureClass::ALL {
-                match c.failure_classes.get(&k) {
+            for k in &classes {
+                match c.failure_classes.get(k) {
                     Some(n) => {
                         let _ = write!(s, " {n} |");
                     }

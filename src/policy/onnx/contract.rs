@@ -126,13 +126,13 @@ pub fn meta(props: &Props, fallback_name: &str) -> Result<Meta, PolicyError> {
     })
 }
 
-/// Words groundscope's missions use: every vocabulary word but padding, BabyAI's "object" and
-/// the location phrases of its `PickupLoc`, which these levels never generate.
+/// Words the paper's level's missions use: every word of its vocabulary but padding, BabyAI's
+/// "object" and the location phrases of its `PickupLoc`, which that level never generates.
 pub fn mission_words() -> impl Iterator<Item = (u32, &'static str)> {
     const NEVER: [&str; 10] = [
         "object", "in", "front", "of", "you", "behind", "on", "your", "left", "right",
     ];
-    VOCABULARY
+    VOCABULARY[..crate::env::vocab::PAPER_VOCAB_SIZE]
         .iter()
         .enumerate()
         .skip(1)
@@ -140,22 +140,30 @@ pub fn mission_words() -> impl Iterator<Item = (u32, &'static str)> {
         .map(|(i, w)| (i as u32, *w))
 }
 
-/// Our token id → the model's, for every word a mission can hold; a word the model's
-/// vocabulary lacks is named.
-pub fn token_map(vocabulary: &[String]) -> Result<Vec<Option<i64>>, PolicyError> {
-    let mut map = vec![None; VOCABULARY.len()];
-    for (ours, word) in mission_words() {
-        let theirs = vocabulary
+/// Our token id → the model's, for every word of our vocabulary the model's has (others
+/// `None`, named when a mission holds one). A graph trained on the paper's level
+/// (`paper_words`) must know every word those missions use, checked here, at load; a graph of a
+/// BabyAI level only the words its missions hold, checked at the first such mission.
+pub fn token_map(
+    vocabulary: &[String],
+    paper_words: bool,
+) -> Result<Vec<Option<i64>>, PolicyError> {
+    let theirs = |word: &str| {
+        vocabulary
             .iter()
             .position(|w| w.eq_ignore_ascii_case(word))
-            .ok_or_else(|| {
-                PolicyError::Input(format!(
-                    "metadata groundscope.vocabulary has no word \"{word}\", which missions use"
-                ))
-            })?;
-        map[ours as usize] = Some(theirs as i64);
+            .map(|i| i as i64)
+    };
+    if paper_words && let Some((_, word)) = mission_words().find(|(_, w)| theirs(w).is_none()) {
+        return Err(PolicyError::Input(format!(
+            "metadata groundscope.vocabulary has no word \"{word}\", which missions use"
+        )));
     }
-    Ok(map)
+    Ok(VOCABULARY
+        .iter()
+        .enumerate()
+        .map(|(i, w)| if i == 0 { None } else { theirs(w) })
+        .collect())
 }
 
 #[cfg(test)]
@@ -185,7 +193,7 @@ mod tests {
         assert_eq!(m.map_layout, MapLayout::Image);
         assert_eq!(m.name, "agent");
         assert_eq!(m.level, LevelConfig::default());
-        let map = token_map(&m.vocabulary).unwrap();
+        let map = token_map(&m.vocabulary, true).unwrap();
         assert_eq!(map[9], Some(9), "key keeps its id in our own vocabulary");
     }
 
@@ -213,7 +221,7 @@ mod tests {
             .filter(|w| **w != "key")
             .map(|w| (*w).to_owned())
             .collect();
-        let e = token_map(&no_key).unwrap_err().to_string();
+        let e = token_map(&no_key, true).unwrap_err().to_string();
         assert!(e.contains("no word \"key\""), "{e}");
     }
 }

@@ -131,10 +131,12 @@ impl OnnxAgent {
             .map_or_else(|| "onnx".into(), |s| s.to_string_lossy().into_owned());
         let meta = contract::meta(&props(path, &proto)?, &stem).map_err(|e| bad(path, e))?;
         // The message, not the error's own "invalid input:" prefix a second time.
-        let tokens = contract::token_map(&meta.vocabulary).map_err(|e| match e {
-            PolicyError::Input(m) => bad(path, m),
-            e => e,
-        })?;
+        let tokens = contract::token_map(&meta.vocabulary, meta.level.babyai.is_none()).map_err(
+            |e| match e {
+                PolicyError::Input(m) => bad(path, m),
+                e => e,
+            },
+        )?;
         let graph = proto
             .graph
             .as_ref()
@@ -330,7 +332,8 @@ impl OnnxAgent {
                         bad(
                             &self.path,
                             format!(
-                                "metadata groundscope.vocabulary has no word \"{}\"",
+                                "the mission word \"{}\" is not in the graph's vocabulary \
+                                 (metadata groundscope.vocabulary)",
                                 vocab::word(t).unwrap_or("?")
                             ),
                         )

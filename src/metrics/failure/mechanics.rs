@@ -1,0 +1,203 @@
+//! The evidence BabyAI's mechanics leave in an episode — rooms entered, doors opened, keys
+//! carried, objects acted on out of order, an object put down beside the wrong one — and the
+//! failure classes it decides ([`super::FailureClass`], rules 1–3 and 6–8 of the module's
+//! list). On a one-room level without doors, sequences or PutNext nothing here ever fires.
+
+use crate::env::grid::Pos;
+use crate::env::mission::TaskKind;
+use crate::env::object::{Color, DoorState, ObjectId, ObjectKind};
+use crate::env::roles::{future_clauses, pending_clauses};
+use crate::env::world::{Action, World};
+
+use super::{FailureClass, StepFacts};
+
+/// A room `(i, j)` of the level's room grid.
+type Room = (i32, i32);
+
+/// What an episode showed of doors, rooms, sequences and PutNext.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Mechanics {
+    /// Rooms the agent stood in (a doorway counts for both rooms it joins).
+    pub rooms_entered: Vec<Room>,
+    /// Doors seen open at some step.
+    pub doors_opened: Vec<ObjectId>,
+    /// Colours of the keys the agent carried.
+    pub keys_carried: Vec<Color>,
+    /// The agent picked up or opened an object of a clause the sequence had not reached.
+    pub wrong_order: bool,
+    /// The agent put the object to move down beside other objects, none of them one its
+    /// PutNext named.
+    pub wrong_neighbour: bool,
+    /// At the last step: the rooms holding the objects the verifier was waiting on.
+    pub target_rooms: Vec<Room>,
+    /// At the last step: those rooms' doors — id, colour, locked.
+    pub target_room_doors: Vec<(ObjectId, Color, bool)>,
+    /// At the last step: the doors of the Open clauses the verifier was waiting on.
+    pub open_targets: Vec<ObjectId>,
+}
+
+/// The rooms of `world` whose square (walls included) holds `pos`.
+fn rooms_at(world: &World, pos: Pos) -> impl Iterator<Item = Room> + '_ {
+    let r = world.rooms;
+    (0..r.num_cols)
+        .flat_map(move |i| (0..r.num_rows).map(move |j| (i, j)))
+        .filter(move |&room| r.pos_inside(room, pos))
+}
+
+fn add<T: PartialEq>(v: &mut Vec<T>, x: T) {
+    if !v.contains(&x) {
+        v.push(x);
+    }
+}
+
+impl Mechanics {
+    /// Adds one step.
+    pub fn push(&mut self, step: &StepFacts<'_>) {
+        let w = step.world;
+        let multi_room = w.rooms.num_cols * w.rooms.num_rows > 1;
+        if multi_room {
+            for room in rooms_at(w, w.agent_pos) {
+                add(&mut self.rooms_entered, room);
+            }
+            for (_, o) in w.grid.objects() {
+                if o.kind == ObjectKind::Door && o.state == DoorState::Open {
+                    add(&mut self.doors_opened, o.id);
+                }
+            }
+        }
+        if let Some(o) = w.carrying.filter(|o| o.kind == ObjectKind::Key) {
+            add(&mut self.keys_carried, o.color);
+        }
+        let clauses = w.instr.clauses();
+        let front = w.grid.get(w.front_pos());
+        if let (Some(o), Action::Pickup | Action::Toggle) = (front, step.action) {
+            self.wrong_order |= future_clauses(&w.instr).into_iter().any(|c| {
+                clauses.get(c).is_some_and(|n| {
+                    let acts = matches!(
+                        (n.instr.task, step.action),
+                        (TaskKind::Pickup | TaskKind::PutNext, Action::Pickup)
+                            | (TaskKind::Open, Action::Toggle)
+                    );
+                    acts && n.targets.obj_set.contains(&o.id)
+                })
+            });
+        }
+        if let (Some(m), Action::Drop, None) = (w.carrying, step.action, front) {
+            let (fx, fy) = w.front_pos();
+            let beside: Vec<ObjectId> = [(1, 0), (-1, 0), (0, 1), (0, -1)]
+                .into_iter()
+                .filter_map(|(dx, dy)| w.grid.get((fx + dx, fy + dy)))
+                .filter(|o| o.kind.can_pickup())
+                .map(|o| o.id)
+                .collect();
+            self.wrong_neighbour |= pending_clauses(&w.instr).into_iter().any(|c| {
+                clauses.get(c).is_some_and(|n| {
+                    n.instr.task == TaskKind::PutNext
+                        && n.targets.obj_set.contains(&m.id)
+                        && !beside.is_empty()
+                        && !beside.iter().any(|id| n.fixed_targets.obj_set.contains(id))
+                })
+            });
+        }
+        if step.terminated || step.truncated {
+            self.end(w, multi_room);
+        }
+    }
+
+    /// Notes what the verifier was waiting on at the last step.
+    fn end(&mut self, w: &World, multi_room: bool) {
+        // BabyAI's doors all join rooms: a one-room level has none.
+        if !multi_room {
+            return;
+        }
+        let clauses = w.instr.clauses();
+        let pending: Vec<_> = pending_clauses(&w.instr)
+            .into_iter()
+            .filter_map(|c| clauses.get(c).copied())
+            .collect();
+        self.open_targets = pending
+            .iter()
+            .filter(|n| n.instr.task == TaskKind::Open)
+            .flat_map(|n| n.targets.obj_set.iter().copied())
+            .collect();
+        let carried = w.carrying.map(|o| o.id);
+        let ids: Vec<ObjectId> = pending
+            .iter()
+            .flat_map(|n| {
+                let moving = n.instr.fixed.is_some()
+                    && carried.is_some_and(|id| n.targets.obj_set.contains(&id));
+                if moving {
+                    n.fixed_targets.obj_set.clone()
+                } else {
+                    n.targets.obj_set.clone()
+                }
+            })
+            .collect();
+        for (p, o) in w.grid.objects() {
+            // A door's own rooms are the two it joins, one of which the agent is in.
+            if ids.contains(&o.id) && o.kind != ObjectKind::Door {
+                for room in rooms_at(w, p) {
+                    add(&mut self.target_rooms, room);
+                }
+            }
+        }
+        for (p, o) in w.grid.objects() {
+            if o.kind == ObjectKind::Door && rooms_at(w, p).any(|r| self.target_rooms.contains(&r))
+            {
+                add(
+                    &mut self.target_room_doors,
+                    (o.id, o.color, o.state == DoorState::Locked),
+                );
+            }
+        }
+    }
+
+    /// Rules 1–3: the objects waited on lie only in rooms the agent never entered — behind a
+    /// locked door whose key it never carried, behind doors it never opened, or neither.
+    pub fn room_class(&self) -> Option<FailureClass> {
+        if self.target_rooms.is_empty()
+            || self
+                .target_rooms
+                .iter()
+                .any(|r| self.rooms_entered.contains(r))
+        {
+            return None;
+        }
+        let closed: Vec<_> = self
+            .target_room_doors
+            .iter()
+            .filter(|(id, ..)| !self.doors_opened.contains(id))
+            .collect();
+        let all_closed =
+            !self.target_room_doors.is_empty() && closed.len() == self.target_room_doors.len();
+        Some(if !all_closed {
+            FailureClass::TargetRoomNeverEntered
+        } else if closed
+            .iter()
+            .any(|(_, color, locked)| *locked && !self.keys_carried.contains(color))
+        {
+            FailureClass::LockedDoorNoKey
+        } else {
+            FailureClass::DoorNeverOpened
+        })
+    }
+
+    /// Rules 6–8: a clause acted on out of order, an object put beside the wrong one, or a
+    /// door to open that never was.
+    pub fn act_class(&self) -> Option<FailureClass> {
+        if self.wrong_order {
+            Some(FailureClass::WrongOrder)
+        } else if self.wrong_neighbour {
+            Some(FailureClass::WrongNeighbour)
+        } else if !self.open_targets.is_empty()
+            && self
+                .open_targets
+                .iter()
+                .all(|id| !self.doors_opened.contains(id))
+        {
+            Some(FailureClass::DoorNeverOpened)
+        } else {
+            None
+        }
+    }
+}

@@ -1,0 +1,243 @@
+//! Transparency on every BabyAI level: `eval --levels` and its `episodes.csv`; a PyTorch-
+//! trained agent's evaluation reproduced episode by episode against its own Python
+//! evaluation in minigrid; models trained on BabyAI levels; what a checkpoint of fewer words
+//! does with a new one.
+#![allow(clippy::unwrap_used, clippy::expect_used, reason = "tests fail loudly")]
+
+mod common;
+
+use common::{assert_bad_input, gs, onnx_fixture, stderr};
+
+/// The rows of an `episodes.csv`, as header name → value maps.
+fn rows(path: &std::path::Path) -> Vec<std::collections::BTreeMap<String, String>> {
+    let mut r = csv::Reader::from_path(path).unwrap();
+    let header = r.headers().unwrap().clone();
+    r.records()
+        .map(|rec| {
+            let rec = rec.unwrap();
+            header
+                .iter()
+                .zip(rec.iter())
+                .map(|(h, v)| (h.to_owned(), v.to_owned()))
+                .collect()
+        })
+        .collect()
+}
+
+/// The agent of `export/make_python_agent.sh`: rl-starter-files' ACModel trained in PyTorch
+/// on BabyAI-GoToRedBallGrey-v0, evaluated by groundscope and replayed by
+/// `export/eval_in_python.py` in minigrid 3.2.0 with onnxruntime. The same 500 episodes:
+/// missions, actions, success, steps and returns.
+#[test]
+fn a_python_trained_agent_gives_its_own_python_evaluation_episode_by_episode() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("report");
+    let graph = onnx_fixture("acmodel_gotoredballgrey.onnx");
+    let o = gs(&[
+        "eval",
+        "--checkpoint",
+        graph.to_str().unwrap(),
+        "--levels",
+        "BabyAI-GoToRedBallGrey-v0",
+        "--seeds",
+        "5",
+        "--episodes",
+        "100",
+        "--quiet",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let ours = rows(&out.join("episodes.csv"));
+    let python = rows(&onnx_fixture("acmodel_gotoredballgrey_python.csv"));
+    assert_eq!(ours.len(), 500);
+    assert_eq!(python.len(), ours.len());
+    for (a, b) in ours.iter().zip(&python) {
+        for col in [
+            "level",
+            "eval_seed",
+            "episode",
+            "level_seed",
+            "mission",
+            "success",
+            "steps",
+            "actions",
+        ] {
+            assert_eq!(a[col], b[col], "{col} of episode {a:?}");
+        }
+        let (ra, rb): (f64, f64) = (a["return"].parse().unwrap(), b["return"].parse().unwrap());
+        assert!((ra - rb).abs() < 1e-6, "return {ra} vs {rb}");
+    }
+    let wins = ours.iter().filter(|r| r["success"] == "1").count();
+    assert!(
+        wins > 400,
+        "the agent succeeds in most episodes: {wins} of 500"
+    );
+    // Failures carry a class; successes none.
+    assert!(
+        ours.iter()
+            .all(|r| (r["success"] == "1") == r["failure_class"].is_empty())
+    );
+    // The report names the level and the graph's own name.
+    let md = std::fs::read_to_string(out.join("report.md")).unwrap();
+    assert!(md.contains("## Per level"), "{md}");
+    assert!(md.contains("| BabyAI-GoToRedBallGrey-v0 |"), "{md}");
+    assert!(out.join("levels_success.png").exists());
+    assert!(
+        !out.join("fig6_success.png").exists(),
+        "no paper figure without a paper cell"
+    );
+}
+
+#[test]
+fn a_sweep_over_levels_reports_each_level_and_word_class() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("report");
+    let o = gs(&[
+        "eval",
+        "--checkpoint",
+        "bundled:attention",
+        "--levels",
+        "BabyAI-GoToLocal-v0,BabyAI-PickupLoc-v0",
+        "--seeds",
+        "2",
+        "--episodes",
+        "10",
+        "--quiet",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let eps = rows(&out.join("episodes.csv"));
+    assert_eq!(eps.len(), 2 * 2 * 10);
+    assert_eq!(
+        eps.iter()
+            .filter(|r| r["level"] == "BabyAI-PickupLoc-v0")
+            .count(),
+        20
+    );
+    for r in &eps {
+        let steps: usize = r["steps"].parse().unwrap();
+        assert_eq!(r["actions"].split(' ').count(), steps, "{r:?}");
+    }
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
+    let cells = report["cells"].as_array().unwrap();
+    assert_eq!(cells.len(), 2);
+    assert_eq!(cells[1]["level"], "BabyAI-PickupLoc-v0");
+    // PickupLoc's missions name locations: their words are scored, GoToLocal's have none.
+    assert!(
+        cells[1]["accuracy"]["location"]["evaluated_steps"]
+            .as_u64()
+            .unwrap()
+            > 0
+    );
+    assert!(cells[0]["accuracy"].get("location").is_none());
+    // The worst episodes replay on their own level.
+    let failures = std::fs::read_to_string(out.join("failures.json")).unwrap();
+    if failures.contains("\"failed\"") {
+        assert!(failures.contains("--level BabyAI-"), "{failures}");
+    }
+    // Twice the same level, or an unknown one, is refused before anything is written.
+    let bad = dir.path().join("bad");
+    for (levels, what) in [
+        ("BabyAI-GoToLocal-v0,BabyAI-GoToLocal-v0", "listed twice"),
+        ("BabyAI-GoToLocl-v0", "BabyAI-GoToLocal-v0"),
+    ] {
+        let o = gs(&[
+            "eval",
+            "--levels",
+            levels,
+            "--out",
+            bad.to_str().unwrap(),
+            "--quiet",
+        ]);
+        assert_bad_input(&o, what);
+        assert!(!bad.exists());
+    }
+}
+
+#[test]
+fn a_checkpoint_of_the_papers_words_refuses_a_new_word_by_name() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("report");
+    let o = gs(&[
+        "eval",
+        "--checkpoint",
+        "bundled:attention",
+        "--levels",
+        "BabyAI-GoToObjDoor-v0",
+        "--seeds",
+        "1",
+        "--episodes",
+        "5",
+        "--quiet",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_bad_input(&o, "\"door\"");
+    assert!(stderr(&o).contains("trained on"), "{}", stderr(&o));
+    assert!(!out.exists());
+}
+
+/// `train --level` on a multi-room level and on a door level: the model gets all of BabyAI's
+/// words, trains, and its own evaluation runs on its level.
+#[test]
+fn training_on_a_door_level_and_a_multi_room_level_works_end_to_end() {
+    for level in ["BabyAI-GoToObjDoor-v0", "BabyAI-GoToObjMazeS4-v0"] {
+        let dir = tempfile::tempdir().unwrap();
+        let run = dir.path().join("run");
+        let o = gs(&[
+            "train",
+            "--model",
+            "attention",
+            "--level",
+            level,
+            "--out",
+            run.to_str().unwrap(),
+            "--frames",
+            "256",
+            "--procs",
+            "4",
+            "--frames-per-proc",
+            "32",
+            "--batch-size",
+            "64",
+            "--hidden",
+            "16",
+            "--eval-interval",
+            "0",
+            "--quiet",
+        ]);
+        assert!(o.status.success(), "{level}: {}", stderr(&o));
+        let meta: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(run.join("model.json")).unwrap())
+                .unwrap();
+        assert_eq!(meta["level"]["babyai"], level);
+        assert_eq!(meta["model"]["vocab_size"], 33, "all of BabyAI's words");
+        assert!(
+            meta["vocabulary"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .any(|w| w == "door")
+        );
+        let report = dir.path().join("report");
+        let o = gs(&[
+            "eval",
+            "--checkpoint",
+            run.to_str().unwrap(),
+            "--seeds",
+            "1",
+            "--episodes",
+            "3",
+            "--quiet",
+            "--out",
+            report.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{level}: {}", stderr(&o));
+        let eps = rows(&report.join("episodes.csv"));
+        assert_eq!(eps.len(), 3);
+        assert!(eps.iter().all(|r| r["level"] == level), "its own level");
+    }
+}
