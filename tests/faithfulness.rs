@@ -123,6 +123,7 @@ fn occlusion_is_zero_where_nothing_is_replaced_and_annotation_is_deterministic()
         memory: &mem,
         obs: step.obs,
         desc: step.world.desc(),
+        targets: groundscope::metrics::grounding::pending_targets(&step.world, &step.obs),
         probs: &step.probs,
         action: step.action as usize,
         attention: step.attention.as_ref(),

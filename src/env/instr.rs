@@ -244,6 +244,19 @@ impl Instr {
         }
     }
 
+    /// The action clauses, in reading order, to edit (their matches are stale until the next
+    /// [`Self::reset`]).
+    pub fn clauses_mut(&mut self) -> Vec<&mut ActionNode> {
+        match self {
+            Self::Action(n) => vec![n],
+            Self::Seq(s) => {
+                let mut v = s.a.clauses_mut();
+                v.extend(s.b.clauses_mut());
+                v
+            }
+        }
+    }
+
     /// The first clause in reading order.
     pub fn first(&self) -> &ActionNode {
         match self {

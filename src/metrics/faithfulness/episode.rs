@@ -13,13 +13,15 @@ use super::measures::{argmax, flat};
 use super::step::{StepInput, StepResult, analyse, cell_index, steered};
 use crate::env::grid::Pos;
 use crate::env::level::{LevelConfig, all_reachable};
+use crate::env::mission::TaskKind;
 use crate::env::object::{Color, ObjectKind, WorldObj};
+use crate::env::roles::pending_clauses;
 use crate::env::view::Observation;
 use crate::env::vocab;
 use crate::env::world::{Action, World};
 use crate::episode::{ActionMode, choose, episode_rng};
 use crate::metrics::failure::{Relation, relation};
-use crate::metrics::grounding::{related_objects, target_objects};
+use crate::metrics::grounding::{pending_targets, related_objects};
 use crate::policy::obs::N_CELLS;
 use crate::policy::{ActOutput, Acting, Intervention, Memory, PolicyError};
 
@@ -40,11 +42,12 @@ pub const CLOSED_LOOP: [&str; 7] = [
 pub const INPUT_LOOPS: [&str; 2] = ["occlude_salient", "occlude_random"];
 
 /// Counterfactual edits of the initial world, in report order.
-pub const COUNTERFACTUALS: [&str; 4] = [
+pub const COUNTERFACTUALS: [&str; 5] = [
     "recolor_target",
     "move_target",
     "add_twin",
     "mission_color_to_distractor",
+    "swap_putnext",
 ];
 
 /// Which parts to compute.
@@ -155,7 +158,7 @@ pub fn intervention(
         }
         Loop::Steered => {
             let base = agent.act_one(*obs, world.agent_dir, tokens, None, memory, true, None)?;
-            let targets = target_objects(obs, world.desc());
+            let targets = pending_targets(world, obs);
             let objects = related_objects(obs, |_, _| true);
             base.traces
                 .as_ref()
@@ -185,6 +188,7 @@ pub fn word_position(world: &World, tokens: &[u32], color: bool) -> Option<usize
 /// Per-step state of the unperturbed rollout that the step analysis needs.
 struct Visit {
     memory: Memory,
+    targets: Vec<crate::env::view::ViewCell>,
     obs: Observation,
     direction: u8,
     out: ActOutput,
@@ -236,10 +240,8 @@ fn rollout(
         )?;
         let probs = out.probs.first().cloned().unwrap_or_default();
         let action = choose(&probs, mode, &mut rng);
-        let targets: Vec<usize> = target_objects(&obs, world.desc())
-            .into_iter()
-            .map(cell_index)
-            .collect();
+        let target_cells = pending_targets(&world, &obs);
+        let targets: Vec<usize> = target_cells.iter().copied().map(cell_index).collect();
         if !targets.is_empty() {
             r.target_visible_steps += 1;
             if argmax_m(&out).is_some_and(|j| targets.contains(&j)) {
@@ -255,6 +257,7 @@ fn rollout(
         if let Some(v) = visits.as_deref_mut() {
             v.push(Visit {
                 memory: memory.clone(),
+                targets: target_cells,
                 obs,
                 direction,
                 out,
@@ -313,17 +316,19 @@ fn free_cells(world: &World) -> Vec<Pos> {
         .collect()
 }
 
-/// A world like `world` with `grid` and the instruction's colour replaced, targets resolved
-/// again; `Err` with the reason when it is not a valid start.
+/// A world like `world` with `grid`, and clause `clause`'s description edited by `edit`,
+/// targets resolved again; `Err` with the reason when it is not a valid start.
 fn rebuilt(
     world: &World,
     grid: crate::env::grid::Grid,
-    color: Option<Color>,
+    clause: usize,
+    edit: impl FnOnce(&mut crate::env::mission::Instruction),
     next_id: u32,
 ) -> Result<World, String> {
-    // Counterfactuals edit the first clause's colour (the one-clause levels' instruction).
-    let mut instr = world.instr.first().instr.clone();
-    instr.desc.color = color;
+    let mut instr = world.instr.clone();
+    if let Some(n) = instr.clauses_mut().into_iter().nth(clause) {
+        edit(&mut n.instr);
+    }
     if !all_reachable(&grid, world.agent_pos) {
         return Err("the edit leaves an object unreachable".into());
     }
@@ -333,7 +338,7 @@ fn rebuilt(
         world.agent_pos,
         world.agent_dir,
         world.carrying,
-        instr.into(),
+        instr,
         world.max_steps,
         world.done_actions,
         next_id,
@@ -354,18 +359,45 @@ fn unused_colors(world: &World, kind: ObjectKind) -> Vec<Color> {
         .collect()
 }
 
-/// Applies counterfactual `name` to the initial `world`.
+/// Applies counterfactual `name` to the initial `world`, on the clause the verifier waits on
+/// first (the only clause on one-clause levels).
 fn counterfactual(name: &str, world: &World, rng: &mut Pcg64Mcg) -> Result<World, String> {
-    let Some(&target_pos) = world.target_positions().first() else {
+    let clause = pending_clauses(&world.instr)
+        .first()
+        .copied()
+        .ok_or("the verifier waits on no clause")?;
+    let clauses = world.instr.clauses();
+    let node = clauses.get(clause).ok_or("no such clause")?;
+    if name == "swap_putnext" {
+        // "put A next to B" becomes "put B next to A": the objects trade roles.
+        if node.instr.task != TaskKind::PutNext {
+            return Err("the clause is not PutNext".into());
+        }
+        return rebuilt(
+            world,
+            world.grid.clone(),
+            clause,
+            |i| {
+                if let Some(f) = i.fixed.replace(i.desc) {
+                    i.desc = f;
+                }
+            },
+            world.next_id,
+        );
+    }
+    let Some(&target_pos) = node.targets.obj_poss.first() else {
         return Err("the mission names no object".into());
     };
     let Some(target) = world.grid.get(target_pos) else {
         return Err("the target is not on the grid".into());
     };
-    let desc = world.desc();
+    let desc = node.instr.desc;
+    let door = target.kind == ObjectKind::Door;
     let pick = |v: &[Pos], rng: &mut Pcg64Mcg| -> Option<Pos> {
         (!v.is_empty()).then(|| v[rng.random_range(0..v.len())])
     };
+    let set_color =
+        |c: Option<Color>| move |i: &mut crate::env::mission::Instruction| i.desc.color = c;
     let mut grid = world.grid.clone();
     match name {
         "recolor_target" => {
@@ -375,20 +407,32 @@ fn counterfactual(name: &str, world: &World, rng: &mut Pcg64Mcg) -> Result<World
                 return Err("every colour is taken by an object of the target's type".into());
             };
             grid.set(target_pos, Some(WorldObj { color: c, ..target }));
-            rebuilt(world, grid, desc.color.map(|_| c), world.next_id)
+            rebuilt(
+                world,
+                grid,
+                clause,
+                set_color(desc.color.map(|_| c)),
+                world.next_id,
+            )
         }
         "move_target" => {
+            if door {
+                return Err("the target is a door, which stays in its wall".into());
+            }
             let cells = free_cells(world);
             let Some(to) = pick(&cells, rng) else {
                 return Err("no free cell".into());
             };
             grid.set(target_pos, None);
             grid.set(to, Some(target));
-            rebuilt(world, grid, desc.color, world.next_id)
+            rebuilt(world, grid, clause, |_| {}, world.next_id)
         }
         "add_twin" => {
             if desc.color.is_none() {
                 return Err("the mission names no colour, so a twin would be a target".into());
+            }
+            if door {
+                return Err("the target is a door; a twin door needs a wall".into());
             }
             let colors = unused_colors(world, target.kind);
             let Some(&c) = colors.first() else {
@@ -398,7 +442,7 @@ fn counterfactual(name: &str, world: &World, rng: &mut Pcg64Mcg) -> Result<World
                 return Err("no free cell".into());
             };
             grid.set(at, Some(WorldObj::new(target.kind, c, world.next_id)));
-            rebuilt(world, grid, desc.color, world.next_id + 1)
+            rebuilt(world, grid, clause, |_| {}, world.next_id + 1)
         }
         _ => {
             // "mission_color_to_distractor": name another object of the target's type.
@@ -411,7 +455,7 @@ fn counterfactual(name: &str, world: &World, rng: &mut Pcg64Mcg) -> Result<World
             let Some(&c) = others.first() else {
                 return Err("no object of the target's type in another colour".into());
             };
-            rebuilt(world, grid, Some(c), world.next_id)
+            rebuilt(world, grid, clause, set_color(Some(c)), world.next_id)
         }
     }
 }
@@ -451,6 +495,7 @@ pub fn analyse_episode(
                 memory: &v.memory,
                 obs: v.obs,
                 desc: world.desc(),
+                targets: v.targets.clone(),
                 probs: &probs,
                 action: v.action,
                 attention: v.out.traces.as_ref().and_then(|t| t.first()),
@@ -551,11 +596,68 @@ mod tests {
                 }
             }
         }
-        for name in COUNTERFACTUALS {
+        for name in COUNTERFACTUALS.iter().filter(|n| **n != "swap_putnext") {
             assert!(
                 made.get(name).copied().unwrap_or(0) >= 5,
                 "{name}: {made:?}"
             );
         }
+        assert_eq!(
+            made.get("swap_putnext"),
+            None,
+            "no PutNext on the paper's level"
+        );
+    }
+
+    #[test]
+    fn counterfactuals_edit_the_clause_waited_on_on_babyai_levels() {
+        use crate::env::level::LevelId;
+        let level = |id| LevelConfig {
+            babyai: Some(LevelId::parse(id).unwrap()),
+            ..LevelConfig::default()
+        };
+        let mut made = BTreeMap::<(&str, &str), usize>::new();
+        for id in [
+            "BabyAI-PutNextLocal-v0",
+            "BabyAI-GoToObjDoor-v0",
+            "BabyAI-SynthSeq-v0",
+        ] {
+            for seed in 0..20 {
+                let world = level(id).generate(seed).unwrap();
+                let mut rng = Pcg64Mcg::seed_from_u64(seed);
+                for name in COUNTERFACTUALS {
+                    let Ok(edited) = counterfactual(name, &world, &mut rng) else {
+                        continue;
+                    };
+                    *made.entry((id, name)).or_default() += 1;
+                    edited.validate().unwrap();
+                    // Every other clause is untouched.
+                    let (a, b) = (world.instr.clauses(), edited.instr.clauses());
+                    assert_eq!(a.len(), b.len());
+                    let c = pending_clauses(&world.instr)[0];
+                    for (i, (x, y)) in a.iter().zip(&b).enumerate() {
+                        if i != c {
+                            assert_eq!(x.instr, y.instr, "{id} {seed} {name}");
+                        }
+                    }
+                    if name == "swap_putnext" {
+                        assert_eq!(b[c].instr.desc, a[c].instr.fixed.unwrap());
+                        assert_eq!(b[c].instr.fixed, Some(a[c].instr.desc));
+                    }
+                }
+            }
+        }
+        assert!(
+            made.get(&("BabyAI-PutNextLocal-v0", "swap_putnext")) >= Some(&15),
+            "{made:?}"
+        );
+        assert!(
+            made.get(&("BabyAI-SynthSeq-v0", "recolor_target")) >= Some(&5),
+            "{made:?}"
+        );
+        assert!(
+            made.get(&("BabyAI-GoToObjDoor-v0", "recolor_target")) >= Some(&5),
+            "{made:?}"
+        );
     }
 }

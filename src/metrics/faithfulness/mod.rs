@@ -148,6 +148,7 @@ fn step_faithfulness(
         memory,
         obs: s.obs,
         desc: s.world.desc(),
+        targets: crate::metrics::grounding::pending_targets(&s.world, &s.obs),
         probs: &s.probs,
         action: s.action as usize,
         attention: s.attention.as_ref(),

@@ -15,7 +15,7 @@ use super::measures::{
 };
 use crate::env::mission::ObjDesc;
 use crate::env::view::{AGENT_IN_VIEW, Observation, VIEW_SIZE, ViewCell};
-use crate::metrics::grounding::{WordKind, related_objects, target_objects};
+use crate::metrics::grounding::{WordKind, related_objects};
 use crate::policy::obs::N_CELLS;
 use crate::policy::{Acting, AttentionTrace, Intervention, Memory, PolicyError};
 
@@ -53,8 +53,11 @@ pub struct StepInput<'a> {
     pub memory: &'a Memory,
     /// The observation.
     pub obs: Observation,
-    /// The instruction's description (which objects are targets).
+    /// The first clause's description (which objects the type and colour words name).
     pub desc: ObjDesc,
+    /// `M`'s targets in view: the objects the clauses the verifier waits on matched
+    /// ([`crate::metrics::grounding::pending_targets`]).
+    pub targets: Vec<ViewCell>,
     /// Unperturbed action probabilities.
     pub probs: &'a [f32],
     /// The action taken.
@@ -321,7 +324,7 @@ fn mean_of(curves: &[Vec<f64>]) -> Vec<f64> {
 /// chance control and the random deletion orders.
 pub fn analyse(input: &StepInput<'_>, rng: &mut Pcg64Mcg) -> Result<StepResult, PolicyError> {
     let objects = related_objects(&input.obs, |_, _| true);
-    let targets = target_objects(&input.obs, input.desc);
+    let targets = input.targets.clone();
     let delta = occlusion(input)?;
     let mut r = StepResult {
         random_pick: (objects.len() >= 2).then(|| 1.0 / objects.len() as f64),
@@ -418,18 +421,19 @@ pub fn analyse(input: &StepInput<'_>, rng: &mut Pcg64Mcg) -> Result<StepResult, 
         }
     }
     if let Some(att) = input.attention {
-        r.localisation = localise(&input.obs, &input.desc, att);
+        r.localisation = localise(&input.obs, &input.desc, &input.targets, att);
     }
     r.occlusion = delta;
     Ok(r)
 }
 
 /// Localisation of the type word's map (on objects of that type), the colour word's map (on
-/// objects of that colour) and `M` (on the targets): the word evaluated is the first one
-/// spelled like the description's type or colour, as in the grounding accuracies.
+/// objects of that colour) and `M` (on `targets`): the words evaluated are the first ones
+/// spelled like the first clause's type or colour.
 pub fn localise(
     obs: &Observation,
     desc: &ObjDesc,
+    targets: &[ViewCell],
     att: &AttentionTrace,
 ) -> BTreeMap<WordKind, Localisation> {
     let cells = |v: Vec<ViewCell>| -> Vec<usize> { v.into_iter().map(cell_index).collect() };
@@ -453,7 +457,7 @@ pub fn localise(
     {
         out.insert(WordKind::Color, l);
     }
-    if let Some(l) = localisation(&flat(&att.combined), &cells(target_objects(obs, *desc))) {
+    if let Some(l) = localisation(&flat(&att.combined), &cells(targets.to_vec())) {
         out.insert(WordKind::Combined, l);
     }
     out
