@@ -21,9 +21,10 @@ logits, the value and the new memory — and one defect per file:
                             the sum of the memory, computed at run time (no initializer holds
                             the NaN, nothing to fold)
 ``bad_expand_bomb.onnx``    an allocation bomb: the view's mean ``Expand``\ ed to
-                            (B, 8, 1 000 000 000) (32 GB a row), reduced and added × 0
+                            (B, 8, 1 000 000 000) (32 GB a row; the shape made from the
+                            input's batch size at run time), its sine summed and added × 1e-30
 ``bad_constant_bomb.onnx``  an allocation bomb: ``ConstantOfShape [200000, 200000]`` (160 GB),
-                            summed and added × 0
+                            summed and added × 1e-30
 ``bad_negative_maps.onnx``  ``word_maps`` (B, L, 7, 7) whose every value is negative: a
                             softmax over the view, negated
 ``bad_opset.onnx``          opset 21 (newer than the runtime supports), logits by ``Gemm``
@@ -118,18 +119,27 @@ def tiny(
                          ["view_raw" if expand_bomb or constant_bomb else "view1"]),
     ]
     if expand_bomb or constant_bomb:
-        # The bomb's sum × 0 is added to the view, so that it is on the outputs' path.
-        inits.append(numpy_helper.from_array(np.array(0.0, dtype=np.float32), "zero_bomb"))
+        # The bomb's sum × 1e-30 is added to the view: on the outputs' path, not foldable.
+        inits.append(numpy_helper.from_array(np.array(1e-30, dtype=np.float32), "zero_bomb"))
         if expand_bomb:
+            # The target shape (B, 8, 1e9) is built from the input's own batch size, as
+            # PyTorch exports `x.expand(B, 8, 10**9)`: it is no constant that could be read
+            # from the file; only the shapes groundscope's runtime infers show it.
             inits += [
                 numpy_helper.from_array(np.array([2], dtype=np.int64), "axis2"),
-                numpy_helper.from_array(np.array([1, 8, 1_000_000_000], dtype=np.int64),
-                                        "bomb_shape"),
+                numpy_helper.from_array(np.array([0], dtype=np.int64), "start0"),
+                numpy_helper.from_array(np.array([8, 1_000_000_000], dtype=np.int64),
+                                        "bomb_tail"),
             ]
             nodes += [
                 helper.make_node("Unsqueeze", ["view_raw", "axis2"], ["view3"]),
+                helper.make_node("Shape", ["view3"], ["view3_shape"]),
+                helper.make_node("Slice", ["view3_shape", "start0", "axis1"], ["bomb_batch"]),
+                helper.make_node("Concat", ["bomb_batch", "bomb_tail"], ["bomb_shape"], axis=0),
                 helper.make_node("Expand", ["view3", "bomb_shape"], ["bomb"], name="expand_bomb"),
-                helper.make_node("ReduceSum", ["bomb", "axis1"], ["bomb_sum3"], keepdims=0),
+                # An element-wise op between: nothing a runtime could fold into the reduction.
+                helper.make_node("Sin", ["bomb"], ["bomb_sin"]),
+                helper.make_node("ReduceSum", ["bomb_sin", "axis1"], ["bomb_sum3"], keepdims=0),
                 reduce_mean("bomb_sum3", "bomb_sum", [1], 1),
             ]
         else:

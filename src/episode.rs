@@ -197,6 +197,18 @@ fn check_finite(
     )))
 }
 
+/// A step's refusal (an imported graph's NaN or negative map) with the step named, as
+/// [`check_finite`] names it.
+fn at_step(e: PolicyError, t: usize, spec: &EpisodeSpec) -> PolicyError {
+    match e {
+        PolicyError::Input(m) => PolicyError::Input(format!(
+            "{m}, at step {t} of {} seed {}",
+            spec.level, spec.seed
+        )),
+        other => other,
+    }
+}
+
 /// The world an episode spec starts from.
 pub fn initial_world(spec: &EpisodeSpec) -> Result<World, PolicyError> {
     let mut world = spec.level.generate(spec.seed)?;
@@ -338,15 +350,17 @@ fn run_loop<P: Acting + ?Sized>(
             Some(f) => f(&world, &obs, &tokens, &memory)?,
             None => None,
         };
-        let out = net.act_one(
-            obs,
-            world.agent_dir,
-            &tokens,
-            mission.as_ref(),
-            &memory,
-            true,
-            iv.as_ref(),
-        )?;
+        let out = net
+            .act_one(
+                obs,
+                world.agent_dir,
+                &tokens,
+                mission.as_ref(),
+                &memory,
+                true,
+                iv.as_ref(),
+            )
+            .map_err(|e| at_step(e, steps.len(), spec))?;
         memory = out.memory;
         let probs_v = out.probs.into_iter().next().unwrap_or_default();
         let mut probs = [0.0; Action::COUNT];

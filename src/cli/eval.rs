@@ -16,6 +16,7 @@ use groundscope::metrics::sweep::{EpisodeSummary, EvalOptions, evaluate_cell_exp
 use groundscope::policy::Agent;
 
 use super::flags::SweepArgs;
+use super::stop::Stop;
 use crate::ExitStatus;
 
 /// `groundscope eval`.
@@ -89,6 +90,7 @@ fn check(args: &EvalArgs) -> anyhow::Result<()> {
 /// Runs `eval`.
 pub fn run(args: &EvalArgs) -> anyhow::Result<ExitStatus> {
     check(args)?;
+    let stop = Stop::install();
     let specs = if args.checkpoint.is_empty() {
         groundscope::policy::bundled::names()
     } else {
@@ -124,15 +126,26 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitStatus> {
     // Largest rooms first: they take longest, so the workers finish together.
     let mut order: Vec<usize> = (0..cells.len()).collect();
     order.sort_by_key(|&i| std::cmp::Reverse((cells[i].2.room_size, cells[i].2.n_objects)));
-    let results = run_cells(&cells, &order, jobs, args, mode, &bar);
+    let results = run_cells(&cells, &order, jobs, args, mode, &bar, &stop);
+    if stop.requested() {
+        bar.finish_and_clear();
+        Stop::report(&args.out);
+        return Ok(ExitStatus::Interrupted);
+    }
+    let mut results: Vec<_> = results
+        .into_iter()
+        .map(|slot| slot.into_inner().ok().flatten())
+        .collect();
+    // The error is the answer, not a cell its worker left unrun.
+    if let Some(i) = results.iter().position(|r| matches!(r, Some(Err(_))))
+        && let Some(Err(e)) = results.swap_remove(i)
+    {
+        return Err(e);
+    }
     let mut report_cells = Vec::new();
     let mut all_eps = Vec::new();
     for ((name, ckpt, level), slot) in cells.iter().zip(results) {
-        let explored = slot
-            .into_inner()
-            .ok()
-            .flatten()
-            .unwrap_or_else(|| Err(anyhow::anyhow!("evaluation stopped early")))?;
+        let explored = slot.unwrap_or_else(|| Err(anyhow::anyhow!("evaluation stopped early")))?;
         let (cell, eps) = cell_from_episodes(
             name,
             ckpt.acting().variant(),
@@ -172,7 +185,12 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitStatus> {
             "groundscope replay --checkpoint {ckpt} --room-size {size} --objects {objects} --seed {seed}{sample}"
         )
     });
-    add_counterfactuals(&mut failures, &ckpts, mode)?;
+    let counterfactuals = add_counterfactuals(&mut failures, &ckpts, mode, &stop);
+    if stop.requested() {
+        Stop::report(&args.out);
+        return Ok(ExitStatus::Interrupted);
+    }
+    counterfactuals?;
     report.write(&args.out, &failures)?;
     let failures_dir = args.out.join("failures");
     if args.export_failures {
@@ -182,7 +200,19 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitStatus> {
             .prefix(".groundscope-failures-")
             .tempdir_in(&args.out)
             .with_context(|| format!("cannot create a directory in {}", args.out.display()))?;
-        let n = export_failures(&failures, &ckpts, staging.path(), mode, args.alpha)?;
+        let n = export_failures(&failures, &ckpts, staging.path(), mode, args.alpha, &stop);
+        if stop.requested() {
+            // The report is in place; recordings of an earlier run beside it would not
+            // match it.
+            drop(staging);
+            remove_old_failures(&failures_dir)?;
+            eprintln!(
+                "groundscope: interrupted while recording failures: {} holds this run's report and no failures/ recordings",
+                args.out.display()
+            );
+            return Ok(ExitStatus::Interrupted);
+        }
+        let n = n?;
         remove_old_failures(&failures_dir)?;
         std::fs::rename(staging.keep(), &failures_dir)
             .with_context(|| format!("cannot move recordings to {}", failures_dir.display()))?;
@@ -248,6 +278,7 @@ fn run_cells(
     args: &EvalArgs,
     mode: ActionMode,
     bar: &indicatif::ProgressBar,
+    stop: &Stop,
 ) -> CellResults {
     let next = AtomicUsize::new(0);
     let progress = AtomicU64::new(0);
@@ -259,26 +290,38 @@ fn run_cells(
                     let k = next.fetch_add(1, Ordering::Relaxed);
                     let Some(&i) = order.get(k) else { break };
                     let (name, ckpt, level) = &cells[i];
-                    let net = ckpt.acting();
+                    let net = stop.guard(ckpt.acting());
                     bar.set_message(format!("{name} S{} N{}", level.room_size, level.n_objects));
                     let mut last = 0u64;
-                    let r = evaluate_cell_explored(
-                        net,
-                        level,
-                        args.sweep.seed_range(),
-                        args.sweep.episodes,
-                        &EvalOptions {
-                            alpha: args.alpha,
-                            mode,
-                            saliency: args.saliency,
-                        },
-                        &mut |n| {
-                            let d = n.saturating_sub(last);
-                            last = n;
-                            bar.set_position(progress.fetch_add(d, Ordering::Relaxed) + d);
-                        },
-                    )
-                    .map_err(anyhow::Error::from);
+                    // A panic is this cell's error, not a scope that panics after waiting
+                    // for every other worker.
+                    let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                        evaluate_cell_explored(
+                            &net,
+                            level,
+                            args.sweep.seed_range(),
+                            args.sweep.episodes,
+                            &EvalOptions {
+                                alpha: args.alpha,
+                                mode,
+                                saliency: args.saliency,
+                            },
+                            &mut |n| {
+                                let d = n.saturating_sub(last);
+                                last = n;
+                                bar.set_position(progress.fetch_add(d, Ordering::Relaxed) + d);
+                            },
+                        )
+                    }))
+                    .map_err(|p| {
+                        anyhow::anyhow!(
+                            "{name} S{} N{}: {}",
+                            level.room_size,
+                            level.n_objects,
+                            super::stop::panic_message(p.as_ref())
+                        )
+                    })
+                    .and_then(|r| r.map_err(anyhow::Error::from));
                     if r.is_err() {
                         // Stop the other workers early; the error is reported below.
                         next.store(order.len(), Ordering::Relaxed);
@@ -299,6 +342,7 @@ fn add_counterfactuals(
     failures: &mut [groundscope::metrics::report::Failure],
     ckpts: &[(String, Agent)],
     mode: ActionMode,
+    stop: &Stop,
 ) -> anyhow::Result<()> {
     for f in failures.iter_mut().filter(|f| f.class.is_some()) {
         let Some((name, ckpt)) = ckpts.iter().find(|(n, _)| *n == f.checkpoint) else {
@@ -314,7 +358,7 @@ fn add_counterfactuals(
             mode,
         };
         f.counterfactual = Some(
-            counterfactual(ckpt.acting(), name, &spec)
+            counterfactual(&stop.guard(ckpt.acting()), name, &spec)
                 .with_context(|| format!("counterfactual of {name} seed {}", f.seed))?,
         );
     }
@@ -348,6 +392,7 @@ fn export_failures(
     dir: &std::path::Path,
     mode: ActionMode,
     alpha: f64,
+    stop: &Stop,
 ) -> anyhow::Result<usize> {
     use groundscope::record::{RerunTargets, record_rerun};
     let mut recorded = 0;
@@ -365,7 +410,7 @@ fn export_failures(
             mode,
         };
         let trace = groundscope::episode::run_from(
-            ckpt.acting(),
+            &stop.guard(ckpt.acting()),
             name,
             &spec,
             groundscope::episode::initial_world(&spec)?,

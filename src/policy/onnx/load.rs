@@ -7,6 +7,7 @@ use std::sync::Arc;
 use tract_onnx::pb;
 use tract_onnx::prelude::*;
 
+use super::bounds::Bounds;
 use super::contract::{
     Meta, ONNX_FLOAT, ONNX_INT64, OPTIONAL_INPUTS, OPTIONAL_OUTPUTS, Props, REQUIRED_INPUTS,
     REQUIRED_OUTPUTS,
@@ -314,8 +315,14 @@ pub(super) fn build(
     given: Inputs,
     meta: &Meta,
     optional: [bool; 3],
-) -> Result<(Arc<TypedRunnableModel>, Option<MissionCache>), PolicyError> {
-    let fail = |e: anyhow::Error| bad(path, format!("tract: {}", one_line(&e)));
+) -> Result<Built, PolicyError> {
+    let fail = |e: anyhow::Error| {
+        let text = one_line(&e);
+        bad(
+            path,
+            fixed_dimension(&text).unwrap_or(format!("tract: {text}")),
+        )
+    };
     let mut model = onnx.model_for_proto_model(proto).map_err(fail)?;
     let mut inputs = vec!["image", "mission", "memory"];
     if given.direction {
@@ -358,17 +365,70 @@ pub(super) fn build(
             .map(|(n, _)| *n),
     );
     model.select_outputs_by_name(&outputs).map_err(fail)?;
-    let typed = model
-        .into_typed()
-        .and_then(TypedModel::into_decluttered)
-        .map_err(fail)?;
+    let typed = model.into_typed().map_err(fail)?;
+    // Before tract optimises (and runs constant parts of) the graph: the sizes as written.
+    let bounds = Bounds::new(&typed, &b, &l);
+    bounds.check(path, 1, 1)?;
+    let typed = typed.into_decluttered().map_err(fail)?;
     let runnable = |m: TypedModel| m.into_optimized().and_then(IntoRunnable::into_runnable);
     // The mission (input 1) is cut off when it can be; a cut that tract cannot optimise
     // falls back to the whole graph, which is what every contract check above was made on.
     if let Ok(Some(parts)) = super::mission_cache::cut(&typed, 1, &b)
         && let (Ok(step), Ok(encoder)) = (runnable(parts.step), runnable(parts.encoder))
     {
-        return Ok((step, Some(MissionCache::new(encoder, parts.axes))));
+        return Ok(Built {
+            plan: step,
+            missions: Some(MissionCache::new(encoder, parts.axes)),
+            bounds,
+        });
     }
-    Ok((runnable(typed).map_err(fail)?, None))
+    Ok(Built {
+        plan: runnable(typed).map_err(fail)?,
+        missions: None,
+        bounds,
+    })
+}
+
+/// What [`build`] makes of a graph.
+pub(super) struct Built {
+    /// The optimised plan (the step graph when the mission encoder was cut off).
+    pub(super) plan: Arc<TypedRunnableModel>,
+    /// The mission encoder cut from the graph, when it could be cut.
+    pub(super) missions: Option<MissionCache>,
+    /// The sizes of every tensor the graph computes.
+    pub(super) bounds: Bounds,
+}
+
+/// A shape error of tract's that comes from a batch size or mission length fixed inside the
+/// graph (a reshape to a constant shape, as a trace at one batch size leaves behind), said
+/// as such: the node, the cause and what to do (docs/onnx.md#dynamic-sizes).
+pub(super) fn fixed_dimension(tract: &str) -> Option<String> {
+    let (what, axis) = if tract.contains("Sym(B)") {
+        ("batch dimension", "axis 0 of every input and output")
+    } else if tract.contains("Sym(L)") {
+        (
+            "mission length",
+            "axis 1 of mission (and of word_maps, word_weights)",
+        )
+    } else {
+        return None;
+    };
+    if !(tract.contains("unify") || tract.contains("mismatch")) {
+        return None;
+    }
+    // tract names the node as `node #12 "name" Op`.
+    let node = tract
+        .split_once("for node #")
+        .map_or_else(String::new, |(_, rest)| {
+            let rest = rest.split_once(' ').map_or("", |(_, r)| r);
+            let mut parts = rest.splitn(3, ' ');
+            let name = parts.next().unwrap_or("");
+            let op = parts.next().unwrap_or("").trim_end_matches(':');
+            format!(" at node {name} ({op})")
+        });
+    Some(format!(
+        "the {what} is fixed inside the graph{node}, but groundscope runs any size; export it \
+         dynamic ({axis}: dynamic_axes in torch.onnx.export) and reshape with -1 or 0 for it, \
+         not a number (docs/onnx.md#dynamic-sizes; tract: {tract})"
+    ))
 }
