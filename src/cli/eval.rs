@@ -174,6 +174,7 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitStatus> {
                 variant: c.acting().variant().name().into(),
                 frames: c.frames(),
                 level: c.level(),
+                model_name: c.acting().model_name(),
             })
             .collect(),
         cells: report_cells,

@@ -145,6 +145,14 @@ impl Acting for Stoppable<'_> {
     fn takes_interventions(&self) -> bool {
         self.agent.takes_interventions()
     }
+
+    fn model_name(&self) -> Option<String> {
+        self.agent.model_name()
+    }
+
+    fn input_token_ids(&self, tokens: &[u32]) -> Option<Vec<i64>> {
+        self.agent.input_token_ids(tokens)
+    }
 }
 
 #[cfg(test)]

@@ -139,24 +139,40 @@ pub(super) fn check_inputs(
         .filter(|v| !init.contains(v.name.as_str()))
         .collect();
     let find = |name: &str| inputs.iter().find(|v| v.name == name);
+    let stray: Vec<String> = inputs
+        .iter()
+        .filter(|v| {
+            !REQUIRED_INPUTS.contains(&v.name.as_str())
+                && !OPTIONAL_INPUTS.contains(&v.name.as_str())
+        })
+        .map(|v| format!("\"{}\"", v.name))
+        .collect();
+    // A misnamed input shows up twice: as a stray name and as a contract input missing; one
+    // line says both, with every name the contract knows.
+    let contract = format!(
+        "the contract's inputs: {}; optionally direction, and combined_override with override_weight; docs/onnx.md#inputs",
+        REQUIRED_INPUTS.join(", ")
+    );
+    let stray_text = match stray.len() {
+        0 => String::new(),
+        1 => format!("; its input {} is not in the contract", stray[0]),
+        _ => format!("; its inputs {} are not in the contract", stray.join(", ")),
+    };
     for name in REQUIRED_INPUTS {
         if find(name).is_none() {
             return Err(bad(
                 path,
-                format!(
-                    "the graph has no input \"{name}\" (the contract's inputs: image, mission, memory and optionally direction)"
-                ),
+                format!("the graph has no input \"{name}\"{stray_text} ({contract})"),
             ));
         }
     }
-    if let Some(extra) = inputs.iter().find(|v| {
-        !REQUIRED_INPUTS.contains(&v.name.as_str()) && !OPTIONAL_INPUTS.contains(&v.name.as_str())
-    }) {
+    if !stray.is_empty() {
         return Err(bad(
             path,
-            format!("input \"{}\" is not in the contract", extra.name),
+            format!("{} ({contract})", stray_text.trim_start_matches("; its ")),
         ));
     }
+    warn_fixed_sizes(path, &inputs);
     let m = memory_size as i64;
     let mut image_int = false;
     for v in &inputs {
@@ -217,6 +233,34 @@ pub(super) fn check_inputs(
         direction: find("direction").is_some(),
         overrides,
     })
+}
+
+/// Warns about inputs that declare a fixed batch size (axis 0) or mission length (axis 1 of
+/// `mission`): groundscope feeds any size, and tract runs such a graph as if the sizes were
+/// dynamic, but onnxruntime and other runtimes refuse every other size: the export is likely
+/// to be wrong elsewhere too (a reshape to the traced batch size, docs/onnx.md#dynamic-sizes).
+fn warn_fixed_sizes(path: &Path, inputs: &[&pb::ValueInfoProto]) {
+    let mut fixed = Vec::new();
+    for v in inputs {
+        let (_, Some(dims)) = declared(v) else {
+            continue;
+        };
+        if let Some(Some(n)) = dims.first() {
+            fixed.push(format!("{} batch {n}", v.name));
+        }
+        if v.name == "mission"
+            && let Some(Some(n)) = dims.get(1)
+        {
+            fixed.push(format!("mission length {n}"));
+        }
+    }
+    if !fixed.is_empty() {
+        eprintln!(
+            "groundscope: warning: {}: inputs declare fixed sizes ({}); groundscope runs any batch size and mission length, which onnxruntime would refuse: export them dynamic (docs/onnx.md#dynamic-sizes)",
+            path.display(),
+            fixed.join(", ")
+        );
+    }
 }
 
 /// Checks a declared shape's rank and static sizes, where the graph declares them.

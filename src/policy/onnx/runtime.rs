@@ -191,6 +191,30 @@ impl OnnxAgent {
         })
     }
 
+    /// How the graph is shown: its metadata name and its file, `NAME (file.onnx)`; the file
+    /// alone when the metadata names none (the name is then the file's stem).
+    pub fn display_name(&self) -> String {
+        let file = self.path.file_name().map_or_else(
+            || self.path.display().to_string(),
+            |f| f.to_string_lossy().into_owned(),
+        );
+        let stem = self.path.file_stem().map(|s| s.to_string_lossy());
+        if stem.as_deref() == Some(self.meta.name.as_str()) {
+            file
+        } else {
+            format!("{} ({file})", self.meta.name)
+        }
+    }
+
+    /// The ids the graph receives for a mission of groundscope's token ids (its
+    /// `groundscope.vocabulary`'s numbering; −1 for a word it lacks, which no step can run).
+    pub fn graph_ids(&self, tokens: &[u32]) -> Vec<i64> {
+        tokens
+            .iter()
+            .map(|&t| self.tokens.get(t as usize).copied().flatten().unwrap_or(-1))
+            .collect()
+    }
+
     /// Whether the graph outputs per-word maps.
     pub fn has_maps(&self) -> bool {
         self.optional[0]
@@ -447,13 +471,13 @@ impl OnnxAgent {
             }
             // Maps and weights are distributions: a negative one would be drawn, measured
             // and recorded as attention (grounding accuracies, entropies of ln of < 0).
-            if name.starts_with("word_") || name == "combined_map" {
-                if let Some(x) = v.iter().find(|x| **x < 0.0) {
-                    return Err(bad(
-                        &self.path,
-                        format!("output {name} holds {x}: attention values must be ≥ 0"),
-                    ));
-                }
+            if (name.starts_with("word_") || name == "combined_map")
+                && let Some(x) = v.iter().find(|x| **x < 0.0)
+            {
+                return Err(bad(
+                    &self.path,
+                    format!("output {name} holds {x}: attention values must be ≥ 0"),
+                ));
             }
             Ok(v)
         };
