@@ -1,5 +1,6 @@
-//! Reliability, round 3 (issue #43): hostile imported graphs (allocation bombs, negative
-//! maps) are refused in one line with exit 2 by every command that loads them, and Ctrl-C
+//! Hostile imported graphs and interrupted sweeps (issue #43): a graph groundscope cannot run
+//! safely (an opset outside tract's range, an empty file, NaN or negative outputs, allocation
+//! bombs) is refused in one line with exit 2 by every command that loads it, and Ctrl-C
 //! during `eval` or `faithfulness` says what was kept, exits 130 and leaves `--out` as it was.
 #![allow(
     clippy::unwrap_used,
@@ -14,6 +15,64 @@ use common::{assert_bad_input, entries, gs, gs_guarded, onnx_fixture};
 use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::Duration;
+
+/// Graphs groundscope's ONNX runtime cannot run safely are refused by name before tract sees
+/// them: an opset outside tract's tested range (tract panicked on opset 99), an empty file;
+/// a graph that computes NaN is refused at its first step instead of writing `null`s.
+#[test]
+fn hostile_graphs_are_refused_by_name() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut bytes = std::fs::read(common::onnx_fixture("minimal.onnx")).unwrap();
+    // opset_import { domain: "", version: 17 } → version 99
+    let at = bytes
+        .windows(6)
+        .position(|w| w == [0x42, 0x04, 0x0a, 0x00, 0x10, 0x11])
+        .expect("minimal.onnx imports opset 17");
+    bytes[at + 5] = 99;
+    let future = dir.path().join("future.onnx");
+    std::fs::write(&future, &bytes).unwrap();
+    for cmd in [vec!["replay", "--checkpoint"], vec!["validate"]] {
+        let mut args = cmd.clone();
+        args.push(future.to_str().unwrap());
+        assert_bad_input(&gs(&args), "ONNX opset 99 is outside");
+    }
+    let empty = dir.path().join("empty.onnx");
+    std::fs::write(&empty, b"").unwrap();
+    assert_bad_input(
+        &gs(&["replay", "--checkpoint", empty.to_str().unwrap()]),
+        "empty",
+    );
+    let nan = common::onnx_fixture("bad_nan.onnx");
+    let trace = dir.path().join("t.json");
+    let o = gs(&[
+        "replay",
+        "--checkpoint",
+        nan.to_str().unwrap(),
+        "--trace",
+        trace.to_str().unwrap(),
+    ]);
+    assert_bad_input(&o, "NaN");
+    assert!(!trace.exists(), "no trace of NaNs written");
+}
+
+/// `train --init` names why a graph cannot seed training.
+#[test]
+fn a_graph_cannot_seed_training() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = dir.path().join("run");
+    let graph = common::onnx_fixture("minimal.onnx");
+    let o = gs(&[
+        "train",
+        "--model",
+        "attention",
+        "--out",
+        run.to_str().unwrap(),
+        "--init",
+        graph.to_str().unwrap(),
+    ]);
+    assert_bad_input(&o, "an ONNX graph cannot seed training");
+    assert!(!run.exists());
+}
 
 /// The commands that load a graph, each writing into `dir` where it writes at all.
 fn loaders(graph: &str, dir: &Path) -> Vec<Vec<String>> {
