@@ -14,10 +14,10 @@ use crate::metrics::faithfulness::episode::{Loop, word_position};
 /// Why a step has no interventions on `M` to show (rather than a heading with nothing under
 /// it): the model has no maps, or takes no override of them.
 pub fn no_interventions(agent: &Agent) -> &'static str {
-    if agent.acting().variant().name() != "attention" {
-        "no interventions on M: this model outputs no attention maps (docs/onnx.md#outputs)"
-    } else {
+    if agent.acting().variant().name() == "attention" {
         "no interventions on M: this model takes no override of M (combined_override, docs/onnx.md#interventions)"
+    } else {
+        "no interventions on M: this model outputs no attention maps (docs/onnx.md#outputs)"
     }
 }
 
