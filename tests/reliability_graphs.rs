@@ -155,8 +155,10 @@ fn allocation_bombs_are_refused_naming_the_node_and_shape() {
                 entries(dir.path())
             );
         }
+        // `view` under a virtual display, as a headless user runs it: refused before the
+        // window opens (it used to hang once its background worker had panicked).
         let shot = dir.path().join("shot.png");
-        let o = Command::new("xvfb-run")
+        let child = Command::new("xvfb-run")
             .args([
                 "-a",
                 env!("CARGO_BIN_EXE_groundscope"),
@@ -167,9 +169,16 @@ fn allocation_bombs_are_refused_naming_the_node_and_shape() {
             .arg("--screenshot")
             .arg(&shot)
             .stdin(Stdio::null())
-            .output();
-        match o {
-            Ok(o) => {
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn();
+        match child {
+            Ok(mut child) => {
+                let status = common::wait_for_exit(&mut child, "xvfb-run groundscope view");
+                let o = std::process::Output {
+                    status,
+                    ..child.wait_with_output().unwrap()
+                };
                 assert_bad_input(&o, what);
                 assert!(!shot.exists(), "{file}: no screenshot");
             }
