@@ -23,6 +23,8 @@ logits, the value and the new memory — and one defect per file:
 ``bad_expand_bomb.onnx``    an allocation bomb: the view's mean ``Expand``\ ed to
                             (B, 8, 1 000 000 000) (32 GB a row; the shape made from the
                             input's batch size at run time), its sine summed and added × 1e-30
+``bad_batch_bomb.onnx``     the same at (B, 1, 1 000 000): 4 MB a row, runs at small batches,
+                            over 1 GiB from B = 269 on (an evaluation of 300 episodes)
 ``bad_constant_bomb.onnx``  an allocation bomb: ``ConstantOfShape [200000, 200000]`` (160 GB),
                             summed and added × 1e-30
 ``bad_negative_maps.onnx``  ``word_maps`` (B, L, 7, 7) whose every value is negative: a
@@ -74,7 +76,7 @@ def tiny(
     vocabulary: list[str] = VOCABULARY,
     name: str = "minimal",
     label: str | None = None,
-    expand_bomb: bool = False,
+    expand_bomb: tuple[int, int] | None = None,
     constant_bomb: bool = False,
     negative_maps: bool = False,
     opset: int = oc.OPSET,
@@ -128,15 +130,14 @@ def tiny(
             inits += [
                 numpy_helper.from_array(np.array([2], dtype=np.int64), "axis2"),
                 numpy_helper.from_array(np.array([0], dtype=np.int64), "start0"),
-                numpy_helper.from_array(np.array([8, 1_000_000_000], dtype=np.int64),
-                                        "bomb_tail"),
+                numpy_helper.from_array(np.array(expand_bomb, dtype=np.int64), "bomb_tail"),
             ]
             nodes += [
                 helper.make_node("Unsqueeze", ["view_raw", "axis2"], ["view3"]),
                 helper.make_node("Shape", ["view3"], ["view3_shape"]),
                 helper.make_node("Slice", ["view3_shape", "start0", "axis1"], ["bomb_batch"]),
                 helper.make_node("Concat", ["bomb_batch", "bomb_tail"], ["bomb_shape"], axis=0),
-                helper.make_node("Expand", ["view3", "bomb_shape"], ["bomb"], name="expand_bomb"),
+                helper.make_node("Expand", ["view3", "bomb_shape"], ["bomb"], name=f"{name[4:]}"),
                 # An element-wise op between: nothing a runtime could fold into the reduction.
                 helper.make_node("Sin", ["bomb"], ["bomb_sin"]),
                 helper.make_node("ReduceSum", ["bomb_sin", "axis1"], ["bomb_sum3"], keepdims=0),
@@ -263,7 +264,8 @@ FIXTURES = {
     "bad_operator": {"loop": True},
     "bad_vocabulary": {"vocabulary": [w for w in VOCABULARY if w != "key"]},
     "bad_nan": {"nan": True},
-    "bad_expand_bomb": {"expand_bomb": True},
+    "bad_expand_bomb": {"expand_bomb": (8, 1_000_000_000)},
+    "bad_batch_bomb": {"expand_bomb": (1, 1_000_000)},
     "bad_constant_bomb": {"constant_bomb": True},
     "bad_negative_maps": {"negative_maps": True},
     "bad_opset": {"opset": 21},

@@ -187,6 +187,44 @@ fn allocation_bombs_are_refused_naming_the_node_and_shape() {
     }
 }
 
+/// A tensor that fits one row but not a batch (4 MB a row) runs in `replay` (one episode)
+/// and is refused by `eval` before the step whose batch would take it over 1 GiB, naming the
+/// batch size: the bound is checked again for every batch size a step runs with.
+#[test]
+fn a_tensor_too_large_for_the_batch_is_refused_at_that_batch() {
+    let dir = tempfile::tempdir().unwrap();
+    let graph = onnx_fixture("bad_batch_bomb.onnx");
+    let graph = graph.to_str().unwrap();
+    let o = gs(&["replay", "--checkpoint", graph]);
+    assert_eq!(o.status.code(), Some(0), "{}", common::stderr(&o));
+    let out = dir.path().join("report");
+    let o = gs_limited(
+        &[
+            "eval",
+            "--quiet",
+            "--checkpoint",
+            graph,
+            "--out",
+            out.to_str().unwrap(),
+            "--sizes",
+            "8",
+            "--objects",
+            "4",
+            "--seeds",
+            "1",
+            "--episodes",
+            "1000",
+        ]
+        .map(str::to_owned),
+    );
+    assert_bad_input(
+        &o,
+        "node \"batch_bomb\" computes a tensor of shape (B, 1, 1000000)",
+    );
+    assert!(common::stderr(&o).contains("at B = "), "{o:?}");
+    assert!(!out.exists(), "no report");
+}
+
 /// Negative attention is refused where it is computed, naming the output and the step, as
 /// NaN is: nothing is drawn, measured or written from it.
 #[test]
