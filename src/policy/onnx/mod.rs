@@ -8,7 +8,9 @@ pub mod bounds;
 pub mod contract;
 #[cfg(feature = "onnx")]
 mod load;
+#[cfg(feature = "onnx")]
 mod mission_cache;
+#[cfg(feature = "onnx")]
 mod runtime;
 
 #[cfg(feature = "onnx")]
