@@ -100,6 +100,12 @@ pub struct EpisodeTrace {
     pub mission: String,
     /// Mission tokens.
     pub tokens: Vec<u32>,
+    /// The mission's ids as the policy received them, where they are not `tokens` (an
+    /// imported graph's own vocabulary): what to feed the graph to get the same numbers.
+    pub input_token_ids: Option<Vec<i64>>,
+    /// The name the model gives itself (an imported graph's `groundscope.name`), shown with
+    /// `checkpoint`.
+    pub model_name: Option<String>,
     /// Greedy or sampled.
     pub mode: ActionMode,
     /// The steps.
@@ -195,6 +201,18 @@ fn check_finite(
         "the model computed non-finite {what} at step {t} of {} seed {}: it cannot be run",
         spec.level, spec.seed
     )))
+}
+
+/// A step's refusal (an imported graph's NaN or negative map) with the step named, as
+/// [`check_finite`] names it.
+fn at_step(e: PolicyError, t: usize, spec: &EpisodeSpec) -> PolicyError {
+    match e {
+        PolicyError::Input(m) => PolicyError::Input(format!(
+            "{m}, at step {t} of {} seed {}",
+            spec.level, spec.seed
+        )),
+        other => other,
+    }
 }
 
 /// The world an episode spec starts from.
@@ -338,15 +356,17 @@ fn run_loop<P: Acting + ?Sized>(
             Some(f) => f(&world, &obs, &tokens, &memory)?,
             None => None,
         };
-        let out = net.act_one(
-            obs,
-            world.agent_dir,
-            &tokens,
-            mission.as_ref(),
-            &memory,
-            true,
-            iv.as_ref(),
-        )?;
+        let out = net
+            .act_one(
+                obs,
+                world.agent_dir,
+                &tokens,
+                mission.as_ref(),
+                &memory,
+                true,
+                iv.as_ref(),
+            )
+            .map_err(|e| at_step(e, steps.len(), spec))?;
         memory = out.memory;
         let probs_v = out.probs.into_iter().next().unwrap_or_default();
         let mut probs = [0.0; Action::COUNT];
@@ -379,6 +399,8 @@ fn run_loop<P: Acting + ?Sized>(
         level: spec.level,
         seed: spec.seed,
         mission: world.mission.clone(),
+        input_token_ids: net.input_token_ids(&tokens),
+        model_name: net.model_name(),
         tokens,
         mode: spec.mode,
         steps,
@@ -427,6 +449,10 @@ struct TraceJson<'a> {
     mission: &'a str,
     tokens: Vec<&'static str>,
     token_ids: &'a [u32],
+    #[serde(skip_serializing_if = "Option::is_none")]
+    graph_token_ids: Option<&'a [i64]>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    model_name: Option<&'a str>,
     mode: ActionMode,
     success: bool,
     total_reward: f64,
@@ -447,6 +473,8 @@ impl EpisodeTrace {
             mission: &self.mission,
             tokens: self.words(),
             token_ids: &self.tokens,
+            graph_token_ids: self.input_token_ids.as_deref(),
+            model_name: self.model_name.as_deref(),
             mode: self.mode,
             success: self.success(),
             total_reward: self.total_reward(),

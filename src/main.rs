@@ -20,6 +20,9 @@ pub enum ExitStatus {
     Success,
     /// 1: ran, but a check failed (a replay mismatch, a metric below its threshold).
     CheckFailed,
+    /// 130: stopped by Ctrl-C (or SIGTERM, SIGHUP) before its outputs were written; the
+    /// command has said what it kept.
+    Interrupted,
 }
 
 fn main() -> ExitCode {
@@ -30,8 +33,11 @@ fn main() -> ExitCode {
     // turned into ripgrep's behaviour (a broken pipe ends quietly with 0, a full disk is a
     // one-line error with 2) after unwinding, which removes any temporary output files.
     let default_hook = std::panic::take_hook();
+    // tract panics when an allocation fails (a graph past docs/onnx.md#limits that asks for
+    // more memory than there is): the ONNX runtime catches that and says so in one line.
     std::panic::set_hook(Box::new(move |info| {
-        if stdout_failure(info.payload()).is_none() {
+        if stdout_failure(info.payload()).is_none() && allocation_failure(info.payload()).is_none()
+        {
             default_hook(info);
         }
     }));
@@ -43,9 +49,25 @@ fn main() -> ExitCode {
                 eprintln!("groundscope: writing to standard output: {reason}");
                 ExitCode::from(2)
             }
-            None => ExitCode::from(101),
+            None => match allocation_failure(payload.as_ref()) {
+                Some(what) => {
+                    eprintln!("groundscope: out of memory: {what}");
+                    ExitCode::from(2)
+                }
+                None => ExitCode::from(101),
+            },
         },
     }
+}
+
+/// The message of a panic raised by a failed allocation (tract's tensors), if it is one.
+fn allocation_failure(payload: &(dyn std::any::Any + Send)) -> Option<String> {
+    let text = payload
+        .downcast_ref::<String>()
+        .map(String::as_str)
+        .or_else(|| payload.downcast_ref::<&str>().copied())?;
+    text.starts_with("failed to allocate")
+        .then(|| text.to_owned())
 }
 
 /// The I/O error of a panic raised by `print!` on a failing stdout, if it is one.
@@ -70,6 +92,7 @@ fn run() -> ExitCode {
     match cli::run(args, &matches) {
         Ok(ExitStatus::Success) => ExitCode::SUCCESS,
         Ok(ExitStatus::CheckFailed) => ExitCode::from(1),
+        Ok(ExitStatus::Interrupted) => ExitCode::from(130),
         Err(err) => {
             eprintln!("groundscope: {err:#}");
             ExitCode::from(2)

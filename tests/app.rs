@@ -345,3 +345,18 @@ fn screenshot_of_an_onnx_graph_beside_a_native_checkpoint() {
         "the row of word maps is a flat colour"
     );
 }
+
+/// A graph without maps is shown by its own name, and its faithfulness view says why there
+/// is nothing under "one step with M changed" (it used to show the heading alone).
+#[test]
+fn a_graph_without_maps_is_named_and_says_it_has_no_interventions() {
+    let graph = onnx_fixture("renamed.onnx");
+    let mut h = debugger_of(&graph, None, 0, true);
+    show_until(&mut h, "step 0 of ");
+    h.get_by_label("tiny policy (test) (renamed.onnx)");
+    show_until(
+        &mut h,
+        "no interventions on M: this model outputs no attention maps",
+    );
+    assert!(h.query_by_label("one step with M changed:").is_none());
+}

@@ -442,3 +442,135 @@ fn an_unknown_sidecar_key_is_named() {
     assert_eq!(o.status.code(), Some(0), "{err}");
     assert!(err.contains("unknown key \"memroy_size\" ignored"), "{err}");
 }
+
+/// Issue #42 item 8, a hand-exported agent as itself: its metadata name is shown beside its
+/// file (replay, the trace, report.json), and the trace records the ids the graph received
+/// (numbered by its own vocabulary) beside groundscope's.
+#[test]
+fn a_hand_exported_graph_is_shown_and_traced_as_itself() {
+    let graph = fixture("renamed.onnx");
+    let agent = OnnxAgent::load(&graph).unwrap();
+    let shown = "tiny policy (test) (renamed.onnx)";
+    assert_eq!(agent.display_name(), shown);
+    let dir = tempfile::tempdir().unwrap();
+    let trace = dir.path().join("t.json");
+    let o = gs(&[
+        "replay",
+        "--checkpoint",
+        graph.to_str().unwrap(),
+        "--trace",
+        trace.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(
+        common::stdout(&o).starts_with(&format!("{shown}, baseline on ")),
+        "{}",
+        common::stdout(&o)
+    );
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&trace).unwrap()).unwrap();
+    assert_eq!(json["model_name"], shown);
+    let words: Vec<&str> = json["tokens"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|w| w.as_str().unwrap())
+        .collect();
+    let theirs: Vec<i64> = words
+        .iter()
+        .map(|w| agent.meta.vocabulary.iter().position(|v| v == w).unwrap() as i64)
+        .collect();
+    let got: Vec<i64> = json["graph_token_ids"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_i64().unwrap())
+        .collect();
+    assert_eq!(got, theirs, "the ids the graph received, by its vocabulary");
+    let ours: Vec<i64> = json["token_ids"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_i64().unwrap())
+        .collect();
+    assert_ne!(got, ours, "the fixture numbers its words differently");
+    // A native checkpoint's trace has neither: its ids are groundscope's.
+    let native = dir.path().join("n.json");
+    let o = gs(&["replay", "--trace", native.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&native).unwrap()).unwrap();
+    assert!(json.get("graph_token_ids").is_none() && json.get("model_name").is_none());
+
+    let out = dir.path().join("report");
+    let o = gs(&[
+        "eval",
+        "--quiet",
+        "--checkpoint",
+        graph.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--sizes",
+        "8",
+        "--objects",
+        "4",
+        "--seeds",
+        "1",
+        "--episodes",
+        "2",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
+    assert_eq!(report["checkpoints"][0]["model_name"], shown);
+}
+
+/// What a hand export gets wrong is named with its cause and what to do: an opset newer than
+/// the runtime's (tract used to fail with `Impossible to unify 0 with 2` on a Gemm), a batch
+/// size fixed inside the graph (`Impossible to unify …Sym(B)… with Val(…)`), a misnamed
+/// input; inputs that declare fixed sizes run, with a warning.
+#[test]
+fn hand_export_mistakes_are_named_with_their_cause() {
+    for (file, expect) in [
+        (
+            "bad_opset.onnx",
+            "ONNX opset 21 is outside the opsets groundscope's runtime supports (9–18); export with opset_version=17",
+        ),
+        (
+            "bad_fixed_batch.onnx",
+            "the batch dimension is fixed inside the graph at node \"reshape_fixed_batch\" (Reshape)",
+        ),
+        (
+            "bad_input_name.onnx",
+            "no input \"image\"; its input \"obs\" is not in the contract (the contract's inputs: image, mission, memory; optionally direction, and combined_override with override_weight",
+        ),
+    ] {
+        let path = fixture(file);
+        let o = gs(&["replay", "--checkpoint", path.to_str().unwrap()]);
+        assert_bad_input(&o, expect);
+    }
+    let o = gs(&[
+        "replay",
+        "--checkpoint",
+        &fixture("bad_fixed_batch.onnx").to_string_lossy(),
+    ]);
+    assert!(
+        stderr(&o).contains("dynamic_axes"),
+        "says what to do: {}",
+        stderr(&o)
+    );
+    let o = gs(&[
+        "replay",
+        "--checkpoint",
+        &fixture("fixed_dims.onnx").to_string_lossy(),
+    ]);
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(0), "{err}");
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(
+        err.starts_with("groundscope: warning: ")
+            && err.contains("image batch 1")
+            && err.contains("mission length 5"),
+        "{err}"
+    );
+}

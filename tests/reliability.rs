@@ -518,64 +518,6 @@ fn one_jobs_rule_and_user_text_shown_safely() {
     assert!(err.len() < 500, "a {} byte error line", err.len());
 }
 
-/// Graphs groundscope's ONNX runtime cannot run safely are refused by name before tract sees
-/// them: an opset outside tract's tested range (tract panicked on opset 99), an empty file;
-/// a graph that computes NaN is refused at its first step instead of writing `null`s.
-#[test]
-fn hostile_graphs_are_refused_by_name() {
-    let dir = tempfile::tempdir().unwrap();
-    let mut bytes = std::fs::read(common::onnx_fixture("minimal.onnx")).unwrap();
-    // opset_import { domain: "", version: 17 } → version 99
-    let at = bytes
-        .windows(6)
-        .position(|w| w == [0x42, 0x04, 0x0a, 0x00, 0x10, 0x11])
-        .expect("minimal.onnx imports opset 17");
-    bytes[at + 5] = 99;
-    let future = dir.path().join("future.onnx");
-    std::fs::write(&future, &bytes).unwrap();
-    for cmd in [vec!["replay", "--checkpoint"], vec!["validate"]] {
-        let mut args = cmd.clone();
-        args.push(future.to_str().unwrap());
-        assert_bad_input(&gs(&args), "ONNX opset 99 is outside");
-    }
-    let empty = dir.path().join("empty.onnx");
-    std::fs::write(&empty, b"").unwrap();
-    assert_bad_input(
-        &gs(&["replay", "--checkpoint", empty.to_str().unwrap()]),
-        "empty",
-    );
-    let nan = common::onnx_fixture("bad_nan.onnx");
-    let trace = dir.path().join("t.json");
-    let o = gs(&[
-        "replay",
-        "--checkpoint",
-        nan.to_str().unwrap(),
-        "--trace",
-        trace.to_str().unwrap(),
-    ]);
-    assert_bad_input(&o, "NaN");
-    assert!(!trace.exists(), "no trace of NaNs written");
-}
-
-/// `train --init` names why a graph cannot seed training.
-#[test]
-fn a_graph_cannot_seed_training() {
-    let dir = tempfile::tempdir().unwrap();
-    let run = dir.path().join("run");
-    let graph = common::onnx_fixture("minimal.onnx");
-    let o = gs(&[
-        "train",
-        "--model",
-        "attention",
-        "--out",
-        run.to_str().unwrap(),
-        "--init",
-        graph.to_str().unwrap(),
-    ]);
-    assert_bad_input(&o, "an ONNX graph cannot seed training");
-    assert!(!run.exists());
-}
-
 /// A reused output directory ends up holding the new run's outputs only: eval's figures and
 /// `failures/` recordings, faithfulness's per-checkpoint figures; other files stay.
 #[test]

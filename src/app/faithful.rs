@@ -11,6 +11,16 @@ use super::ui::Debugger;
 use crate::episode::StepFaithfulness;
 use crate::metrics::faithfulness::episode::{Loop, word_position};
 
+/// Why a step has no interventions on `M` to show (rather than a heading with nothing under
+/// it): the model has no maps, or takes no override of them.
+pub fn no_interventions(agent: &Agent) -> &'static str {
+    if agent.acting().variant().name() == "attention" {
+        "no interventions on M: this model takes no override of M (combined_override, docs/onnx.md#interventions)"
+    } else {
+        "no interventions on M: this model outputs no attention maps (docs/onnx.md#outputs)"
+    }
+}
+
 /// The measures of one step, computed when first shown and kept until the step or the
 /// episode changes.
 #[derive(Default)]
@@ -61,7 +71,11 @@ impl FaithfulnessView {
                         });
                         ui.label(format!("computed in {ms:.0} ms"));
                         ui.add_space(4.0);
-                        ui.label("one step with M changed:");
+                        if f.interventions.is_empty() {
+                            ui.label(no_interventions(agent));
+                        } else {
+                            ui.label("one step with M changed:");
+                        }
                         for (name, e) in &f.interventions {
                             ui.label(format!(
                                 "{name}: TV {:.3}{}",

@@ -113,8 +113,20 @@ impl Job {
         let (tx, rx) = channel();
         let done = Arc::new(AtomicUsize::new(0));
         let d = done.clone();
+        let label = what.clone();
         std::thread::spawn(move || {
-            let _ = tx.send(work(&d));
+            // A panic is the job's error, shown in the window (and the end of a headless
+            // screenshot), not a job the window waits on for ever.
+            let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| work(&d)))
+                .unwrap_or_else(|p| {
+                    let text = p
+                        .downcast_ref::<String>()
+                        .map(String::as_str)
+                        .or_else(|| p.downcast_ref::<&str>().copied())
+                        .unwrap_or("no message");
+                    JobResult::Failed(format!("{label} failed: {}", text.replace('\n', " ")))
+                });
+            let _ = tx.send(result);
         });
         Self {
             what,
@@ -126,7 +138,14 @@ impl Job {
 
     /// The result, once the job has finished.
     pub fn poll(&self) -> Option<JobResult> {
-        self.rx.try_recv().ok()
+        match self.rx.try_recv() {
+            Ok(r) => Some(r),
+            Err(std::sync::mpsc::TryRecvError::Empty) => None,
+            // The thread ended without an answer: finished, as a failure.
+            Err(std::sync::mpsc::TryRecvError::Disconnected) => {
+                Some(JobResult::Failed(format!("{} stopped", self.what)))
+            }
+        }
     }
 
     /// Blocks until the job has finished (tests and the headless screenshot).
@@ -498,6 +517,26 @@ mod tests {
         let gif = image::open(dir.path().join("e.gif")).unwrap();
         assert!(gif.width() > 0);
         assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 3);
+    }
+
+    #[test]
+    fn a_job_that_panics_fails_instead_of_running_for_ever() {
+        let job = Job::spawn("exploding".into(), 0, |_| panic!("boom"));
+        let deadline = std::time::Instant::now() + std::time::Duration::from_mins(1);
+        let result = loop {
+            if let Some(r) = job.poll() {
+                break r;
+            }
+            assert!(
+                std::time::Instant::now() < deadline,
+                "the job never finished"
+            );
+            std::thread::sleep(std::time::Duration::from_millis(5));
+        };
+        match result {
+            JobResult::Failed(e) => assert!(e.contains("exploding failed: boom"), "{e}"),
+            _ => panic!("a panicking job must fail"),
+        }
     }
 
     #[test]

@@ -18,6 +18,7 @@ use groundscope::metrics::sweep::{EpisodeSummary, EvalOptions, evaluate_cell_exp
 use groundscope::policy::Agent;
 
 use super::flags::SweepArgs;
+use super::stop::Stop;
 use crate::ExitStatus;
 
 /// `groundscope eval`.
@@ -91,6 +92,7 @@ fn check(args: &EvalArgs) -> anyhow::Result<()> {
 /// Runs `eval`.
 pub fn run(args: &EvalArgs) -> anyhow::Result<ExitStatus> {
     check(args)?;
+    let stop = Stop::install();
     let specs = if args.checkpoint.is_empty() {
         groundscope::policy::bundled::names()
     } else {
@@ -126,15 +128,26 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitStatus> {
     // Largest rooms first: they take longest, so the workers finish together.
     let mut order: Vec<usize> = (0..cells.len()).collect();
     order.sort_by_key(|&i| std::cmp::Reverse((cells[i].2.room_size, cells[i].2.n_objects)));
-    let results = run_cells(&cells, &order, jobs, args, mode, &bar);
+    let results = run_cells(&cells, &order, jobs, args, mode, &bar, &stop);
+    if stop.requested() {
+        bar.finish_and_clear();
+        Stop::report(&args.out);
+        return Ok(ExitStatus::Interrupted);
+    }
+    let mut results: Vec<_> = results
+        .into_iter()
+        .map(|slot| slot.into_inner().ok().flatten())
+        .collect();
+    // The error is the answer, not a cell its worker left unrun.
+    if let Some(i) = results.iter().position(|r| matches!(r, Some(Err(_))))
+        && let Some(Err(e)) = results.swap_remove(i)
+    {
+        return Err(e);
+    }
     let mut report_cells = Vec::new();
     let mut all_eps = Vec::new();
     for ((name, ckpt, level), slot) in cells.iter().zip(results) {
-        let explored = slot
-            .into_inner()
-            .ok()
-            .flatten()
-            .unwrap_or_else(|| Err(anyhow::anyhow!("evaluation stopped early")))?;
+        let explored = slot.unwrap_or_else(|| Err(anyhow::anyhow!("evaluation stopped early")))?;
         let (cell, eps) = cell_from_episodes(
             name,
             ckpt.acting().variant(),
@@ -163,6 +176,7 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitStatus> {
                 variant: c.acting().variant().name().into(),
                 frames: c.frames(),
                 level: c.level(),
+                model_name: c.acting().model_name(),
             })
             .collect(),
         cells: report_cells,
@@ -179,7 +193,12 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitStatus> {
         };
         format!("groundscope replay --checkpoint {ckpt} {on} --seed {seed}{sample}")
     });
-    add_counterfactuals(&mut failures, &ckpts, mode)?;
+    let counterfactuals = add_counterfactuals(&mut failures, &ckpts, mode, &stop);
+    if stop.requested() {
+        Stop::report(&args.out);
+        return Ok(ExitStatus::Interrupted);
+    }
+    counterfactuals?;
     report.write(&args.out, &failures, &episodes_csv(&all_eps))?;
     let failures_dir = args.out.join("failures");
     if args.export_failures {
@@ -189,7 +208,19 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitStatus> {
             .prefix(".groundscope-failures-")
             .tempdir_in(&args.out)
             .with_context(|| format!("cannot create a directory in {}", args.out.display()))?;
-        let n = export_failures(&failures, &ckpts, staging.path(), mode, args.alpha)?;
+        let n = export_failures(&failures, &ckpts, staging.path(), mode, args.alpha, &stop);
+        if stop.requested() {
+            // The report is in place; recordings of an earlier run beside it would not
+            // match it.
+            drop(staging);
+            remove_old_failures(&failures_dir)?;
+            eprintln!(
+                "groundscope: interrupted while recording failures: {} holds this run's report and no failures/ recordings",
+                args.out.display()
+            );
+            return Ok(ExitStatus::Interrupted);
+        }
+        let n = n?;
         remove_old_failures(&failures_dir)?;
         std::fs::rename(staging.keep(), &failures_dir)
             .with_context(|| format!("cannot move recordings to {}", failures_dir.display()))?;
@@ -256,6 +287,7 @@ fn run_cells(
     args: &EvalArgs,
     mode: ActionMode,
     bar: &indicatif::ProgressBar,
+    stop: &Stop,
 ) -> CellResults {
     let next = AtomicUsize::new(0);
     let progress = AtomicU64::new(0);
@@ -267,29 +299,41 @@ fn run_cells(
                     let k = next.fetch_add(1, Ordering::Relaxed);
                     let Some(&i) = order.get(k) else { break };
                     let (name, ckpt, level) = &cells[i];
-                    let net = ckpt.acting();
+                    let net = stop.guard(ckpt.acting());
                     bar.set_message(format!(
                         "{name} {}",
                         groundscope::metrics::report::level_name(level)
                     ));
                     let mut last = 0u64;
-                    let r = evaluate_cell_explored(
-                        net,
-                        level,
-                        args.sweep.seed_range(),
-                        args.sweep.episodes,
-                        &EvalOptions {
-                            alpha: args.alpha,
-                            mode,
-                            saliency: args.saliency,
-                        },
-                        &mut |n| {
-                            let d = n.saturating_sub(last);
-                            last = n;
-                            bar.set_position(progress.fetch_add(d, Ordering::Relaxed) + d);
-                        },
-                    )
-                    .map_err(anyhow::Error::from);
+                    // A panic is this cell's error, not a scope that panics after waiting
+                    // for every other worker.
+                    let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                        evaluate_cell_explored(
+                            &net,
+                            level,
+                            args.sweep.seed_range(),
+                            args.sweep.episodes,
+                            &EvalOptions {
+                                alpha: args.alpha,
+                                mode,
+                                saliency: args.saliency,
+                            },
+                            &mut |n| {
+                                let d = n.saturating_sub(last);
+                                last = n;
+                                bar.set_position(progress.fetch_add(d, Ordering::Relaxed) + d);
+                            },
+                        )
+                    }))
+                    .map_err(|p| {
+                        anyhow::anyhow!(
+                            "{name} S{} N{}: {}",
+                            level.room_size,
+                            level.n_objects,
+                            super::stop::panic_message(p.as_ref())
+                        )
+                    })
+                    .and_then(|r| r.map_err(anyhow::Error::from));
                     if r.is_err() {
                         // Stop the other workers early; the error is reported below.
                         next.store(order.len(), Ordering::Relaxed);
@@ -310,6 +354,7 @@ fn add_counterfactuals(
     failures: &mut [groundscope::metrics::report::Failure],
     ckpts: &[(String, Agent)],
     mode: ActionMode,
+    stop: &Stop,
 ) -> anyhow::Result<()> {
     for f in failures.iter_mut().filter(|f| f.class.is_some()) {
         let Some((name, ckpt)) = ckpts.iter().find(|(n, _)| *n == f.checkpoint) else {
@@ -322,7 +367,7 @@ fn add_counterfactuals(
             mode,
         };
         f.counterfactual = Some(
-            counterfactual(ckpt.acting(), name, &spec)
+            counterfactual(&stop.guard(ckpt.acting()), name, &spec)
                 .with_context(|| format!("counterfactual of {name} seed {}", f.seed))?,
         );
     }
@@ -356,6 +401,7 @@ fn export_failures(
     dir: &std::path::Path,
     mode: ActionMode,
     alpha: f64,
+    stop: &Stop,
 ) -> anyhow::Result<usize> {
     use groundscope::record::{RerunTargets, record_rerun};
     let mut recorded = 0;
@@ -370,7 +416,7 @@ fn export_failures(
             mode,
         };
         let trace = groundscope::episode::run_from(
-            ckpt.acting(),
+            &stop.guard(ckpt.acting()),
             name,
             &spec,
             groundscope::episode::initial_world(&spec)?,

@@ -14,6 +14,7 @@ use groundscope::metrics::sweep::eval_level_seed;
 use groundscope::policy::{Agent, bundled};
 
 use super::flags::SweepArgs;
+use super::stop::Stop;
 use crate::ExitStatus;
 
 /// The parts of the analysis.
@@ -66,6 +67,7 @@ pub fn run(args: &FaithfulnessArgs) -> anyhow::Result<ExitStatus> {
     if args.jobs == Some(0) {
         anyhow::bail!("--jobs 0: give at least one worker");
     }
+    let stop = Stop::install();
     let specs = if args.checkpoint.is_empty() {
         vec![bundled::names()[0].clone()]
     } else {
@@ -119,9 +121,23 @@ pub fn run(args: &FaithfulnessArgs) -> anyhow::Result<ExitStatus> {
     for (i, (name, agent, level, parts)) in cells.iter().enumerate() {
         let offset = (i * plan.len()) as u64;
         let acting = agent.acting();
-        let eps = faithfulness::run(acting, level, &plan, mode, *parts, jobs, &|done| {
-            bar.set_position(offset + done as u64);
-        })?;
+        let eps = faithfulness::run(
+            &stop.guard(acting),
+            level,
+            &plan,
+            mode,
+            *parts,
+            jobs,
+            &|done| bar.set_position(offset + done as u64),
+        );
+        if stop.requested() {
+            // Dropping the staged directory removes it (and --out, when this run made it).
+            drop(staging);
+            bar.finish_and_clear();
+            Stop::report(&args.out);
+            return Ok(ExitStatus::Interrupted);
+        }
+        let eps = eps?;
         let mut entry = summarise(name, acting.variant().name(), &eps);
         entry.level = level.to_string();
         entries.push(entry);

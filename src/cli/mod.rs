@@ -11,6 +11,7 @@ mod flags;
 mod model_options;
 mod policy_cmd;
 mod replay;
+mod stop;
 mod train;
 mod train_start;
 mod validate;
@@ -26,7 +27,7 @@ use crate::ExitStatus;
 #[command(
     name = "groundscope",
     version,
-    after_long_help = "EXIT STATUS:\n  0  done\n  1  ran, but a check failed (a replay mismatch, a metric below its threshold)\n  2  error or bad input (one line on stderr naming the file, field or word)"
+    after_long_help = "EXIT STATUS:\n  0  done\n  1  ran, but a check failed (a replay mismatch, a metric below its threshold)\n  2  error or bad input (one line on stderr naming the file, field or word)\n  130  eval or faithfulness stopped by Ctrl-C: nothing written, one line on stderr"
 )]
 pub struct Cli {
     /// What to do; without a subcommand, `view` opens the debugger.

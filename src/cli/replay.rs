@@ -182,9 +182,13 @@ pub fn replay(args: &ReplayArgs) -> anyhow::Result<ExitStatus> {
         });
         for item in rx {
             let (trace, scenes) = item?;
+            // An imported graph is named as its metadata names it, beside its file.
+            let who = trace.model_name.as_ref().map_or_else(
+                || variant.name().to_owned(),
+                |n| format!("{n}, {}", variant.name()),
+            );
             println!(
-                "{} on {level} seed {}: \"{}\" → {} in {} steps, reward {:.3}",
-                variant.name(),
+                "{who} on {level} seed {}: \"{}\" → {} in {} steps, reward {:.3}",
                 trace.seed,
                 trace.mission,
                 if trace.success() {

@@ -176,6 +176,10 @@ pub struct CheckpointInfo {
     pub frames: u64,
     /// The level it was trained on.
     pub level: LevelConfig,
+    /// The name the model gives itself, beside its file (an imported graph's
+    /// `groundscope.name`: `NAME (file.onnx)`); absent for groundscope's own checkpoints.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub model_name: Option<String>,
 }
 
 /// One of the worst episodes, enough to replay it.

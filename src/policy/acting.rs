@@ -64,6 +64,18 @@ pub trait Acting {
     /// Whether [`Intervention`]s on the attention can be applied (a native attention network;
     /// an imported graph with maps that takes the override inputs of docs/onnx.md).
     fn takes_interventions(&self) -> bool;
+
+    /// The name the model gives itself, where it has one beside its file name: an imported
+    /// graph's `groundscope.name` metadata.
+    fn model_name(&self) -> Option<String> {
+        None
+    }
+
+    /// The mission's token ids as the policy receives them, where they are not groundscope's
+    /// own: an imported graph's, numbered by its `groundscope.vocabulary`.
+    fn input_token_ids(&self, _tokens: &[u32]) -> Option<Vec<i64>> {
+        None
+    }
 }
 
 impl Acting for Net {
@@ -163,6 +175,14 @@ pub fn flat_memory_rows(values: Vec<f32>, rows: usize) -> Result<Memory, PolicyE
 
 #[cfg(feature = "onnx")]
 impl Acting for super::onnx::OnnxAgent {
+    fn model_name(&self) -> Option<String> {
+        Some(self.display_name())
+    }
+
+    fn input_token_ids(&self, tokens: &[u32]) -> Option<Vec<i64>> {
+        Some(self.graph_ids(tokens))
+    }
+
     fn variant(&self) -> Variant {
         if self.has_maps() {
             Variant::Attention

@@ -50,6 +50,10 @@ impl Debugger {
                 });
             ui.add(egui::TextEdit::singleline(&mut self.checkpoint_text).desired_width(160.0))
                 .on_hover_text("bundled:attention, bundled:baseline, a checkpoint NAME (NAME.json + NAME.safetensors) or an ONNX graph FILE.onnx");
+            // An imported graph's own name (groundscope.name), which the path does not show.
+            if let Some(name) = self.agent.as_ref().and_then(|a| a.acting().model_name()) {
+                ui.label(egui::RichText::new(name).strong());
+            }
             ui.checkbox(&mut self.compare, "compare with");
             ui.add_enabled(
                 self.compare,

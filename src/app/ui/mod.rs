@@ -214,8 +214,11 @@ impl Debugger {
                     let c = self.compared.clone();
                     if let Some(c) = c {
                         ui.label(
-                            egui::RichText::new(format!("compare: {}", c.trace.checkpoint))
-                                .strong(),
+                            egui::RichText::new(format!(
+                                "compare: {}",
+                                c.trace.model_name.as_ref().unwrap_or(&c.trace.checkpoint)
+                            ))
+                            .strong(),
                         );
                         let side = ui.available_width().min(300.0);
                         self.world_panel(ui, true, side);

@@ -48,7 +48,22 @@ pub fn run(
                     let Some(&(s, seed)) = plan.get(i) else {
                         break;
                     };
-                    let r = episode::analyse_episode(agent, level, s, seed, mode, parts);
+                    // A panic is this episode's error: the scope would otherwise panic
+                    // itself once every other worker had finished.
+                    let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                        episode::analyse_episode(agent, level, s, seed, mode, parts)
+                    }))
+                    .unwrap_or_else(|p| {
+                        let text = p
+                            .downcast_ref::<String>()
+                            .map(String::as_str)
+                            .or_else(|| p.downcast_ref::<&str>().copied())
+                            .unwrap_or("no message");
+                        Err(PolicyError::Input(format!(
+                            "{level} seed {seed}: a worker failed: {}",
+                            text.replace('\n', " ")
+                        )))
+                    });
                     let failed = r.is_err();
                     if let Ok(mut v) = slots.lock() {
                         v[i] = Some(r);

@@ -7,6 +7,7 @@ use std::sync::Arc;
 use tract_onnx::pb;
 use tract_onnx::prelude::*;
 
+use super::bounds::Bounds;
 use super::contract::{
     Meta, ONNX_FLOAT, ONNX_INT64, OPTIONAL_INPUTS, OPTIONAL_OUTPUTS, Props, REQUIRED_INPUTS,
     REQUIRED_OUTPUTS,
@@ -138,24 +139,40 @@ pub(super) fn check_inputs(
         .filter(|v| !init.contains(v.name.as_str()))
         .collect();
     let find = |name: &str| inputs.iter().find(|v| v.name == name);
+    let stray: Vec<String> = inputs
+        .iter()
+        .filter(|v| {
+            !REQUIRED_INPUTS.contains(&v.name.as_str())
+                && !OPTIONAL_INPUTS.contains(&v.name.as_str())
+        })
+        .map(|v| format!("\"{}\"", v.name))
+        .collect();
+    // A misnamed input shows up twice: as a stray name and as a contract input missing; one
+    // line says both, with every name the contract knows.
+    let contract = format!(
+        "the contract's inputs: {}; optionally direction, and combined_override with override_weight; docs/onnx.md#inputs",
+        REQUIRED_INPUTS.join(", ")
+    );
+    let stray_text = match stray.len() {
+        0 => String::new(),
+        1 => format!("; its input {} is not in the contract", stray[0]),
+        _ => format!("; its inputs {} are not in the contract", stray.join(", ")),
+    };
     for name in REQUIRED_INPUTS {
         if find(name).is_none() {
             return Err(bad(
                 path,
-                format!(
-                    "the graph has no input \"{name}\" (the contract's inputs: image, mission, memory and optionally direction)"
-                ),
+                format!("the graph has no input \"{name}\"{stray_text} ({contract})"),
             ));
         }
     }
-    if let Some(extra) = inputs.iter().find(|v| {
-        !REQUIRED_INPUTS.contains(&v.name.as_str()) && !OPTIONAL_INPUTS.contains(&v.name.as_str())
-    }) {
+    if !stray.is_empty() {
         return Err(bad(
             path,
-            format!("input \"{}\" is not in the contract", extra.name),
+            format!("{} ({contract})", stray_text.trim_start_matches("; its ")),
         ));
     }
+    warn_fixed_sizes(path, &inputs);
     let m = memory_size as i64;
     let mut image_int = false;
     for v in &inputs {
@@ -216,6 +233,34 @@ pub(super) fn check_inputs(
         direction: find("direction").is_some(),
         overrides,
     })
+}
+
+/// Warns about inputs that declare a fixed batch size (axis 0) or mission length (axis 1 of
+/// `mission`): groundscope feeds any size, and tract runs such a graph as if the sizes were
+/// dynamic, but onnxruntime and other runtimes refuse every other size: the export is likely
+/// to be wrong elsewhere too (a reshape to the traced batch size, docs/onnx.md#dynamic-sizes).
+fn warn_fixed_sizes(path: &Path, inputs: &[&pb::ValueInfoProto]) {
+    let mut fixed = Vec::new();
+    for v in inputs {
+        let (_, Some(dims)) = declared(v) else {
+            continue;
+        };
+        if let Some(Some(n)) = dims.first() {
+            fixed.push(format!("{} batch {n}", v.name));
+        }
+        if v.name == "mission"
+            && let Some(Some(n)) = dims.get(1)
+        {
+            fixed.push(format!("mission length {n}"));
+        }
+    }
+    if !fixed.is_empty() {
+        eprintln!(
+            "groundscope: warning: {}: inputs declare fixed sizes ({}); groundscope runs any batch size and mission length, which onnxruntime would refuse: export them dynamic (docs/onnx.md#dynamic-sizes)",
+            path.display(),
+            fixed.join(", ")
+        );
+    }
 }
 
 /// Checks a declared shape's rank and static sizes, where the graph declares them.
@@ -314,8 +359,14 @@ pub(super) fn build(
     given: Inputs,
     meta: &Meta,
     optional: [bool; 3],
-) -> Result<(Arc<TypedRunnableModel>, Option<MissionCache>), PolicyError> {
-    let fail = |e: anyhow::Error| bad(path, format!("tract: {}", one_line(&e)));
+) -> Result<Built, PolicyError> {
+    let fail = |e: anyhow::Error| {
+        let text = one_line(&e);
+        bad(
+            path,
+            fixed_dimension(&text).unwrap_or(format!("tract: {text}")),
+        )
+    };
     let mut model = onnx.model_for_proto_model(proto).map_err(fail)?;
     let mut inputs = vec!["image", "mission", "memory"];
     if given.direction {
@@ -358,17 +409,70 @@ pub(super) fn build(
             .map(|(n, _)| *n),
     );
     model.select_outputs_by_name(&outputs).map_err(fail)?;
-    let typed = model
-        .into_typed()
-        .and_then(TypedModel::into_decluttered)
-        .map_err(fail)?;
+    let typed = model.into_typed().map_err(fail)?;
+    // Before tract optimises (and runs constant parts of) the graph: the sizes as written.
+    let bounds = Bounds::new(&typed, &b, &l);
+    bounds.check(path, 1, 1)?;
+    let typed = typed.into_decluttered().map_err(fail)?;
     let runnable = |m: TypedModel| m.into_optimized().and_then(IntoRunnable::into_runnable);
     // The mission (input 1) is cut off when it can be; a cut that tract cannot optimise
     // falls back to the whole graph, which is what every contract check above was made on.
     if let Ok(Some(parts)) = super::mission_cache::cut(&typed, 1, &b)
         && let (Ok(step), Ok(encoder)) = (runnable(parts.step), runnable(parts.encoder))
     {
-        return Ok((step, Some(MissionCache::new(encoder, parts.axes))));
+        return Ok(Built {
+            plan: step,
+            missions: Some(MissionCache::new(encoder, parts.axes)),
+            bounds,
+        });
     }
-    Ok((runnable(typed).map_err(fail)?, None))
+    Ok(Built {
+        plan: runnable(typed).map_err(fail)?,
+        missions: None,
+        bounds,
+    })
+}
+
+/// What [`build`] makes of a graph.
+pub(super) struct Built {
+    /// The optimised plan (the step graph when the mission encoder was cut off).
+    pub(super) plan: Arc<TypedRunnableModel>,
+    /// The mission encoder cut from the graph, when it could be cut.
+    pub(super) missions: Option<MissionCache>,
+    /// The sizes of every tensor the graph computes.
+    pub(super) bounds: Bounds,
+}
+
+/// A shape error of tract's that comes from a batch size or mission length fixed inside the
+/// graph (a reshape to a constant shape, as a trace at one batch size leaves behind), said
+/// as such: the node, the cause and what to do (docs/onnx.md#dynamic-sizes).
+pub(super) fn fixed_dimension(tract: &str) -> Option<String> {
+    let (what, axis) = if tract.contains("Sym(B)") {
+        ("batch dimension", "axis 0 of every input and output")
+    } else if tract.contains("Sym(L)") {
+        (
+            "mission length",
+            "axis 1 of mission (and of word_maps, word_weights)",
+        )
+    } else {
+        return None;
+    };
+    if !(tract.contains("unify") || tract.contains("mismatch")) {
+        return None;
+    }
+    // tract names the node as `node #12 "name" Op`.
+    let node = tract
+        .split_once("for node #")
+        .map_or_else(String::new, |(_, rest)| {
+            let rest = rest.split_once(' ').map_or("", |(_, r)| r);
+            let mut parts = rest.splitn(3, ' ');
+            let name = parts.next().unwrap_or("");
+            let op = parts.next().unwrap_or("").trim_end_matches(':');
+            format!(" at node {name} ({op})")
+        });
+    Some(format!(
+        "the {what} is fixed inside the graph{node}, but groundscope runs any size; export it \
+         dynamic ({axis}: dynamic_axes in torch.onnx.export) and reshape with -1 or 0 for it, \
+         not a number (docs/onnx.md#dynamic-sizes; tract: {tract})"
+    ))
 }

@@ -3,10 +3,14 @@
 //! model. Built with the `onnx` cargo feature (on by default); without it loading an `.onnx`
 //! file is a one-line error.
 
+#[cfg(feature = "onnx")]
+pub mod bounds;
 pub mod contract;
 #[cfg(feature = "onnx")]
 mod load;
+#[cfg(feature = "onnx")]
 mod mission_cache;
+#[cfg(feature = "onnx")]
 mod runtime;
 
 #[cfg(feature = "onnx")]

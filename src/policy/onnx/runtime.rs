@@ -6,6 +6,7 @@ use std::sync::Arc;
 
 use tract_onnx::prelude::*;
 
+use super::bounds::Bounds;
 use super::contract::{self, MapLayout, Meta};
 use super::load::{Inputs, bad, build, check_inputs, check_outputs, one_line, operators, props};
 use super::mission_cache::MissionCache;
@@ -28,6 +29,8 @@ pub struct OnnxAgent {
     plan: Arc<TypedRunnableModel>,
     /// The mission encoder cut from the graph, when it could be cut.
     missions: Option<MissionCache>,
+    /// Every tensor's size in B and L, checked before a step runs (docs/onnx.md#limits).
+    bounds: Bounds,
     inputs: Inputs,
     optional: [bool; 3],
     tokens: Vec<Option<i64>>,
@@ -165,17 +168,53 @@ impl OnnxAgent {
                 format!("operator {op}{node} is not supported by the ONNX runtime (tract)"),
             ));
         }
-        let (plan, missions) = build(path, &onnx, &proto, inputs, &meta, optional)?;
+        super::bounds::check_constant_shapes(path, graph)?;
+        // tract panics when an allocation fails; a graph that gets past the bounds and still
+        // asks for more than there is ends as an error, not a crash.
+        let built = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+            build(path, &onnx, &proto, inputs, &meta, optional)
+        }))
+        .map_err(|p| {
+            bad(
+                path,
+                format!("tract failed reading the graph: {}", panic_text(&*p)),
+            )
+        })??;
         Ok(Self {
             path: path.to_owned(),
             meta,
-            plan,
-            missions,
+            plan: built.plan,
+            missions: built.missions,
+            bounds: built.bounds,
             inputs,
             optional,
             tokens,
             clock: Clock::default(),
         })
+    }
+
+    /// How the graph is shown: its metadata name and its file, `NAME (file.onnx)`; the file
+    /// alone when the metadata names none (the name is then the file's stem).
+    pub fn display_name(&self) -> String {
+        let file = self.path.file_name().map_or_else(
+            || self.path.display().to_string(),
+            |f| f.to_string_lossy().into_owned(),
+        );
+        let stem = self.path.file_stem().map(|s| s.to_string_lossy());
+        if stem.as_deref() == Some(self.meta.name.as_str()) {
+            file
+        } else {
+            format!("{} ({file})", self.meta.name)
+        }
+    }
+
+    /// The ids the graph receives for a mission of groundscope's token ids (its
+    /// `groundscope.vocabulary`'s numbering; −1 for a word it lacks, which no step can run).
+    pub fn graph_ids(&self, tokens: &[u32]) -> Vec<i64> {
+        tokens
+            .iter()
+            .map(|&t| self.tokens.get(t as usize).copied().flatten().unwrap_or(-1))
+            .collect()
     }
 
     /// Whether the graph outputs per-word maps.
@@ -301,6 +340,7 @@ impl OnnxAgent {
         } = *g;
         let (n, m) = (rows.len(), self.meta.memory_size);
         let len = missions[rows[0]].len();
+        self.bounds.check(&self.path, n, len)?;
         let mut image = Vec::with_capacity(n * N_CELLS * 3);
         for &r in rows {
             for col in &obs[r].image {
@@ -397,7 +437,14 @@ impl OnnxAgent {
         }
         inputs.extend(cached);
         let ran = std::time::Instant::now();
-        let outputs = self.plan.run(inputs);
+        let outputs =
+            std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| self.plan.run(inputs)))
+                .map_err(|p| {
+                    bad(
+                        &self.path,
+                        format!("running the graph: {}", panic_text(&*p)),
+                    )
+                })?;
         clean_upper_registers();
         Clock::add(&self.clock.graph_ns, ran);
         self.clock
@@ -424,6 +471,16 @@ impl OnnxAgent {
             }
             if let Some(x) = v.iter().find(|x| !x.is_finite()) {
                 return Err(bad(&self.path, format!("output {name} holds {x}")));
+            }
+            // Maps and weights are distributions: a negative one would be drawn, measured
+            // and recorded as attention (grounding accuracies, entropies of ln of < 0).
+            if (name.starts_with("word_") || name == "combined_map")
+                && let Some(x) = v.iter().find(|x| **x < 0.0)
+            {
+                return Err(bad(
+                    &self.path,
+                    format!("output {name} holds {x}: attention values must be ≥ 0"),
+                ));
             }
             Ok(v)
         };
@@ -462,6 +519,16 @@ impl OnnxAgent {
         }
         Ok(())
     }
+}
+
+/// A panic's message on one line (tract's "failed to allocate Layout { size: … }").
+pub(super) fn panic_text(payload: &(dyn std::any::Any + Send)) -> String {
+    payload
+        .downcast_ref::<String>()
+        .map(String::as_str)
+        .or_else(|| payload.downcast_ref::<&str>().copied())
+        .unwrap_or("a panic without a message")
+        .replace('\n', " ")
 }
 
 /// Clears the upper halves of the vector registers after tract's plan ran. Its hand-written
