@@ -246,6 +246,9 @@ fn run_fresh<P: Acting + ?Sized>(
     intervene: Option<Intervene<'_>>,
 ) -> Result<EpisodeTrace, PolicyError> {
     let tokens = vocab::tokenize(&world.mission)?;
+    crate::policy::acting::check_known_words(net, &tokens, &world.mission, || {
+        format!("{} seed {}", spec.level, spec.seed)
+    })?;
     let memory = net.zero_memory()?;
     run_loop(
         net,

@@ -175,7 +175,7 @@ fn a_checkpoint_of_the_papers_words_refuses_a_new_word_by_name() {
         "--out",
         out.to_str().unwrap(),
     ]);
-    assert_bad_input(&o, "\"door\"");
+    assert_bad_input(&o, "mission word \"door\" in mission");
     assert!(stderr(&o).contains("trained on"), "{}", stderr(&o));
     assert!(!out.exists());
 }

@@ -68,6 +68,10 @@ pub enum BenchCommand {
     /// its outputs, the rest: world, metrics).
     #[cfg(feature = "onnx")]
     Onnx(super::bench_onnx::BenchOnnxArgs),
+    /// The evaluation sweep over BabyAI levels (default: twenty the bundled models can read)
+    /// against the paper's 20-cell sweep, alternated, one thread: time per episode step of
+    /// each and their ratio, as one JSON line.
+    Levels(super::bench_levels::BenchLevelsArgs),
 }
 
 /// Runs a benchmark.
@@ -98,6 +102,7 @@ pub fn run(cmd: &BenchCommand) -> anyhow::Result<ExitStatus> {
         }
         #[cfg(feature = "onnx")]
         BenchCommand::Onnx(args) => super::bench_onnx::run(args),
+        BenchCommand::Levels(args) => super::bench_levels::run(args),
         BenchCommand::Record { episodes } => {
             if !(1..=10_000).contains(episodes) {
                 anyhow::bail!("--episodes {episodes}: must be in 1..=10000");

@@ -80,6 +80,10 @@ impl Acting for Stoppable<'_> {
         self.agent.variant()
     }
 
+    fn known_words(&self) -> usize {
+        self.agent.known_words()
+    }
+
     fn zero_memory(&self) -> Result<Memory, PolicyError> {
         self.agent.zero_memory()
     }

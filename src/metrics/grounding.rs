@@ -369,10 +369,17 @@ pub fn ground_step(
     out
 }
 
-/// The visible objects the clauses the verifier is waiting on matched
-/// ([`crate::env::roles::pending_clauses`]), in view order: `M`'s targets. PutNext waits on the
-/// object to move until the agent carries one, then on the objects to put it next to.
+/// The visible objects the clauses the verifier is waiting on matched ([`pending_target_ids`]),
+/// in view order: `M`'s targets.
 pub fn pending_targets(world: &World, obs: &Observation) -> Vec<ViewCell> {
+    visible_cells_of(world, obs, &pending_target_ids(world))
+}
+
+/// The objects the clauses the verifier is waiting on matched
+/// ([`crate::env::roles::pending_clauses`]), the targets of `M` and of the failure classes.
+/// PutNext waits on the object to move until the agent carries one, then on the objects to put
+/// it next to.
+pub fn pending_target_ids(world: &World) -> Vec<ObjectId> {
     let clauses = world.instr.clauses();
     let carried = world.carrying.as_ref().map(|o| o.id);
     let mut ids = Vec::new();
@@ -387,7 +394,7 @@ pub fn pending_targets(world: &World, obs: &Observation) -> Vec<ViewCell> {
         };
         ids.extend_from_slice(&set.obj_set);
     }
-    visible_cells_of(world, obs, &ids)
+    ids
 }
 
 /// The view cells of the objects `ids` that are on the grid and visible (not the agent's own

@@ -152,6 +152,9 @@ pub fn evaluate_episodes_explored<P: Acting + ?Sized>(
             let tokens =
                 vocab::tokenize_on_level(&world.mission, || format!("{level} seed {level_seed}"))
                     .map_err(PolicyError::from)?;
+            crate::policy::acting::check_known_words(net, &tokens, &world.mission, || {
+                format!("{level} seed {level_seed}")
+            })?;
             running.push(Running {
                 summary: EpisodeSummary {
                     eval_seed: s,

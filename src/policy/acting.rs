@@ -10,10 +10,40 @@ use super::model::{Memory, MissionInputs, Net};
 use super::{ActOptions, ActOutput, episode_mission};
 use crate::env::view::Observation;
 
+/// Refuses a mission with a word the policy was never trained on (its embedding row untrained
+/// or missing), naming the word, the mission and `level`.
+pub fn check_known_words<P: Acting + ?Sized>(
+    policy: &P,
+    tokens: &[u32],
+    mission: &str,
+    level: impl FnOnce() -> String,
+) -> Result<(), PolicyError> {
+    let known = policy.known_words();
+    match tokens.iter().find(|&&t| t as usize >= known) {
+        None => Ok(()),
+        Some(&t) => Err(PolicyError::Input(format!(
+            "mission word {:?} in mission {} of level {} is not one this model was trained \
+             on: it knows the paper's {} words (a model of the paper's level); train one on a \
+             BabyAI level (`train --level ID`) for all of BabyAI's words",
+            crate::env::vocab::word(t).unwrap_or("?"),
+            crate::env::error::shown(mission),
+            level(),
+            known - 1
+        ))),
+    }
+}
+
 /// A policy that acts in one environment at a time.
 pub trait Acting {
     /// Attention (the traces carry maps) or baseline (they do not).
     fn variant(&self) -> Variant;
+
+    /// How many entries of groundscope's vocabulary (padding included) the policy was trained
+    /// on: a native model's `vocab_size`; an imported graph maps its own vocabulary and
+    /// names a missing word itself, so every entry.
+    fn known_words(&self) -> usize {
+        crate::env::vocab::VOCAB_SIZE
+    }
 
     /// The memory of a fresh episode.
     fn zero_memory(&self) -> Result<Memory, PolicyError>;
@@ -81,6 +111,10 @@ pub trait Acting {
 impl Acting for Net {
     fn variant(&self) -> Variant {
         self.cfg.variant
+    }
+
+    fn known_words(&self) -> usize {
+        self.cfg.vocab_size
     }
 
     fn zero_memory_batch(&self, batch: usize) -> Result<Memory, PolicyError> {

@@ -471,6 +471,9 @@ pub fn analyse_episode(
 ) -> Result<EpisodeResult, PolicyError> {
     let world = level.generate(level_seed)?;
     let tokens = vocab::tokenize_on_level(&world.mission, || format!("{level} seed {level_seed}"))?;
+    crate::policy::acting::check_known_words(agent, &tokens, &world.mission, || {
+        format!("{level} seed {level_seed}")
+    })?;
     let mut rng = Pcg64Mcg::seed_from_u64(level_seed ^ 0xFA17_4F11);
     let mut visits = Vec::new();
     let base = rollout(
