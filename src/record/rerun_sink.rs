@@ -25,6 +25,7 @@
 //! episode) and `episode` numbers the episodes.
 
 mod entities;
+mod marks;
 
 use std::collections::BTreeSet;
 use std::net::{TcpStream, ToSocketAddrs};
@@ -32,8 +33,8 @@ use std::path::PathBuf;
 use std::time::Duration;
 
 use rerun::blueprint::{
-    BarChartView, Blueprint, Grid, Horizontal, Spatial2DView, TextDocumentView, TextLogView,
-    TimePanel, TimeSeriesView, Vertical,
+    Blueprint, Grid, Horizontal, Spatial2DView, TextDocumentView, TextLogView, TimePanel,
+    TimeSeriesView, Vertical,
 };
 use rerun::external::re_uri;
 use rerun::sink::{GrpcSink, LogSink};
@@ -107,18 +108,51 @@ pub fn word_path(i: usize, word: &str) -> String {
     format!("attention/words/{i}_{word}")
 }
 
-/// The default layout: world and view on the left, the word maps and `M` in the middle with
-/// w and H under them, the policy's numbers and the metrics on the right.
+/// The title of word map `path` (`attention/words/<i>_<word>`): the word, with its position
+/// when the recording holds the same word at several positions.
+fn word_title(path: &str, all: &[String]) -> String {
+    let name = path.rsplit('/').next().unwrap_or(path);
+    let (i, word) = name.split_once('_').unwrap_or(("", name));
+    let same = all
+        .iter()
+        .filter(|p| {
+            p.rsplit('/')
+                .next()
+                .and_then(|n| n.split_once('_'))
+                .map(|(_, w)| w)
+                == Some(word)
+        })
+        .count();
+    if same > 1 {
+        format!("{word} (word {i})")
+    } else {
+        word.to_owned()
+    }
+}
+
+/// Columns of the grid of maps: two rows, so that each square map fills a cell of the middle
+/// column about as tall as it is wide instead of sitting in a wide black margin.
+fn map_columns(n_maps: usize) -> u32 {
+    n_maps.div_ceil(2).max(1) as u32
+}
+
+/// The default layout: world and view on the left; the word maps, `M` (and Δ) with the
+/// colour bar they share in the middle, with the named w and H bars under them; the
+/// policy's named bars, the words table, grounding and faithfulness on the right. Every map
+/// view also shows the landmarks (walls, objects, unseen cells, the agent).
 fn blueprint(word_paths: &[String], attention: bool, faithfulness: bool) -> Blueprint {
     let left = Vertical::new([
-        Spatial2DView::new("world").with_origin("/world").into(),
+        Spatial2DView::new("world (magenta: target · line: trail)")
+            .with_origin("/world")
+            .into(),
         Spatial2DView::new("agent view").with_origin("/view").into(),
-    ]);
+    ])
+    .with_row_shares([3.0, 1.0]);
     let mut right = vec![
         TextDocumentView::new("status")
             .with_origin("/policy/status")
             .into(),
-        BarChartView::new("action probabilities")
+        Spatial2DView::new("action probabilities")
             .with_origin("/policy/probs")
             .into(),
         TimeSeriesView::new("value and reward")
@@ -134,45 +168,73 @@ fn blueprint(word_paths: &[String], attention: bool, faithfulness: bool) -> Blue
             .with_time_panel(TimePanel::new().with_timeline("step"));
     }
     right.push(
-        TimeSeriesView::new("grounding (this step)")
-            .with_origin("/metrics")
+        TextDocumentView::new("words: w and H")
+            .with_origin("/attention/legend")
             .into(),
     );
+    right.push(
+        TextDocumentView::new("grounding (this step)")
+            .with_origin("/metrics/grounding")
+            .into(),
+    );
+    let with_landmarks =
+        |origin: String| [format!("{origin}/**"), format!("/{}/**", marks::LANDMARKS)];
     let mut maps: Vec<_> = word_paths
         .iter()
         .map(|p| {
-            let name = p.rsplit('/').next().unwrap_or(p);
-            Spatial2DView::new(name).with_origin(format!("/{p}")).into()
+            let origin = format!("/{p}");
+            Spatial2DView::new(word_title(p, word_paths))
+                .with_origin(origin.as_str())
+                .with_contents(with_landmarks(origin.clone()))
+                .into()
         })
         .collect();
     maps.push(
         Spatial2DView::new("combined M")
             .with_origin("/attention/combined")
+            .with_contents(with_landmarks("/attention/combined".to_owned()))
             .into(),
     );
     if faithfulness {
         maps.push(
-            Spatial2DView::new("occlusion Δ")
+            Spatial2DView::new("occlusion Δ (own scale 0–1)")
                 .with_origin("/faithfulness/occlusion")
+                .with_contents(with_landmarks("/faithfulness/occlusion".to_owned()))
                 .into(),
         );
         right.push(
-            TimeSeriesView::new("faithfulness: ρ(M, Δ), intervention TV")
+            TextDocumentView::new("faithfulness: ρ(M, Δ), peaks, flips")
+                .with_origin("/faithfulness/summary")
+                .into(),
+        );
+        right.push(
+            TimeSeriesView::new("faithfulness over the episode")
                 .with_origin("/faithfulness")
+                .with_contents([
+                    "/faithfulness/rank_correlation",
+                    "/faithfulness/interventions/**",
+                ])
                 .into(),
         );
     }
+    let n_maps = maps.len();
     let middle = Vertical::new([
-        Grid::new(maps).into(),
         Horizontal::new([
-            BarChartView::new("weights w")
+            Grid::new(maps)
+                .with_grid_columns(map_columns(n_maps))
+                .into(),
+            Spatial2DView::new("scale")
+                .with_origin("/attention/colorbar")
+                .into(),
+        ])
+        .with_column_shares([12.0, 1.0])
+        .into(),
+        Horizontal::new([
+            Spatial2DView::new("weights w")
                 .with_origin("/attention/weights")
                 .into(),
-            BarChartView::new("entropies H")
+            Spatial2DView::new("entropies H (nats)")
                 .with_origin("/attention/entropy")
-                .into(),
-            TextDocumentView::new("words")
-                .with_origin("/attention/legend")
                 .into(),
         ])
         .into(),
@@ -180,7 +242,7 @@ fn blueprint(word_paths: &[String], attention: bool, faithfulness: bool) -> Blue
     .with_row_shares([3.0, 1.0]);
     Blueprint::new(
         Horizontal::new([left.into(), middle.into(), Vertical::new(right).into()])
-            .with_column_shares([1.0, 2.0, 1.0]),
+            .with_column_shares([1.2, 2.0, 1.0]),
     )
     .with_time_panel(TimePanel::new().with_timeline("step"))
 }
@@ -316,7 +378,7 @@ impl RerunRecorder {
         }
         let e = self.pushed;
         let rec = &self.rec;
-        for (step, scene) in ep.steps.iter().zip(scenes) {
+        for (k, (step, scene)) in ep.steps.iter().zip(scenes).enumerate() {
             if stopped(stop) {
                 return Err(RecordError::Interrupted);
             }
@@ -328,7 +390,7 @@ impl RerunRecorder {
                 rec.log("mission", &rerun::TextDocument::new(ep.mission.as_str()))
                     .map_err(sdk)?;
             }
-            log_step(rec, ep, e, step, scene)?;
+            log_step(rec, ep, e, k, scene)?;
             self.global += 1;
         }
         self.pushed += 1;

@@ -41,15 +41,19 @@ impl Debugger {
     pub(super) fn controls(&mut self, ui: &mut egui::Ui) {
         ui.horizontal_wrapped(|ui| {
             ui.label("checkpoint");
-            egui::ComboBox::from_id_salt("ckpt")
-                .selected_text(self.checkpoint_text.clone())
-                .show_ui(ui, |ui| {
-                    for n in crate::policy::bundled::names() {
-                        ui.selectable_value(&mut self.checkpoint_text, n.clone(), n);
-                    }
-                });
             ui.add(egui::TextEdit::singleline(&mut self.checkpoint_text).desired_width(160.0))
                 .on_hover_text("bundled:attention, bundled:baseline, a checkpoint NAME (NAME.json + NAME.safetensors) or an ONNX graph FILE.onnx");
+            // The bundled names fill the field: one place shows the checkpoint, not two.
+            ui.menu_button("▾", |ui| {
+                for n in crate::policy::bundled::names() {
+                    if ui.button(n.as_str()).clicked() {
+                        self.checkpoint_text.clone_from(&n);
+                        ui.close();
+                    }
+                }
+            })
+            .response
+            .on_hover_text("bundled checkpoints");
             ui.checkbox(&mut self.compare, "compare with");
             ui.add_enabled(
                 self.compare,
@@ -129,13 +133,19 @@ impl Debugger {
                 let p = self.export_path("png");
                 self.request_shot(ui.ctx(), p, false);
             }
-            if ui.button("Rerun: spawn").clicked() {
-                self.export(Export::Spawn);
-            }
-            ui.add(egui::TextEdit::singleline(&mut self.connect_url).desired_width(200.0));
-            if ui.button("connect").clicked() {
-                self.export(Export::Connect(self.connect_url.clone()));
-            }
+            // The viewer URL matters only when connecting: it lives in the menu, not the bar.
+            ui.menu_button("Rerun ▾", |ui| {
+                if ui.button("spawn a viewer").clicked() {
+                    self.export(Export::Spawn);
+                    ui.close();
+                }
+                ui.label("or connect to a running one:");
+                ui.add(egui::TextEdit::singleline(&mut self.connect_url).desired_width(240.0));
+                if ui.button("connect").clicked() {
+                    self.export(Export::Connect(self.connect_url.clone()));
+                    ui.close();
+                }
+            });
         });
     }
 
@@ -163,7 +173,10 @@ impl Debugger {
                 self.cursor.step = len.saturating_sub(1);
             }
             let mut s = self.cursor.step;
-            ui.add(egui::Slider::new(&mut s, 0..=len.saturating_sub(1)).text(format!("of {len}")));
+            ui.add(
+                egui::Slider::new(&mut s, 0..=len.saturating_sub(1))
+                    .text(format!("of 0–{}", len.saturating_sub(1))),
+            );
             self.cursor.step = s;
             ui.add(egui::Slider::new(&mut self.cursor.speed, 0.5..=20.0).text("steps/s"));
             if let Some(shown) = &self.shown {
