@@ -181,6 +181,21 @@ pub struct Failure {
     pub counterfactual: Option<Counterfactual>,
 }
 
+impl Failure {
+    /// The `groundscope view` command that opens the episode in the debugger: at its last
+    /// step, where it failed, for a failed episode (the debugger's "failure" step).
+    pub fn view_command(&self) -> String {
+        let view = self
+            .replay
+            .replacen("groundscope replay", "groundscope view", 1);
+        if self.kind == "failed" && self.length > 0 {
+            format!("{view} --step {}", self.length - 1)
+        } else {
+            view
+        }
+    }
+}
+
 /// `report.json`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Report {

@@ -4,20 +4,26 @@
 //! | path | archetype | what |
 //! |---|---|---|
 //! | `world/grid` | Image | the world, the agent's visible cells highlighted |
-//! | `world/attention` | Image (RGBA, one pixel per cell, scaled by a static transform) | `M` projected onto the world |
+//! | `world/attention` | Image (RGBA, one pixel per cell, scaled by a static transform) | `M` on the view's empty floor |
+//! | `world/attention/rings` | Boxes2D | `M`'s colour round occupied cells (their contents keep their colours) |
+//! | `world/marks/targets`, `world/marks/trail` | Boxes2D, LineStrips2D | targets; the agent's path |
 //! | `view/image` | Image | the agent's view, agent-up |
-//! | `attention/words/<i>_<word>` | DepthImage (7×7, viridis) | word i's map |
-//! | `attention/words/<i>_<word>/label` | Boxes2D | word, weight w and entropy H |
+//! | `attention/words/<i>_<word>` | DepthImage (7×7, viridis; grey when w ≈ 0) | word i's map |
+//! | `attention/words/<i>_<word>/label` | Boxes2D | word, weight w, entropy H and the shared scale |
 //! | `attention/words/<i>_<word>/grounding` | Points2D | hit / miss at each related object |
 //! | `attention/combined` (+ `/label`, `/grounding`) | DepthImage, Boxes2D, Points2D | `M` |
-//! | `attention/weights`, `attention/entropy` | BarChart | w and H in word order |
+//! | `attention/landmarks/*` | Boxes2D, LineStrips2D, Points2D | walls, objects, unseen cells, agent |
+//! | `attention/colorbar` | DepthImage | the maps' shared scale |
+//! | `attention/weights`, `attention/entropy` | Boxes2D (named bars) | w and H in word order |
 //! | `attention/legend` | TextDocument | word, w and H as a table |
-//! | `policy/probs` | BarChart | action probabilities (action order in `policy/status`) |
+//! | `policy/probs` | Boxes2D (named bars) | action probabilities |
 //! | `policy/value`, `policy/reward` | Scalars | critic value, reward |
 //! | `policy/status` | TextDocument | mission, step, action, probabilities |
 //! | `policy/action` | TextLog | one line per step |
 //! | `metrics/<object\|color\|combined>` | Scalars | acc, acc_ng, acc_bs, acc_cmb of the step |
+//! | `metrics/grounding` | TextDocument | the same as a table, and why a kind is not scored |
 //! | `faithfulness/occlusion` | DepthImage (7×7, viridis on [0, 1]) | occlusion Δ (`replay --faithfulness`) |
+//! | `faithfulness/summary` | TextDocument | ρ, peaks' agreement, interventions and flips |
 //! | `faithfulness/rank_correlation`, `faithfulness/interventions/<name>` | Scalars | ρ(M, Δ); TV distance of each one-step intervention |
 //! | `mission`, `meta` | TextDocument | the mission; versions, checkpoint, level (static) |
 //!

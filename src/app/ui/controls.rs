@@ -44,7 +44,7 @@ impl Debugger {
             ui.add(egui::TextEdit::singleline(&mut self.checkpoint_text).desired_width(160.0))
                 .on_hover_text("bundled:attention, bundled:baseline, a checkpoint NAME (NAME.json + NAME.safetensors) or an ONNX graph FILE.onnx");
             // The bundled names fill the field: one place shows the checkpoint, not two.
-            ui.menu_button("▾", |ui| {
+            ui.menu_button("bundled…", |ui| {
                 for n in crate::policy::bundled::names() {
                     if ui.button(n.as_str()).clicked() {
                         self.checkpoint_text.clone_from(&n);
@@ -134,7 +134,7 @@ impl Debugger {
                 self.request_shot(ui.ctx(), p, false);
             }
             // The viewer URL matters only when connecting: it lives in the menu, not the bar.
-            ui.menu_button("Rerun ▾", |ui| {
+            ui.menu_button("Rerun…", |ui| {
                 if ui.button("spawn a viewer").clicked() {
                     self.export(Export::Spawn);
                     ui.close();

@@ -59,14 +59,14 @@ impl Debugger {
                         self.overlay = Overlay::Word;
                     }
                     if dimmed {
-                        ui.label(egui::RichText::new("w ≈ 0: not in M").small().weak());
+                        ui.label(egui::RichText::new("w < 0.005: not in M").small().weak());
                     }
                 });
             }
             ui.vertical(|ui| {
                 ui.set_width(side);
                 ui.label(egui::RichText::new("combined M").strong());
-                ui.label("Σ w·A");
+                ui.label("the w-weighted sum");
                 let hits = scene
                     .hits_of(None)
                     .map(|g| g.hits.as_slice())

@@ -299,7 +299,7 @@ pub(super) fn log_step(
         let grey = wa.weight < NEGLIGIBLE_WEIGHT;
         rec.log(path.as_str(), &map_image(&wa.map, hi, grey))
             .map_err(sdk)?;
-        let note = if grey { " · w ≈ 0: not in M" } else { "" };
+        let note = if grey { " · w < 0.005: not in M" } else { "" };
         rec.log(
             format!("{path}/label"),
             &label_box(format!(

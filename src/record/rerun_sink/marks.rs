@@ -13,6 +13,13 @@ use crate::render::{decode_view_cell, palette};
 /// Length of a full bar (probability or weight 1) in the bars' 2-D space.
 pub const BAR_LENGTH: f32 = 10.0;
 
+/// Rows of a bar chart are this far apart and each bar [`BAR_HEIGHT`] tall: the gap leaves
+/// room for the label Rerun draws at the bar, wherever it anchors it.
+pub const BAR_PITCH: f32 = 1.5;
+
+/// Height of one bar.
+pub const BAR_HEIGHT: f32 = 0.7;
+
 /// Where the landmarks every map view also shows are logged.
 pub const LANDMARKS: &str = "attention/landmarks";
 
@@ -27,10 +34,12 @@ pub fn labelled_bars(
     highlight: Option<usize>,
 ) -> rerun::Boxes2D {
     let scale = BAR_LENGTH / full.max(f32::EPSILON);
-    let mins: Vec<(f32, f32)> = (0..rows.len()).map(|i| (0.0, i as f32 + 0.1)).collect();
+    let mins: Vec<(f32, f32)> = (0..rows.len())
+        .map(|i| (0.0, i as f32 * BAR_PITCH + BAR_PITCH - BAR_HEIGHT))
+        .collect();
     let sizes: Vec<(f32, f32)> = rows
         .iter()
-        .map(|(_, v)| ((v.max(0.0) * scale).clamp(0.05, BAR_LENGTH), 0.8))
+        .map(|(_, v)| ((v.max(0.0) * scale).clamp(0.05, BAR_LENGTH), BAR_HEIGHT))
         .collect();
     let colors: Vec<[u8; 3]> = (0..rows.len())
         .map(|i| {
@@ -49,7 +58,7 @@ pub fn labelled_bars(
 
 /// The frame of a bar chart with `n` rows: fixes the view's bounds so bars do not rescale.
 pub fn bar_frame(n: usize) -> rerun::Boxes2D {
-    rerun::Boxes2D::from_mins_and_sizes([(0.0, 0.0)], [(BAR_LENGTH, n as f32)])
+    rerun::Boxes2D::from_mins_and_sizes([(0.0, 0.0)], [(BAR_LENGTH, n as f32 * BAR_PITCH)])
         .with_colors([[80, 80, 80]])
 }
 
