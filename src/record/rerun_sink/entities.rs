@@ -60,8 +60,10 @@ pub(super) fn log_static(
     .map_err(sdk)?;
     rec.log_static("policy/probs/frame", &bar_frame(Action::COUNT))
         .map_err(sdk)?;
-    rec.log_static(format!("{LANDMARKS}/agent"), &agent_marker())
-        .map_err(sdk)?;
+    if first.variant.name() == "attention" {
+        rec.log_static(format!("{LANDMARKS}/agent"), &agent_marker())
+            .map_err(sdk)?;
+    }
     rec.log_static(
         "policy/value",
         &rerun::SeriesLines::new()
