@@ -422,8 +422,8 @@ fn objects_keep_their_palette_colours_under_the_overlay() {
     let plain = render_world(&step.world, TILE_PX, true);
     assert_eq!(img.dimensions(), plain.dimensions());
     let ts = TILE_PX;
-    // The attention ring and the target's frame are the outer two eighths of a cell.
-    let ring = ts / 8 * 2;
+    // The attention ring and the target's corners are the outer eighth of a cell.
+    let ring = ts / 8;
     let (mut objects, mut balls, mut tinted) = (0, 0, 0);
     for (x, y) in groundscope::render::visible_cells(&step.world) {
         let (px, py) = px_in_image((x, y), ts);
@@ -461,12 +461,16 @@ fn objects_keep_their_palette_colours_under_the_overlay() {
     }
     assert!(objects > 0 && balls > 0, "seed {seed} step {k}");
     assert!(tinted > 0, "the overlay tints the floor it covers");
-    // With the overlay off the picture is the plain world but for the targets' frame.
+    // With the overlay off the picture is the plain world but for the targets' corners.
     h.get_by_label("none").click();
     h.run();
     let off = h.state().world_image().unwrap();
     let (tx, ty) = px_in_image(step.world.target_positions()[0], ts);
-    assert_eq!(off.get_pixel(tx + ts / 8, ty + ts / 2).0, palette::TARGET);
+    assert_eq!(off.get_pixel(tx, ty).0, palette::TARGET);
+    assert_eq!(
+        off.get_pixel(tx + ts / 2, ty + ts / 2),
+        plain.get_pixel(tx + ts / 2, ty + ts / 2)
+    );
 }
 
 #[test]
@@ -478,7 +482,12 @@ fn the_panels_say_what_their_numbers_mean() {
         assert!(h.query_all_by_label(label).next().is_some(), "{label}");
     }
     h.get_by_label_contains("shared scale");
-    h.get_by_label_contains("magenta frame: target");
+    h.get_by_label_contains("magenta corners: target");
+    // The episode at a glance fills the rest of the column: a line per word's w.
+    h.get_by_label("over the episode:");
+    for w in &shown.trace.steps[0].attention.as_ref().unwrap().words {
+        h.get_by_label(&format!("w of {}", w.word));
+    }
     // Every step either shows each kind of accuracy or says why not; a word whose weight is
     // about 0 says it is not in M.
     let mut reasons = 0;

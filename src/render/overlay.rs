@@ -113,13 +113,17 @@ pub fn overlay_on_world(
     }
 }
 
-/// Outlines each cell of `cells` with [`palette::TARGET`], a band [`ring_px`] wide just
-/// inside any attention ring, so that a target reads as such at any room size.
+/// Marks each cell of `cells` with [`palette::TARGET`] brackets at its four corners, in the
+/// edge band [`ring_px`] wide: objects leave only that band free (a ball's edge or a box's
+/// frame starts just inside it), so the corners take the target's colour and the rest of
+/// the band keeps the attention ring's.
 pub fn outline_targets(img: &mut RgbImage, cells: &[Pos], tile_size: u32) {
     let ring = ring_px(tile_size);
+    let arm = (tile_size / 3).max(1);
+    let near_end = |d: u32| d < arm || d + arm >= tile_size;
     for &pos in cells {
         paint_cell(img, pos, tile_size, palette::TARGET, 1.0, |dx, dy| {
-            on_edge(dx, dy, tile_size, 2 * ring) && !on_edge(dx, dy, tile_size, ring)
+            on_edge(dx, dy, tile_size, ring) && near_end(dx) && near_end(dy)
         });
     }
 }
@@ -232,9 +236,33 @@ mod tests {
         let mut img = render_world(&world, ts, false);
         outline_targets(&mut img, &[fixtures::BALL], ts);
         let (bx, by) = px_in_image(fixtures::BALL, ts);
-        let r = ring_px(ts);
-        assert_eq!(img.get_pixel(bx + r, by + ts / 2).0, palette::TARGET);
-        assert_ne!(img.get_pixel(bx + ts / 2, by + ts / 2).0, palette::TARGET);
+        // Its corners are magenta; the middle of its edges and its inside are not.
+        for (dx, dy) in [
+            (0, 0),
+            (ts - 1, 0),
+            (0, ts - 1),
+            (ts - 1, ts - 1),
+            (3, 0),
+            (0, 3),
+        ] {
+            assert_eq!(
+                img.get_pixel(bx + dx, by + dy).0,
+                palette::TARGET,
+                "({dx}, {dy})"
+            );
+        }
+        for (dx, dy) in [
+            (ts / 2, 0),
+            (0, ts / 2),
+            (ts / 2, ts / 2),
+            (ring_px(ts), ring_px(ts)),
+        ] {
+            assert_ne!(
+                img.get_pixel(bx + dx, by + dy).0,
+                palette::TARGET,
+                "({dx}, {dy})"
+            );
+        }
         draw_trail(&mut img, &[(2, 4)], ts);
         let (tx, ty) = px_in_image((2, 4), ts);
         assert_ne!(

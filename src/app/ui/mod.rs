@@ -5,6 +5,7 @@
 //! `impl Debugger` block in a child module, so that they all reach the private state.
 
 mod controls;
+mod history;
 mod jobs;
 mod maps;
 mod numbers;
@@ -246,9 +247,11 @@ impl Debugger {
         });
         self.world_panel(ui, false, side);
         ui.label(
-            egui::RichText::new("magenta frame: target · dots: cells visited · floor tint: map")
-                .small()
-                .weak(),
+            egui::RichText::new(
+                "magenta corners: target · dots: cells visited · floor tint and rings: the map",
+            )
+            .small()
+            .weak(),
         );
         ui.add_space(6.0);
         ui.label("agent view (agent-up)");
@@ -322,5 +325,9 @@ impl Debugger {
                     .push(start_attention_probe(&agent, &shown, how, self.alpha));
             }
         }
+        ui.separator();
+        // What is left of the column shows the whole episode, so no half of it stays empty.
+        let height = (ui.available_height() - 40.0).clamp(90.0, 220.0);
+        self.history_ui(ui, &shown, height);
     }
 }

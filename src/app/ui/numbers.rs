@@ -66,7 +66,7 @@ impl Debugger {
             ui.vertical(|ui| {
                 ui.set_width(side);
                 ui.label(egui::RichText::new("combined M").strong());
-                ui.label("the w-weighted sum");
+                ui.label("sum of w·A");
                 let hits = scene
                     .hits_of(None)
                     .map(|g| g.hits.as_slice())
