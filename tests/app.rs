@@ -451,10 +451,10 @@ fn objects_keep_their_palette_colours_under_the_overlay() {
                     );
                 }
             }
-            None if (x, y) != step.world.agent_pos => {
-                if img.get_pixel(centre.0, centre.1) != plain.get_pixel(centre.0, centre.1) {
-                    tinted += 1;
-                }
+            None if (x, y) != step.world.agent_pos
+                && img.get_pixel(centre.0, centre.1) != plain.get_pixel(centre.0, centre.1) =>
+            {
+                tinted += 1;
             }
             _ => {}
         }

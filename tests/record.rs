@@ -413,13 +413,14 @@ fn every_bar_and_map_of_a_recording_is_named() {
             let label = &d.labels[&format!("/attention/words/{i}_{}/label", w.word)][k][0];
             assert!(
                 label.starts_with(&format!(
-                    "{} · w {:.2} · H {:.2} · scale 0–",
+                    "{} · w {:.2} · H {:.2}",
                     w.word, w.weight, w.entropy
                 )),
                 "{label}"
             );
-            assert!(label.contains("shared"), "{label}");
         }
+        let m = &d.labels["/attention/combined/label"][k][0];
+        assert!(m.starts_with("M · shared scale 0–"), "{m}");
     }
     // The blueprint titles each map by its word, not by its path, and names the bar views.
     for w in ep.words() {

@@ -38,9 +38,10 @@ use std::net::{TcpStream, ToSocketAddrs};
 use std::path::PathBuf;
 use std::time::Duration;
 
+use rerun::blueprint::components::PanelState;
 use rerun::blueprint::{
-    Blueprint, Grid, Horizontal, Spatial2DView, TextDocumentView, TextLogView, TimePanel,
-    TimeSeriesView, Vertical,
+    Blueprint, BlueprintPanel, Grid, Horizontal, SelectionPanel, Spatial2DView, TextDocumentView,
+    TextLogView, TimePanel, TimeSeriesView, Vertical,
 };
 use rerun::external::re_uri;
 use rerun::sink::{GrpcSink, LogSink};
@@ -143,8 +144,9 @@ fn map_columns(n_maps: usize) -> u32 {
 }
 
 /// The default layout: world and view on the left; the word maps, `M` (and Δ) with the
-/// colour bar they share in the middle, with the named w and H bars under them; the
-/// policy's named bars, the words table, grounding and faithfulness on the right. Every map
+/// colour bar they share in the middle, with the named w, H and action bars under them;
+/// the policy's status, value and reward, the words table, grounding and faithfulness (as
+/// text: a plot's legend would cover its points) on the right. Every map
 /// view also shows the landmarks (walls, objects, unseen cells, the agent).
 fn blueprint(word_paths: &[String], attention: bool, faithfulness: bool) -> Blueprint {
     let left = Vertical::new([
@@ -158,9 +160,6 @@ fn blueprint(word_paths: &[String], attention: bool, faithfulness: bool) -> Blue
         TextDocumentView::new("status")
             .with_origin("/policy/status")
             .into(),
-        Spatial2DView::new("action probabilities")
-            .with_origin("/policy/probs")
-            .into(),
         TimeSeriesView::new("value and reward")
             .with_origin("/policy")
             .with_contents(["/policy/value", "/policy/reward"])
@@ -169,9 +168,17 @@ fn blueprint(word_paths: &[String], attention: bool, faithfulness: bool) -> Blue
             .with_origin("/policy/action")
             .into(),
     ];
+    let probs = || {
+        Spatial2DView::new("action probabilities")
+            .with_origin("/policy/probs")
+            .into()
+    };
     if !attention {
-        return Blueprint::new(Horizontal::new([left.into(), Vertical::new(right).into()]))
-            .with_time_panel(TimePanel::new().with_timeline("step"));
+        right.insert(1, probs());
+        return panels(Blueprint::new(Horizontal::new([
+            left.into(),
+            Vertical::new(right).into(),
+        ])));
     }
     right.push(
         TextDocumentView::new("words: w and H")
@@ -213,15 +220,6 @@ fn blueprint(word_paths: &[String], attention: bool, faithfulness: bool) -> Blue
                 .with_origin("/faithfulness/summary")
                 .into(),
         );
-        right.push(
-            TimeSeriesView::new("faithfulness over the episode")
-                .with_origin("/faithfulness")
-                .with_contents([
-                    "/faithfulness/rank_correlation",
-                    "/faithfulness/interventions/**",
-                ])
-                .into(),
-        );
     }
     let n_maps = maps.len();
     let middle = Vertical::new([
@@ -242,15 +240,27 @@ fn blueprint(word_paths: &[String], attention: bool, faithfulness: bool) -> Blue
             Spatial2DView::new("entropies H (nats)")
                 .with_origin("/attention/entropy")
                 .into(),
+            probs(),
         ])
         .into(),
     ])
     .with_row_shares([3.0, 1.0]);
-    Blueprint::new(
+    panels(Blueprint::new(
         Horizontal::new([left.into(), middle.into(), Vertical::new(right).into()])
             .with_column_shares([1.2, 2.0, 1.0]),
-    )
-    .with_time_panel(TimePanel::new().with_timeline("step"))
+    ))
+}
+
+/// The viewer's own panels: the blueprint tree and the selection collapsed and the time
+/// panel folded to its scrub bar on the `step` timeline, so the views get the window.
+fn panels(bp: Blueprint) -> Blueprint {
+    bp.with_blueprint_panel(BlueprintPanel::new().with_state(PanelState::Collapsed))
+        .with_selection_panel(SelectionPanel::new().with_state(PanelState::Collapsed))
+        .with_time_panel(
+            TimePanel::new()
+                .with_timeline("step")
+                .with_state(PanelState::Collapsed),
+        )
 }
 
 /// The word-map entity paths of a recording of these missions (each a list of words), in

@@ -230,7 +230,10 @@ pub fn no_accuracy_reason(kind: WordKind, desc: &ObjDesc) -> String {
         },
         WordKind::Combined => format!(
             "combined: no {} (a target) in view, nothing to score",
-            named(desc.kind.map(|k| k.name()), desc.color.map(|c| c.name()))
+            named(
+                desc.kind.map(crate::env::object::ObjectKind::name),
+                desc.color.map(crate::env::object::Color::name),
+            )
         ),
     }
 }

@@ -26,7 +26,7 @@ pub fn top_cells(map: &ViewMap, k: usize) -> Vec<(usize, usize)> {
 pub fn peak_agreement(m: &ViewMap, delta: &ViewMap) -> (usize, bool) {
     let (a, b) = (top_cells(m, TOP_K), top_cells(delta, TOP_K));
     let shared = a.iter().filter(|c| b.contains(c)).count();
-    (shared, a.first().is_some() && a.first() == b.first())
+    (shared, !a.is_empty() && a.first() == b.first())
 }
 
 /// One line for the peaks: `"top-3 cells shared 2/3 · same peak cell"`.

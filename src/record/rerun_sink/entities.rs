@@ -53,11 +53,8 @@ pub(super) fn log_static(
         &rerun::Transform3D::from_scale((s, s, 1.0)),
     )
     .map_err(sdk)?;
-    rec.log_static(
-        format!("{WORLD_MARKS}"),
-        &rerun::Transform3D::from_scale((s, s, 1.0)),
-    )
-    .map_err(sdk)?;
+    rec.log_static(WORLD_MARKS, &rerun::Transform3D::from_scale((s, s, 1.0)))
+        .map_err(sdk)?;
     rec.log_static("policy/probs/frame", &bar_frame(Action::COUNT))
         .map_err(sdk)?;
     if first.variant.name() == "attention" {
@@ -189,6 +186,19 @@ fn log_faithfulness(
     Ok(())
 }
 
+/// Logs named bars at `path` (the labelled tracks) and `path/bars` (the bars).
+fn log_bars(
+    rec: &RecordingStream,
+    path: &str,
+    rows: &[(String, f32)],
+    full: f32,
+    highlight: Option<usize>,
+) -> Result<(), RecordError> {
+    let (tracks, bars) = labelled_bars(rows, full, highlight);
+    rec.log(path, &tracks).map_err(sdk)?;
+    rec.log(format!("{path}/bars"), &bars).map_err(sdk)
+}
+
 /// The world's marks at step `k`: the targets, and the agent's path so far.
 fn log_world_marks(
     rec: &RecordingStream,
@@ -244,11 +254,7 @@ pub(super) fn log_step(
         .zip(step.probs)
         .map(|(n, p)| (format!("{n} {p:.3}"), p))
         .collect();
-    rec.log(
-        "policy/probs",
-        &labelled_bars(&probs, 1.0, Some(step.action as usize)),
-    )
-    .map_err(sdk)?;
+    log_bars(rec, "policy/probs", &probs, 1.0, Some(step.action as usize))?;
     rec.log(
         "policy/value",
         &rerun::Scalars::single(f64::from(step.value)),
@@ -301,11 +307,12 @@ pub(super) fn log_step(
         let grey = wa.weight < NEGLIGIBLE_WEIGHT;
         rec.log(path.as_str(), &map_image(&wa.map, hi, grey))
             .map_err(sdk)?;
-        let note = if grey { " · w < 0.005: not in M" } else { "" };
+        // Short, so that it fits under the map; the scale is on M's label and the bar.
+        let note = if grey { " · not in M" } else { "" };
         rec.log(
             format!("{path}/label"),
             &label_box(format!(
-                "{} · w {:.2} · H {:.2} · scale 0–{hi:.2} shared{note}",
+                "{} · w {:.2} · H {:.2}{note}",
                 wa.word, wa.weight, wa.entropy
             )),
         )
@@ -321,7 +328,7 @@ pub(super) fn log_step(
         .map_err(sdk)?;
     rec.log(
         "attention/combined/label",
-        &label_box(format!("M = Σ w·A · scale 0–{hi:.2} shared")),
+        &label_box(format!("M · shared scale 0–{hi:.2}")),
     )
     .map_err(sdk)?;
     log_grounding(rec, "attention/combined/grounding", scene.hits_of(None))?;
@@ -345,8 +352,7 @@ pub(super) fn log_step(
             )
         })
         .collect();
-    rec.log("attention/weights", &labelled_bars(&weights, 1.0, None))
-        .map_err(sdk)?;
+    log_bars(rec, "attention/weights", &weights, 1.0, None)?;
     rec.log("attention/weights/frame", &bar_frame(weights.len()))
         .map_err(sdk)?;
     // H is at most ln 49 nats (a uniform map over the 49 cells).
@@ -355,11 +361,7 @@ pub(super) fn log_step(
         .iter()
         .map(|w| (format!("{} · H {:.2}", w.word, w.entropy), w.entropy))
         .collect();
-    rec.log(
-        "attention/entropy",
-        &labelled_bars(&entropies, 49f32.ln(), None),
-    )
-    .map_err(sdk)?;
+    log_bars(rec, "attention/entropy", &entropies, 49f32.ln(), None)?;
     rec.log("attention/entropy/frame", &bar_frame(entropies.len()))
         .map_err(sdk)?;
     rec.log(

@@ -26,17 +26,26 @@ pub const LANDMARKS: &str = "attention/landmarks";
 /// Entity holding the marks drawn over the world in cell units (scaled by the tile size).
 pub const WORLD_MARKS: &str = "world/marks";
 
-/// Horizontal bars, one per `(label, value)` row, value 1 = [`BAR_LENGTH`]; each box is
-/// labelled with its text (e.g. `"forward 0.91"`), `highlight` in orange.
+/// Horizontal bars, one per `(label, value)` row, value `full` = [`BAR_LENGTH`]: the rows'
+/// full-length tracks, each labelled with its text (e.g. `"forward 0.91"`) so that the label
+/// sits mid-row however short the bar, and the bars themselves (`highlight` in orange), to
+/// be logged at a child entity.
 pub fn labelled_bars(
     rows: &[(String, f32)],
     full: f32,
     highlight: Option<usize>,
-) -> rerun::Boxes2D {
+) -> (rerun::Boxes2D, rerun::Boxes2D) {
     let scale = BAR_LENGTH / full.max(f32::EPSILON);
     let mins: Vec<(f32, f32)> = (0..rows.len())
         .map(|i| (0.0, i as f32 * BAR_PITCH + BAR_PITCH - BAR_HEIGHT))
         .collect();
+    let tracks = rerun::Boxes2D::from_mins_and_sizes(
+        mins.clone(),
+        vec![(BAR_LENGTH, BAR_HEIGHT); rows.len()],
+    )
+    .with_labels(rows.iter().map(|(l, _)| l.clone()))
+    .with_show_labels(true)
+    .with_colors([[70, 70, 70]]);
     let sizes: Vec<(f32, f32)> = rows
         .iter()
         .map(|(_, v)| ((v.max(0.0) * scale).clamp(0.05, BAR_LENGTH), BAR_HEIGHT))
@@ -50,10 +59,10 @@ pub fn labelled_bars(
             }
         })
         .collect();
-    rerun::Boxes2D::from_mins_and_sizes(mins, sizes)
-        .with_labels(rows.iter().map(|(l, _)| l.clone()))
-        .with_show_labels(true)
+    let bars = rerun::Boxes2D::from_mins_and_sizes(mins, sizes)
         .with_colors(colors)
+        .with_radii([0.08]);
+    (tracks, bars)
 }
 
 /// The frame of a bar chart with `n` rows: fixes the view's bounds so bars do not rescale.
@@ -71,8 +80,8 @@ pub fn log_landmarks(rec: &RecordingStream, obs: &Observation) -> Result<(), Rec
             let (x, y) = (vx as f32, vy as f32);
             match decode_view_cell(obs.at((vx, vy))) {
                 None => {
-                    for k in 1..4 {
-                        let t = k as f32 / 4.0;
+                    for k in 1..3 {
+                        let t = k as f32 / 3.0;
                         hatch.push(vec![[x, y + t], [x + t, y]]);
                         hatch.push(vec![[x + 1.0 - t, y + 1.0], [x + 1.0, y + 1.0 - t]]);
                     }
@@ -109,8 +118,8 @@ pub fn log_landmarks(rec: &RecordingStream, obs: &Observation) -> Result<(), Rec
     rec.log(
         format!("{LANDMARKS}/unseen"),
         &rerun::LineStrips2D::new(hatch)
-            .with_colors([[200, 200, 200]])
-            .with_radii([0.015])
+            .with_colors([[110, 110, 110]])
+            .with_radii([0.01])
             .with_draw_order(20.0),
     )
     .map_err(sdk)
