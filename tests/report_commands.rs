@@ -35,3 +35,43 @@ fn a_failed_episode_opens_at_its_last_step() {
         "groundscope view --checkpoint bundled:attention --room-size 16 --objects 10 --seed 42"
     );
 }
+
+#[test]
+fn a_one_seed_one_size_report_reads_right() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("r");
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_groundscope"))
+        .args([
+            "eval",
+            "--sizes",
+            "8",
+            "--objects",
+            "4",
+            "--seeds",
+            "1",
+            "--episodes",
+            "5",
+            "--quiet",
+            "--out",
+        ])
+        .arg(&out)
+        .env("RAYON_NUM_THREADS", "1")
+        .output()
+        .unwrap();
+    assert_eq!(
+        o.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let md = std::fs::read_to_string(out.join("report.md")).unwrap();
+    // One seed is not "1 seeds", and its "± 0.000" is said to be no std.
+    assert!(md.contains("1 seed (from 0)"), "{md}");
+    assert!(!md.contains("1 seeds"), "{md}");
+    assert!(md.contains("one seed, so no std"), "{md}");
+    // Each listed episode can be opened in the debugger.
+    assert!(md.contains("`groundscope view --checkpoint "), "{md}");
+    // One room size alone still gets a figure wide enough for its title.
+    let fig = image::open(out.join("fig6_success.png")).unwrap();
+    assert!(fig.width() >= 680, "{}", fig.width());
+}
