@@ -174,11 +174,12 @@ mod tests {
                 }
             }
         }
-        // The red ball's cell holds its palette red at the centre, overlay or not.
+        // The red ball's cell holds its palette red (highlighted: the agent sees it) at the
+        // centre, overlay or not.
         let (bx, by) = px_in_image(fixtures::BALL, ts);
         assert_eq!(
             img.get_pixel(bx + ts / 2, by + ts / 2).0,
-            palette::object(crate::env::Color::Red)
+            palette::highlight(palette::object(crate::env::Color::Red))
         );
         let marks: Vec<_> = map_cells(&world, &map)
             .into_iter()
