@@ -540,3 +540,28 @@ fn a_step_past_the_end_is_said_not_clamped_silently() {
         last + 40
     ));
 }
+
+#[test]
+fn a_babyai_level_names_itself_and_gets_a_world_of_its_size() {
+    let agent = Agent::load("bundled:attention").unwrap();
+    let level = groundscope::env::level::LevelConfig {
+        babyai: Some(groundscope::env::level::LevelId::parse("BabyAI-GoTo-v0").unwrap()),
+        ..agent.level()
+    };
+    let mut h = build(&StartOptions {
+        checkpoint: "bundled:attention".into(),
+        compare: None,
+        level: Some(level),
+        seed: 1,
+        sample: false,
+        step: 0,
+        mission: None,
+        faithfulness: false,
+    });
+    show_until(&mut h, "step 0 of ");
+    // Not the paper level's "room 8 · objects 4", which would not describe it.
+    h.get_by_label("level BabyAI-GoTo-v0");
+    assert!(h.query_by_label("room").is_none());
+    let img = h.state().world_image().unwrap();
+    assert_eq!(img.dimensions(), (22 * TILE_PX, 22 * TILE_PX));
+}

@@ -137,10 +137,11 @@ fn word_title(path: &str, all: &[String]) -> String {
     }
 }
 
-/// Columns of the grid of maps: two rows, so that each square map fills a cell of the middle
-/// column about as tall as it is wide instead of sitting in a wide black margin.
+/// Columns of the grid of maps: as many as rows (the maps' area of the default layout is
+/// about square), so that each square map fills its cell instead of sitting in a black
+/// margin, as two rows of four did (read in the 0.36.3 viewer at 1600×1000).
 fn map_columns(n_maps: usize) -> u32 {
-    n_maps.div_ceil(2).max(1) as u32
+    (1..=n_maps.max(1)).find(|c| c * c >= n_maps).unwrap_or(1) as u32
 }
 
 /// The default layout: world and view on the left; the word maps, `M` (and Δ) with the
@@ -462,4 +463,22 @@ fn spawn_viewer() -> Result<re_uri::ProxyUri, RecordError> {
     let info = rerun::spawn(&rerun::SpawnOptions::default())
         .map_err(|e| RecordError::Rerun(format!("--spawn: {}", first_line(&e.to_string()))))?;
     Ok(proxy_uri(&format!("rerun+http://127.0.0.1:{}/proxy", info.port))?.0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn maps_are_laid_out_about_square_and_titled_by_their_word() {
+        let cols: Vec<u32> = [1, 2, 4, 5, 7, 9, 10].map(map_columns).to_vec();
+        assert_eq!(cols, [1, 2, 2, 3, 3, 3, 4]);
+        let paths = [
+            "attention/words/2_the".to_owned(),
+            "attention/words/5_the".to_owned(),
+            "attention/words/3_yellow".to_owned(),
+        ];
+        assert_eq!(word_title(&paths[0], &paths), "the (word 2)");
+        assert_eq!(word_title(&paths[2], &paths), "yellow");
+    }
 }

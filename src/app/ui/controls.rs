@@ -63,17 +63,23 @@ impl Debugger {
                 self.load_checkpoints();
             }
             ui.separator();
-            ui.label("room");
-            ui.add(egui::DragValue::new(&mut self.level.room_size).range(5..=16));
-            ui.label("objects");
-            ui.add(egui::DragValue::new(&mut self.level.n_objects).range(1..=20));
-            egui::ComboBox::from_id_salt("tasks")
-                .selected_text(format!("{:?}", self.level.tasks))
-                .show_ui(ui, |ui| {
-                    for t in [TaskSet::Both, TaskSet::GoTo, TaskSet::Pickup] {
-                        ui.selectable_value(&mut self.level.tasks, t, format!("{t:?}"));
-                    }
-                });
+            // A BabyAI level ignores the paper level's room, objects and tasks: its id is
+            // shown instead of numbers that would not describe it.
+            if let Some(id) = self.level.babyai {
+                ui.label(format!("level {}", id.id()));
+            } else {
+                ui.label("room");
+                ui.add(egui::DragValue::new(&mut self.level.room_size).range(5..=16));
+                ui.label("objects");
+                ui.add(egui::DragValue::new(&mut self.level.n_objects).range(1..=20));
+                egui::ComboBox::from_id_salt("tasks")
+                    .selected_text(format!("{:?}", self.level.tasks))
+                    .show_ui(ui, |ui| {
+                        for t in [TaskSet::Both, TaskSet::GoTo, TaskSet::Pickup] {
+                            ui.selectable_value(&mut self.level.tasks, t, format!("{t:?}"));
+                        }
+                    });
+            }
             ui.label("seed");
             ui.add(egui::DragValue::new(&mut self.seed));
             ui.checkbox(&mut self.sample, "sampled");

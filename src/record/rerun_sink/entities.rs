@@ -129,6 +129,15 @@ fn grounding_points(g: &EvaluatedMap) -> rerun::Points2D {
         .with_show_labels(false)
 }
 
+/// An invisible point under a map: Rerun fits a 2-D view to its contents but not to their
+/// labels, and a map's label is drawn under the map, so without it a view sized to the map
+/// would cut the label off.
+fn label_room() -> rerun::Points2D {
+    rerun::Points2D::new([(3.5, 8.3)])
+        .with_radii([0.001])
+        .with_colors([[0, 0, 0]])
+}
+
 fn label_box(text: String) -> rerun::Boxes2D {
     rerun::Boxes2D::from_mins_and_sizes([(0.0, 0.0)], [(7.0, 7.0)])
         .with_labels([text])
@@ -317,6 +326,7 @@ pub(super) fn log_step(
             )),
         )
         .map_err(sdk)?;
+        rec.log(format!("{path}/pad"), &label_room()).map_err(sdk)?;
         log_grounding(rec, &format!("{path}/grounding"), scene.hits_of(Some(i)))?;
         let _ = writeln!(
             legend,
@@ -331,6 +341,8 @@ pub(super) fn log_step(
         &label_box(format!("M · shared scale 0–{hi:.2}")),
     )
     .map_err(sdk)?;
+    rec.log("attention/combined/pad", &label_room())
+        .map_err(sdk)?;
     log_grounding(rec, "attention/combined/grounding", scene.hits_of(None))?;
     rec.log("attention/colorbar", &marks::colorbar(hi))
         .map_err(sdk)?;
