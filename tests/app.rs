@@ -20,6 +20,9 @@ use groundscope::app::session::{Agent, Request, Shown, run_request};
 use groundscope::app::{Debugger, StartOptions};
 use groundscope::episode::ActionMode;
 use groundscope::metrics::faithfulness::annotate_step;
+use groundscope::metrics::faithfulness::peaks::peak_line;
+use groundscope::record::scene::{NEGLIGIBLE_WEIGHT, TILE_PX, no_accuracy_reason};
+use groundscope::render::{palette, px_in_image, render_world};
 
 fn gs(args: &[&str], display: Option<&str>) -> Output {
     let mut cmd = Command::new(env!("CARGO_BIN_EXE_groundscope"));
@@ -129,6 +132,20 @@ fn debugger(step: usize, faithfulness: bool) -> Harness<'static, Debugger> {
     debugger_of("bundled:attention", None, step, faithfulness)
 }
 
+/// [`debugger`] on another seed.
+fn debugger_seed(seed: u64, step: usize, faithfulness: bool) -> Harness<'static, Debugger> {
+    build(&StartOptions {
+        checkpoint: "bundled:attention".into(),
+        compare: None,
+        level: None,
+        seed,
+        sample: false,
+        step,
+        mission: None,
+        faithfulness,
+    })
+}
+
 /// [`debugger`] for `checkpoint` (and `compare`, side by side).
 fn debugger_of(
     checkpoint: &str,
@@ -136,7 +153,7 @@ fn debugger_of(
     step: usize,
     faithfulness: bool,
 ) -> Harness<'static, Debugger> {
-    let opts = StartOptions {
+    build(&StartOptions {
         checkpoint: checkpoint.into(),
         compare: compare.map(str::to_owned),
         level: None,
@@ -145,15 +162,19 @@ fn debugger_of(
         step,
         mission: None,
         faithfulness,
-    };
+    })
+}
+
+/// The debugger at the default window size, 1400×900.
+fn build(opts: &StartOptions) -> Harness<'static, Debugger> {
     Harness::builder()
-        .with_size([1400.0, 1100.0])
+        .with_size([1400.0, 900.0])
         // The harness would also fail on the inputs without an accessible name (the
         // controls' combo boxes, drag values and text fields): not what these tests are about.
         .with_accessibility_check(false)
         .build_ui_state(
             |ui, d: &mut Debugger| d.frame(ui),
-            Debugger::new(&opts, None),
+            Debugger::new(opts, None),
         )
 }
 
@@ -168,10 +189,15 @@ fn show_until(h: &mut Harness<'_, Debugger>, text: &str) {
 
 /// The episode the debugger runs, run here without it.
 fn episode() -> (Agent, Shown) {
+    episode_of(3)
+}
+
+/// The episode of `seed` as the debugger runs it.
+fn episode_of(seed: u64) -> (Agent, Shown) {
     let agent = Agent::load("bundled:attention").unwrap();
     let request = Request {
         level: agent.level(),
-        seed: 3,
+        seed,
         mode: ActionMode::Greedy,
         mission: None,
     };
@@ -184,8 +210,8 @@ fn policy_labels(shown: &Shown, k: usize) -> [String; 2] {
     let step = &shown.trace.steps[k];
     [
         format!(
-            "step {k} of {} · {} · total reward {:.3}",
-            shown.len(),
+            "step {k} of 0–{} · {} · total reward {:.3}",
+            shown.len() - 1,
             if shown.trace.success() {
                 "success"
             } else {
@@ -263,10 +289,31 @@ fn the_faithfulness_box_adds_this_steps_occlusion_map() {
     );
     h.get_by_label(&rho);
     for (name, e) in &f.interventions {
-        h.get_by_label_contains(&format!("{name}: TV {:.3}", e.tv));
+        let flips = if e.flip { "flips" } else { "kept" };
+        h.get_by_label(&format!("{name}: TV {:.3} · best action {flips}", e.tv));
     }
+    // Whether the peaks agree stands next to ρ.
+    let m = &shown.trace.steps[1].attention.as_ref().unwrap().combined;
+    h.get_by_label(&peak_line(m, &f.occlusion));
+    // Δ stands beside M, in the same row, and the probes are in sight at 1400×900.
+    let (m_title, delta_title) = (
+        h.get_by_label("combined M").rect(),
+        h.get_by_label("occlusion Δ").rect(),
+    );
+    assert!(
+        (m_title.min.y - delta_title.min.y).abs() < 2.0,
+        "{m_title:?} {delta_title:?}"
+    );
+    assert!(
+        delta_title.min.x > m_title.max.x,
+        "{m_title:?} {delta_title:?}"
+    );
     for probe in ["M uniform", "M steered to a distractor"] {
-        h.get_by_label(probe);
+        let r = h.get_by_label(probe).rect();
+        assert!(
+            r.max.y <= 900.0 - 30.0,
+            "{probe} at {r:?} is scrolled out of a 900-point window"
+        );
     }
     // `view --faithfulness` opens with it shown.
     let mut h = debugger(1, true);
@@ -359,4 +406,177 @@ fn a_graph_without_maps_is_named_and_says_it_has_no_interventions() {
         "no interventions on M: this model outputs no attention maps",
     );
     assert!(h.query_by_label("one step with M changed:").is_none());
+}
+
+#[test]
+fn objects_keep_their_palette_colours_under_the_overlay() {
+    // The example is seed 7, where M once turned the green box yellow; the first step
+    // of it (or of seed 3) with a ball in view also checks a palette colour exactly (a ball's
+    // centre is filled; a box is a thin frame, blended at 16 pixels a cell).
+    let ball_in_view = |shown: &Shown| {
+        shown.trace.steps.iter().position(|s| {
+            groundscope::render::visible_cells(&s.world)
+                .iter()
+                .any(|&p| s.world.grid.get(p).is_some_and(|o| o.kind.name() == "ball"))
+        })
+    };
+    let (seed, shown, k) = [7, 3, 32]
+        .into_iter()
+        .find_map(|seed| {
+            let (_, shown) = episode_of(seed);
+            ball_in_view(&shown).map(|k| (seed, shown, k))
+        })
+        .expect("a ball comes into view");
+    let mut h = debugger_seed(seed, k, false);
+    show_until(&mut h, &format!("step {k} of "));
+    let step = &shown.trace.steps[k];
+    let img = h
+        .state()
+        .world_image()
+        .expect("the world panel has a picture");
+    let plain = render_world(&step.world, TILE_PX, true);
+    assert_eq!(img.dimensions(), plain.dimensions());
+    let ts = TILE_PX;
+    // The attention ring and the target's corners are the outer eighth of a cell.
+    let ring = ts / 8;
+    let (mut objects, mut balls, mut tinted) = (0, 0, 0);
+    for (x, y) in groundscope::render::visible_cells(&step.world) {
+        let (px, py) = px_in_image((x, y), ts);
+        let centre = (px + ts / 2, py + ts / 2);
+        match step.world.grid.get((x, y)) {
+            Some(o) if o.kind.name() != "wall" => {
+                objects += 1;
+                for dy in ring..ts - ring {
+                    for dx in ring..ts - ring {
+                        let (got, want) = (
+                            img.get_pixel(px + dx, py + dy),
+                            plain.get_pixel(px + dx, py + dy),
+                        );
+                        assert_eq!(got, want, "{} at ({x}, {y}) changed colour", o.describe());
+                    }
+                }
+                if o.kind.name() == "ball" {
+                    balls += 1;
+                    let got = img.get_pixel(centre.0, centre.1).0;
+                    let color = palette::object(o.color);
+                    assert!(
+                        got == color || got == palette::highlight(color),
+                        "{} at ({x}, {y}) is {got:?} under M, not its palette {color:?}",
+                        o.describe()
+                    );
+                }
+            }
+            None if (x, y) != step.world.agent_pos
+                && img.get_pixel(centre.0, centre.1) != plain.get_pixel(centre.0, centre.1) =>
+            {
+                tinted += 1;
+            }
+            _ => {}
+        }
+    }
+    assert!(objects > 0 && balls > 0, "seed {seed} step {k}");
+    assert!(tinted > 0, "the overlay tints the floor it covers");
+    // With the overlay off the picture is the plain world but for the targets' corners.
+    h.get_by_label("none").click();
+    h.run();
+    let off = h.state().world_image().unwrap();
+    let (tx, ty) = px_in_image(step.world.target_positions()[0], ts);
+    assert_eq!(off.get_pixel(tx, ty).0, palette::TARGET);
+    assert_eq!(
+        off.get_pixel(tx + ts / 2, ty + ts / 2),
+        plain.get_pixel(tx + ts / 2, ty + ts / 2)
+    );
+}
+
+#[test]
+fn the_panels_say_what_their_numbers_mean() {
+    let (_, shown) = episode();
+    let mut h = debugger(0, false);
+    show_until(&mut h, "step 0 of ");
+    for label in ["action probabilities", "word weights w", "forward", "done"] {
+        assert!(h.query_all_by_label(label).next().is_some(), "{label}");
+    }
+    h.get_by_label_contains("shared scale");
+    h.get_by_label_contains("magenta corners: target");
+    // The episode at a glance fills the rest of the column: a line per word's w.
+    h.get_by_label("over the episode:");
+    for w in &shown.trace.steps[0].attention.as_ref().unwrap().words {
+        h.get_by_label(&format!("w of {}", w.word));
+    }
+    // Every step either shows each kind of accuracy or says why not; a word whose weight is
+    // about 0 says it is not in M.
+    let mut reasons = 0;
+    for (k, (step, scene)) in shown
+        .trace
+        .steps
+        .iter()
+        .zip(shown.scenes.iter())
+        .enumerate()
+    {
+        if k > 0 {
+            h.key_press(egui::Key::ArrowRight);
+            show_until(&mut h, &format!("step {k} of "));
+        }
+        let desc = step.world.desc();
+        for kind in groundscope::metrics::grounding::WordKind::ALL {
+            if scene.grounding.iter().all(|g| g.kind != kind) {
+                h.get_by_label(&no_accuracy_reason(kind, &desc));
+                reasons += 1;
+            }
+        }
+        let dim = step
+            .attention
+            .as_ref()
+            .unwrap()
+            .words
+            .iter()
+            .filter(|w| w.weight < NEGLIGIBLE_WEIGHT)
+            .count();
+        assert_eq!(
+            h.query_all_by_label("w < 0.005: not in M").count(),
+            dim,
+            "step {k}"
+        );
+    }
+    assert!(
+        reasons > 0,
+        "seed 3 has a step with nothing related in view"
+    );
+}
+
+#[test]
+fn a_step_past_the_end_is_said_not_clamped_silently() {
+    let (_, shown) = episode();
+    let last = shown.len() - 1;
+    let mut h = debugger(last + 40, false);
+    show_until(&mut h, &format!("step {last} of 0–{last}"));
+    h.get_by_label(&format!(
+        "--step {} is past this episode's last step {last}; showing step {last}",
+        last + 40
+    ));
+}
+
+#[test]
+fn a_babyai_level_names_itself_and_gets_a_world_of_its_size() {
+    let agent = Agent::load("bundled:attention").unwrap();
+    let level = groundscope::env::level::LevelConfig {
+        babyai: Some(groundscope::env::level::LevelId::parse("BabyAI-GoTo-v0").unwrap()),
+        ..agent.level()
+    };
+    let mut h = build(&StartOptions {
+        checkpoint: "bundled:attention".into(),
+        compare: None,
+        level: Some(level),
+        seed: 1,
+        sample: false,
+        step: 0,
+        mission: None,
+        faithfulness: false,
+    });
+    show_until(&mut h, "step 0 of ");
+    // Not the paper level's "room 8 · objects 4", which would not describe it.
+    h.get_by_label("level BabyAI-GoTo-v0");
+    assert!(h.query_by_label("room").is_none());
+    let img = h.state().world_image().unwrap();
+    assert_eq!(img.dimensions(), (22 * TILE_PX, 22 * TILE_PX));
 }

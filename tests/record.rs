@@ -41,6 +41,10 @@ struct Decoded {
     static_entities: BTreeSet<String>,
     versions: BTreeSet<String>,
     scalars: BTreeMap<String, Vec<Vec<f64>>>,
+    /// The `Boxes2D` labels of every entity, one list per row, in step order.
+    labels: BTreeMap<String, Vec<Vec<String>>>,
+    /// The names of the blueprint's views.
+    view_names: BTreeSet<String>,
     blueprints: usize,
 }
 
@@ -48,6 +52,8 @@ fn decode(path: &Path) -> Decoded {
     let file = std::io::BufReader::new(std::fs::File::open(path).unwrap());
     let mut out = Decoded::default();
     let scalar = rerun::Scalars::descriptor_scalars().component;
+    let label = rerun::Boxes2D::descriptor_labels().component;
+    let view_name: rerun::ComponentIdentifier = "ViewBlueprint:display_name".into();
     for msg in DecoderApp::decode_lazy(file) {
         match msg.unwrap() {
             LogMsg::SetStoreInfo(info) => {
@@ -56,6 +62,13 @@ fn decode(path: &Path) -> Decoded {
                 }
                 if let Some(v) = info.info.store_version {
                     out.versions.insert(v.to_string());
+                }
+            }
+            LogMsg::ArrowMsg(store, arrow) if store.kind() == rerun::StoreKind::Blueprint => {
+                let chunk = Chunk::from_arrow_msg(&arrow).unwrap();
+                for names in chunk.iter_component::<rerun::components::Name>(view_name) {
+                    out.view_names
+                        .extend(names.as_slice().iter().map(|n| n.as_str().to_owned()));
                 }
             }
             LogMsg::ArrowMsg(store, arrow) if store.kind() == rerun::StoreKind::Recording => {
@@ -76,6 +89,12 @@ fn decode(path: &Path) -> Decoded {
                         .entry(entity.clone())
                         .or_default()
                         .push(s.as_slice().iter().map(|v| v.0.0).collect());
+                }
+                for l in chunk.iter_component::<rerun::components::Text>(label) {
+                    out.labels
+                        .entry(entity.clone())
+                        .or_default()
+                        .push(l.as_slice().iter().map(|t| t.as_str().to_owned()).collect());
                 }
             }
             _ => {}
@@ -133,7 +152,7 @@ fn rrd_holds_every_step_at_the_documented_entity_paths() {
     }
     assert_eq!(rows(&d, "/world/grid", "Image:buffer"), steps);
     assert_eq!(rows(&d, "/attention/combined", "DepthImage:buffer"), steps);
-    assert_eq!(rows(&d, "/attention/weights", "BarChart:values"), steps);
+    assert_eq!(rows(&d, "/attention/weights", "Boxes2D:labels"), steps);
     assert_eq!(rows(&d, "/world/attention", "Image:buffer"), steps);
     for (e, ep) in eps.iter().enumerate() {
         for (i, w) in ep.words().iter().enumerate() {
@@ -351,4 +370,90 @@ fn faithfulness_annotations_are_recorded_beside_the_maps() {
         steps
     );
     assert!(!d.scalars["/faithfulness/rank_correlation"].is_empty());
+}
+
+#[test]
+fn every_bar_and_map_of_a_recording_is_named() {
+    let eps = episodes("attention", 3..4);
+    let ep = &eps[0];
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("named.rrd");
+    let targets = RerunTargets {
+        save: Some(path.clone()),
+        ..RerunTargets::default()
+    };
+    record_rerun(&eps, &targets, 0.5, None).unwrap();
+    let d = decode(&path);
+    let steps = ep.steps.len();
+    // Action bars: every row names all seven actions with their probability.
+    let probs = &d.labels["/policy/probs"];
+    assert_eq!(probs.len(), steps);
+    for (row, step) in probs.iter().zip(&ep.steps) {
+        let want: Vec<String> = [
+            "left", "right", "forward", "pickup", "drop", "toggle", "done",
+        ]
+        .iter()
+        .zip(step.probs)
+        .map(|(n, p)| format!("{n} {p:.3}"))
+        .collect();
+        assert_eq!(row, &want);
+    }
+    // w and H bars and every map's label carry the word.
+    for (k, step) in ep.steps.iter().enumerate() {
+        let att = step.attention.as_ref().unwrap();
+        let weights = &d.labels["/attention/weights"][k];
+        let entropies = &d.labels["/attention/entropy"][k];
+        assert_eq!(weights.len(), att.words.len());
+        for (i, w) in att.words.iter().enumerate() {
+            assert_eq!(
+                weights[i],
+                format!("{} · w {:.2} · H {:.2}", w.word, w.weight, w.entropy)
+            );
+            assert_eq!(entropies[i], format!("{} · H {:.2}", w.word, w.entropy));
+            let label = &d.labels[&format!("/attention/words/{i}_{}/label", w.word)][k][0];
+            assert!(
+                label.starts_with(&format!(
+                    "{} · w {:.2} · H {:.2}",
+                    w.word, w.weight, w.entropy
+                )),
+                "{label}"
+            );
+        }
+        let m = &d.labels["/attention/combined/label"][k][0];
+        assert!(m.starts_with("M · shared scale 0–"), "{m}");
+    }
+    // The blueprint titles each map by its word, not by its path, and names the bar views.
+    for w in ep.words() {
+        assert!(
+            d.view_names.contains(w),
+            "no view titled {w:?}: {:?}",
+            d.view_names
+        );
+    }
+    assert!(
+        !d.view_names.iter().any(|n| n.starts_with("0_")),
+        "{:?}",
+        d.view_names
+    );
+    for name in [
+        "combined M",
+        "action probabilities",
+        "weights w",
+        "entropies H (nats)",
+        "grounding (this step)",
+        "scale",
+    ] {
+        assert!(d.view_names.contains(name), "{name}: {:?}", d.view_names);
+    }
+    // Targets, trail, landmarks and the shared colour bar are there at every step.
+    for entity in [
+        "/world/marks/targets",
+        "/attention/landmarks/walls",
+        "/attention/colorbar/label",
+    ] {
+        assert_eq!(rows(&d, entity, "Boxes2D:half_sizes"), steps, "{entity}");
+    }
+    assert_eq!(rows(&d, "/world/marks/trail", "LineStrips2D:strips"), steps);
+    assert_eq!(rows(&d, "/metrics/grounding", "TextDocument:text"), steps);
+    assert!(d.static_entities.contains("/world/marks"));
 }

@@ -1,15 +1,18 @@
-//! The debugger's faithfulness view for the current step: the occlusion map beside `M` with
-//! their rank correlation, the one-step interventions' effects on the action distribution,
-//! and probes that re-run the episode with the attention changed at every step.
+//! The debugger's faithfulness view for the current step: the occlusion map Δ beside `M`,
+//! their rank correlation next to whether their peaks agree, whether each one-step
+//! intervention flips the best action, and probes that re-run the episode with the attention
+//! changed at every step.
 
 use std::time::Instant;
 
 use eframe::egui;
 
 use super::session::{Agent, Shown};
-use super::ui::Debugger;
+use super::ui::{Debugger, MapLook};
 use crate::episode::StepFaithfulness;
 use crate::metrics::faithfulness::episode::{Loop, word_position};
+use crate::metrics::faithfulness::peaks::peak_line;
+use crate::policy::ViewMap;
 
 /// Why a step has no interventions on `M` to show (rather than a heading with nothing under
 /// it): the model has no maps, or takes no override of them.
@@ -31,16 +34,8 @@ pub struct FaithfulnessView {
 }
 
 impl FaithfulnessView {
-    /// Draws the view for step `k` of `shown`; returns a probe the user asked for.
-    pub fn show(
-        &mut self,
-        ui: &mut egui::Ui,
-        agent: &Agent,
-        shown: &Shown,
-        k: usize,
-        generation: u64,
-        side: f32,
-    ) -> Option<Loop> {
+    /// Computes the measures of step `k` of `shown` unless they are already there.
+    pub fn update(&mut self, agent: &Agent, shown: &Shown, k: usize, generation: u64) {
         if self.key != Some((generation, k)) {
             let t0 = Instant::now();
             let r = crate::metrics::faithfulness::annotate_step(agent.acting(), &shown.trace, k)
@@ -49,41 +44,76 @@ impl FaithfulnessView {
             self.result = Some(r.map(|f| (f, ms)));
             self.key = Some((generation, k));
         }
+    }
+
+    /// The occlusion map Δ as one column of the row of maps (on its own scale).
+    pub fn occlusion_ui(&self, ui: &mut egui::Ui, side: f32) {
+        let Some(Ok((f, _))) = &self.result else {
+            return;
+        };
+        ui.vertical(|ui| {
+            ui.set_width(side);
+            ui.label(egui::RichText::new("occlusion Δ").strong());
+            let hi = f
+                .occlusion
+                .iter()
+                .flatten()
+                .fold(1e-6f32, |a, b| a.max(*b));
+            ui.label(format!("scale 0–{hi:.3}"));
+            let look = MapLook {
+                hi,
+                side,
+                selected: false,
+                dimmed: false,
+                obs: None,
+                hits: &[],
+            };
+            Debugger::heat_map(ui, &f.occlusion, &look).on_hover_text(
+                "how much the action distribution changes (total variation) when this cell alone becomes empty floor; its own scale",
+            );
+        });
+    }
+
+    /// ρ(M, Δ) with the peaks' agreement, the one-step interventions and whether they flip
+    /// the best action, and the closed-loop probes; returns a probe the user asked for.
+    pub fn summary_ui(
+        &self,
+        ui: &mut egui::Ui,
+        agent: &Agent,
+        shown: &Shown,
+        combined: Option<&ViewMap>,
+    ) -> Option<Loop> {
         match &self.result {
             Some(Ok((f, ms))) => {
-                ui.horizontal(|ui| {
-                    ui.vertical(|ui| {
-                        ui.label(egui::RichText::new("occlusion Δ").strong());
-                        let hi = f
-                            .occlusion
-                            .iter()
-                            .flatten()
-                            .fold(1e-6f32, |a, b| a.max(*b));
-                        ui.label(format!("scale 0–{hi:.3}"));
-                        Debugger::heat_map(ui, &f.occlusion, hi, &[], side, false).on_hover_text(
-                            "how much the action distribution changes (total variation) when this cell alone becomes empty floor",
+                ui.horizontal_wrapped(|ui| {
+                    ui.label(match f.rank_correlation {
+                        Some(r) => format!("Spearman ρ(M, Δ) = {r:.3}"),
+                        None => "ρ(M, Δ): undefined (M or Δ constant)".to_owned(),
+                    });
+                    if let Some(m) = combined {
+                        ui.label(peak_line(m, &f.occlusion)).on_hover_text(
+                            "ρ ranks all 48 cells; the top cells are where M and Δ matter",
                         );
-                    });
-                    ui.vertical(|ui| {
-                        ui.label(match f.rank_correlation {
-                            Some(r) => format!("Spearman ρ(M, Δ) = {r:.3}"),
-                            None => "ρ(M, Δ): undefined (M or Δ constant)".to_owned(),
-                        });
-                        ui.label(format!("computed in {ms:.0} ms"));
-                        ui.add_space(4.0);
-                        if f.interventions.is_empty() {
-                            ui.label(no_interventions(agent));
-                        } else {
-                            ui.label("one step with M changed:");
-                        }
-                        for (name, e) in &f.interventions {
-                            ui.label(format!(
-                                "{name}: TV {:.3}{}",
-                                e.tv,
-                                if e.flip { " · best action flips" } else { "" }
-                            ));
-                        }
-                    });
+                    }
+                    ui.label(egui::RichText::new(format!("({ms:.0} ms)")).weak());
+                });
+                ui.horizontal_wrapped(|ui| {
+                    if f.interventions.is_empty() {
+                        ui.label(no_interventions(agent));
+                    } else {
+                        ui.label("one step with M changed:");
+                    }
+                    for (name, e) in &f.interventions {
+                        ui.label(format!(
+                            "{name}: TV {:.3} · {}",
+                            e.tv,
+                            if e.flip {
+                                "best action flips"
+                            } else {
+                                "best action kept"
+                            }
+                        ));
+                    }
                 });
             }
             Some(Err(e)) => {

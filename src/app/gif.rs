@@ -8,14 +8,18 @@ use image::{Delay, Frame, RgbaImage, imageops};
 
 use crate::episode::EpisodeTrace;
 use crate::record::PendingFile;
-use crate::record::scene::{StepScene, TILE_PX, episode_scenes, world_with_overlay};
+use crate::record::scene::{StepScene, TILE_PX, episode_scenes, trail, world_with_overlay};
 
 /// Milliseconds each step is shown.
 const FRAME_MS: u32 = 250;
 
-/// One frame: the world (with `M` for attention models) and the view, side by side.
-pub fn frame(step: &crate::episode::StepRecord, scene: &StepScene) -> RgbaImage {
-    let world = world_with_overlay(step, scene);
+/// One frame: the world (with `M` for attention models, the targets and the agent's trail
+/// up to step `k`) and the view, side by side.
+pub fn frame(trace: &EpisodeTrace, k: usize, scene: &StepScene) -> RgbaImage {
+    let Some(step) = trace.steps.get(k) else {
+        return RgbaImage::new(0, 0);
+    };
+    let world = world_with_overlay(step, scene, &trail(trace, k));
     let view = &scene.view;
     let gap = TILE_PX / 2;
     let (w, h) = (
@@ -54,12 +58,12 @@ pub fn write_gif(
     enc.set_repeat(Repeat::Infinite)
         .map_err(|e| format!("{}: {e}", path.display()))?;
     let scenes = episode_scenes(trace, alpha);
-    for (i, (step, scene)) in trace.steps.iter().zip(&scenes).enumerate() {
+    for (i, scene) in scenes.iter().enumerate() {
         if stop.load(Ordering::Relaxed) {
             return Err("export cancelled".into());
         }
         enc.encode_frame(Frame::from_parts(
-            frame(step, scene),
+            frame(trace, i, scene),
             0,
             0,
             Delay::from_numer_denom_ms(FRAME_MS, 1),

@@ -16,7 +16,7 @@ use crate::cli::check_extension;
     after_long_help = "KEYS:\n  ← / →  step back / forward    space  play / pause    Home / End  first / last step\n\n\
 EXAMPLES:\n  groundscope\n  groundscope view --seed 7 --compare bundled:baseline\n  \
 groundscope view --checkpoint my_agent.onnx --compare bundled:attention\n  \
-xvfb-run -a groundscope view --screenshot shot.png --seed 3 --step 4 --size 1400x900"
+xvfb-run -a groundscope view --screenshot shot.png --seed 3 --step 4 --window 1400x900"
 )]
 pub struct ViewArgs {
     /// Checkpoint: NAME (NAME.json + NAME.safetensors), a run directory (its model),

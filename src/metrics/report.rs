@@ -241,6 +241,21 @@ impl Failure {
     }
 }
 
+impl Failure {
+    /// The `groundscope view` command that opens the episode in the debugger: at its last
+    /// step, where it failed, for a failed episode (the debugger's "failure" step).
+    pub fn view_command(&self) -> String {
+        let view = self
+            .replay
+            .replacen("groundscope replay", "groundscope view", 1);
+        if self.kind == "failed" && self.length > 0 {
+            format!("{view} --step {}", self.length - 1)
+        } else {
+            view
+        }
+    }
+}
+
 /// `report.json`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Report {
@@ -535,7 +550,8 @@ impl Report {
             objects.last().copied().unwrap_or(1) as f64 + 0.5,
         );
         let panel_w = 340u32;
-        let (w, h) = (panel_w * sizes.len().max(1) as u32, 420u32);
+        // One panel alone would cut the figure's title: the figure is at least 680 wide.
+        let (w, h) = ((panel_w * sizes.len().max(1) as u32).max(680), 420u32);
         let mut buf = vec![0u8; (w * h * 3) as usize];
         {
             let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
@@ -575,20 +591,31 @@ impl Report {
                 }
                 for (i, (label, pts)) in lines.iter().enumerate() {
                     let color = series_color(i);
+                    // Series side by side at each x, so that equal values do not hide one
+                    // another; a marker on every point, so that a one-point series shows.
+                    let dx = (i as f64 - (lines.len() - 1) as f64 / 2.0) * 0.1;
                     chart
                         .draw_series(LineSeries::new(
-                            pts.iter().map(|p| (p.0, p.1)),
+                            pts.iter().map(|p| (p.0 + dx, p.1)),
                             color.stroke_width(2),
                         ))
                         .map_err(|e| err(&e))?
                         .label(label.clone())
                         .legend(move |(x, y)| {
-                            PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2))
+                            EmptyElement::at((x, y))
+                                + PathElement::new(vec![(0, 0), (20, 0)], color.stroke_width(2))
+                                + Circle::new((10, 0), 4, color.filled())
                         });
+                    chart
+                        .draw_series(
+                            pts.iter()
+                                .map(|p| Circle::new((p.0 + dx, p.1), 4, color.filled())),
+                        )
+                        .map_err(|e| err(&e))?;
                     chart
                         .draw_series(pts.iter().map(|&(x, m, s)| {
                             ErrorBar::new_vertical(
-                                x,
+                                x + dx,
                                 (m - s).max(0.0),
                                 m,
                                 (m + s).min(1.05),

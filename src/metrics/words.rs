@@ -61,6 +61,12 @@ pub fn by_word(eps: &[EpisodeSummary]) -> Vec<WordStats> {
         .collect()
 }
 
+/// Whether a word's `acc` is under half its class's: the class mean hides a word that
+/// hardly grounds (red at 0.010 in a colour class of 0.8).
+pub fn far_below(word_acc: f64, class_acc: Option<f64>) -> bool {
+    class_acc.is_some_and(|c| word_acc < 0.5 * c)
+}
+
 impl Report {
     /// `words.csv`: one line per attention cell and word named in it.
     pub fn words_csv(&self) -> String {
@@ -105,7 +111,8 @@ impl Report {
         let _ = writeln!(
             s,
             "`acc` of each word's map over the episodes whose mission names it (mean over seeds; \
-             `words.csv` has `acc_ng`, the std and the counts).\n"
+             `words.csv` has `acc_ng`, the std and the counts). **⚠** marks a word far below \
+             its class (under half the class's `acc`): the class mean hides it.\n"
         );
         let _ = writeln!(s, "| checkpoint | size | objects | {} |", words.join(" | "));
         let _ = writeln!(s, "|---|---|---|{}", "---|".repeat(words.len()));
@@ -114,11 +121,15 @@ impl Report {
             let cols: Vec<String> = words
                 .iter()
                 .map(|w| {
-                    a.words
-                        .iter()
-                        .find(|x| x.word == *w)
-                        .and_then(|x| x.stats.acc.mean)
-                        .map_or("–".into(), |v| format!("{v:.3}"))
+                    let Some(x) = a.words.iter().find(|x| x.word == *w) else {
+                        return "–".into();
+                    };
+                    let class = a.of(x.kind).and_then(|g| g.acc.mean);
+                    match x.stats.acc.mean {
+                        Some(v) if far_below(v, class) => format!("**{v:.3} ⚠**"),
+                        Some(v) => format!("{v:.3}"),
+                        None => "–".into(),
+                    }
                 })
                 .collect();
             let _ = writeln!(
@@ -191,5 +202,12 @@ mod tests {
         assert_eq!(acc("blue").mean, Some(1.0));
         assert_eq!(w[0].kind, WordKind::Object);
         assert_eq!(w[2].kind, WordKind::Color);
+    }
+
+    #[test]
+    fn a_word_under_half_its_class_is_flagged() {
+        assert!(far_below(0.010, Some(0.80)));
+        assert!(!far_below(0.45, Some(0.80)));
+        assert!(!far_below(0.0, None));
     }
 }

@@ -28,9 +28,9 @@ use base64::Engine as _;
 use image::RgbImage;
 use serde_json::{Value, json};
 
-use super::scene::{StepScene, action_names, episode_scenes, hit_color, world_with_overlay};
+use super::scene::{StepScene, action_names, episode_scenes, hit_color, trail, world_with_overlay};
 use super::{PendingFile, RecordError, StopFlag, io_err, stopped};
-use crate::episode::{EpisodeTrace, StepRecord};
+use crate::episode::EpisodeTrace;
 use crate::metrics::grounding::EvaluatedMap;
 use crate::policy::ViewMap;
 use crate::render::render_heatmap;
@@ -183,7 +183,10 @@ fn grounding_json(g: &EvaluatedMap, words: &[String]) -> Value {
     })
 }
 
-fn step_messages(out: &mut Msgs, e: usize, step: &StepRecord, scene: &StepScene, t: u64) {
+fn step_messages(out: &mut Msgs, e: usize, ep: &EpisodeTrace, k: usize, scene: &StepScene, t: u64) {
+    let Some(step) = ep.steps.get(k) else {
+        return;
+    };
     out.image("/world/image", t, &scene.world);
     out.image("/view/image", t, &scene.view);
     let names = action_names();
@@ -230,7 +233,11 @@ fn step_messages(out: &mut Msgs, e: usize, step: &StepRecord, scene: &StepScene,
         t,
         &map_picture(&att.combined, hi, scene.hits_of(None)),
     );
-    out.image("/world/attention", t, &world_with_overlay(step, scene));
+    out.image(
+        "/world/attention",
+        t,
+        &world_with_overlay(step, scene, &trail(ep, k)),
+    );
     let w: serde_json::Map<String, Value> = att
         .words
         .iter()
@@ -281,7 +288,7 @@ fn episode_messages(e: usize, ep: &EpisodeTrace, scenes: &[StepScene], global: u
                         "checkpoint": ep.checkpoint, "level": ep.level.to_string()}),
             );
         }
-        step_messages(&mut msgs, e, step, scene, t);
+        step_messages(&mut msgs, e, ep, i, scene, t);
     }
     msgs
 }

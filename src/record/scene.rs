@@ -4,17 +4,26 @@
 
 use image::{RgbImage, RgbaImage};
 
+use crate::env::Pos;
+use crate::env::mission::ObjDesc;
 use crate::env::view::ViewCell;
 use crate::env::world::{Action, World};
 use crate::episode::{EpisodeTrace, StepRecord};
-use crate::metrics::grounding::{EvaluatedMap, ObjectHit, ground_step};
+use crate::metrics::grounding::{EvaluatedMap, ObjectHit, WordKind, ground_step};
 use crate::policy::ViewMap;
+use crate::render::overlay::{CellMark, map_cells};
 use crate::render::palette::{GROUNDING_HIT, GROUNDING_MISS, GROUNDING_NEAR, Rgb};
-use crate::render::{colorize, overlay_on_world, render_view, render_world};
+use crate::render::{
+    colorize, draw_trail, outline_targets, overlay_on_world, render_view, render_world,
+};
 
 /// Pixels per world or view cell in recorded pictures: small enough for ≤ 20 KB a step,
 /// large enough to tell a key from a ball.
 pub const TILE_PX: u32 = 16;
+
+/// A word weight below this rounds to 0.00: its map hardly enters `M`, so every display
+/// greys it out.
+pub const NEGLIGIBLE_WEIGHT: f32 = 0.005;
 
 /// Opacity of an attention map projected onto the world.
 pub const OVERLAY_ALPHA: f32 = 0.6;
@@ -77,22 +86,44 @@ impl StepScene {
 }
 
 /// A view map projected onto the world grid: one RGBA pixel per world cell, the map's viridis
-/// colour at [`OVERLAY_ALPHA`] on the cells the view covers, transparent elsewhere. Scale the
-/// image by the tile size to lay it over a world render.
+/// colour at [`OVERLAY_ALPHA`] on the empty floor cells the view covers, transparent
+/// elsewhere (occupied cells get a ring instead, [`attention_rings`], so that objects keep
+/// their colours). Scale the image by the tile size to lay it over a world render.
 pub fn attention_layer(world: &World, map: &ViewMap, scale_max: f32) -> RgbaImage {
     let (w, h) = (world.grid.width() as u32, world.grid.height() as u32);
     let mut img = RgbaImage::new(w, h);
     let a = (OVERLAY_ALPHA * 255.0).round() as u8;
-    for (vy, row) in map.iter().enumerate() {
-        for (vx, &value) in row.iter().enumerate() {
-            let (x, y) = crate::env::world_from_view(world.agent_pos, world.agent_dir, (vx, vy));
-            if world.grid.contains((x, y)) {
-                let [r, g, b] = colorize(value, 0.0, scale_max);
-                img.put_pixel(x as u32, y as u32, image::Rgba([r, g, b, a]));
-            }
+    for ((x, y), value, mark) in map_cells(world, map) {
+        if mark == CellMark::Tint {
+            let [r, g, b] = colorize(value, 0.0, scale_max);
+            img.put_pixel(x as u32, y as u32, image::Rgba([r, g, b, a]));
         }
     }
     img
+}
+
+/// The occupied cells (objects, walls, doors, the agent) a view map covers, with the map's
+/// colour there: drawn as rings so that what is inside keeps its colours.
+pub fn attention_rings(world: &World, map: &ViewMap, scale_max: f32) -> Vec<(Pos, Rgb)> {
+    map_cells(world, map)
+        .into_iter()
+        .filter(|(_, _, m)| *m == CellMark::Ring)
+        .map(|(p, v, _)| (p, colorize(v, 0.0, scale_max)))
+        .collect()
+}
+
+/// The cells the agent stood on before step `k` of `trace`, oldest first, each once, without
+/// the cell it stands on at `k`.
+pub fn trail(trace: &EpisodeTrace, k: usize) -> Vec<Pos> {
+    let now = trace.steps.get(k).map(|s| s.world.agent_pos);
+    let mut seen = std::collections::BTreeSet::new();
+    trace
+        .steps
+        .iter()
+        .take(k)
+        .map(|s| s.world.agent_pos)
+        .filter(|p| Some(*p) != now && seen.insert(*p))
+        .collect()
 }
 
 /// The colour of an object's grounding mark: hit on its cell, only near it, or a miss.
@@ -106,22 +137,38 @@ pub fn hit_color(h: &ObjectHit) -> Rgb {
     }
 }
 
-/// The scene's world picture with `M` blended over the view's cells on the step's shared
-/// colour scale (the plain picture for the baseline).
-pub fn world_with_overlay(step: &StepRecord, scene: &StepScene) -> RgbImage {
-    let mut world = scene.world.clone();
-    if let Some(att) = &step.attention {
+/// The scene's world picture with `M` over the view's cells on the step's shared colour scale
+/// (floor tinted, occupied cells ringed: objects keep their colours), the mission's targets
+/// outlined and the agent's earlier cells (`trail`) dotted. The baseline gets no map.
+pub fn world_with_overlay(step: &StepRecord, scene: &StepScene, trail: &[Pos]) -> RgbImage {
+    let map = step.attention.as_ref().map(|a| &a.combined);
+    world_picture(step, &scene.world, map, scene.scale_max, trail)
+}
+
+/// [`world_with_overlay`] with any map (a word's, or none) laid over `world`, the step's
+/// world render.
+pub fn world_picture(
+    step: &StepRecord,
+    world: &RgbImage,
+    map: Option<&ViewMap>,
+    scale_max: f32,
+    trail: &[Pos],
+) -> RgbImage {
+    let mut img = world.clone();
+    draw_trail(&mut img, trail, TILE_PX);
+    if let Some(map) = map {
         overlay_on_world(
-            &mut world,
+            &mut img,
             &step.world,
-            &att.combined,
+            map,
             TILE_PX,
             OVERLAY_ALPHA,
             0.0,
-            scene.scale_max,
+            scale_max,
         );
     }
-    world
+    outline_targets(&mut img, step.world.target_positions(), TILE_PX);
+    img
 }
 
 /// The scenes of every step of an episode (each step grounded on its own instruction, which
@@ -160,6 +207,39 @@ pub fn with_scenes<E>(
 /// Centre of view cell `(vx, vy)` in a 7×7 map image with one unit per cell.
 pub fn cell_centre(cell: ViewCell) -> (f32, f32) {
     (cell.0 as f32 + 0.5, cell.1 as f32 + 0.5)
+}
+
+/// Why a kind of grounding accuracy is not shown at this step: which word it needs and what
+/// is missing from the view.
+pub fn no_accuracy_reason(kind: WordKind, desc: &ObjDesc) -> String {
+    let named = |kind: Option<&str>, color: Option<&str>| {
+        [color, Some(kind.unwrap_or("object"))]
+            .into_iter()
+            .flatten()
+            .collect::<Vec<_>>()
+            .join(" ")
+    };
+    match kind {
+        WordKind::Object => match desc.kind {
+            Some(k) => format!("object: no {} in view, nothing to score", k.name()),
+            None => "object: the mission names no object type".to_owned(),
+        },
+        WordKind::Color => match desc.color {
+            Some(c) => format!("color: no {} object in view, nothing to score", c.name()),
+            None => "color: the mission names no colour".to_owned(),
+        },
+        WordKind::Combined => format!(
+            "combined: no {} (a target) in view, nothing to score",
+            named(
+                desc.kind.map(crate::env::object::ObjectKind::name),
+                desc.color.map(crate::env::object::Color::name),
+            )
+        ),
+        WordKind::Door => "door: no door in view, nothing to score".to_owned(),
+        WordKind::Location => {
+            "location: none of the objects its description matched is in view".to_owned()
+        }
+    }
 }
 
 /// `"forward 0.91"`: an action and its probability.

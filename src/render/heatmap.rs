@@ -1,13 +1,12 @@
 //! Heat maps of per-view-cell values (attention weights, saliency): the viridis colour map, a
-//! 7×7 map drawn agent-up, a colour bar, alpha blending, and the projection of a view map onto
-//! the world render.
+//! 7×7 map drawn agent-up, a colour bar, and alpha blending (the projection onto the world render
+//! is in [`super::overlay`]).
 
 use image::RgbImage;
 
 use super::RenderError;
 use super::palette::{self, Rgb};
-use super::world::px_in_image;
-use crate::env::{VIEW_SIZE, World, world_from_view};
+use crate::env::VIEW_SIZE;
 
 /// A value per view cell, `map[vy][vx]`: row `vy` (0 = farthest ahead), column `vx`, the
 /// agent at `map[6][3]`, i.e. the view as displayed agent-up.
@@ -94,48 +93,9 @@ pub fn blend(base: &mut RgbImage, overlay: &RgbImage, alpha: f32) -> Result<(), 
     Ok(())
 }
 
-/// Projects a view map onto a world render (as [`render_world`](super::render_world) draws
-/// it with the same `tile_size`): each view cell's colour is blended with weight `alpha`
-/// over the tile of the world cell it shows, `world_from_view(agent_pos, agent_dir, (vx,
-/// vy))`. View cells outside the grid, and pixels outside `world_img`, are skipped.
-pub fn overlay_on_world(
-    world_img: &mut RgbImage,
-    world: &World,
-    map: &ViewMap,
-    tile_size: u32,
-    alpha: f32,
-    lo: f32,
-    hi: f32,
-) {
-    let alpha = clamp_alpha(alpha);
-    let (img_w, img_h) = world_img.dimensions();
-    for (vy, row) in map.iter().enumerate() {
-        for (vx, &value) in row.iter().enumerate() {
-            let pos = world_from_view(world.agent_pos, world.agent_dir, (vx, vy));
-            if !world.grid.contains(pos) {
-                continue;
-            }
-            let color = colorize(value, lo, hi);
-            let (x0, y0) = px_in_image(pos, tile_size);
-            let x1 = x0.saturating_add(tile_size).min(img_w);
-            let y1 = y0.saturating_add(tile_size).min(img_h);
-            for y in y0..y1 {
-                for x in x0..x1 {
-                    let p = world_img.get_pixel_mut(x, y);
-                    for (c, o) in p.0.iter_mut().zip(color) {
-                        *c = mix(*c, o, alpha);
-                    }
-                }
-            }
-        }
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::env::view_from_world;
-    use crate::render::{fixtures, render_world};
 
     /// Relative luminance of an sRGB colour (Rec. 709 weights on linear light).
     fn luminance(c: Rgb) -> f64 {
@@ -259,77 +219,5 @@ mod tests {
         assert_eq!(base, over);
         blend(&mut base, &before, f32::NAN).unwrap();
         assert_eq!(base, over);
-    }
-
-    #[test]
-    fn the_overlay_lands_on_the_cell_in_front_of_the_agent() {
-        let world = fixtures::world();
-        let ts = 16;
-        let plain = render_world(&world, ts, false);
-        let mut img = plain.clone();
-        let mut map = [[0.0; VIEW_SIZE]; VIEW_SIZE];
-        map[5][3] = 1.0; // vy = 5, vx = 3: one step ahead
-        overlay_on_world(&mut img, &world, &map, ts, 1.0, 0.0, 1.0);
-        let front = world_from_view(world.agent_pos, world.agent_dir, (3, 5));
-        assert_eq!(front, world.front_pos());
-        let (px, py) = px_in_image(front, ts);
-        assert_eq!(img.get_pixel(px + 3, py + 3).0, colorize(1.0, 0.0, 1.0));
-        // The agent's own cell got the low colour; the row behind it is untouched.
-        let (ax, ay) = px_in_image(world.agent_pos, ts);
-        assert_eq!(img.get_pixel(ax + 1, ay + 1).0, colorize(0.0, 0.0, 1.0));
-        let (bx, by) = px_in_image((3, 6), ts);
-        assert_eq!(
-            img.get_pixel(bx + 5, by + 5),
-            plain.get_pixel(bx + 5, by + 5)
-        );
-    }
-
-    #[test]
-    fn the_overlay_skips_what_lies_outside_grid_or_image() {
-        let world = fixtures::world();
-        let map = [[1.0; VIEW_SIZE]; VIEW_SIZE];
-        let yellow = colorize(1.0, 0.0, 1.0);
-        // Half-way between a channel and yellow's, rounded as `blend` rounds.
-        let half = |p: image::Rgb<u8>| {
-            image::Rgb(std::array::from_fn(|c| {
-                f32::midpoint(f32::from(p.0[c]), f32::from(yellow[c])).round() as u8
-            }))
-        };
-        let seen = |x: u32, y: u32, ts: u32| {
-            let cell = ((x / ts) as i32, (y / ts) as i32);
-            view_from_world(world.agent_pos, world.agent_dir, cell).is_some()
-        };
-        // The agent at (3, 5) facing up sees columns 0..=6 and rows −1..=5: the top view
-        // row lies at y = −1, outside the grid, and is skipped (not drawn on row 0 again);
-        // column 7 and rows 6 and 7 are behind or beside the view and keep the world.
-        let ts = 8;
-        let plain = render_world(&world, ts, false);
-        let mut img = plain.clone();
-        overlay_on_world(&mut img, &world, &map, ts, 0.5, 0.0, 1.0);
-        assert_eq!(img.dimensions(), plain.dimensions());
-        let mut covered = std::collections::BTreeSet::new();
-        for (x, y, p) in img.enumerate_pixels() {
-            let was = *plain.get_pixel(x, y);
-            if seen(x, y, ts) {
-                covered.insert((x / ts, y / ts));
-                assert_eq!(*p, half(was), "({x}, {y}) lies in the view");
-            } else {
-                assert_eq!(*p, was, "({x}, {y}) lies outside the view");
-            }
-        }
-        assert_eq!(covered.len(), 7 * 6, "the view's cells inside the grid");
-        // An image smaller than the world: what it holds of the view is blended, the rest
-        // (column 7 from x = 56) kept, and nothing is drawn past its edges.
-        let grey = image::Rgb([100, 100, 100]);
-        let mut small = RgbImage::from_pixel(60, 10, grey);
-        overlay_on_world(&mut small, &world, &map, ts, 0.5, 0.0, 1.0);
-        assert_eq!(small.dimensions(), (60, 10));
-        for (x, y, p) in small.enumerate_pixels() {
-            let want = if x < 56 { half(grey) } else { grey };
-            assert_eq!(*p, want, "({x}, {y})");
-        }
-        let mut empty = RgbImage::new(0, 0);
-        overlay_on_world(&mut empty, &world, &map, ts, 0.5, 0.0, 1.0);
-        assert_eq!(empty.dimensions(), (0, 0));
     }
 }

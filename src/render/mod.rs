@@ -17,6 +17,7 @@
 //! Every colour lives in [`palette`].
 
 pub mod heatmap;
+pub mod overlay;
 pub mod palette;
 pub mod tiles;
 pub mod view;
@@ -28,8 +29,9 @@ use image::codecs::png::PngEncoder;
 use image::{ExtendedColorType, ImageEncoder};
 use thiserror::Error;
 
-pub use heatmap::{ViewMap, blend, colorbar, colorize, overlay_on_world, render_heatmap, viridis};
+pub use heatmap::{ViewMap, blend, colorbar, colorize, render_heatmap, viridis};
 pub use image::RgbImage;
+pub use overlay::{draw_trail, outline_targets, overlay_on_world};
 pub use tiles::{render_agent_tile, render_tile};
 pub use view::{decode_view_cell, render_view};
 pub use world::{px_in_image, render_world, visible_cells};

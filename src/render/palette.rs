@@ -28,14 +28,24 @@ pub const HIGHLIGHT_TOWARDS: Rgb = [255, 255, 255];
 /// Weight of [`HIGHLIGHT_TOWARDS`] in a highlighted pixel.
 pub const HIGHLIGHT_ALPHA: f64 = 0.30;
 
+// The grounding marks sit on viridis heat maps, whose purple-blue-green-yellow they must not
+// be mistaken for: white, orange and red lie outside that ramp.
+
 /// Grounding mark: the map is at or above the threshold on the object's cell (`acc`).
-pub const GROUNDING_HIT: Rgb = [0, 200, 0];
+pub const GROUNDING_HIT: Rgb = [255, 255, 255];
 
 /// Grounding mark: the map reaches the threshold only next to the object (`acc_ng`/`acc_bs`).
-pub const GROUNDING_NEAR: Rgb = [240, 200, 0];
+pub const GROUNDING_NEAR: Rgb = [255, 140, 0];
 
 /// Grounding mark: a miss.
-pub const GROUNDING_MISS: Rgb = [230, 0, 0];
+pub const GROUNDING_MISS: Rgb = [255, 0, 60];
+
+/// Outline of the mission's targets in the world picture: magenta, which is neither an
+/// object colour nor on the viridis ramp of the overlay.
+pub const TARGET: Rgb = [255, 0, 255];
+
+/// The dots marking the cells the agent has already stood on.
+pub const TRAIL: Rgb = [230, 230, 230];
 
 /// Shade of a locked door's panel relative to its frame.
 pub const LOCKED_DOOR_SHADE: f64 = 0.45;

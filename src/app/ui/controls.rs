@@ -41,19 +41,23 @@ impl Debugger {
     pub(super) fn controls(&mut self, ui: &mut egui::Ui) {
         ui.horizontal_wrapped(|ui| {
             ui.label("checkpoint");
-            egui::ComboBox::from_id_salt("ckpt")
-                .selected_text(self.checkpoint_text.clone())
-                .show_ui(ui, |ui| {
-                    for n in crate::policy::bundled::names() {
-                        ui.selectable_value(&mut self.checkpoint_text, n.clone(), n);
-                    }
-                });
             ui.add(egui::TextEdit::singleline(&mut self.checkpoint_text).desired_width(160.0))
                 .on_hover_text("bundled:attention, bundled:baseline, a checkpoint NAME (NAME.json + NAME.safetensors) or an ONNX graph FILE.onnx");
             // An imported graph's own name (groundscope.name), which the path does not show.
             if let Some(name) = self.agent.as_ref().and_then(|a| a.acting().model_name()) {
                 ui.label(egui::RichText::new(name).strong());
             }
+            // The bundled names fill the field: one place shows the checkpoint, not two.
+            ui.menu_button("bundled…", |ui| {
+                for n in crate::policy::bundled::names() {
+                    if ui.button(n.as_str()).clicked() {
+                        self.checkpoint_text.clone_from(&n);
+                        ui.close();
+                    }
+                }
+            })
+            .response
+            .on_hover_text("bundled checkpoints");
             ui.checkbox(&mut self.compare, "compare with");
             ui.add_enabled(
                 self.compare,
@@ -63,17 +67,23 @@ impl Debugger {
                 self.load_checkpoints();
             }
             ui.separator();
-            ui.label("room");
-            ui.add(egui::DragValue::new(&mut self.level.room_size).range(5..=16));
-            ui.label("objects");
-            ui.add(egui::DragValue::new(&mut self.level.n_objects).range(1..=20));
-            egui::ComboBox::from_id_salt("tasks")
-                .selected_text(format!("{:?}", self.level.tasks))
-                .show_ui(ui, |ui| {
-                    for t in [TaskSet::Both, TaskSet::GoTo, TaskSet::Pickup] {
-                        ui.selectable_value(&mut self.level.tasks, t, format!("{t:?}"));
-                    }
-                });
+            // A BabyAI level ignores the paper level's room, objects and tasks: its id is
+            // shown instead of numbers that would not describe it.
+            if let Some(id) = self.level.babyai {
+                ui.label(format!("level {}", id.id()));
+            } else {
+                ui.label("room");
+                ui.add(egui::DragValue::new(&mut self.level.room_size).range(5..=16));
+                ui.label("objects");
+                ui.add(egui::DragValue::new(&mut self.level.n_objects).range(1..=20));
+                egui::ComboBox::from_id_salt("tasks")
+                    .selected_text(format!("{:?}", self.level.tasks))
+                    .show_ui(ui, |ui| {
+                        for t in [TaskSet::Both, TaskSet::GoTo, TaskSet::Pickup] {
+                            ui.selectable_value(&mut self.level.tasks, t, format!("{t:?}"));
+                        }
+                    });
+            }
             ui.label("seed");
             ui.add(egui::DragValue::new(&mut self.seed));
             ui.checkbox(&mut self.sample, "sampled");
@@ -133,13 +143,19 @@ impl Debugger {
                 let p = self.export_path("png");
                 self.request_shot(ui.ctx(), p, false);
             }
-            if ui.button("Rerun: spawn").clicked() {
-                self.export(Export::Spawn);
-            }
-            ui.add(egui::TextEdit::singleline(&mut self.connect_url).desired_width(200.0));
-            if ui.button("connect").clicked() {
-                self.export(Export::Connect(self.connect_url.clone()));
-            }
+            // The viewer URL matters only when connecting: it lives in the menu, not the bar.
+            ui.menu_button("Rerun…", |ui| {
+                if ui.button("spawn a viewer").clicked() {
+                    self.export(Export::Spawn);
+                    ui.close();
+                }
+                ui.label("or connect to a running one:");
+                ui.add(egui::TextEdit::singleline(&mut self.connect_url).desired_width(240.0));
+                if ui.button("connect").clicked() {
+                    self.export(Export::Connect(self.connect_url.clone()));
+                    ui.close();
+                }
+            });
         });
     }
 
@@ -167,7 +183,10 @@ impl Debugger {
                 self.cursor.step = len.saturating_sub(1);
             }
             let mut s = self.cursor.step;
-            ui.add(egui::Slider::new(&mut s, 0..=len.saturating_sub(1)).text(format!("of {len}")));
+            ui.add(
+                egui::Slider::new(&mut s, 0..=len.saturating_sub(1))
+                    .text(format!("of 0–{}", len.saturating_sub(1))),
+            );
             self.cursor.step = s;
             ui.add(egui::Slider::new(&mut self.cursor.speed, 0.5..=20.0).text("steps/s"));
             if let Some(shown) = &self.shown {

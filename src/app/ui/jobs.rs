@@ -75,8 +75,18 @@ impl Debugger {
                     self.generation += 1;
                     self.textures.clear();
                     let step = self.pending_step.take().unwrap_or(0);
+                    let last = a.len().saturating_sub(1);
+                    if step > last {
+                        // Said once, on stderr and in the window, rather than clamped
+                        // silently.
+                        let m = format!(
+                            "--step {step} is past this episode's last step {last}; showing step {last}"
+                        );
+                        eprintln!("groundscope: warning: {m}");
+                        self.error(m);
+                    }
                     self.cursor = Cursor {
-                        step: step.min(a.len().saturating_sub(1)),
+                        step: step.min(last),
                         ..Cursor::default()
                     };
                     self.mission_text.clone_from(&a.trace.mission);

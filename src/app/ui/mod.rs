@@ -5,7 +5,9 @@
 //! `impl Debugger` block in a child module, so that they all reach the private state.
 
 mod controls;
+mod history;
 mod jobs;
+mod maps;
 mod numbers;
 mod probe;
 mod screenshot;
@@ -19,6 +21,9 @@ use std::sync::{Arc, Mutex};
 
 use eframe::egui;
 use egui::{ColorImage, TextureHandle, Vec2};
+
+pub(in crate::app) use maps::MapLook;
+pub use numbers::step_line;
 
 use super::session::{Agent, Cursor, Job, Shown, start_attention_probe};
 use crate::env::Pos;
@@ -188,24 +193,11 @@ impl Debugger {
         }
         egui::Panel::top("controls").show(ui, |ui| self.controls(ui));
         egui::Panel::bottom("timeline").show(ui, |ui| self.timeline(ui));
+        let side = self.world_side(ui.available_size());
         egui::Panel::left("world")
-            .default_size(340.0)
+            .exact_size(side + 16.0)
             .show(ui, |ui| {
-                ui.horizontal(|ui| {
-                    ui.label("overlay");
-                    ui.radio_value(&mut self.overlay, Overlay::None, "none");
-                    ui.radio_value(&mut self.overlay, Overlay::Combined, "M");
-                    ui.radio_value(&mut self.overlay, Overlay::Word, "selected word");
-                });
-                let side = ui.available_width().min(420.0);
-                self.world_panel(ui, false, side);
-                ui.add_space(6.0);
-                ui.label("agent view (agent-up)");
-                if let Some(t) = self.texture(&ctx, self.cursor.step, 1, false) {
-                    ui.add(egui::Image::new(&t).fit_to_exact_size(Vec2::splat(side * 0.6)));
-                }
-                ui.separator();
-                self.edit_panel(ui);
+                egui::ScrollArea::vertical().show(ui, |ui| self.left_column(ui, side));
             });
         if self.compare && self.compared.is_some() {
             egui::Panel::right("compare")
@@ -230,45 +222,115 @@ impl Debugger {
                 });
         }
         egui::CentralPanel::default().show(ui, |ui| {
-            let Some(shown) = self.shown.clone() else {
-                ui.label(if self.busy() {
-                    "running the episode…"
-                } else {
-                    "no episode"
-                });
-                return;
-            };
-            let i = self.cursor.step.min(shown.len().saturating_sub(1));
-            let (Some(step), Some(scene)) = (shown.trace.steps.get(i), shown.scenes.get(i)) else {
-                return;
-            };
-            egui::ScrollArea::vertical().show(ui, |ui| {
-                Self::policy_panel(ui, step, &shown);
-                ui.separator();
-                self.attention_panel(ui, step, scene);
-                ui.separator();
-                // A model without maps gets its occlusion saliency in their place, always.
-                let mapless = step.attention.is_none();
-                if !mapless {
-                    ui.checkbox(
-                        &mut self.show_faithfulness,
-                        "faithfulness: does this step's behaviour depend on M?",
-                    );
-                }
-                if (self.show_faithfulness || mapless)
-                    && let Some(agent) = self.agent.clone()
-                {
-                    let side = (ui.available_width() / 4.0).clamp(90.0, 170.0);
-                    let asked =
-                        self.faithfulness
-                            .show(ui, &agent, &shown, i, self.generation, side);
-                    if let Some(how) = asked {
-                        self.jobs
-                            .push(start_attention_probe(&agent, &shown, how, self.alpha));
-                    }
-                }
-            });
+            egui::ScrollArea::vertical().show(ui, |ui| self.centre_column(ui));
         });
         self.maybe_screenshot(&ctx);
+    }
+
+    /// Side of the world picture: about 30 points a cell, so that a 16×16 or 22×22 room
+    /// stays readable, within what the window leaves for the other panels.
+    fn world_side(&self, window: Vec2) -> f32 {
+        let cells = self
+            .shown
+            .as_ref()
+            .and_then(|s| s.trace.steps.first())
+            .map_or(8, |s| s.world.grid.width().max(s.world.grid.height()));
+        let most = (window.y - 240.0).min(window.x * 0.42).max(300.0);
+        (cells as f32 * 30.0).clamp(300.0, most)
+    }
+
+    /// The overlay choice, the world, the agent's view and the probe.
+    fn left_column(&mut self, ui: &mut egui::Ui, side: f32) {
+        let ctx = ui.ctx().clone();
+        ui.horizontal(|ui| {
+            ui.label("overlay");
+            ui.radio_value(&mut self.overlay, Overlay::None, "none");
+            ui.radio_value(&mut self.overlay, Overlay::Combined, "M");
+            ui.radio_value(&mut self.overlay, Overlay::Word, "selected word");
+        });
+        self.world_panel(ui, false, side);
+        ui.label(
+            egui::RichText::new(
+                "magenta corners: target · dots: cells visited · floor tint and rings: the map",
+            )
+            .small()
+            .weak(),
+        );
+        ui.add_space(6.0);
+        ui.label("agent view (agent-up)");
+        if let Some(t) = self.texture(&ctx, self.cursor.step, 1, false) {
+            ui.add(egui::Image::new(&t).fit_to_exact_size(Vec2::splat((side * 0.6).min(200.0))));
+        }
+        ui.separator();
+        self.edit_panel(ui);
+    }
+
+    /// The step's numbers side by side, the row of maps (with Δ beside `M` when the
+    /// faithfulness view is on), and the faithfulness summary with its probes.
+    fn centre_column(&mut self, ui: &mut egui::Ui) {
+        let Some(shown) = self.shown.clone() else {
+            ui.label(if self.busy() {
+                "running the episode…"
+            } else {
+                "no episode"
+            });
+            return;
+        };
+        let i = self.cursor.step.min(shown.len().saturating_sub(1));
+        let (Some(step), Some(scene)) = (shown.trace.steps.get(i), shown.scenes.get(i)) else {
+            return;
+        };
+        Self::policy_header(ui, step, &shown);
+        ui.horizontal_top(|ui| {
+            ui.vertical(|ui| {
+                ui.set_width(330.0);
+                ui.label("action probabilities");
+                Self::policy_bars(ui, step);
+            });
+            ui.vertical(|ui| self.weights_panel(ui, step, scene));
+        });
+        ui.separator();
+        // A model without maps gets its occlusion saliency in their place, always.
+        let mapless = step.attention.is_none();
+        let faithful = self.show_faithfulness || mapless;
+        let agent = self.agent.clone().filter(|_| faithful);
+        if let Some(agent) = &agent {
+            self.faithfulness.update(agent, &shown, i, self.generation);
+        }
+        let n_maps =
+            step.attention.as_ref().map_or(0, |a| a.words.len() + 1) + usize::from(faithful);
+        let side = numbers::map_side(ui, n_maps);
+        if mapless {
+            ui.label(
+                "no attention maps: the occlusion saliency below (how much the action distribution changes when a cell becomes floor) stands in for them",
+            );
+            self.faithfulness.occlusion_ui(ui, side);
+        } else {
+            // The row borrows the debugger mutably (a click selects a map), so Δ's view is
+            // taken out for the while.
+            let taken = std::mem::take(&mut self.faithfulness);
+            self.maps_row(ui, step, scene, side, |ui| {
+                if faithful {
+                    taken.occlusion_ui(ui, side);
+                }
+            });
+            self.faithfulness = taken;
+            ui.checkbox(
+                &mut self.show_faithfulness,
+                "faithfulness: does this step's behaviour depend on M?",
+            );
+        }
+        if let Some(agent) = agent {
+            let combined = step.attention.as_ref().map(|a| &a.combined);
+            let asked = self.faithfulness.summary_ui(ui, &agent, &shown, combined);
+            if let Some(how) = asked {
+                self.jobs
+                    .push(start_attention_probe(&agent, &shown, how, self.alpha));
+            }
+        }
+        ui.separator();
+        // What is left of the column shows the whole episode, so no half of it stays empty.
+        let height = (ui.available_height() - 40.0).clamp(90.0, 220.0);
+        self.history_ui(ui, &shown, height);
     }
 }

@@ -1,126 +1,178 @@
 //! The policy's numbers for the step and the word-attention panels: every word's map, the
-//! combined map, the word weights and the grounding accuracies.
+//! combined map (with the occlusion map Δ beside it when asked for), the colour bar they
+//! share, the word weights and the grounding accuracies.
 
 use eframe::egui;
 use egui::{Color32, Sense, Vec2};
 
+use super::maps::MapLook;
 use super::{Debugger, Overlay};
 use crate::app::session::Shown;
 use crate::episode::StepRecord;
+use crate::metrics::grounding::WordKind;
 use crate::record::StepScene;
-use crate::record::scene::action_names;
+use crate::record::scene::{NEGLIGIBLE_WEIGHT, action_names, no_accuracy_reason};
+
+/// Side of one map in points, from the width there is for `panels` maps and a colour bar.
+pub(super) fn map_side(ui: &egui::Ui, panels: usize) -> f32 {
+    let panels = panels.max(1) as f32;
+    let gaps = ui.spacing().item_spacing.x * panels + 70.0;
+    ((ui.available_width() - gaps) / panels).clamp(70.0, 210.0)
+}
 
 impl Debugger {
-    pub(super) fn attention_panel(
+    /// The row of maps: every word's, `M`, and `delta` (the faithfulness view's Δ column)
+    /// right after `M`, then the colour bar the word maps and `M` share.
+    pub(super) fn maps_row(
         &mut self,
         ui: &mut egui::Ui,
         step: &StepRecord,
         scene: &StepScene,
+        side: f32,
+        delta: impl FnOnce(&mut egui::Ui),
     ) {
         let Some(att) = &step.attention else {
-            ui.label(
-                "no attention maps: the occlusion saliency below (how much the action distribution changes when a cell becomes floor) stands in for them",
-            );
             return;
         };
-        // One row for every word map plus M: the gaps between the panels come off the width
-        // first, or the last panel (M) is cut at the window's edge.
-        let panels = (att.words.len() + 1) as f32;
-        let gaps = ui.spacing().item_spacing.x * (panels - 1.0);
-        let side = ((ui.available_width() - gaps - 4.0) / panels).clamp(70.0, 170.0);
-        ui.horizontal_wrapped(|ui| {
+        ui.horizontal_top(|ui| {
             for (i, w) in att.words.iter().enumerate() {
                 ui.vertical(|ui| {
-                    ui.label(egui::RichText::new(&w.word).strong());
+                    ui.set_width(side);
+                    let dimmed = w.weight < NEGLIGIBLE_WEIGHT;
+                    let title = egui::RichText::new(&w.word).strong();
+                    ui.label(if dimmed { title.weak() } else { title });
                     ui.label(format!("w {:.3} · H {:.2}", w.weight, w.entropy));
                     let hits = scene
                         .hits_of(Some(i))
                         .map(|g| g.hits.as_slice())
                         .unwrap_or_default();
-                    let r = Self::heat_map(
-                        ui,
-                        &w.map,
-                        scene.scale_max,
-                        hits,
+                    let look = MapLook {
+                        hi: scene.scale_max,
                         side,
-                        i == self.selected_word && self.overlay == Overlay::Word,
-                    );
-                    if r.clicked() {
+                        selected: i == self.selected_word && self.overlay == Overlay::Word,
+                        dimmed,
+                        obs: Some(&step.obs),
+                        hits,
+                    };
+                    if Self::heat_map(ui, &w.map, &look).clicked() {
                         self.selected_word = i;
                         self.overlay = Overlay::Word;
+                    }
+                    if dimmed {
+                        ui.label(egui::RichText::new("w < 0.005: not in M").small().weak());
                     }
                 });
             }
             ui.vertical(|ui| {
+                ui.set_width(side);
                 ui.label(egui::RichText::new("combined M").strong());
-                ui.label(format!("scale 0–{:.3}", scene.scale_max));
+                ui.label("sum of w·A");
                 let hits = scene
                     .hits_of(None)
                     .map(|g| g.hits.as_slice())
                     .unwrap_or_default();
-                let r = Self::heat_map(
-                    ui,
-                    &att.combined,
-                    scene.scale_max,
-                    hits,
+                let look = MapLook {
+                    hi: scene.scale_max,
                     side,
-                    self.overlay == Overlay::Combined,
-                );
-                if r.clicked() {
+                    selected: self.overlay == Overlay::Combined,
+                    dimmed: false,
+                    obs: Some(&step.obs),
+                    hits,
+                };
+                if Self::heat_map(ui, &att.combined, &look).clicked() {
                     self.overlay = Overlay::Combined;
                 }
             });
+            delta(ui);
+            Self::color_bar(
+                ui,
+                scene.scale_max,
+                side * 0.8,
+                "shared scale:\nall word maps and M",
+            );
         });
-        ui.add_space(6.0);
+    }
+
+    /// The word weights as named bars, and each kind of grounding accuracy or why it is not
+    /// shown at this step.
+    pub(super) fn weights_panel(&self, ui: &mut egui::Ui, step: &StepRecord, scene: &StepScene) {
+        let Some(att) = &step.attention else {
+            return;
+        };
         ui.label("word weights w");
         let labels: Vec<String> = att.words.iter().map(|w| w.word.clone()).collect();
         let values: Vec<f32> = att.words.iter().map(|w| w.weight).collect();
         bars(ui, &labels, &values, Some(self.selected_word));
-        for g in &scene.grounding {
-            let a = &g.accuracies;
-            ui.label(format!(
-                "{}: {} related object(s) · acc {:.2} · ng {:.2} · bs {:.2} · cmb {:.2}",
-                g.kind.name(),
-                g.hits.len(),
-                a.acc,
-                a.acc_ng,
-                a.acc_bs,
-                a.acc_cmb
-            ));
+        ui.add_space(4.0);
+        let desc = step.world.desc();
+        for kind in WordKind::ALL {
+            match scene.grounding.iter().find(|g| g.kind == kind) {
+                Some(g) => {
+                    let a = &g.accuracies;
+                    ui.label(format!(
+                        "{}: {} related object(s) · acc {:.2} · ng {:.2} · bs {:.2} · cmb {:.2}",
+                        kind.name(),
+                        g.hits.len(),
+                        a.acc,
+                        a.acc_ng,
+                        a.acc_bs,
+                        a.acc_cmb
+                    ));
+                }
+                None => {
+                    ui.label(egui::RichText::new(no_accuracy_reason(kind, &desc)).weak());
+                }
+            }
         }
     }
 
-    pub(super) fn policy_panel(ui: &mut egui::Ui, step: &StepRecord, shown: &Shown) {
+    /// The mission, the step and its outcome.
+    pub(super) fn policy_header(ui: &mut egui::Ui, step: &StepRecord, shown: &Shown) {
         ui.label(egui::RichText::new(&step.world.mission).heading());
-        ui.label(format!(
-            "step {} of {} · {} · total reward {:.3}",
-            step.t,
-            shown.len(),
-            if shown.trace.success() {
-                "success"
-            } else {
-                "failure"
-            },
-            shown.trace.total_reward()
-        ));
+        ui.label(step_line(step.t, shown));
         ui.label(format!(
             "action {} · value {:.3} · reward {:.3}",
             step.action.name(),
             step.value,
             step.reward
         ));
+    }
+
+    /// The action probabilities as named bars, the chosen action highlighted.
+    pub(super) fn policy_bars(ui: &mut egui::Ui, step: &StepRecord) {
         let labels: Vec<String> = action_names().iter().map(|s| (*s).to_owned()).collect();
         bars(ui, &labels, &step.probs, Some(step.action as usize));
     }
+
+    /// [`Self::policy_header`] and [`Self::policy_bars`] (the compare panel).
+    pub(super) fn policy_panel(ui: &mut egui::Ui, step: &StepRecord, shown: &Shown) {
+        Self::policy_header(ui, step, shown);
+        Self::policy_bars(ui, step);
+    }
+}
+
+/// `"step 4 of 0–12 · success · total reward 0.817"`: steps count from 0, so the range is
+/// given rather than a count that the last step never reaches.
+pub fn step_line(t: usize, shown: &Shown) -> String {
+    format!(
+        "step {t} of 0–{} · {} · total reward {:.3}",
+        shown.len().saturating_sub(1),
+        if shown.trace.success() {
+            "success"
+        } else {
+            "failure"
+        },
+        shown.trace.total_reward()
+    )
 }
 
 /// Horizontal bars with labels and values; `highlight` is drawn in another colour.
 fn bars(ui: &mut egui::Ui, labels: &[String], values: &[f32], highlight: Option<usize>) {
-    let width = ui.available_width().min(360.0);
+    let width = ui.available_width().min(340.0);
     for (i, (l, &v)) in labels.iter().zip(values).enumerate() {
         ui.horizontal(|ui| {
-            ui.add_sized([70.0, 16.0], egui::Label::new(l.as_str()).truncate());
-            let (rect, _) = ui.allocate_exact_size(Vec2::new(width - 130.0, 14.0), Sense::hover());
+            ui.add_sized([64.0, 16.0], egui::Label::new(l.as_str()).truncate());
+            let (rect, _) = ui.allocate_exact_size(Vec2::new(width - 120.0, 14.0), Sense::hover());
             let p = ui.painter_at(rect);
             p.rect_filled(rect, 2.0, ui.visuals().extreme_bg_color);
             let mut bar = rect;

@@ -1,7 +1,4 @@
-//! The world picture with its overlay, and the 7×7 heat maps (also used by the faithfulness
-//! view).
-
-use std::fmt::Write as _;
+//! The world picture with its overlay, targets and trail, and what the cursor says about it.
 
 use eframe::egui;
 use egui::{
@@ -9,12 +6,10 @@ use egui::{
 };
 
 use super::{Debugger, Overlay};
+use crate::env::Pos;
 use crate::env::edit::Edit;
-use crate::env::view::{VIEW_SIZE, view_from_world};
-use crate::env::{Pos, world_from_view};
-use crate::metrics::grounding::{AROUND_NAMES, ObjectHit};
-use crate::policy::ViewMap;
-use crate::render::colorize;
+use crate::env::view::view_from_world;
+use crate::record::scene::{trail, world_picture};
 
 fn rgb_texture(ctx: &egui::Context, name: &str, img: &image::RgbImage) -> TextureHandle {
     let (w, h) = img.dimensions();
@@ -25,15 +20,9 @@ fn rgb_texture(ctx: &egui::Context, name: &str, img: &image::RgbImage) -> Textur
     )
 }
 
-fn c32(rgb: [u8; 3]) -> Color32 {
-    Color32::from_rgb(rgb[0], rgb[1], rgb[2])
-}
-
-fn hit_color(h: &ObjectHit) -> Color32 {
-    c32(crate::record::scene::hit_color(h))
-}
-
 impl Debugger {
+    /// The texture of step `step`'s picture `kind` (see [`Self::picture`]), cached per
+    /// episode generation.
     pub(super) fn texture(
         &mut self,
         ctx: &egui::Context,
@@ -41,20 +30,62 @@ impl Debugger {
         kind: u8,
         compared: bool,
     ) -> Option<TextureHandle> {
+        let key = (self.generation * 2 + u64::from(compared), step, kind);
+        if let Some(t) = self.textures.get(&key) {
+            return Some(t.clone());
+        }
+        let img = self.picture(step, kind, compared)?;
+        let t = rgb_texture(ctx, &format!("{key:?}"), &img);
+        self.textures.insert(key, t.clone());
+        Some(t)
+    }
+
+    /// Picture `kind` of step `step`: 1 the agent's view; 0 the world with its targets and
+    /// trail; 2 that with `M` over it; `3 + i` with word `i`'s map over it.
+    fn picture(&self, step: usize, kind: u8, compared: bool) -> Option<image::RgbImage> {
         let shown = if compared {
             self.compared.as_ref()?
         } else {
             self.shown.as_ref()?
         };
-        let key = (self.generation * 2 + u64::from(compared), step, kind);
-        if let Some(t) = self.textures.get(&key) {
-            return Some(t.clone());
-        }
         let scene = shown.scenes.get(step)?;
-        let img = if kind == 0 { &scene.world } else { &scene.view };
-        let t = rgb_texture(ctx, &format!("{key:?}"), img);
-        self.textures.insert(key, t.clone());
-        Some(t)
+        if kind == 1 {
+            return Some(scene.view.clone());
+        }
+        let record = shown.trace.steps.get(step)?;
+        let map = record.attention.as_ref().and_then(|a| match kind {
+            2 => Some(&a.combined),
+            3.. => a.words.get(usize::from(kind - 3)).map(|w| &w.map),
+            _ => None,
+        });
+        Some(world_picture(
+            record,
+            &scene.world,
+            map,
+            scene.scale_max,
+            &trail(&shown.trace, step),
+        ))
+    }
+
+    /// The picture kind the overlay choice asks for (see [`Self::picture`]).
+    fn world_kind(&self) -> u8 {
+        match self.overlay {
+            Overlay::None => 0,
+            Overlay::Combined => 2,
+            Overlay::Word => 3u8.saturating_add(u8::try_from(self.selected_word).unwrap_or(250)),
+        }
+    }
+
+    /// The picture the world panel shows now (the main episode at the cursor, with the chosen
+    /// overlay): objects in their true colours, the floor tinted by the map, targets
+    /// outlined, the trail dotted. `None` before the first episode.
+    pub fn world_image(&self) -> Option<image::RgbImage> {
+        let len = self.shown.as_ref()?.len();
+        self.picture(
+            self.cursor.step.min(len.saturating_sub(1)),
+            self.world_kind(),
+            false,
+        )
     }
 
     /// The world picture with the chosen overlay and grounding marks; click selects a cell.
@@ -69,11 +100,11 @@ impl Debugger {
             return;
         };
         let step_i = step_i.min(shown.len().saturating_sub(1));
-        let (Some(step), Some(scene)) = (shown.trace.steps.get(step_i), shown.scenes.get(step_i))
-        else {
+        let Some(step) = shown.trace.steps.get(step_i) else {
             return;
         };
-        let Some(tex) = self.texture(ui.ctx(), step_i, 0, compared) else {
+        let kind = self.world_kind();
+        let Some(tex) = self.texture(ui.ctx(), step_i, kind, compared) else {
             return;
         };
         let (gw, gh) = (step.world.grid.width(), step.world.grid.height());
@@ -98,21 +129,6 @@ impl Debugger {
                 Vec2::splat(cell),
             )
         };
-        if let Some(map) = map {
-            for (vy, row) in map.iter().enumerate() {
-                for (vx, &value) in row.iter().enumerate() {
-                    let p = world_from_view(step.world.agent_pos, step.world.agent_dir, (vx, vy));
-                    if step.world.grid.contains(p) {
-                        let c = colorize(value, 0.0, scene.scale_max);
-                        painter.rect_filled(
-                            cell_rect(p),
-                            0.0,
-                            Color32::from_rgba_unmultiplied(c[0], c[1], c[2], 150),
-                        );
-                    }
-                }
-            }
-        }
         if let Some(sel) = self.selected_cell
             && !compared
         {
@@ -147,79 +163,5 @@ impl Debugger {
                 self.selected_cell = Some(p);
             }
         }
-    }
-
-    /// A 7×7 heat map with grounding marks; returns the response (click selects).
-    pub(in crate::app) fn heat_map(
-        ui: &mut egui::Ui,
-        map: &ViewMap,
-        hi: f32,
-        hits: &[ObjectHit],
-        side: f32,
-        selected: bool,
-    ) -> egui::Response {
-        let (rect, resp) = ui.allocate_exact_size(Vec2::splat(side), Sense::click());
-        let painter = ui.painter_at(rect);
-        let c = side / VIEW_SIZE as f32;
-        for (vy, row) in map.iter().enumerate() {
-            for (vx, &v) in row.iter().enumerate() {
-                let r = Rect::from_min_size(
-                    rect.min + Vec2::new(vx as f32 * c, vy as f32 * c),
-                    Vec2::splat(c),
-                );
-                painter.rect_filled(r, 0.0, c32(colorize(v, 0.0, hi)));
-            }
-        }
-        for h in hits {
-            let centre =
-                rect.min + Vec2::new((h.cell.0 as f32 + 0.5) * c, (h.cell.1 as f32 + 0.5) * c);
-            painter.circle_stroke(centre, c * 0.35, Stroke::new(2.5, hit_color(h)));
-        }
-        // The agent, bottom middle, facing up.
-        let a = rect.min + Vec2::new(3.5 * c, 6.5 * c);
-        painter.add(egui::Shape::convex_polygon(
-            vec![
-                a + Vec2::new(0.0, -0.3 * c),
-                a + Vec2::new(0.25 * c, 0.25 * c),
-                a + Vec2::new(-0.25 * c, 0.25 * c),
-            ],
-            Color32::from_rgb(255, 80, 80),
-            Stroke::NONE,
-        ));
-        if selected {
-            painter.rect_stroke(
-                rect,
-                0.0,
-                Stroke::new(3.0, Color32::from_rgb(0, 160, 255)),
-                StrokeKind::Inside,
-            );
-        }
-        if let Some(pos) = resp.hover_pos() {
-            let (vx, vy) = (
-                ((pos.x - rect.min.x) / c) as usize,
-                ((pos.y - rect.min.y) / c) as usize,
-            );
-            if vx < VIEW_SIZE && vy < VIEW_SIZE {
-                let mut text = format!("view cell ({vx}, {vy}): {:.5}", map[vy][vx]);
-                for h in hits.iter().filter(|h| h.cell == (vx, vy)) {
-                    let _ = write!(
-                        text,
-                        "\nrelated object: acc {} · ng {} · bs {} · cmb {}",
-                        h.acc, h.acc_ng, h.acc_bs, h.acc_cmb
-                    );
-                    // Which neighbouring cells pass τ: where a map that misses it sits.
-                    let sides: Vec<&str> = AROUND_NAMES
-                        .iter()
-                        .zip(h.around)
-                        .filter_map(|(n, hit)| hit.then_some(*n))
-                        .collect();
-                    if !sides.is_empty() {
-                        let _ = write!(text, "\n≥ τ: {}", sides.join(", "));
-                    }
-                }
-                return resp.on_hover_text_at_pointer(text);
-            }
-        }
-        resp
     }
 }

@@ -10,6 +10,7 @@
 pub mod episode;
 pub mod figures;
 pub mod measures;
+pub mod peaks;
 pub mod report;
 pub mod step;
 

@@ -13,12 +13,22 @@ impl Report {
         let _ = writeln!(s, "# groundscope evaluation\n");
         let _ = writeln!(
             s,
-            "α = {}, {} actions, {} seeds (from {}) × {} episodes per cell; mean ± std over seeds. Sweep took {:.1} s.\n",
+            "α = {}, {} actions, {} (from {}) × {} episodes per cell; {}. Sweep took {:.1} s.\n",
             self.alpha,
             self.mode,
-            self.seeds,
+            if self.seeds == 1 {
+                "1 seed".to_owned()
+            } else {
+                format!("{} seeds", self.seeds)
+            },
             self.first_seed,
             self.episodes_per_seed,
+            // One seed has no spread: a "± 0.000" would read as a measured std.
+            if self.seeds == 1 {
+                "one seed, so no std: ignore the ± 0.000"
+            } else {
+                "mean ± std over seeds"
+            },
             self.elapsed_secs
         );
         for c in &self.checkpoints {
@@ -96,13 +106,13 @@ impl Report {
         let _ = writeln!(s, "\n## Worst episodes\n");
         let _ = writeln!(
             s,
-            "| why | checkpoint | size | objects | seed | mission | reward | length | acc_cmb (M) | class | without distractors | replay |"
+            "| why | checkpoint | size | objects | seed | mission | reward | length | acc_cmb (M) | class | without distractors | replay · open in the debugger |"
         );
         let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|---|---|---|");
         for f in failures {
             let _ = writeln!(
                 s,
-                "| {} | {} | {} | {} | {} | {} | {:.3} | {} | {} | {} | {} | `{}` |",
+                "| {} | {} | {} | {} | {} | {} | {:.3} | {} | {} | {} | {} | `{}` · `{}` |",
                 f.kind,
                 f.checkpoint,
                 f.size,
@@ -119,7 +129,8 @@ impl Report {
                     c.distractors_removed,
                     c.length
                 )),
-                f.replay
+                f.replay,
+                f.view_command()
             );
         }
         s

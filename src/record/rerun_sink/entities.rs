@@ -6,13 +6,20 @@ use std::fmt::Write as _;
 
 use rerun::RecordingStream;
 
+use super::marks::{
+    self, LANDMARKS, WORLD_MARKS, agent_marker, bar_frame, labelled_bars, log_landmarks,
+};
 use super::{RecordError, sdk, word_path};
-use crate::episode::EpisodeTrace;
+use crate::env::Pos;
+use crate::env::world::Action;
+use crate::episode::{EpisodeTrace, StepRecord};
+use crate::metrics::faithfulness::peaks::peak_line;
 use crate::metrics::grounding::{EvaluatedMap, WordKind};
 use crate::policy::ViewMap;
 use crate::record::RERUN_SDK_VERSION;
 use crate::record::scene::{
-    StepScene, TILE_PX, action_label, action_names, cell_centre, hit_color,
+    NEGLIGIBLE_WEIGHT, StepScene, TILE_PX, action_label, action_names, attention_rings,
+    cell_centre, hit_color, no_accuracy_reason,
 };
 
 pub(super) fn log_static(
@@ -46,6 +53,14 @@ pub(super) fn log_static(
         &rerun::Transform3D::from_scale((s, s, 1.0)),
     )
     .map_err(sdk)?;
+    rec.log_static(WORLD_MARKS, &rerun::Transform3D::from_scale((s, s, 1.0)))
+        .map_err(sdk)?;
+    rec.log_static("policy/probs/frame", &bar_frame(Action::COUNT))
+        .map_err(sdk)?;
+    if first.variant.name() == "attention" {
+        rec.log_static(format!("{LANDMARKS}/agent"), &agent_marker())
+            .map_err(sdk)?;
+    }
     rec.log_static(
         "policy/value",
         &rerun::SeriesLines::new()
@@ -73,11 +88,17 @@ pub(super) fn log_static(
     Ok(())
 }
 
-/// A 7×7 map as a colour-mapped depth image on `[0, hi]`.
-fn map_image(map: &ViewMap, hi: f32) -> rerun::DepthImage {
+/// A 7×7 map as a colour-mapped depth image on `[0, hi]`: viridis, or greyscale for a word
+/// whose weight is (nearly) 0, so that it reads as left out of `M`.
+fn map_image(map: &ViewMap, hi: f32, grey: bool) -> rerun::DepthImage {
     let bytes: Vec<u8> = map.iter().flatten().flat_map(|v| v.to_le_bytes()).collect();
+    let colormap = if grey {
+        rerun::components::Colormap::Grayscale
+    } else {
+        rerun::components::Colormap::Viridis
+    };
     rerun::DepthImage::from_data_type_and_bytes(bytes, [7, 7], rerun::ChannelDatatype::F32)
-        .with_colormap(rerun::components::Colormap::Viridis)
+        .with_colormap(colormap)
         .with_depth_range([0.0, f64::from(hi)])
 }
 
@@ -108,6 +129,15 @@ fn grounding_points(g: &EvaluatedMap) -> rerun::Points2D {
         .with_show_labels(false)
 }
 
+/// An invisible point under a map: Rerun fits a 2-D view to its contents but not to their
+/// labels, and a map's label is drawn under the map, so without it a view sized to the map
+/// would cut the label off.
+fn label_room() -> rerun::Points2D {
+    rerun::Points2D::new([(3.5, 8.3)])
+        .with_radii([0.001])
+        .with_colors([[0, 0, 0]])
+}
+
 fn label_box(text: String) -> rerun::Boxes2D {
     rerun::Boxes2D::from_mins_and_sizes([(0.0, 0.0)], [(7.0, 7.0)])
         .with_labels([text])
@@ -120,9 +150,34 @@ fn label_box(text: String) -> rerun::Boxes2D {
 fn log_faithfulness(
     rec: &RecordingStream,
     f: &crate::episode::StepFaithfulness,
+    combined: Option<&ViewMap>,
 ) -> Result<(), RecordError> {
-    rec.log("faithfulness/occlusion", &map_image(&f.occlusion, 1.0))
-        .map_err(sdk)?;
+    let mut summary = match f.rank_correlation {
+        Some(r) => format!("Spearman ρ(M, Δ) = {r:.3}"),
+        None => "ρ(M, Δ): undefined".to_owned(),
+    };
+    if let Some(m) = combined {
+        let _ = write!(summary, " · {}", peak_line(m, &f.occlusion));
+    }
+    summary.push_str("\n\n| one step with M changed | TV | best action |\n|---|---|---|\n");
+    for (name, e) in &f.interventions {
+        let _ = writeln!(
+            summary,
+            "| {name} | {:.3} | {} |",
+            e.tv,
+            if e.flip { "flips" } else { "kept" }
+        );
+    }
+    rec.log(
+        "faithfulness/summary",
+        &rerun::TextDocument::from_markdown(summary),
+    )
+    .map_err(sdk)?;
+    rec.log(
+        "faithfulness/occlusion",
+        &map_image(&f.occlusion, 1.0, false),
+    )
+    .map_err(sdk)?;
     if let Some(rho) = f.rank_correlation {
         rec.log(
             "faithfulness/rank_correlation",
@@ -140,13 +195,51 @@ fn log_faithfulness(
     Ok(())
 }
 
+/// Logs named bars at `path` (the labelled tracks) and `path/bars` (the bars).
+fn log_bars(
+    rec: &RecordingStream,
+    path: &str,
+    rows: &[(String, f32)],
+    full: f32,
+    highlight: Option<usize>,
+) -> Result<(), RecordError> {
+    let (tracks, bars) = labelled_bars(rows, full, highlight);
+    rec.log(path, &tracks).map_err(sdk)?;
+    rec.log(format!("{path}/bars"), &bars).map_err(sdk)
+}
+
+/// The world's marks at step `k`: the targets, and the agent's path so far.
+fn log_world_marks(
+    rec: &RecordingStream,
+    ep: &EpisodeTrace,
+    k: usize,
+    step: &StepRecord,
+) -> Result<(), RecordError> {
+    rec.log(
+        format!("{WORLD_MARKS}/targets"),
+        &marks::targets(step.world.target_positions()),
+    )
+    .map_err(sdk)?;
+    let mut path: Vec<Pos> = Vec::with_capacity(k + 1);
+    for s in ep.steps.iter().take(k + 1) {
+        if path.last() != Some(&s.world.agent_pos) {
+            path.push(s.world.agent_pos);
+        }
+    }
+    rec.log(format!("{WORLD_MARKS}/trail"), &marks::trail(&path))
+        .map_err(sdk)
+}
+
 pub(super) fn log_step(
     rec: &RecordingStream,
     ep: &EpisodeTrace,
     episode: usize,
-    step: &crate::episode::StepRecord,
+    k: usize,
     scene: &StepScene,
 ) -> Result<(), RecordError> {
+    let Some(step) = ep.steps.get(k) else {
+        return Ok(());
+    };
     let (w, h) = scene.world.dimensions();
     rec.log(
         "world/grid",
@@ -160,12 +253,17 @@ pub(super) fn log_step(
     )
     .map_err(sdk)?;
 
+    log_world_marks(rec, ep, k, step)?;
     if let Some(f) = &step.faithfulness {
-        log_faithfulness(rec, f)?;
+        log_faithfulness(rec, f, step.attention.as_ref().map(|a| &a.combined))?;
     }
     let names = action_names();
-    rec.log("policy/probs", &rerun::BarChart::new(step.probs.to_vec()))
-        .map_err(sdk)?;
+    let probs: Vec<(String, f32)> = names
+        .iter()
+        .zip(step.probs)
+        .map(|(n, p)| (format!("{n} {p:.3}"), p))
+        .collect();
+    log_bars(rec, "policy/probs", &probs, 1.0, Some(step.action as usize))?;
     rec.log(
         "policy/value",
         &rerun::Scalars::single(f64::from(step.value)),
@@ -211,44 +309,73 @@ pub(super) fn log_step(
         return Ok(());
     };
     let hi = scene.scale_max;
-    let mut legend = String::from("| # | word | w | H |\n|---|---|---|---|\n");
+    log_landmarks(rec, &step.obs)?;
+    let mut legend = String::from("| word | w | H |\n|---|---:|---:|\n");
     for (i, wa) in att.words.iter().enumerate() {
         let path = word_path(i, &wa.word);
-        rec.log(path.as_str(), &map_image(&wa.map, hi))
+        let grey = wa.weight < NEGLIGIBLE_WEIGHT;
+        rec.log(path.as_str(), &map_image(&wa.map, hi, grey))
             .map_err(sdk)?;
+        // Short, so that it fits under the map; the scale is on M's label and the bar.
+        let note = if grey { " · not in M" } else { "" };
         rec.log(
             format!("{path}/label"),
             &label_box(format!(
-                "{} · w {:.2} · H {:.2}",
+                "{} · w {:.2} · H {:.2}{note}",
                 wa.word, wa.weight, wa.entropy
             )),
         )
         .map_err(sdk)?;
+        rec.log(format!("{path}/pad"), &label_room()).map_err(sdk)?;
         log_grounding(rec, &format!("{path}/grounding"), scene.hits_of(Some(i)))?;
         let _ = writeln!(
             legend,
-            "| {i} | {} | {:.3} | {:.3} |",
+            "| {} | {:.3} | {:.2} |",
             wa.word, wa.weight, wa.entropy
         );
     }
-    rec.log("attention/combined", &map_image(&att.combined, hi))
+    rec.log("attention/combined", &map_image(&att.combined, hi, false))
         .map_err(sdk)?;
     rec.log(
         "attention/combined/label",
-        &label_box(format!("M · colour scale 0–{hi:.2}")),
+        &label_box(format!("M · shared scale 0–{hi:.2}")),
     )
     .map_err(sdk)?;
+    rec.log("attention/combined/pad", &label_room())
+        .map_err(sdk)?;
     log_grounding(rec, "attention/combined/grounding", scene.hits_of(None))?;
+    rec.log("attention/colorbar", &marks::colorbar(hi))
+        .map_err(sdk)?;
     rec.log(
-        "attention/weights",
-        &rerun::BarChart::new(att.words.iter().map(|w| w.weight).collect::<Vec<f32>>()),
+        "attention/colorbar/label",
+        &rerun::Boxes2D::from_mins_and_sizes([(0.0, 0.0)], [(1.0, 32.0)])
+            .with_labels([format!("0–{hi:.3}: all word maps and M")])
+            .with_show_labels(true)
+            .with_colors([[255, 255, 255]]),
     )
     .map_err(sdk)?;
-    rec.log(
-        "attention/entropy",
-        &rerun::BarChart::new(att.words.iter().map(|w| w.entropy).collect::<Vec<f32>>()),
-    )
-    .map_err(sdk)?;
+    let weights: Vec<(String, f32)> = att
+        .words
+        .iter()
+        .map(|w| {
+            (
+                format!("{} · w {:.2} · H {:.2}", w.word, w.weight, w.entropy),
+                w.weight,
+            )
+        })
+        .collect();
+    log_bars(rec, "attention/weights", &weights, 1.0, None)?;
+    rec.log("attention/weights/frame", &bar_frame(weights.len()))
+        .map_err(sdk)?;
+    // H is at most ln 49 nats (a uniform map over the 49 cells).
+    let entropies: Vec<(String, f32)> = att
+        .words
+        .iter()
+        .map(|w| (format!("{} · H {:.2}", w.word, w.entropy), w.entropy))
+        .collect();
+    log_bars(rec, "attention/entropy", &entropies, 49f32.ln(), None)?;
+    rec.log("attention/entropy/frame", &bar_frame(entropies.len()))
+        .map_err(sdk)?;
     rec.log(
         "attention/legend",
         &rerun::TextDocument::from_markdown(legend),
@@ -261,7 +388,13 @@ pub(super) fn log_step(
             &rerun::Image::from_rgba32(overlay.as_raw().as_slice(), [ow, oh]).with_draw_order(10.0),
         )
         .map_err(sdk)?;
+        rec.log(
+            "world/attention/rings",
+            &marks::rings(&attention_rings(&step.world, &att.combined, hi)),
+        )
+        .map_err(sdk)?;
     }
+    log_grounding_table(rec, step, scene)?;
     for g in &scene.grounding {
         rec.log(
             format!("metrics/{}", g.kind.name()),
@@ -282,5 +415,44 @@ fn log_grounding(
         Some(g) => rec.log(path, &grounding_points(g)),
         None => rec.log(path, &rerun::Clear::flat()),
     }
+    .map_err(sdk)
+}
+
+/// The step's grounding accuracies as a table, with the reason for each kind not scored
+/// (a plot's legend would cover its points; a table has none).
+fn log_grounding_table(
+    rec: &RecordingStream,
+    step: &StepRecord,
+    scene: &StepScene,
+) -> Result<(), RecordError> {
+    let mut doc =
+        String::from("| map | related | acc | ng | bs | cmb |\n|---|---:|---:|---:|---:|---:|\n");
+    let mut missing = String::new();
+    let desc = step.world.desc();
+    for kind in WordKind::ALL {
+        match scene.grounding.iter().find(|g| g.kind == kind) {
+            Some(g) => {
+                let a = &g.accuracies;
+                let _ = writeln!(
+                    doc,
+                    "| {} | {} | {:.2} | {:.2} | {:.2} | {:.2} |",
+                    kind.name(),
+                    g.hits.len(),
+                    a.acc,
+                    a.acc_ng,
+                    a.acc_bs,
+                    a.acc_cmb
+                );
+            }
+            None => {
+                let _ = writeln!(missing, "\n- {}", no_accuracy_reason(kind, &desc));
+            }
+        }
+    }
+    doc.push_str(&missing);
+    rec.log(
+        "metrics/grounding",
+        &rerun::TextDocument::from_markdown(doc),
+    )
     .map_err(sdk)
 }

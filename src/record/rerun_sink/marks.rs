@@ -1,0 +1,189 @@
+//! What makes the Rerun views read at a glance: bar charts whose every bar carries its name
+//! and value (Rerun 0.36's `BarChart` has no per-bar names, so bars are labelled boxes in a
+//! 2-D view), landmarks shared by every map (walls, objects, unseen cells, the agent), the
+//! world's attention rings, targets and trail, and the colour bar of the maps' shared scale.
+
+use rerun::RecordingStream;
+
+use super::{RecordError, sdk};
+use crate::env::object::ObjectKind;
+use crate::env::{Observation, Pos, VIEW_SIZE};
+use crate::render::{decode_view_cell, palette};
+
+/// Length of a full bar (probability or weight 1) in the bars' 2-D space.
+pub const BAR_LENGTH: f32 = 10.0;
+
+/// Rows of a bar chart are this far apart and each bar [`BAR_HEIGHT`] tall: the gap leaves
+/// room for the label Rerun draws at the bar, wherever it anchors it.
+pub const BAR_PITCH: f32 = 1.5;
+
+/// Height of one bar.
+pub const BAR_HEIGHT: f32 = 0.7;
+
+/// Where the landmarks every map view also shows are logged.
+pub const LANDMARKS: &str = "attention/landmarks";
+
+/// Entity holding the marks drawn over the world in cell units (scaled by the tile size).
+pub const WORLD_MARKS: &str = "world/marks";
+
+/// Horizontal bars, one per `(label, value)` row, value `full` = [`BAR_LENGTH`]: the rows'
+/// full-length tracks, each labelled with its text (e.g. `"forward 0.91"`) so that the label
+/// sits mid-row however short the bar, and the bars themselves (`highlight` in orange), to
+/// be logged at a child entity.
+pub fn labelled_bars(
+    rows: &[(String, f32)],
+    full: f32,
+    highlight: Option<usize>,
+) -> (rerun::Boxes2D, rerun::Boxes2D) {
+    let scale = BAR_LENGTH / full.max(f32::EPSILON);
+    let mins: Vec<(f32, f32)> = (0..rows.len())
+        .map(|i| (0.0, i as f32 * BAR_PITCH + BAR_PITCH - BAR_HEIGHT))
+        .collect();
+    let tracks = rerun::Boxes2D::from_mins_and_sizes(
+        mins.clone(),
+        vec![(BAR_LENGTH, BAR_HEIGHT); rows.len()],
+    )
+    .with_labels(rows.iter().map(|(l, _)| l.clone()))
+    .with_show_labels(true)
+    .with_colors([[70, 70, 70]]);
+    let sizes: Vec<(f32, f32)> = rows
+        .iter()
+        .map(|(_, v)| ((v.max(0.0) * scale).clamp(0.05, BAR_LENGTH), BAR_HEIGHT))
+        .collect();
+    let colors: Vec<[u8; 3]> = (0..rows.len())
+        .map(|i| {
+            if highlight == Some(i) {
+                [255, 150, 40]
+            } else {
+                [70, 130, 200]
+            }
+        })
+        .collect();
+    let bars = rerun::Boxes2D::from_mins_and_sizes(mins, sizes)
+        .with_colors(colors)
+        .with_radii([0.08]);
+    (tracks, bars)
+}
+
+/// The frame of a bar chart with `n` rows: fixes the view's bounds so bars do not rescale.
+pub fn bar_frame(n: usize) -> rerun::Boxes2D {
+    rerun::Boxes2D::from_mins_and_sizes([(0.0, 0.0)], [(BAR_LENGTH, n as f32 * BAR_PITCH)])
+        .with_colors([[80, 80, 80]])
+}
+
+/// Logs the landmarks of the step's view for every map (their views include
+/// [`LANDMARKS`]): walls outlined grey, objects in their colour, unseen cells hatched.
+pub fn log_landmarks(rec: &RecordingStream, obs: &Observation) -> Result<(), RecordError> {
+    let (mut walls, mut objects, mut colors, mut hatch) = (vec![], vec![], vec![], vec![]);
+    for vy in 0..VIEW_SIZE {
+        for vx in 0..VIEW_SIZE {
+            let (x, y) = (vx as f32, vy as f32);
+            match decode_view_cell(obs.at((vx, vy))) {
+                None => {
+                    for k in 1..3 {
+                        let t = k as f32 / 3.0;
+                        hatch.push(vec![[x, y + t], [x + t, y]]);
+                        hatch.push(vec![[x + 1.0 - t, y + 1.0], [x + 1.0, y + 1.0 - t]]);
+                    }
+                }
+                Some(Some(o)) if o.kind == ObjectKind::Wall => walls.push((x + 0.05, y + 0.05)),
+                Some(Some(o)) => {
+                    objects.push((x + 0.22, y + 0.22));
+                    colors.push(palette::object(o.color));
+                }
+                Some(None) => {}
+            }
+        }
+    }
+    let boxes = |mins: Vec<(f32, f32)>, side: f32| {
+        let n = mins.len();
+        rerun::Boxes2D::from_mins_and_sizes(mins, vec![(side, side); n])
+    };
+    rec.log(
+        format!("{LANDMARKS}/walls"),
+        &boxes(walls, 0.9)
+            .with_colors([[150, 150, 150]])
+            .with_radii([0.02])
+            .with_draw_order(20.0),
+    )
+    .map_err(sdk)?;
+    rec.log(
+        format!("{LANDMARKS}/objects"),
+        &boxes(objects, 0.56)
+            .with_colors(colors)
+            .with_radii([0.04])
+            .with_draw_order(20.0),
+    )
+    .map_err(sdk)?;
+    rec.log(
+        format!("{LANDMARKS}/unseen"),
+        &rerun::LineStrips2D::new(hatch)
+            .with_colors([[110, 110, 110]])
+            .with_radii([0.01])
+            .with_draw_order(20.0),
+    )
+    .map_err(sdk)
+}
+
+/// The agent's marker on every map, bottom middle: static, since it never moves there.
+pub fn agent_marker() -> rerun::Points2D {
+    rerun::Points2D::new([(3.5, 6.5)])
+        .with_colors([palette::AGENT])
+        .with_radii([0.25])
+        .with_labels(["agent"])
+        .with_show_labels(false)
+}
+
+/// Outlines of occupied cells in the map's colour (the overlay rings), in cell units.
+pub fn rings(cells: &[(Pos, [u8; 3])]) -> rerun::Boxes2D {
+    rerun::Boxes2D::from_mins_and_sizes(
+        cells
+            .iter()
+            .map(|((x, y), _)| (*x as f32 + 0.06, *y as f32 + 0.06)),
+        vec![(0.88, 0.88); cells.len()],
+    )
+    .with_colors(cells.iter().map(|(_, c)| *c))
+    .with_radii([0.06])
+    .with_draw_order(20.0)
+}
+
+/// The targets outlined in magenta, in cell units.
+pub fn targets(cells: &[Pos]) -> rerun::Boxes2D {
+    rerun::Boxes2D::from_mins_and_sizes(
+        cells
+            .iter()
+            .map(|(x, y)| (*x as f32 + 0.15, *y as f32 + 0.15)),
+        vec![(0.7, 0.7); cells.len()],
+    )
+    .with_colors([palette::TARGET])
+    .with_radii([0.05])
+    .with_labels(vec!["target"; cells.len()])
+    .with_show_labels(false)
+    .with_draw_order(25.0)
+}
+
+/// The agent's path through the centres of the cells it stood on, up to `now`, in cell units.
+pub fn trail(path: &[Pos]) -> rerun::LineStrips2D {
+    let strip: Vec<[f32; 2]> = path
+        .iter()
+        .map(|(x, y)| [*x as f32 + 0.5, *y as f32 + 0.5])
+        .collect();
+    rerun::LineStrips2D::new([strip])
+        .with_colors([palette::TRAIL])
+        .with_radii([0.06])
+        .with_labels(["trail"])
+        .with_show_labels(false)
+        .with_draw_order(22.0)
+}
+
+/// The colour bar of the maps' shared scale: a 1×32 depth image from `hi` (top) to 0.
+pub fn colorbar(hi: f32) -> rerun::DepthImage {
+    let n = 32;
+    let bytes: Vec<u8> = (0..n)
+        .map(|i| hi * (1.0 - i as f32 / (n - 1) as f32))
+        .flat_map(f32::to_le_bytes)
+        .collect();
+    rerun::DepthImage::from_data_type_and_bytes(bytes, [1, n], rerun::ChannelDatatype::F32)
+        .with_colormap(rerun::components::Colormap::Viridis)
+        .with_depth_range([0.0, f64::from(hi)])
+}

@@ -1,0 +1,78 @@
+//! The report's worst episodes name the command that opens each in the debugger, at the step
+//! where it failed.
+#![allow(clippy::unwrap_used, reason = "tests fail loudly")]
+
+use groundscope::metrics::report::Failure;
+
+fn failure(kind: &str, length: u32) -> Failure {
+    Failure {
+        kind: kind.to_owned(),
+        checkpoint: "bundled:attention".to_owned(),
+        size: 16,
+        objects: 10,
+        seed: 42,
+        mission: "go to the red ball".to_owned(),
+        reward: 0.0,
+        length,
+        acc_cmb: None,
+        replay: "groundscope replay --checkpoint bundled:attention --room-size 16 --objects 10 --seed 42".to_owned(),
+        class: None,
+        target_visible_steps: None,
+        m_on_target_steps: None,
+        counterfactual: None,
+        level: None,
+    }
+}
+
+#[test]
+fn a_failed_episode_opens_at_its_last_step() {
+    assert_eq!(
+        failure("failed", 256).view_command(),
+        "groundscope view --checkpoint bundled:attention --room-size 16 --objects 10 --seed 42 --step 255"
+    );
+    // A success listed for its low acc_cmb has no failing step: it opens at the start.
+    assert_eq!(
+        failure("low_acc_cmb", 12).view_command(),
+        "groundscope view --checkpoint bundled:attention --room-size 16 --objects 10 --seed 42"
+    );
+}
+
+#[test]
+fn a_one_seed_one_size_report_reads_right() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("r");
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_groundscope"))
+        .args([
+            "eval",
+            "--sizes",
+            "8",
+            "--objects",
+            "4",
+            "--seeds",
+            "1",
+            "--episodes",
+            "5",
+            "--quiet",
+            "--out",
+        ])
+        .arg(&out)
+        .env("RAYON_NUM_THREADS", "1")
+        .output()
+        .unwrap();
+    assert_eq!(
+        o.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let md = std::fs::read_to_string(out.join("report.md")).unwrap();
+    // One seed is not "1 seeds", and its "± 0.000" is said to be no std.
+    assert!(md.contains("1 seed (from 0)"), "{md}");
+    assert!(!md.contains("1 seeds"), "{md}");
+    assert!(md.contains("one seed, so no std"), "{md}");
+    // Each listed episode can be opened in the debugger.
+    assert!(md.contains("`groundscope view --checkpoint "), "{md}");
+    // One room size alone still gets a figure wide enough for its title.
+    let fig = image::open(out.join("fig6_success.png")).unwrap();
+    assert!(fig.width() >= 680, "{}", fig.width());
+}
