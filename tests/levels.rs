@@ -241,3 +241,47 @@ fn training_on_a_door_level_and_a_multi_room_level_works_end_to_end() {
         assert!(eps.iter().all(|r| r["level"] == level), "its own level");
     }
 }
+
+/// Faithfulness on a BabyAI level with an imported graph of few words: every part runs, and a
+/// counterfactual whose edited mission names a word the graph never learnt is skipped with a
+/// count, not an error.
+#[test]
+fn faithfulness_runs_on_a_level_and_skips_edits_the_model_cannot_read() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("faith");
+    let graph = onnx_fixture("acmodel_gotoredballgrey.onnx");
+    let o = gs(&[
+        "faithfulness",
+        "--checkpoint",
+        graph.to_str().unwrap(),
+        "--levels",
+        "BabyAI-GoToRedBallGrey-v0",
+        "--seeds",
+        "1",
+        "--episodes",
+        "4",
+        "--quiet",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let md = std::fs::read_to_string(out.join("faithfulness.md")).unwrap();
+    // "go to the red ball" recoloured names a colour this graph never saw.
+    assert!(
+        md.contains("counterfactual recolor_target (0 run, 4 skipped)"),
+        "{md}"
+    );
+    assert!(
+        md.contains("counterfactual swap_putnext (0 run, 4 skipped)"),
+        "{md}"
+    );
+    assert!(
+        md.contains("counterfactual move_target (4 run, 0 skipped)"),
+        "{md}"
+    );
+    let json = std::fs::read_to_string(out.join("faithfulness.json")).unwrap();
+    assert!(
+        json.contains("\"level\": \"BabyAI-GoToRedBallGrey-v0\""),
+        "{json}"
+    );
+}

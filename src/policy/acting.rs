@@ -10,27 +10,50 @@ use super::model::{Memory, MissionInputs, Net};
 use super::{ActOptions, ActOutput, episode_mission};
 use crate::env::view::Observation;
 
-/// Refuses a mission with a word the policy was never trained on (its embedding row untrained
-/// or missing), naming the word, the mission and `level`.
+/// The first word of `tokens` the policy does not know: past a native model's trained rows,
+/// or missing from an imported graph's vocabulary.
+pub fn unknown_word<P: Acting + ?Sized>(policy: &P, tokens: &[u32]) -> Option<u32> {
+    let known = policy.known_words();
+    if let Some(&t) = tokens.iter().find(|&&t| t as usize >= known) {
+        return Some(t);
+    }
+    let ids = policy.input_token_ids(tokens)?;
+    tokens
+        .iter()
+        .zip(ids)
+        .find(|(_, id)| *id < 0)
+        .map(|(t, _)| *t)
+}
+
+/// Refuses a mission with a word the policy does not know (a native model's untrained or
+/// missing embedding row, a word an imported graph's vocabulary lacks), naming the word, the
+/// mission and `level`.
 pub fn check_known_words<P: Acting + ?Sized>(
     policy: &P,
     tokens: &[u32],
     mission: &str,
     level: impl FnOnce() -> String,
 ) -> Result<(), PolicyError> {
+    let Some(t) = unknown_word(policy, tokens) else {
+        return Ok(());
+    };
     let known = policy.known_words();
-    match tokens.iter().find(|&&t| t as usize >= known) {
-        None => Ok(()),
-        Some(&t) => Err(PolicyError::Input(format!(
-            "mission word {:?} in mission {} of level {} is not one this model was trained \
-             on: it knows the paper's {} words (a model of the paper's level); train one on a \
-             BabyAI level (`train --level ID`) for all of BabyAI's words",
-            crate::env::vocab::word(t).unwrap_or("?"),
-            crate::env::error::shown(mission),
-            level(),
+    let why = if (t as usize) < known {
+        "is not in the graph's vocabulary (metadata groundscope.vocabulary)".to_owned()
+    } else {
+        format!(
+            "is not one this model was trained on: it knows the paper's {} words (a model of \
+             the paper's level); train one on a BabyAI level (`train --level ID`) for all of \
+             BabyAI's words",
             known - 1
-        ))),
-    }
+        )
+    };
+    Err(PolicyError::Input(format!(
+        "mission word {:?} in mission {} of level {} {why}",
+        crate::env::vocab::word(t).unwrap_or("?"),
+        crate::env::error::shown(mission),
+        level(),
+    )))
 }
 
 /// A policy that acts in one environment at a time.

@@ -534,7 +534,15 @@ pub fn analyse_episode(
     let mut counterfactuals = BTreeMap::new();
     if parts.counterfactuals {
         for name in COUNTERFACTUALS {
+            let knows = |w: &World| {
+                vocab::tokenize(&w.mission)
+                    .is_ok_and(|t| crate::policy::acting::unknown_word(agent, &t).is_none())
+            };
             let outcome = match counterfactual(name, &world, &mut rng) {
+                // An edited mission may name a word the model never learnt: not a valid probe.
+                Ok(edited) if !knows(&edited) => Counterfactual::Skipped(
+                    "the edited mission holds a word the model does not know".into(),
+                ),
                 Ok(edited) => Counterfactual::Ran(rollout(
                     agent,
                     edited,
