@@ -70,6 +70,7 @@ fn a_one_seed_one_size_report_reads_right() {
     assert!(md.contains("1 seed (from 0)"), "{md}");
     assert!(!md.contains("1 seeds"), "{md}");
     assert!(md.contains("one seed, so no std"), "{md}");
+    assert!(!md.contains("± 0.000"), "no std printed for one seed: {md}");
     // Each listed episode can be opened in the debugger.
     assert!(md.contains("`groundscope view --checkpoint "), "{md}");
     // One room size alone still gets a figure wide enough for its title.

@@ -23,9 +23,9 @@ impl Report {
             },
             self.first_seed,
             self.episodes_per_seed,
-            // One seed has no spread: a "± 0.000" would read as a measured std.
+            // One seed has no spread: its cells give the mean alone.
             if self.seeds == 1 {
-                "one seed, so no std: ignore the ± 0.000"
+                "one seed, so no std: each cell is that seed's mean"
             } else {
                 "mean ± std over seeds"
             },
@@ -132,6 +132,10 @@ impl Report {
                 f.replay,
                 f.view_command()
             );
+        }
+        if self.seeds == 1 {
+            // Every std of one seed is 0: a "± 0.000" would read as a measured spread.
+            s = s.replace(" ± 0.000", "");
         }
         s
     }
