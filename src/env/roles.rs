@@ -131,66 +131,74 @@ fn desc_roles(d: ObjDesc, clause: Option<usize>, part: DescPart, out: &mut Vec<W
     }
 }
 
+/// Where the verifier stands with a clause.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Stage {
+    /// Its part of the sequence is done.
+    Done,
+    /// The verifier is waiting on it.
+    Waiting,
+    /// Its part comes later: the sequence has not reached it.
+    Later,
+}
+
+/// Each clause's [`Stage`], in reading order.
+fn stages(instr: &Instr) -> Vec<Stage> {
+    let mut out = Vec::new();
+    push_stages(instr, Stage::Waiting, &mut out);
+    out
+}
+
+fn push_stages(instr: &Instr, stage: Stage, out: &mut Vec<Stage>) {
+    match instr {
+        Instr::Action(_) => out.push(stage),
+        Instr::Seq(s) => {
+            let done = |d: Status| {
+                if d == Status::Success {
+                    Stage::Done
+                } else {
+                    Stage::Waiting
+                }
+            };
+            let (a_done, b_done) = (done(s.a_done), done(s.b_done));
+            // Only a part the verifier waits on splits further; a done or later part's
+            // clauses are all done or all later.
+            let (a, b) = match (stage, s.kind) {
+                (Stage::Done | Stage::Later, _) => (stage, stage),
+                (Stage::Waiting, SeqKind::And) => (a_done, b_done),
+                (Stage::Waiting, SeqKind::Before) if a_done == Stage::Done => (a_done, b_done),
+                (Stage::Waiting, SeqKind::Before) => (a_done, Stage::Later),
+                (Stage::Waiting, SeqKind::After) if b_done == Stage::Done => (a_done, b_done),
+                (Stage::Waiting, SeqKind::After) => (Stage::Later, b_done),
+            };
+            push_stages(&s.a, a, out);
+            push_stages(&s.b, b, out);
+        }
+    }
+}
+
+/// The indices of the clauses at `stage`.
+fn at_stage(instr: &Instr, stage: Stage) -> Vec<usize> {
+    stages(instr)
+        .into_iter()
+        .enumerate()
+        .filter(|(_, s)| *s == stage)
+        .map(|(i, _)| i)
+        .collect()
+}
+
 /// The clauses the verifier is waiting on, in reading order: the one clause; Before's first
 /// part until it succeeded, then its second; After's second part first; both parts of And
 /// until each succeeded.
 pub fn pending_clauses(instr: &Instr) -> Vec<usize> {
-    let mut out = Vec::new();
-    let mut clause = 0;
-    push_pending(instr, &mut clause, true, &mut out);
-    out
-}
-
-fn push_pending(instr: &Instr, clause: &mut usize, waiting: bool, out: &mut Vec<usize>) {
-    match instr {
-        Instr::Action(_) => {
-            if waiting {
-                out.push(*clause);
-            }
-            *clause += 1;
-        }
-        Instr::Seq(s) => {
-            let a_done = s.a_done == Status::Success;
-            let b_done = s.b_done == Status::Success;
-            let (wait_a, wait_b) = match s.kind {
-                SeqKind::And => (!a_done, !b_done),
-                SeqKind::Before => (!a_done, a_done && !b_done),
-                SeqKind::After => (b_done && !a_done, !b_done),
-            };
-            push_pending(&s.a, clause, waiting && wait_a, out);
-            push_pending(&s.b, clause, waiting && wait_b, out);
-        }
-    }
+    at_stage(instr, Stage::Waiting)
 }
 
 /// The clauses of the parts a sequence has not reached yet, in reading order: Before's second
 /// part while its first is pending, After's first part while its second is. Acting on one of
 /// their objects now is doing the clauses in the wrong order.
 pub fn future_clauses(instr: &Instr) -> Vec<usize> {
-    let mut out = Vec::new();
-    let mut clause = 0;
-    push_future(instr, &mut clause, false, &mut out);
-    out
-}
-
-fn push_future(instr: &Instr, clause: &mut usize, future: bool, out: &mut Vec<usize>) {
-    match instr {
-        Instr::Action(_) => {
-            if future {
-                out.push(*clause);
-            }
-            *clause += 1;
-        }
-        Instr::Seq(s) => {
-            let (a_later, b_later) = match s.kind {
-                SeqKind::And => (false, false),
-                SeqKind::Before => (false, s.a_done != Status::Success),
-                SeqKind::After => (s.b_done != Status::Success, false),
-            };
-            push_future(&s.a, clause, future || a_later, out);
-            push_future(&s.b, clause, future || b_later, out);
-        }
-    }
+    at_stage(instr, Stage::Later)
 }
 
 #[cfg(test)]

@@ -27,7 +27,6 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::env::mission::ObjDesc;
 use crate::env::object::{Color, ObjectId, ObjectKind};
 use crate::env::roles::{DescPart, WordClass, pending_clauses, word_roles};
 use crate::env::view::{AGENT_IN_VIEW, Observation, VIEW_SIZE, ViewCell, view_from_world};
@@ -410,13 +409,6 @@ pub fn visible_cells_of(world: &World, obs: &Observation, ids: &[ObjectId]) -> V
     cells.sort_by_key(|&(vx, vy)| (vy, vx));
     cells.dedup();
     cells
-}
-
-/// The visible objects matching the whole description (type and colour), any category.
-pub fn target_objects(obs: &Observation, desc: ObjDesc) -> Vec<ViewCell> {
-    related_objects(obs, |k, c| {
-        desc.kind.is_none_or(|d| d == k) && desc.color.is_none_or(|d| d == c)
-    })
 }
 
 #[cfg(test)]
