@@ -10,6 +10,8 @@
 
 mod common;
 
+use common::debugger::{build, show_until};
+
 use std::process::{Command, Output};
 
 use eframe::egui;
@@ -163,28 +165,6 @@ fn debugger_of(
         mission: None,
         faithfulness,
     })
-}
-
-/// The debugger at the default window size, 1400×900.
-fn build(opts: &StartOptions) -> Harness<'static, Debugger> {
-    Harness::builder()
-        .with_size([1400.0, 900.0])
-        // The harness would also fail on the inputs without an accessible name (the
-        // controls' combo boxes, drag values and text fields): not what these tests are about.
-        .with_accessibility_check(false)
-        .build_ui_state(
-            |ui, d: &mut Debugger| d.frame(ui),
-            Debugger::new(opts, None),
-        )
-}
-
-/// Runs frames until a label containing `text` shows (the episode runs in the background).
-fn show_until(h: &mut Harness<'_, Debugger>, text: &str) {
-    common::wait_until(&format!("a label with {text:?}"), || {
-        h.step();
-        // Compare mode shows a second policy panel: any match will do.
-        h.query_all_by_label_contains(text).next().is_some()
-    });
 }
 
 /// The episode the debugger runs, run here without it.
@@ -554,29 +534,4 @@ fn a_step_past_the_end_is_said_not_clamped_silently() {
         "--step {} is past this episode's last step {last}; showing step {last}",
         last + 40
     ));
-}
-
-#[test]
-fn a_babyai_level_names_itself_and_gets_a_world_of_its_size() {
-    let agent = Agent::load("bundled:attention").unwrap();
-    let level = groundscope::env::level::LevelConfig {
-        babyai: Some(groundscope::env::level::LevelId::parse("BabyAI-GoTo-v0").unwrap()),
-        ..agent.level()
-    };
-    let mut h = build(&StartOptions {
-        checkpoint: "bundled:attention".into(),
-        compare: None,
-        level: Some(level),
-        seed: 1,
-        sample: false,
-        step: 0,
-        mission: None,
-        faithfulness: false,
-    });
-    show_until(&mut h, "step 0 of ");
-    // Not the paper level's "room 8 · objects 4", which would not describe it.
-    h.get_by_label("level BabyAI-GoTo-v0");
-    assert!(h.query_by_label("room").is_none());
-    let img = h.state().world_image().unwrap();
-    assert_eq!(img.dimensions(), (22 * TILE_PX, 22 * TILE_PX));
 }

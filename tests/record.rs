@@ -6,16 +6,17 @@
     reason = "tests fail loudly"
 )]
 
-use std::collections::{BTreeMap, BTreeSet};
-use std::path::Path;
+mod common;
+
+use std::collections::BTreeMap;
 use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
 
 use groundscope::episode::{ActionMode, EpisodeSpec, EpisodeTrace, run_episode};
 use groundscope::policy::bundled;
 use groundscope::record::{RecordError, RerunTargets, record_rerun, write_mcap};
-use rerun::external::re_log_encoding::DecoderApp;
-use rerun::log::{Chunk, LogMsg};
+
+use common::rrd::{Decoded, decode, rows};
 
 fn episodes(model: &str, seeds: std::ops::Range<u64>) -> Vec<EpisodeTrace> {
     let spec_name = format!("bundled:{model}");
@@ -31,83 +32,6 @@ fn episodes(model: &str, seeds: std::ops::Range<u64>) -> Vec<EpisodeTrace> {
             run_episode(&ckpt, &spec_name, &spec).unwrap()
         })
         .collect()
-}
-
-/// What a decoded recording holds: rows per (entity, component), the store version, and the
-/// values of every `Scalars` entity in row order.
-#[derive(Debug, Default, PartialEq)]
-struct Decoded {
-    rows: BTreeMap<(String, String), usize>,
-    static_entities: BTreeSet<String>,
-    versions: BTreeSet<String>,
-    scalars: BTreeMap<String, Vec<Vec<f64>>>,
-    /// The `Boxes2D` labels of every entity, one list per row, in step order.
-    labels: BTreeMap<String, Vec<Vec<String>>>,
-    /// The names of the blueprint's views.
-    view_names: BTreeSet<String>,
-    blueprints: usize,
-}
-
-fn decode(path: &Path) -> Decoded {
-    let file = std::io::BufReader::new(std::fs::File::open(path).unwrap());
-    let mut out = Decoded::default();
-    let scalar = rerun::Scalars::descriptor_scalars().component;
-    let label = rerun::Boxes2D::descriptor_labels().component;
-    let view_name: rerun::ComponentIdentifier = "ViewBlueprint:display_name".into();
-    for msg in DecoderApp::decode_lazy(file) {
-        match msg.unwrap() {
-            LogMsg::SetStoreInfo(info) => {
-                if info.info.store_id.kind() == rerun::StoreKind::Blueprint {
-                    out.blueprints += 1;
-                }
-                if let Some(v) = info.info.store_version {
-                    out.versions.insert(v.to_string());
-                }
-            }
-            LogMsg::ArrowMsg(store, arrow) if store.kind() == rerun::StoreKind::Blueprint => {
-                let chunk = Chunk::from_arrow_msg(&arrow).unwrap();
-                for names in chunk.iter_component::<rerun::components::Name>(view_name) {
-                    out.view_names
-                        .extend(names.as_slice().iter().map(|n| n.as_str().to_owned()));
-                }
-            }
-            LogMsg::ArrowMsg(store, arrow) if store.kind() == rerun::StoreKind::Recording => {
-                let chunk = Chunk::from_arrow_msg(&arrow).unwrap();
-                let entity = chunk.entity_path().to_string();
-                if chunk.is_static() {
-                    out.static_entities.insert(entity.clone());
-                }
-                for desc in chunk.component_descriptors() {
-                    *out.rows
-                        .entry((entity.clone(), desc.component.to_string()))
-                        .or_default() += chunk.num_rows();
-                }
-                // Sort rows by the step timeline so values compare in step order.
-                let chunk = chunk.sorted_by_timeline_if_unsorted(&"step".into());
-                for s in chunk.iter_component::<rerun::components::Scalar>(scalar) {
-                    out.scalars
-                        .entry(entity.clone())
-                        .or_default()
-                        .push(s.as_slice().iter().map(|v| v.0.0).collect());
-                }
-                for l in chunk.iter_component::<rerun::components::Text>(label) {
-                    out.labels
-                        .entry(entity.clone())
-                        .or_default()
-                        .push(l.as_slice().iter().map(|t| t.as_str().to_owned()).collect());
-                }
-            }
-            _ => {}
-        }
-    }
-    out
-}
-
-fn rows(d: &Decoded, entity: &str, component: &str) -> usize {
-    d.rows
-        .get(&(entity.to_owned(), component.to_owned()))
-        .copied()
-        .unwrap_or(0)
 }
 
 #[test]

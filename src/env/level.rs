@@ -95,6 +95,11 @@ impl LevelId {
             })
     }
 
+    /// Every registered level, in the registry's order (minigrid's registration order).
+    pub fn all() -> impl Iterator<Item = Self> {
+        (0..super::babyai::registry::LEVELS.len()).map(|i| Self(i as u16))
+    }
+
     /// The level's spec.
     pub fn spec(self) -> &'static LevelSpec {
         &super::babyai::registry::LEVELS[usize::from(self.0)]

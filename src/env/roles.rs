@@ -6,9 +6,10 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::instr::{Instr, SeqKind, Status};
+use super::instr::{Instr, SeqKind};
 use super::mission::{Loc, ObjDesc, TaskKind};
 use super::object::ObjectKind;
+use super::tree::{Stage, clause_stages};
 
 /// The class of a mission word.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
@@ -131,55 +132,9 @@ fn desc_roles(d: ObjDesc, clause: Option<usize>, part: DescPart, out: &mut Vec<W
     }
 }
 
-/// Where the verifier stands with a clause.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Stage {
-    /// Its part of the sequence is done.
-    Done,
-    /// The verifier is waiting on it.
-    Waiting,
-    /// Its part comes later: the sequence has not reached it.
-    Later,
-}
-
-/// Each clause's [`Stage`], in reading order.
-fn stages(instr: &Instr) -> Vec<Stage> {
-    let mut out = Vec::new();
-    push_stages(instr, Stage::Waiting, &mut out);
-    out
-}
-
-fn push_stages(instr: &Instr, stage: Stage, out: &mut Vec<Stage>) {
-    match instr {
-        Instr::Action(_) => out.push(stage),
-        Instr::Seq(s) => {
-            let done = |d: Status| {
-                if d == Status::Success {
-                    Stage::Done
-                } else {
-                    Stage::Waiting
-                }
-            };
-            let (a_done, b_done) = (done(s.a_done), done(s.b_done));
-            // Only a part the verifier waits on splits further; a done or later part's
-            // clauses are all done or all later.
-            let (a, b) = match (stage, s.kind) {
-                (Stage::Done | Stage::Later, _) => (stage, stage),
-                (Stage::Waiting, SeqKind::And) => (a_done, b_done),
-                (Stage::Waiting, SeqKind::Before) if a_done == Stage::Done => (a_done, b_done),
-                (Stage::Waiting, SeqKind::Before) => (a_done, Stage::Later),
-                (Stage::Waiting, SeqKind::After) if b_done == Stage::Done => (a_done, b_done),
-                (Stage::Waiting, SeqKind::After) => (Stage::Later, b_done),
-            };
-            push_stages(&s.a, a, out);
-            push_stages(&s.b, b, out);
-        }
-    }
-}
-
 /// The indices of the clauses at `stage`.
 fn at_stage(instr: &Instr, stage: Stage) -> Vec<usize> {
-    stages(instr)
+    clause_stages(instr)
         .into_iter()
         .enumerate()
         .filter(|(_, s)| *s == stage)
@@ -204,7 +159,7 @@ pub fn future_clauses(instr: &Instr) -> Vec<usize> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::env::instr::parse_mission;
+    use crate::env::instr::{Status, parse_mission};
     use crate::env::vocab::split_words;
 
     fn classes(text: &str) -> Vec<(String, WordClass, Option<usize>)> {

@@ -28,7 +28,8 @@
 use serde::{Deserialize, Serialize};
 
 use crate::env::object::{Color, ObjectId, ObjectKind};
-use crate::env::roles::{DescPart, WordClass, pending_clauses, word_roles};
+use crate::env::roles::{DescPart, WordClass, word_roles};
+pub use crate::env::tree::pending_target_ids;
 use crate::env::view::{AGENT_IN_VIEW, Observation, VIEW_SIZE, ViewCell, view_from_world};
 use crate::env::world::World;
 use crate::policy::ViewMap;
@@ -372,28 +373,6 @@ pub fn ground_step(
 /// in view order: `M`'s targets.
 pub fn pending_targets(world: &World, obs: &Observation) -> Vec<ViewCell> {
     visible_cells_of(world, obs, &pending_target_ids(world))
-}
-
-/// The objects the clauses the verifier is waiting on matched
-/// ([`crate::env::roles::pending_clauses`]), the targets of `M` and of the failure classes.
-/// PutNext waits on the object to move until the agent carries one, then on the objects to put
-/// it next to.
-pub fn pending_target_ids(world: &World) -> Vec<ObjectId> {
-    let clauses = world.instr.clauses();
-    let carried = world.carrying.as_ref().map(|o| o.id);
-    let mut ids = Vec::new();
-    for c in pending_clauses(&world.instr) {
-        let Some(node) = clauses.get(c) else { continue };
-        let moving = node.instr.fixed.is_some()
-            && carried.is_some_and(|id| node.targets.obj_set.contains(&id));
-        let set = if moving {
-            &node.fixed_targets
-        } else {
-            &node.targets
-        };
-        ids.extend_from_slice(&set.obj_set);
-    }
-    ids
 }
 
 /// The view cells of the objects `ids` that are on the grid and visible (not the agent's own

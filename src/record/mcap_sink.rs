@@ -13,6 +13,7 @@
 //! | `/policy` | groundscope.Policy | episode, step, action, probabilities, value, reward |
 //! | `/metrics/grounding` | groundscope.Grounding | per evaluated map: accuracies and hits |
 //! | `/mission` | groundscope.Mission | mission text, seed, episode (first step of each) |
+//! | `/instruction` | groundscope.Instruction | the instruction tree: each sequence and clause with its stage (done, waiting, later), each clause's targets and cells, the doors and their states |
 //! | `/faithfulness/occlusion` | foxglove.RawImage | occlusion Δ (viridis on [0, 1]), with `replay --faithfulness` |
 //! | `/faithfulness` | groundscope.Faithfulness | Δ, ρ(M, Δ), one-step interventions, with `replay --faithfulness` |
 //!
@@ -30,6 +31,7 @@ use serde_json::{Value, json};
 
 use super::scene::{StepScene, action_names, episode_scenes, hit_color, trail, world_with_overlay};
 use super::{PendingFile, RecordError, StopFlag, io_err, stopped};
+use crate::env::tree::InstructionTree;
 use crate::episode::EpisodeTrace;
 use crate::metrics::grounding::EvaluatedMap;
 use crate::policy::ViewMap;
@@ -50,6 +52,8 @@ const POLICY_SCHEMA: &str = r#"{"title":"groundscope.Policy","type":"object","pr
 const GROUNDING_SCHEMA: &str = r#"{"title":"groundscope.Grounding","type":"object","properties":{"episode":{"type":"integer"},"step":{"type":"integer"},"maps":{"type":"object","additionalProperties":{"type":"object","properties":{"word":{"type":["string","null"]},"acc":{"type":"number"},"acc_ng":{"type":"number"},"acc_bs":{"type":"number"},"acc_cmb":{"type":"number"},"hits":{"type":"array"}}}}}}"#;
 
 const FAITHFULNESS_SCHEMA: &str = r#"{"title":"groundscope.Faithfulness","type":"object","properties":{"episode":{"type":"integer"},"step":{"type":"integer"},"occlusion":{"type":"array","items":{"type":"array","items":{"type":"number"}}},"rank_correlation":{"type":["number","null"]},"interventions":{"type":"object","additionalProperties":{"type":"object","properties":{"tv":{"type":"number"},"flip":{"type":"boolean"}}}}}}"#;
+
+const INSTRUCTION_SCHEMA: &str = r#"{"title":"groundscope.Instruction","type":"object","properties":{"episode":{"type":"integer"},"step":{"type":"integer"},"nodes":{"type":"array","items":{"type":"object","properties":{"depth":{"type":"integer"},"text":{"type":"string"},"seq":{"type":["string","null"]},"clause":{"type":["integer","null"]},"stage":{"type":"string","enum":["done","waiting","later"]},"targets":{"type":"array","items":{"type":"object","properties":{"object":{"type":"string"},"pos":{"type":["array","null"],"items":{"type":"integer"}},"part":{"type":"string","enum":["desc","fixed"]},"pending":{"type":"boolean"}}}}}}},"doors":{"type":"array","items":{"type":"object","properties":{"pos":{"type":"array","items":{"type":"integer"}},"color":{"type":"string"},"state":{"type":"string"}}}}}}"#;
 
 const MISSION_SCHEMA: &str = r#"{"title":"groundscope.Mission","type":"object","properties":{"episode":{"type":"integer"},"seed":{"type":"integer"},"text":{"type":"string"},"checkpoint":{"type":"string"},"level":{"type":"string"}}}"#;
 
@@ -80,6 +84,7 @@ impl<W: std::io::Write + std::io::Seek> Out<W> {
             "policy" => ("groundscope.Policy", POLICY_SCHEMA),
             "grounding" => ("groundscope.Grounding", GROUNDING_SCHEMA),
             "faithfulness" => ("groundscope.Faithfulness", FAITHFULNESS_SCHEMA),
+            "instruction" => ("groundscope.Instruction", INSTRUCTION_SCHEMA),
             _ => ("groundscope.Mission", MISSION_SCHEMA),
         };
         let sid = if let Some(&id) = self.schemas.get(schema) {
@@ -204,6 +209,13 @@ fn step_messages(out: &mut Msgs, e: usize, ep: &EpisodeTrace, k: usize, scene: &
             "action_name": step.action.name(), "probs": probs, "value": step.value,
             "reward": step.reward, "terminated": step.terminated, "truncated": step.truncated,
         }),
+    );
+    let tree = InstructionTree::of(&step.world);
+    out.json(
+        "/instruction",
+        "instruction",
+        t,
+        &json!({"episode": e, "step": step.t, "nodes": tree.nodes, "doors": tree.doors}),
     );
     if let Some(f) = &step.faithfulness {
         out.image(

@@ -6,7 +6,9 @@
 //! | `world/grid` | Image | the world, the agent's visible cells highlighted |
 //! | `world/attention` | Image (RGBA, one pixel per cell, scaled by a static transform) | `M` on the view's empty floor |
 //! | `world/attention/rings` | Boxes2D | `M`'s colour round occupied cells (their contents keep their colours) |
-//! | `world/marks/targets`, `world/marks/trail` | Boxes2D, LineStrips2D | targets; the agent's path |
+//! | `world/marks/targets`, `world/marks/trail` | Boxes2D, LineStrips2D | `M`'s targets (the clauses waited on); the agent's path |
+//! | `world/marks/clauses` | Boxes2D | every clause's targets, numbered, framed by stage (waited on, done, later) |
+//! | `mission/tree` | TextDocument | the instruction tree: stages, targets and cells, doors and their states |
 //! | `view/image` | Image | the agent's view, agent-up |
 //! | `attention/words/<i>_<word>` | DepthImage (7×7, viridis; grey when w ≈ 0) | word i's map |
 //! | `attention/words/<i>_<word>/label` | Boxes2D | word, weight w, entropy H and the shared scale |
@@ -151,7 +153,7 @@ fn map_columns(n_maps: usize) -> u32 {
 /// view also shows the landmarks (walls, objects, unseen cells, the agent).
 fn blueprint(word_paths: &[String], attention: bool, faithfulness: bool) -> Blueprint {
     let left = Vertical::new([
-        Spatial2DView::new("world (magenta: target · line: trail)")
+        Spatial2DView::new("world (magenta: target waited on · numbers: clauses · line: trail)")
             .with_origin("/world")
             .into(),
         Spatial2DView::new("agent view").with_origin("/view").into(),
@@ -160,6 +162,9 @@ fn blueprint(word_paths: &[String], attention: bool, faithfulness: bool) -> Blue
     let mut right = vec![
         TextDocumentView::new("status")
             .with_origin("/policy/status")
+            .into(),
+        TextDocumentView::new("instruction (bold: waited on)")
+            .with_origin("/mission/tree")
             .into(),
         TimeSeriesView::new("value and reward")
             .with_origin("/policy")

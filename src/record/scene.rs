@@ -6,13 +6,15 @@ use image::{RgbImage, RgbaImage};
 
 use crate::env::Pos;
 use crate::env::mission::ObjDesc;
+use crate::env::roles::DescPart;
+use crate::env::tree::{Stage, pending_target_cells};
 use crate::env::view::ViewCell;
 use crate::env::world::{Action, World};
 use crate::episode::{EpisodeTrace, StepRecord};
 use crate::metrics::grounding::{EvaluatedMap, ObjectHit, WordKind, ground_step};
 use crate::policy::ViewMap;
 use crate::render::overlay::{CellMark, map_cells};
-use crate::render::palette::{GROUNDING_HIT, GROUNDING_MISS, GROUNDING_NEAR, Rgb};
+use crate::render::palette::{self, GROUNDING_HIT, GROUNDING_MISS, GROUNDING_NEAR, Rgb};
 use crate::render::{
     colorize, draw_trail, outline_targets, overlay_on_world, render_view, render_world,
 };
@@ -138,8 +140,8 @@ pub fn hit_color(h: &ObjectHit) -> Rgb {
 }
 
 /// The scene's world picture with `M` over the view's cells on the step's shared colour scale
-/// (floor tinted, occupied cells ringed: objects keep their colours), the mission's targets
-/// outlined and the agent's earlier cells (`trail`) dotted. The baseline gets no map.
+/// (floor tinted, occupied cells ringed: objects keep their colours), the targets of the
+/// clauses the verifier waits on (`M`'s) outlined and the agent's earlier cells (`trail`) dotted. The baseline gets no map.
 pub fn world_with_overlay(step: &StepRecord, scene: &StepScene, trail: &[Pos]) -> RgbImage {
     let map = step.attention.as_ref().map(|a| &a.combined);
     world_picture(step, &scene.world, map, scene.scale_max, trail)
@@ -167,7 +169,7 @@ pub fn world_picture(
             scale_max,
         );
     }
-    outline_targets(&mut img, step.world.target_positions(), TILE_PX);
+    outline_targets(&mut img, &pending_target_cells(&step.world), TILE_PX);
     img
 }
 
@@ -239,6 +241,23 @@ pub fn no_accuracy_reason(kind: WordKind, desc: &ObjDesc) -> String {
         WordKind::Location => {
             "location: none of the objects its description matched is in view".to_owned()
         }
+    }
+}
+
+/// `"1"` for clause 0's description, `"1'"` for its second (PutNext's `fixed`).
+pub fn clause_label(clause: usize, part: DescPart) -> String {
+    match part {
+        DescPart::Desc => format!("{}", clause + 1),
+        DescPart::Fixed => format!("{}'", clause + 1),
+    }
+}
+
+/// The colour every display gives a clause's stage.
+pub fn stage_color(stage: Stage) -> Rgb {
+    match stage {
+        Stage::Waiting => palette::TARGET,
+        Stage::Done => palette::CLAUSE_DONE,
+        Stage::Later => palette::CLAUSE_LATER,
     }
 }
 

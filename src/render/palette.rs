@@ -47,6 +47,12 @@ pub const TARGET: Rgb = [255, 0, 255];
 /// The dots marking the cells the agent has already stood on.
 pub const TRAIL: Rgb = [230, 230, 230];
 
+/// A clause of the instruction already done: its targets' frames and its line in the tree.
+pub const CLAUSE_DONE: Rgb = [150, 150, 150];
+
+/// A clause the sequence has not reached yet.
+pub const CLAUSE_LATER: Rgb = [90, 170, 255];
+
 /// Shade of a locked door's panel relative to its frame.
 pub const LOCKED_DOOR_SHADE: f64 = 0.45;
 

@@ -7,6 +7,9 @@
 )]
 #![allow(dead_code, reason = "each test binary uses a subset of the helpers")]
 
+pub mod debugger;
+pub mod rrd;
+
 use std::io::BufRead as _;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};

@@ -7,9 +7,9 @@ use eframe::egui;
 use egui::{Color32, Key};
 
 use super::Debugger;
-use crate::app::session::{Export, Shown, failure_step, next_miss};
+use crate::app::session::{Agent, Export, Shown, failure_step, next_miss};
 use crate::env::edit::Edit;
-use crate::env::level::TaskSet;
+use crate::env::level::{LevelConfig, LevelId, TaskSet};
 use crate::env::vocab;
 
 impl Debugger {
@@ -67,11 +67,10 @@ impl Debugger {
                 self.load_checkpoints();
             }
             ui.separator();
-            // A BabyAI level ignores the paper level's room, objects and tasks: its id is
-            // shown instead of numbers that would not describe it.
-            if let Some(id) = self.level.babyai {
-                ui.label(format!("level {}", id.id()));
-            } else {
+            self.level_picker(ui);
+            // A BabyAI level ignores the paper level's room, objects and tasks: they are
+            // shown only for the paper's level, where they describe it.
+            if self.level.babyai.is_none() {
                 ui.label("room");
                 ui.add(egui::DragValue::new(&mut self.level.room_size).range(5..=16));
                 ui.label("objects");
@@ -102,17 +101,25 @@ impl Debugger {
         ui.horizontal_wrapped(|ui| {
             ui.label("mission");
             let r = ui.add(egui::TextEdit::singleline(&mut self.mission_text).desired_width(260.0));
-            let unknown: Vec<&str> = self
-                .mission_text
-                .split_whitespace()
-                .filter(|w| vocab::token_id(&w.to_lowercase()).is_none())
+            // BabyAI's own split ("ball, then" is two words), against the words this model
+            // was trained on: the same check the episode itself makes.
+            let known = self
+                .agent
+                .as_ref()
+                .map_or(vocab::VOCAB_SIZE, |a| a.acting().known_words());
+            let unknown: Vec<String> = vocab::split_words(&self.mission_text)
+                .into_iter()
+                .filter(|w| vocab::token_id(w).is_none_or(|t| t as usize >= known))
                 .collect();
             if !unknown.is_empty() {
                 ui.colored_label(
                     Color32::from_rgb(230, 60, 60),
-                    format!("not in the vocabulary: {}", unknown.join(", ")),
+                    format!("not a word this model knows: {}", unknown.join(", ")),
                 )
-                .on_hover_text(format!("known words: {}", vocab::VOCABULARY[1..].join(" ")));
+                .on_hover_text(format!(
+                    "known words: {}",
+                    vocab::VOCABULARY[1..known.min(vocab::VOCABULARY.len())].join(" ")
+                ));
             }
             let apply = ui
                 .add_enabled(unknown.is_empty(), egui::Button::new("apply at this step"))
@@ -157,6 +164,46 @@ impl Debugger {
                 }
             });
         });
+    }
+
+    /// The level: the paper's (its room, objects and tasks beside it) or any registered
+    /// BabyAI level, run at the checkpoint's done-action setting as `view --level` runs it.
+    fn level_picker(&mut self, ui: &mut egui::Ui) {
+        let current = self.level.babyai.map_or("paper level", LevelId::id);
+        let mut picked = None;
+        egui::ComboBox::from_id_salt("level")
+            .selected_text(format!("level {current}"))
+            .height(420.0)
+            .show_ui(ui, |ui| {
+                if ui
+                    .selectable_label(self.level.babyai.is_none(), "paper level")
+                    .clicked()
+                {
+                    picked = Some(None);
+                }
+                for id in LevelId::all() {
+                    if ui
+                        .selectable_label(self.level.babyai == Some(id), id.id())
+                        .clicked()
+                    {
+                        picked = Some(Some(id));
+                    }
+                }
+            })
+            .response
+            .on_hover_text("the paper's level or any of minigrid 3.2.0's 96 BabyAI levels");
+        let Some(choice) = picked else { return };
+        let base = self.agent.as_ref().map(Agent::level).unwrap_or_default();
+        let level = match choice {
+            Some(id) => LevelConfig::babyai(id, base.done_required),
+            None if base.babyai.is_none() => base,
+            None => LevelConfig::default(),
+        };
+        if level != self.level {
+            self.level = level;
+            self.mission_text.clear();
+            self.run_episode(None);
+        }
     }
 
     pub(super) fn timeline(&mut self, ui: &mut egui::Ui) {

@@ -11,6 +11,7 @@ mod maps;
 mod numbers;
 mod probe;
 mod screenshot;
+mod tree;
 mod world;
 
 use std::collections::HashMap;
@@ -29,6 +30,7 @@ use super::session::{Agent, Cursor, Job, Shown, start_attention_probe};
 use crate::env::Pos;
 use crate::env::level::LevelConfig;
 use crate::env::object::{Color, ObjectKind};
+use crate::env::tree::InstructionTree;
 
 /// Options the debugger starts with (from the command line).
 #[derive(Clone, Debug)]
@@ -281,6 +283,7 @@ impl Debugger {
             return;
         };
         Self::policy_header(ui, step, &shown);
+        Self::tree_panel(ui, &InstructionTree::of(&step.world));
         ui.horizontal_top(|ui| {
             ui.vertical(|ui| {
                 ui.set_width(330.0);

@@ -8,6 +8,7 @@ use egui::{
 use super::{Debugger, Overlay};
 use crate::env::Pos;
 use crate::env::edit::Edit;
+use crate::env::tree::InstructionTree;
 use crate::env::view::view_from_world;
 use crate::record::scene::{trail, world_picture};
 
@@ -129,6 +130,7 @@ impl Debugger {
                 Vec2::splat(cell),
             )
         };
+        Self::paint_clause_marks(&painter, &InstructionTree::of(&step.world), cell_rect);
         if let Some(sel) = self.selected_cell
             && !compared
         {

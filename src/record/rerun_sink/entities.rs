@@ -11,6 +11,7 @@ use super::marks::{
 };
 use super::{RecordError, sdk, word_path};
 use crate::env::Pos;
+use crate::env::tree::{InstructionTree, pending_target_cells};
 use crate::env::world::Action;
 use crate::episode::{EpisodeTrace, StepRecord};
 use crate::metrics::faithfulness::peaks::peak_line;
@@ -217,9 +218,29 @@ fn log_world_marks(
 ) -> Result<(), RecordError> {
     rec.log(
         format!("{WORLD_MARKS}/targets"),
-        &marks::targets(step.world.target_positions()),
+        &marks::targets(&pending_target_cells(&step.world)),
     )
     .map_err(sdk)?;
+    // The tree changes only when a clause is done or an object moves: logged then, so a
+    // recording stays the size it was for one-clause missions.
+    let tree = InstructionTree::of(&step.world);
+    let changed = k == 0
+        || ep
+            .steps
+            .get(k - 1)
+            .is_none_or(|prev| InstructionTree::of(&prev.world) != tree);
+    if changed {
+        rec.log(
+            "mission/tree",
+            &rerun::TextDocument::from_markdown(tree.markdown()),
+        )
+        .map_err(sdk)?;
+        rec.log(
+            format!("{WORLD_MARKS}/clauses"),
+            &marks::clause_targets(&tree),
+        )
+        .map_err(sdk)?;
+    }
     let mut path: Vec<Pos> = Vec::with_capacity(k + 1);
     for s in ep.steps.iter().take(k + 1) {
         if path.last() != Some(&s.world.agent_pos) {

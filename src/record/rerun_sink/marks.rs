@@ -7,7 +7,9 @@ use rerun::RecordingStream;
 
 use super::{RecordError, sdk};
 use crate::env::object::ObjectKind;
+use crate::env::tree::InstructionTree;
 use crate::env::{Observation, Pos, VIEW_SIZE};
+use crate::record::scene::{clause_label, stage_color};
 use crate::render::{decode_view_cell, palette};
 
 /// Length of a full bar (probability or weight 1) in the bars' 2-D space.
@@ -160,6 +162,29 @@ pub fn targets(cells: &[Pos]) -> rerun::Boxes2D {
     .with_labels(vec!["target"; cells.len()])
     .with_show_labels(false)
     .with_draw_order(25.0)
+}
+
+/// Every clause's targets, framed in the colour of the clause's stage (waited on: magenta;
+/// done: grey; later: blue) and labelled with the clause's number (PutNext's second
+/// description primed: `1'`), in cell units.
+pub fn clause_targets(tree: &InstructionTree) -> rerun::Boxes2D {
+    let (mut mins, mut labels, mut colors) = (vec![], vec![], vec![]);
+    for node in tree.clauses() {
+        let Some(c) = node.clause else { continue };
+        for t in &node.targets {
+            let Some((x, y)) = t.pos else { continue };
+            mins.push((x as f32 + 0.05, y as f32 + 0.05));
+            labels.push(clause_label(c, t.part));
+            colors.push(stage_color(node.stage));
+        }
+    }
+    let n = mins.len();
+    rerun::Boxes2D::from_mins_and_sizes(mins, vec![(0.9, 0.9); n])
+        .with_labels(labels)
+        .with_colors(colors)
+        .with_radii([0.03])
+        .with_show_labels(true)
+        .with_draw_order(24.0)
 }
 
 /// The agent's path through the centres of the cells it stood on, up to `now`, in cell units.

@@ -1,0 +1,92 @@
+//! The instruction as a tree (which clause the verifier waits on, which are done or later,
+//! each clause's targets and where they are), the doors and their states, and the clause
+//! numbers on the world picture: all read from [`InstructionTree`], as the recordings are.
+
+use eframe::egui;
+use egui::{Color32, FontId, Painter, Rect, RichText, Stroke, StrokeKind};
+
+use super::Debugger;
+use crate::env::Pos;
+use crate::env::tree::{InstructionTree, Stage, doors_text, targets_text};
+use crate::record::scene::{clause_label, stage_color};
+use crate::render::palette::Rgb;
+
+fn color32([r, g, b]: Rgb) -> Color32 {
+    Color32::from_rgb(r, g, b)
+}
+
+impl Debugger {
+    /// The step's instruction tree, one row per sequence or clause, indented by depth; then
+    /// the doors.
+    pub(super) fn tree_panel(ui: &mut egui::Ui, tree: &InstructionTree) {
+        for n in &tree.nodes {
+            ui.horizontal(|ui| {
+                ui.add_space(18.0 * n.depth as f32);
+                ui.label(
+                    RichText::new(n.stage.name())
+                        .small()
+                        .color(color32(stage_color(n.stage))),
+                );
+                let text = match n.clause {
+                    Some(c) => format!("{} · {}", c + 1, n.text),
+                    None => n.text.clone(),
+                };
+                let text = match n.stage {
+                    Stage::Waiting => RichText::new(text).strong(),
+                    Stage::Done => RichText::new(text).strikethrough().weak(),
+                    Stage::Later => RichText::new(text).weak(),
+                };
+                ui.label(text);
+                if n.clause.is_some() {
+                    ui.label(
+                        RichText::new(format!("targets: {}", targets_text(&n.targets))).small(),
+                    )
+                    .on_hover_text(
+                        "what the clause's description matched at reset, and where it is now; \
+                             M is scored on the targets of the clauses waited on",
+                    );
+                }
+            });
+        }
+        if !tree.doors.is_empty() {
+            ui.label(RichText::new(format!("doors: {}", doors_text(&tree.doors))).small());
+        }
+    }
+
+    /// Frames every clause's targets on the world picture in its stage's colour with the
+    /// clause's number, where the mission has more than one clause or description.
+    pub(super) fn paint_clause_marks(
+        painter: &Painter,
+        tree: &InstructionTree,
+        cell_rect: impl Fn(Pos) -> Rect,
+    ) {
+        if !tree.is_compound() {
+            return;
+        }
+        for node in tree.clauses() {
+            let Some(c) = node.clause else { continue };
+            let color = color32(stage_color(node.stage));
+            for t in &node.targets {
+                let Some(p) = t.pos else { continue };
+                let r = cell_rect(p);
+                painter.rect_stroke(
+                    r.shrink(1.0),
+                    0.0,
+                    Stroke::new(1.5, color),
+                    StrokeKind::Inside,
+                );
+                let font = FontId::proportional((r.height() * 0.4).clamp(9.0, 16.0));
+                let at = r.left_top() + egui::vec2(2.0, 1.0);
+                let text = clause_label(c, t.part);
+                // A dark backing keeps the number legible on any tile.
+                let galley = painter.layout_no_wrap(text, font, color);
+                painter.rect_filled(
+                    Rect::from_min_size(at, galley.size()).expand(1.0),
+                    2.0,
+                    Color32::from_black_alpha(170),
+                );
+                painter.galley(at, galley, color);
+            }
+        }
+    }
+}

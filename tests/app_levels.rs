@@ -1,0 +1,153 @@
+//! The debugger on any BabyAI level: the level picker, the instruction tree with the clause the
+//! verifier waits on and each clause's targets, and the doors with their states.
+#![allow(clippy::unwrap_used, clippy::expect_used, reason = "tests fail loudly")]
+
+mod common;
+
+use std::path::Path;
+
+use common::debugger::{build, show_until};
+use egui_kittest::kittest::Queryable as _;
+use groundscope::app::StartOptions;
+use groundscope::app::session::Agent;
+use groundscope::env::level::{LevelConfig, LevelId};
+use groundscope::env::tree::{InstructionTree, Stage, doors_text, targets_text};
+use groundscope::env::{DoorState, Instr};
+use groundscope::policy::{Checkpoint, ModelConfig, Params, TrainingState, Variant};
+use groundscope::record::scene::TILE_PX;
+
+fn babyai(id: &str) -> LevelConfig {
+    LevelConfig::babyai(LevelId::parse(id).unwrap(), false)
+}
+
+/// An untrained attention model of all of BabyAI's words, saved as `DIR/fresh`: what
+/// `train --level` starts from, enough to open any level's missions.
+fn fresh_checkpoint(dir: &Path, level: LevelConfig) -> String {
+    let cfg = ModelConfig {
+        vocab_size: ModelConfig::vocab_size_for(&level),
+        ..ModelConfig::new(Variant::Attention)
+    };
+    let params = Params::init(&cfg, 0).unwrap();
+    let name = dir.join("fresh");
+    Checkpoint::new(cfg, level, TrainingState::default(), params)
+        .save(&name)
+        .unwrap();
+    name.to_str().unwrap().to_owned()
+}
+
+fn options(checkpoint: &str, level: Option<LevelConfig>, seed: u64) -> StartOptions {
+    StartOptions {
+        checkpoint: checkpoint.to_owned(),
+        compare: None,
+        level,
+        seed,
+        sample: false,
+        step: 0,
+        mission: None,
+        faithfulness: false,
+    }
+}
+
+#[test]
+fn a_babyai_level_names_itself_and_gets_a_world_of_its_size() {
+    let agent = Agent::load("bundled:attention").unwrap();
+    let level = LevelConfig {
+        babyai: Some(LevelId::parse("BabyAI-GoTo-v0").unwrap()),
+        ..agent.level()
+    };
+    let mut h = build(&options("bundled:attention", Some(level), 1));
+    show_until(&mut h, "step 0 of ");
+    // Not the paper level's "room 8 · objects 4", which would not describe it.
+    h.get_by_value("level BabyAI-GoTo-v0");
+    assert!(h.query_by_label("room").is_none());
+    let img = h.state().world_image().unwrap();
+    assert_eq!(img.dimensions(), (22 * TILE_PX, 22 * TILE_PX));
+}
+
+#[test]
+fn the_level_picker_offers_every_level_and_runs_the_one_picked() {
+    let mut h = build(&options("bundled:attention", None, 5));
+    show_until(&mut h, "step 0 of ");
+    assert!(h.query_by_label("room").is_some(), "the paper level's room");
+    h.get_by_value("level paper level").click();
+    h.run();
+    let offered = h.query_all_by_label_contains("BabyAI-").count();
+    assert_eq!(
+        offered, 96,
+        "every registered BabyAI level of minigrid 3.2.0"
+    );
+    let id = "BabyAI-FindObjS5-v0";
+    h.get_by_label(id).click();
+    // The checkpoint's done-action setting, as `view --level` runs it.
+    let level = LevelConfig::babyai(LevelId::parse(id).unwrap(), true);
+    let world = level.generate(5).unwrap();
+    let want = (
+        world.grid.width() as u32 * TILE_PX,
+        world.grid.height() as u32 * TILE_PX,
+    );
+    common::wait_until("the picked level's episode", || {
+        h.step();
+        h.state().world_image().map(|i| i.dimensions()) == Some(want)
+    });
+    show_until(&mut h, &world.mission);
+    h.get_by_value(&format!("level {id}"));
+    assert!(h.query_by_label("room").is_none());
+}
+
+#[test]
+fn the_instruction_tree_shows_the_clause_waited_on_and_each_clauses_targets() {
+    let dir = tempfile::tempdir().unwrap();
+    let level = babyai("BabyAI-GoToSeqS5R2-v0");
+    let ckpt = fresh_checkpoint(dir.path(), level);
+    let (seed, world) = (0..100)
+        .map(|s| (s, level.generate(s).unwrap()))
+        .find(|(_, w)| matches!(&w.instr, Instr::Seq(_)))
+        .expect("a sequence in 100 seeds");
+    let mut h = build(&options(&ckpt, Some(level), seed));
+    show_until(&mut h, "step 0 of ");
+    h.get_by_label(&world.mission);
+    let tree = InstructionTree::of(&world);
+    assert!(tree.nodes.len() >= 3, "a sequence and its two parts");
+    for n in &tree.nodes {
+        match n.clause {
+            Some(c) => {
+                h.get_by_label(&format!("{} · {}", c + 1, n.text));
+                let targets = format!("targets: {}", targets_text(&n.targets));
+                assert!(h.query_all_by_label(&targets).next().is_some(), "{targets}");
+            }
+            None => assert!(h.query_all_by_label(&n.text).next().is_some(), "{}", n.text),
+        }
+    }
+    let waiting = tree
+        .nodes
+        .iter()
+        .filter(|n| n.stage == Stage::Waiting)
+        .count();
+    assert!(
+        waiting >= 2,
+        "the sequence and at least one clause are waited on"
+    );
+    assert_eq!(h.query_all_by_label("waiting").count(), waiting);
+    let later = tree
+        .nodes
+        .iter()
+        .filter(|n| n.stage == Stage::Later)
+        .count();
+    assert_eq!(h.query_all_by_label("later").count(), later);
+}
+
+#[test]
+fn a_door_level_lists_its_doors_and_their_states() {
+    let dir = tempfile::tempdir().unwrap();
+    let level = babyai("BabyAI-UnlockLocal-v0");
+    let ckpt = fresh_checkpoint(dir.path(), level);
+    let world = level.generate(1).unwrap();
+    let tree = InstructionTree::of(&world);
+    assert!(tree.doors.iter().any(|d| d.state == DoorState::Locked));
+    let mut h = build(&options(&ckpt, Some(level), 1));
+    show_until(&mut h, "step 0 of ");
+    // Each door with its colour, cell and state, as the recordings give them.
+    let text = format!("doors: {}", doors_text(&tree.doors));
+    assert!(text.contains("locked"), "{text}");
+    h.get_by_label(&text);
+}

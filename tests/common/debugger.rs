@@ -1,0 +1,27 @@
+//! The debugger in egui's test harness, as `groundscope view` opens it.
+
+use egui_kittest::Harness;
+use egui_kittest::kittest::Queryable as _;
+use groundscope::app::{Debugger, StartOptions};
+
+/// The debugger at the default window size, 1400×900.
+pub fn build(opts: &StartOptions) -> Harness<'static, Debugger> {
+    Harness::builder()
+        .with_size([1400.0, 900.0])
+        // The harness would also fail on the inputs without an accessible name (the
+        // controls' combo boxes, drag values and text fields): not what these tests are about.
+        .with_accessibility_check(false)
+        .build_ui_state(
+            |ui, d: &mut Debugger| d.frame(ui),
+            Debugger::new(opts, None),
+        )
+}
+
+/// Runs frames until a label containing `text` shows (the episode runs in the background).
+pub fn show_until(h: &mut Harness<'_, Debugger>, text: &str) {
+    super::wait_until(&format!("a label with {text:?}"), || {
+        h.step();
+        // Compare mode shows a second policy panel: any match will do.
+        h.query_all_by_label_contains(text).next().is_some()
+    });
+}
