@@ -322,6 +322,20 @@ fn every_bar_and_map_of_a_recording_is_named() {
         .collect();
         assert_eq!(row, &want);
     }
+    // The bars are solid (thick line strips, rounded ends inside the bar) and as long as
+    // their probability: 10 = 1, a dot of one bar height at least.
+    let bars = &d.strips["/policy/probs/bars"];
+    assert_eq!(bars.len(), steps);
+    for (row, step) in bars.iter().zip(&ep.steps) {
+        for (strip, p) in row.iter().zip(step.probs) {
+            let r = 0.35;
+            assert!((strip[0][0] - r).abs() < 1e-6, "{strip:?}");
+            assert!(
+                (strip[1][0] - (p * 10.0 - r).max(r)).abs() < 1e-4,
+                "{strip:?} for p {p}"
+            );
+        }
+    }
     // w and H bars and every map's label carry the word.
     for (k, step) in ep.steps.iter().enumerate() {
         let att = step.attention.as_ref().unwrap();
@@ -369,6 +383,14 @@ fn every_bar_and_map_of_a_recording_is_named() {
     ] {
         assert!(d.view_names.contains(name), "{name}: {:?}", d.view_names);
     }
+    // The value-and-reward plot names its series in its title and hides its legend, which
+    // would sit on the curves.
+    assert!(
+        d.hidden_legends.contains("value (blue) and reward (green)"),
+        "{:?}",
+        d.hidden_legends
+    );
+    assert_eq!(d.blueprints, 1, "one blueprint store, legend included");
     // Targets, trail, landmarks and the shared colour bar are there at every step.
     for entity in [
         "/world/marks/targets",

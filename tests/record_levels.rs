@@ -74,7 +74,7 @@ fn a_rerun_recording_carries_the_instruction_tree_and_the_clause_targets() {
         texts[0]
     );
     // The clause targets: numbered by clause, one box per target on the grid.
-    let labels = &d.labels["/world/marks/clauses"];
+    let labels = &d.labels["/world/clauses"];
     assert_eq!(labels.len(), trees.len());
     let first: Vec<String> = trees[0]
         .clauses()

@@ -7,7 +7,7 @@
 //! | `world/attention` | Image (RGBA, one pixel per cell, scaled by a static transform) | `M` on the view's empty floor |
 //! | `world/attention/rings` | Boxes2D | `M`'s colour round occupied cells (their contents keep their colours) |
 //! | `world/marks/targets`, `world/marks/trail` | Boxes2D, LineStrips2D | `M`'s targets (the clauses waited on); the agent's path |
-//! | `world/marks/clauses` | Boxes2D | every clause's targets, numbered, framed by stage (waited on, done, later) |
+//! | `world/clauses` | Boxes2D | every clause's targets, numbered, framed by stage (waited on, done, later) |
 //! | `mission/tree` | TextDocument | the instruction tree: stages, targets and cells, doors and their states |
 //! | `view/image` | Image | the agent's view, agent-up |
 //! | `attention/words/<i>_<word>` | DepthImage (7×7, viridis; grey when w ≈ 0) | word i's map |
@@ -16,9 +16,9 @@
 //! | `attention/combined` (+ `/label`, `/grounding`) | DepthImage, Boxes2D, Points2D | `M` |
 //! | `attention/landmarks/*` | Boxes2D, LineStrips2D, Points2D | walls, objects, unseen cells, agent |
 //! | `attention/colorbar` | DepthImage | the maps' shared scale |
-//! | `attention/weights`, `attention/entropy` | Boxes2D (named bars) | w and H in word order |
+//! | `attention/weights`, `attention/entropy` | Boxes2D (named tracks) + LineStrips2D (solid bars) | w and H in word order |
 //! | `attention/legend` | TextDocument | word, w and H as a table |
-//! | `policy/probs` | Boxes2D (named bars) | action probabilities |
+//! | `policy/probs` | Boxes2D (named tracks) + LineStrips2D (solid bars) | action probabilities |
 //! | `policy/value`, `policy/reward` | Scalars | critic value, reward |
 //! | `policy/status` | TextDocument | mission, step, action, probabilities |
 //! | `policy/action` | TextLog | one line per step |
@@ -33,6 +33,7 @@
 //! episode) and `episode` numbers the episodes.
 
 mod entities;
+mod layout;
 mod marks;
 
 use std::collections::BTreeSet;
@@ -40,11 +41,6 @@ use std::net::{TcpStream, ToSocketAddrs};
 use std::path::PathBuf;
 use std::time::Duration;
 
-use rerun::blueprint::components::PanelState;
-use rerun::blueprint::{
-    Blueprint, BlueprintPanel, Grid, Horizontal, SelectionPanel, Spatial2DView, TextDocumentView,
-    TextLogView, TimePanel, TimeSeriesView, Vertical,
-};
 use rerun::external::re_uri;
 use rerun::sink::{GrpcSink, LogSink};
 use rerun::{RecordingStream, RecordingStreamBuilder};
@@ -112,161 +108,12 @@ fn check_listening(url: &str, authority: &str) -> Result<(), RecordError> {
     Err(no_viewer(last))
 }
 
+/// The application id of every recording (the viewer keys blueprints by it).
+const APP_ID: &str = "groundscope";
+
 /// The entity path of word `i` of a mission.
 pub fn word_path(i: usize, word: &str) -> String {
     format!("attention/words/{i}_{word}")
-}
-
-/// The title of word map `path` (`attention/words/<i>_<word>`): the word, with its position
-/// when the recording holds the same word at several positions.
-fn word_title(path: &str, all: &[String]) -> String {
-    let name = path.rsplit('/').next().unwrap_or(path);
-    let (i, word) = name.split_once('_').unwrap_or(("", name));
-    let same = all
-        .iter()
-        .filter(|p| {
-            p.rsplit('/')
-                .next()
-                .and_then(|n| n.split_once('_'))
-                .map(|(_, w)| w)
-                == Some(word)
-        })
-        .count();
-    if same > 1 {
-        format!("{word} (word {i})")
-    } else {
-        word.to_owned()
-    }
-}
-
-/// Columns of the grid of maps: as many as rows (the maps' area of the default layout is
-/// about square), so that each square map fills its cell instead of sitting in a black
-/// margin, as two rows of four did (read in the 0.36.3 viewer at 1600×1000).
-fn map_columns(n_maps: usize) -> u32 {
-    (1..=n_maps.max(1)).find(|c| c * c >= n_maps).unwrap_or(1) as u32
-}
-
-/// The default layout: world and view on the left; the word maps, `M` (and Δ) with the
-/// colour bar they share in the middle, with the named w, H and action bars under them;
-/// the policy's status, value and reward, the words table, grounding and faithfulness (as
-/// text: a plot's legend would cover its points) on the right. Every map
-/// view also shows the landmarks (walls, objects, unseen cells, the agent).
-fn blueprint(word_paths: &[String], attention: bool, faithfulness: bool) -> Blueprint {
-    let left = Vertical::new([
-        Spatial2DView::new("world (magenta: target waited on · numbers: clauses · line: trail)")
-            .with_origin("/world")
-            .into(),
-        Spatial2DView::new("agent view").with_origin("/view").into(),
-    ])
-    .with_row_shares([3.0, 1.0]);
-    let mut right = vec![
-        TextDocumentView::new("status")
-            .with_origin("/policy/status")
-            .into(),
-        TextDocumentView::new("instruction (bold: waited on)")
-            .with_origin("/mission/tree")
-            .into(),
-        TimeSeriesView::new("value and reward")
-            .with_origin("/policy")
-            .with_contents(["/policy/value", "/policy/reward"])
-            .into(),
-        TextLogView::new("actions")
-            .with_origin("/policy/action")
-            .into(),
-    ];
-    let probs = || {
-        Spatial2DView::new("action probabilities")
-            .with_origin("/policy/probs")
-            .into()
-    };
-    if !attention {
-        right.insert(1, probs());
-        return panels(Blueprint::new(Horizontal::new([
-            left.into(),
-            Vertical::new(right).into(),
-        ])));
-    }
-    right.push(
-        TextDocumentView::new("words: w and H")
-            .with_origin("/attention/legend")
-            .into(),
-    );
-    right.push(
-        TextDocumentView::new("grounding (this step)")
-            .with_origin("/metrics/grounding")
-            .into(),
-    );
-    let with_landmarks =
-        |origin: String| [format!("{origin}/**"), format!("/{}/**", marks::LANDMARKS)];
-    let mut maps: Vec<_> = word_paths
-        .iter()
-        .map(|p| {
-            let origin = format!("/{p}");
-            Spatial2DView::new(word_title(p, word_paths))
-                .with_origin(origin.as_str())
-                .with_contents(with_landmarks(origin.clone()))
-                .into()
-        })
-        .collect();
-    maps.push(
-        Spatial2DView::new("combined M")
-            .with_origin("/attention/combined")
-            .with_contents(with_landmarks("/attention/combined".to_owned()))
-            .into(),
-    );
-    if faithfulness {
-        maps.push(
-            Spatial2DView::new("occlusion Δ (own scale 0–1)")
-                .with_origin("/faithfulness/occlusion")
-                .with_contents(with_landmarks("/faithfulness/occlusion".to_owned()))
-                .into(),
-        );
-        right.push(
-            TextDocumentView::new("faithfulness: ρ(M, Δ), peaks, flips")
-                .with_origin("/faithfulness/summary")
-                .into(),
-        );
-    }
-    let n_maps = maps.len();
-    let middle = Vertical::new([
-        Horizontal::new([
-            Grid::new(maps)
-                .with_grid_columns(map_columns(n_maps))
-                .into(),
-            Spatial2DView::new("scale")
-                .with_origin("/attention/colorbar")
-                .into(),
-        ])
-        .with_column_shares([12.0, 1.0])
-        .into(),
-        Horizontal::new([
-            Spatial2DView::new("weights w")
-                .with_origin("/attention/weights")
-                .into(),
-            Spatial2DView::new("entropies H (nats)")
-                .with_origin("/attention/entropy")
-                .into(),
-            probs(),
-        ])
-        .into(),
-    ])
-    .with_row_shares([3.0, 1.0]);
-    panels(Blueprint::new(
-        Horizontal::new([left.into(), middle.into(), Vertical::new(right).into()])
-            .with_column_shares([1.2, 2.0, 1.0]),
-    ))
-}
-
-/// The viewer's own panels: the blueprint tree and the selection collapsed and the time
-/// panel folded to its scrub bar on the `step` timeline, so the views get the window.
-fn panels(bp: Blueprint) -> Blueprint {
-    bp.with_blueprint_panel(BlueprintPanel::new().with_state(PanelState::Collapsed))
-        .with_selection_panel(SelectionPanel::new().with_state(PanelState::Collapsed))
-        .with_time_panel(
-            TimePanel::new()
-                .with_timeline("step")
-                .with_state(PanelState::Collapsed),
-        )
 }
 
 /// The word-map entity paths of a recording of these missions (each a list of words), in
@@ -361,16 +208,17 @@ impl RerunRecorder {
             format!("{episodes} episodes from seed {}", first.seed)
         };
         let attention = first.variant.name() == "attention";
-        let rec = RecordingStreamBuilder::new("groundscope")
+        let rec = RecordingStreamBuilder::new(APP_ID)
             .recording_name(name)
             .enabled(true)
-            .with_blueprint(blueprint(
-                word_paths,
-                attention,
-                first.steps.iter().any(|s| s.faithfulness.is_some()),
-            ))
             .set_sinks(sinks)
             .map_err(sdk)?;
+        layout::send_layout(
+            &rec,
+            word_paths,
+            attention,
+            first.steps.iter().any(|s| s.faithfulness.is_some()),
+        )?;
         // Recordings of the same episodes then differ only in row ids.
         rec.set_log_time_enabled(false);
         log_static(&rec, first, episodes)?;
@@ -468,22 +316,4 @@ fn spawn_viewer() -> Result<re_uri::ProxyUri, RecordError> {
     let info = rerun::spawn(&rerun::SpawnOptions::default())
         .map_err(|e| RecordError::Rerun(format!("--spawn: {}", first_line(&e.to_string()))))?;
     Ok(proxy_uri(&format!("rerun+http://127.0.0.1:{}/proxy", info.port))?.0)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn maps_are_laid_out_about_square_and_titled_by_their_word() {
-        let cols: Vec<u32> = [1, 2, 4, 5, 7, 9, 10].map(map_columns).to_vec();
-        assert_eq!(cols, [1, 2, 2, 3, 3, 3, 4]);
-        let paths = [
-            "attention/words/2_the".to_owned(),
-            "attention/words/5_the".to_owned(),
-            "attention/words/3_yellow".to_owned(),
-        ];
-        assert_eq!(word_title(&paths[0], &paths), "the (word 2)");
-        assert_eq!(word_title(&paths[2], &paths), "yellow");
-    }
 }

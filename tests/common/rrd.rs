@@ -18,6 +18,10 @@ pub struct Decoded {
     pub labels: BTreeMap<String, Vec<Vec<String>>>,
     /// The text of every `TextDocument` entity, one per row, in step order.
     pub texts: BTreeMap<String, Vec<String>>,
+    /// The points of every `LineStrips2D` entity's strips, one list per row, in step order.
+    pub strips: BTreeMap<String, Vec<Vec<Vec<[f32; 2]>>>>,
+    /// The names of the views whose plot legend is hidden.
+    pub hidden_legends: BTreeSet<String>,
     /// The names of the blueprint's views.
     pub view_names: BTreeSet<String>,
     pub blueprints: usize,
@@ -29,6 +33,10 @@ pub fn decode(path: &Path) -> Decoded {
     let scalar = rerun::Scalars::descriptor_scalars().component;
     let label = rerun::Boxes2D::descriptor_labels().component;
     let text = rerun::TextDocument::descriptor_text().component;
+    let strip = rerun::LineStrips2D::descriptor_strips().component;
+    let legend_visible: rerun::ComponentIdentifier = "PlotLegend:visible".into();
+    // View paths hold random ids: the legends are recorded by their views' names.
+    let (mut view_paths, mut hidden) = (BTreeMap::new(), Vec::new());
     let view_name: rerun::ComponentIdentifier = "ViewBlueprint:display_name".into();
     for msg in DecoderApp::decode_lazy(file) {
         match msg.unwrap() {
@@ -42,9 +50,19 @@ pub fn decode(path: &Path) -> Decoded {
             }
             LogMsg::ArrowMsg(store, arrow) if store.kind() == rerun::StoreKind::Blueprint => {
                 let chunk = Chunk::from_arrow_msg(&arrow).unwrap();
+                let entity = chunk.entity_path().to_string();
                 for names in chunk.iter_component::<rerun::components::Name>(view_name) {
-                    out.view_names
-                        .extend(names.as_slice().iter().map(|n| n.as_str().to_owned()));
+                    for n in names.as_slice() {
+                        out.view_names.insert(n.as_str().to_owned());
+                        view_paths.insert(entity.clone(), n.as_str().to_owned());
+                    }
+                }
+                for v in chunk.iter_component::<rerun::components::Visible>(legend_visible) {
+                    if v.as_slice().iter().any(|v| !v.0.0)
+                        && let Some(view) = entity.strip_suffix("/PlotLegend")
+                    {
+                        hidden.push(view.to_owned());
+                    }
                 }
             }
             LogMsg::ArrowMsg(store, arrow) if store.kind() == rerun::StoreKind::Recording => {
@@ -66,6 +84,15 @@ pub fn decode(path: &Path) -> Decoded {
                         .or_default()
                         .push(s.as_slice().iter().map(|v| v.0.0).collect());
                 }
+                for strips in chunk.iter_component::<rerun::components::LineStrip2D>(strip) {
+                    out.strips.entry(entity.clone()).or_default().push(
+                        strips
+                            .as_slice()
+                            .iter()
+                            .map(|s| s.0.iter().map(|p| [p.x(), p.y()]).collect())
+                            .collect(),
+                    );
+                }
                 for t in chunk.iter_component::<rerun::components::Text>(text) {
                     out.texts
                         .entry(entity.clone())
@@ -82,6 +109,10 @@ pub fn decode(path: &Path) -> Decoded {
             _ => {}
         }
     }
+    out.hidden_legends = hidden
+        .iter()
+        .filter_map(|p| view_paths.get(p).cloned())
+        .collect();
     out
 }
 

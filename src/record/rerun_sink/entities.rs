@@ -236,8 +236,8 @@ fn log_world_marks(
         )
         .map_err(sdk)?;
         rec.log(
-            format!("{WORLD_MARKS}/clauses"),
-            &marks::clause_targets(&tree),
+            "world/clauses",
+            &marks::clause_targets(&tree, TILE_PX as f32),
         )
         .map_err(sdk)?;
     }

@@ -1,7 +1,8 @@
 //! What makes the Rerun views read at a glance: bar charts whose every bar carries its name
-//! and value (Rerun 0.36's `BarChart` has no per-bar names, so bars are labelled boxes in a
-//! 2-D view), landmarks shared by every map (walls, objects, unseen cells, the agent), the
-//! world's attention rings, targets and trail, and the colour bar of the maps' shared scale.
+//! and value (Rerun 0.36's `BarChart` has no per-bar names, so bars are labelled tracks with
+//! solid bars inside, in a 2-D view), landmarks shared by every map (walls, objects, unseen
+//! cells, the agent), the world's attention rings, targets, numbered clause targets and trail,
+//! and the colour bar of the maps' shared scale.
 
 use rerun::RecordingStream;
 
@@ -30,27 +31,33 @@ pub const WORLD_MARKS: &str = "world/marks";
 
 /// Horizontal bars, one per `(label, value)` row, value `full` = [`BAR_LENGTH`]: the rows'
 /// full-length tracks, each labelled with its text (e.g. `"forward 0.91"`) so that the label
-/// sits mid-row however short the bar, and the bars themselves (`highlight` in orange), to
-/// be logged at a child entity.
+/// sits mid-row however short the bar, and the bars themselves, solid (`highlight` in orange),
+/// to be logged at a child entity. Rerun 0.36's boxes have no fill, so a bar is a line strip
+/// along the row's middle, as thick as the row's bar: a solid bar of the right length.
 pub fn labelled_bars(
     rows: &[(String, f32)],
     full: f32,
     highlight: Option<usize>,
-) -> (rerun::Boxes2D, rerun::Boxes2D) {
+) -> (rerun::Boxes2D, rerun::LineStrips2D) {
     let scale = BAR_LENGTH / full.max(f32::EPSILON);
-    let mins: Vec<(f32, f32)> = (0..rows.len())
-        .map(|i| (0.0, i as f32 * BAR_PITCH + BAR_PITCH - BAR_HEIGHT))
-        .collect();
+    let top = |i: usize| i as f32 * BAR_PITCH + BAR_PITCH - BAR_HEIGHT;
     let tracks = rerun::Boxes2D::from_mins_and_sizes(
-        mins.clone(),
+        (0..rows.len()).map(|i| (0.0, top(i))),
         vec![(BAR_LENGTH, BAR_HEIGHT); rows.len()],
     )
     .with_labels(rows.iter().map(|(l, _)| l.clone()))
     .with_show_labels(true)
     .with_colors([[70, 70, 70]]);
-    let sizes: Vec<(f32, f32)> = rows
+    let strips: Vec<[[f32; 2]; 2]> = rows
         .iter()
-        .map(|(_, v)| ((v.max(0.0) * scale).clamp(0.05, BAR_LENGTH), BAR_HEIGHT))
+        .enumerate()
+        .map(|(i, (_, v))| {
+            // The viewer rounds a strip's ends by its radius: the strip stops a radius short
+            // of each end so the bar covers exactly [0, length] (a dot at least).
+            let (y, r) = (top(i) + BAR_HEIGHT / 2.0, BAR_HEIGHT / 2.0);
+            let length = (v.max(0.0) * scale).min(BAR_LENGTH);
+            [[r, y], [(length - r).max(r), y]]
+        })
         .collect();
     let colors: Vec<[u8; 3]> = (0..rows.len())
         .map(|i| {
@@ -61,9 +68,9 @@ pub fn labelled_bars(
             }
         })
         .collect();
-    let bars = rerun::Boxes2D::from_mins_and_sizes(mins, sizes)
+    let bars = rerun::LineStrips2D::new(strips)
         .with_colors(colors)
-        .with_radii([0.08]);
+        .with_radii([BAR_HEIGHT / 2.0]);
     (tracks, bars)
 }
 
@@ -164,22 +171,27 @@ pub fn targets(cells: &[Pos]) -> rerun::Boxes2D {
     .with_draw_order(25.0)
 }
 
-/// Every clause's targets, framed in the colour of the clause's stage (waited on: magenta;
-/// done: grey; later: blue) and labelled with the clause's number (PutNext's second
-/// description primed: `1'`), in cell units.
-pub fn clause_targets(tree: &InstructionTree) -> rerun::Boxes2D {
+/// On a mission of several clauses or descriptions, every clause's targets, framed in the
+/// colour of the clause's stage (waited on: magenta; done: grey; later: blue) and labelled
+/// with the clause's number (PutNext's second description primed: `1'`), in pixels of a
+/// world picture of `tile` pixels a cell: the viewer draws a box's label where the box would be
+/// without its entity's transform, so labelled boxes cannot use the cell units of
+/// [`WORLD_MARKS`].
+pub fn clause_targets(tree: &InstructionTree, tile: f32) -> rerun::Boxes2D {
     let (mut mins, mut labels, mut colors) = (vec![], vec![], vec![]);
-    for node in tree.clauses() {
+    // One clause of one description: its targets are the magenta ones, nothing to number.
+    let compound = tree.is_compound();
+    for node in tree.clauses().filter(|_| compound) {
         let Some(c) = node.clause else { continue };
         for t in &node.targets {
             let Some((x, y)) = t.pos else { continue };
-            mins.push((x as f32 + 0.05, y as f32 + 0.05));
+            mins.push(((x as f32 + 0.05) * tile, (y as f32 + 0.05) * tile));
             labels.push(clause_label(c, t.part));
             colors.push(stage_color(node.stage));
         }
     }
     let n = mins.len();
-    rerun::Boxes2D::from_mins_and_sizes(mins, vec![(0.9, 0.9); n])
+    rerun::Boxes2D::from_mins_and_sizes(mins, vec![(0.9 * tile, 0.9 * tile); n])
         .with_labels(labels)
         .with_colors(colors)
         .with_radii([0.03])

@@ -1,0 +1,273 @@
+//! The recording's default layout (blueprint): which views, where, under which names, and the
+//! settings Rerun 0.36's Rust blueprint API has no call for (a plot's legend corner), logged
+//! into the blueprint store beside the views.
+
+use rerun::blueprint::components::PanelState;
+use rerun::blueprint::{
+    Blueprint, BlueprintActivation, BlueprintPanel, ContainerLike, Grid, Horizontal,
+    SelectionPanel, Spatial2DView, TextDocumentView, TextLogView, TimePanel, TimeSeriesView,
+    Vertical,
+};
+use rerun::external::re_sdk_types::blueprint::archetypes::PlotLegend;
+use rerun::log::LogMsg;
+use rerun::{RecordingStream, RecordingStreamBuilder};
+
+use super::{RecordError, marks, sdk};
+
+/// The title of word map `path` (`attention/words/<i>_<word>`): the word, with its position
+/// when the recording holds the same word at several positions.
+fn word_title(path: &str, all: &[String]) -> String {
+    let name = path.rsplit('/').next().unwrap_or(path);
+    let (i, word) = name.split_once('_').unwrap_or(("", name));
+    let same = all
+        .iter()
+        .filter(|p| {
+            p.rsplit('/')
+                .next()
+                .and_then(|n| n.split_once('_'))
+                .map(|(_, w)| w)
+                == Some(word)
+        })
+        .count();
+    if same > 1 {
+        format!("{word} (word {i})")
+    } else {
+        word.to_owned()
+    }
+}
+
+/// Columns of the grid of maps: as many as rows (the maps' area of the default layout is
+/// about square), so that each square map fills its cell instead of sitting in a black
+/// margin, as two rows of four did (read in the 0.36.3 viewer at 1600×1000).
+fn map_columns(n_maps: usize) -> u32 {
+    (1..=n_maps.max(1)).find(|c| c * c >= n_maps).unwrap_or(1) as u32
+}
+
+/// The default layout: world and view on the left; the word maps, `M` (and Δ) with the
+/// colour bar they share in the middle, with the named w, H and action bars under them;
+/// the policy's status, value and reward, the words table, grounding and faithfulness (as
+/// text: a plot's legend would cover its points) on the right. Every map
+/// view also shows the landmarks (walls, objects, unseen cells, the agent).
+fn layout(
+    word_paths: &[String],
+    attention: bool,
+    faithfulness: bool,
+) -> (Blueprint, Option<String>) {
+    // Its legend would sit on the curves (at the start the value is high, at the end the
+    // reward spikes): it is hidden, and the title names each series by its colour.
+    let plot: ContainerLike = TimeSeriesView::new(VALUE_PLOT)
+        .with_origin("/policy")
+        .with_contents(["/policy/value", "/policy/reward"])
+        .into();
+    let plot_path = match &plot {
+        ContainerLike::View(v) => Some(v.blueprint_path().to_string()),
+        _ => None,
+    };
+    let left = Vertical::new([
+        Spatial2DView::new("world (magenta: target waited on · numbers: clauses · line: trail)")
+            .with_origin("/world")
+            .into(),
+        Spatial2DView::new("agent view").with_origin("/view").into(),
+    ])
+    .with_row_shares([3.0, 1.0]);
+    let mut right = vec![
+        TextDocumentView::new("status")
+            .with_origin("/policy/status")
+            .into(),
+        TextDocumentView::new("instruction (bold: waited on)")
+            .with_origin("/mission/tree")
+            .into(),
+        plot,
+        TextLogView::new("actions")
+            .with_origin("/policy/action")
+            .into(),
+    ];
+    let probs = || {
+        Spatial2DView::new("action probabilities")
+            .with_origin("/policy/probs")
+            .into()
+    };
+    if !attention {
+        right.insert(1, probs());
+        let bp = panels(Blueprint::new(Horizontal::new([
+            left.into(),
+            Vertical::new(right).into(),
+        ])));
+        return (bp, plot_path);
+    }
+    right.push(
+        TextDocumentView::new("words: w and H")
+            .with_origin("/attention/legend")
+            .into(),
+    );
+    right.push(
+        TextDocumentView::new("grounding (this step)")
+            .with_origin("/metrics/grounding")
+            .into(),
+    );
+    let with_landmarks =
+        |origin: String| [format!("{origin}/**"), format!("/{}/**", marks::LANDMARKS)];
+    let mut maps: Vec<_> = word_paths
+        .iter()
+        .map(|p| {
+            let origin = format!("/{p}");
+            Spatial2DView::new(word_title(p, word_paths))
+                .with_origin(origin.as_str())
+                .with_contents(with_landmarks(origin.clone()))
+                .into()
+        })
+        .collect();
+    maps.push(
+        Spatial2DView::new("combined M")
+            .with_origin("/attention/combined")
+            .with_contents(with_landmarks("/attention/combined".to_owned()))
+            .into(),
+    );
+    if faithfulness {
+        maps.push(
+            Spatial2DView::new("occlusion Δ (own scale 0–1)")
+                .with_origin("/faithfulness/occlusion")
+                .with_contents(with_landmarks("/faithfulness/occlusion".to_owned()))
+                .into(),
+        );
+        right.push(
+            TextDocumentView::new("faithfulness: ρ(M, Δ), peaks, flips")
+                .with_origin("/faithfulness/summary")
+                .into(),
+        );
+    }
+    let n_maps = maps.len();
+    let middle = Vertical::new([
+        Horizontal::new([
+            Grid::new(maps)
+                .with_grid_columns(map_columns(n_maps))
+                .into(),
+            Spatial2DView::new("scale")
+                .with_origin("/attention/colorbar")
+                .into(),
+        ])
+        .with_column_shares([12.0, 1.0])
+        .into(),
+        Horizontal::new([
+            Spatial2DView::new("weights w")
+                .with_origin("/attention/weights")
+                .into(),
+            Spatial2DView::new("entropies H (nats)")
+                .with_origin("/attention/entropy")
+                .into(),
+            probs(),
+        ])
+        .into(),
+    ])
+    .with_row_shares([3.0, 1.0]);
+    let bp = panels(Blueprint::new(
+        Horizontal::new([left.into(), middle.into(), Vertical::new(right).into()])
+            .with_column_shares([1.2, 2.0, 1.0]),
+    ));
+    (bp, plot_path)
+}
+
+/// The title of the value-and-reward plot, whose series it names by colour (the colours
+/// `entities` gives them).
+pub const VALUE_PLOT: &str = "value (blue) and reward (green)";
+
+/// Sends the default layout ([`layout`]) through `rec`, activated at once, with the
+/// value-and-reward plot's legend hidden. Rerun 0.36's Rust blueprint API has no legend
+/// setting (Python's `PlotLegend`), so the blueprint is built as messages, its `PlotLegend` is
+/// logged for the plot's view under the blueprint store's own id, and the whole is sent as
+/// `with_blueprint` would send it.
+pub(super) fn send_layout(
+    rec: &RecordingStream,
+    word_paths: &[String],
+    attention: bool,
+    faithfulness: bool,
+) -> Result<(), RecordError> {
+    let (bp, plot) = layout(word_paths, attention, faithfulness);
+    let (carrier, storage) = RecordingStreamBuilder::new(super::APP_ID)
+        .memory()
+        .map_err(sdk)?;
+    bp.send(
+        &carrier,
+        BlueprintActivation {
+            make_active: true,
+            make_default: true,
+        },
+    )
+    .map_err(sdk)?;
+    // The carrier's own store and any repeated announcement of the blueprint's are dropped:
+    // the recording gets one blueprint store.
+    let mut announced = false;
+    let mut msgs: Vec<LogMsg> = storage
+        .take()
+        .into_iter()
+        .filter(|m| m.store_id().kind() == rerun::StoreKind::Blueprint)
+        .filter(|m| {
+            !matches!(m, LogMsg::SetStoreInfo(_)) || !std::mem::replace(&mut announced, true)
+        })
+        .collect();
+    let Some(at) = msgs
+        .iter()
+        .position(|m| matches!(m, LogMsg::BlueprintActivationCommand(_)))
+    else {
+        return Err(RecordError::Rerun("the blueprint has no activation".into()));
+    };
+    let Some(LogMsg::BlueprintActivationCommand(activate)) = msgs.get(at).cloned() else {
+        return Err(RecordError::Rerun("the blueprint has no activation".into()));
+    };
+    msgs.truncate(at);
+    if let Some(plot) = plot {
+        let (legend_rec, legend) = RecordingStreamBuilder::new(super::APP_ID)
+            .blueprint()
+            .memory()
+            .map_err(sdk)?;
+        legend_rec.set_time_sequence("blueprint", 0);
+        legend_rec
+            .log(
+                format!("{plot}/PlotLegend"),
+                &PlotLegend::new().with_visible(false),
+            )
+            .map_err(sdk)?;
+        msgs.extend(
+            legend
+                .take()
+                .into_iter()
+                .filter(|m| matches!(m, LogMsg::ArrowMsg(..)))
+                .map(|mut m| {
+                    m.set_store_id(activate.blueprint_id.clone());
+                    m
+                }),
+        );
+    }
+    rec.send_blueprint(msgs, activate);
+    Ok(())
+}
+
+/// The viewer's own panels: the blueprint tree and the selection collapsed and the time
+/// panel folded to its scrub bar on the `step` timeline, so the views get the window.
+fn panels(bp: Blueprint) -> Blueprint {
+    bp.with_blueprint_panel(BlueprintPanel::new().with_state(PanelState::Collapsed))
+        .with_selection_panel(SelectionPanel::new().with_state(PanelState::Collapsed))
+        .with_time_panel(
+            TimePanel::new()
+                .with_timeline("step")
+                .with_state(PanelState::Collapsed),
+        )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn maps_are_laid_out_about_square_and_titled_by_their_word() {
+        let cols: Vec<u32> = [1, 2, 4, 5, 7, 9, 10].map(map_columns).to_vec();
+        assert_eq!(cols, [1, 2, 2, 3, 3, 3, 4]);
+        let paths = [
+            "attention/words/2_the".to_owned(),
+            "attention/words/5_the".to_owned(),
+            "attention/words/3_yellow".to_owned(),
+        ];
+        assert_eq!(word_title(&paths[0], &paths), "the (word 2)");
+        assert_eq!(word_title(&paths[2], &paths), "yellow");
+    }
+}
