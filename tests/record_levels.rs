@@ -10,7 +10,7 @@ use groundscope::env::tree::InstructionTree;
 use groundscope::env::{DoorState, Instr};
 use groundscope::episode::{ActionMode, EpisodeSpec, EpisodeTrace, run_episode};
 use groundscope::policy::{Checkpoint, ModelConfig, Params, TrainingState, Variant};
-use groundscope::record::scene::clause_label;
+use groundscope::record::scene::clause_marks;
 use groundscope::record::{RerunTargets, record_rerun, write_mcap};
 
 /// An episode of an untrained attention model of all of BabyAI's words on `id`, at the first
@@ -76,16 +76,19 @@ fn a_rerun_recording_carries_the_instruction_tree_and_the_clause_targets() {
     // The clause targets: numbered by clause, one box per target on the grid.
     let labels = &d.labels["/world/clauses"];
     assert_eq!(labels.len(), trees.len());
-    let first: Vec<String> = trees[0]
-        .clauses()
-        .flat_map(|n| {
-            n.targets
-                .iter()
-                .filter(|t| t.pos.is_some())
-                .map(|t| clause_label(n.clause.unwrap(), t.part))
-        })
+    let first: Vec<String> = clause_marks(&trees[0])
+        .into_iter()
+        .map(|m| m.label)
         .collect();
     assert!(first.len() >= 2, "two clauses' targets: {first:?}");
+    for (row, tree) in labels.iter().zip(&trees) {
+        let n: usize = tree
+            .clauses()
+            .map(|c| c.targets.iter().filter(|t| t.pos.is_some()).count())
+            .sum();
+        let named: usize = row.iter().map(|l| l.split(' ').count()).sum();
+        assert_eq!(named, n, "every target on the grid numbered once: {row:?}");
+    }
     assert_eq!(labels[0], first);
     assert_eq!(
         rows(&d, "/world/marks/targets", "Boxes2D:half_sizes"),

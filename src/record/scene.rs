@@ -7,7 +7,8 @@ use image::{RgbImage, RgbaImage};
 use crate::env::Pos;
 use crate::env::mission::ObjDesc;
 use crate::env::roles::DescPart;
-use crate::env::tree::{Stage, pending_target_cells};
+use crate::env::roles::{WordClass, word_roles};
+use crate::env::tree::{InstructionTree, Stage, pending_target_cells};
 use crate::env::view::ViewCell;
 use crate::env::world::{Action, World};
 use crate::episode::{EpisodeTrace, StepRecord};
@@ -261,6 +262,71 @@ pub fn stage_color(stage: Stage) -> Rgb {
     }
 }
 
+/// The word kinds a display accounts for at a step of `world` (scores or says why not): object,
+/// colour and `M` always, as on the paper's level; door and location only where the mission
+/// has such a word.
+pub fn shown_kinds(world: &World) -> Vec<WordKind> {
+    let roles = word_roles(&world.instr);
+    let has = |class| roles.iter().any(|r| r.class == class);
+    WordKind::ALL
+        .into_iter()
+        .filter(|k| match k {
+            WordKind::Door => has(WordClass::Door),
+            WordKind::Location => has(WordClass::Location),
+            WordKind::Object | WordKind::Color | WordKind::Combined => true,
+        })
+        .collect()
+}
+
+/// One cell's clause numbers on a world picture: every clause whose targets include the cell
+/// (`"2 3"` where a door matches clauses 2 and 3), in the colour of the most pressing stage
+/// among them (waiting, then later, then done).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct ClauseMark {
+    /// The cell.
+    pub pos: Pos,
+    /// The clause numbers, e.g. `"1"`, `"1'"`, `"2 3"`.
+    pub label: String,
+    /// The stage whose colour it takes.
+    pub stage: Stage,
+}
+
+/// The clause marks of a tree's targets on the grid, one per cell, in the order the targets
+/// come; none for a mission of one clause and one description, whose targets the magenta
+/// corners already mark.
+pub fn clause_marks(tree: &InstructionTree) -> Vec<ClauseMark> {
+    let mut out: Vec<ClauseMark> = Vec::new();
+    if !tree.is_compound() {
+        return out;
+    }
+    let rank = |s: Stage| match s {
+        Stage::Waiting => 0,
+        Stage::Later => 1,
+        Stage::Done => 2,
+    };
+    for node in tree.clauses() {
+        let Some(c) = node.clause else { continue };
+        for t in &node.targets {
+            let Some(pos) = t.pos else { continue };
+            let label = clause_label(c, t.part);
+            match out.iter_mut().find(|m| m.pos == pos) {
+                Some(m) => {
+                    m.label = format!("{} {label}", m.label);
+                    if rank(node.stage) < rank(m.stage) {
+                        m.stage = node.stage;
+                    }
+                }
+                None => out.push(ClauseMark {
+                    pos,
+                    label,
+                    stage: node.stage,
+                }),
+            }
+        }
+    }
+    out
+}
+
 /// `"forward 0.91"`: an action and its probability.
 pub fn action_label(step: &StepRecord) -> String {
     format!(
@@ -273,4 +339,57 @@ pub fn action_label(step: &StepRecord) -> String {
 /// Action names in index order.
 pub fn action_names() -> [&'static str; Action::COUNT] {
     std::array::from_fn(|i| Action::from_index(i).map_or("?", Action::name))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::env::level::{LevelConfig, LevelId};
+
+    fn world(id: &str, seed: u64) -> World {
+        LevelConfig::babyai(LevelId::parse(id).unwrap(), false)
+            .generate(seed)
+            .unwrap()
+    }
+
+    #[test]
+    fn a_cell_several_clauses_name_gets_one_mark_with_every_number() {
+        // GoToSeq's "go to a door" and "go to the red door" can both match the red door.
+        let (tree, shared) = (0..200)
+            .map(|s| InstructionTree::of(&world("BabyAI-GoToSeqS5R2-v0", s)))
+            .find_map(|t| {
+                let m = clause_marks(&t);
+                let shared = m.into_iter().find(|m| m.label.contains(' '))?;
+                Some((t, shared))
+            })
+            .expect("a cell two clauses name in 200 seeds");
+        let names: Vec<Stage> = tree
+            .clauses()
+            .filter(|c| c.targets.iter().any(|t| t.pos == Some(shared.pos)))
+            .map(|c| c.stage)
+            .collect();
+        assert_eq!(shared.label.split(' ').count(), names.len());
+        if names.contains(&Stage::Waiting) {
+            assert_eq!(shared.stage, Stage::Waiting, "the most pressing stage");
+        }
+        let cells: Vec<Pos> = clause_marks(&tree).iter().map(|m| m.pos).collect();
+        let mut unique = cells.clone();
+        unique.sort_unstable();
+        unique.dedup();
+        assert_eq!(cells.len(), unique.len(), "one mark per cell");
+        // One clause of one description: the magenta corners suffice.
+        assert!(clause_marks(&InstructionTree::of(&world("BabyAI-GoToLocal-v0", 0))).is_empty());
+    }
+
+    #[test]
+    fn door_and_location_are_accounted_for_only_where_the_mission_has_such_a_word() {
+        let paper = LevelConfig::default().generate(0).unwrap();
+        assert_eq!(
+            shown_kinds(&paper),
+            [WordKind::Object, WordKind::Color, WordKind::Combined]
+        );
+        let door = world("BabyAI-GoToDoor-v0", 0);
+        assert!(shown_kinds(&door).contains(&WordKind::Door));
+        assert!(!shown_kinds(&door).contains(&WordKind::Location));
+    }
 }

@@ -253,7 +253,7 @@ impl Debugger {
         self.world_panel(ui, false, side);
         ui.label(
             egui::RichText::new(
-                "magenta corners: target · dots: cells visited · floor tint and rings: the map",
+                "magenta corners: targets waited on · numbers: clauses · dots: cells visited · floor tint and rings: the map",
             )
             .small()
             .weak(),

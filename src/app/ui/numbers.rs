@@ -9,9 +9,8 @@ use super::maps::MapLook;
 use super::{Debugger, Overlay};
 use crate::app::session::Shown;
 use crate::episode::StepRecord;
-use crate::metrics::grounding::WordKind;
 use crate::record::StepScene;
-use crate::record::scene::{NEGLIGIBLE_WEIGHT, action_names, no_accuracy_reason};
+use crate::record::scene::{NEGLIGIBLE_WEIGHT, action_names, no_accuracy_reason, shown_kinds};
 
 /// Side of one map in points, from the width there is for `panels` maps and a colour bar.
 pub(super) fn map_side(ui: &egui::Ui, panels: usize) -> f32 {
@@ -105,7 +104,7 @@ impl Debugger {
         bars(ui, &labels, &values, Some(self.selected_word));
         ui.add_space(4.0);
         let desc = step.world.desc();
-        for kind in WordKind::ALL {
+        for kind in shown_kinds(&step.world) {
             match scene.grounding.iter().find(|g| g.kind == kind) {
                 Some(g) => {
                     let a = &g.accuracies;

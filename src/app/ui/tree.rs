@@ -8,7 +8,7 @@ use egui::{Color32, FontId, Painter, Rect, RichText, Stroke, StrokeKind};
 use super::Debugger;
 use crate::env::Pos;
 use crate::env::tree::{InstructionTree, Stage, doors_text, targets_text};
-use crate::record::scene::{clause_label, stage_color};
+use crate::record::scene::{clause_marks, stage_color};
 use crate::render::palette::Rgb;
 
 fn color32([r, g, b]: Rgb) -> Color32 {
@@ -54,39 +54,32 @@ impl Debugger {
     }
 
     /// Frames every clause's targets on the world picture in its stage's colour with the
-    /// clause's number, where the mission has more than one clause or description.
+    /// clause numbers ([`clause_marks`]), where the mission has more than one clause or
+    /// description.
     pub(super) fn paint_clause_marks(
         painter: &Painter,
         tree: &InstructionTree,
         cell_rect: impl Fn(Pos) -> Rect,
     ) {
-        if !tree.is_compound() {
-            return;
-        }
-        for node in tree.clauses() {
-            let Some(c) = node.clause else { continue };
-            let color = color32(stage_color(node.stage));
-            for t in &node.targets {
-                let Some(p) = t.pos else { continue };
-                let r = cell_rect(p);
-                painter.rect_stroke(
-                    r.shrink(1.0),
-                    0.0,
-                    Stroke::new(1.5, color),
-                    StrokeKind::Inside,
-                );
-                let font = FontId::proportional((r.height() * 0.4).clamp(9.0, 16.0));
-                let at = r.left_top() + egui::vec2(2.0, 1.0);
-                let text = clause_label(c, t.part);
-                // A dark backing keeps the number legible on any tile.
-                let galley = painter.layout_no_wrap(text, font, color);
-                painter.rect_filled(
-                    Rect::from_min_size(at, galley.size()).expand(1.0),
-                    2.0,
-                    Color32::from_black_alpha(170),
-                );
-                painter.galley(at, galley, color);
-            }
+        for m in clause_marks(tree) {
+            let color = color32(stage_color(m.stage));
+            let r = cell_rect(m.pos);
+            painter.rect_stroke(
+                r.shrink(1.0),
+                0.0,
+                Stroke::new(1.5, color),
+                StrokeKind::Inside,
+            );
+            let font = FontId::proportional((r.height() * 0.4).clamp(9.0, 16.0));
+            let at = r.left_top() + egui::vec2(2.0, 1.0);
+            // A dark backing keeps the numbers legible on any tile.
+            let galley = painter.layout_no_wrap(m.label, font, color);
+            painter.rect_filled(
+                Rect::from_min_size(at, galley.size()).expand(1.0),
+                2.0,
+                Color32::from_black_alpha(170),
+            );
+            painter.galley(at, galley, color);
         }
     }
 }

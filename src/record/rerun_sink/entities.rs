@@ -20,7 +20,7 @@ use crate::policy::ViewMap;
 use crate::record::RERUN_SDK_VERSION;
 use crate::record::scene::{
     NEGLIGIBLE_WEIGHT, StepScene, TILE_PX, action_label, action_names, attention_rings,
-    cell_centre, hit_color, no_accuracy_reason,
+    cell_centre, hit_color, no_accuracy_reason, shown_kinds,
 };
 
 pub(super) fn log_static(
@@ -450,7 +450,7 @@ fn log_grounding_table(
         String::from("| map | related | acc | ng | bs | cmb |\n|---|---:|---:|---:|---:|---:|\n");
     let mut missing = String::new();
     let desc = step.world.desc();
-    for kind in WordKind::ALL {
+    for kind in shown_kinds(&step.world) {
         match scene.grounding.iter().find(|g| g.kind == kind) {
             Some(g) => {
                 let a = &g.accuracies;

@@ -10,7 +10,7 @@ use super::{RecordError, sdk};
 use crate::env::object::ObjectKind;
 use crate::env::tree::InstructionTree;
 use crate::env::{Observation, Pos, VIEW_SIZE};
-use crate::record::scene::{clause_label, stage_color};
+use crate::record::scene::{clause_marks, stage_color};
 use crate::render::{decode_view_cell, palette};
 
 /// Length of a full bar (probability or weight 1) in the bars' 2-D space.
@@ -171,32 +171,27 @@ pub fn targets(cells: &[Pos]) -> rerun::Boxes2D {
     .with_draw_order(25.0)
 }
 
-/// On a mission of several clauses or descriptions, every clause's targets, framed in the
-/// colour of the clause's stage (waited on: magenta; done: grey; later: blue) and labelled
-/// with the clause's number (PutNext's second description primed: `1'`), in pixels of a
-/// world picture of `tile` pixels a cell: the viewer draws a box's label where the box would be
-/// without its entity's transform, so labelled boxes cannot use the cell units of
-/// [`WORLD_MARKS`].
+/// The clause marks ([`clause_marks`]), framed in their stage's colour (waited on: magenta;
+/// done: grey; later: blue) and labelled with their clause numbers (PutNext's second
+/// description primed: `1'`), in pixels of a world picture of `tile` pixels a cell: the viewer
+/// draws a box's label where the box would be without its entity's transform, so labelled
+/// boxes cannot use the cell units of [`WORLD_MARKS`].
 pub fn clause_targets(tree: &InstructionTree, tile: f32) -> rerun::Boxes2D {
-    let (mut mins, mut labels, mut colors) = (vec![], vec![], vec![]);
-    // One clause of one description: its targets are the magenta ones, nothing to number.
-    let compound = tree.is_compound();
-    for node in tree.clauses().filter(|_| compound) {
-        let Some(c) = node.clause else { continue };
-        for t in &node.targets {
-            let Some((x, y)) = t.pos else { continue };
-            mins.push(((x as f32 + 0.05) * tile, (y as f32 + 0.05) * tile));
-            labels.push(clause_label(c, t.part));
-            colors.push(stage_color(node.stage));
-        }
-    }
-    let n = mins.len();
-    rerun::Boxes2D::from_mins_and_sizes(mins, vec![(0.9 * tile, 0.9 * tile); n])
-        .with_labels(labels)
-        .with_colors(colors)
-        .with_radii([0.03])
-        .with_show_labels(true)
-        .with_draw_order(24.0)
+    let marks = clause_marks(tree);
+    rerun::Boxes2D::from_mins_and_sizes(
+        marks.iter().map(|m| {
+            (
+                (m.pos.0 as f32 + 0.05) * tile,
+                (m.pos.1 as f32 + 0.05) * tile,
+            )
+        }),
+        vec![(0.9 * tile, 0.9 * tile); marks.len()],
+    )
+    .with_labels(marks.iter().map(|m| m.label.clone()))
+    .with_colors(marks.iter().map(|m| stage_color(m.stage)))
+    .with_radii([0.03 * tile])
+    .with_show_labels(true)
+    .with_draw_order(24.0)
 }
 
 /// The agent's path through the centres of the cells it stood on, up to `now`, in cell units.
