@@ -419,3 +419,11 @@ mod tests {
         assert!((900..1100).contains(&pickup), "pickup in {pickup} of 2000");
     }
 }
+
+/// The world of BabyAI level `id` at `seed` (done mode off), for unit tests across modules.
+#[cfg(test)]
+pub(crate) fn babyai_world(id: &str, seed: u64) -> World {
+    LevelConfig::babyai(LevelId::parse(id).unwrap(), false)
+        .generate(seed)
+        .unwrap()
+}

@@ -324,13 +324,8 @@ pub fn pending_target_cells(world: &World) -> Vec<Pos> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::env::level::{LevelConfig, LevelId};
+    use crate::env::level::babyai_world as world;
 
-    fn world(id: &str, seed: u64) -> World {
-        LevelConfig::babyai(LevelId::parse(id).unwrap(), false)
-            .generate(seed)
-            .unwrap()
-    }
 
     #[test]
     fn a_sequence_shows_its_parts_with_the_clause_waited_on_and_their_targets() {

@@ -344,13 +344,8 @@ pub fn action_names() -> [&'static str; Action::COUNT] {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::env::level::{LevelConfig, LevelId};
+    use crate::env::level::{LevelConfig, babyai_world as world};
 
-    fn world(id: &str, seed: u64) -> World {
-        LevelConfig::babyai(LevelId::parse(id).unwrap(), false)
-            .generate(seed)
-            .unwrap()
-    }
 
     #[test]
     fn a_cell_several_clauses_name_gets_one_mark_with_every_number() {
