@@ -284,6 +284,14 @@ pub fn all_reachable(grid: &Grid, agent_pos: Pos) -> bool {
     grid.all_objects_reachable(agent_pos)
 }
 
+/// The world of BabyAI level `id` at `seed` (done mode off), for unit tests across modules.
+#[cfg(test)]
+pub(crate) fn babyai_world(id: &str, seed: u64) -> World {
+    LevelConfig::babyai(LevelId::parse(id).unwrap(), false)
+        .generate(seed)
+        .unwrap()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -418,12 +426,4 @@ mod tests {
         );
         assert!((900..1100).contains(&pickup), "pickup in {pickup} of 2000");
     }
-}
-
-/// The world of BabyAI level `id` at `seed` (done mode off), for unit tests across modules.
-#[cfg(test)]
-pub(crate) fn babyai_world(id: &str, seed: u64) -> World {
-    LevelConfig::babyai(LevelId::parse(id).unwrap(), false)
-        .generate(seed)
-        .unwrap()
 }
