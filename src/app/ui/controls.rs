@@ -12,6 +12,9 @@ use crate::env::edit::Edit;
 use crate::env::level::{LevelConfig, LevelId, TaskSet};
 use crate::env::vocab;
 
+/// The level picker's name for the paper's level (its room, objects and tasks beside it).
+const PAPER_LEVEL: &str = "the paper's";
+
 impl Debugger {
     pub(super) fn keyboard(&mut self, ctx: &egui::Context) {
         let typing = ctx.memory(|m| m.focused().is_some());
@@ -169,14 +172,15 @@ impl Debugger {
     /// The level: the paper's (its room, objects and tasks beside it) or any registered
     /// BabyAI level, run at the checkpoint's done-action setting as `view --level` runs it.
     fn level_picker(&mut self, ui: &mut egui::Ui) {
-        let current = self.level.babyai.map_or("paper level", LevelId::id);
+        let current = self.level.babyai.map_or(PAPER_LEVEL, LevelId::id);
         let mut picked = None;
+        ui.label("level");
         egui::ComboBox::from_id_salt("level")
-            .selected_text(format!("level {current}"))
+            .selected_text(current)
             .height(420.0)
             .show_ui(ui, |ui| {
                 if ui
-                    .selectable_label(self.level.babyai.is_none(), "paper level")
+                    .selectable_label(self.level.babyai.is_none(), PAPER_LEVEL)
                     .clicked()
                 {
                     picked = Some(None);
