@@ -7,7 +7,7 @@ mod common;
 use std::path::Path;
 
 use common::debugger::{build, show_until};
-use egui_kittest::kittest::Queryable as _;
+use egui_kittest::kittest::{NodeT as _, Queryable as _};
 use groundscope::app::StartOptions;
 use groundscope::app::session::Agent;
 use groundscope::env::level::{LevelConfig, LevelId};
@@ -150,4 +150,35 @@ fn a_door_level_lists_its_doors_and_their_states() {
     let text = format!("doors: {}", doors_text(&tree.doors));
     assert!(text.contains("locked"), "{text}");
     h.get_by_label(&text);
+}
+
+#[test]
+fn the_mission_editor_names_the_words_this_model_was_not_trained_on() {
+    // The bundled model reads the paper's 25 words; BabyAI's split makes "door," one word.
+    let mut opts = options("bundled:attention", None, 3);
+    opts.mission = Some("go to the red door, then pick up a key".into());
+    let mut h = build(&opts);
+    show_until(&mut h, "not a word this model knows: door, then");
+    assert!(
+        h.get_by_label("apply at this step")
+            .accesskit_node()
+            .is_disabled(),
+        "a mission this model cannot read is not applied"
+    );
+    // A model of all of BabyAI's words takes it.
+    let dir = tempfile::tempdir().unwrap();
+    let ckpt = fresh_checkpoint(dir.path(), babyai("BabyAI-GoToSeq-v0"));
+    let mut opts = options(&ckpt, None, 3);
+    opts.mission = Some("go to the red ball, then pick up a key".into());
+    let mut h = build(&opts);
+    show_until(&mut h, "step 0 of ");
+    assert!(
+        h.query_by_label_contains("not a word this model knows")
+            .is_none()
+    );
+    assert!(
+        !h.get_by_label("apply at this step")
+            .accesskit_node()
+            .is_disabled()
+    );
 }

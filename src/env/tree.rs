@@ -326,7 +326,6 @@ mod tests {
     use super::*;
     use crate::env::level::babyai_world as world;
 
-
     #[test]
     fn a_sequence_shows_its_parts_with_the_clause_waited_on_and_their_targets() {
         // Find a BeforeInstr among SynthSeq's seeds: its first part waited on, its second later.

@@ -346,7 +346,6 @@ mod tests {
     use super::*;
     use crate::env::level::{LevelConfig, babyai_world as world};
 
-
     #[test]
     fn a_cell_several_clauses_name_gets_one_mark_with_every_number() {
         // GoToSeq's "go to a door" and "go to the red door" can both match the red door.
