@@ -13,7 +13,7 @@ use serde::Serialize;
 
 use super::grid::Pos;
 use super::instr::{Instr, SeqKind, Status};
-use super::object::{Color, DoorState, ObjectId, ObjectKind};
+use super::object::{Color, DoorState, ObjectId, ObjectKind, WorldObj};
 use super::roles::DescPart;
 use super::world::World;
 
@@ -99,6 +99,8 @@ impl InstructionTree {
         let mut nodes = Vec::new();
         walk(&world.instr, 0, Stage::Waiting, &mut 0, &mut nodes);
         let clauses = world.instr.clauses();
+        // One scan of the grid serves every target's lookup.
+        let objects: Vec<(Pos, WorldObj)> = world.grid.objects().collect();
         for node in &mut nodes {
             let Some(c) = node.clause.and_then(|c| clauses.get(c)) else {
                 continue;
@@ -109,7 +111,7 @@ impl InstructionTree {
             ];
             for (part, ids) in parts {
                 node.targets.extend(ids.iter().filter_map(|&id| {
-                    let (pos, object) = locate(world, id)?;
+                    let (pos, object) = locate(world, &objects, id)?;
                     Some(TreeTarget {
                         object,
                         pos,
@@ -213,16 +215,20 @@ pub fn doors_text(doors: &[DoorMark]) -> String {
         .join(" · ")
 }
 
-/// Where object `id` is and what it is: on the grid, or carried (`None`); `None` if gone.
-fn locate(world: &World, id: ObjectId) -> Option<(Option<Pos>, String)> {
+/// Where object `id` is and what it is: among `objects` (the grid's), or carried (`None`);
+/// `None` if gone.
+fn locate(
+    world: &World,
+    objects: &[(Pos, WorldObj)],
+    id: ObjectId,
+) -> Option<(Option<Pos>, String)> {
     if let Some(o) = world.carrying.as_ref().filter(|o| o.id == id) {
         return Some((None, o.describe()));
     }
-    world
-        .grid
-        .objects()
+    objects
+        .iter()
         .find(|(_, o)| o.id == id)
-        .map(|(p, o)| (Some(p), o.describe()))
+        .map(|(p, o)| (Some(*p), o.describe()))
 }
 
 /// Pushes `instr`'s nodes at `stage`, numbering clauses from `clause`. Only a part the
@@ -232,7 +238,9 @@ fn walk(instr: &Instr, depth: usize, stage: Stage, clause: &mut usize, out: &mut
         Instr::Action(n) => {
             out.push(TreeNode {
                 depth,
-                text: Instr::Action(n.clone()).surface(),
+                text: n
+                    .instr
+                    .surface_with(n.targets.obj_set.len(), n.fixed_targets.obj_set.len()),
                 seq: None,
                 clause: Some(*clause),
                 stage,
