@@ -13,6 +13,7 @@ pub mod env;
 pub mod episode;
 pub mod files;
 pub mod metrics;
+pub mod panics;
 pub mod policy;
 pub mod record;
 pub mod render;

@@ -12,6 +12,7 @@ use std::process::ExitCode;
 
 use clap::error::ErrorKind;
 use clap::{CommandFactory as _, FromArgMatches as _};
+use groundscope::panics::panic_text;
 
 /// How a run ended; `main` alone turns it into the process exit code.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -62,21 +63,15 @@ fn main() -> ExitCode {
 
 /// The message of a panic raised by a failed allocation (tract's tensors), if it is one.
 fn allocation_failure(payload: &(dyn std::any::Any + Send)) -> Option<String> {
-    let text = payload
-        .downcast_ref::<String>()
-        .map(String::as_str)
-        .or_else(|| payload.downcast_ref::<&str>().copied())?;
+    let text = panic_text(payload)?;
     text.starts_with("failed to allocate")
         .then(|| text.to_owned())
 }
 
 /// The I/O error of a panic raised by `print!` on a failing stdout, if it is one.
 fn stdout_failure(payload: &(dyn std::any::Any + Send)) -> Option<String> {
-    let text = payload
-        .downcast_ref::<String>()
-        .map(String::as_str)
-        .or_else(|| payload.downcast_ref::<&str>().copied())?;
-    text.strip_prefix("failed printing to stdout: ")
+    panic_text(payload)?
+        .strip_prefix("failed printing to stdout: ")
         .map(str::to_owned)
 }
 

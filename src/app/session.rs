@@ -12,6 +12,7 @@ use crate::env::level::LevelConfig;
 use crate::episode::{ActionMode, EpisodeSpec, EpisodeTrace, rerun_from, run_from, run_from_with};
 use crate::metrics::failure::{Diagnosis, Evidence};
 use crate::metrics::faithfulness::episode::{Loop, intervention};
+use crate::panics::panic_line;
 use crate::policy::Acting;
 use crate::record::{RerunTargets, StepScene, episode_scenes, record_rerun, write_mcap};
 
@@ -119,12 +120,7 @@ impl Job {
             // screenshot), not a job the window waits on for ever.
             let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| work(&d)))
                 .unwrap_or_else(|p| {
-                    let text = p
-                        .downcast_ref::<String>()
-                        .map(String::as_str)
-                        .or_else(|| p.downcast_ref::<&str>().copied())
-                        .unwrap_or("no message");
-                    JobResult::Failed(format!("{label} failed: {}", text.replace('\n', " ")))
+                    JobResult::Failed(format!("{label} failed: {}", panic_line(p.as_ref())))
                 });
             let _ = tx.send(result);
         });

@@ -50,12 +50,10 @@ impl Stop {
 /// What a worker's panic said, as one line for an error message (a panic is a bug, but it
 /// must end the command with an error, not leave other threads waiting).
 pub fn panic_message(payload: &(dyn std::any::Any + Send)) -> String {
-    let text = payload
-        .downcast_ref::<String>()
-        .map(String::as_str)
-        .or_else(|| payload.downcast_ref::<&str>().copied())
-        .unwrap_or("no message");
-    format!("a worker failed: {}", text.replace('\n', " "))
+    format!(
+        "a worker failed: {}",
+        groundscope::panics::panic_line(payload)
+    )
 }
 
 /// An agent whose every step first checks the stop flag: a stopped run's workers end at

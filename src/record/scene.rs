@@ -278,6 +278,26 @@ pub fn shown_kinds(world: &World) -> Vec<WordKind> {
         .collect()
 }
 
+/// Each kind of accuracy a display accounts for at `step` ([`shown_kinds`]): its evaluated map,
+/// or why it is not scored ([`no_accuracy_reason`]).
+pub fn accuracy_rows<'a>(
+    step: &StepRecord,
+    scene: &'a StepScene,
+) -> Vec<(WordKind, Result<&'a EvaluatedMap, String>)> {
+    let desc = step.world.desc();
+    shown_kinds(&step.world)
+        .into_iter()
+        .map(|kind| {
+            let row = scene
+                .grounding
+                .iter()
+                .find(|g| g.kind == kind)
+                .ok_or_else(|| no_accuracy_reason(kind, &desc));
+            (kind, row)
+        })
+        .collect()
+}
+
 /// One cell's clause numbers on a world picture: every clause whose targets include the cell
 /// (`"2 3"` where a door matches clauses 2 and 3), in the colour of the most pressing stage
 /// among them (waiting, then later, then done).

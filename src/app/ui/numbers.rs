@@ -10,7 +10,7 @@ use super::{Debugger, Overlay};
 use crate::app::session::Shown;
 use crate::episode::StepRecord;
 use crate::record::StepScene;
-use crate::record::scene::{NEGLIGIBLE_WEIGHT, action_names, no_accuracy_reason, shown_kinds};
+use crate::record::scene::{NEGLIGIBLE_WEIGHT, accuracy_rows, action_names};
 
 /// Side of one map in points, from the width there is for `panels` maps and a colour bar.
 pub(super) fn map_side(ui: &egui::Ui, panels: usize) -> f32 {
@@ -103,10 +103,9 @@ impl Debugger {
         let values: Vec<f32> = att.words.iter().map(|w| w.weight).collect();
         bars(ui, &labels, &values, Some(self.selected_word));
         ui.add_space(4.0);
-        let desc = step.world.desc();
-        for kind in shown_kinds(&step.world) {
-            match scene.grounding.iter().find(|g| g.kind == kind) {
-                Some(g) => {
+        for (kind, row) in accuracy_rows(step, scene) {
+            match row {
+                Ok(g) => {
                     let a = &g.accuracies;
                     ui.label(format!(
                         "{}: {} related object(s) · acc {:.2} · ng {:.2} · bs {:.2} · cmb {:.2}",
@@ -118,8 +117,8 @@ impl Debugger {
                         a.acc_cmb
                     ));
                 }
-                None => {
-                    ui.label(egui::RichText::new(no_accuracy_reason(kind, &desc)).weak());
+                Err(reason) => {
+                    ui.label(egui::RichText::new(reason).weak());
                 }
             }
         }

@@ -55,14 +55,9 @@ pub fn run(
                         episode::analyse_episode(agent, level, s, seed, mode, parts)
                     }))
                     .unwrap_or_else(|p| {
-                        let text = p
-                            .downcast_ref::<String>()
-                            .map(String::as_str)
-                            .or_else(|| p.downcast_ref::<&str>().copied())
-                            .unwrap_or("no message");
                         Err(PolicyError::Input(format!(
                             "{level} seed {seed}: a worker failed: {}",
-                            text.replace('\n', " ")
+                            crate::panics::panic_line(p.as_ref())
                         )))
                     });
                     let failed = r.is_err();

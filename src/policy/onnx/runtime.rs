@@ -13,6 +13,7 @@ use super::mission_cache::MissionCache;
 use super::{MapOutputs, OnnxStep};
 use crate::env::view::{Observation, VIEW_SIZE};
 use crate::env::vocab;
+use crate::panics::panic_line;
 use crate::policy::error::PolicyError;
 use crate::policy::trace::ViewMap;
 
@@ -177,7 +178,7 @@ impl OnnxAgent {
         .map_err(|p| {
             bad(
                 path,
-                format!("tract failed reading the graph: {}", panic_text(&*p)),
+                format!("tract failed reading the graph: {}", panic_line(&*p)),
             )
         })??;
         Ok(Self {
@@ -442,7 +443,7 @@ impl OnnxAgent {
                 .map_err(|p| {
                     bad(
                         &self.path,
-                        format!("running the graph: {}", panic_text(&*p)),
+                        format!("running the graph: {}", panic_line(&*p)),
                     )
                 })?;
         clean_upper_registers();
@@ -519,16 +520,6 @@ impl OnnxAgent {
         }
         Ok(())
     }
-}
-
-/// A panic's message on one line (tract's "failed to allocate Layout { size: … }").
-pub(super) fn panic_text(payload: &(dyn std::any::Any + Send)) -> String {
-    payload
-        .downcast_ref::<String>()
-        .map(String::as_str)
-        .or_else(|| payload.downcast_ref::<&str>().copied())
-        .unwrap_or("a panic without a message")
-        .replace('\n', " ")
 }
 
 /// Clears the upper halves of the vector registers after tract's plan ran. Its hand-written

@@ -19,8 +19,8 @@ use crate::metrics::grounding::{EvaluatedMap, WordKind};
 use crate::policy::ViewMap;
 use crate::record::RERUN_SDK_VERSION;
 use crate::record::scene::{
-    NEGLIGIBLE_WEIGHT, StepScene, TILE_PX, action_label, action_names, attention_rings,
-    cell_centre, hit_color, no_accuracy_reason, shown_kinds,
+    NEGLIGIBLE_WEIGHT, StepScene, TILE_PX, accuracy_rows, action_label, action_names,
+    attention_rings, cell_centre, hit_color,
 };
 
 pub(super) fn log_static(
@@ -449,10 +449,9 @@ fn log_grounding_table(
     let mut doc =
         String::from("| map | related | acc | ng | bs | cmb |\n|---|---:|---:|---:|---:|---:|\n");
     let mut missing = String::new();
-    let desc = step.world.desc();
-    for kind in shown_kinds(&step.world) {
-        match scene.grounding.iter().find(|g| g.kind == kind) {
-            Some(g) => {
+    for (kind, row) in accuracy_rows(step, scene) {
+        match row {
+            Ok(g) => {
                 let a = &g.accuracies;
                 let _ = writeln!(
                     doc,
@@ -465,8 +464,8 @@ fn log_grounding_table(
                     a.acc_cmb
                 );
             }
-            None => {
-                let _ = writeln!(missing, "\n- {}", no_accuracy_reason(kind, &desc));
+            Err(reason) => {
+                let _ = writeln!(missing, "\n- {reason}");
             }
         }
     }
