@@ -503,22 +503,16 @@ fn a_hand_exported_graph_is_shown_and_traced_as_itself() {
     assert!(json.get("graph_token_ids").is_none() && json.get("model_name").is_none());
 
     let out = dir.path().join("report");
-    let o = gs(&[
+    let mut args = vec![
         "eval",
         "--quiet",
         "--checkpoint",
         graph.to_str().unwrap(),
         "--out",
         out.to_str().unwrap(),
-        "--sizes",
-        "8",
-        "--objects",
-        "4",
-        "--seeds",
-        "1",
-        "--episodes",
-        "2",
-    ]);
+    ];
+    args.extend(common::SMALL_SWEEP);
+    let o = gs(&args);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     let report: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();

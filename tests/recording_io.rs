@@ -124,14 +124,13 @@ fn viewer_problems_are_one_line() {
         }
     });
     let url = format!("rerun+http://127.0.0.1:{port}/proxy");
-    let mut child = bin()
+    let child = bin()
         .args(["replay", "--seed", "1", "--connect", &url])
         .stdout(Stdio::null())
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
-    common::wait_for_exit(&mut child, "replay --connect to something else");
-    let o = child.wait_with_output().unwrap();
+    let o = common::output_after_exit(child, "replay --connect to something else");
     assert_bad_input(&o, &format!("no Rerun viewer at {url}"));
 }
 
@@ -183,15 +182,8 @@ fn ctrl_c_during_replay_says_so_and_leaves_nothing() {
     common::wait_until("the recordings' temporary files", || {
         !entries(tmp.path()).is_empty()
     });
-    assert!(
-        Command::new("kill")
-            .args(["-INT", &child.id().to_string()])
-            .status()
-            .unwrap()
-            .success()
-    );
-    common::wait_for_exit(&mut child, "replay after Ctrl-C");
-    let o = child.wait_with_output().unwrap();
+    common::send_signal(&child, "INT");
+    let o = common::output_after_exit(child, "replay after Ctrl-C");
     assert_bad_input(&o, "interrupted");
     assert!(entries(tmp.path()).is_empty(), "{:?}", entries(tmp.path()));
 }

@@ -87,12 +87,7 @@ fn sigterm_and_sighup_stop_training_with_a_saved_checkpoint() {
             assert!(child.try_wait().unwrap().is_none(), "the run ended");
             std::fs::read_to_string(run.join("log.csv")).is_ok_and(|t| t.lines().count() >= 3)
         });
-        let pid = child.id().to_string();
-        let status = Command::new("kill")
-            .args([&format!("-{signal}"), &pid])
-            .status()
-            .unwrap();
-        assert!(status.success());
+        common::send_signal(&child, signal);
         let out = child.wait_with_output().unwrap();
         assert_eq!(out.status.code(), Some(0), "SIG{signal}");
         assert!(String::from_utf8_lossy(&out.stdout).contains("interrupted; saved"));
@@ -232,9 +227,8 @@ fn endless_replay(stdout: impl Into<Stdio>) -> std::process::Child {
 }
 
 /// A closed stdout ends the run quietly: exit 0, nothing on stderr (docs/cli.md).
-fn assert_ends_quietly(mut child: std::process::Child, what: &str) {
-    common::wait_for_exit(&mut child, what);
-    let out = child.wait_with_output().unwrap();
+fn assert_ends_quietly(child: std::process::Child, what: &str) {
+    let out = common::output_after_exit(child, what);
     let err = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(0), "{what}: {err}");
     assert!(out.stderr.is_empty(), "{what}: {err}");

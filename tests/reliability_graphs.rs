@@ -10,7 +10,7 @@
 
 mod common;
 
-use common::{assert_bad_input, entries, gs, gs_guarded, onnx_fixture};
+use common::{SMALL_SWEEP, assert_bad_input, entries, gs, gs_guarded, onnx_fixture};
 
 use std::path::Path;
 use std::process::{Command, Stdio};
@@ -42,17 +42,23 @@ fn hostile_graphs_are_refused_by_name() {
         &gs(&["replay", "--checkpoint", empty.to_str().unwrap()]),
         "empty",
     );
-    let nan = common::onnx_fixture("bad_nan.onnx");
-    let trace = dir.path().join("t.json");
+    replay_is_refused(&common::onnx_fixture("bad_nan.onnx"), dir.path(), "NaN");
+}
+
+/// `replay --checkpoint graph --trace <dir>/t.json` is refused naming `what` and writes no
+/// trace; returns the output for any further checks.
+fn replay_is_refused(graph: &Path, dir: &Path, what: &str) -> std::process::Output {
+    let trace = dir.join("t.json");
     let o = gs(&[
         "replay",
         "--checkpoint",
-        nan.to_str().unwrap(),
+        graph.to_str().unwrap(),
         "--trace",
         trace.to_str().unwrap(),
     ]);
-    assert_bad_input(&o, "NaN");
-    assert!(!trace.exists(), "no trace of NaNs written");
+    assert_bad_input(&o, what);
+    assert!(!trace.exists(), "no trace written");
+    o
 }
 
 /// `train --init` names why a graph cannot seed training.
@@ -77,24 +83,14 @@ fn a_graph_cannot_seed_training() {
 /// The commands that load a graph, each writing into `dir` where it writes at all.
 fn loaders(graph: &str, dir: &Path) -> Vec<Vec<String>> {
     let out = |n: &str| dir.join(n).to_str().unwrap().to_owned();
-    let small = [
-        "--sizes",
-        "8",
-        "--objects",
-        "4",
-        "--seeds",
-        "1",
-        "--episodes",
-        "2",
-    ];
     let mut eval = vec!["eval", "--quiet", "--checkpoint", graph, "--out"];
     let eval_out = out("eval");
     eval.push(&eval_out);
-    eval.extend(small);
+    eval.extend(SMALL_SWEEP);
     let faith_out = out("faith");
     let mut faith = vec!["faithfulness", "--quiet", "--checkpoint", graph, "--out"];
     faith.push(&faith_out);
-    faith.extend(small);
+    faith.extend(SMALL_SWEEP);
     let trace = out("t.json");
     let replay = vec!["replay", "--checkpoint", graph, "--trace", &trace];
     [replay, eval, faith]
@@ -106,7 +102,7 @@ fn loaders(graph: &str, dir: &Path) -> Vec<Vec<String>> {
 /// Runs groundscope under a 16 GB address-space limit: should a bound ever stop working,
 /// the bomb fails its allocation here instead of taking the machine's memory.
 fn gs_limited(args: &[String]) -> std::process::Output {
-    let mut child = Command::new("sh")
+    let child = Command::new("sh")
         .arg("-c")
         .arg("ulimit -v 16000000; exec \"$0\" \"$@\"")
         .arg(env!("CARGO_BIN_EXE_groundscope"))
@@ -117,11 +113,7 @@ fn gs_limited(args: &[String]) -> std::process::Output {
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
-    let status = common::wait_for_exit(&mut child, &format!("groundscope {args:?}"));
-    std::process::Output {
-        status,
-        ..child.wait_with_output().unwrap()
-    }
+    common::output_after_exit(child, &format!("groundscope {args:?}"))
 }
 
 /// A graph that asks for a 30 GB or 150 GB tensor is refused before anything is allocated:
@@ -173,12 +165,8 @@ fn allocation_bombs_are_refused_naming_the_node_and_shape() {
             .stderr(Stdio::piped())
             .spawn();
         match child {
-            Ok(mut child) => {
-                let status = common::wait_for_exit(&mut child, "xvfb-run groundscope view");
-                let o = std::process::Output {
-                    status,
-                    ..child.wait_with_output().unwrap()
-                };
+            Ok(child) => {
+                let o = common::output_after_exit(child, "xvfb-run groundscope view");
                 assert_bad_input(&o, what);
                 assert!(!shot.exists(), "{file}: no screenshot");
             }
@@ -231,34 +219,19 @@ fn a_tensor_too_large_for_the_batch_is_refused_at_that_batch() {
 fn negative_word_maps_are_refused_naming_the_step() {
     let dir = tempfile::tempdir().unwrap();
     let graph = onnx_fixture("bad_negative_maps.onnx");
-    let trace = dir.path().join("t.json");
-    let o = gs(&[
-        "replay",
-        "--checkpoint",
-        graph.to_str().unwrap(),
-        "--trace",
-        trace.to_str().unwrap(),
-    ]);
-    assert_bad_input(&o, "output word_maps holds -");
+    let o = replay_is_refused(&graph, dir.path(), "output word_maps holds -");
     assert!(common::stderr(&o).contains("at step 0 of"), "{o:?}");
-    assert!(!trace.exists());
     let out = dir.path().join("report");
-    let o = gs(&[
+    let mut args = vec![
         "eval",
         "--quiet",
         "--checkpoint",
         graph.to_str().unwrap(),
         "--out",
         out.to_str().unwrap(),
-        "--sizes",
-        "8",
-        "--objects",
-        "4",
-        "--seeds",
-        "1",
-        "--episodes",
-        "2",
-    ]);
+    ];
+    args.extend(SMALL_SWEEP);
+    let o = gs(&args);
     assert_bad_input(&o, "output word_maps holds -");
     assert!(!out.exists(), "no report of negative maps");
 }
@@ -266,11 +239,7 @@ fn negative_word_maps_are_refused_naming_the_step() {
 /// Sends SIGINT to `child` once it has run `after`.
 fn interrupt(child: &std::process::Child, after: Duration) {
     std::thread::sleep(after);
-    let status = Command::new("kill")
-        .args(["-INT", &child.id().to_string()])
-        .status()
-        .unwrap();
-    assert!(status.success(), "kill -INT");
+    common::send_signal(child, "INT");
 }
 
 /// A sweep far longer than the test: 4 room sizes × 5 seeds × 1000 episodes.
@@ -295,20 +264,9 @@ fn ctrl_c_during_a_sweep_keeps_the_earlier_report() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("report");
     let o = out.to_str().unwrap();
-    let first = gs(&[
-        "eval",
-        "--quiet",
-        "--out",
-        o,
-        "--sizes",
-        "8",
-        "--objects",
-        "4",
-        "--seeds",
-        "1",
-        "--episodes",
-        "2",
-    ]);
+    let mut args = vec!["eval", "--quiet", "--out", o];
+    args.extend(SMALL_SWEEP);
+    let first = gs(&args);
     assert_eq!(first.status.code(), Some(0), "{}", common::stderr(&first));
     let before = std::fs::read(out.join("report.json")).unwrap();
     let names = entries(&out);
@@ -317,7 +275,7 @@ fn ctrl_c_during_a_sweep_keeps_the_earlier_report() {
     for (cmd, target) in [("eval", &out), ("faithfulness", &faith_out)] {
         let mut args = vec![cmd, "--quiet", "--out", target.to_str().unwrap()];
         args.extend(BIG);
-        let mut child = Command::new(env!("CARGO_BIN_EXE_groundscope"))
+        let child = Command::new(env!("CARGO_BIN_EXE_groundscope"))
             .args(&args)
             .env("RAYON_NUM_THREADS", "1")
             .stdin(Stdio::null())
@@ -326,8 +284,8 @@ fn ctrl_c_during_a_sweep_keeps_the_earlier_report() {
             .spawn()
             .unwrap();
         interrupt(&child, Duration::from_secs(1));
-        let status = common::wait_for_exit(&mut child, cmd);
-        let got = child.wait_with_output().unwrap();
+        let got = common::output_after_exit(child, cmd);
+        let status = got.status;
         let err = String::from_utf8_lossy(&got.stderr);
         assert_eq!(status.code(), Some(130), "{cmd}: {status:?} {err}");
         assert_eq!(err.trim_end().lines().count(), 1, "{cmd}: one line: {err}");

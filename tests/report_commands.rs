@@ -2,6 +2,9 @@
 //! where it failed.
 #![allow(clippy::unwrap_used, reason = "tests fail loudly")]
 
+mod common;
+
+use common::{gs, stderr};
 use groundscope::metrics::report::Failure;
 
 fn failure(kind: &str, length: u32) -> Failure {
@@ -41,30 +44,21 @@ fn a_failed_episode_opens_at_its_last_step() {
 fn a_one_seed_one_size_report_reads_right() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("r");
-    let o = std::process::Command::new(env!("CARGO_BIN_EXE_groundscope"))
-        .args([
-            "eval",
-            "--sizes",
-            "8",
-            "--objects",
-            "4",
-            "--seeds",
-            "1",
-            "--episodes",
-            "5",
-            "--quiet",
-            "--out",
-        ])
-        .arg(&out)
-        .env("RAYON_NUM_THREADS", "1")
-        .output()
-        .unwrap();
-    assert_eq!(
-        o.status.code(),
-        Some(0),
-        "{}",
-        String::from_utf8_lossy(&o.stderr)
-    );
+    let o = gs(&[
+        "eval",
+        "--sizes",
+        "8",
+        "--objects",
+        "4",
+        "--seeds",
+        "1",
+        "--episodes",
+        "5",
+        "--quiet",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     let md = std::fs::read_to_string(out.join("report.md")).unwrap();
     // One seed is not "1 seeds", and its "± 0.000" is said to be no std.
     assert!(md.contains("1 seed (from 0)"), "{md}");

@@ -48,18 +48,33 @@ pub fn wait_for_exit(child: &mut std::process::Child, what: &str) -> std::proces
 /// Runs groundscope with `args` and no input, failing after [`GUARD`] instead of hanging
 /// (for inputs that used to make it wait forever).
 pub fn gs_guarded(args: &[&str]) -> Output {
-    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_groundscope"))
+    let child = std::process::Command::new(env!("CARGO_BIN_EXE_groundscope"))
         .args(args)
         .stdin(std::process::Stdio::null())
         .stdout(std::process::Stdio::piped())
         .stderr(std::process::Stdio::piped())
         .spawn()
         .unwrap();
-    let status = wait_for_exit(&mut child, &format!("groundscope {args:?}"));
+    output_after_exit(child, &format!("groundscope {args:?}"))
+}
+
+/// Waits for `child` as [`wait_for_exit`] does (failing naming `what` after [`GUARD`]), then
+/// collects what it wrote to the pipes it was spawned with.
+pub fn output_after_exit(mut child: std::process::Child, what: &str) -> Output {
+    let status = wait_for_exit(&mut child, what);
     Output {
         status,
         ..child.wait_with_output().unwrap()
     }
+}
+
+/// Sends `SIG<signal>` (`"INT"`, `"TERM"`, …) to `child` with kill(1); fails if kill does.
+pub fn send_signal(child: &std::process::Child, signal: &str) {
+    let status = Command::new("kill")
+        .args([&format!("-{signal}"), &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(status.success(), "kill -{signal}");
 }
 
 /// The lines of a child's output as they are printed, read on a thread until the pipe closes
@@ -180,4 +195,17 @@ pub const TINY_RUN: [&str; 14] = [
     "8",
     "--hidden",
     "8",
+];
+
+/// The smallest sweep `eval` and `faithfulness` run (one 8×8 room with 4 objects, one seed,
+/// two episodes): flag and value pairs.
+pub const SMALL_SWEEP: [&str; 8] = [
+    "--sizes",
+    "8",
+    "--objects",
+    "4",
+    "--seeds",
+    "1",
+    "--episodes",
+    "2",
 ];
