@@ -29,7 +29,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::env::object::{Color, ObjectId, ObjectKind};
 use crate::env::roles::{DescPart, WordClass, word_roles};
-pub use crate::env::tree::pending_target_ids;
+use crate::env::tree::pending_target_ids;
 use crate::env::view::{AGENT_IN_VIEW, Observation, VIEW_SIZE, ViewCell, view_from_world};
 use crate::env::world::World;
 use crate::policy::ViewMap;

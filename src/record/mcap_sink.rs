@@ -31,7 +31,6 @@ use serde_json::{Value, json};
 
 use super::scene::{StepScene, action_names, episode_scenes, hit_color, trail, world_with_overlay};
 use super::{PendingFile, RecordError, StopFlag, io_err, stopped};
-use crate::env::tree::InstructionTree;
 use crate::episode::EpisodeTrace;
 use crate::metrics::grounding::EvaluatedMap;
 use crate::policy::ViewMap;
@@ -210,7 +209,7 @@ fn step_messages(out: &mut Msgs, e: usize, ep: &EpisodeTrace, k: usize, scene: &
             "reward": step.reward, "terminated": step.terminated, "truncated": step.truncated,
         }),
     );
-    let tree = InstructionTree::of(&step.world);
+    let tree = &scene.tree;
     out.json(
         "/instruction",
         "instruction",

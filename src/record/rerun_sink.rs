@@ -260,7 +260,8 @@ impl RerunRecorder {
                 rec.log("mission", &rerun::TextDocument::new(ep.mission.as_str()))
                     .map_err(sdk)?;
             }
-            log_step(rec, ep, e, k, scene)?;
+            let prev = k.checked_sub(1).and_then(|j| scenes.get(j));
+            log_step(rec, ep, e, k, scene, prev)?;
             self.global += 1;
         }
         self.pushed += 1;

@@ -6,8 +6,7 @@ use image::{RgbImage, RgbaImage};
 
 use crate::env::Pos;
 use crate::env::mission::ObjDesc;
-use crate::env::roles::DescPart;
-use crate::env::roles::{WordClass, word_roles};
+use crate::env::roles::{DescPart, WordClass, word_roles};
 use crate::env::tree::{InstructionTree, Stage, pending_target_cells};
 use crate::env::view::ViewCell;
 use crate::env::world::{Action, World};
@@ -46,6 +45,8 @@ pub struct StepScene {
     pub scale_max: f32,
     /// Hits and misses, per evaluated map.
     pub grounding: Vec<EvaluatedMap>,
+    /// The instruction tree: stages, each clause's targets, doors.
+    pub tree: InstructionTree,
 }
 
 impl StepScene {
@@ -79,6 +80,7 @@ impl StepScene {
             overlay,
             scale_max,
             grounding,
+            tree: InstructionTree::of(&step.world),
         }
     }
 
@@ -142,7 +144,8 @@ pub fn hit_color(h: &ObjectHit) -> Rgb {
 
 /// The scene's world picture with `M` over the view's cells on the step's shared colour scale
 /// (floor tinted, occupied cells ringed: objects keep their colours), the targets of the
-/// clauses the verifier waits on (`M`'s) outlined and the agent's earlier cells (`trail`) dotted. The baseline gets no map.
+/// clauses the verifier waits on (`M`'s) outlined and the agent's earlier cells (`trail`)
+/// dotted. The baseline gets no map.
 pub fn world_with_overlay(step: &StepRecord, scene: &StepScene, trail: &[Pos]) -> RgbImage {
     let map = step.attention.as_ref().map(|a| &a.combined);
     world_picture(step, &scene.world, map, scene.scale_max, trail)

@@ -30,7 +30,6 @@ use super::session::{Agent, Cursor, Job, Shown, start_attention_probe};
 use crate::env::Pos;
 use crate::env::level::LevelConfig;
 use crate::env::object::{Color, ObjectKind};
-use crate::env::tree::InstructionTree;
 
 /// Options the debugger starts with (from the command line).
 #[derive(Clone, Debug)]
@@ -283,7 +282,7 @@ impl Debugger {
             return;
         };
         Self::policy_header(ui, step, &shown);
-        Self::tree_panel(ui, &InstructionTree::of(&step.world));
+        Self::tree_panel(ui, &scene.tree);
         ui.horizontal_top(|ui| {
             ui.vertical(|ui| {
                 ui.set_width(330.0);

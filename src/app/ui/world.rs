@@ -8,7 +8,6 @@ use egui::{
 use super::{Debugger, Overlay};
 use crate::env::Pos;
 use crate::env::edit::Edit;
-use crate::env::tree::InstructionTree;
 use crate::env::view::view_from_world;
 use crate::record::scene::{trail, world_picture};
 
@@ -130,7 +129,9 @@ impl Debugger {
                 Vec2::splat(cell),
             )
         };
-        Self::paint_clause_marks(&painter, &InstructionTree::of(&step.world), cell_rect);
+        if let Some(scene) = shown.scenes.get(step_i) {
+            Self::paint_clause_marks(&painter, &scene.tree, cell_rect);
+        }
         if let Some(sel) = self.selected_cell
             && !compared
         {

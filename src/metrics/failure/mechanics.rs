@@ -120,7 +120,7 @@ impl Mechanics {
             .filter(|n| n.instr.task == TaskKind::Open)
             .flat_map(|n| n.targets.obj_set.iter().copied())
             .collect();
-        let ids = crate::metrics::grounding::pending_target_ids(w);
+        let ids = crate::env::tree::pending_target_ids(w);
         for (p, o) in w.grid.objects() {
             // A door's own rooms are the two it joins, one of which the agent is in.
             if ids.contains(&o.id) && o.kind != ObjectKind::Door {

@@ -11,7 +11,7 @@ use super::marks::{
 };
 use super::{RecordError, sdk, word_path};
 use crate::env::Pos;
-use crate::env::tree::{InstructionTree, pending_target_cells};
+use crate::env::tree::pending_target_cells;
 use crate::env::world::Action;
 use crate::episode::{EpisodeTrace, StepRecord};
 use crate::metrics::faithfulness::peaks::peak_line;
@@ -209,13 +209,18 @@ fn log_bars(
     rec.log(format!("{path}/bars"), &bars).map_err(sdk)
 }
 
-/// The world's marks at step `k`: the targets, and the agent's path so far.
+/// The world's marks at step `k`: the targets, the clauses' targets and the instruction tree
+/// (when they changed since `prev`, the step before's scene), and the agent's path so far.
 fn log_world_marks(
     rec: &RecordingStream,
     ep: &EpisodeTrace,
     k: usize,
-    step: &StepRecord,
+    scene: &StepScene,
+    prev: Option<&StepScene>,
 ) -> Result<(), RecordError> {
+    let Some(step) = ep.steps.get(k) else {
+        return Ok(());
+    };
     rec.log(
         format!("{WORLD_MARKS}/targets"),
         &marks::targets(&pending_target_cells(&step.world)),
@@ -223,13 +228,8 @@ fn log_world_marks(
     .map_err(sdk)?;
     // The tree changes only when a clause is done or an object moves: logged then, so a
     // recording stays the size it was for one-clause missions.
-    let tree = InstructionTree::of(&step.world);
-    let changed = k == 0
-        || ep
-            .steps
-            .get(k - 1)
-            .is_none_or(|prev| InstructionTree::of(&prev.world) != tree);
-    if changed {
+    let tree = &scene.tree;
+    if prev.is_none_or(|p| p.tree != *tree) {
         rec.log(
             "mission/tree",
             &rerun::TextDocument::from_markdown(tree.markdown()),
@@ -237,7 +237,7 @@ fn log_world_marks(
         .map_err(sdk)?;
         rec.log(
             "world/clauses",
-            &marks::clause_targets(&tree, TILE_PX as f32),
+            &marks::clause_targets(tree, TILE_PX as f32),
         )
         .map_err(sdk)?;
     }
@@ -257,6 +257,7 @@ pub(super) fn log_step(
     episode: usize,
     k: usize,
     scene: &StepScene,
+    prev: Option<&StepScene>,
 ) -> Result<(), RecordError> {
     let Some(step) = ep.steps.get(k) else {
         return Ok(());
@@ -274,7 +275,7 @@ pub(super) fn log_step(
     )
     .map_err(sdk)?;
 
-    log_world_marks(rec, ep, k, step)?;
+    log_world_marks(rec, ep, k, scene, prev)?;
     if let Some(f) = &step.faithfulness {
         log_faithfulness(rec, f, step.attention.as_ref().map(|a| &a.combined))?;
     }
