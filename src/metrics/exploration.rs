@@ -15,10 +15,11 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::failure::{StepFacts, visible_targets};
+use super::failure::StepFacts;
+use super::grounding::pending_targets;
 use super::sweep::{EpisodeSummary, MeanStd};
 use crate::env::grid::Pos;
-use crate::env::view::{VIEW_SIZE, world_from_view};
+use crate::env::view::{VIEW_SIZE, ViewCell, world_from_view};
 use crate::env::world::Action;
 use crate::episode::EpisodeTrace;
 use crate::policy::{ViewMap, WordAttention};
@@ -182,6 +183,17 @@ impl Tracker {
     /// Adds one step: `step` as the failure classifier reads it, `words` the trace's word
     /// attentions (`None` without attention).
     pub fn push(&mut self, step: &StepFacts<'_>, words: Option<&[WordAttention]>) {
+        self.push_seeing(step, words, &pending_targets(step.world, step.obs));
+    }
+
+    /// [`Tracker::push`] with the step's visible targets already found
+    /// (`pending_targets(step.world, step.obs)`), as the sweep passes them.
+    pub fn push_seeing(
+        &mut self,
+        step: &StepFacts<'_>,
+        words: Option<&[WordAttention]>,
+        targets: &[ViewCell],
+    ) {
         let world = step.world;
         if self.seen.is_empty() {
             // The grid's size is fixed for an episode (edits never resize it).
@@ -211,7 +223,7 @@ impl Tracker {
                 }
             }
         }
-        let target_visible = !visible_targets(world, step.obs).is_empty();
+        let target_visible = !targets.is_empty();
         if target_visible && self.first_visible.is_none() {
             self.first_visible = Some(self.steps);
         }

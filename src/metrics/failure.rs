@@ -59,6 +59,7 @@ use serde::{Deserialize, Serialize};
 use super::error::MetricsError;
 use super::faithfulness::measures::argmax;
 use super::faithfulness::step::index_cell;
+use super::grounding::pending_targets;
 use crate::env::EnvError;
 use crate::env::edit::{Edit, apply};
 use crate::env::view::{Observation, ViewCell};
@@ -228,12 +229,6 @@ pub struct Diagnosis {
     pub m_on_target_steps: Option<u32>,
 }
 
-/// View cells (not the agent's own) showing one of `world`'s targets in `obs`. Cells the
-/// observation marks unseen (occluded, or outside the grid) never count.
-pub fn visible_targets(world: &World, obs: &Observation) -> Vec<ViewCell> {
-    crate::metrics::grounding::pending_targets(world, obs)
-}
-
 /// The objects of every clause (both of PutNext's descriptions): what is not a distractor.
 pub fn all_targets(world: &World) -> Vec<crate::env::object::ObjectId> {
     world
@@ -273,13 +268,19 @@ pub fn relation(world: &World, obj: Option<crate::env::object::WorldObj>) -> Rel
 impl Evidence {
     /// Adds one step.
     pub fn push(&mut self, step: &StepFacts<'_>) {
+        self.push_seeing(step, &pending_targets(step.world, step.obs));
+    }
+
+    /// [`Evidence::push`] with the step's visible targets already found
+    /// (`pending_targets(step.world, step.obs)`): the sweep finds them once per step for the
+    /// classifier and the exploration [`super::exploration::Tracker`].
+    pub fn push_seeing(&mut self, step: &StepFacts<'_>, cells: &[ViewCell]) {
         self.steps = self.steps.saturating_add(1);
-        let cells = visible_targets(step.world, step.obs);
         if !cells.is_empty() {
             self.target_visible_steps += 1;
             if let Some(m) = step.combined {
                 self.m_steps += 1;
-                if m_points_at(m, &cells) {
+                if m_points_at(m, cells) {
                     self.m_on_target_steps += 1;
                 }
             }

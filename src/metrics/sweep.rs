@@ -13,7 +13,7 @@ use serde::{Deserialize, Serialize};
 use super::error::MetricsError;
 use super::exploration::{EpisodeExploration, Tracker};
 use super::failure::{Diagnosis, Evidence, StepFacts};
-use super::grounding::{Accuracies, WordKind, ground_step};
+use super::grounding::{Accuracies, WordKind, ground_step, pending_targets};
 use crate::env::level::LevelConfig;
 use crate::env::vocab;
 use crate::env::world::World;
@@ -209,10 +209,10 @@ pub fn evaluate_episodes_explored<P: Acting + ?Sized>(
             let r = &mut running[i];
             let trace_row = out.traces.as_ref().and_then(|t| t.get(row));
             let mut combined = trace_row.map(|t| t.combined);
-            if saliency
-                && trace_row.is_none()
-                && !super::failure::visible_targets(&r.world, &obs[row]).is_empty()
-            {
+            // The step's visible targets, found once for the saliency, the failure classes
+            // and the exploration tracker (`ground_step` finds its own for `M`).
+            let targets = pending_targets(&r.world, &obs[row]);
+            if saliency && trace_row.is_none() && !targets.is_empty() {
                 combined = Some(saliency_map(
                     net,
                     &obs[row],
@@ -251,9 +251,9 @@ pub fn evaluate_episodes_explored<P: Acting + ?Sized>(
                 terminated: outcome.terminated,
                 truncated: outcome.truncated,
             };
-            r.evidence.push(&facts);
+            r.evidence.push_seeing(&facts, &targets);
             r.exploration
-                .push(&facts, trace_row.map(|t| t.words.as_slice()));
+                .push_seeing(&facts, trace_row.map(|t| t.words.as_slice()), &targets);
             r.summary.length += 1;
             r.summary.reward += outcome.reward;
             if outcome.terminated || outcome.truncated {

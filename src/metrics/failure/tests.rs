@@ -123,13 +123,13 @@ fn m_is_on_the_target_by_its_largest_cell() {
 fn visibility_uses_the_observation() {
     let w = room(3, (5, 4), None);
     let mut obs = w.observe();
-    assert_eq!(visible_targets(&w, &obs), vec![(3, 3)]);
+    assert_eq!(pending_targets(&w, &obs), vec![(3, 3)]);
     // The same cell marked unseen (as occlusion does) is not visible.
     obs.image[3][3] = [0, 0, 0];
-    assert!(visible_targets(&w, &obs).is_empty());
+    assert!(pending_targets(&w, &obs).is_empty());
     // Facing the wall below, the key is behind the agent.
     let w = room(1, (5, 4), None);
-    assert!(visible_targets(&w, &w.observe()).is_empty());
+    assert!(pending_targets(&w, &w.observe()).is_empty());
 }
 
 #[test]
