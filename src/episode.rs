@@ -245,8 +245,7 @@ fn run_fresh<P: Acting + ?Sized>(
     world: World,
     intervene: Option<Intervene<'_>>,
 ) -> Result<EpisodeTrace, PolicyError> {
-    let tokens = vocab::tokenize(&world.mission)?;
-    crate::policy::acting::check_known_words(net, &tokens, &world.mission, || {
+    let tokens = crate::policy::acting::mission_tokens(net, &world.mission, || {
         format!("{} seed {}", spec.level, spec.seed)
     })?;
     let memory = net.zero_memory()?;

@@ -17,7 +17,7 @@ use crate::policy::ViewMap;
 /// Why a step has no interventions on `M` to show (rather than a heading with nothing under
 /// it): the model has no maps, or takes no override of them.
 pub fn no_interventions(agent: &Agent) -> &'static str {
-    if agent.acting().variant().name() == "attention" {
+    if agent.acting().variant() == crate::policy::Variant::Attention {
         "no interventions on M: this model takes no override of M (combined_override, docs/onnx.md#interventions)"
     } else {
         "no interventions on M: this model outputs no attention maps (docs/onnx.md#outputs)"

@@ -7,6 +7,7 @@ use std::time::Instant;
 
 use anyhow::Context as _;
 use clap::Args;
+use groundscope::env::LevelConfig;
 use groundscope::episode::{ActionMode, EpisodeSpec};
 use groundscope::metrics::assemble::cell_from_episodes;
 use groundscope::metrics::exploration::EpisodeExploration;
@@ -125,9 +126,20 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitStatus> {
         .jobs
         .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, usize::from))
         .clamp(1, cells.len().max(1));
-    // Largest rooms first: they take longest, so the workers finish together.
+    // Largest worlds first: they take longest, so the workers finish together. A BabyAI
+    // level's size is its rooms' cells, not the checkpoint's room size it carries.
+    let cost = |l: &LevelConfig| match l.babyai {
+        Some(id) => {
+            let r = id.spec().rooms;
+            (
+                (r.room_size * r.room_size * r.num_cols * r.num_rows) as usize,
+                0,
+            )
+        }
+        None => (l.room_size * l.room_size, l.n_objects),
+    };
     let mut order: Vec<usize> = (0..cells.len()).collect();
-    order.sort_by_key(|&i| std::cmp::Reverse((cells[i].2.room_size, cells[i].2.n_objects)));
+    order.sort_by_key(|&i| std::cmp::Reverse(cost(&cells[i].2)));
     let results = run_cells(&cells, &order, jobs, args, mode, &bar, &stop);
     if stop.requested() {
         bar.finish_and_clear();
@@ -185,7 +197,7 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitStatus> {
     let sample = if args.sweep.sample { " --sample" } else { "" };
     let mut failures = worst_episodes(&all_eps, args.top_k, &|ckpt, level, seed| {
         let on = match level.babyai {
-            Some(id) => format!("--level {}", id.spec().id),
+            Some(id) => format!("--level {}", id.id()),
             None => format!(
                 "--room-size {} --objects {}",
                 level.room_size, level.n_objects
@@ -281,7 +293,7 @@ type CellResults = Vec<Mutex<Option<anyhow::Result<Vec<(EpisodeSummary, EpisodeE
 
 /// Evaluates `cells` in the given order on `jobs` worker threads.
 fn run_cells(
-    cells: &[(String, &Agent, groundscope::env::LevelConfig)],
+    cells: &[(String, &Agent, LevelConfig)],
     order: &[usize],
     jobs: usize,
     args: &EvalArgs,
@@ -327,9 +339,8 @@ fn run_cells(
                     }))
                     .map_err(|p| {
                         anyhow::anyhow!(
-                            "{name} S{} N{}: {}",
-                            level.room_size,
-                            level.n_objects,
+                            "{name} {}: {}",
+                            groundscope::metrics::report::level_name(level),
                             super::stop::panic_message(p.as_ref())
                         )
                     })

@@ -25,6 +25,19 @@ pub fn unknown_word<P: Acting + ?Sized>(policy: &P, tokens: &[u32]) -> Option<u3
         .map(|(t, _)| *t)
 }
 
+/// The token ids of `mission` for `policy`: BabyAI's split into groundscope's vocabulary
+/// ([`crate::env::vocab::tokenize_on_level`]), then [`check_known_words`]; either refusal
+/// names the word, the mission and `level`.
+pub fn mission_tokens<P: Acting + ?Sized>(
+    policy: &P,
+    mission: &str,
+    level: impl Fn() -> String,
+) -> Result<Vec<u32>, PolicyError> {
+    let tokens = crate::env::vocab::tokenize_on_level(mission, &level)?;
+    check_known_words(policy, &tokens, mission, level)?;
+    Ok(tokens)
+}
+
 /// Refuses a mission with a word the policy does not know (a native model's untrained or
 /// missing embedding row, a word an imported graph's vocabulary lacks), naming the word, the
 /// mission and `level`.

@@ -63,13 +63,13 @@ pub fn colorbar(height: u32, width: u32, lo: f32, hi: f32) -> RgbImage {
 
 /// One channel of `base` moved a fraction `alpha` of the way to `over`, rounded.
 #[inline]
-fn mix(base: u8, over: u8, alpha: f32) -> u8 {
+pub(super) fn mix(base: u8, over: u8, alpha: f32) -> u8 {
     let (b, o) = (f32::from(base), f32::from(over));
     (b + (o - b) * alpha).round().clamp(0.0, 255.0) as u8
 }
 
 /// `alpha` clamped to `[0, 1]`, NaN read as 0 (leave the base as it is).
-fn clamp_alpha(alpha: f32) -> f32 {
+pub(super) fn clamp_alpha(alpha: f32) -> f32 {
     if alpha.is_nan() {
         0.0
     } else {

@@ -4,7 +4,7 @@
 
 use image::RgbImage;
 
-use super::heatmap::{ViewMap, colorize};
+use super::heatmap::{ViewMap, clamp_alpha, colorize, mix};
 use super::palette::{self, Rgb};
 use super::world::px_in_image;
 use crate::env::{Pos, World, world_from_view};
@@ -20,7 +20,7 @@ pub enum CellMark {
 }
 
 /// Width in pixels of the ring drawn on occupied cells: an eighth of the tile, at least 1.
-pub fn ring_px(tile_size: u32) -> u32 {
+fn ring_px(tile_size: u32) -> u32 {
     (tile_size / 8).max(1)
 }
 
@@ -43,12 +43,6 @@ pub fn map_cells(world: &World, map: &ViewMap) -> Vec<(Pos, f32, CellMark)> {
         }
     }
     out
-}
-
-/// One channel of `base` moved a fraction `alpha` of the way to `over`, rounded.
-fn mix(base: u8, over: u8, alpha: f32) -> u8 {
-    let (b, o) = (f32::from(base), f32::from(over));
-    (b + (o - b) * alpha).round().clamp(0.0, 255.0) as u8
 }
 
 /// Blends `color` with weight `alpha` over the pixels of cell `pos` for which `inside(dx, dy)`
@@ -96,11 +90,7 @@ pub fn overlay_on_world(
     lo: f32,
     hi: f32,
 ) {
-    let alpha = if alpha.is_nan() {
-        0.0
-    } else {
-        alpha.clamp(0.0, 1.0)
-    };
+    let alpha = clamp_alpha(alpha);
     let ring = ring_px(tile_size);
     for (pos, value, mark) in map_cells(world, map) {
         let color = colorize(value, lo, hi);

@@ -68,9 +68,9 @@ impl Mechanics {
         if let Some(o) = w.carrying.filter(|o| o.kind == ObjectKind::Key) {
             add(&mut self.keys_carried, o.color);
         }
-        let clauses = w.instr.clauses();
         let front = w.grid.get(w.front_pos());
         if let (Some(o), Action::Pickup | Action::Toggle) = (front, step.action) {
+            let clauses = w.instr.clauses();
             self.wrong_order |= future_clauses(&w.instr).into_iter().any(|c| {
                 clauses.get(c).is_some_and(|n| {
                     let acts = matches!(
@@ -90,6 +90,7 @@ impl Mechanics {
                 .filter(|o| o.kind.can_pickup())
                 .map(|o| o.id)
                 .collect();
+            let clauses = w.instr.clauses();
             self.wrong_neighbour |= pending_clauses(&w.instr).into_iter().any(|c| {
                 clauses.get(c).is_some_and(|n| {
                     n.instr.task == TaskKind::PutNext

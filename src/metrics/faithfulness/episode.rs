@@ -470,8 +470,7 @@ pub fn analyse_episode(
     parts: Parts,
 ) -> Result<EpisodeResult, PolicyError> {
     let world = level.generate(level_seed)?;
-    let tokens = vocab::tokenize_on_level(&world.mission, || format!("{level} seed {level_seed}"))?;
-    crate::policy::acting::check_known_words(agent, &tokens, &world.mission, || {
+    let tokens = crate::policy::acting::mission_tokens(agent, &world.mission, || {
         format!("{level} seed {level_seed}")
     })?;
     let mut rng = Pcg64Mcg::seed_from_u64(level_seed ^ 0xFA17_4F11);

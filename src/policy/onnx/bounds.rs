@@ -37,8 +37,8 @@ fn shown(dims: &[String]) -> String {
 /// The values of the int64 constants of `graph` (initializers and `Constant` nodes), by name.
 fn int_constants(graph: &pb::GraphProto) -> std::collections::HashMap<&str, Vec<i64>> {
     let values = |t: &pb::TensorProto| -> Option<Vec<i64>> {
-        // ONNX INT64 = 7; the values are either in int64_data or little-endian raw bytes.
-        (t.data_type == 7).then(|| {
+        // The values are either in int64_data or little-endian raw bytes.
+        (t.data_type == super::contract::ONNX_INT64).then(|| {
             if t.raw_data.is_empty() {
                 t.int64_data.clone()
             } else {
