@@ -94,28 +94,16 @@ pub fn run(args: &BenchLevelsArgs) -> anyhow::Result<ExitStatus> {
     } else {
         args.levels.clone()
     };
-    let mut levels = Vec::new();
-    for id in &ids {
-        let id = groundscope::env::LevelId::parse(id.trim())
-            .map_err(|e| anyhow::anyhow!("--levels: {e}"))?;
-        levels.push(LevelConfig {
-            babyai: Some(id),
+    let levels = super::flags::babyai_levels(&ids, base)?;
+    // The paper's default 20-cell sweep.
+    let paper = super::flags::paper_levels(
+        LevelConfig {
+            babyai: None,
             ..base
-        });
-    }
-    let mut paper = Vec::new();
-    for size in [8, 10, 12, 14, 16] {
-        for objects in [4, 6, 8, 10] {
-            paper.push(super::policy_cmd::sweep_level(
-                LevelConfig {
-                    babyai: None,
-                    ..base
-                },
-                size,
-                objects,
-            )?);
-        }
-    }
+        },
+        &[8, 10, 12, 14, 16],
+        &[4, 6, 8, 10],
+    )?;
     // The paper's sweep first and last, the levels between: drift on a shared machine shows.
     let (p1, ps1) = sweep(&agent, &paper, args.seeds, args.episodes)?;
     let (l, ls) = sweep(&agent, &levels, args.seeds, args.episodes)?;

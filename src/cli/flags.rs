@@ -108,31 +108,13 @@ impl SweepArgs {
     /// `--objects`, room sizes outermost, each checked (an error names the cell's flags).
     pub fn levels(&self, base: LevelConfig) -> anyhow::Result<Vec<LevelConfig>> {
         if !self.levels.is_empty() {
-            let mut out = Vec::new();
-            for id in &self.levels {
-                let id = groundscope::env::level::LevelId::parse(id.trim())
-                    .map_err(|e| anyhow::anyhow!("--levels: {e}"))?;
-                if out.iter().any(|l: &LevelConfig| l.babyai == Some(id)) {
-                    anyhow::bail!("--levels: {} is listed twice", id.spec().id);
-                }
-                out.push(LevelConfig {
-                    babyai: Some(id),
-                    ..base
-                });
-            }
-            return Ok(out);
+            return babyai_levels(&self.levels, base);
         }
         // A model trained on a BabyAI level is swept on its own level.
         if base.babyai.is_some() {
             return Ok(vec![base]);
         }
-        let mut levels = Vec::with_capacity(self.sizes.len() * self.objects.len());
-        for &size in &self.sizes {
-            for &objects in &self.objects {
-                levels.push(super::policy_cmd::sweep_level(base, size, objects)?);
-            }
-        }
-        Ok(levels)
+        paper_levels(base, &self.sizes, &self.objects)
     }
 }
 
@@ -175,6 +157,40 @@ impl EpisodeArgs {
         }
         super::policy_cmd::level_from(base, self.room_size, self.objects)
     }
+}
+
+/// The BabyAI levels `ids` (as `--levels` gives them) with `base`'s done-action setting; an
+/// unknown or repeated id is an error naming it.
+pub fn babyai_levels(ids: &[String], base: LevelConfig) -> anyhow::Result<Vec<LevelConfig>> {
+    let mut out = Vec::new();
+    for id in ids {
+        let id = groundscope::env::level::LevelId::parse(id.trim())
+            .map_err(|e| anyhow::anyhow!("--levels: {e}"))?;
+        if out.iter().any(|l: &LevelConfig| l.babyai == Some(id)) {
+            anyhow::bail!("--levels: {} is listed twice", id.id());
+        }
+        out.push(LevelConfig {
+            babyai: Some(id),
+            ..base
+        });
+    }
+    Ok(out)
+}
+
+/// The paper's level at every room size × object count, room sizes outermost, each checked
+/// (an error names the cell's flags).
+pub fn paper_levels(
+    base: LevelConfig,
+    sizes: &[usize],
+    objects: &[usize],
+) -> anyhow::Result<Vec<LevelConfig>> {
+    let mut levels = Vec::with_capacity(sizes.len() * objects.len());
+    for &size in sizes {
+        for &n in objects {
+            levels.push(super::policy_cmd::sweep_level(base, size, n)?);
+        }
+    }
+    Ok(levels)
 }
 
 fn action_mode(sample: bool) -> ActionMode {
