@@ -5,7 +5,7 @@
 use super::exploration::{EpisodeExploration, cell_exploration};
 use super::failure::class_counts;
 use super::grounding::WordKind;
-use super::report::{Cell, CellAccuracy};
+use super::report::{Cell, CellAccuracy, size_and_objects};
 use super::sweep::{EpisodeSummary, grounding, performance};
 use super::words::by_word;
 use crate::env::level::LevelConfig;
@@ -39,10 +39,7 @@ pub fn cell_from_episodes(
         attention || saliency,
         level.babyai.is_some(),
     );
-    let (size, objects) = match level.babyai {
-        Some(id) => (id.spec().rooms.room_size as usize, 0),
-        None => (level.room_size, level.n_objects),
-    };
+    let (size, objects) = size_and_objects(level);
     let cell = Cell::new(
         checkpoint,
         variant.name(),
@@ -54,6 +51,6 @@ pub fn cell_from_episodes(
     )
     .with_failure_classes(classes)
     .with_exploration(exploration)
-    .with_level(level.babyai.map(|id| id.spec().id.to_owned()));
+    .with_level(level.babyai.map(|id| id.id().to_owned()));
     (cell, eps)
 }

@@ -70,6 +70,16 @@ impl CellAccuracy {
     }
 }
 
+/// The `size` and `objects` that name a cell (and its worst episodes) on `level`: the paper's
+/// level's room size and object count; for a BabyAI level its room size and 0, the level's id
+/// (the cell's and the failure's `level`) telling two such levels apart.
+pub fn size_and_objects(level: &LevelConfig) -> (usize, usize) {
+    match level.babyai {
+        Some(id) => (id.spec().rooms.room_size as usize, 0),
+        None => (level.room_size, level.n_objects),
+    }
+}
+
 /// One checkpoint × size × objects cell.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Cell {
@@ -189,9 +199,9 @@ pub struct Failure {
     pub kind: String,
     /// Checkpoint name.
     pub checkpoint: String,
-    /// Room size.
+    /// Room size (as its cell's: [`size_and_objects`]).
     pub size: usize,
-    /// Object count.
+    /// Object count (0 on a BabyAI level, as its cell's).
     pub objects: usize,
     /// Level seed (`groundscope replay --seed`).
     pub seed: u64,
@@ -296,15 +306,15 @@ pub fn worst_episodes(
     let mut failed = Vec::new();
     let mut low = Vec::new();
     for (ckpt, level, eps) in all {
-        let (size, objects) = (&level.room_size, &level.n_objects);
-        let level_id = level.babyai.map(|id| id.spec().id.to_owned());
+        let (size, objects) = size_and_objects(level);
+        let level_id = level.babyai.map(|id| id.id().to_owned());
         for e in eps {
             let acc_cmb = e.grounding.get(&WordKind::Combined).map(|(a, _)| a.acc_cmb);
             let f = |kind: &str| Failure {
                 kind: kind.to_owned(),
                 checkpoint: ckpt.clone(),
-                size: *size,
-                objects: *objects,
+                size,
+                objects,
                 seed: e.level_seed,
                 mission: e.mission.clone(),
                 reward: e.reward,
@@ -339,23 +349,52 @@ pub fn worst_episodes(
 }
 
 impl Report {
+    /// Whether some cell is on a registered BabyAI level (`eval --levels`): `size` and
+    /// `objects` do not tell two such levels apart, so the tables and CSVs that name cells by
+    /// them gain a `level` column (absent otherwise, so that the paper's sweeps read as before).
+    pub fn has_levels(&self) -> bool {
+        self.level_cells().next().is_some()
+    }
+
+    /// `columns` with a `level` column after them when the sweep has BabyAI levels.
+    fn csv_header(&self, columns: &str) -> String {
+        if self.has_levels() {
+            format!("{columns},level")
+        } else {
+            columns.to_owned()
+        }
+    }
+
+    /// `r` with the cell's BabyAI id (empty for the paper's level) appended when the sweep has
+    /// BabyAI levels ([`Report::csv_header`]).
+    fn csv_level(&self, r: Record, c: &Cell) -> Record {
+        if self.has_levels() {
+            r.field(c.level.as_deref().unwrap_or_default())
+        } else {
+            r
+        }
+    }
+
     /// `performance.csv`.
     pub fn performance_csv(&self) -> String {
-        let mut t = Table::new(
+        let mut t = Table::new(&self.csv_header(
             "checkpoint,variant,size,objects,episodes,reward_mean,reward_std,success_mean,success_std,length_mean,length_std,reward_given_success_mean,reward_given_success_std",
-        );
+        ));
         for c in &self.cells {
             t.push(
-                &Record::new()
-                    .field(&c.checkpoint)
-                    .field(&c.variant)
-                    .field(c.size)
-                    .field(c.objects)
-                    .field(c.episodes)
-                    .mean_std(&c.reward)
-                    .mean_std(&c.success)
-                    .mean_std(&c.length)
-                    .mean_std(&c.reward_given_success),
+                &self.csv_level(
+                    Record::new()
+                        .field(&c.checkpoint)
+                        .field(&c.variant)
+                        .field(c.size)
+                        .field(c.objects)
+                        .field(c.episodes)
+                        .mean_std(&c.reward)
+                        .mean_std(&c.success)
+                        .mean_std(&c.length)
+                        .mean_std(&c.reward_given_success),
+                    c,
+                ),
             );
         }
         t.finish()
@@ -363,24 +402,27 @@ impl Report {
 
     /// `accuracy.csv`: one line per attention cell and word kind.
     pub fn accuracy_csv(&self) -> String {
-        let mut t = Table::new(
+        let mut t = Table::new(&self.csv_header(
             "checkpoint,size,objects,word,acc_mean,acc_std,acc_ng_mean,acc_ng_std,acc_bs_mean,acc_bs_std,acc_cmb_mean,acc_cmb_std,evaluated_steps,episodes_without",
-        );
+        ));
         for c in &self.cells {
             let Some(a) = &c.accuracy else { continue };
             for (kind, g) in a.by_kind() {
                 t.push(
-                    &Record::new()
-                        .field(&c.checkpoint)
-                        .field(c.size)
-                        .field(c.objects)
-                        .field(kind.name())
-                        .mean_std(&g.acc)
-                        .mean_std(&g.acc_ng)
-                        .mean_std(&g.acc_bs)
-                        .mean_std(&g.acc_cmb)
-                        .field(g.evaluated_steps)
-                        .field(g.episodes_without),
+                    &self.csv_level(
+                        Record::new()
+                            .field(&c.checkpoint)
+                            .field(c.size)
+                            .field(c.objects)
+                            .field(kind.name())
+                            .mean_std(&g.acc)
+                            .mean_std(&g.acc_ng)
+                            .mean_std(&g.acc_bs)
+                            .mean_std(&g.acc_cmb)
+                            .field(g.evaluated_steps)
+                            .field(g.episodes_without),
+                        c,
+                    ),
                 );
             }
         }
@@ -433,7 +475,7 @@ impl Report {
             ..self.clone()
         };
         let mut figs = Vec::new();
-        if self.level_cells().next().is_some() {
+        if self.has_levels() {
             figs.push("levels_success.png");
             self.levels_figure(&staged.path("levels_success.png"))?;
         }

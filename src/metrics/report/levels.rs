@@ -23,7 +23,7 @@ pub const EPISODES_CSV_HEADER: &str = "checkpoint,level,eval_seed,episode,level_
 /// minigrid class is registered under in the dumps (`groundscope-PaperLocalS8N4-v0`).
 pub fn level_name(level: &LevelConfig) -> String {
     match level.babyai {
-        Some(id) => id.spec().id.to_owned(),
+        Some(id) => id.id().to_owned(),
         None => format!(
             "groundscope-PaperLocalS{}N{}-v0",
             level.room_size, level.n_objects
@@ -75,7 +75,7 @@ impl Report {
     /// per checkpoint and level (empty when the sweep has no BabyAI level).
     pub(super) fn levels_markdown(&self) -> String {
         let mut s = String::new();
-        if self.level_cells().next().is_none() {
+        if !self.has_levels() {
             return s;
         }
         let kinds = WordKind::ALL;

@@ -2,11 +2,52 @@
 
 use std::fmt::Write as _;
 
-use super::{Failure, Report};
+use super::{Cell, Failure, Report};
 use crate::metrics::failure::FailureClass;
 use crate::metrics::grounding::WordKind;
 
 impl Report {
+    /// The header cells that name a row's cell: `checkpoint`, then with BabyAI levels in the
+    /// sweep ([`Report::has_levels`]) `level`, then `size` and `objects`.
+    fn key_header(&self) -> &'static str {
+        if self.has_levels() {
+            "| checkpoint | level | size | objects |"
+        } else {
+            "| checkpoint | size | objects |"
+        }
+    }
+
+    /// The separator cells under [`Report::key_header`].
+    fn key_rule(&self) -> &'static str {
+        if self.has_levels() {
+            "|---|---|---|---|"
+        } else {
+            "|---|---|---|"
+        }
+    }
+
+    /// The row cells of [`Report::key_header`] for `checkpoint` on `level` (a BabyAI id;
+    /// `None` for the paper's level, named `S{size} N{objects}` as [`Cell::label`] does).
+    fn key_cells(
+        &self,
+        checkpoint: &str,
+        level: Option<&str>,
+        size: usize,
+        objects: usize,
+    ) -> String {
+        if self.has_levels() {
+            let label = level.map_or_else(|| format!("S{size} N{objects}"), str::to_owned);
+            format!("| {checkpoint} | {label} | {size} | {objects} |")
+        } else {
+            format!("| {checkpoint} | {size} | {objects} |")
+        }
+    }
+
+    /// [`Report::key_cells`] of a cell.
+    fn cell_key(&self, c: &Cell) -> String {
+        self.key_cells(&c.checkpoint, c.level.as_deref(), c.size, c.objects)
+    }
+
     /// `report.md`: the tables.
     pub fn markdown(&self, failures: &[Failure]) -> String {
         let mut s = String::new();
@@ -41,16 +82,15 @@ impl Report {
         let _ = writeln!(s, "\n## Task performance (paper Fig. 6)\n");
         let _ = writeln!(
             s,
-            "| checkpoint | size | objects | reward | success | length | reward given success |"
+            "{} reward | success | length | reward given success |",
+            self.key_header()
         );
-        let _ = writeln!(s, "|---|---|---|---|---|---|---|");
+        let _ = writeln!(s, "{}---|---|---|---|", self.key_rule());
         for c in &self.cells {
             let _ = writeln!(
                 s,
-                "| {} | {} | {} | {} | {} | {} | {} |",
-                c.checkpoint,
-                c.size,
-                c.objects,
+                "{} {} | {} | {} | {} |",
+                self.cell_key(c),
                 c.reward,
                 c.success,
                 c.length,
@@ -77,19 +117,18 @@ impl Report {
             let _ = writeln!(s, "\n## {title}\n");
             let _ = writeln!(
                 s,
-                "| checkpoint | size | objects | acc | acc_ng | acc_bs | acc_cmb | evaluated steps | episodes without |"
+                "{} acc | acc_ng | acc_bs | acc_cmb | evaluated steps | episodes without |",
+                self.key_header()
             );
-            let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|");
+            let _ = writeln!(s, "{}---|---|---|---|---|---|", self.key_rule());
             for c in &self.cells {
                 let Some(g) = c.accuracy.as_ref().and_then(|a| a.of(kind)) else {
                     continue;
                 };
                 let _ = writeln!(
                     s,
-                    "| {} | {} | {} | {} | {} | {} | {} | {} | {} |",
-                    c.checkpoint,
-                    c.size,
-                    c.objects,
+                    "{} {} | {} | {} | {} | {} | {} |",
+                    self.cell_key(c),
                     g.acc,
                     g.acc_ng,
                     g.acc_bs,
@@ -106,17 +145,16 @@ impl Report {
         let _ = writeln!(s, "\n## Worst episodes\n");
         let _ = writeln!(
             s,
-            "| why | checkpoint | size | objects | seed | mission | reward | length | acc_cmb (M) | class | without distractors | replay · open in the debugger |"
+            "| why {} seed | mission | reward | length | acc_cmb (M) | class | without distractors | replay · open in the debugger |",
+            self.key_header()
         );
-        let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|---|---|---|");
+        let _ = writeln!(s, "|---{}---|---|---|---|---|---|---|---|", self.key_rule());
         for f in failures {
             let _ = writeln!(
                 s,
-                "| {} | {} | {} | {} | {} | {} | {:.3} | {} | {} | {} | {} | `{}` · `{}` |",
+                "| {} {} {} | {} | {:.3} | {} | {} | {} | {} | `{}` · `{}` |",
                 f.kind,
-                f.checkpoint,
-                f.size,
-                f.objects,
+                self.key_cells(&f.checkpoint, f.level.as_deref(), f.size, f.objects),
                 f.seed,
                 f.mission,
                 f.reward,
@@ -153,19 +191,17 @@ impl Report {
                     || self.cells.iter().any(|c| c.failure_classes.contains_key(k))
             })
             .collect();
-        let mut header = String::from("| checkpoint | size | objects | failed |");
+        let mut header = format!("{} failed |", self.key_header());
         for &c in &classes {
             let _ = write!(header, " {} |", c.name().replace('_', " "));
         }
         let _ = writeln!(s, "{header}");
-        let _ = writeln!(s, "|---|---|---|---|{}", "---|".repeat(classes.len()));
+        let _ = writeln!(s, "{}---|{}", self.key_rule(), "---|".repeat(classes.len()));
         for c in &self.cells {
             let _ = write!(
                 s,
-                "| {} | {} | {} | {} |",
-                c.checkpoint,
-                c.size,
-                c.objects,
+                "{} {} |",
+                self.cell_key(c),
                 c.failure_classes.values().sum::<u64>()
             );
             for k in &classes {
@@ -178,5 +214,85 @@ impl Report {
             }
             s.push('\n');
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::{Cell, Report, SCHEMA_VERSION};
+    use crate::metrics::sweep::{MeanStd, Performance};
+
+    fn cell(level: Option<&str>, size: usize, objects: usize, success: f64) -> Cell {
+        let m = MeanStd {
+            mean: Some(success),
+            std: Some(0.0),
+        };
+        let perf = Performance {
+            reward: m,
+            success: m,
+            length: m,
+            reward_given_success: m,
+        };
+        Cell::new("ck", "baseline", size, objects, 4, &perf, None)
+            .with_level(level.map(str::to_owned))
+    }
+
+    fn report(cells: Vec<Cell>) -> Report {
+        Report {
+            schema_version: SCHEMA_VERSION,
+            groundscope_version: String::new(),
+            alpha: 0.5,
+            mode: "greedy".into(),
+            seeds: 2,
+            first_seed: 0,
+            episodes_per_seed: 2,
+            saliency: false,
+            checkpoints: Vec::new(),
+            cells,
+            elapsed_secs: 0.0,
+        }
+    }
+
+    #[test]
+    fn babyai_levels_of_one_room_size_get_rows_of_their_own() {
+        let r = report(vec![
+            cell(None, 8, 4, 0.5),
+            cell(Some("BabyAI-GoToLocal-v0"), 8, 0, 0.25),
+            cell(Some("BabyAI-PickupLoc-v0"), 8, 0, 0.75),
+        ]);
+        let md = r.markdown(&[]);
+        for row in [
+            "| ck | S8 N4 | 8 | 4 | 0.500 ± 0.000 |",
+            "| ck | BabyAI-GoToLocal-v0 | 8 | 0 | 0.250 ± 0.000 |",
+            "| ck | BabyAI-PickupLoc-v0 | 8 | 0 | 0.750 ± 0.000 |",
+        ] {
+            // The performance table names every cell by its level.
+            assert!(md.contains(row), "{row}\n{md}");
+        }
+        assert!(md.contains("| checkpoint | level | size | objects | reward |"));
+        assert!(md.contains("| checkpoint | level | size | objects | failed |"));
+        let csv = r.performance_csv();
+        let (header, rows) = crate::table::read(&csv).unwrap();
+        assert_eq!(header.last().map(String::as_str), Some("level"));
+        let levels: Vec<&str> = rows.iter().map(|r| r[r.len() - 1].as_str()).collect();
+        assert_eq!(levels, ["", "BabyAI-GoToLocal-v0", "BabyAI-PickupLoc-v0"]);
+        assert!(rows.iter().all(|r| r.len() == header.len()));
+    }
+
+    #[test]
+    fn the_paper_levels_tables_name_cells_by_size_and_objects_alone() {
+        let r = report(vec![cell(None, 8, 4, 0.5), cell(None, 6, 2, 0.25)]);
+        let md = r.markdown(&[]);
+        assert!(
+            md.contains("| checkpoint | size | objects | reward |"),
+            "{md}"
+        );
+        assert!(md.contains("| ck | 6 | 2 | 0.250 ± 0.000 |"), "{md}");
+        assert!(!md.contains("| level |"), "{md}");
+        assert!(
+            r.performance_csv()
+                .starts_with("checkpoint,variant,size,objects,episodes,")
+        );
+        assert!(!r.performance_csv().contains(",level"));
     }
 }
