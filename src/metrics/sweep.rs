@@ -348,6 +348,19 @@ impl MeanStd {
     }
 }
 
+impl MeanStd {
+    /// As a table over evaluation seeds shows it: `mean ± std` where `spread` (several
+    /// seeds), the mean alone where not (one seed: its std is 0 by definition, not a measured
+    /// spread), `–` when nothing was measured. [`Display`](std::fmt::Display) always shows the
+    /// std (the exploration's spreads are over episodes, measured even for one seed).
+    pub fn shown(&self, spread: bool) -> String {
+        match self.mean {
+            Some(m) if !spread => format!("{m:.3}"),
+            _ => self.to_string(),
+        }
+    }
+}
+
 impl std::fmt::Display for MeanStd {
     /// `mean ± std` with three decimals, or `–` when nothing was measured.
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
@@ -527,5 +540,16 @@ mod tests {
         assert_eq!(p.reward.mean, Some(f64::midpoint(0.45, 0.25)));
         assert_eq!(p.reward_given_success.mean, Some(f64::midpoint(0.9, 0.5)));
         assert_eq!(grounding(&eps, WordKind::Color).acc.mean, None);
+    }
+
+    #[test]
+    fn one_seed_shows_its_mean_alone() {
+        let one = MeanStd::of(&[0.25]);
+        assert_eq!(one.std, Some(0.0), "report.json and the CSVs keep the 0");
+        assert_eq!(one.shown(false), "0.250");
+        assert_eq!(one.shown(true), "0.250 ± 0.000");
+        assert_eq!(one.to_string(), "0.250 ± 0.000");
+        assert_eq!(MeanStd::of(&[]).shown(false), "–");
+        assert_eq!(MeanStd::of(&[0.0, 1.0]).shown(true), "0.500 ± 0.500");
     }
 }

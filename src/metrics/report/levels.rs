@@ -101,7 +101,7 @@ impl Report {
                     c.accuracy
                         .as_ref()
                         .and_then(|a| a.of(k))
-                        .and_then(|g| g.acc_ng.mean.map(|_| g.acc_ng.to_string()))
+                        .and_then(|g| g.acc_ng.mean.map(|_| self.over_seeds(&g.acc_ng)))
                         .unwrap_or_else(|| "–".into())
                 })
                 .collect();
@@ -111,9 +111,9 @@ impl Report {
                 c.checkpoint,
                 c.label(),
                 c.episodes,
-                c.success,
-                c.reward,
-                c.length,
+                self.over_seeds(&c.success),
+                self.over_seeds(&c.reward),
+                self.over_seeds(&c.length),
                 accs.join(" | ")
             );
         }

@@ -5,6 +5,7 @@ use std::fmt::Write as _;
 use super::{Cell, Failure, Report};
 use crate::metrics::failure::FailureClass;
 use crate::metrics::grounding::WordKind;
+use crate::metrics::sweep::MeanStd;
 
 impl Report {
     /// The header cells that name a row's cell: `checkpoint`, then with BabyAI levels in the
@@ -91,10 +92,10 @@ impl Report {
                 s,
                 "{} {} | {} | {} | {} |",
                 self.cell_key(c),
-                c.reward,
-                c.success,
-                c.length,
-                c.reward_given_success
+                self.over_seeds(&c.reward),
+                self.over_seeds(&c.success),
+                self.over_seeds(&c.length),
+                self.over_seeds(&c.reward_given_success)
             );
         }
         for (kind, title) in [
@@ -129,10 +130,10 @@ impl Report {
                     s,
                     "{} {} | {} | {} | {} | {} | {} |",
                     self.cell_key(c),
-                    g.acc,
-                    g.acc_ng,
-                    g.acc_bs,
-                    g.acc_cmb,
+                    self.over_seeds(&g.acc),
+                    self.over_seeds(&g.acc_ng),
+                    self.over_seeds(&g.acc_bs),
+                    self.over_seeds(&g.acc_cmb),
                     g.evaluated_steps,
                     g.episodes_without
                 );
@@ -171,11 +172,13 @@ impl Report {
                 f.view_command()
             );
         }
-        if self.seeds == 1 {
-            // Every std of one seed is 0: a "± 0.000" would read as a measured spread.
-            s = s.replace(" ± 0.000", "");
-        }
         s
+    }
+
+    /// A mean ± std over this report's evaluation seeds as its tables show it: the mean alone
+    /// for one seed, whose std of 0 is no measured spread ([`MeanStd::shown`]).
+    pub(super) fn over_seeds(&self, m: &MeanStd) -> String {
+        m.shown(self.seeds != 1)
     }
 
     /// The failure-class table of `report.md`: one row per cell, `–` where a class cannot be
@@ -277,6 +280,24 @@ mod tests {
         let levels: Vec<&str> = rows.iter().map(|r| r[r.len() - 1].as_str()).collect();
         assert_eq!(levels, ["", "BabyAI-GoToLocal-v0", "BabyAI-PickupLoc-v0"]);
         assert!(rows.iter().all(|r| r.len() == header.len()));
+    }
+
+    #[test]
+    fn one_seed_shows_means_alone_and_several_their_spread() {
+        let mut r = report(vec![cell(None, 8, 4, 0.5)]);
+        r.seeds = 1;
+        let md = r.markdown(&[]);
+        assert!(
+            md.contains("| ck | 8 | 4 | 0.500 | 0.500 | 0.500 | 0.500 |"),
+            "{md}"
+        );
+        assert!(!md.contains('±'), "{md}");
+        r.seeds = 2;
+        let md = r.markdown(&[]);
+        assert!(
+            md.contains("| ck | 8 | 4 | 0.500 ± 0.000 | 0.500 ± 0.000 |"),
+            "{md}"
+        );
     }
 
     #[test]
