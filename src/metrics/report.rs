@@ -465,34 +465,28 @@ impl Report {
         }
         // The paper's figures plot the paper's level over room sizes and object counts; BabyAI
         // levels get their own figure.
-        let paper = Self {
-            cells: self
-                .cells
-                .iter()
-                .filter(|c| c.level.is_none())
-                .cloned()
-                .collect(),
-            ..self.clone()
-        };
+        let paper = |c: &Cell| c.level.is_none();
         let mut figs = Vec::new();
         if self.has_levels() {
             figs.push("levels_success.png");
             self.levels_figure(&staged.path("levels_success.png"))?;
         }
-        if !paper.cells.is_empty() {
+        if self.cells.iter().any(paper) {
             figs.extend(["fig6_reward.png", "fig6_success.png"]);
-            paper.figure(
+            self.figure_of(
                 &staged.path("fig6_reward.png"),
                 "Mean reward (Fig. 6)",
+                &paper,
                 &|c| vec![(c.checkpoint.clone(), c.reward)],
             )?;
-            paper.figure(
+            self.figure_of(
                 &staged.path("fig6_success.png"),
                 "Success rate (Fig. 6)",
+                &paper,
                 &|c| vec![(c.checkpoint.clone(), c.success)],
             )?;
         }
-        if paper.cells.iter().any(|c| c.accuracy.is_some()) {
+        if self.cells.iter().any(|c| paper(c) && c.accuracy.is_some()) {
             figs.extend(["fig7_object_accuracy.png", "fig8_color_accuracy.png"]);
             for (name, kind, title) in [
                 (
@@ -506,7 +500,7 @@ impl Report {
                     "Colour-word map accuracy (Fig. 8)",
                 ),
             ] {
-                paper.figure(&staged.path(name), title, &|c| {
+                self.figure_of(&staged.path(name), title, &paper, &|c| {
                     let Some(a) = &c.accuracy else {
                         return Vec::new();
                     };
@@ -576,15 +570,28 @@ impl Report {
         title: &str,
         series: &dyn Fn(&Cell) -> Vec<(String, MeanStd)>,
     ) -> Result<(), MetricsError> {
+        self.figure_of(path, title, &|_| true, series)
+    }
+
+    /// [`Report::figure`] of the cells `keep` accepts (the paper's figures: the paper's
+    /// level's cells).
+    pub(super) fn figure_of(
+        &self,
+        path: &Path,
+        title: &str,
+        keep: &dyn Fn(&Cell) -> bool,
+        series: &dyn Fn(&Cell) -> Vec<(String, MeanStd)>,
+    ) -> Result<(), MetricsError> {
+        let cells = || self.cells.iter().filter(|c| keep(c));
         super::figures::register_font();
         let err = |e: &dyn std::fmt::Display| MetricsError::Io {
             path: path.to_path_buf(),
             reason: e.to_string(),
         };
-        let mut sizes: Vec<usize> = self.cells.iter().map(|c| c.size).collect();
+        let mut sizes: Vec<usize> = cells().map(|c| c.size).collect();
         sizes.sort_unstable();
         sizes.dedup();
-        let mut objects: Vec<usize> = self.cells.iter().map(|c| c.objects).collect();
+        let mut objects: Vec<usize> = cells().map(|c| c.objects).collect();
         objects.sort_unstable();
         objects.dedup();
         let (x_lo, x_hi) = (
@@ -620,7 +627,7 @@ impl Report {
                     .map_err(|e| err(&e))?;
                 // (label, [(objects, mean, std)]) per line of the panel.
                 let mut lines: Vec<(String, Vec<Point>)> = Vec::new();
-                for c in self.cells.iter().filter(|c| c.size == size) {
+                for c in cells().filter(|c| c.size == size) {
                     for (label, m) in series(c) {
                         let (Some(mean), Some(std)) = (m.mean, m.std) else {
                             continue;

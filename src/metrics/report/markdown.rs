@@ -141,6 +141,7 @@ impl Report {
         }
         self.around_table(&mut s);
         self.words_table(&mut s);
+        s.push_str(&self.levels_markdown());
         self.failure_table(&mut s);
         self.exploration_tables(&mut s);
         let _ = writeln!(s, "\n## Worst episodes\n");
@@ -184,7 +185,6 @@ impl Report {
     /// The failure-class table of `report.md`: one row per cell, `–` where a class cannot be
     /// decided (grounding for baselines).
     fn failure_table(&self, s: &mut String) {
-        s.push_str(&self.levels_markdown());
         let _ = writeln!(s, "\n## Failure classes\n");
         // BabyAI's mechanics' classes only where some cell could have them.
         let classes: Vec<FailureClass> = FailureClass::ALL
