@@ -133,6 +133,16 @@ fn a_sweep_over_levels_reports_each_level_and_word_class() {
             > 0
     );
     assert!(cells[0]["accuracy"].get("location").is_none());
+    // Two levels of one room size are two rows of every table, not one shared row.
+    let md = std::fs::read_to_string(out.join("report.md")).unwrap();
+    for id in ["BabyAI-GoToLocal-v0", "BabyAI-PickupLoc-v0"] {
+        assert!(
+            md.contains(&format!("| bundled:attention | {id} | 8 | 0 |")),
+            "{md}"
+        );
+        // The failed episodes' exploration, one row per level.
+        assert!(md.contains(&format!("| {id} | – |")), "{md}");
+    }
     // The worst episodes replay on their own level.
     let failures = std::fs::read_to_string(out.join("failures.json")).unwrap();
     if failures.contains("\"failed\"") {

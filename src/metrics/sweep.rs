@@ -15,7 +15,6 @@ use super::exploration::{EpisodeExploration, Tracker};
 use super::failure::{Diagnosis, Evidence, StepFacts};
 use super::grounding::{Accuracies, WordKind, ground_step, pending_targets};
 use crate::env::level::LevelConfig;
-use crate::env::vocab;
 use crate::env::world::World;
 use crate::episode::{ActionMode, choose};
 use candle_core::{Device, Tensor};
@@ -149,10 +148,7 @@ pub fn evaluate_episodes_explored<P: Acting + ?Sized>(
     for &(s, level_seed) in plan {
         {
             let world = level.generate(level_seed).map_err(PolicyError::from)?;
-            let tokens =
-                vocab::tokenize_on_level(&world.mission, || format!("{level} seed {level_seed}"))
-                    .map_err(PolicyError::from)?;
-            crate::policy::acting::check_known_words(net, &tokens, &world.mission, || {
+            let tokens = crate::policy::acting::mission_tokens(net, &world.mission, || {
                 format!("{level} seed {level_seed}")
             })?;
             running.push(Running {

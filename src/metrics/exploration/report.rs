@@ -175,19 +175,24 @@ impl Report {
         let names: Vec<&str> = self.checkpoints.iter().map(|c| c.name.as_str()).collect();
         let _ = writeln!(s, "| size | objects | {} |", names.join(" | "));
         let _ = writeln!(s, "|---|---|{}", "---|".repeat(names.len()));
-        let mut keys: Vec<(usize, usize)> = Vec::new();
+        // A BabyAI level is its own row: two levels of one room size must not share one.
+        let mut keys: Vec<(usize, usize, Option<&str>)> = Vec::new();
         for c in &with {
-            if !keys.contains(&(c.size, c.objects)) {
-                keys.push((c.size, c.objects));
+            let key = (c.size, c.objects, c.level.as_deref());
+            if !keys.contains(&key) {
+                keys.push(key);
             }
         }
-        for (size, objects) in keys {
+        for (size, objects, level) in keys {
             let cols: Vec<String> = names
                 .iter()
                 .map(|n| {
                     let x = with
                         .iter()
-                        .find(|c| c.checkpoint == *n && c.size == size && c.objects == objects)
+                        .find(|c| {
+                            c.checkpoint == *n
+                                && (c.size, c.objects, c.level.as_deref()) == (size, objects, level)
+                        })
                         .and_then(|c| c.exploration.as_ref());
                     match x {
                         Some(CellExploration { failure: f, .. }) if f.episodes > 0 => format!(
@@ -202,7 +207,14 @@ impl Report {
                     }
                 })
                 .collect();
-            let _ = writeln!(s, "| {size} | {objects} | {} |", cols.join(" | "));
+            match level {
+                Some(id) => {
+                    let _ = writeln!(s, "| {id} | – | {} |", cols.join(" | "));
+                }
+                None => {
+                    let _ = writeln!(s, "| {size} | {objects} | {} |", cols.join(" | "));
+                }
+            }
         }
         maps_table(&with, s);
     }
