@@ -143,6 +143,22 @@ fn a_sweep_over_levels_reports_each_level_and_word_class() {
         // The failed episodes' exploration, one row per level.
         assert!(md.contains(&format!("| {id} | – |")), "{md}");
     }
+    // Every CSV that names cells by size and objects names a BabyAI cell's level too.
+    for csv in [
+        "performance.csv",
+        "accuracy.csv",
+        "words.csv",
+        "around.csv",
+        "exploration.csv",
+    ] {
+        let rows = rows(&out.join(csv));
+        assert!(!rows.is_empty(), "{csv}");
+        assert!(
+            rows.iter().all(|r| r["level"].starts_with("BabyAI-")),
+            "{csv}: {:?}",
+            rows[0]
+        );
+    }
     // The worst episodes replay on their own level.
     let failures = std::fs::read_to_string(out.join("failures.json")).unwrap();
     if failures.contains("\"failed\"") {

@@ -25,19 +25,23 @@ impl Report {
     /// `around.csv`: one line per attention cell, word kind and offset (`dx` right, `dy`
     /// back, as seen from the agent), mean and std over seeds.
     pub fn around_csv(&self) -> String {
-        let mut t = Table::new("checkpoint,size,objects,word,offset,dx,dy,mean,std");
+        let mut t =
+            Table::new(&self.csv_header("checkpoint,size,objects,word,offset,dx,dy,mean,std"));
         for (c, kind, g) in self.around_rows() {
             for ((name, (dx, dy)), m) in AROUND_NAMES.iter().zip(AROUND).zip(&g.around) {
                 t.push(
-                    &Record::new()
-                        .field(&c.checkpoint)
-                        .field(c.size)
-                        .field(c.objects)
-                        .field(kind.name())
-                        .field(name)
-                        .field(dx)
-                        .field(dy)
-                        .mean_std(m),
+                    &self.csv_level(
+                        Record::new()
+                            .field(&c.checkpoint)
+                            .field(c.size)
+                            .field(c.objects)
+                            .field(kind.name())
+                            .field(name)
+                            .field(dx)
+                            .field(dy)
+                            .mean_std(m),
+                        c,
+                    ),
                 );
             }
         }

@@ -357,7 +357,7 @@ impl Report {
     }
 
     /// `columns` with a `level` column after them when the sweep has BabyAI levels.
-    fn csv_header(&self, columns: &str) -> String {
+    pub(crate) fn csv_header(&self, columns: &str) -> String {
         if self.has_levels() {
             format!("{columns},level")
         } else {
@@ -367,7 +367,7 @@ impl Report {
 
     /// `r` with the cell's BabyAI id (empty for the paper's level) appended when the sweep has
     /// BabyAI levels ([`Report::csv_header`]).
-    fn csv_level(&self, r: Record, c: &Cell) -> Record {
+    pub(crate) fn csv_level(&self, r: Record, c: &Cell) -> Record {
         if self.has_levels() {
             r.field(c.level.as_deref().unwrap_or_default())
         } else {

@@ -70,23 +70,26 @@ pub fn far_below(word_acc: f64, class_acc: Option<f64>) -> bool {
 impl Report {
     /// `words.csv`: one line per attention cell and word named in it.
     pub fn words_csv(&self) -> String {
-        let mut t = Table::new(
+        let mut t = Table::new(&self.csv_header(
             "checkpoint,size,objects,kind,word,episodes,acc_mean,acc_std,acc_ng_mean,acc_ng_std,evaluated_steps",
-        );
+        ));
         for c in &self.cells {
             let Some(a) = &c.accuracy else { continue };
             for w in &a.words {
                 t.push(
-                    &Record::new()
-                        .field(&c.checkpoint)
-                        .field(c.size)
-                        .field(c.objects)
-                        .field(w.kind.name())
-                        .field(&w.word)
-                        .field(w.episodes)
-                        .mean_std(&w.stats.acc)
-                        .mean_std(&w.stats.acc_ng)
-                        .field(w.stats.evaluated_steps),
+                    &self.csv_level(
+                        Record::new()
+                            .field(&c.checkpoint)
+                            .field(c.size)
+                            .field(c.objects)
+                            .field(w.kind.name())
+                            .field(&w.word)
+                            .field(w.episodes)
+                            .mean_std(&w.stats.acc)
+                            .mean_std(&w.stats.acc_ng)
+                            .field(w.stats.evaluated_steps),
+                        c,
+                    ),
                 );
             }
         }

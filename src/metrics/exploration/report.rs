@@ -122,29 +122,32 @@ fn maps_table(with: &[&Cell], s: &mut String) {
 impl Report {
     /// `exploration.csv`: one line per cell and outcome (`all`, `success`, `failure`).
     pub fn exploration_csv(&self) -> String {
-        let mut t = Table::new(EXPLORATION_CSV_HEADER);
+        let mut t = Table::new(&self.csv_header(EXPLORATION_CSV_HEADER));
         for c in &self.cells {
             let Some(x) = &c.exploration else { continue };
             for (outcome, e) in x.outcomes() {
                 t.push(
-                    &Record::new()
-                        .field(&c.checkpoint)
-                        .field(&c.variant)
-                        .field(c.size)
-                        .field(c.objects)
-                        .field(outcome)
-                        .field(e.episodes)
-                        .mean_std(&e.steps)
-                        .mean_std(&e.visited)
-                        .mean_std(&e.visited_frac)
-                        .mean_std(&e.seen_frac)
-                        .mean_std(&e.turn_frac)
-                        .mean_std(&e.longest_turn_run)
-                        .mean_std(&e.revisit_frac)
-                        .field(e.never_visible)
-                        .field(e.truncated)
-                        .mean_std(&e.first_visible_step)
-                        .extend(map_fields(e)),
+                    &self.csv_level(
+                        Record::new()
+                            .field(&c.checkpoint)
+                            .field(&c.variant)
+                            .field(c.size)
+                            .field(c.objects)
+                            .field(outcome)
+                            .field(e.episodes)
+                            .mean_std(&e.steps)
+                            .mean_std(&e.visited)
+                            .mean_std(&e.visited_frac)
+                            .mean_std(&e.seen_frac)
+                            .mean_std(&e.turn_frac)
+                            .mean_std(&e.longest_turn_run)
+                            .mean_std(&e.revisit_frac)
+                            .field(e.never_visible)
+                            .field(e.truncated)
+                            .mean_std(&e.first_visible_step)
+                            .extend(map_fields(e)),
+                        c,
+                    ),
                 );
             }
         }
