@@ -9,6 +9,7 @@
 //! view agent-up: row = `vy`, column = `vx`.
 
 pub mod app;
+pub mod bot;
 pub mod env;
 pub mod episode;
 pub mod files;

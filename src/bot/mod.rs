@@ -1,0 +1,378 @@
+//! BabyAI's bot (`minigrid/utils/baby_ai_bot.py`, `BabyAIBot`, minigrid 3.2.0), ported
+//! action for action: a planner with privileged state that solves the BabyAI levels.
+//!
+//! It keeps a stack of subgoals (Close, Open, Drop, Pickup, GoNextTo, Explore) made from the
+//! instruction, a mask of every cell the agent has seen, and plans on that mask with
+//! breadth-first searches. [`Bot::replan`] is told the action actually taken (its own or
+//! someone else's) and revises the plan around it, so the same bot is an agent on every
+//! level, the expert beside any agent's episode and the source of demonstrations.
+//!
+//! Kept as minigrid has them (docs/bot.md lists them): the searches' tie-breaking, the pairing
+//! of a description's objects with positions that are refreshed only after a drop, the
+//! undo of other actions (a turn is undone by going next to the cell that was in front), the
+//! give-up on an opened box, and every assertion of the Python code — where minigrid's bot
+//! raises (or replans more than [`MAX_REPLANS`] times in one step, the bound the shared
+//! fixture script uses), this one gives up for the rest of the episode and says why.
+//! Deterministic: no randomness anywhere.
+
+mod search;
+mod subgoal;
+
+use serde::Serialize;
+
+use crate::env::instr::Targets;
+use crate::env::{Action, DIR_TO_VEC, ObjDesc, ObjectId, ObjectKind, Pos, World};
+
+use search::Planner;
+pub use subgoal::{Datum, Reason, Subgoal, SubgoalKind};
+
+/// Subgoal replans allowed within one step; past it minigrid's bot is looping
+/// (`gen_minigrid_fixtures.py`'s `MAX_REPLANS`).
+pub const MAX_REPLANS: u32 = 2000;
+
+/// Why the bot gave up; from then on it suggests nothing for the rest of the episode.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, thiserror::Error)]
+#[serde(rename_all = "snake_case")]
+pub enum GiveUp {
+    /// A box was opened (`DisappearedBoxError`: what it held may be gone).
+    #[error("a box was opened; the bot cannot tell what it held")]
+    BoxOpened,
+    /// More than [`MAX_REPLANS`] subgoal replans within one step.
+    #[error("more than {MAX_REPLANS} subgoal replans in one step (the plan loops)")]
+    Looping,
+    /// Explore found no unseen cell and no closed door.
+    #[error("nothing left to explore")]
+    NothingToExplore,
+    /// One of minigrid's own assertions (or a Python error) would have raised.
+    #[error("the plan broke: {0}")]
+    Broken(&'static str),
+}
+
+/// What the bot remembers of the state it last planned in (`_remember_current_state`).
+#[derive(Clone, Copy, Debug, Default)]
+struct Memory {
+    agent_pos: Pos,
+    carrying: Option<ObjectId>,
+    /// `fwd_door_was_open`: set when a door was last in front; Python's attribute does not
+    /// exist before that.
+    fwd_door_was_open: Option<bool>,
+    fwd_was_box: bool,
+}
+
+/// minigrid's `BabyAIBot` for one episode.
+#[derive(Clone, Debug)]
+pub struct Bot {
+    planner: Planner,
+    stack: Vec<Subgoal>,
+    memory: Memory,
+    gave_up: Option<GiveUp>,
+    replans: u32,
+}
+
+/// The agent's pose as each subgoal sees it (`update_agent_attributes`): identical for every
+/// subgoal during one replan, since the world does not change while the bot plans.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Pose {
+    pub pos: Pos,
+    pub dir_vec: Pos,
+    pub right_vec: Pos,
+    pub fwd_pos: Pos,
+}
+
+impl Pose {
+    fn of(world: &World) -> Self {
+        let dir_vec = DIR_TO_VEC[usize::from(world.agent_dir & 3)];
+        let pos = world.agent_pos;
+        Self {
+            pos,
+            dir_vec,
+            right_vec: (-dir_vec.1, dir_vec.0),
+            fwd_pos: (pos.0 + dir_vec.0, pos.1 + dir_vec.1),
+        }
+    }
+}
+
+impl Bot {
+    /// A bot for the episode that starts in `world` (a freshly reset level): its stack is
+    /// the instruction's subgoals (`_process_instr`).
+    pub fn new(world: &World) -> Self {
+        let mut stack = Vec::new();
+        let mut clause = 0;
+        process_instr(&world.instr, &mut clause, &mut stack);
+        Self {
+            planner: Planner::new(world.grid.width() as i32, world.grid.height() as i32),
+            stack,
+            memory: Memory::default(),
+            gave_up: None,
+            replans: 0,
+        }
+    }
+
+    /// `replan(action_taken)`: the action the bot suggests in `world`, told the action taken
+    /// since its last call (`None` on the first call). `None` once it has given up.
+    pub fn replan(&mut self, world: &World, taken: Option<Action>) -> Option<Action> {
+        if self.gave_up.is_some() {
+            return None;
+        }
+        match self.try_replan(world, taken) {
+            Ok(a) => Some(a),
+            Err(e) => {
+                self.gave_up = Some(e);
+                self.stack.clear();
+                None
+            }
+        }
+    }
+
+    /// The subgoal stack after the last replan, bottom first (empty once given up).
+    pub fn stack(&self) -> &[Subgoal] {
+        &self.stack
+    }
+
+    /// Why the bot gave up, if it did.
+    pub fn gave_up(&self) -> Option<&GiveUp> {
+        self.gave_up.as_ref()
+    }
+
+    /// The stack as one line, top first, e.g. `GoNextTo (3, 5) → Pickup → Drop`.
+    pub fn plan_text(&self, world: &World) -> String {
+        if let Some(g) = &self.gave_up {
+            return format!("gave up: {g}");
+        }
+        if self.stack.is_empty() {
+            return "done".to_string();
+        }
+        self.stack
+            .iter()
+            .rev()
+            .map(|s| s.describe(world))
+            .collect::<Vec<_>>()
+            .join(" → ")
+    }
+
+    fn try_replan(&mut self, world: &World, taken: Option<Action>) -> Result<Action, GiveUp> {
+        self.process_obs(world);
+        if taken == Some(Action::Toggle) && self.memory.fwd_was_box {
+            return Err(GiveUp::BoxOpened);
+        }
+        let pose = Pose::of(world);
+        if let Some(top) = self.stack.last().cloned() {
+            self.after_action(world, pose, &top, taken)?;
+        }
+        while self.stack.last().is_some_and(Subgoal::is_exploratory) {
+            self.stack.pop();
+        }
+        self.replans = 0;
+        let mut suggested = None;
+        while let Some(top) = self.stack.last().cloned() {
+            self.replans += 1;
+            if self.replans > MAX_REPLANS {
+                return Err(GiveUp::Looping);
+            }
+            if let Some(a) = self.before_action(world, pose, &top)? {
+                suggested = Some(a);
+                break;
+            }
+        }
+        let action = if self.stack.is_empty() {
+            Action::Done
+        } else {
+            suggested.unwrap_or(Action::Done)
+        };
+        self.remember(world, pose);
+        Ok(action)
+    }
+
+    /// `_process_obs`: marks every cell of the current view the agent can see.
+    fn process_obs(&mut self, world: &World) {
+        let obs = crate::env::view::observe(
+            &world.grid,
+            world.agent_pos,
+            world.agent_dir,
+            world.carrying,
+        );
+        for vx in 0..crate::env::VIEW_SIZE {
+            for vy in 0..crate::env::VIEW_SIZE {
+                if !obs.visible((vx, vy)) {
+                    continue;
+                }
+                let p = crate::env::world_from_view(world.agent_pos, world.agent_dir, (vx, vy));
+                if let Some(i) = self.planner.index(p) {
+                    self.planner.vis[i] = true;
+                }
+            }
+        }
+    }
+
+    fn remember(&mut self, world: &World, pose: Pose) {
+        let fwd = world.grid.get(pose.fwd_pos);
+        self.memory.agent_pos = world.agent_pos;
+        self.memory.carrying = world.carrying.map(|c| c.id);
+        if let Some(d) = fwd.filter(|o| o.kind == ObjectKind::Door) {
+            self.memory.fwd_door_was_open = Some(d.state == crate::env::DoorState::Open);
+        }
+        self.memory.fwd_was_box = fwd.is_some_and(|o| o.kind == ObjectKind::Box);
+    }
+
+    /// The objects and positions a [`Datum`] description stands for now, with its type.
+    fn desc_targets(&self, world: &World, datum: &Datum) -> Option<(Option<ObjectKind>, Targets)> {
+        match datum {
+            Datum::Clause { clause, fixed } => {
+                let clauses = world.instr.clauses();
+                let node = clauses.get(*clause)?;
+                if *fixed {
+                    Some((node.instr.fixed?.kind, node.fixed_targets.clone()))
+                } else {
+                    Some((node.instr.desc.kind, node.targets.clone()))
+                }
+            }
+            Datum::Own { desc, targets } => Some((desc.kind, targets.clone())),
+            Datum::Pos(_) | Datum::Door(_) => None,
+        }
+    }
+
+    /// `ObjDesc("key", color).find_matching_objs(env)`: a description the bot makes itself,
+    /// with what it matches now (it is never refreshed afterwards).
+    fn key_desc(world: &World, color: crate::env::Color) -> Datum {
+        let desc = ObjDesc {
+            kind: Some(ObjectKind::Key),
+            color: Some(color),
+            loc: None,
+        };
+        let targets = Targets::find(
+            desc,
+            &world.grid,
+            world.rooms,
+            world.agent_pos,
+            world.agent_dir,
+        );
+        Datum::Own { desc, targets }
+    }
+}
+
+/// The bot beside an episode: told every action taken (its own suggestions or anyone
+/// else's, as minigrid's bot is in `gen_minigrid_fixtures.py`), it gives at each step the
+/// action it would take and its plan.
+#[derive(Clone, Debug)]
+pub struct Expert {
+    bot: Bot,
+    taken: Option<Action>,
+}
+
+impl Expert {
+    /// The expert of the episode that starts in `world`.
+    pub fn new(world: &World) -> Self {
+        Self {
+            bot: Bot::new(world),
+            taken: None,
+        }
+    }
+
+    /// The action it would take in `world`, the state before the next action; `None` once
+    /// it has given up.
+    pub fn advise(&mut self, world: &World) -> Option<Action> {
+        self.bot.replan(world, self.taken.take())
+    }
+
+    /// Its plan after the last [`Self::advise`], top first, or why it gave up.
+    pub fn plan(&self, world: &World) -> String {
+        self.bot.plan_text(world)
+    }
+
+    /// Tells it the action actually taken after [`Self::advise`].
+    pub fn told(&mut self, action: Action) {
+        self.taken = Some(action);
+    }
+
+    /// The bot.
+    pub fn bot(&self) -> &Bot {
+        &self.bot
+    }
+}
+
+/// The bot alone from `world` to the end of the episode: how many actions it took and
+/// whether it succeeded (`None` where it gave up before the end).
+pub fn solo_length(mut world: World) -> Option<(usize, bool)> {
+    let mut expert = Expert::new(&world);
+    let mut steps = 0;
+    while !world.ended() {
+        let action = expert.advise(&world)?;
+        let outcome = world.step(action).ok()?;
+        expert.told(action);
+        steps += 1;
+        if outcome.terminated || outcome.truncated {
+            return Some((steps, outcome.reward > 0.0));
+        }
+    }
+    Some((steps, false))
+}
+
+/// `_process_instr`: a clause's subgoals, pushed so that the first to do is on top; a
+/// Before / And does its first part first, an After its second.
+fn process_instr(instr: &crate::env::Instr, clause: &mut usize, stack: &mut Vec<Subgoal>) {
+    use crate::env::{Instr, SeqKind, TaskKind};
+    match instr {
+        Instr::Action(n) => {
+            let me = *clause;
+            *clause += 1;
+            let desc = Datum::Clause {
+                clause: me,
+                fixed: false,
+            };
+            match n.instr.task {
+                TaskKind::GoTo => stack.push(Subgoal::go_next_to(desc, None)),
+                TaskKind::Open => {
+                    stack.push(Subgoal::new(SubgoalKind::Open, None, None));
+                    stack.push(Subgoal::go_next_to(desc, Some(Reason::Open)));
+                }
+                TaskKind::Pickup => {
+                    stack.push(Subgoal::new(SubgoalKind::Drop, None, None));
+                    stack.push(Subgoal::new(SubgoalKind::Pickup, None, None));
+                    stack.push(Subgoal::go_next_to(desc, None));
+                }
+                TaskKind::PutNext => {
+                    let fixed = Datum::Clause {
+                        clause: me,
+                        fixed: true,
+                    };
+                    stack.push(Subgoal::new(SubgoalKind::Drop, None, None));
+                    stack.push(Subgoal::go_next_to(fixed, Some(Reason::PutNext)));
+                    stack.push(Subgoal::new(SubgoalKind::Pickup, None, None));
+                    stack.push(Subgoal::go_next_to(desc, None));
+                }
+            }
+        }
+        Instr::Seq(s) => {
+            // Clauses are numbered in reading order (a before b) whatever the push order.
+            let a_first = *clause;
+            let mut count = 0;
+            count_clauses(&s.a, &mut count);
+            let mut b_first = a_first + count;
+            let mut a_at = a_first;
+            match s.kind {
+                SeqKind::Before | SeqKind::And => {
+                    process_instr(&s.b, &mut b_first, stack);
+                    process_instr(&s.a, &mut a_at, stack);
+                }
+                SeqKind::After => {
+                    process_instr(&s.a, &mut a_at, stack);
+                    process_instr(&s.b, &mut b_first, stack);
+                }
+            }
+            *clause = b_first;
+        }
+    }
+}
+
+fn count_clauses(instr: &crate::env::Instr, n: &mut usize) {
+    match instr {
+        crate::env::Instr::Action(_) => *n += 1,
+        crate::env::Instr::Seq(s) => {
+            count_clauses(&s.a, n);
+            count_clauses(&s.b, n);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests;
