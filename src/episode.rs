@@ -7,6 +7,7 @@ use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
 use serde::Serialize;
 
+use crate::bot::Expert;
 use crate::env::level::LevelConfig;
 use crate::env::snapshot::Snapshot;
 use crate::env::view::Observation;
@@ -57,6 +58,12 @@ pub struct StepRecord {
     pub terminated: bool,
     /// The action reached `max_steps`.
     pub truncated: bool,
+    /// What minigrid's bot would do here, told every action taken before
+    /// ([`crate::bot::Expert`]); `None` where it has given up.
+    pub expert_action: Option<Action>,
+    /// The bot's plan at this step, top first (`GoNextTo (3, 5) → Pickup → Drop`), or why it
+    /// gave up.
+    pub expert_plan: String,
     /// Faithfulness measures of this step, when asked for
     /// ([`crate::metrics::faithfulness::annotate`]).
     pub faithfulness: Option<StepFaithfulness>,
@@ -249,6 +256,7 @@ fn run_fresh<P: Acting + ?Sized>(
         format!("{} seed {}", spec.level, spec.seed)
     })?;
     let memory = net.zero_memory()?;
+    let expert = Expert::new(&world);
     run_loop(
         net,
         checkpoint,
@@ -257,7 +265,7 @@ fn run_fresh<P: Acting + ?Sized>(
         tokens,
         memory,
         episode_rng(spec.seed),
-        Vec::new(),
+        (Vec::new(), expert),
         intervene,
     )
 }
@@ -303,7 +311,14 @@ pub fn rerun_from<P: Acting + ?Sized>(
     let mut memory = net.zero_memory()?;
     let mut rng = episode_rng(trace.seed);
     let mission = net.prepare(&trace.tokens)?;
+    let mut expert = Expert::new(prefix.first().map_or(&world, |s| &s.world));
     for s in &prefix {
+        expert.advise(&s.world);
+        expert.told(s.action);
+        if net.reads_world() {
+            choose(&s.probs, trace.mode, &mut rng);
+            continue;
+        }
         let out = net.act_one(
             s.obs,
             s.world.agent_dir,
@@ -331,7 +346,7 @@ pub fn rerun_from<P: Acting + ?Sized>(
         tokens,
         memory,
         rng,
-        prefix,
+        (prefix, expert),
         None,
     )
 }
@@ -348,18 +363,22 @@ fn run_loop<P: Acting + ?Sized>(
     tokens: Vec<u32>,
     mut memory: Memory,
     mut rng: Pcg64Mcg,
-    mut steps: Vec<StepRecord>,
+    (mut steps, mut expert): (Vec<StepRecord>, Expert),
     intervene: Option<Intervene<'_>>,
 ) -> Result<EpisodeTrace, PolicyError> {
     let mission = net.prepare(&tokens)?;
     while !world.ended() {
         let obs = world.observe();
-        let iv = match intervene {
-            Some(f) => f(&world, &obs, &tokens, &memory)?,
-            None => None,
-        };
-        let out = net
-            .act_one(
+        let expert_action = expert.advise(&world);
+        let expert_plan = expert.plan(&world);
+        let out = if net.reads_world() {
+            net.act_from_expert(&[expert_action])?
+        } else {
+            let iv = match intervene {
+                Some(f) => f(&world, &obs, &tokens, &memory)?,
+                None => None,
+            };
+            net.act_one(
                 obs,
                 world.agent_dir,
                 &tokens,
@@ -368,7 +387,8 @@ fn run_loop<P: Acting + ?Sized>(
                 true,
                 iv.as_ref(),
             )
-            .map_err(|e| at_step(e, steps.len(), spec))?;
+            .map_err(|e| at_step(e, steps.len(), spec))?
+        };
         memory = out.memory;
         let probs_v = out.probs.into_iter().next().unwrap_or_default();
         let mut probs = [0.0; Action::COUNT];
@@ -379,6 +399,7 @@ fn run_loop<P: Acting + ?Sized>(
         let attention = out.traces.and_then(|t| t.into_iter().next());
         check_finite(&probs, value, attention.as_ref(), steps.len(), spec)?;
         let action = choose(&probs, spec.mode, &mut rng);
+        expert.told(action);
         let before = world.clone();
         let outcome = world.step(action)?;
         steps.push(StepRecord {
@@ -392,6 +413,8 @@ fn run_loop<P: Acting + ?Sized>(
             reward: outcome.reward,
             terminated: outcome.terminated,
             truncated: outcome.truncated,
+            expert_action,
+            expert_plan,
             faithfulness: None,
         });
     }
@@ -436,6 +459,8 @@ struct StepJson<'a> {
     terminated: bool,
     truncated: bool,
     attention: Option<&'a AttentionTrace>,
+    expert_action: Option<u8>,
+    expert_plan: &'a str,
     #[serde(skip_serializing_if = "Option::is_none")]
     faithfulness: Option<&'a StepFaithfulness>,
 }
@@ -502,6 +527,8 @@ impl EpisodeTrace {
                     terminated: s.terminated,
                     truncated: s.truncated,
                     attention: s.attention.as_ref(),
+                    expert_action: s.expert_action.map(|a| a as u8),
+                    expert_plan: &s.expert_plan,
                     faithfulness: s.faithfulness.as_ref(),
                 })
                 .collect(),

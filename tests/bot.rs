@@ -15,43 +15,9 @@ mod common;
 
 use std::path::Path;
 
-use groundscope::bot::{Bot, Datum, Subgoal};
-use groundscope::env::{Action, ObjDesc, World, babyai};
-use serde_json::{Value, json};
-
-fn desc_json(d: &ObjDesc) -> Value {
-    json!({
-        "type": d.kind.map(|k| k.name()),
-        "color": d.color.map(|c| c.name()),
-        "loc": d.loc.map(|l| l.name()),
-    })
-}
-
-/// A subgoal as the fixture script writes it.
-fn subgoal_json(world: &World, s: &Subgoal) -> Value {
-    let datum = match &s.datum {
-        None | Some(Datum::Pos(None)) => Value::Null,
-        Some(Datum::Pos(Some(p))) => json!([p.0, p.1]),
-        Some(Datum::Clause { clause, fixed }) => {
-            let n = world.instr.clauses()[*clause];
-            desc_json(&if *fixed {
-                n.instr.fixed.unwrap()
-            } else {
-                n.instr.desc
-            })
-        }
-        Some(Datum::Own { desc, .. }) => desc_json(desc),
-        Some(Datum::Door(p)) => {
-            let door = world.grid.get(*p).unwrap();
-            json!({"type": "door", "color": door.color.name(), "loc": null, "pos": [p.0, p.1]})
-        }
-    };
-    json!({
-        "subgoal": s.kind.class_name(),
-        "datum": datum,
-        "reason": s.reason.map(|r| r.name()),
-    })
-}
+use groundscope::bot::Bot;
+use groundscope::env::{Action, babyai};
+use serde_json::Value;
 
 /// Replays one dump; the first step where the bot differs, if any.
 fn replay(path: &Path) -> Result<usize, String> {
@@ -67,16 +33,7 @@ fn replay(path: &Path) -> Result<usize, String> {
     for (t, step) in steps.iter().enumerate() {
         let got = bot.replan(&world, taken);
         let want = step["bot_action"].as_u64().map(|a| a as usize);
-        let got_stack = if bot.gave_up().is_some() {
-            Value::Null
-        } else {
-            Value::Array(
-                bot.stack()
-                    .iter()
-                    .map(|s| subgoal_json(&world, s))
-                    .collect(),
-            )
-        };
+        let got_stack = bot.dump_json(&world);
         if got.map(|a| a as usize) != want || got_stack != step["bot_stack"] {
             return Err(format!(
                 "step {t}: minigrid's bot suggests {want:?} with stack {}, ours {got:?} ({}) with stack {got_stack}",
@@ -106,6 +63,53 @@ fn the_bot_alone_acts_as_minigrids() {
 #[test]
 fn the_bot_replans_around_random_actions_as_minigrids() {
     check_set("bot/mixed");
+}
+
+/// `env verify` checks a dump's `bot_action` and `bot_stack` too: it passes the fixtures and
+/// names the step where a suggestion was changed.
+#[test]
+fn env_verify_checks_the_bots_suggestions() {
+    let files = common::fixtures("bot/mixed");
+    let some: Vec<&str> = files
+        .iter()
+        .step_by(97)
+        .map(|p| p.to_str().unwrap())
+        .collect();
+    let mut args = vec!["env", "verify"];
+    args.extend(&some);
+    let o = common::gs(&args);
+    assert!(
+        o.status.success(),
+        "{}{}",
+        common::stdout(&o),
+        common::stderr(&o)
+    );
+    assert!(common::stdout(&o).contains(&format!("{} passed, 0 failed", some.len())));
+
+    let text = groundscope::files::read_text_maybe_gz(&files[0]).unwrap();
+    let mut d: Value = serde_json::from_str(&text).unwrap();
+    let step = d["steps"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .position(|s| s["bot_action"].is_u64())
+        .unwrap();
+    let a = d["steps"][step]["bot_action"].as_u64().unwrap();
+    d["steps"][step]["bot_action"] = (a ^ 1).into();
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("changed.json");
+    std::fs::write(&path, d.to_string()).unwrap();
+    let o = common::gs(&["env", "verify", path.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(1), "{}", common::stderr(&o));
+    let out = common::stdout(&o);
+    assert!(
+        out.contains(&format!(
+            "step {}: minigrid's bot suggests {}",
+            step + 1,
+            a ^ 1
+        )),
+        "{out}"
+    );
 }
 
 /// The fixtures cover what the port must get right: giving up, every subgoal class and

@@ -15,6 +15,7 @@
 //! fixture script uses), this one gives up for the rest of the episode and says why.
 //! Deterministic: no randomness anywhere.
 
+mod dump;
 mod search;
 mod subgoal;
 
@@ -23,6 +24,7 @@ use serde::Serialize;
 use crate::env::instr::Targets;
 use crate::env::{Action, DIR_TO_VEC, ObjDesc, ObjectId, ObjectKind, Pos, World};
 
+pub use dump::verify_bot;
 use search::Planner;
 pub use subgoal::{Datum, Reason, Subgoal, SubgoalKind};
 
@@ -215,7 +217,7 @@ impl Bot {
     }
 
     /// The objects and positions a [`Datum`] description stands for now, with its type.
-    fn desc_targets(&self, world: &World, datum: &Datum) -> Option<(Option<ObjectKind>, Targets)> {
+    fn desc_targets(world: &World, datum: &Datum) -> Option<(Option<ObjectKind>, Targets)> {
         match datum {
             Datum::Clause { clause, fixed } => {
                 let clauses = world.instr.clauses();

@@ -1,6 +1,8 @@
 //! The bot's subgoals and how each replans before and after an action
 //! (`replan_before_action`, `replan_after_action`, `_plan_undo_action`).
 
+use std::fmt::Write as _;
+
 use serde::{Deserialize, Serialize};
 
 use crate::env::instr::Targets;
@@ -170,7 +172,7 @@ impl Subgoal {
         let mut s = self.kind.name().to_string();
         match &self.datum {
             Some(Datum::Pos(Some(p)) | Datum::Door(p)) => {
-                s += &format!(" ({}, {})", p.0, p.1);
+                let _ = write!(s, " ({}, {})", p.0, p.1);
             }
             Some(Datum::Pos(None)) => s += " (nowhere)",
             Some(Datum::Clause { clause, fixed }) => {
@@ -193,7 +195,7 @@ impl Subgoal {
             None => {}
         }
         if let Some(r) = self.reason {
-            s += &format!(" ({})", r.name());
+            let _ = write!(s, " ({})", r.name());
         }
         s
     }
@@ -210,10 +212,8 @@ impl Bot {
         let carrying = world.carrying.map(|c| c.id);
         let fwd_cell = world.grid.get(pose.fwd_pos);
         match taken {
-            Some(Action::Forward) => {
-                if self.memory.agent_pos != pose.pos {
-                    self.stack.push(Subgoal::go_to_pos(Some(pose.pos)));
-                }
+            Some(Action::Forward) if self.memory.agent_pos != pose.pos => {
+                self.stack.push(Subgoal::go_to_pos(Some(pose.pos)));
             }
             Some(Action::Left) => self
                 .stack
@@ -421,8 +421,7 @@ impl Bot {
                 *p
             }
             Datum::Clause { .. } | Datum::Own { .. } => {
-                let (kind, targets) = self
-                    .desc_targets(world, datum)
+                let (kind, targets) = Self::desc_targets(world, datum)
                     .ok_or(broken("GoNextTo a description the instruction lacks"))?;
                 let (obj, pos) = self.planner.find_obj_pos(
                     world,

@@ -72,6 +72,10 @@ pub enum BenchCommand {
     /// against the paper's 20-cell sweep, alternated, one thread: time per episode step of
     /// each and their ratio, as one JSON line.
     Levels(super::bench_levels::BenchLevelsArgs),
+    /// minigrid's BabyAI bot alone, one thread: demonstrations/s and steps/s per level
+    /// (default: six levels from one room to BossLevel), in each level's registered mode, as
+    /// one JSON line per level.
+    Bot(super::bench_bot::BenchBotArgs),
 }
 
 /// Runs a benchmark.
@@ -103,6 +107,7 @@ pub fn run(cmd: &BenchCommand) -> anyhow::Result<ExitStatus> {
         #[cfg(feature = "onnx")]
         BenchCommand::Onnx(args) => super::bench_onnx::run(args),
         BenchCommand::Levels(args) => super::bench_levels::run(args),
+        BenchCommand::Bot(args) => super::bench_bot::run(args),
         BenchCommand::Record { episodes } => {
             if !(1..=10_000).contains(episodes) {
                 anyhow::bail!("--episodes {episodes}: must be in 1..=10000");

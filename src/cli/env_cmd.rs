@@ -200,7 +200,12 @@ fn verify(files: &[PathBuf]) -> anyhow::Result<ExitStatus> {
     }
     let (mut passed, mut failed) = (0, 0);
     for (f, snap) in &dumps {
-        match verify_dump(snap).with_context(|| format!("reading {}", f.display()))? {
+        let checked = verify_dump(snap).and_then(|r| match r {
+            // A dump with minigrid's bot's suggestions (`--record-bot`) checks ours too.
+            Ok(n) => Ok(groundscope::bot::verify_bot(snap)?.unwrap_or(Ok(n))),
+            Err(m) => Ok(Err(m)),
+        });
+        match checked.with_context(|| format!("reading {}", f.display()))? {
             Ok(_) => passed += 1,
             Err(m) => {
                 failed += 1;

@@ -76,6 +76,11 @@ pub fn run(args: &FaithfulnessArgs) -> anyhow::Result<ExitStatus> {
     let mut cells = Vec::new();
     for spec in &specs {
         let agent = std::sync::Arc::new(Agent::load(spec)?);
+        if agent.acting().reads_world() {
+            anyhow::bail!(
+                "--checkpoint {spec}: faithfulness probes a network's dependence on its inputs; minigrid's bot has no network (it acts from the world)"
+            );
+        }
         let interventions = agent.acting().takes_interventions();
         let parts = if args.parts.is_empty() {
             Parts {

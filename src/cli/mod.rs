@@ -1,6 +1,7 @@
 //! Command-line arguments (clap) and dispatch to the library.
 
 mod bench;
+mod bench_bot;
 mod bench_levels;
 #[cfg(feature = "onnx")]
 mod bench_onnx;

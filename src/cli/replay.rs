@@ -183,10 +183,11 @@ pub fn replay(args: &ReplayArgs) -> anyhow::Result<ExitStatus> {
         for item in rx {
             let (trace, scenes) = item?;
             // An imported graph is named as its metadata names it, beside its file.
-            let who = trace.model_name.as_ref().map_or_else(
-                || variant.name().to_owned(),
-                |n| format!("{n}, {}", variant.name()),
-            );
+            let who = match &trace.model_name {
+                Some(n) if agent.acting().reads_world() => n.clone(),
+                Some(n) => format!("{n}, {}", variant.name()),
+                None => variant.name().to_owned(),
+            };
             println!(
                 "{who} on {level} seed {}: \"{}\" → {} in {} steps, reward {:.3}",
                 trace.seed,

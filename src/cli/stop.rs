@@ -155,6 +155,18 @@ impl Acting for Stoppable<'_> {
     fn input_token_ids(&self, tokens: &[u32]) -> Option<Vec<i64>> {
         self.agent.input_token_ids(tokens)
     }
+
+    fn reads_world(&self) -> bool {
+        self.agent.reads_world()
+    }
+
+    fn act_from_expert(
+        &self,
+        advice: &[Option<groundscope::env::Action>],
+    ) -> Result<ActOutput, PolicyError> {
+        self.check()?;
+        self.agent.act_from_expert(advice)
+    }
 }
 
 #[cfg(test)]

@@ -58,7 +58,7 @@ pub fn run(args: &ValidateArgs) -> anyhow::Result<ExitStatus> {
         // An imported graph's metadata carries no training counters: its row says 0.
         let (updates, frames) = match &agent {
             Agent::Native(ckpt, _) => (ckpt.meta.training.updates, ckpt.meta.training.frames),
-            Agent::Onnx(_) => (0, 0),
+            Agent::Onnx(_) | Agent::Bot(_) => (0, 0),
         };
         let row = track(
             agent.acting(),

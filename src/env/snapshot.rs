@@ -122,6 +122,27 @@ pub struct StepJson {
     /// What each box holds, present only when the step changed the grid.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub box_contents: Option<Vec<BoxJson>>,
+    /// minigrid's bot's suggestion before this step (`gen_minigrid_fixtures.py
+    /// --record-bot`): an action index, or null once it gave up; absent in other dumps.
+    #[serde(
+        default,
+        deserialize_with = "present",
+        skip_serializing_if = "Option::is_none"
+    )]
+    pub bot_action: Option<serde_json::Value>,
+    /// The bot's subgoal stack after that replan, bottom first (`--record-bot`; null once it
+    /// gave up); absent in other dumps.
+    #[serde(
+        default,
+        deserialize_with = "present",
+        skip_serializing_if = "Option::is_none"
+    )]
+    pub bot_stack: Option<serde_json::Value>,
+}
+
+/// A field that is present, even as `null` (absent: `None` through `default`).
+fn present<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Option<serde_json::Value>, D::Error> {
+    serde_json::Value::deserialize(d).map(Some)
 }
 
 /// A world snapshot / episode dump (the `dump_minigrid.py` format).

@@ -6,7 +6,7 @@ use super::exploration::{EpisodeExploration, cell_exploration};
 use super::failure::class_counts;
 use super::grounding::WordKind;
 use super::report::{Cell, CellAccuracy, size_and_objects};
-use super::sweep::{EpisodeSummary, grounding, performance};
+use super::sweep::{EpisodeSummary, expert_stats, grounding, performance};
 use super::words::by_word;
 use crate::env::level::LevelConfig;
 use crate::policy::Variant;
@@ -52,5 +52,9 @@ pub fn cell_from_episodes(
     .with_failure_classes(classes)
     .with_exploration(exploration)
     .with_level(level.babyai.map(|id| id.id().to_owned()));
+    let cell = Cell {
+        expert: Some(expert_stats(&eps)),
+        ..cell
+    };
     (cell, eps)
 }

@@ -116,6 +116,10 @@ pub struct Cell {
     /// size and 0).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub level: Option<String>,
+    /// The episodes beside minigrid's bot: agreement with it, first divergence of failed
+    /// episodes, path efficiency of successful ones (docs/bot.md); absent in older reports.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub expert: Option<super::sweep::ExpertStats>,
 }
 
 impl Cell {
@@ -157,6 +161,7 @@ impl Cell {
             failure_classes: BTreeMap::new(),
             exploration: None,
             level: None,
+            expert: None,
         }
     }
 

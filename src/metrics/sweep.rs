@@ -14,8 +14,9 @@ use super::error::MetricsError;
 use super::exploration::{EpisodeExploration, Tracker};
 use super::failure::{Diagnosis, Evidence, StepFacts};
 use super::grounding::{Accuracies, WordKind, ground_step, pending_targets};
+use crate::bot::Expert;
 use crate::env::level::LevelConfig;
-use crate::env::world::World;
+use crate::env::world::{Action, World};
 use crate::episode::{ActionMode, choose};
 use candle_core::{Device, Tensor};
 
@@ -46,6 +47,43 @@ pub struct EpisodeSummary {
     /// The actions taken, as indices (`episodes.csv`).
     #[serde(default)]
     pub actions: Vec<u8>,
+    /// The episode beside minigrid's bot ([`crate::bot::Expert`]).
+    #[serde(default)]
+    pub expert: EpisodeExpert,
+}
+
+/// One episode beside minigrid's bot: the bot, told every action taken, gives the action it
+/// would take at each step; and the bot alone from the same start.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct EpisodeExpert {
+    /// Steps at which the bot had an action (it had not given up).
+    pub steps: u32,
+    /// Of those, the steps at which the agent took it.
+    pub agreed: u32,
+    /// The first step at which the agent did not take the bot's action.
+    pub first_divergence: Option<u32>,
+    /// The bot's own length from the same start, where it succeeded alone.
+    pub bot_length: Option<u32>,
+}
+
+impl EpisodeExpert {
+    /// Share of the advised steps at which the agent took the bot's action (NaN: none).
+    pub fn agreement(&self) -> f64 {
+        if self.steps == 0 {
+            f64::NAN
+        } else {
+            f64::from(self.agreed) / f64::from(self.steps)
+        }
+    }
+
+    /// The bot's steps alone / the agent's steps, for a successful episode the bot also
+    /// solves (NaN otherwise).
+    pub fn path_efficiency(&self, success: bool, length: u32) -> f64 {
+        match self.bot_length {
+            Some(b) if success && length > 0 => f64::from(b) / f64::from(length),
+            _ => f64::NAN,
+        }
+    }
 }
 
 /// One running episode of the lockstep batch.
@@ -57,6 +95,7 @@ struct Running {
     evidence: Evidence,
     exploration: Tracker,
     rng: Pcg64Mcg,
+    expert: Expert,
 }
 
 /// Runs `episodes` episodes of `level` for each evaluation seed in `seeds` in lockstep;
@@ -162,7 +201,13 @@ pub fn evaluate_episodes_explored<P: Acting + ?Sized>(
                     grounding: BTreeMap::new(),
                     failure: None,
                     actions: Vec::new(),
+                    expert: EpisodeExpert {
+                        bot_length: crate::bot::solo_length(world.clone())
+                            .and_then(|(n, ok)| ok.then_some(n as u32)),
+                        ..EpisodeExpert::default()
+                    },
                 },
+                expert: Expert::new(&world),
                 world,
                 tokens,
                 sums: BTreeMap::new(),
@@ -183,6 +228,14 @@ pub fn evaluate_episodes_explored<P: Acting + ?Sized>(
     let mut finished = 0u64;
     while !active.is_empty() {
         let obs: Vec<_> = active.iter().map(|&i| running[i].world.observe()).collect();
+        // The bot beside each episode, told the last action taken: what it would do now.
+        let advice: Vec<Option<Action>> = active
+            .iter()
+            .map(|&i| {
+                let r = &mut running[i];
+                r.expert.advise(&r.world)
+            })
+            .collect();
         let missions: Vec<&[u32]> = active
             .iter()
             .map(|&i| running[i].tokens.as_slice())
@@ -191,15 +244,19 @@ pub fn evaluate_episodes_explored<P: Acting + ?Sized>(
         let rows = Tensor::from_vec(rows, active.len(), &Device::Cpu).map_err(PolicyError::from)?;
         let mission = mission_all.as_ref().map(|m| m.select(&rows)).transpose()?;
         let dirs: Vec<u8> = active.iter().map(|&i| running[i].world.agent_dir).collect();
-        let out = net.act_batch(
-            &obs,
-            &dirs,
-            &missions,
-            mission.as_ref(),
-            &memory,
-            want_traces,
-            None,
-        )?;
+        let out = if net.reads_world() {
+            net.act_from_expert(&advice)?
+        } else {
+            net.act_batch(
+                &obs,
+                &dirs,
+                &missions,
+                mission.as_ref(),
+                &memory,
+                want_traces,
+                None,
+            )?
+        };
         let mut keep = Vec::with_capacity(active.len());
         for (row, &i) in active.iter().enumerate() {
             let r = &mut running[i];
@@ -208,7 +265,7 @@ pub fn evaluate_episodes_explored<P: Acting + ?Sized>(
             // The step's visible targets, found once for the saliency, the failure classes
             // and the exploration tracker (`ground_step` finds its own for `M`).
             let targets = pending_targets(&r.world, &obs[row]);
-            if saliency && trace_row.is_none() && !targets.is_empty() {
+            if saliency && trace_row.is_none() && !targets.is_empty() && !net.reads_world() {
                 combined = Some(saliency_map(
                     net,
                     &obs[row],
@@ -235,6 +292,16 @@ pub fn evaluate_episodes_explored<P: Acting + ?Sized>(
             }
             let action = choose(&out.probs[row], mode, &mut r.rng);
             r.summary.actions.push(action as u8);
+            r.expert.told(action);
+            if let Some(a) = advice[row] {
+                let e = &mut r.summary.expert;
+                if a == action {
+                    e.agreed += 1;
+                } else if e.first_divergence.is_none() {
+                    e.first_divergence = Some(r.summary.length);
+                }
+                e.steps += 1;
+            }
             // The failure classifier reads the world before the action, as a trace records it.
             let before = r.world.clone();
             let outcome = r.world.step(action).map_err(PolicyError::from)?;
@@ -429,6 +496,58 @@ pub fn performance(eps: &[EpisodeSummary]) -> Performance {
     }
 }
 
+/// A cell's episodes beside minigrid's bot: per seed over its episodes, then mean ± std over
+/// seeds.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ExpertStats {
+    /// Share of the steps (where the bot had an action) at which the agent took it.
+    pub agreement: MeanStd,
+    /// Failed episodes: the step at which the agent first left the bot's plan.
+    pub first_divergence: MeanStd,
+    /// Successful episodes the bot also solves: the bot's steps alone / the agent's steps.
+    pub path_efficiency: MeanStd,
+    /// The bot's own success rate from the same starts.
+    pub bot_success: MeanStd,
+}
+
+/// [`ExpertStats`] of a cell's episodes.
+pub fn expert_stats(eps: &[EpisodeSummary]) -> ExpertStats {
+    let seeds = by_seed(eps);
+    let per = |f: &dyn Fn(&[&EpisodeSummary]) -> f64| {
+        MeanStd::of(&seeds.iter().map(|s| f(s)).collect::<Vec<_>>())
+    };
+    let finite = |x: f64| x.is_finite();
+    ExpertStats {
+        agreement: per(&|s| {
+            mean(
+                s.iter()
+                    .map(|e| e.expert.agreement())
+                    .filter(|&x| finite(x)),
+            )
+        }),
+        first_divergence: per(&|s| {
+            mean(
+                s.iter()
+                    .filter(|e| !e.success)
+                    .filter_map(|e| e.expert.first_divergence.map(f64::from)),
+            )
+        }),
+        path_efficiency: per(&|s| {
+            mean(
+                s.iter()
+                    .map(|e| e.expert.path_efficiency(e.success, e.length))
+                    .filter(|&x| finite(x)),
+            )
+        }),
+        bot_success: per(&|s| {
+            mean(
+                s.iter()
+                    .map(|e| f64::from(u8::from(e.expert.bot_length.is_some()))),
+            )
+        }),
+    }
+}
+
 /// Grounding accuracies of `kind`: per episode over its evaluated steps (already in the
 /// summaries), then per seed over episodes that had any, then mean ± std over seeds.
 pub fn grounding(eps: &[EpisodeSummary], kind: WordKind) -> GroundingStats {
@@ -498,6 +617,7 @@ mod tests {
             grounding,
             failure: None,
             actions: Vec::new(),
+            expert: crate::metrics::sweep::EpisodeExpert::default(),
         }
     }
 

@@ -179,6 +179,7 @@ mod tests {
             grounding,
             failure: None,
             actions: Vec::new(),
+            expert: crate::metrics::sweep::EpisodeExpert::default(),
         }
     }
 

@@ -142,6 +142,120 @@ pub trait Acting {
     fn input_token_ids(&self, _tokens: &[u32]) -> Option<Vec<i64>> {
         None
     }
+
+    /// Whether the policy is minigrid's bot ([`BotAgent`]), which reads the world rather than
+    /// the observation: episode runners then act with the expert they keep beside every
+    /// episode ([`crate::bot::Expert`]) and never call the `act_*` methods.
+    fn reads_world(&self) -> bool {
+        false
+    }
+
+    /// The step of a policy that [`Self::reads_world`]: the expert's `advice` for each row
+    /// as the policy's output ([`bot_output`]).
+    fn act_from_expert(
+        &self,
+        advice: &[Option<crate::env::Action>],
+    ) -> Result<ActOutput, PolicyError> {
+        bot_output(advice)
+    }
+}
+
+/// minigrid's BabyAI bot as an agent (`--checkpoint bot`): no network, no maps, no memory;
+/// it acts from the world itself ([`Acting::reads_world`]).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct BotAgent;
+
+/// What the bot "outputs" for a batch of steps: all probability on each row's action (`done`
+/// where it gave up), value 0, no memory, no maps.
+pub fn bot_output(actions: &[Option<crate::env::Action>]) -> Result<ActOutput, PolicyError> {
+    let probs: Vec<Vec<f32>> = actions
+        .iter()
+        .map(|a| {
+            let mut p = vec![0.0; crate::env::Action::COUNT];
+            p[a.unwrap_or(crate::env::Action::Done) as usize] = 1.0;
+            p
+        })
+        .collect();
+    Ok(ActOutput {
+        logits: probs
+            .iter()
+            .map(|p| {
+                p.iter()
+                    .map(|&x| if x > 0.0 { 0.0 } else { -1e9 })
+                    .collect()
+            })
+            .collect(),
+        probs,
+        values: vec![0.0; actions.len()],
+        memory: flat_memory_rows(Vec::new(), actions.len())?,
+        traces: None,
+    })
+}
+
+fn bot_reads_the_world() -> PolicyError {
+    PolicyError::Input(
+        "the bot acts from the world, not from an observation: it has no network to probe".into(),
+    )
+}
+
+impl Acting for BotAgent {
+    fn variant(&self) -> Variant {
+        Variant::Baseline
+    }
+
+    fn zero_memory(&self) -> Result<Memory, PolicyError> {
+        flat_memory(Vec::new())
+    }
+
+    fn prepare(&self, _tokens: &[u32]) -> Result<Option<MissionInputs>, PolicyError> {
+        Ok(None)
+    }
+
+    fn act_one(
+        &self,
+        _obs: Observation,
+        _direction: u8,
+        _tokens: &[u32],
+        _prepared: Option<&MissionInputs>,
+        _memory: &Memory,
+        _with_traces: bool,
+        _intervention: Option<&Intervention>,
+    ) -> Result<ActOutput, PolicyError> {
+        Err(bot_reads_the_world())
+    }
+
+    fn zero_memory_batch(&self, batch: usize) -> Result<Memory, PolicyError> {
+        flat_memory_rows(Vec::new(), batch)
+    }
+
+    fn prepare_batch(&self, _missions: &[&[u32]]) -> Result<Option<MissionInputs>, PolicyError> {
+        Ok(None)
+    }
+
+    fn act_batch(
+        &self,
+        _obs: &[Observation],
+        _directions: &[u8],
+        _missions: &[&[u32]],
+        _prepared: Option<&MissionInputs>,
+        _memory: &Memory,
+        _with_traces: bool,
+        _intervention: Option<&Intervention>,
+    ) -> Result<ActOutput, PolicyError> {
+        Err(bot_reads_the_world())
+    }
+
+    fn takes_interventions(&self) -> bool {
+        false
+    }
+
+    fn model_name(&self) -> Option<String> {
+        Some("minigrid's BabyAI bot".into())
+    }
+
+    fn reads_world(&self) -> bool {
+        true
+    }
 }
 
 impl Acting for Net {
@@ -395,12 +509,20 @@ pub enum Agent {
     Native(Box<super::Checkpoint>, Box<Net>),
     /// An imported graph (docs/onnx.md).
     Onnx(Box<super::onnx::OnnxAgent>),
+    /// minigrid's BabyAI bot (`--checkpoint bot`, docs/bot.md).
+    Bot(BotAgent),
 }
+
+/// The `--checkpoint` value that names the bot.
+pub const BOT: &str = "bot";
 
 impl Agent {
     /// Loads `spec`: a file ending in `.onnx` as an imported graph, anything else as
     /// [`super::bundled::load`] does (a checkpoint name, a run directory, `bundled:NAME`).
     pub fn load(spec: &str) -> Result<Self, PolicyError> {
+        if spec == BOT {
+            return Ok(Self::Bot(BotAgent));
+        }
         if super::onnx::is_onnx(std::path::Path::new(spec)) {
             return Ok(Self::Onnx(Box::new(super::onnx::OnnxAgent::load(
                 std::path::Path::new(spec),
@@ -411,11 +533,12 @@ impl Agent {
         Ok(Self::Native(Box::new(ckpt), Box::new(net)))
     }
 
-    /// The level it was trained on.
+    /// The level it was trained on (the bot: the paper's level, as a default).
     pub fn level(&self) -> crate::env::LevelConfig {
         match self {
             Self::Native(ckpt, _) => ckpt.meta.level,
             Self::Onnx(a) => a.meta.level,
+            Self::Bot(_) => crate::env::LevelConfig::default(),
         }
     }
 
@@ -424,6 +547,7 @@ impl Agent {
         match self {
             Self::Native(_, net) => &**net,
             Self::Onnx(a) => a.as_ref(),
+            Self::Bot(b) => b,
         }
     }
 
@@ -431,7 +555,7 @@ impl Agent {
     pub fn frames(&self) -> u64 {
         match self {
             Self::Native(ckpt, _) => ckpt.meta.training.frames,
-            Self::Onnx(_) => 0,
+            Self::Onnx(_) | Self::Bot(_) => 0,
         }
     }
 }

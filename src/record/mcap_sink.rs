@@ -10,7 +10,7 @@
 //! | `/attention/words/<i>_<word>` | foxglove.RawImage | word i's map (viridis), related objects framed |
 //! | `/attention/combined` | foxglove.RawImage | `M`, target objects framed |
 //! | `/attention/weights` | groundscope.Weights | words, w, H |
-//! | `/policy` | groundscope.Policy | episode, step, action, probabilities, value, reward |
+//! | `/policy` | groundscope.Policy | episode, step, action, probabilities, value, reward; the expert's (minigrid's bot's) action and plan, and whether the agent left it |
 //! | `/metrics/grounding` | groundscope.Grounding | per evaluated map: accuracies and hits |
 //! | `/mission` | groundscope.Mission | mission text, seed, episode (first step of each) |
 //! | `/instruction` | groundscope.Instruction | the instruction tree: each sequence and clause with its stage (done, waiting, later), each clause's targets and cells, the doors and their states |
@@ -31,6 +31,7 @@ use serde_json::{Value, json};
 
 use super::scene::{StepScene, action_names, episode_scenes, hit_color, trail, world_with_overlay};
 use super::{PendingFile, RecordError, StopFlag, io_err, stopped};
+use crate::env::Action;
 use crate::episode::EpisodeTrace;
 use crate::metrics::grounding::EvaluatedMap;
 use crate::policy::ViewMap;
@@ -46,7 +47,7 @@ const RAW_IMAGE_SCHEMA: &str = r#"{"title":"foxglove.RawImage","description":"A 
 
 const WEIGHTS_SCHEMA: &str = r#"{"title":"groundscope.Weights","type":"object","properties":{"episode":{"type":"integer"},"step":{"type":"integer"},"words":{"type":"array","items":{"type":"string"}},"weights":{"type":"array","items":{"type":"number"}},"entropies":{"type":"array","items":{"type":"number"}},"w":{"type":"object","additionalProperties":{"type":"number"}}}}"#;
 
-const POLICY_SCHEMA: &str = r#"{"title":"groundscope.Policy","type":"object","properties":{"episode":{"type":"integer"},"step":{"type":"integer"},"action":{"type":"integer"},"action_name":{"type":"string"},"probs":{"type":"object","additionalProperties":{"type":"number"}},"value":{"type":"number"},"reward":{"type":"number"},"terminated":{"type":"boolean"},"truncated":{"type":"boolean"}}}"#;
+const POLICY_SCHEMA: &str = r#"{"title":"groundscope.Policy","type":"object","properties":{"episode":{"type":"integer"},"step":{"type":"integer"},"action":{"type":"integer"},"action_name":{"type":"string"},"probs":{"type":"object","additionalProperties":{"type":"number"}},"value":{"type":"number"},"reward":{"type":"number"},"terminated":{"type":"boolean"},"truncated":{"type":"boolean"},"expert_action":{"type":["integer","null"]},"expert_action_name":{"type":["string","null"]},"expert_plan":{"type":"string"},"left_expert":{"type":"boolean"}}}"#;
 
 const GROUNDING_SCHEMA: &str = r#"{"title":"groundscope.Grounding","type":"object","properties":{"episode":{"type":"integer"},"step":{"type":"integer"},"maps":{"type":"object","additionalProperties":{"type":"object","properties":{"word":{"type":["string","null"]},"acc":{"type":"number"},"acc_ng":{"type":"number"},"acc_bs":{"type":"number"},"acc_cmb":{"type":"number"},"hits":{"type":"array"}}}}}}"#;
 
@@ -207,6 +208,10 @@ fn step_messages(out: &mut Msgs, e: usize, ep: &EpisodeTrace, k: usize, scene: &
             "episode": e, "step": step.t, "action": step.action as u8,
             "action_name": step.action.name(), "probs": probs, "value": step.value,
             "reward": step.reward, "terminated": step.terminated, "truncated": step.truncated,
+            "expert_action": step.expert_action.map(|a| a as u8),
+            "expert_action_name": step.expert_action.map(Action::name),
+            "expert_plan": step.expert_plan,
+            "left_expert": step.expert_action.is_some_and(|a| a != step.action),
         }),
     );
     let tree = &scene.tree;

@@ -206,7 +206,34 @@ impl Debugger {
         if level != self.level {
             self.level = level;
             self.mission_text.clear();
+            self.bot_where_unreadable();
             self.run_episode(None);
+        }
+    }
+
+    /// Where the loaded agent cannot read the picked level's mission (a word it was not
+    /// trained on), minigrid's bot acts instead, and the message bar says so.
+    fn bot_where_unreadable(&mut self) {
+        let Some(agent) = &self.agent else { return };
+        let Ok(world) = self.level.generate(self.seed) else {
+            return;
+        };
+        let acting = agent.policy.acting();
+        let Err(e) = crate::policy::acting::mission_tokens(acting, &world.mission, || {
+            self.level.to_string()
+        }) else {
+            return;
+        };
+        match Agent::load(crate::policy::acting::BOT) {
+            Ok(bot) => {
+                self.info(format!(
+                    "{} cannot read this level ({e}): running minigrid's bot instead (checkpoint \"bot\")",
+                    agent.spec
+                ));
+                self.checkpoint_text.clone_from(&bot.spec);
+                self.agent = Some(bot);
+            }
+            Err(e) => self.error(e),
         }
     }
 

@@ -36,6 +36,7 @@ impl Debugger {
                 ui.colored_label(WORD_COLORS[i % WORD_COLORS.len()], format!("w of {w}"));
             }
             ui.colored_label(Color32::GRAY, "p of the chosen action");
+            ui.colored_label(super::numbers::EXPERT_LEFT, "| left the expert's plan");
         });
         let width = ui.available_width().max(100.0);
         let (rect, resp) = ui.allocate_exact_size(Vec2::new(width, height), Sense::click());
@@ -65,6 +66,16 @@ impl Debugger {
                 .collect();
             let color = WORD_COLORS[i % WORD_COLORS.len()];
             painter.add(egui::Shape::line(points, Stroke::new(1.5, color)));
+        }
+        // A tick at the bottom of every step where the agent did not take the bot's action.
+        for (k, s) in steps.iter().enumerate() {
+            if s.expert_action.is_some_and(|a| a != s.action) {
+                let x = at(k, 0.0).x;
+                painter.line_segment(
+                    [Pos2::new(x, rect.max.y), Pos2::new(x, rect.max.y - 8.0)],
+                    Stroke::new(1.5, super::numbers::EXPERT_LEFT),
+                );
+            }
         }
         let cursor = self.cursor.step.min(steps.len() - 1);
         let x = at(cursor, 0.0).x;

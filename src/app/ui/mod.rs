@@ -292,6 +292,21 @@ impl Debugger {
             ui.vertical(|ui| self.weights_panel(ui, step, scene));
         });
         ui.separator();
+        // The bot has neither maps nor a network to probe: its plan (above) is what it
+        // attends to.
+        let is_bot = self
+            .agent
+            .as_ref()
+            .is_some_and(|a| a.policy.acting().reads_world());
+        if is_bot {
+            ui.label(
+                "minigrid's bot acts from the world itself: no attention maps and no network to probe; its plan is shown above",
+            );
+            ui.separator();
+            let height = (ui.available_height() - 40.0).clamp(90.0, 220.0);
+            self.history_ui(ui, &shown, height);
+            return;
+        }
         // A model without maps gets its occlusion saliency in their place, always.
         let mapless = step.attention.is_none();
         let faithful = self.show_faithfulness || mapless;

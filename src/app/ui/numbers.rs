@@ -101,7 +101,7 @@ impl Debugger {
         ui.label("word weights w");
         let labels: Vec<String> = att.words.iter().map(|w| w.word.clone()).collect();
         let values: Vec<f32> = att.words.iter().map(|w| w.weight).collect();
-        bars(ui, &labels, &values, Some(self.selected_word));
+        bars(ui, &labels, &values, Some(self.selected_word), None);
         ui.add_space(4.0);
         for (kind, row) in accuracy_rows(step, scene) {
             match row {
@@ -134,12 +134,37 @@ impl Debugger {
             step.value,
             step.reward
         ));
+        Self::expert_line(ui, step);
+    }
+
+    /// What minigrid's bot would do here and its plan; a warning where the agent left it.
+    pub(super) fn expert_line(ui: &mut egui::Ui, step: &StepRecord) {
+        match step.expert_action {
+            Some(a) => {
+                ui.horizontal_wrapped(|ui| {
+                    ui.label(format!("expert (minigrid's bot): {}", a.name()));
+                    if a != step.action {
+                        ui.colored_label(EXPERT_LEFT, "· left the expert's plan here");
+                    }
+                });
+            }
+            None => {
+                ui.label("expert (minigrid's bot): none");
+            }
+        }
+        ui.label(egui::RichText::new(format!("plan: {}", step.expert_plan)).small());
     }
 
     /// The action probabilities as named bars, the chosen action highlighted.
     pub(super) fn policy_bars(ui: &mut egui::Ui, step: &StepRecord) {
         let labels: Vec<String> = action_names().iter().map(|s| (*s).to_owned()).collect();
-        bars(ui, &labels, &step.probs, Some(step.action as usize));
+        bars(
+            ui,
+            &labels,
+            &step.probs,
+            Some(step.action as usize),
+            step.expert_action.map(|a| a as usize),
+        );
     }
 
     /// [`Self::policy_header`] and [`Self::policy_bars`] (the compare panel).
@@ -164,8 +189,18 @@ pub fn step_line(t: usize, shown: &Shown) -> String {
     )
 }
 
-/// Horizontal bars with labels and values; `highlight` is drawn in another colour.
-fn bars(ui: &mut egui::Ui, labels: &[String], values: &[f32], highlight: Option<usize>) {
+/// The colour of "left the expert's plan here", in the panel and on the episode plot.
+pub(super) const EXPERT_LEFT: Color32 = Color32::from_rgb(230, 80, 80);
+
+/// Horizontal bars with labels and values; `highlight` is drawn in another colour and
+/// `expert` (minigrid's bot's action) is marked with a star.
+fn bars(
+    ui: &mut egui::Ui,
+    labels: &[String],
+    values: &[f32],
+    highlight: Option<usize>,
+    expert: Option<usize>,
+) {
     let width = ui.available_width().min(340.0);
     for (i, (l, &v)) in labels.iter().zip(values).enumerate() {
         ui.horizontal(|ui| {
@@ -181,7 +216,11 @@ fn bars(ui: &mut egui::Ui, labels: &[String], values: &[f32], highlight: Option<
                 Color32::from_rgb(70, 130, 200)
             };
             p.rect_filled(bar, 2.0, color);
-            ui.label(format!("{v:.3}"));
+            if expert == Some(i) {
+                ui.label(format!("{v:.3} ★ expert"));
+            } else {
+                ui.label(format!("{v:.3}"));
+            }
         });
     }
 }

@@ -230,6 +230,7 @@ fn summary(seed: u64, success: bool) -> EpisodeSummary {
         grounding: std::collections::BTreeMap::new(),
         failure: None,
         actions: Vec::new(),
+        expert: crate::metrics::sweep::EpisodeExpert::default(),
     }
 }
 

@@ -17,7 +17,7 @@ use crate::metrics::sweep::EpisodeSummary;
 use crate::table::{Record, Table};
 
 /// `episodes.csv`'s header.
-pub const EPISODES_CSV_HEADER: &str = "checkpoint,level,eval_seed,episode,level_seed,mission,success,steps,return,failure_class,actions";
+pub const EPISODES_CSV_HEADER: &str = "checkpoint,level,eval_seed,episode,level_seed,mission,success,steps,return,failure_class,actions,expert_agreement,first_divergence,bot_steps,path_efficiency";
 
 /// The name `episodes.csv` gives a level: the BabyAI id, or for the paper's level the id its
 /// minigrid class is registered under in the dumps (`groundscope-PaperLocalS8N4-v0`).
@@ -45,6 +45,14 @@ pub fn episodes_csv(cells: &[(String, LevelConfig, Vec<EpisodeSummary>)]) -> Str
                 (seed, index) = (Some(e.eval_seed), 0);
             }
             let actions: Vec<String> = e.actions.iter().map(u8::to_string).collect();
+            let x = &e.expert;
+            let number = |v: f64| {
+                if v.is_finite() {
+                    format!("{v:.6}")
+                } else {
+                    String::new()
+                }
+            };
             t.push(
                 &Record::new()
                     .field(checkpoint)
@@ -57,7 +65,11 @@ pub fn episodes_csv(cells: &[(String, LevelConfig, Vec<EpisodeSummary>)]) -> Str
                     .field(e.length)
                     .field(format!("{:.6}", e.reward))
                     .field(e.failure.map_or("", |d| d.class.name()))
-                    .field(actions.join(" ")),
+                    .field(actions.join(" "))
+                    .field(number(x.agreement()))
+                    .field(x.first_divergence.map_or(String::new(), |t| t.to_string()))
+                    .field(x.bot_length.map_or(String::new(), |n| n.to_string()))
+                    .field(number(x.path_efficiency(e.success, e.length))),
             );
             index += 1;
         }
@@ -82,7 +94,10 @@ impl Report {
         let _ = writeln!(s, "\n## Per level\n");
         let _ = writeln!(
             s,
-            "`acc_ng` per word kind; – where the level's missions hold no such word or the model has no maps.\n"
+            "`acc_ng` per word kind; – where the level's missions hold no such word or the model has no maps. \
+             Beside minigrid's bot (docs/bot.md): *agree*, the share of steps at which the agent took the bot's \
+             action; *diverge*, the step at which a failed episode first left the bot's plan; *efficiency*, the \
+             bot's steps alone / the agent's on successful episodes; *bot*, the bot's own success from the same starts.\n"
         );
         let names: Vec<String> = kinds
             .iter()
@@ -90,10 +105,14 @@ impl Report {
             .collect();
         let _ = writeln!(
             s,
-            "| checkpoint | level | episodes | success | reward | length | {} |",
+            "| checkpoint | level | episodes | success | reward | length | {} | agree | diverge | efficiency | bot |",
             names.join(" | ")
         );
-        let _ = writeln!(s, "|---|---|---|---|---|---|{}", "---|".repeat(kinds.len()));
+        let _ = writeln!(
+            s,
+            "|---|---|---|---|---|---|{}---|---|---|---|",
+            "---|".repeat(kinds.len())
+        );
         for c in self.level_cells() {
             let accs: Vec<String> = kinds
                 .iter()
@@ -105,16 +124,31 @@ impl Report {
                         .unwrap_or_else(|| "–".into())
                 })
                 .collect();
+            let expert: Vec<String> = c.expert.as_ref().map_or_else(
+                || vec!["–".to_string(); 4],
+                |x| {
+                    [
+                        &x.agreement,
+                        &x.first_divergence,
+                        &x.path_efficiency,
+                        &x.bot_success,
+                    ]
+                    .into_iter()
+                    .map(|m| m.mean.map_or_else(|| "–".into(), |_| self.over_seeds(m)))
+                    .collect()
+                },
+            );
             let _ = writeln!(
                 s,
-                "| {} | {} | {} | {} | {} | {} | {} |",
+                "| {} | {} | {} | {} | {} | {} | {} | {} |",
                 c.checkpoint,
                 c.label(),
                 c.episodes,
                 self.over_seeds(&c.success),
                 self.over_seeds(&c.reward),
                 self.over_seeds(&c.length),
-                accs.join(" | ")
+                accs.join(" | "),
+                expert.join(" | ")
             );
         }
         s

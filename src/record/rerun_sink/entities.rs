@@ -251,6 +251,28 @@ fn log_world_marks(
         .map_err(sdk)
 }
 
+/// Whether the agent did not take the expert's action at `step`.
+fn left_expert(step: &crate::episode::StepRecord) -> bool {
+    step.expert_action.is_some_and(|a| a != step.action)
+}
+
+/// The status panel's line on the expert (minigrid's bot beside the agent).
+fn expert_line(step: &crate::episode::StepRecord) -> String {
+    match step.expert_action {
+        None => format!("expert (minigrid's bot): {}", step.expert_plan),
+        Some(a) => format!(
+            "expert (minigrid's bot) **{}**{} · plan: {}",
+            a.name(),
+            if a == step.action {
+                ""
+            } else {
+                " — **left the expert's plan here**"
+            },
+            step.expert_plan
+        ),
+    }
+}
+
 pub(super) fn log_step(
     rec: &RecordingStream,
     ep: &EpisodeTrace,
@@ -306,7 +328,7 @@ pub(super) fn log_step(
     .map_err(sdk)?;
     let mut status = format!(
         "**{}**\n\nepisode {episode} (seed {}) · step {} of {} · {}\n\n\
-         action **{}** · value {:.3} · reward {:.3}\n\n| action | p |\n|---|---|\n",
+         action **{}** · value {:.3} · reward {:.3}\n\n{}\n\n| action | p |\n|---|---|\n",
         ep.mission,
         ep.seed,
         step.t,
@@ -315,15 +337,34 @@ pub(super) fn log_step(
         action_label(step),
         step.value,
         step.reward,
+        expert_line(step),
     );
     for (i, (n, p)) in names.iter().zip(step.probs).enumerate() {
-        let mark = if i == step.action as usize {
-            " ◀"
+        let mut mark = if i == step.action as usize {
+            " ◀".to_string()
         } else {
-            ""
+            String::new()
         };
+        if step.expert_action.is_some_and(|a| a as usize == i) {
+            mark += " ★ expert";
+        }
         let _ = writeln!(status, "| {i} {n} | {p:.3}{mark} |");
     }
+    rec.log(
+        "policy/expert",
+        &rerun::TextLog::new(format!(
+            "episode {episode} step {}: expert {} · plan {}{}",
+            step.t,
+            step.expert_action.map_or("(gave up)", |a| a.name()),
+            step.expert_plan,
+            if left_expert(step) {
+                " · LEFT THE EXPERT'S PLAN HERE"
+            } else {
+                ""
+            },
+        )),
+    )
+    .map_err(sdk)?;
     rec.log("policy/status", &rerun::TextDocument::from_markdown(status))
         .map_err(sdk)?;
 

@@ -81,6 +81,9 @@ fn layout(
         TextLogView::new("actions")
             .with_origin("/policy/action")
             .into(),
+        TextLogView::new("expert (minigrid's bot): its action and plan")
+            .with_origin("/policy/expert")
+            .into(),
     ];
     let probs = || {
         Spatial2DView::new("action probabilities")
