@@ -612,3 +612,44 @@ fn a_run_directory_holds_one_training_at_a_time() {
     let o = gs(&["train", "--out", r, "--resume", "--frames", "1", "--quiet"]);
     assert_eq!(o.status.code(), Some(0), "{}", common::stderr(&o));
 }
+
+/// A training refused because another holds the run directory touches nothing there, even
+/// before the holder's first checkpoint: the holder keeps its logs and its lock (a later
+/// training is still refused). The refused one used to "clean up" the holder's log.csv,
+/// eval_log.csv and lock file as its own.
+#[test]
+fn a_refused_training_leaves_the_running_ones_files() {
+    let tmp = tempfile::tempdir().unwrap();
+    let run = tmp.path().join("run");
+    let r = run.to_str().unwrap();
+    let mut first = Command::new(env!("CARGO_BIN_EXE_groundscope"))
+        .args(["train", "--out", r, "--quiet", "--eval-interval", "0"])
+        .args(TINY_RUN)
+        .args(["--frames", "100000000", "--save-interval", "1000000"])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let rows =
+        |run: &Path| std::fs::read_to_string(run.join("log.csv")).map_or(0, |t| t.lines().count());
+    common::wait_until("a logged update", || {
+        assert!(first.try_wait().unwrap().is_none(), "the run ended");
+        rows(&run) > 1
+    });
+    let pid = first.id().to_string();
+    let before = entries(&run);
+    for _ in 0..2 {
+        let mut args = vec!["train", "--out", r, "--quiet"];
+        args.extend(TINY_RUN);
+        args.extend(["--frames", "100000"]);
+        let o = gs(&args);
+        assert_bad_input(&o, &format!("another training (pid {pid})"));
+        let o = gs(&["train", "--out", r, "--resume", "--quiet"]);
+        assert_bad_input(&o, &format!("another training (pid {pid})"));
+        assert_eq!(entries(&run), before, "the holder's files are all there");
+    }
+    let logged = rows(&run);
+    common::wait_until("the holder logging on", || rows(&run) > logged);
+    first.kill().unwrap();
+    first.wait().unwrap();
+}
