@@ -457,6 +457,72 @@ fn curve_refuses_non_finite_values() {
     }
 }
 
+/// An update that ends no episode logs `NaN` success, reward and length (documented): `curve`
+/// draws such a log with a gap there, and a training's saves keep redrawing its curve.png.
+/// `curve` used to refuse a run's own log, and every save printed an error instead.
+#[test]
+fn curve_draws_a_run_log_with_updates_that_ended_no_episode() {
+    let dir = tempfile::tempdir().unwrap();
+    let header = "update,frames,fps,episodes,success_rate,mean_reward,mean_length,policy_loss,value_loss,entropy,grad_norm,elapsed_secs";
+    let log = dir.path().join("log.csv");
+    std::fs::write(
+        &log,
+        format!(
+            "{header}\n1,2048,2659,0,NaN,NaN,NaN,-0.04,0.01,1.93,0.09,0.8\n2,4096,2970,359,0.0111,0.0157,5.80,0.02,0.006,1.92,0.05,1.4\n"
+        ),
+    )
+    .unwrap();
+    let out = dir.path().join("c.png");
+    let o = common::gs_guarded(&[
+        "curve",
+        log.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", common::stderr(&o));
+    assert!(out.exists());
+
+    // A run whose long episodes end in no update of one frame per environment.
+    let run = dir.path().join("run");
+    let o = train(
+        &run,
+        &[
+            "--procs",
+            "1",
+            "--frames-per-proc",
+            "1",
+            "--batch-size",
+            "1",
+            "--recurrence",
+            "1",
+            "--frames",
+            "3",
+            "--save-interval",
+            "1",
+            "--eval-interval",
+            "0",
+        ],
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", common::stderr(&o));
+    let text = std::fs::read_to_string(run.join("log.csv")).unwrap();
+    assert!(text.contains("NaN"), "an update ended no episode: {text}");
+    assert!(
+        !common::stderr(&o).contains("curve.png"),
+        "{}",
+        common::stderr(&o)
+    );
+    assert!(run.join("curve.png").exists());
+    let out = dir.path().join("run.png");
+    let o = common::gs_guarded(&[
+        "curve",
+        run.join("log.csv").to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", common::stderr(&o));
+    assert!(out.exists());
+}
+
 /// A word temperature small enough to underflow the word weights to NaN is refused.
 #[test]
 fn a_word_temperature_that_underflows_is_refused() {
