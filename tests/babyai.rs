@@ -199,6 +199,38 @@ fn env_verify_and_level_flags_refuse_what_they_cannot_check() {
     );
 }
 
+/// `env show --snapshot` writes what `env verify` checks (docs/formats.md): BabyAI levels are
+/// regenerated from the snapshot's id and seed, the paper's level replayed. The snapshot's
+/// producer tag, `groundscope 0.1.0`, used to be refused as "another minigrid version".
+#[test]
+fn a_shown_snapshot_passes_env_verify() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut files = Vec::new();
+    let shows: [&[&str]; 4] = [
+        &["--level", "BabyAI-GoToLocal-v0", "--seed", "3"],
+        &["--level", "BabyAI-KeyCorridorS3R3-v0", "--seed", "1"],
+        &["--level", "BabyAI-BossLevel-v0", "--seed", "7"],
+        &["--seed", "5"],
+    ];
+    for (i, flags) in shows.iter().enumerate() {
+        let f = dir.path().join(format!("s{i}.json"));
+        let mut args = vec!["env", "show", "--snapshot", f.to_str().unwrap()];
+        args.extend_from_slice(flags);
+        let o = common::gs(&args);
+        assert_eq!(o.status.code(), Some(0), "{}", common::stderr(&o));
+        files.push(f.display().to_string());
+    }
+    let mut args = vec!["env", "verify"];
+    args.extend(files.iter().map(String::as_str));
+    let o = common::gs(&args);
+    assert_eq!(o.status.code(), Some(0), "{}", common::stderr(&o));
+    assert!(
+        common::stdout(&o).contains("4 passed, 0 failed"),
+        "{}",
+        common::stdout(&o)
+    );
+}
+
 /// A mission word outside the agent's vocabulary is one line naming the word and the level.
 #[test]
 fn an_unknown_mission_word_names_the_level() {

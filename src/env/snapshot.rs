@@ -483,7 +483,11 @@ impl Snapshot {
             [i64::from(e[0]), i64::from(e[1]), i64::from(e[2])]
         });
         Self {
-            minigrid_version: Some(format!("groundscope {}", env!("CARGO_PKG_VERSION"))),
+            minigrid_version: Some(format!(
+                "{}{}",
+                verify::PRODUCER_PREFIX,
+                env!("CARGO_PKG_VERSION")
+            )),
             env_id,
             seed,
             width: world.grid.width() as i64,

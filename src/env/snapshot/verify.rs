@@ -11,6 +11,11 @@ use crate::env::world::Action;
 /// The minigrid version the port follows; dumps of another version are refused.
 pub const MINIGRID_VERSION: &str = "3.2.0";
 
+/// How a snapshot that groundscope wrote (`env show --snapshot`) names its producer in
+/// `minigrid_version`: `groundscope 0.1.0`. Its levels are the port's, which follows
+/// [`MINIGRID_VERSION`], so such a snapshot is checked as a dump of that version.
+pub const PRODUCER_PREFIX: &str = "groundscope ";
+
 /// Regenerates a dump's level from its `env_id` and `seed` (a registered `BabyAI-*` id) and
 /// compares the initial state: size, grid, box contents, agent pose, carried object,
 /// horizon, mission and instruction tree with every matched position. `None` when they agree
@@ -26,6 +31,7 @@ pub fn verify_generation(snap: &Snapshot) -> Result<Option<Mismatch>, EnvError> 
     };
     if let Some(v) = snap.minigrid_version.as_deref()
         && v != MINIGRID_VERSION
+        && !v.starts_with(PRODUCER_PREFIX)
     {
         return Err(invalid(
             "minigrid_version",
