@@ -21,6 +21,9 @@ pub enum ExitStatus {
     Success,
     /// 1: ran, but a check failed (a replay mismatch, a metric below its threshold).
     CheckFailed,
+    /// 2: bad input that the command has already reported, one line per file (`env verify`
+    /// checks every file it is given before it ends).
+    BadInput,
     /// 130: stopped by Ctrl-C (or SIGTERM, SIGHUP) before its outputs were written; the
     /// command has said what it kept.
     Interrupted,
@@ -87,6 +90,7 @@ fn run() -> ExitCode {
     match cli::run(args, &matches) {
         Ok(ExitStatus::Success) => ExitCode::SUCCESS,
         Ok(ExitStatus::CheckFailed) => ExitCode::from(1),
+        Ok(ExitStatus::BadInput) => ExitCode::from(2),
         Ok(ExitStatus::Interrupted) => ExitCode::from(130),
         Err(err) => {
             eprintln!("groundscope: {err:#}");

@@ -337,6 +337,75 @@ fn env_verify_compares_directions_and_missions_and_rejects_malformed_images() {
     assert_bad_input(&gs(&["env", "verify", &write("unseen.json", &v)]), "unseen");
 }
 
+/// A dump missing a required field is refused naming it by its path, not by a line and
+/// column; `env verify` checks every file it is given and ends with its summary, exit 2 when
+/// one was bad input (it used to stop at the first malformed file).
+#[test]
+fn env_verify_names_missing_fields_and_checks_every_file() {
+    let tmp = tempfile::tempdir().unwrap();
+    let src = groundscope::files::read_text_maybe_gz(&common::fixtures("babyai")[0]).unwrap();
+    let base: serde_json::Value = serde_json::from_str(&src).unwrap();
+    let write = |name: &str, v: &serde_json::Value, pretty: bool| {
+        let p = tmp.path().join(name);
+        let text = if pretty {
+            serde_json::to_string_pretty(v).unwrap()
+        } else {
+            v.to_string()
+        };
+        std::fs::write(&p, text).unwrap();
+        p.display().to_string()
+    };
+    for field in ["seed", "grid", "mission", "instr", "width", "agent_pos"] {
+        for pretty in [false, true] {
+            let mut v = base.clone();
+            v.as_object_mut().unwrap().remove(field);
+            let f = write(&format!("no_{field}.json"), &v, pretty);
+            let o = gs(&["env", "verify", &f]);
+            assert_bad_input(&o, &format!("{f}: invalid snapshot: {field}: "));
+            assert!(
+                !common::stderr(&o).contains("line 1 column"),
+                "{}",
+                common::stderr(&o)
+            );
+        }
+    }
+    let mut v = base.clone();
+    v["steps"][1].as_object_mut().unwrap().remove("action");
+    let f = write("no_action.json", &v, true);
+    assert_bad_input(
+        &gs(&["env", "verify", &f]),
+        "steps[1].action: missing (a required field)",
+    );
+    let mut v = base.clone();
+    v["instr"].as_object_mut().unwrap().remove("kind");
+    let f = write("no_kind.json", &v, false);
+    assert_bad_input(&gs(&["env", "verify", &f]), "instr.kind: missing");
+    let mut v = base.clone();
+    v["steps"][0]["reward"] = "high".into();
+    let f = write("reward.json", &v, false);
+    assert_bad_input(&gs(&["env", "verify", &f]), "steps[0].reward: invalid type");
+
+    // Good, malformed, mismatching, good: every file is checked.
+    let good = write("good.json", &base, false);
+    let mut v = base.clone();
+    v.as_object_mut().unwrap().remove("grid");
+    let bad = write("bad.json", &v, false);
+    let mut v = base;
+    v["seed"] = (v["seed"].as_u64().unwrap() + 1).into();
+    let other = write("other.json", &v, false);
+    let o = gs(&["env", "verify", &good, &bad, &other, &good]);
+    assert_bad_input(&o, &format!("{bad}: invalid snapshot: grid: missing"));
+    let out = common::stdout(&o);
+    assert!(out.contains(&format!("{other}: step 0: ")), "{out}");
+    assert!(
+        out.ends_with("2 passed, 1 failed, 1 refused (bad input)\n"),
+        "{out}"
+    );
+    let o = gs(&["env", "verify", &good, &other]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(common::stdout(&o).ends_with("1 passed, 1 failed\n"));
+}
+
 #[test]
 fn bench_train_reports_every_phase() {
     let o = gs(&["bench", "train", "--frames", "2048"]);

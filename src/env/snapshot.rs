@@ -5,6 +5,7 @@
 //! instruction (kind, type, colour, location, matching positions), `done_actions` and
 //! `max_steps`. Dumps from Python also carry `steps`, which [`verify_dump`] replays.
 
+mod json_path;
 mod verify;
 
 pub use verify::{MINIGRID_VERSION, Mismatch, verify_dump, verify_generation};
@@ -329,13 +330,12 @@ fn pos_of(v: [i64; 2], field: &str) -> Result<Pos, EnvError> {
 }
 
 impl Snapshot {
-    /// Parses a snapshot from JSON text.
+    /// Parses a snapshot from JSON text; an error names the field by its path
+    /// (`steps[3].action: missing (a required field)`), or the line and column of bad JSON.
     pub fn from_json(text: &str) -> Result<Self, EnvError> {
         serde_json::from_str(text).map_err(|e| {
-            invalid(
-                format!("line {} column {}", e.line(), e.column()),
-                e.to_string(),
-            )
+            let (field, reason) = json_path::field_of(text, &e);
+            invalid(field, reason)
         })
     }
 
