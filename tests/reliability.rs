@@ -647,6 +647,54 @@ fn one_jobs_rule_and_user_text_shown_safely() {
     assert!(err.len() < 500, "a {} byte error line", err.len());
 }
 
+/// A level id in an error is cut as a mission is (80 characters, then its length): a
+/// 100,000-character `--level`, or `env_id` in a dump, used to give a 100 kB error line.
+#[test]
+fn long_level_ids_are_cut_in_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let long = format!("BabyAI-{}", "x".repeat(100_000));
+    let out = dir.path().join("out");
+    let o = out.to_str().unwrap();
+    for args in [
+        vec!["env", "show", "--level", &long],
+        vec!["replay", "--level", &long],
+        vec!["train", "--out", o, "--level", &long],
+        vec!["eval", "--out", o, "--levels", &long],
+    ] {
+        let r = gs(&args);
+        assert_bad_input(&r, "(100007 characters)");
+        assert!(
+            common::stderr(&r).len() < 600,
+            "{:?}: {} bytes",
+            args[0],
+            r.stderr.len()
+        );
+        assert!(!out.exists(), "{:?} wrote nothing", args[0]);
+    }
+    let src = groundscope::files::read_text_maybe_gz(&common::fixtures("babyai")[0]).unwrap();
+    let base: serde_json::Value = serde_json::from_str(&src).unwrap();
+    for (field, value) in [
+        ("env_id", long.clone()),
+        (
+            "env_id",
+            format!("groundscope-PaperLocalS{}8N4-v0", "0".repeat(100_000)),
+        ),
+        ("minigrid_version", "9".repeat(100_000)),
+    ] {
+        let mut v = base.clone();
+        v[field] = value.into();
+        let f = dir.path().join("dump.json");
+        std::fs::write(&f, v.to_string()).unwrap();
+        let r = gs(&["env", "verify", f.to_str().unwrap()]);
+        assert_bad_input(&r, &format!("{field}: "));
+        assert!(
+            common::stderr(&r).len() < 600,
+            "{field}: {} bytes",
+            r.stderr.len()
+        );
+    }
+}
+
 /// A reused output directory ends up holding the new run's outputs only: eval's figures and
 /// `failures/` recordings, faithfulness's per-checkpoint figures; other files stay.
 #[test]

@@ -5,7 +5,7 @@ use super::{
     Snapshot, ascii_grid, box_contents_json, encode_i64, instr_to_json, invalid, obs_to_i64, u8_in,
 };
 use crate::env::babyai;
-use crate::env::error::EnvError;
+use crate::env::error::{EnvError, shown};
 use crate::env::world::Action;
 
 /// The minigrid version the port follows; dumps of another version are refused.
@@ -35,7 +35,10 @@ pub fn verify_generation(snap: &Snapshot) -> Result<Option<Mismatch>, EnvError> 
     {
         return Err(invalid(
             "minigrid_version",
-            format!("{v:?}: only dumps of minigrid {MINIGRID_VERSION} can be checked"),
+            format!(
+                "{}: only dumps of minigrid {MINIGRID_VERSION} can be checked",
+                shown(v)
+            ),
         ));
     }
     let paper = paper_spec(id)?;
@@ -43,7 +46,8 @@ pub fn verify_generation(snap: &Snapshot) -> Result<Option<Mismatch>, EnvError> 
         invalid(
             "env_id",
             format!(
-                "{id:?} is not a BabyAI level of minigrid {MINIGRID_VERSION} (closest: {})",
+                "{} is not a BabyAI level of minigrid {MINIGRID_VERSION} (closest: {})",
+                shown(id),
                 babyai::closest_ids(id).join(", ")
             ),
         )
@@ -144,7 +148,7 @@ fn paper_spec(id: &str) -> Result<Option<babyai::LevelSpec>, EnvError> {
     let bad = || {
         invalid(
             "env_id",
-            format!("{id:?} is not {PAPER_PREFIX}{{S}}N{{N}}-v0"),
+            format!("{} is not {PAPER_PREFIX}{{S}}N{{N}}-v0", shown(id)),
         )
     };
     let body = rest.strip_suffix("-v0").ok_or_else(bad)?;
@@ -154,6 +158,10 @@ fn paper_spec(id: &str) -> Result<Option<babyai::LevelSpec>, EnvError> {
         n_objects: n.parse().map_err(|_| bad())?,
         ..crate::env::LevelConfig::default()
     };
+    // The id as registered (no `+8`, no `08`): the one a mismatch names.
+    if format!("{PAPER_PREFIX}{}N{}-v0", cfg.room_size, cfg.n_objects) != id {
+        return Err(bad());
+    }
     cfg.validate()?;
     Ok(Some(cfg.spec()))
 }
