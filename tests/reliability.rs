@@ -647,6 +647,35 @@ fn one_jobs_rule_and_user_text_shown_safely() {
     assert!(err.len() < 500, "a {} byte error line", err.len());
 }
 
+/// A mission that is not a BabyAI instruction is refused naming the word at fault and its
+/// position; the error used to say only "unexpected words after the object".
+#[test]
+fn a_mission_error_names_the_word_and_its_position() {
+    for (mission, want) in [
+        (
+            "go to the red ball please",
+            "word 6 \"please\": unexpected after the object",
+        ),
+        (
+            "go to the red ball and",
+            "after word 6 \"and\", the last: a clause",
+        ),
+        (
+            "pick up the key, then go to the red lamp",
+            "word 10 \"lamp\": not key",
+        ),
+    ] {
+        assert_bad_input(
+            &gs(&["replay", "--mission", mission]),
+            &format!("invalid mission \"{mission}\": {want}"),
+        );
+    }
+    let long = format!("go to the red ball {}", "x".repeat(10_000));
+    let o = gs(&["replay", "--mission", &long]);
+    assert_bad_input(&o, "word 6 \"xxxx");
+    assert!(common::stderr(&o).len() < 700, "{} bytes", o.stderr.len());
+}
+
 /// A level id in an error is cut as a mission is (80 characters, then its length): a
 /// 100,000-character `--level`, or `env_id` in a dump, used to give a 100 kB error line.
 #[test]
