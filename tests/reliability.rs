@@ -406,6 +406,43 @@ fn env_verify_names_missing_fields_and_checks_every_file() {
     assert!(common::stdout(&o).ends_with("1 passed, 1 failed\n"));
 }
 
+/// A dump may hold at most 64 MiB of text: a small gzip of whitespace that expands past that
+/// (6.5 MB took 3.6 GB) is refused as it expands, a plain file by its size, each in one line
+/// naming the file.
+#[test]
+fn env_verify_bounds_what_a_dump_expands_to() {
+    use std::io::Write as _;
+    let tmp = tempfile::tempdir().unwrap();
+    let max = groundscope::files::TEXT_BYTES_MAX;
+    assert_eq!(max, 64 << 20, "docs/formats.md says 64 MiB");
+    let bomb = tmp.path().join("bomb.json.gz");
+    let mut gz = flate2::write::GzEncoder::new(
+        std::fs::File::create(&bomb).unwrap(),
+        flate2::Compression::fast(),
+    );
+    let spaces = vec![b' '; 1 << 20];
+    for _ in 0..=(max >> 20) {
+        gz.write_all(&spaces).unwrap();
+    }
+    gz.finish().unwrap();
+    assert!(std::fs::metadata(&bomb).unwrap().len() < 1 << 20);
+    let o = gs(&["env", "verify", bomb.to_str().unwrap()]);
+    assert_bad_input(
+        &o,
+        &format!("reading {}: expands to more than 64 MiB", bomb.display()),
+    );
+    let big = tmp.path().join("big.json");
+    std::fs::File::create(&big)
+        .unwrap()
+        .set_len(max + 1)
+        .unwrap();
+    let o = gs(&["env", "verify", big.to_str().unwrap()]);
+    assert_bad_input(
+        &o,
+        &format!("reading {}: holds more than 64 MiB", big.display()),
+    );
+}
+
 #[test]
 fn bench_train_reports_every_phase() {
     let o = gs(&["bench", "train", "--frames", "2048"]);
