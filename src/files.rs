@@ -52,17 +52,44 @@ fn file_kind(meta: &std::fs::Metadata) -> &'static str {
     "not a plain file"
 }
 
+/// The most text [`read_text_maybe_gz`] reads (64 MiB, 200 times the longest BabyAI dump):
+/// a few MB of gzip can expand a thousandfold, and a dump's text is held in memory several
+/// times over while it is parsed.
+pub const TEXT_BYTES_MAX: u64 = 64 << 20;
+
 /// Reads a text file, gunzipping it when its name ends in `.gz` (the compressed minigrid
-/// dumps). Invalid UTF-8 or a broken gzip stream is an `InvalidData` error.
+/// dumps). Invalid UTF-8 or a broken gzip stream is an `InvalidData` error; so is text over
+/// [`TEXT_BYTES_MAX`], refused before it is all read (a plain file by its size, a gzip as it
+/// expands).
 pub fn read_text_maybe_gz(path: &Path) -> std::io::Result<String> {
     use std::io::Read as _;
-    let bytes = read_regular(path)?;
-    if path.extension().is_some_and(|e| e == "gz") {
-        let mut text = String::new();
-        flate2::read::GzDecoder::new(bytes.as_slice()).read_to_string(&mut text)?;
-        return Ok(text);
+    let too_long = |what: &str| {
+        std::io::Error::new(
+            std::io::ErrorKind::InvalidData,
+            format!(
+                "{what} more than {} MiB, the most a dump may hold (docs/formats.md#snapshots)",
+                TEXT_BYTES_MAX >> 20
+            ),
+        )
+    };
+    let meta = std::fs::metadata(path)?;
+    if meta.is_file() && meta.len() > TEXT_BYTES_MAX {
+        return Err(too_long("holds"));
     }
-    String::from_utf8(bytes).map_err(|e| std::io::Error::new(std::io::ErrorKind::InvalidData, e))
+    let bytes = read_regular(path)?;
+    let text = if path.extension().is_some_and(|e| e == "gz") {
+        let mut text = Vec::new();
+        flate2::read::GzDecoder::new(bytes.as_slice())
+            .take(TEXT_BYTES_MAX + 1)
+            .read_to_end(&mut text)?;
+        if text.len() as u64 > TEXT_BYTES_MAX {
+            return Err(too_long("expands to"));
+        }
+        text
+    } else {
+        bytes
+    };
+    String::from_utf8(text).map_err(|e| std::io::Error::new(std::io::ErrorKind::InvalidData, e))
 }
 
 /// Gives a finished temporary file (which `tempfile` creates with mode 0600) the mode of a

@@ -21,6 +21,9 @@ pub enum ExitStatus {
     Success,
     /// 1: ran, but a check failed (a replay mismatch, a metric below its threshold).
     CheckFailed,
+    /// 2: bad input that the command has already reported, one line per file (`env verify`
+    /// checks every file it is given before it ends).
+    BadInput,
     /// 130: stopped by Ctrl-C (or SIGTERM, SIGHUP) before its outputs were written; the
     /// command has said what it kept.
     Interrupted,
@@ -87,6 +90,7 @@ fn run() -> ExitCode {
     match cli::run(args, &matches) {
         Ok(ExitStatus::Success) => ExitCode::SUCCESS,
         Ok(ExitStatus::CheckFailed) => ExitCode::from(1),
+        Ok(ExitStatus::BadInput) => ExitCode::from(2),
         Ok(ExitStatus::Interrupted) => ExitCode::from(130),
         Err(err) => {
             eprintln!("groundscope: {err:#}");
@@ -96,7 +100,10 @@ fn run() -> ExitCode {
 }
 
 /// Help and version go out as clap renders them; every other command-line error is one line
-/// (clap's own message without its usage block), like every other bad input.
+/// (clap's own message without its usage block), like every other bad input. The message is
+/// clap's first paragraph joined into that line: its first line alone ends in a colon where
+/// the missing arguments follow ("the following required arguments were not provided:",
+/// then `--out <DIR>` on the next line), and a value's possible values sit below it too.
 fn usage_error(err: &clap::Error) -> ExitCode {
     if !err.use_stderr() {
         let _ = err.print();
@@ -107,11 +114,28 @@ fn usage_error(err: &clap::Error) -> ExitCode {
         let _ = err.print();
         return ExitCode::from(2);
     }
-    let text = err.render().to_string();
-    let first = text.lines().next().unwrap_or("invalid arguments");
-    let message = first.strip_prefix("error: ").unwrap_or(first);
-    eprintln!("groundscope: {message} (see --help)");
+    eprintln!(
+        "groundscope: {} (see --help)",
+        usage_message(&err.render().to_string())
+    );
     ExitCode::from(2)
+}
+
+/// Clap's rendered error as one line: its first paragraph (up to the first blank line), each
+/// line trimmed, without the `error: ` prefix.
+fn usage_message(rendered: &str) -> String {
+    let lines: Vec<&str> = rendered
+        .lines()
+        .map(str::trim)
+        .take_while(|l| !l.is_empty())
+        .collect();
+    let joined = lines.join(" ");
+    let message = joined.strip_prefix("error: ").unwrap_or(&joined);
+    if message.is_empty() {
+        "invalid arguments".to_owned()
+    } else {
+        message.to_owned()
+    }
 }
 
 /// groundscope parallelises explicitly (`eval --jobs`, `train --update-threads`, the app's
@@ -167,3 +191,23 @@ fn file_size_limit_is_an_error() {
 
 #[cfg(not(unix))]
 fn file_size_limit_is_an_error() {}
+
+#[cfg(test)]
+mod tests {
+    use super::usage_message;
+
+    #[test]
+    fn a_usage_error_keeps_its_whole_first_paragraph() {
+        let missing = "error: the following required arguments were not provided:\n  --out <DIR>\n  <FILE>...\n\nUsage: groundscope eval --out <DIR>\n\nFor more information, try '--help'.\n";
+        assert_eq!(
+            usage_message(missing),
+            "the following required arguments were not provided: --out <DIR> <FILE>..."
+        );
+        let unexpected = "error: unexpected argument '--nope' found\n\n  tip: to pass '--nope' as a value, use '-- --nope'\n\nUsage: groundscope view\n";
+        assert_eq!(
+            usage_message(unexpected),
+            "unexpected argument '--nope' found"
+        );
+        assert_eq!(usage_message(""), "invalid arguments");
+    }
+}

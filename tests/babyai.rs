@@ -199,6 +199,38 @@ fn env_verify_and_level_flags_refuse_what_they_cannot_check() {
     );
 }
 
+/// `env show --snapshot` writes what `env verify` checks (docs/formats.md): BabyAI levels are
+/// regenerated from the snapshot's id and seed, the paper's level replayed. The snapshot's
+/// producer tag, `groundscope 0.1.0`, used to be refused as "another minigrid version".
+#[test]
+fn a_shown_snapshot_passes_env_verify() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut files = Vec::new();
+    let shows: [&[&str]; 4] = [
+        &["--level", "BabyAI-GoToLocal-v0", "--seed", "3"],
+        &["--level", "BabyAI-KeyCorridorS3R3-v0", "--seed", "1"],
+        &["--level", "BabyAI-BossLevel-v0", "--seed", "7"],
+        &["--seed", "5"],
+    ];
+    for (i, flags) in shows.iter().enumerate() {
+        let f = dir.path().join(format!("s{i}.json"));
+        let mut args = vec!["env", "show", "--snapshot", f.to_str().unwrap()];
+        args.extend_from_slice(flags);
+        let o = common::gs(&args);
+        assert_eq!(o.status.code(), Some(0), "{}", common::stderr(&o));
+        files.push(f.display().to_string());
+    }
+    let mut args = vec!["env", "verify"];
+    args.extend(files.iter().map(String::as_str));
+    let o = common::gs(&args);
+    assert_eq!(o.status.code(), Some(0), "{}", common::stderr(&o));
+    assert!(
+        common::stdout(&o).contains("4 passed, 0 failed"),
+        "{}",
+        common::stdout(&o)
+    );
+}
+
 /// A mission word outside the agent's vocabulary is one line naming the word and the level.
 #[test]
 fn an_unknown_mission_word_names_the_level() {
@@ -255,4 +287,28 @@ fn multi_room_levels_record_and_render() {
     assert_eq!(o.status.code(), Some(0), "{}", common::stderr(&o));
     let img = image::open(&png).unwrap();
     assert_eq!((img.width(), img.height()), (22 * 8, 22 * 8));
+}
+
+/// minigrid 3.2.0 never finishes resetting BabyAI-SynthS5R2-v0 on seed 1741 (`place_agent`
+/// redraws forever: every free cell of the room faces an object on all four sides); groundscope
+/// stops there with one line naming the level and seed, exit 2, instead of hanging.
+#[test]
+fn a_seed_minigrid_loops_on_forever_is_an_error_not_a_hang() {
+    let spec = babyai::spec("BabyAI-SynthS5R2-v0").unwrap();
+    let err = babyai::generate(spec, 1741, false).unwrap_err().to_string();
+    assert!(
+        err.contains("BabyAI-SynthS5R2-v0 seed 1741") && err.contains("loops forever"),
+        "{err}"
+    );
+    // Its neighbours generate as before.
+    assert!(babyai::generate(spec, 1740, false).is_ok());
+    let o = common::gs(&[
+        "env",
+        "show",
+        "--level",
+        "BabyAI-SynthS5R2-v0",
+        "--seed",
+        "1741",
+    ]);
+    common::assert_bad_input(&o, "seed 1741");
 }

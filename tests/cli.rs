@@ -100,6 +100,31 @@ fn env_verify_rejects_bad_dumps_with_exit_2() {
     );
 }
 
+/// A missing required argument is named in the one-line error (clap puts the names on the
+/// lines after "the following required arguments were not provided:", which the one-line
+/// error used to cut off).
+#[test]
+fn a_missing_required_argument_is_named() {
+    for (args, name) in [
+        (&["env", "verify"][..], "<FILE>"),
+        (&["eval", "--seeds", "1"][..], "--out <DIR>"),
+        (&["train"][..], "--out <DIR>"),
+        (&["faithfulness"][..], "--out <DIR>"),
+        (&["curve", "--out", "c.png"][..], "<LOG.csv>"),
+    ] {
+        let o = gs(args);
+        assert_bad_input(
+            &o,
+            &format!("the following required arguments were not provided: {name}"),
+        );
+        assert!(
+            stderr(&o).trim_end().ends_with("(see --help)"),
+            "{}",
+            stderr(&o)
+        );
+    }
+}
+
 #[test]
 fn env_show_prints_the_level_and_writes_pictures() {
     let dir = tempfile::tempdir().unwrap();

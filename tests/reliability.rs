@@ -337,6 +337,112 @@ fn env_verify_compares_directions_and_missions_and_rejects_malformed_images() {
     assert_bad_input(&gs(&["env", "verify", &write("unseen.json", &v)]), "unseen");
 }
 
+/// A dump missing a required field is refused naming it by its path, not by a line and
+/// column; `env verify` checks every file it is given and ends with its summary, exit 2 when
+/// one was bad input (it used to stop at the first malformed file).
+#[test]
+fn env_verify_names_missing_fields_and_checks_every_file() {
+    let tmp = tempfile::tempdir().unwrap();
+    let src = groundscope::files::read_text_maybe_gz(&common::fixtures("babyai")[0]).unwrap();
+    let base: serde_json::Value = serde_json::from_str(&src).unwrap();
+    let write = |name: &str, v: &serde_json::Value, pretty: bool| {
+        let p = tmp.path().join(name);
+        let text = if pretty {
+            serde_json::to_string_pretty(v).unwrap()
+        } else {
+            v.to_string()
+        };
+        std::fs::write(&p, text).unwrap();
+        p.display().to_string()
+    };
+    for field in ["seed", "grid", "mission", "instr", "width", "agent_pos"] {
+        for pretty in [false, true] {
+            let mut v = base.clone();
+            v.as_object_mut().unwrap().remove(field);
+            let f = write(&format!("no_{field}.json"), &v, pretty);
+            let o = gs(&["env", "verify", &f]);
+            assert_bad_input(&o, &format!("{f}: invalid snapshot: {field}: "));
+            assert!(
+                !common::stderr(&o).contains("line 1 column"),
+                "{}",
+                common::stderr(&o)
+            );
+        }
+    }
+    let mut v = base.clone();
+    v["steps"][1].as_object_mut().unwrap().remove("action");
+    let f = write("no_action.json", &v, true);
+    assert_bad_input(
+        &gs(&["env", "verify", &f]),
+        "steps[1].action: missing (a required field)",
+    );
+    let mut v = base.clone();
+    v["instr"].as_object_mut().unwrap().remove("kind");
+    let f = write("no_kind.json", &v, false);
+    assert_bad_input(&gs(&["env", "verify", &f]), "instr.kind: missing");
+    let mut v = base.clone();
+    v["steps"][0]["reward"] = "high".into();
+    let f = write("reward.json", &v, false);
+    assert_bad_input(&gs(&["env", "verify", &f]), "steps[0].reward: invalid type");
+
+    // Good, malformed, mismatching, good: every file is checked.
+    let good = write("good.json", &base, false);
+    let mut v = base.clone();
+    v.as_object_mut().unwrap().remove("grid");
+    let bad = write("bad.json", &v, false);
+    let mut v = base;
+    v["seed"] = (v["seed"].as_u64().unwrap() + 1).into();
+    let other = write("other.json", &v, false);
+    let o = gs(&["env", "verify", &good, &bad, &other, &good]);
+    assert_bad_input(&o, &format!("{bad}: invalid snapshot: grid: missing"));
+    let out = common::stdout(&o);
+    assert!(out.contains(&format!("{other}: step 0: ")), "{out}");
+    assert!(
+        out.ends_with("2 passed, 1 failed, 1 refused (bad input)\n"),
+        "{out}"
+    );
+    let o = gs(&["env", "verify", &good, &other]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(common::stdout(&o).ends_with("1 passed, 1 failed\n"));
+}
+
+/// A dump may hold at most 64 MiB of text: a small gzip of whitespace that expands past that
+/// (6.5 MB took 3.6 GB) is refused as it expands, a plain file by its size, each in one line
+/// naming the file.
+#[test]
+fn env_verify_bounds_what_a_dump_expands_to() {
+    use std::io::Write as _;
+    let tmp = tempfile::tempdir().unwrap();
+    let max = groundscope::files::TEXT_BYTES_MAX;
+    assert_eq!(max, 64 << 20, "docs/formats.md says 64 MiB");
+    let bomb = tmp.path().join("bomb.json.gz");
+    let mut gz = flate2::write::GzEncoder::new(
+        std::fs::File::create(&bomb).unwrap(),
+        flate2::Compression::fast(),
+    );
+    let spaces = vec![b' '; 1 << 20];
+    for _ in 0..=(max >> 20) {
+        gz.write_all(&spaces).unwrap();
+    }
+    gz.finish().unwrap();
+    assert!(std::fs::metadata(&bomb).unwrap().len() < 1 << 20);
+    let o = gs(&["env", "verify", bomb.to_str().unwrap()]);
+    assert_bad_input(
+        &o,
+        &format!("reading {}: expands to more than 64 MiB", bomb.display()),
+    );
+    let big = tmp.path().join("big.json");
+    std::fs::File::create(&big)
+        .unwrap()
+        .set_len(max + 1)
+        .unwrap();
+    let o = gs(&["env", "verify", big.to_str().unwrap()]);
+    assert_bad_input(
+        &o,
+        &format!("reading {}: holds more than 64 MiB", big.display()),
+    );
+}
+
 #[test]
 fn bench_train_reports_every_phase() {
     let o = gs(&["bench", "train", "--frames", "2048"]);
@@ -457,6 +563,72 @@ fn curve_refuses_non_finite_values() {
     }
 }
 
+/// An update that ends no episode logs `NaN` success, reward and length (documented): `curve`
+/// draws such a log with a gap there, and a training's saves keep redrawing its curve.png.
+/// `curve` used to refuse a run's own log, and every save printed an error instead.
+#[test]
+fn curve_draws_a_run_log_with_updates_that_ended_no_episode() {
+    let dir = tempfile::tempdir().unwrap();
+    let header = "update,frames,fps,episodes,success_rate,mean_reward,mean_length,policy_loss,value_loss,entropy,grad_norm,elapsed_secs";
+    let log = dir.path().join("log.csv");
+    std::fs::write(
+        &log,
+        format!(
+            "{header}\n1,2048,2659,0,NaN,NaN,NaN,-0.04,0.01,1.93,0.09,0.8\n2,4096,2970,359,0.0111,0.0157,5.80,0.02,0.006,1.92,0.05,1.4\n"
+        ),
+    )
+    .unwrap();
+    let out = dir.path().join("c.png");
+    let o = common::gs_guarded(&[
+        "curve",
+        log.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", common::stderr(&o));
+    assert!(out.exists());
+
+    // A run whose long episodes end in no update of one frame per environment.
+    let run = dir.path().join("run");
+    let o = train(
+        &run,
+        &[
+            "--procs",
+            "1",
+            "--frames-per-proc",
+            "1",
+            "--batch-size",
+            "1",
+            "--recurrence",
+            "1",
+            "--frames",
+            "3",
+            "--save-interval",
+            "1",
+            "--eval-interval",
+            "0",
+        ],
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", common::stderr(&o));
+    let text = std::fs::read_to_string(run.join("log.csv")).unwrap();
+    assert!(text.contains("NaN"), "an update ended no episode: {text}");
+    assert!(
+        !common::stderr(&o).contains("curve.png"),
+        "{}",
+        common::stderr(&o)
+    );
+    assert!(run.join("curve.png").exists());
+    let out = dir.path().join("run.png");
+    let o = common::gs_guarded(&[
+        "curve",
+        run.join("log.csv").to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", common::stderr(&o));
+    assert!(out.exists());
+}
+
 /// A word temperature small enough to underflow the word weights to NaN is refused.
 #[test]
 fn a_word_temperature_that_underflows_is_refused() {
@@ -510,6 +682,83 @@ fn one_jobs_rule_and_user_text_shown_safely() {
     let err = common::stderr(&o);
     assert_eq!(o.status.code(), Some(2), "{err}");
     assert!(err.len() < 500, "a {} byte error line", err.len());
+}
+
+/// A mission that is not a BabyAI instruction is refused naming the word at fault and its
+/// position; the error used to say only "unexpected words after the object".
+#[test]
+fn a_mission_error_names_the_word_and_its_position() {
+    for (mission, want) in [
+        (
+            "go to the red ball please",
+            "word 6 \"please\": unexpected after the object",
+        ),
+        (
+            "go to the red ball and",
+            "after word 6 \"and\", the last: a clause",
+        ),
+        (
+            "pick up the key, then go to the red lamp",
+            "word 10 \"lamp\": not key",
+        ),
+    ] {
+        assert_bad_input(
+            &gs(&["replay", "--mission", mission]),
+            &format!("invalid mission \"{mission}\": {want}"),
+        );
+    }
+    let long = format!("go to the red ball {}", "x".repeat(10_000));
+    let o = gs(&["replay", "--mission", &long]);
+    assert_bad_input(&o, "word 6 \"xxxx");
+    assert!(common::stderr(&o).len() < 700, "{} bytes", o.stderr.len());
+}
+
+/// A level id in an error is cut as a mission is (80 characters, then its length): a
+/// 100,000-character `--level`, or `env_id` in a dump, used to give a 100 kB error line.
+#[test]
+fn long_level_ids_are_cut_in_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let long = format!("BabyAI-{}", "x".repeat(100_000));
+    let out = dir.path().join("out");
+    let o = out.to_str().unwrap();
+    for args in [
+        vec!["env", "show", "--level", &long],
+        vec!["replay", "--level", &long],
+        vec!["train", "--out", o, "--level", &long],
+        vec!["eval", "--out", o, "--levels", &long],
+    ] {
+        let r = gs(&args);
+        assert_bad_input(&r, "(100007 characters)");
+        assert!(
+            common::stderr(&r).len() < 600,
+            "{:?}: {} bytes",
+            args[0],
+            r.stderr.len()
+        );
+        assert!(!out.exists(), "{:?} wrote nothing", args[0]);
+    }
+    let src = groundscope::files::read_text_maybe_gz(&common::fixtures("babyai")[0]).unwrap();
+    let base: serde_json::Value = serde_json::from_str(&src).unwrap();
+    for (field, value) in [
+        ("env_id", long.clone()),
+        (
+            "env_id",
+            format!("groundscope-PaperLocalS{}8N4-v0", "0".repeat(100_000)),
+        ),
+        ("minigrid_version", "9".repeat(100_000)),
+    ] {
+        let mut v = base.clone();
+        v[field] = value.into();
+        let f = dir.path().join("dump.json");
+        std::fs::write(&f, v.to_string()).unwrap();
+        let r = gs(&["env", "verify", f.to_str().unwrap()]);
+        assert_bad_input(&r, &format!("{field}: "));
+        assert!(
+            common::stderr(&r).len() < 600,
+            "{field}: {} bytes",
+            r.stderr.len()
+        );
+    }
 }
 
 /// A reused output directory ends up holding the new run's outputs only: eval's figures and
@@ -611,4 +860,45 @@ fn a_run_directory_holds_one_training_at_a_time() {
     first.wait().unwrap();
     let o = gs(&["train", "--out", r, "--resume", "--frames", "1", "--quiet"]);
     assert_eq!(o.status.code(), Some(0), "{}", common::stderr(&o));
+}
+
+/// A training refused because another holds the run directory touches nothing there, even
+/// before the holder's first checkpoint: the holder keeps its logs and its lock (a later
+/// training is still refused). The refused one used to "clean up" the holder's log.csv,
+/// eval_log.csv and lock file as its own.
+#[test]
+fn a_refused_training_leaves_the_running_ones_files() {
+    let tmp = tempfile::tempdir().unwrap();
+    let run = tmp.path().join("run");
+    let r = run.to_str().unwrap();
+    let mut first = Command::new(env!("CARGO_BIN_EXE_groundscope"))
+        .args(["train", "--out", r, "--quiet", "--eval-interval", "0"])
+        .args(TINY_RUN)
+        .args(["--frames", "100000000", "--save-interval", "1000000"])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let rows =
+        |run: &Path| std::fs::read_to_string(run.join("log.csv")).map_or(0, |t| t.lines().count());
+    common::wait_until("a logged update", || {
+        assert!(first.try_wait().unwrap().is_none(), "the run ended");
+        rows(&run) > 1
+    });
+    let pid = first.id().to_string();
+    let before = entries(&run);
+    for _ in 0..2 {
+        let mut args = vec!["train", "--out", r, "--quiet"];
+        args.extend(TINY_RUN);
+        args.extend(["--frames", "100000"]);
+        let o = gs(&args);
+        assert_bad_input(&o, &format!("another training (pid {pid})"));
+        let o = gs(&["train", "--out", r, "--resume", "--quiet"]);
+        assert_bad_input(&o, &format!("another training (pid {pid})"));
+        assert_eq!(entries(&run), before, "the holder's files are all there");
+    }
+    let logged = rows(&run);
+    common::wait_until("the holder logging on", || rows(&run) > logged);
+    first.kill().unwrap();
+    first.wait().unwrap();
 }

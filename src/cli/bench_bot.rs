@@ -39,10 +39,17 @@ pub fn run(args: &BenchBotArgs) -> anyhow::Result<ExitStatus> {
         .collect::<Result<Vec<_>, _>>()?;
     for id in ids {
         let cfg = LevelConfig::babyai(id, false);
-        let (mut steps, mut successes, mut gave_up) = (0u64, 0u64, 0u64);
+        let (mut steps, mut successes, mut gave_up, mut endless) = (0u64, 0u64, 0u64, 0u64);
         let start = Instant::now();
         for seed in 0..args.episodes {
-            let mut world = cfg.generate(seed)?;
+            // A seed minigrid itself never finishes generating is counted, not played.
+            let mut world = match cfg.generate(seed) {
+                Err(groundscope::env::EnvError::GenerationHangs { .. }) => {
+                    endless += 1;
+                    continue;
+                }
+                other => other?,
+            };
             let mut expert = Expert::new(&world);
             loop {
                 let Some(action) = expert.advise(&world) else {
@@ -66,6 +73,7 @@ pub fn run(args: &BenchBotArgs) -> anyhow::Result<ExitStatus> {
             "steps": steps,
             "success": successes as f64 / args.episodes as f64,
             "gave_up": gave_up,
+            "endless_seeds": endless,
             "demos_per_sec": (args.episodes as f64 / secs * 10.0).round() / 10.0,
             "steps_per_sec": (steps as f64 / secs).round(),
             "threads": 1,

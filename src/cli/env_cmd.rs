@@ -102,8 +102,8 @@ pub enum EnvCommand {
     /// compared (grid, agent pose, carried object, box contents, mission, instruction tree with
     /// matched positions); then its actions are replayed and every observation, reward,
     /// terminated/truncated flag, agent pose, carried object, changed grid and box contents is
-    /// compared. Prints the first mismatch of each failing file and ends with `N passed, M
-    /// failed`.
+    /// compared. Checks every file; prints the first mismatch of each failing one, a line for
+    /// each that is bad input (exit 2), and ends with `N passed, M failed`.
     #[command(
         after_long_help = "EXAMPLES:\n  groundscope env verify tests/fixtures/minigrid/*.json"
     )]
@@ -128,7 +128,7 @@ pub fn run(cmd: EnvCommand) -> anyhow::Result<ExitStatus> {
             list();
             Ok(ExitStatus::Success)
         }
-        EnvCommand::Verify { files } => verify(&files),
+        EnvCommand::Verify { files } => Ok(verify(&files)),
     }
 }
 
@@ -188,35 +188,47 @@ fn list() {
     println!("{} levels (minigrid 3.2.0)", levels.len());
 }
 
-fn verify(files: &[PathBuf]) -> anyhow::Result<ExitStatus> {
-    // Read and parse everything first: an unreadable file is bad input (exit 2), not a mismatch.
-    let mut dumps = Vec::with_capacity(files.len());
+fn verify(files: &[PathBuf]) -> ExitStatus {
+    // Every file is checked: one that cannot be (unreadable, malformed, an unknown id) is bad
+    // input, said in one line of its own, and does not stop the others.
+    let (mut passed, mut failed, mut refused) = (0, 0, 0);
     for f in files {
-        let text = groundscope::files::read_text_maybe_gz(f)
-            .with_context(|| format!("reading {}", f.display()))?;
-        let snap =
-            Snapshot::from_json(&text).with_context(|| format!("reading {}", f.display()))?;
-        dumps.push((f, snap));
-    }
-    let (mut passed, mut failed) = (0, 0);
-    for (f, snap) in &dumps {
-        let checked = verify_dump(snap).and_then(|r| match r {
-            // A dump with minigrid's bot's suggestions (`--record-bot`) checks ours too.
-            Ok(n) => Ok(groundscope::bot::verify_bot(snap)?.unwrap_or(Ok(n))),
-            Err(m) => Ok(Err(m)),
-        });
-        match checked.with_context(|| format!("reading {}", f.display()))? {
-            Ok(_) => passed += 1,
-            Err(m) => {
+        match verify_file(f) {
+            Ok(None) => passed += 1,
+            Ok(Some(m)) => {
                 failed += 1;
                 println!("{}: step {}: {}", f.display(), m.step, m.what);
             }
+            Err(e) => {
+                refused += 1;
+                eprintln!("groundscope: {e:#}");
+            }
         }
     }
-    println!("{passed} passed, {failed} failed");
-    Ok(if failed == 0 {
-        ExitStatus::Success
+    if refused == 0 {
+        println!("{passed} passed, {failed} failed");
     } else {
+        println!("{passed} passed, {failed} failed, {refused} refused (bad input)");
+    }
+    if refused > 0 {
+        ExitStatus::BadInput
+    } else if failed > 0 {
         ExitStatus::CheckFailed
-    })
+    } else {
+        ExitStatus::Success
+    }
+}
+
+/// Reads, regenerates and replays one dump: its first mismatch, if any.
+fn verify_file(f: &std::path::Path) -> anyhow::Result<Option<groundscope::env::Mismatch>> {
+    let context = || format!("reading {}", f.display());
+    let text = groundscope::files::read_text_maybe_gz(f).with_context(context)?;
+    let snap = Snapshot::from_json(&text).with_context(context)?;
+    if let Err(m) = verify_dump(&snap).with_context(context)? {
+        return Ok(Some(m));
+    }
+    // A dump with minigrid's bot's suggestions (`--record-bot`) checks ours too.
+    Ok(groundscope::bot::verify_bot(&snap)
+        .with_context(context)?
+        .and_then(Result::err))
 }

@@ -272,15 +272,36 @@ pub fn run(args: &TrainArgs, matches: Option<&ArgMatches>) -> anyhow::Result<Exi
         args.level.config()?;
     }
     let created = !args.out.exists();
+    let had_checkpoints = args.out.join("checkpoints").exists();
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating {}", args.out.display()))?;
-    let result = train_in(args, matches, variant, model);
-    if result.is_err() && !args.resume && !run_dir::holds_run(&args.out) {
-        // A new run that failed before its first checkpoint leaves nothing behind.
-        for f in ["log.csv", "eval_log.csv", "curve.png", RUN_LOCK] {
-            let _ = std::fs::remove_file(args.out.join(f));
+    // Held until this training ends (the system releases it if the process dies). A training
+    // refused here touches nothing: the directory and its files are the holder's.
+    let lock = match writable(&args.out).and_then(|()| lock_run(&args.out)) {
+        Ok(lock) => lock,
+        Err(e) => {
+            if created {
+                let _ = std::fs::remove_dir(&args.out);
+            }
+            return Err(e);
         }
-        let _ = std::fs::remove_dir(args.out.join("checkpoints"));
+    };
+    let mut wrote = Vec::new();
+    let result = train_in(args, matches, variant, model, &mut wrote);
+    if result.is_err() && !args.resume && !run_dir::holds_run(&args.out) {
+        // A new run that failed before its first checkpoint leaves nothing behind: the files
+        // it wrote itself (never a log it found there), and its lock file while it still
+        // holds it.
+        for f in &wrote {
+            let _ = std::fs::remove_file(f);
+        }
+        if !had_checkpoints {
+            let _ = std::fs::remove_dir(args.out.join("checkpoints"));
+        }
+        if lock.created {
+            let _ = std::fs::remove_file(args.out.join(RUN_LOCK));
+        }
+        drop(lock);
         if created {
             let _ = std::fs::remove_dir(&args.out);
         }
@@ -291,37 +312,95 @@ pub fn run(args: &TrainArgs, matches: Option<&ArgMatches>) -> anyhow::Result<Exi
 /// The run directory's lock file: a training holds an exclusive lock on it, and its pid in it.
 const RUN_LOCK: &str = ".train-lock";
 
+/// Refuses a directory this process cannot write into.
+fn writable(dir: &Path) -> anyhow::Result<()> {
+    let probe = tempfile::NamedTempFile::new_in(dir)
+        .with_context(|| format!("{} is not writable", dir.display()))?;
+    drop(probe);
+    Ok(())
+}
+
+/// A held lock on a run directory ([`lock_run`]).
+struct RunLock {
+    /// The lock file, locked (the system releases it when it is closed or the process dies).
+    _file: std::fs::File,
+    /// Whether this process made the lock file (a new run that fails removes it).
+    created: bool,
+}
+
 /// Locks the run directory for this process: a second training (a new run or a `--resume`)
 /// on the same directory is refused naming the holder, instead of both writing its files.
-/// The lock is the system's (`flock`): a crashed or killed training releases it.
-fn lock_run(dir: &Path) -> anyhow::Result<std::fs::File> {
+/// The lock is the system's (`flock`): a crashed or killed training releases it. A lock
+/// taken on a file that was removed meanwhile (by a failed new run, which removes its lock
+/// file while holding it) locks nothing, so it is taken again on the file now there.
+fn lock_run(dir: &Path) -> anyhow::Result<RunLock> {
     use std::io::Write as _;
     let path = dir.join(RUN_LOCK);
-    let mut file = std::fs::OpenOptions::new()
-        .create(true)
-        .read(true)
-        .write(true)
-        .truncate(false)
-        .open(&path)
-        .with_context(|| format!("opening {}", path.display()))?;
-    match file.try_lock() {
-        Ok(()) => {
-            file.set_len(0)?;
-            write!(file, "{}", std::process::id())?;
-            Ok(file)
+    loop {
+        let (mut file, created) = open_lock_file(&path)?;
+        match file.try_lock() {
+            Ok(()) => {
+                if !same_file(&file, &path) {
+                    continue;
+                }
+                file.set_len(0)?;
+                write!(file, "{}", std::process::id())?;
+                return Ok(RunLock {
+                    _file: file,
+                    created,
+                });
+            }
+            Err(std::fs::TryLockError::WouldBlock) => {
+                let holder = std::fs::read_to_string(&path).unwrap_or_default();
+                anyhow::bail!(
+                    "{}: another training (pid {}) is writing this run directory; wait for it \
+                     to end or choose another --out",
+                    dir.display(),
+                    holder.trim()
+                )
+            }
+            Err(std::fs::TryLockError::Error(e)) => {
+                return Err(e).with_context(|| format!("locking {}", path.display()));
+            }
         }
-        Err(std::fs::TryLockError::WouldBlock) => {
-            let holder = std::fs::read_to_string(&path).unwrap_or_default();
-            anyhow::bail!(
-                "{}: another training (pid {}) is writing this run directory; wait for it to \
-                 end or choose another --out",
-                dir.display(),
-                holder.trim()
-            )
+    }
+}
+
+/// Opens (or makes) the lock file at `path`, saying whether this call made it.
+fn open_lock_file(path: &Path) -> anyhow::Result<(std::fs::File, bool)> {
+    let open = |create_new: bool| {
+        std::fs::OpenOptions::new()
+            .create_new(create_new)
+            .read(true)
+            .write(true)
+            .open(path)
+    };
+    match open(true) {
+        Ok(file) => Ok((file, true)),
+        Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => match open(false) {
+            Ok(file) => Ok((file, false)),
+            // Removed between the two opens: make it again.
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => open_lock_file(path),
+            Err(e) => Err(e).with_context(|| format!("opening {}", path.display())),
+        },
+        Err(e) => Err(e).with_context(|| format!("opening {}", path.display())),
+    }
+}
+
+/// Whether the open `file` is still the file at `path` (not removed or replaced since).
+fn same_file(file: &std::fs::File, path: &Path) -> bool {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt as _;
+        match (file.metadata(), std::fs::metadata(path)) {
+            (Ok(a), Ok(b)) => a.dev() == b.dev() && a.ino() == b.ino(),
+            _ => false,
         }
-        Err(std::fs::TryLockError::Error(e)) => {
-            Err(e).with_context(|| format!("locking {}", path.display()))
-        }
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = file;
+        path.exists()
     }
 }
 
@@ -331,12 +410,8 @@ fn train_in(
     matches: Option<&ArgMatches>,
     variant: groundscope::policy::Variant,
     model: ModelConfig,
+    wrote: &mut Vec<PathBuf>,
 ) -> anyhow::Result<ExitStatus> {
-    let probe = tempfile::NamedTempFile::new_in(&args.out)
-        .with_context(|| format!("{} is not writable", args.out.display()))?;
-    drop(probe);
-    // Held until this training ends (the system releases it if the process dies).
-    let _lock = lock_run(&args.out)?;
     let log_path = args.out.join("log.csv");
     let eval_path = args.out.join("eval_log.csv");
     let (mut trainer, seed, kept, track) = if args.resume {
@@ -374,7 +449,9 @@ fn train_in(
             let trainer = Trainer::new(model, level, ppo, params, args.seed)?;
             (trainer, String::new(), String::new())
         };
+        wrote.push(log_path.clone());
         write_atomic(&log_path, format!("{LOG_HEADER}\n{parent_rows}").as_bytes())?;
+        wrote.push(eval_path.clone());
         write_atomic(
             &eval_path,
             format!("{EVAL_LOG_HEADER}\n{parent_evals}").as_bytes(),

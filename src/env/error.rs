@@ -79,6 +79,18 @@ pub enum EnvError {
         /// Attempts made.
         tries: u32,
     },
+    /// minigrid 3.2.0 itself never finishes generating this level (a loop no draw can end).
+    #[error(
+        "{level} seed {seed} cannot be generated: minigrid 3.2.0 loops forever on it ({why}); try another seed"
+    )]
+    GenerationHangs {
+        /// The level id.
+        level: String,
+        /// The seed.
+        seed: u64,
+        /// Where it loops.
+        why: &'static str,
+    },
 }
 
 /// Text from the user as an error shows it: quoted, control characters escaped (a terminal

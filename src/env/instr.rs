@@ -16,7 +16,7 @@ use serde::{Deserialize, Serialize};
 
 use super::error::EnvError;
 use super::grid::{Grid, Pos, Rooms};
-use super::mission::{Instruction, ObjDesc, TaskKind};
+use super::mission::{Instruction, ObjDesc, ParseError, TaskKind};
 use super::object::{DoorState, ObjectId, ObjectKind, WorldObj};
 use super::world::Action;
 
@@ -465,9 +465,9 @@ fn ordered(
 pub fn parse_mission(text: &str) -> Result<Instr, EnvError> {
     let words = super::vocab::split_words(text);
     let w: Vec<&str> = words.iter().map(String::as_str).collect();
-    let bad = |reason: String| EnvError::InvalidMission {
+    let bad = |e: ParseError| EnvError::InvalidMission {
         mission: text.to_owned(),
-        reason,
+        reason: e.describe(&w),
     };
     let seq_at = w
         .iter()
@@ -480,17 +480,19 @@ pub fn parse_mission(text: &str) -> Result<Instr, EnvError> {
         });
     if let Some((end_a, start_b, kind)) = seq_at {
         let a = parse_and(&w[..end_a]).map_err(bad)?;
-        let b = parse_and(&w[start_b..]).map_err(bad)?;
+        let b = parse_and(&w[start_b..])
+            .map_err(|e| e.shift(start_b))
+            .map_err(bad)?;
         return Ok(Instr::seq(kind, a, b));
     }
     parse_and(&w).map_err(bad)
 }
 
-fn parse_and(w: &[&str]) -> Result<Instr, String> {
+fn parse_and(w: &[&str]) -> Result<Instr, ParseError> {
     // "and" never occurs inside a clause of BabyAI's grammar.
     if let Some(i) = w.iter().position(|x| *x == "and") {
         let a = Instruction::parse_words(&w[..i])?;
-        let b = Instruction::parse_words(&w[i + 1..])?;
+        let b = Instruction::parse_words(&w[i + 1..]).map_err(|e| e.shift(i + 1))?;
         return Ok(Instr::seq(SeqKind::And, a.into(), b.into()));
     }
     Instruction::parse_words(w).map(Instr::from)
@@ -538,5 +540,74 @@ mod tests {
         assert!(parse_mission("open the red key").is_err());
         assert!(parse_mission("pick up the door").is_err());
         assert!(parse_mission("put the ball").is_err());
+    }
+
+    #[test]
+    fn a_mission_error_names_the_word_and_its_position() {
+        let reason = |text: &str| match parse_mission(text) {
+            Err(EnvError::InvalidMission { reason, .. }) => reason,
+            other => panic!("{text}: {other:?}"),
+        };
+        for (text, want) in [
+            (
+                "go to the red ball please",
+                "word 6 \"please\": unexpected after the object",
+            ),
+            (
+                "go to the red ball go to the box",
+                "word 6 \"go\": unexpected after the object",
+            ),
+            ("go to the ball on your lft", "word 7 \"lft\": unexpected"),
+            (
+                "go to the ball on your",
+                "after word 6 \"your\", the last: the location is unfinished",
+            ),
+            ("go to red ball", "word 3 \"red\": an article"),
+            (
+                "go the red ball",
+                "word 2 \"the\": \"go\" must be followed by \"to\"",
+            ),
+            (
+                "walk to the red ball",
+                "word 1 \"walk\": a clause must start with",
+            ),
+            (
+                "go to the red ball and",
+                "after word 6 \"and\", the last: a clause",
+            ),
+            ("and go to the red ball", "before word 1 \"and\": a clause"),
+            (
+                "pick up the key, then go to the red lamp",
+                "word 10 \"lamp\": not key, ball, box, door",
+            ),
+            (
+                "go to the box after you open the red",
+                "after word 9 \"red\", the last: it names no object",
+            ),
+            (
+                "open the box and pick up the key",
+                "word 3 \"box\": only a door can be opened",
+            ),
+            (
+                "go to a key and pick up the grey door",
+                "word 10 \"door\": a door cannot be picked up",
+            ),
+            (
+                "put the door next to a key",
+                "word 3 \"door\": a door cannot be put",
+            ),
+            (
+                "put the key next to the",
+                "after word 6 \"the\", the last: it names no object",
+            ),
+            (
+                "put the key near the box",
+                "word 1 \"put\": needs \"next to\"",
+            ),
+            ("", "the mission has no words"),
+        ] {
+            let got = reason(text);
+            assert!(got.starts_with(want), "{text:?}: {got}");
+        }
     }
 }

@@ -88,8 +88,9 @@ impl LevelId {
             .ok_or_else(|| EnvError::InvalidConfig {
                 field: "level".into(),
                 reason: format!(
-                    "{id:?} is not a BabyAI level of minigrid 3.2.0 (closest: {}; `groundscope \
-                     env list` lists all 96)",
+                    "{} is not a BabyAI level of minigrid 3.2.0 (closest: {}; `groundscope env \
+                     list` lists all 96)",
+                    super::error::shown(id),
                     super::babyai::closest_ids(id).join(", ")
                 ),
             })

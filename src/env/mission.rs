@@ -235,80 +235,215 @@ impl Instruction {
     pub fn parse(text: &str) -> Result<Self, EnvError> {
         let words = super::vocab::split_words(text);
         let w: Vec<&str> = words.iter().map(String::as_str).collect();
-        Self::parse_words(&w).map_err(|reason| EnvError::InvalidMission {
+        Self::parse_words(&w).map_err(|e| EnvError::InvalidMission {
             mission: text.to_owned(),
-            reason,
+            reason: e.describe(&w),
         })
     }
 
-    /// [`Self::parse`] on words already split.
-    pub(crate) fn parse_words(w: &[&str]) -> Result<Self, String> {
+    /// [`Self::parse`] on words already split; an error points at the word (index in `w`).
+    pub(crate) fn parse_words(w: &[&str]) -> Result<Self, ParseError> {
+        const VERBS: &str = "\"go to\", \"pick up\", \"open\" or \"put\"";
         let (task, rest) = match w {
             ["go", "to", rest @ ..] => (TaskKind::GoTo, rest),
             ["pick", "up", rest @ ..] => (TaskKind::Pickup, rest),
             ["open", rest @ ..] => (TaskKind::Open, rest),
             ["put", rest @ ..] => (TaskKind::PutNext, rest),
+            [] => {
+                return Err(ParseError::missing(
+                    0,
+                    format!("a clause ({VERBS}) is missing"),
+                ));
+            }
+            ["go", ..] => return Err(ParseError::at(1, "\"go\" must be followed by \"to\"")),
+            ["pick", ..] => {
+                return Err(ParseError::at(1, "\"pick\" must be followed by \"up\""));
+            }
             _ => {
-                return Err(
-                    "a clause must start with \"go to\", \"pick up\", \"open\" or \"put\"".into(),
-                );
+                return Err(ParseError::at(
+                    0,
+                    format!("a clause must start with {VERBS}"),
+                ));
             }
         };
+        let verb = w.len() - rest.len();
         if task == TaskKind::PutNext {
             let Some(at) = rest.windows(2).position(|p| p == ["next", "to"]) else {
-                return Err("\"put\" needs \"next to\"".into());
+                return Err(ParseError::at(
+                    0,
+                    "needs \"next to\" and the object to put it next to",
+                ));
             };
-            let moved = parse_desc(&rest[..at])?;
-            let fixed = parse_desc(&rest[at + 2..])?;
+            let (moved, kind_at) = parse_desc(&rest[..at]).map_err(|e| e.shift(verb))?;
+            let fixed_at = verb + at + 2;
+            let (fixed, _) = parse_desc(&rest[at + 2..]).map_err(|e| e.shift(fixed_at))?;
             if moved.kind == Some(ObjectKind::Door) {
-                return Err("a door cannot be put next to anything".into());
+                return Err(ParseError::at(
+                    verb + kind_at,
+                    "a door cannot be put next to anything",
+                ));
             }
             return Ok(Self::put_next(moved, fixed));
         }
-        let desc = parse_desc(rest)?;
+        let (desc, kind_at) = parse_desc(rest).map_err(|e| e.shift(verb))?;
         match (task, desc.kind) {
-            (TaskKind::Pickup, Some(ObjectKind::Door)) => Err("a door cannot be picked up".into()),
+            (TaskKind::Pickup, Some(ObjectKind::Door)) => {
+                Err(ParseError::at(verb + kind_at, "a door cannot be picked up"))
+            }
             (TaskKind::Open, k) if k != Some(ObjectKind::Door) => {
-                Err("only a door can be opened".into())
+                Err(ParseError::at(verb + kind_at, "only a door can be opened"))
             }
             _ => Ok(Self::new(task, desc)),
         }
     }
 }
 
-/// `("the" | "a") [colour] (type | "object") [location phrase]`.
-fn parse_desc(w: &[&str]) -> Result<ObjDesc, String> {
-    let ["the" | "a", rest @ ..] = w else {
-        return Err("an article (\"the\" or \"a\") must start each description".into());
+/// Where a mission stops being a BabyAI instruction: the index of the word at fault (the
+/// number of words when something is missing at the end) and why.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub(crate) struct ParseError {
+    /// Index of the word, among the mission's words.
+    at: usize,
+    /// Something is missing before word `at` (rather than word `at` being wrong).
+    missing: bool,
+    /// Why.
+    reason: String,
+}
+
+impl ParseError {
+    /// Word `at` is wrong.
+    fn at(at: usize, reason: impl Into<String>) -> Self {
+        Self {
+            at,
+            missing: false,
+            reason: reason.into(),
+        }
+    }
+
+    /// Something is missing before word `at`.
+    fn missing(at: usize, reason: impl Into<String>) -> Self {
+        Self {
+            at,
+            missing: true,
+            reason: reason.into(),
+        }
+    }
+
+    /// The same error in words that start `by` words later.
+    pub(crate) fn shift(self, by: usize) -> Self {
+        Self {
+            at: self.at + by,
+            ..self
+        }
+    }
+
+    /// The reason, naming the word at fault and its position (counted from 1) among the
+    /// mission's words `w`: `word 6 "please": …`, `after word 5 "and": … is missing`.
+    pub(crate) fn describe(&self, w: &[&str]) -> String {
+        let shown = |i: usize| super::error::shown(w[i]);
+        match (w.len(), self.at < w.len()) {
+            (0, _) => format!("the mission has no words: {}", self.reason),
+            (_, true) if self.missing => {
+                format!(
+                    "before word {} {}: {}",
+                    self.at + 1,
+                    shown(self.at),
+                    self.reason
+                )
+            }
+            (_, true) => format!("word {} {}: {}", self.at + 1, shown(self.at), self.reason),
+            (n, false) => format!("after word {n} {}, the last: {}", shown(n - 1), self.reason),
+        }
+    }
+}
+
+/// `("the" | "a") [colour] (type | "object") [location phrase]`, with the index of its type
+/// word.
+fn parse_desc(w: &[&str]) -> Result<(ObjDesc, usize), ParseError> {
+    const KINDS: &str = "key, ball, box, door or \"object\"";
+    const LOCS: [(&[&str], Loc); 4] = [
+        (&["in", "front", "of", "you"], Loc::Front),
+        (&["behind", "you"], Loc::Behind),
+        (&["on", "your", "left"], Loc::Left),
+        (&["on", "your", "right"], Loc::Right),
+    ];
+    const WHERE: &str =
+        "\"in front of you\", \"behind you\", \"on your left\" or \"on your right\"";
+    let rest = match w {
+        ["the" | "a", rest @ ..] => rest,
+        [] => {
+            return Err(ParseError::missing(
+                0,
+                "an object (\"the\" or \"a\", then what it is) is missing",
+            ));
+        }
+        _ => {
+            return Err(ParseError::at(
+                0,
+                "an article (\"the\" or \"a\") must start each description",
+            ));
+        }
     };
     let (color, rest) = match rest {
         [c, rest @ ..] if Color::from_name(c).is_some() => (Color::from_name(c), rest),
         _ => (None, rest),
     };
+    let kind_at = w.len() - rest.len();
     let (kind, rest) = match rest {
         ["object", rest @ ..] => (None, rest),
         [t, rest @ ..] => {
             match ObjectKind::from_name(t).filter(|k| k.can_pickup() || *k == ObjectKind::Door) {
                 Some(k) => (Some(k), rest),
-                None => {
-                    return Err(format!(
-                        "{} is not key, ball, box, door or object",
-                        super::error::shown(t)
-                    ));
-                }
+                None => return Err(ParseError::at(kind_at, format!("not {KINDS}"))),
             }
         }
-        [] => return Err("it names no object".into()),
+        [] => {
+            return Err(ParseError::missing(
+                kind_at,
+                format!("it names no object ({KINDS})"),
+            ));
+        }
     };
-    let loc = match rest {
-        [] => None,
-        ["in", "front", "of", "you"] => Some(Loc::Front),
-        ["behind", "you"] => Some(Loc::Behind),
-        ["on", "your", "left"] => Some(Loc::Left),
-        ["on", "your", "right"] => Some(Loc::Right),
-        _ => return Err("unexpected words after the object".into()),
-    };
-    Ok(ObjDesc { kind, color, loc })
+    let loc_at = w.len() - rest.len();
+    if rest.is_empty() {
+        return Ok((
+            ObjDesc {
+                kind,
+                color,
+                loc: None,
+            },
+            kind_at,
+        ));
+    }
+    if let Some((_, loc)) = LOCS.iter().find(|(p, _)| *p == rest) {
+        return Ok((
+            ObjDesc {
+                kind,
+                color,
+                loc: Some(*loc),
+            },
+            kind_at,
+        ));
+    }
+    // The first word that no location phrase allows, or the end of an unfinished one.
+    let agree = LOCS
+        .iter()
+        .map(|(p, _)| p.iter().zip(rest).take_while(|(a, b)| a == b).count())
+        .max()
+        .unwrap_or(0);
+    if agree == rest.len() {
+        return Err(ParseError::missing(
+            loc_at + agree,
+            format!("the location is unfinished ({WHERE})"),
+        ));
+    }
+    Err(ParseError::at(
+        loc_at + agree,
+        format!(
+            "unexpected after the object (only {WHERE} may follow it; clauses are joined by \
+             \"and\", \", then\" or \"after you\")"
+        ),
+    ))
 }
 
 #[cfg(test)]

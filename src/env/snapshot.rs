@@ -5,6 +5,7 @@
 //! instruction (kind, type, colour, location, matching positions), `done_actions` and
 //! `max_steps`. Dumps from Python also carry `steps`, which [`verify_dump`] replays.
 
+mod json_path;
 mod verify;
 
 pub use verify::{MINIGRID_VERSION, Mismatch, verify_dump, verify_generation};
@@ -350,13 +351,12 @@ fn pos_of(v: [i64; 2], field: &str) -> Result<Pos, EnvError> {
 }
 
 impl Snapshot {
-    /// Parses a snapshot from JSON text.
+    /// Parses a snapshot from JSON text; an error names the field by its path
+    /// (`steps[3].action: missing (a required field)`), or the line and column of bad JSON.
     pub fn from_json(text: &str) -> Result<Self, EnvError> {
         serde_json::from_str(text).map_err(|e| {
-            invalid(
-                format!("line {} column {}", e.line(), e.column()),
-                e.to_string(),
-            )
+            let (field, reason) = json_path::field_of(text, &e);
+            invalid(field, reason)
         })
     }
 
@@ -504,7 +504,11 @@ impl Snapshot {
             [i64::from(e[0]), i64::from(e[1]), i64::from(e[2])]
         });
         Self {
-            minigrid_version: Some(format!("groundscope {}", env!("CARGO_PKG_VERSION"))),
+            minigrid_version: Some(format!(
+                "{}{}",
+                verify::PRODUCER_PREFIX,
+                env!("CARGO_PKG_VERSION")
+            )),
             env_id,
             seed,
             width: world.grid.width() as i64,

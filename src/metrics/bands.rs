@@ -93,8 +93,11 @@ pub fn band(label: &str, runs: &[Vec<(f64, f64)>], bins: usize) -> Band {
     }
 }
 
-/// Reads columns of a CSV log as numbers, one row per line; an empty field is NaN (a metric
-/// that was not measured). Names the file, line and column of anything else.
+/// Reads columns of a CSV log as numbers, one row per line. The first column named is the x
+/// axis (frames): a finite number on every line. In the others an empty field or `NaN` is NaN,
+/// a metric that was not measured (an update that ended no episode logs `NaN`), drawn as a
+/// gap; an infinity is refused (no axis reaches it). Names the file, line and column of
+/// anything else.
 pub fn read_columns(path: &Path, names: &[&str]) -> Result<Vec<Vec<f64>>, MetricsError> {
     let io = |e: std::io::Error| MetricsError::Io {
         path: path.to_path_buf(),
@@ -123,19 +126,22 @@ pub fn read_columns(path: &Path, names: &[&str]) -> Result<Vec<Vec<f64>>, Metric
     let mut rows = Vec::new();
     for (i, cells) in records.iter().enumerate() {
         let mut row = Vec::with_capacity(cols.len());
-        for (&c, name) in cols.iter().zip(names) {
-            // An empty field is a metric not measured; an infinite or NaN value is refused
-            // (an axis cannot be drawn to infinity).
+        for (k, (&c, name)) in cols.iter().zip(names).enumerate() {
             let value = match cells.get(c).map(String::as_str) {
+                Some(v) if k == 0 => v.parse::<f64>().ok().filter(|x| x.is_finite()),
                 Some("") => Some(f64::NAN),
-                Some(v) => v.parse::<f64>().ok().filter(|x| x.is_finite()),
+                Some(v) => v.parse::<f64>().ok().filter(|x| !x.is_infinite()),
                 None => None,
             };
             let Some(value) = value else {
                 return Err(MetricsError::Format {
                     path: path.to_path_buf(),
                     field: format!("line {} column {name}", i + 2),
-                    reason: "a value is missing or not a finite number".into(),
+                    reason: if k == 0 {
+                        "the x axis needs a finite number here".into()
+                    } else {
+                        "a value is missing, not a number or infinite".into()
+                    },
                 });
             };
             row.push(value);
@@ -399,6 +405,20 @@ mod tests {
         let rows = read_columns(&p, &["frames", "acc"]).unwrap();
         assert_eq!(rows[0], vec![10.0, 0.5]);
         assert!(rows[1][1].is_nan());
+        std::fs::write(&p, "frames,acc\n10,NaN\n20,0.5\n").unwrap();
+        let rows = read_columns(&p, &["frames", "acc"]).unwrap();
+        assert!(rows[0][1].is_nan() && rows[1] == vec![20.0, 0.5]);
+        for bad in [
+            "frames,acc\n,0.5\n",
+            "frames,acc\nNaN,0.5\n",
+            "frames,acc\n10,inf\n",
+        ] {
+            std::fs::write(&p, bad).unwrap();
+            let e = read_columns(&p, &["frames", "acc"])
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains("line 2"), "{bad:?}: {e}");
+        }
         std::fs::write(&p, "frames,acc\n10,x\n").unwrap();
         let e = read_columns(&p, &["frames", "acc"])
             .unwrap_err()

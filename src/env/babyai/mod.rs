@@ -170,8 +170,16 @@ fn generate_with(
             });
         }
         tries += 1;
-        if let Ok(out) = attempt(spec, &mut g) {
-            break out;
+        match attempt(spec, &mut g) {
+            Ok(out) => break out,
+            Err(Retry::Endless(why)) => {
+                return Err(EnvError::GenerationHangs {
+                    level: spec.id.to_owned(),
+                    seed,
+                    why,
+                });
+            }
+            Err(_) => {}
         }
     };
     let max_steps = spec.max_steps.unwrap_or_else(|| {

@@ -732,8 +732,10 @@ pub fn level_ids() -> impl Iterator<Item = &'static str> {
 }
 
 /// The registered ids closest to `id` (by edit distance, case-insensitive), at most three.
+/// Only the first 80 characters of `id` count (longer than any id: the answer is the same,
+/// and a hostile 100,000-character id costs no more than a short one).
 pub fn closest_ids(id: &str) -> Vec<&'static str> {
-    let want = id.to_ascii_lowercase();
+    let want: String = id.chars().take(80).collect::<String>().to_ascii_lowercase();
     let mut scored: Vec<(usize, &'static str)> = level_ids()
         .map(|l| (edit_distance(&want, &l.to_ascii_lowercase()), l))
         .collect();

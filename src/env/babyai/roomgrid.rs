@@ -33,6 +33,9 @@ pub enum Retry {
     Reject(&'static str),
     /// `RecursionError`: a placement loop ran out of tries.
     Recursion(&'static str),
+    /// A loop minigrid never leaves (no draw can end it): generation stops here with an
+    /// error instead of hanging as Python does.
+    Endless(&'static str),
 }
 
 /// A wall slot of a room: nothing, a removed wall (`True` in Python), or a door.
@@ -370,6 +373,11 @@ impl Gen {
         };
         let r = self.room_index(i, j);
         let (top, rs) = (self.room_list[r].top, self.rooms.room_size);
+        if self.agent_boxed_in(top, rs) {
+            return Err(Retry::Endless(
+                "place_agent: every free cell of the room faces an object on all four sides, so minigrid redraws forever",
+            ));
+        }
         loop {
             self.agent_pos = (-1, -1);
             let pos = self.place_obj(None, top, (rs, rs), false, 1000)?;
@@ -381,6 +389,26 @@ impl Gen {
                 return Ok(pos);
             }
         }
+    }
+
+    /// Whether the room at `top` has free cells but none where the agent could face a wall
+    /// or an empty cell (then `place_agent`'s `while True` never ends; with no free cell at
+    /// all, `place_obj` raises after its tries instead).
+    fn agent_boxed_in(&self, top: Pos, rs: i32) -> bool {
+        let (w, h) = (self.grid.width() as i32, self.grid.height() as i32);
+        let cells = (top.0.max(0)..(top.0 + rs).min(w))
+            .flat_map(|x| (top.1.max(0)..(top.1 + rs).min(h)).map(move |y| (x, y)));
+        let mut free = cells.filter(|&p| self.grid.get(p).is_none()).peekable();
+        if free.peek().is_none() {
+            return false;
+        }
+        !free.any(|(x, y)| {
+            DIR_TO_VEC.iter().any(|d| {
+                self.grid
+                    .get((x + d.0, y + d.1))
+                    .is_none_or(|o| o.kind == ObjectKind::Wall)
+            })
+        })
     }
 
     /// `place_agent()` in a random room, redrawn while the agent lands in room index `room`

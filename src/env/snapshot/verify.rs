@@ -5,11 +5,16 @@ use super::{
     Snapshot, ascii_grid, box_contents_json, encode_i64, instr_to_json, invalid, obs_to_i64, u8_in,
 };
 use crate::env::babyai;
-use crate::env::error::EnvError;
+use crate::env::error::{EnvError, shown};
 use crate::env::world::Action;
 
 /// The minigrid version the port follows; dumps of another version are refused.
 pub const MINIGRID_VERSION: &str = "3.2.0";
+
+/// How a snapshot that groundscope wrote (`env show --snapshot`) names its producer in
+/// `minigrid_version`: `groundscope 0.1.0`. Its levels are the port's, which follows
+/// [`MINIGRID_VERSION`], so such a snapshot is checked as a dump of that version.
+pub const PRODUCER_PREFIX: &str = "groundscope ";
 
 /// Regenerates a dump's level from its `env_id` and `seed` (a registered `BabyAI-*` id) and
 /// compares the initial state: size, grid, box contents, agent pose, carried object,
@@ -26,10 +31,14 @@ pub fn verify_generation(snap: &Snapshot) -> Result<Option<Mismatch>, EnvError> 
     };
     if let Some(v) = snap.minigrid_version.as_deref()
         && v != MINIGRID_VERSION
+        && !v.starts_with(PRODUCER_PREFIX)
     {
         return Err(invalid(
             "minigrid_version",
-            format!("{v:?}: only dumps of minigrid {MINIGRID_VERSION} can be checked"),
+            format!(
+                "{}: only dumps of minigrid {MINIGRID_VERSION} can be checked",
+                shown(v)
+            ),
         ));
     }
     let paper = paper_spec(id)?;
@@ -37,7 +46,8 @@ pub fn verify_generation(snap: &Snapshot) -> Result<Option<Mismatch>, EnvError> 
         invalid(
             "env_id",
             format!(
-                "{id:?} is not a BabyAI level of minigrid {MINIGRID_VERSION} (closest: {})",
+                "{} is not a BabyAI level of minigrid {MINIGRID_VERSION} (closest: {})",
+                shown(id),
                 babyai::closest_ids(id).join(", ")
             ),
         )
@@ -138,7 +148,7 @@ fn paper_spec(id: &str) -> Result<Option<babyai::LevelSpec>, EnvError> {
     let bad = || {
         invalid(
             "env_id",
-            format!("{id:?} is not {PAPER_PREFIX}{{S}}N{{N}}-v0"),
+            format!("{} is not {PAPER_PREFIX}{{S}}N{{N}}-v0", shown(id)),
         )
     };
     let body = rest.strip_suffix("-v0").ok_or_else(bad)?;
@@ -148,6 +158,10 @@ fn paper_spec(id: &str) -> Result<Option<babyai::LevelSpec>, EnvError> {
         n_objects: n.parse().map_err(|_| bad())?,
         ..crate::env::LevelConfig::default()
     };
+    // The id as registered (no `+8`, no `08`): the one a mismatch names.
+    if format!("{PAPER_PREFIX}{}N{}-v0", cfg.room_size, cfg.n_objects) != id {
+        return Err(bad());
+    }
     cfg.validate()?;
     Ok(Some(cfg.spec()))
 }
