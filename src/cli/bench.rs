@@ -23,9 +23,12 @@ pub enum BenchCommand {
         /// Resets (level generations) to time on their own.
         #[arg(long, default_value_t = 20_000, allow_negative_numbers = true)]
         resets: u64,
-        /// A BabyAI level by its gym id (default: the paper's level).
+        /// A BabyAI level by its gym id (default: the paper's level), in its registered mode.
         #[arg(long, value_name = "ID")]
         level: Option<String>,
+        /// The paper's done-action mode on `--level` (episodes then end at the first `done`).
+        #[arg(long)]
+        done: bool,
     },
     /// Policy speed, one thread: batched inference steps/s at batch 1, 16 (a rollout step) and
     /// 256, and training forward+backward frames/s on PPO minibatches (256 and 2048 frames,
@@ -85,7 +88,8 @@ pub fn run(cmd: &BenchCommand) -> anyhow::Result<ExitStatus> {
             steps,
             resets,
             level,
-        } => bench_env(*steps, *resets, level.as_deref()),
+            done,
+        } => bench_env(*steps, *resets, level.as_deref(), *done),
         BenchCommand::Train {
             model,
             frames,
@@ -117,7 +121,12 @@ pub fn run(cmd: &BenchCommand) -> anyhow::Result<ExitStatus> {
     }
 }
 
-fn bench_env(steps: u64, resets: u64, level: Option<&str>) -> anyhow::Result<ExitStatus> {
+fn bench_env(
+    steps: u64,
+    resets: u64,
+    level: Option<&str>,
+    done: bool,
+) -> anyhow::Result<ExitStatus> {
     if steps == 0 {
         anyhow::bail!("--steps 0: must be at least 1");
     }
@@ -125,7 +134,7 @@ fn bench_env(steps: u64, resets: u64, level: Option<&str>) -> anyhow::Result<Exi
         anyhow::bail!("--resets 0: must be at least 1");
     }
     let cfg = match level {
-        Some(id) => LevelConfig::babyai(groundscope::env::LevelId::parse(id)?, true),
+        Some(id) => LevelConfig::babyai(groundscope::env::LevelId::parse(id)?, done),
         None => LevelConfig::default(),
     };
     let start = Instant::now();

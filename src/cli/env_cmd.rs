@@ -31,9 +31,14 @@ pub struct LevelArgs {
     /// Task kinds: goto, pickup or both.
     #[arg(long, value_name = "KINDS", default_value = "both")]
     pub tasks: String,
-    /// BabyAI's default mode: success without the `done` action.
-    #[arg(long)]
+    /// BabyAI's registered mode: success without the `done` action (a registered id's
+    /// default; the paper's level needs this flag for it).
+    #[arg(long, conflicts_with = "done")]
     pub no_done: bool,
+    /// The paper's done-action mode on a registered BabyAI id (the paper's level uses it
+    /// without the flag).
+    #[arg(long)]
+    pub done: bool,
     /// Always name the colour in missions.
     #[arg(long)]
     pub always_color: bool,
@@ -52,7 +57,7 @@ impl LevelArgs {
     /// The level these flags describe, validated.
     pub fn config(&self) -> anyhow::Result<LevelConfig> {
         if let Some(id) = &self.level {
-            return Ok(LevelConfig::babyai(LevelId::parse(id)?, !self.no_done));
+            return Ok(LevelConfig::babyai(LevelId::parse(id)?, self.done));
         }
         let cfg = LevelConfig {
             room_size: self.size,

@@ -50,15 +50,57 @@ pub struct SweepArgs {
     #[arg(long)]
     pub sample: bool,
     /// Registered BabyAI levels to sweep instead of the paper's sizes and object counts,
-    /// comma-separated (`groundscope env list`): each level × seeds × episodes, in each
-    /// checkpoint's done-action mode.
+    /// comma-separated (`groundscope env list`): each level × seeds × episodes, as minigrid
+    /// registers it (no `done` action; `--done` for the paper's done-action mode).
     #[arg(
         long,
+        visible_alias = "level",
         value_name = "ID,ID,...",
         value_delimiter = ',',
         conflicts_with_all = ["sizes", "objects"]
     )]
     pub levels: Vec<String>,
+    /// The done-action mode on every level (the paper's: success only on `done` right after
+    /// the instruction is satisfied); a registered BabyAI id runs without it by default.
+    #[command(flatten)]
+    pub done: DoneArgs,
+}
+
+/// The one switch for the done-action mode, shared by every command that runs a level.
+#[derive(Args, Clone, Copy, Debug, Default)]
+pub struct DoneArgs {
+    /// The paper's done-action mode on any level: success only on `done` right after the
+    /// instruction is satisfied (the paper's level uses it without the flag; a registered
+    /// BabyAI id, as `gym.make(id)`, does not).
+    #[arg(long, conflicts_with = "no_done")]
+    pub done: bool,
+    /// BabyAI's registered mode on any level: success as soon as the instruction is
+    /// satisfied, no `done` action (the default of a registered BabyAI id).
+    #[arg(long)]
+    pub no_done: bool,
+}
+
+impl DoneArgs {
+    /// The done-action setting of a level whose default is `default`.
+    pub fn resolve(self, default: bool) -> bool {
+        if self.done {
+            true
+        } else if self.no_done {
+            false
+        } else {
+            default
+        }
+    }
+
+    /// `level` with the switch applied: a registered BabyAI id defaults to its registered
+    /// mode (no `done`), the paper's level to `level`'s own setting.
+    pub fn apply(self, level: LevelConfig) -> LevelConfig {
+        let default = level.babyai.is_none() && level.done_required;
+        LevelConfig {
+            done_required: self.resolve(default),
+            ..level
+        }
+    }
 }
 
 impl SweepArgs {
@@ -108,13 +150,22 @@ impl SweepArgs {
     /// `--objects`, room sizes outermost, each checked (an error names the cell's flags).
     pub fn levels(&self, base: LevelConfig) -> anyhow::Result<Vec<LevelConfig>> {
         if !self.levels.is_empty() {
-            return babyai_levels(&self.levels, base);
+            return Ok(babyai_levels(&self.levels, base)?
+                .into_iter()
+                .map(|l| self.done.apply(l))
+                .collect());
         }
         // A model trained on a BabyAI level is swept on its own level.
         if base.babyai.is_some() {
-            return Ok(vec![base]);
+            return Ok(vec![self.done.apply(base)]);
         }
-        paper_levels(base, &self.sizes, &self.objects)
+        Ok(paper_levels(base, &self.sizes, &self.objects)?
+            .into_iter()
+            .map(|l| LevelConfig {
+                done_required: self.done.resolve(l.done_required),
+                ..l
+            })
+            .collect())
     }
 }
 
@@ -137,10 +188,18 @@ pub struct EpisodeArgs {
     /// Number of objects; defaults to the checkpoint's level.
     #[arg(long, value_name = "N", allow_negative_numbers = true)]
     pub objects: Option<usize>,
-    /// A BabyAI level by its gym id (`groundscope env list`), instead of the paper's; the
-    /// done-action mode stays the checkpoint's.
-    #[arg(long, value_name = "ID", conflicts_with_all = ["room_size", "objects"])]
+    /// A BabyAI level by its gym id (`groundscope env list`), instead of the paper's, as
+    /// minigrid registers it (no `done` action; `--done` for the done-action mode).
+    #[arg(
+        long,
+        visible_alias = "levels",
+        value_name = "ID",
+        conflicts_with_all = ["room_size", "objects"]
+    )]
     pub level: Option<String>,
+    /// `--done` / `--no-done`.
+    #[command(flatten)]
+    pub done: DoneArgs,
 }
 
 impl EpisodeArgs {
@@ -153,9 +212,17 @@ impl EpisodeArgs {
     pub fn level(&self, base: LevelConfig) -> anyhow::Result<LevelConfig> {
         if let Some(id) = &self.level {
             let id = groundscope::env::LevelId::parse(id)?;
-            return Ok(LevelConfig::babyai(id, base.done_required));
+            return Ok(self.done.apply(LevelConfig::babyai(id, false)));
         }
-        super::policy_cmd::level_from(base, self.room_size, self.objects)
+        let level = super::policy_cmd::level_from(base, self.room_size, self.objects)?;
+        Ok(if level.babyai.is_some() {
+            self.done.apply(level)
+        } else {
+            LevelConfig {
+                done_required: self.done.resolve(level.done_required),
+                ..level
+            }
+        })
     }
 }
 

@@ -142,7 +142,11 @@ impl Default for LevelConfig {
 impl fmt::Display for LevelConfig {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         if let Some(id) = self.babyai {
-            let done = if self.done_required { " done" } else { "" };
+            let done = if self.done_required {
+                " (done-action mode)"
+            } else {
+                ""
+            };
             return write!(f, "{}{done}", id.id());
         }
         let tasks = match self.tasks {

@@ -170,7 +170,8 @@ impl Debugger {
     }
 
     /// The level: the paper's (its room, objects and tasks beside it) or any registered
-    /// BabyAI level, run at the checkpoint's done-action setting as `view --level` runs it.
+    /// BabyAI level, run as minigrid registers it unless "done action" is ticked, as
+    /// `view --level ID [--done]` runs it.
     fn level_picker(&mut self, ui: &mut egui::Ui) {
         let current = self.level.babyai.map_or(PAPER_LEVEL, LevelId::id);
         let mut picked = None;
@@ -196,10 +197,22 @@ impl Debugger {
             })
             .response
             .on_hover_text("the paper's level or any of minigrid 3.2.0's 96 BabyAI levels");
+        let mut done = self.level.done_required;
+        let toggled = ui
+            .checkbox(&mut done, "done action")
+            .on_hover_text(
+                "the paper's done-action mode: success only on `done` right after the instruction is satisfied (the paper's level uses it; a registered BabyAI id, as gym.make(id), does not)",
+            )
+            .changed();
+        if toggled {
+            self.level.done_required = done;
+            self.run_episode(None);
+            return;
+        }
         let Some(choice) = picked else { return };
         let base = self.agent.as_ref().map(Agent::level).unwrap_or_default();
         let level = match choice {
-            Some(id) => LevelConfig::babyai(id, base.done_required),
+            Some(id) => LevelConfig::babyai(id, false),
             None if base.babyai.is_none() => base,
             None => LevelConfig::default(),
         };
