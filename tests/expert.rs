@@ -246,7 +246,9 @@ fn recordings_carry_the_expert() {
     let status = d.texts.get("/policy/status").cloned().unwrap_or_default();
     assert_eq!(status.len(), ep.steps.len(), "{:?}", d.texts.keys());
     assert!(
-        status.iter().all(|t| t.contains("expert (minigrid's bot) **")),
+        status
+            .iter()
+            .all(|t| t.contains("expert (minigrid's bot) **")),
         "{status:?}"
     );
 }

@@ -52,6 +52,9 @@ pub struct BenchLevelsArgs {
     /// Episodes per seed, on both sweeps.
     #[arg(long, default_value_t = 20, allow_negative_numbers = true)]
     pub episodes: u64,
+    /// `--done` / `--no-done` on the BabyAI levels (default: their registered mode).
+    #[command(flatten)]
+    pub done: super::flags::DoneArgs,
 }
 
 /// Time and episode steps of one sweep.
@@ -94,7 +97,10 @@ pub fn run(args: &BenchLevelsArgs) -> anyhow::Result<ExitStatus> {
     } else {
         args.levels.clone()
     };
-    let levels = super::flags::babyai_levels(&ids, base)?;
+    let levels: Vec<LevelConfig> = super::flags::babyai_levels(&ids, base)?
+        .into_iter()
+        .map(|l| args.done.apply(l))
+        .collect();
     // The paper's default 20-cell sweep.
     let paper = super::flags::paper_levels(
         LevelConfig {

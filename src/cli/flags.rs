@@ -226,8 +226,8 @@ impl EpisodeArgs {
     }
 }
 
-/// The BabyAI levels `ids` (as `--levels` gives them) with `base`'s done-action setting; an
-/// unknown or repeated id is an error naming it.
+/// The BabyAI levels `ids` (as `--levels` gives them) in their registered mode (no `done`);
+/// an unknown or repeated id is an error naming it.
 pub fn babyai_levels(ids: &[String], base: LevelConfig) -> anyhow::Result<Vec<LevelConfig>> {
     let mut out = Vec::new();
     for id in ids {
@@ -236,8 +236,10 @@ pub fn babyai_levels(ids: &[String], base: LevelConfig) -> anyhow::Result<Vec<Le
         if out.iter().any(|l: &LevelConfig| l.babyai == Some(id)) {
             anyhow::bail!("--levels: {} is listed twice", id.id());
         }
+        // A registered id is `gym.make(id)`: no `done` action unless a `--done` is applied.
         out.push(LevelConfig {
             babyai: Some(id),
+            done_required: false,
             ..base
         });
     }

@@ -152,7 +152,9 @@ impl Debugger {
                 ui.label("expert (minigrid's bot): none");
             }
         }
-        ui.label(egui::RichText::new(format!("plan: {}", step.expert_plan)).small());
+        // The debugger's font has no arrow: the plan's steps are joined by ">" here.
+        let plan = step.expert_plan.replace('→', ">");
+        ui.label(egui::RichText::new(format!("plan: {plan}")).small());
     }
 
     /// The action probabilities as named bars, the chosen action highlighted.
@@ -193,7 +195,7 @@ pub fn step_line(t: usize, shown: &Shown) -> String {
 pub(super) const EXPERT_LEFT: Color32 = Color32::from_rgb(230, 80, 80);
 
 /// Horizontal bars with labels and values; `highlight` is drawn in another colour and
-/// `expert` (minigrid's bot's action) is marked with a star.
+/// `expert` (minigrid's bot's action) is marked "< expert".
 fn bars(
     ui: &mut egui::Ui,
     labels: &[String],
@@ -217,7 +219,7 @@ fn bars(
             };
             p.rect_filled(bar, 2.0, color);
             if expert == Some(i) {
-                ui.label(format!("{v:.3} ★ expert"));
+                ui.label(format!("{v:.3} < expert"));
             } else {
                 ui.label(format!("{v:.3}"));
             }
