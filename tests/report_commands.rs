@@ -24,6 +24,7 @@ fn failure(kind: &str, length: u32) -> Failure {
         m_on_target_steps: None,
         counterfactual: None,
         level: None,
+        done_required: Some(true),
     }
 }
 

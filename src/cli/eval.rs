@@ -203,7 +203,13 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitStatus> {
                 level.room_size, level.n_objects
             ),
         };
-        format!("groundscope replay --checkpoint {ckpt} {on} --seed {seed}{sample}")
+        // The mode the episode ran in, where it is not the level's default.
+        let done = match (level.babyai.is_some(), level.done_required) {
+            (true, true) => " --done",
+            (false, false) => " --no-done",
+            _ => "",
+        };
+        format!("groundscope replay --checkpoint {ckpt} {on}{done} --seed {seed}{sample}")
     });
     let counterfactuals = add_counterfactuals(&mut failures, &ckpts, mode, &stop);
     if stop.requested() {

@@ -54,6 +54,7 @@ pub fn cell_from_episodes(
     .with_level(level.babyai.map(|id| id.id().to_owned()));
     let cell = Cell {
         expert: Some(expert_stats(&eps)),
+        done_action_mode: level.babyai.is_some() && level.done_required,
         ..cell
     };
     (cell, eps)

@@ -120,14 +120,21 @@ pub struct Cell {
     /// episodes, path efficiency of successful ones (docs/bot.md); absent in older reports.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub expert: Option<super::sweep::ExpertStats>,
+    /// A BabyAI cell run in the done-action mode (`eval --done`); absent in its registered
+    /// mode and for the paper's level.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub done_action_mode: bool,
 }
 
 impl Cell {
-    /// The cell's level as tables name it: the BabyAI id, or `S8 N4`.
+    /// The cell's level as tables name it: the BabyAI id (with `(done-action mode)` when it
+    /// ran so), or `S8 N4`.
     pub fn label(&self) -> String {
-        self.level
-            .clone()
-            .unwrap_or_else(|| format!("S{} N{}", self.size, self.objects))
+        match &self.level {
+            Some(id) if self.done_action_mode => format!("{id} (done-action mode)"),
+            Some(id) => id.clone(),
+            None => format!("S{} N{}", self.size, self.objects),
+        }
     }
 
     /// The cell on a registered BabyAI level (none: the paper's).
@@ -162,6 +169,7 @@ impl Cell {
             exploration: None,
             level: None,
             expert: None,
+            done_action_mode: false,
         }
     }
 
@@ -236,11 +244,18 @@ pub struct Failure {
     /// The registered BabyAI level (absent: the paper's level of `size` and `objects`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub level: Option<String>,
+    /// Whether the episode ran in the done-action mode (absent in older files: the model's).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub done_required: Option<bool>,
 }
 
 impl Failure {
     /// The level the episode ran on, for a model trained on `base`.
     pub fn level_config(&self, base: LevelConfig) -> Result<LevelConfig, crate::env::EnvError> {
+        let base = LevelConfig {
+            done_required: self.done_required.unwrap_or(base.done_required),
+            ..base
+        };
         Ok(match &self.level {
             Some(id) => LevelConfig {
                 babyai: Some(crate::env::level::LevelId::parse(id)?),
@@ -327,6 +342,7 @@ pub fn worst_episodes(
                 acc_cmb,
                 replay: replay_args(ckpt, level, e.level_seed),
                 level: level_id.clone(),
+                done_required: Some(level.done_required),
                 class: e.failure.map(|d| d.class),
                 target_visible_steps: e.failure.map(|d| d.target_visible_steps),
                 m_on_target_steps: e.failure.and_then(|d| d.m_on_target_steps),
