@@ -517,3 +517,85 @@ fn a_run_with_frozen_maps_resumes_exactly_and_keeps_its_freeze() {
         assert!(!refused.exists(), "{bad}");
     }
 }
+
+/// The arguments of a small imitation run on a BabyAI level (`train --imitate`).
+fn imitate_args<'a>(dir: &'a Path, frames: &'a str, extra: &[&'a str]) -> Vec<&'a str> {
+    let mut args = vec![
+        "train",
+        "--imitate",
+        "--model",
+        "attention",
+        "--level",
+        "BabyAI-GoToLocalS6N3-v0",
+        "--out",
+        dir.to_str().unwrap(),
+        "--frames",
+        frames,
+        "--procs",
+        "4",
+        "--frames-per-proc",
+        "32",
+        "--batch-size",
+        "64",
+        "--hidden",
+        "16",
+        "--save-interval",
+        "1",
+        "--eval-interval",
+        "4",
+        "--eval-episodes",
+        "8",
+        "--quiet",
+    ];
+    args.extend_from_slice(extra);
+    args
+}
+
+/// Imitation of the bot: the cross-entropy on its actions falls, the demonstrations succeed
+/// (the bot solves the level), and a run resumed mid-episode — the bot's plan saved with each
+/// environment — ends with the weights of an uninterrupted one; the flag is kept on resume
+/// and a PPO run cannot be resumed as an imitation one.
+#[test]
+fn imitation_learns_the_bots_actions_and_resumes_exactly() {
+    let dir = tempfile::tempdir().unwrap();
+    let straight = dir.path().join("straight");
+    let o = gs(&imitate_args(&straight, "1536", &[]));
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let log = std::fs::read_to_string(straight.join("log.csv")).unwrap();
+    let rows: Vec<Vec<String>> = log
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').map(str::to_owned).collect())
+        .collect();
+    assert_eq!(rows.len(), 12);
+    let loss = |r: &Vec<String>| r[7].parse::<f64>().unwrap();
+    assert!(
+        loss(&rows[11]) < 0.8 * loss(&rows[0]),
+        "the cross-entropy on the bot's actions falls: {log}"
+    );
+    // The demonstrations are the bot's: they succeed whenever an episode ends.
+    for r in &rows {
+        if r[3] != "0" {
+            assert_eq!(r[4], "1.0000", "{log}");
+        }
+    }
+    let whole = dir.path().join("whole");
+    let o = gs(&imitate_args(&whole, "640", &[]));
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let mut resume = imitate_args(&whole, "1536", &["--resume"]);
+    resume.retain(|a| *a != "--imitate");
+    let o = gs(&resume);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert_eq!(
+        std::fs::read(whole.join("model.safetensors")).unwrap(),
+        std::fs::read(straight.join("model.safetensors")).unwrap(),
+        "a resumed imitation run ends with other weights than an uninterrupted one"
+    );
+    // A PPO run is not continued as imitation.
+    let ppo = dir.path().join("ppo");
+    let mut args = imitate_args(&ppo, "128", &[]);
+    args.retain(|a| *a != "--imitate");
+    let o = gs(&args);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert_bad_input(&gs(&imitate_args(&ppo, "256", &["--resume"])), "--imitate");
+}

@@ -19,7 +19,7 @@ mod dump;
 mod search;
 mod subgoal;
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use crate::env::instr::Targets;
 use crate::env::{Action, DIR_TO_VEC, ObjDesc, ObjectId, ObjectKind, Pos, World};
@@ -33,7 +33,7 @@ pub use subgoal::{Datum, Reason, Subgoal, SubgoalKind};
 pub const MAX_REPLANS: u32 = 2000;
 
 /// Why the bot gave up; from then on it suggests nothing for the rest of the episode.
-#[derive(Clone, Debug, PartialEq, Eq, Serialize, thiserror::Error)]
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize, thiserror::Error)]
 #[serde(rename_all = "snake_case")]
 pub enum GiveUp {
     /// A box was opened (`DisappearedBoxError`: what it held may be gone).
@@ -47,11 +47,11 @@ pub enum GiveUp {
     NothingToExplore,
     /// One of minigrid's own assertions (or a Python error) would have raised.
     #[error("the plan broke: {0}")]
-    Broken(&'static str),
+    Broken(String),
 }
 
 /// What the bot remembers of the state it last planned in (`_remember_current_state`).
-#[derive(Clone, Copy, Debug, Default)]
+#[derive(Clone, Copy, Debug, Default, Serialize, Deserialize)]
 struct Memory {
     agent_pos: Pos,
     carrying: Option<ObjectId>,
@@ -61,8 +61,9 @@ struct Memory {
     fwd_was_box: bool,
 }
 
-/// minigrid's `BabyAIBot` for one episode.
-#[derive(Clone, Debug)]
+/// minigrid's `BabyAIBot` for one episode (serialisable, so that a training run's
+/// demonstrations resume exactly).
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Bot {
     planner: Planner,
     stack: Vec<Subgoal>,
@@ -255,7 +256,7 @@ impl Bot {
 /// The bot beside an episode: told every action taken (its own suggestions or anyone
 /// else's, as minigrid's bot is in `gen_minigrid_fixtures.py`), it gives at each step the
 /// action it would take and its plan.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Expert {
     bot: Bot,
     taken: Option<Action>,

@@ -34,7 +34,7 @@ impl ShortPath {
 }
 
 /// Reusable buffers of one breadth-first search.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug, Default, serde::Serialize, serde::Deserialize)]
 struct Frontier {
     /// `previous_pos`, x-major: the index of the cell it was reached from, [`ROOT`] or
     /// [`UNVISITED`].
@@ -47,18 +47,21 @@ struct Frontier {
 }
 
 /// The grid the bot plans on, what it has seen of it, and its search buffers.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug, Default, serde::Serialize, serde::Deserialize)]
 pub(crate) struct Planner {
     pub width: i32,
     pub height: i32,
     /// `vis_mask`, x-major: every cell the agent has seen this episode.
     pub vis: Vec<bool>,
+    /// Scratch of the searches (emptied by each): not part of the bot's state.
+    #[serde(skip)]
     first: Frontier,
+    #[serde(skip)]
     second: Frontier,
 }
 
 fn out_of_grid() -> GiveUp {
-    GiveUp::Broken("the search left the grid")
+    GiveUp::Broken("the search left the grid".into())
 }
 
 impl Planner {
@@ -226,7 +229,7 @@ impl Planner {
         adjacent: bool,
     ) -> Result<(Option<ObjectId>, Option<Pos>), GiveUp> {
         if obj_set.is_empty() {
-            return Err(GiveUp::Broken("a description matched no object"));
+            return Err(GiveUp::Broken("a description matched no object".into()));
         }
         let carrying = world.carrying.map(|c| c.id);
         let mut best = 999usize;
@@ -248,7 +251,7 @@ impl Planner {
             }
             let sp = self.shortest_path(world, &mut |p, _| p == obj_pos, true)?;
             let Some(path) = sp.path else {
-                return Err(GiveUp::Broken("no path to a seen object"));
+                return Err(GiveUp::Broken("no path to a seen object".into()));
             };
             let mut d = path.len();
             if sp.with_blockers {

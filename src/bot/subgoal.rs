@@ -76,7 +76,7 @@ impl Reason {
 }
 
 /// A subgoal's first parameter (`datum`).
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub enum Datum {
     /// A cell; `None` where minigrid's bot stored a drop position it did not find (replanning
     /// that subgoal raises in Python, so the bot gives up there).
@@ -101,7 +101,7 @@ pub enum Datum {
 }
 
 /// One subgoal of the stack.
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Subgoal {
     /// Its class.
     pub kind: SubgoalKind,
@@ -112,7 +112,7 @@ pub struct Subgoal {
 }
 
 fn broken(what: &'static str) -> GiveUp {
-    GiveUp::Broken(what)
+    GiveUp::Broken(what.to_owned())
 }
 
 fn add(a: Pos, b: Pos) -> Pos {

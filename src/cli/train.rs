@@ -101,6 +101,12 @@ pub struct TrainArgs {
     /// Normalise each rollout's advantages to mean 0, standard deviation 1.
     #[arg(long)]
     pub normalize_advantages: bool,
+    /// Imitation learning: behavioural cloning of minigrid's BabyAI bot on demonstrations made
+    /// on the fly (the bot's actions are taken; the policy loss is their cross-entropy), with
+    /// the entropy bonus and value loss as PPO's; the rest of the run (rollouts, recurrence,
+    /// logs, checkpoints, `--resume`) as a PPO run's. Then PPO from its weights: `--init RUN`.
+    #[arg(long)]
+    pub imitate: bool,
     /// Anneal the word temperature from --word-temperature (the model's, with --init) to 1,
     /// the paper's, linearly between START and END frames: START:END, e.g. 6000000:9000000.
     #[arg(long, value_name = "START:END", allow_hyphen_values = true)]
@@ -157,6 +163,7 @@ pub(super) fn ppo_config(a: &TrainArgs, from: f32) -> anyhow::Result<PpoConfig> 
         normalize_advantages: a.normalize_advantages,
         temperature_anneal,
         freeze_attention_at: a.freeze_attention_at,
+        imitate: a.imitate,
     })
 }
 

@@ -152,7 +152,8 @@ impl Fixed {
             p.freeze_attention_at
                 .map_or_else(String::new, |f| f.to_string())
         };
-        let pairs: [(&str, String, String); 23] = [
+        let pairs: [(&str, String, String); 24] = [
+            ("imitate", now.imitate.to_string(), run.imitate.to_string()),
             ("word_temperature_anneal", schedule(&now), schedule(run)),
             ("freeze_attention_at", freeze(&now), freeze(run)),
             (

@@ -57,6 +57,13 @@ pub struct PpoConfig {
     /// as the paper does. Written only when set, so older run settings read as before.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub freeze_attention_at: Option<u64>,
+    /// Behavioural cloning of minigrid's BabyAI bot (`train --imitate`, BabyAI 1.0's imitation
+    /// learning): the rollout takes the bot's actions — demonstrations made on the fly, the
+    /// bot told every action — and the policy loss is the cross-entropy of the policy on them
+    /// (frames where the bot gave up are left out), with the entropy bonus and the value loss
+    /// as PPO's. Written only when set, so older run settings read as before.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub imitate: bool,
 }
 
 /// The word temperature annealed over training: `from` until `start` frames, then linearly
@@ -143,6 +150,7 @@ impl Default for PpoConfig {
             normalize_advantages: false,
             temperature_anneal: None,
             freeze_attention_at: None,
+            imitate: false,
         }
     }
 }

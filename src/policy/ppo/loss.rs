@@ -76,7 +76,7 @@ pub(super) fn shard_step(
         (rows.len(), 1),
         &Device::Cpu,
     )?;
-    let losses = ppo_loss(
+    let mut losses = ppo_loss(
         &logits,
         &values,
         &actions,
@@ -86,6 +86,9 @@ pub(super) fn shard_step(
         &gather(&ro.returns)?,
         ppo,
     )?;
+    if ppo.imitate {
+        losses = imitation_loss(&logits, &actions, &gather(&ro.expert)?, losses, ppo)?;
+    }
     times.update_forward = secs(forward_t);
     let backward_t = std::time::Instant::now();
     let grads = losses.total.backward()?;
@@ -148,6 +151,29 @@ pub fn ppo_loss(
         policy,
         value,
         entropy,
+    })
+}
+
+/// Behavioural cloning's loss (`train --imitate`): the policy term becomes the cross-entropy
+/// of the policy on the bot's actions, averaged over the frames that carry one (`expert` = 1);
+/// the entropy bonus and the value loss stay PPO's.
+pub fn imitation_loss(
+    logits: &Tensor,
+    actions: &Tensor,
+    expert: &Tensor,
+    ppo: PpoLosses,
+    cfg: &PpoConfig,
+) -> Result<PpoLosses, PolicyError> {
+    let logp = log_probs(logits)?.gather(actions, 1)?.squeeze(1)?;
+    let frames = expert.sum_all()?.to_scalar::<f32>()?.max(1.0);
+    let policy = ((logp * expert)?.sum_all()? / f64::from(frames))?.neg()?;
+    let total =
+        ((&policy - (&ppo.entropy * cfg.entropy_coef)?)? + (&ppo.value * cfg.value_loss_coef)?)?;
+    Ok(PpoLosses {
+        total,
+        policy,
+        value: ppo.value,
+        entropy: ppo.entropy,
     })
 }
 

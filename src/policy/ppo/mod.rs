@@ -56,6 +56,9 @@ struct EnvSlot {
     mask: f32,
     ep_return: f64,
     ep_len: u32,
+    /// minigrid's bot beside the episode (`--imitate`): its demonstration's next action.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    expert: Option<crate::bot::Expert>,
 }
 
 /// Episode statistics since the last log line.
@@ -217,7 +220,7 @@ impl Trainer {
         let mut next_seed = 0;
         let mut envs = Vec::with_capacity(ppo.procs);
         for _ in 0..ppo.procs {
-            envs.push(new_slot(&level, next_seed, model.lstm_hidden)?);
+            envs.push(new_slot(&level, next_seed, model.lstm_hidden, ppo.imitate)?);
             next_seed += 1;
         }
         Ok(Self {
@@ -256,7 +259,7 @@ impl Trainer {
         let mut trainer = Self::new(model, level, ppo, params, seed)?;
         let first = frames + WARM_START_SEED_GAP;
         for (k, slot) in trainer.state.envs.iter_mut().enumerate() {
-            *slot = new_slot(&level, first + k as u64, model.lstm_hidden)?;
+            *slot = new_slot(&level, first + k as u64, model.lstm_hidden, ppo.imitate)?;
         }
         trainer.state.next_seed = first + ppo.procs as u64;
         trainer.state.frames = frames;
@@ -306,11 +309,17 @@ impl Trainer {
     }
 }
 
-fn new_slot(level: &LevelConfig, k: u64, hidden: usize) -> Result<EnvSlot, PolicyError> {
+fn new_slot(
+    level: &LevelConfig,
+    k: u64,
+    hidden: usize,
+    imitate: bool,
+) -> Result<EnvSlot, PolicyError> {
     let seed = TRAIN_SEED_OFFSET + k;
     let world = level.generate(seed)?;
     let tokens = vocab::tokenize_on_level(&world.mission, || format!("{level} seed {seed}"))?;
     Ok(EnvSlot {
+        expert: imitate.then(|| crate::bot::Expert::new(&world)),
         world,
         tokens,
         h: vec![0.0; hidden],

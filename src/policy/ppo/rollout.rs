@@ -23,6 +23,8 @@ pub(super) struct Rollout {
     pub(super) c: Vec<Vec<f32>>,
     pub(super) advantages: Vec<f32>,
     pub(super) returns: Vec<f32>,
+    /// `--imitate`: 1 where the action is the bot's (0 where it had given up).
+    pub(super) expert: Vec<f32>,
 }
 
 impl Trainer {
@@ -53,6 +55,7 @@ impl Trainer {
             c: vec![Vec::new(); n],
             advantages: vec![0.0; n],
             returns: vec![0.0; n],
+            expert: vec![0.0; n],
         };
         let mut stats = EpisodeStats::default();
         for t in 0..t_n {
@@ -64,13 +67,17 @@ impl Trainer {
                 let probs = &out.probs[p];
                 let u: f32 = st.act_rng.random();
                 let mut acc = 0.0;
-                let a = probs
+                let sampled = probs
                     .iter()
                     .position(|&q| {
                         acc += q;
                         u < acc
                     })
                     .unwrap_or(probs.len() - 1);
+                // Imitation: the bot's action, the policy's own where the bot gave up.
+                let advice = env.expert.as_mut().and_then(|e| e.advise(&env.world));
+                ro.expert[i] = f32::from(u8::from(advice.is_some()));
+                let a = advice.map_or(sampled, |a| a as usize);
                 ro.obs[i] = env.world.observe();
                 ro.tokens[i].clone_from(&env.tokens);
                 ro.actions[i] = a as u32;
@@ -81,6 +88,9 @@ impl Trainer {
                 ro.c[i].clone_from(&env.c);
                 let action = Action::from_index(a).unwrap_or(Action::Done);
                 let outcome = env.world.step(action)?;
+                if let Some(e) = env.expert.as_mut() {
+                    e.told(action);
+                }
                 ro.rewards[i] = (outcome.reward * self.ppo.reward_scale) as f32;
                 env.h.clone_from(&out.h[p]);
                 env.c.clone_from(&out.c[p]);
@@ -91,7 +101,7 @@ impl Trainer {
                     stats.successes += u64::from(outcome.reward > 0.0);
                     stats.return_sum += env.ep_return;
                     stats.length_sum += u64::from(env.ep_len);
-                    let fresh = new_slot(&self.level, st.next_seed, hid)?;
+                    let fresh = new_slot(&self.level, st.next_seed, hid, self.ppo.imitate)?;
                     st.next_seed += 1;
                     *env = EnvSlot {
                         mask: 0.0,
