@@ -23,8 +23,12 @@ use groundscope::policy::ppo::run_dir::{self, Tracking};
 
 /// `groundscope train`.
 #[derive(Debug, Args)]
+#[expect(
+    clippy::struct_excessive_bools,
+    reason = "command-line switches, each its own flag"
+)]
 #[command(
-    after_long_help = "EXAMPLES:\n  groundscope train --model attention --out runs/att --frames 5000000\n  groundscope train --model attention --out runs/att --frames 8000000 --resume\n  groundscope train --model attention --out runs/att2 --init runs/att/model --entropy-coef 0.001 --frames 9000000"
+    after_long_help = "EXAMPLES:\n  groundscope train --model attention --out runs/att --frames 5000000\n  groundscope train --model attention --out runs/att --frames 8000000 --resume\n  groundscope train --model attention --out runs/att2 --init runs/att/model --entropy-coef 0.001 --frames 9000000\n  groundscope train --imitate --level BabyAI-PutNextLocal-v0 --out runs/il --frames 2000000"
 )]
 pub struct TrainArgs {
     /// attention or baseline.
