@@ -5,7 +5,7 @@
 
 mod common;
 
-use common::{assert_bad_input, gs, stderr, stdout};
+use common::{assert_bad_input, gs, stderr};
 use groundscope::episode::{ActionMode, EpisodeSpec, initial_world, run_from};
 use groundscope::policy::Agent;
 use groundscope::record::{RerunTargets, record_rerun, write_mcap};
@@ -257,22 +257,11 @@ fn recordings_carry_the_expert() {
 #[test]
 fn faithfulness_refuses_the_bot() {
     let dir = tempfile::tempdir().unwrap();
-    let o = gs(&[
-        "faithfulness",
-        "--checkpoint",
-        "bot",
-        "--sizes",
-        "8",
-        "--objects",
-        "4",
-        "--seeds",
-        "1",
-        "--episodes",
-        "2",
-        "--out",
-        dir.path().join("f").to_str().unwrap(),
-    ]);
+    let out = dir.path().join("f");
+    let mut args = vec!["faithfulness", "--checkpoint", "bot"];
+    args.extend(common::SMALL_SWEEP);
+    args.extend(["--out", out.to_str().unwrap()]);
+    let o = gs(&args);
     assert_bad_input(&o, "bot has no network");
     assert!(!dir.path().join("f").exists());
-    let _ = stdout(&o);
 }

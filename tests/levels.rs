@@ -6,7 +6,7 @@
 
 mod common;
 
-use common::{assert_bad_input, gs, onnx_fixture, stderr};
+use common::{assert_bad_input, gs, onnx_fixture, stderr, stdout};
 
 /// The rows of an `episodes.csv`, as header name → value maps.
 fn rows(path: &std::path::Path) -> Vec<std::collections::BTreeMap<String, String>> {
@@ -309,5 +309,31 @@ fn faithfulness_runs_on_a_level_and_skips_edits_the_model_cannot_read() {
     assert!(
         json.contains("\"level\": \"BabyAI-GoToRedBallGrey-v0\""),
         "{json}"
+    );
+}
+
+/// `env list --checkpoint C` says which levels a checkpoint can read: the paper's pair reads
+/// GoToLocal's missions and none of PutNextLocal's (naming the word), the bot reads all 96.
+#[test]
+fn env_list_says_which_levels_a_checkpoint_reads() {
+    let o = gs(&["env", "list", "--checkpoint", "bundled:attention"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = stdout(&o);
+    let row = |id: &str| {
+        out.lines()
+            .find(|l| l.starts_with(&format!("{id} ")))
+            .unwrap_or_else(|| panic!("no row for {id}: {out}"))
+            .to_owned()
+    };
+    assert!(row("BabyAI-GoToLocal-v0").ends_with("all 200"), "{out}");
+    assert!(
+        row("BabyAI-PutNextLocal-v0").ends_with("none (not \"put\")"),
+        "{out}"
+    );
+    let o = gs(&["env", "list", "--checkpoint", "bot"]);
+    assert!(
+        stdout(&o).contains("the checkpoint reads every mission of 96 of them"),
+        "{}",
+        stdout(&o)
     );
 }

@@ -95,11 +95,18 @@ pub enum EnvCommand {
         #[arg(long, value_name = "FILE")]
         snapshot: Option<PathBuf>,
     },
-    /// List every BabyAI level id with its rooms and mechanics.
+    /// List every BabyAI level id with its rooms and mechanics; with `--checkpoint`, whether
+    /// that checkpoint can read each level's missions.
     #[command(
-        after_long_help = "EXAMPLES:\n  groundscope env list\n  groundscope env show --level BabyAI-KeyCorridorS3R3-v0 --seed 1"
+        after_long_help = "EXAMPLES:\n  groundscope env list\n  groundscope env list --checkpoint bundled:attention\n  groundscope env show --level BabyAI-KeyCorridorS3R3-v0 --seed 1"
     )]
-    List,
+    List {
+        /// A checkpoint (NAME, run directory, bundled:…, FILE.onnx or bot): a last column
+        /// says how many of each level's missions (seeds 0..200) it can read, and the first
+        /// word it cannot.
+        #[arg(long, value_name = "NAME")]
+        checkpoint: Option<String>,
+    },
     /// Replay dumps of the Python reference and compare every step.
     ///
     /// Each FILE is a dump_minigrid.py JSON episode (`.json`, or `.json.gz`). A dump of a
@@ -129,8 +136,12 @@ pub fn run(cmd: EnvCommand) -> anyhow::Result<ExitStatus> {
             tile,
             snapshot,
         } => show(seed, &level, png, tile, snapshot),
-        EnvCommand::List => {
-            list();
+        EnvCommand::List { checkpoint } => {
+            let agent = checkpoint
+                .as_deref()
+                .map(groundscope::policy::Agent::load)
+                .transpose()?;
+            list(agent.as_ref());
             Ok(ExitStatus::Success)
         }
         EnvCommand::Verify { files } => Ok(verify(&files)),
@@ -170,17 +181,64 @@ fn show(
     Ok(ExitStatus::Success)
 }
 
-fn list() {
+/// Seeds whose missions `env list --checkpoint` reads per level.
+const READ_SEEDS: u64 = 200;
+
+/// How many of `level`'s missions (seeds 0..READ_SEEDS, registered mode) `agent` can read:
+/// `all 200`, `150 of 200 (not "door")` or `none (not "put")`.
+fn reads_level(
+    agent: &groundscope::policy::Agent,
+    spec: &groundscope::env::babyai::registry::LevelSpec,
+) -> String {
+    let Ok(id) = LevelId::parse(spec.id) else {
+        return "?".into();
+    };
+    let cfg = LevelConfig::babyai(id, false);
+    let (mut ok, mut tried, mut first_unknown) = (0u64, 0u64, None);
+    for seed in 0..READ_SEEDS {
+        // A seed minigrid never finishes generating has no mission to read.
+        let Ok(world) = cfg.generate(seed) else {
+            continue;
+        };
+        tried += 1;
+        let Ok(tokens) = groundscope::env::vocab::tokenize(&world.mission) else {
+            continue;
+        };
+        match groundscope::policy::acting::unknown_word(agent.acting(), &tokens) {
+            None => ok += 1,
+            Some(t) => {
+                first_unknown.get_or_insert(groundscope::env::vocab::word(t).unwrap_or("?"));
+            }
+        }
+    }
+    let not = first_unknown.map_or_else(String::new, |w| format!(" (not {w:?})"));
+    if ok == tried {
+        format!("all {tried}")
+    } else if ok == 0 {
+        format!("none{not}")
+    } else {
+        format!("{ok} of {tried}{not}")
+    }
+}
+
+fn list(agent: Option<&groundscope::policy::Agent>) {
     let levels = groundscope::env::babyai::registry::LEVELS;
+    let reads_header = if agent.is_some() { "  reads" } else { "" };
     println!(
-        "{:<36} {:>5} {:>6} {:>9}  {:<18} {:<26} instructions",
-        "id", "rooms", "room", "grid", "doors", "locks"
+        "{:<36} {:>5} {:>6} {:>9}  {:<18} {:<26} {:<30}{reads_header}",
+        "id", "rooms", "room", "grid", "doors", "locks", "instructions"
     );
+    let mut readable = 0;
     for l in levels {
         let m = l.mechanics();
         let (w, h) = l.rooms.grid_size();
+        let reads = agent.map_or_else(String::new, |a| {
+            let r = reads_level(a, l);
+            readable += usize::from(r.starts_with("all"));
+            format!("  {r}")
+        });
         println!(
-            "{:<36} {:>5} {:>6} {:>9}  {:<18} {:<26} {}",
+            "{:<36} {:>5} {:>6} {:>9}  {:<18} {:<26} {:<30}{reads}",
             l.id,
             format!("{}×{}", l.rooms.num_cols, l.rooms.num_rows),
             l.rooms.room_size,
@@ -188,6 +246,11 @@ fn list() {
             m.doors,
             m.locks,
             m.instructions
+        );
+    }
+    if agent.is_some() {
+        println!(
+            "the checkpoint reads every mission of {readable} of them (seeds 0..{READ_SEEDS})"
         );
     }
     println!("{} levels (minigrid 3.2.0)", levels.len());

@@ -52,7 +52,10 @@ pub fn check_known_words<P: Acting + ?Sized>(
     };
     let known = policy.known_words();
     let why = if (t as usize) < known {
-        "is not in the graph's vocabulary (metadata groundscope.vocabulary)".to_owned()
+        format!(
+            "is not in the graph's vocabulary (metadata groundscope.vocabulary; it knows {})",
+            known_word_list(policy).join(", ")
+        )
     } else {
         format!(
             "is not one this model was trained on: it knows the paper's {} words (a model of \
@@ -67,6 +70,20 @@ pub fn check_known_words<P: Acting + ?Sized>(
         crate::env::error::shown(mission),
         level(),
     )))
+}
+
+/// The words of groundscope's vocabulary `policy` can read, in vocabulary order.
+pub fn known_word_list<P: Acting + ?Sized>(policy: &P) -> Vec<&'static str> {
+    let known = policy.known_words();
+    (1..crate::env::vocab::VOCAB_SIZE as u32)
+        .filter(|&t| (t as usize) < known)
+        .filter(|&t| {
+            policy
+                .input_token_ids(&[t])
+                .is_none_or(|ids| ids.first().is_some_and(|&i| i >= 0))
+        })
+        .filter_map(crate::env::vocab::word)
+        .collect()
 }
 
 /// A policy that acts in one environment at a time.
