@@ -13,12 +13,13 @@ use super::report::Report;
 use super::sweep::{EpisodeSummary, GroundingStats, grounding};
 use crate::env::mission::Instruction;
 use crate::env::object::{Color, ObjectKind};
+use crate::env::vocab;
 use crate::table::{Record, Table};
 
 /// One word's grounding in a cell.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct WordStats {
-    /// Object word or colour word.
+    /// Object, colour, door or location word.
     pub kind: WordKind,
     /// The word, as the mission spells it.
     pub word: String,
@@ -39,7 +40,15 @@ pub fn by_word(eps: &[EpisodeSummary]) -> Vec<WordStats> {
         .collect();
     let kinds = ObjectKind::PICKABLE.map(|k| (WordKind::Object, k.name(), Some(k), None));
     let colors = Color::ALL.map(|c| (WordKind::Color, c.name(), None, Some(c)));
-    kinds
+    let stats = |kind: WordKind, word: &str, named: Vec<EpisodeSummary>| {
+        (!named.is_empty()).then(|| WordStats {
+            kind,
+            word: word.to_owned(),
+            episodes: named.len() as u64,
+            stats: grounding(&named, kind),
+        })
+    };
+    let mut out: Vec<WordStats> = kinds
         .into_iter()
         .chain(colors)
         .filter_map(|(kind, word, k, c)| {
@@ -51,14 +60,46 @@ pub fn by_word(eps: &[EpisodeSummary]) -> Vec<WordStats> {
                 })
                 .map(|(e, _)| e.clone())
                 .collect();
-            (!named.is_empty()).then(|| WordStats {
-                kind,
-                word: word.to_owned(),
-                episodes: named.len() as u64,
-                stats: grounding(&named, kind),
-            })
+            stats(kind, word, named)
         })
-        .collect()
+        .collect();
+    // "door" and the location words, named anywhere in a mission (of one clause or several):
+    // their kind's accuracies over the episodes that name them.
+    let words: Vec<Vec<&str>> = eps
+        .iter()
+        .map(|e| vocab::tokenize(&e.mission).map_or_else(|_| Vec::new(), |t| vocab::words(&t)))
+        .collect();
+    let by_word = [
+        (WordKind::Door, "door"),
+        (WordKind::Location, "left"),
+        (WordKind::Location, "right"),
+        (WordKind::Location, "front"),
+        (WordKind::Location, "behind"),
+    ];
+    for (kind, word) in by_word {
+        let named: Vec<EpisodeSummary> = eps
+            .iter()
+            .zip(&words)
+            .filter(|(_, ws)| named_as(ws, kind, word))
+            .map(|(e, _)| e.clone())
+            .collect();
+        out.extend(stats(kind, word, named));
+    }
+    out
+}
+
+/// Whether a mission's words name `word` as a word of `kind`: "door" anywhere; a location
+/// word only in its phrase ("on your left", "in front of you", "behind you"), not the turn
+/// actions' names.
+fn named_as(words: &[&str], kind: WordKind, word: &str) -> bool {
+    match kind {
+        WordKind::Location => words.windows(2).any(|w| match word {
+            "left" | "right" => w == ["your", word],
+            "front" => w == ["in", "front"],
+            _ => w == ["behind", "you"],
+        }),
+        _ => words.contains(&word),
+    }
 }
 
 /// Whether a word's `acc` is under half its class's: the class mean hides a word that
@@ -206,6 +247,57 @@ mod tests {
         assert_eq!(acc("blue").mean, Some(1.0));
         assert_eq!(w[0].kind, WordKind::Object);
         assert_eq!(w[2].kind, WordKind::Color);
+    }
+
+    /// "door" and the location words get rows of their own kinds, from missions of one clause
+    /// or several; "left" as a turn is not a location word.
+    #[test]
+    fn door_and_location_words_get_their_rows() {
+        let with = |mut e: EpisodeSummary, kind: WordKind, a: f64| {
+            e.grounding.insert(
+                kind,
+                (
+                    Accuracies {
+                        acc: a,
+                        ..Accuracies::default()
+                    },
+                    2,
+                ),
+            );
+            e
+        };
+        let eps = [
+            with(
+                ep(0, "open the red door", 1.0, Some(1.0)),
+                WordKind::Door,
+                0.5,
+            ),
+            with(
+                ep(
+                    0,
+                    "pick up the ball on your left, then open a door",
+                    1.0,
+                    None,
+                ),
+                WordKind::Door,
+                1.0,
+            ),
+            with(
+                ep(0, "pick up the ball behind you", 1.0, None),
+                WordKind::Location,
+                0.25,
+            ),
+        ];
+        let w = by_word(&eps);
+        let row = |word: &str| w.iter().find(|x| x.word == word);
+        let door = row("door").unwrap();
+        assert_eq!((door.kind, door.episodes), (WordKind::Door, 2));
+        assert_eq!(door.stats.acc.mean, Some(0.75));
+        assert_eq!(row("left").unwrap().episodes, 1);
+        let behind = row("behind").unwrap();
+        assert_eq!((behind.kind, behind.episodes), (WordKind::Location, 1));
+        assert_eq!(behind.stats.acc.mean, Some(0.25));
+        assert!(row("right").is_none() && row("front").is_none());
     }
 
     #[test]
