@@ -78,8 +78,8 @@ fn the_level_picker_offers_every_level_and_runs_the_one_picked() {
     );
     let id = "BabyAI-FindObjS5-v0";
     h.get_by_label(id).click();
-    // The checkpoint's done-action setting, as `view --level` runs it.
-    let level = LevelConfig::babyai(LevelId::parse(id).unwrap(), true);
+    // As minigrid registers it (no done action), as `view --level` runs it.
+    let level = LevelConfig::babyai(LevelId::parse(id).unwrap(), false);
     let world = level.generate(5).unwrap();
     let want = (
         world.grid.width() as u32 * TILE_PX,
@@ -180,5 +180,29 @@ fn the_mission_editor_names_the_words_this_model_was_not_trained_on() {
         !h.get_by_label("apply at this step")
             .accesskit_node()
             .is_disabled()
+    );
+}
+
+/// Picking a level the loaded model cannot read runs minigrid's bot instead, saying so; the
+/// bot's plan stands where the maps would be, and every step names the expert's action.
+#[test]
+fn a_level_the_model_cannot_read_runs_the_bot_and_shows_its_plan() {
+    let mut h = build(&options("bundled:attention", None, 3));
+    show_until(&mut h, "step 0 of ");
+    // Beside the bundled model on the paper's level: the expert's action and plan.
+    show_until(&mut h, "expert (minigrid's bot): ");
+    h.get_by_value("the paper's").click();
+    h.run();
+    // A level high in the picker's list, so that its row is on screen to be clicked.
+    h.get_by_label("BabyAI-GoToDoor-v0").click();
+    show_until(&mut h, "cannot read this level");
+    show_until(&mut h, "running minigrid's bot instead");
+    let world = babyai("BabyAI-GoToDoor-v0").generate(3).unwrap();
+    show_until(&mut h, &world.mission);
+    show_until(&mut h, "plan: GoNextTo ");
+    show_until(&mut h, "no attention maps and no network to probe");
+    assert!(
+        h.query_all_by_value("bot").next().is_some(),
+        "the checkpoint field names the bot"
     );
 }

@@ -154,7 +154,7 @@ impl Debugger {
         }
         // The debugger's font has no arrow: the plan's steps are joined by ">" here.
         let plan = step.expert_plan.replace('→', ">");
-        ui.label(egui::RichText::new(format!("plan: {plan}")).small());
+        ui.label(format!("plan: {plan}"));
     }
 
     /// The action probabilities as named bars, the chosen action highlighted.
