@@ -313,7 +313,7 @@ pub fn rerun_from<P: Acting + ?Sized>(
     let mission = net.prepare(&trace.tokens)?;
     let mut expert = Expert::new(prefix.first().map_or(&world, |s| &s.world));
     for s in &prefix {
-        expert.advise(&s.world);
+        expert.advise(&s.world, &s.obs);
         expert.told(s.action);
         if net.reads_world() {
             choose(&s.probs, trace.mode, &mut rng);
@@ -369,7 +369,7 @@ fn run_loop<P: Acting + ?Sized>(
     let mission = net.prepare(&tokens)?;
     while !world.ended() {
         let obs = world.observe();
-        let expert_action = expert.advise(&world);
+        let expert_action = expert.advise(&world, &obs);
         let expert_plan = expert.plan(&world);
         let out = if net.reads_world() {
             net.act_from_expert(&[expert_action])?

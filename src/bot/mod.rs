@@ -22,7 +22,7 @@ mod subgoal;
 use serde::{Deserialize, Serialize};
 
 use crate::env::instr::Targets;
-use crate::env::{Action, DIR_TO_VEC, ObjDesc, ObjectId, ObjectKind, Pos, World};
+use crate::env::{Action, DIR_TO_VEC, ObjDesc, ObjectId, ObjectKind, Observation, Pos, World};
 
 pub use dump::verify_bot;
 use search::Planner;
@@ -114,10 +114,21 @@ impl Bot {
     /// `replan(action_taken)`: the action the bot suggests in `world`, told the action taken
     /// since its last call (`None` on the first call). `None` once it has given up.
     pub fn replan(&mut self, world: &World, taken: Option<Action>) -> Option<Action> {
+        self.replan_seeing(world, &world.observe(), taken)
+    }
+
+    /// [`Self::replan`] with the observation of `world` the caller already made (what the
+    /// agent sees: its visible cells are what the bot marks as seen).
+    pub fn replan_seeing(
+        &mut self,
+        world: &World,
+        obs: &Observation,
+        taken: Option<Action>,
+    ) -> Option<Action> {
         if self.gave_up.is_some() {
             return None;
         }
-        match self.try_replan(world, taken) {
+        match self.try_replan(world, obs, taken) {
             Ok(a) => Some(a),
             Err(e) => {
                 self.gave_up = Some(e);
@@ -153,8 +164,13 @@ impl Bot {
             .join(" → ")
     }
 
-    fn try_replan(&mut self, world: &World, taken: Option<Action>) -> Result<Action, GiveUp> {
-        self.process_obs(world);
+    fn try_replan(
+        &mut self,
+        world: &World,
+        obs: &Observation,
+        taken: Option<Action>,
+    ) -> Result<Action, GiveUp> {
+        self.process_obs(world, obs);
         if taken == Some(Action::Toggle) && self.memory.fwd_was_box {
             return Err(GiveUp::BoxOpened);
         }
@@ -177,23 +193,16 @@ impl Bot {
                 break;
             }
         }
-        let action = if self.stack.is_empty() {
-            Action::Done
-        } else {
-            suggested.unwrap_or(Action::Done)
-        };
+        // The loop ends with an action, or with an empty stack: the mission is done.
         self.remember(world, pose);
-        Ok(action)
+        Ok(suggested.unwrap_or(Action::Done))
     }
 
-    /// `_process_obs`: marks every cell of the current view the agent can see.
-    fn process_obs(&mut self, world: &World) {
-        let obs = crate::env::view::observe(
-            &world.grid,
-            world.agent_pos,
-            world.agent_dir,
-            world.carrying,
-        );
+    /// `_process_obs`: marks every cell of the current view the agent can see. (On the
+    /// first step of the PutNext "Carrying" levels the observation shows the carried object
+    /// on the floor, as minigrid's reset saw it; objects do not block the view, so the cells
+    /// seen are the same.)
+    fn process_obs(&mut self, world: &World, obs: &Observation) {
         for vx in 0..crate::env::VIEW_SIZE {
             for vy in 0..crate::env::VIEW_SIZE {
                 if !obs.visible((vx, vy)) {
@@ -218,18 +227,20 @@ impl Bot {
     }
 
     /// The objects and positions a [`Datum`] description stands for now, with its type.
-    fn desc_targets(world: &World, datum: &Datum) -> Option<(Option<ObjectKind>, Targets)> {
+    fn desc_targets<'a>(
+        world: &'a World,
+        datum: &'a Datum,
+    ) -> Option<(Option<ObjectKind>, &'a Targets)> {
         match datum {
             Datum::Clause { clause, fixed } => {
-                let clauses = world.instr.clauses();
-                let node = clauses.get(*clause)?;
+                let node = *world.instr.clauses().get(*clause)?;
                 if *fixed {
-                    Some((node.instr.fixed?.kind, node.fixed_targets.clone()))
+                    Some((node.instr.fixed?.kind, &node.fixed_targets))
                 } else {
-                    Some((node.instr.desc.kind, node.targets.clone()))
+                    Some((node.instr.desc.kind, &node.targets))
                 }
             }
-            Datum::Own { desc, targets } => Some((desc.kind, targets.clone())),
+            Datum::Own { desc, targets } => Some((desc.kind, targets)),
             Datum::Pos(_) | Datum::Door(_) => None,
         }
     }
@@ -271,10 +282,10 @@ impl Expert {
         }
     }
 
-    /// The action it would take in `world`, the state before the next action; `None` once
-    /// it has given up.
-    pub fn advise(&mut self, world: &World) -> Option<Action> {
-        self.bot.replan(world, self.taken.take())
+    /// The action it would take in `world`, the state before the next action, whose
+    /// observation is `obs`; `None` once it has given up.
+    pub fn advise(&mut self, world: &World, obs: &Observation) -> Option<Action> {
+        self.bot.replan_seeing(world, obs, self.taken.take())
     }
 
     /// Its plan after the last [`Self::advise`], top first, or why it gave up.
@@ -286,11 +297,6 @@ impl Expert {
     pub fn told(&mut self, action: Action) {
         self.taken = Some(action);
     }
-
-    /// The bot.
-    pub fn bot(&self) -> &Bot {
-        &self.bot
-    }
 }
 
 /// The bot alone from `world` to the end of the episode: how many actions it took and
@@ -299,7 +305,7 @@ pub fn solo_length(mut world: World) -> Option<(usize, bool)> {
     let mut expert = Expert::new(&world);
     let mut steps = 0;
     while !world.ended() {
-        let action = expert.advise(&world)?;
+        let action = expert.advise(&world, &world.observe())?;
         let outcome = world.step(action).ok()?;
         expert.told(action);
         steps += 1;

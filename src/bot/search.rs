@@ -345,9 +345,9 @@ pub(crate) fn kind_of(world: &World, id: ObjectId) -> Option<ObjectKind> {
     }
     world
         .grid
-        .objects()
-        .find(|(_, o)| o.id == id)
-        .map(|(_, o)| o.kind)
+        .find_id(id)
+        .and_then(|p| world.grid.get(p))
+        .map(|o| o.kind)
 }
 
 /// `_closest_wall_or_door_given_dir`: how many cells from `pos` along `dir` the first wall or

@@ -237,7 +237,7 @@ impl Bot {
                     let was_open = self
                         .memory
                         .fwd_door_was_open
-                        .ok_or(broken("fwd_door_was_open was never set"))?;
+                        .ok_or_else(|| broken("fwd_door_was_open was never set"))?;
                     let open = door.state == DoorState::Open;
                     if was_open != open {
                         self.stack.push(Subgoal::plain(if open {
@@ -264,8 +264,14 @@ impl Bot {
         use Action::{Drop, Forward, Left, Pickup, Right, Toggle};
         let moved = matches!(taken, Some(Forward | Left | Right));
         match top.kind {
-            SubgoalKind::Close => {
-                if matches!(taken, None | Some(Toggle)) {
+            // Done by its own action; a move taken instead is undone.
+            SubgoalKind::Close | SubgoalKind::Drop => {
+                let own = if top.kind == SubgoalKind::Close {
+                    Toggle
+                } else {
+                    Drop
+                };
+                if taken.is_none_or(|a| a == own) {
                     self.stack.pop();
                 } else if moved {
                     self.plan_undo(world, pose, taken)?;
@@ -281,13 +287,6 @@ impl Bot {
                         self.stack.push(Subgoal::go_to_pos(drop_key));
                     }
                 } else {
-                    self.plan_undo(world, pose, taken)?;
-                }
-            }
-            SubgoalKind::Drop => {
-                if matches!(taken, None | Some(Drop)) {
-                    self.stack.pop();
-                } else if moved {
                     self.plan_undo(world, pose, taken)?;
                 }
             }
@@ -319,7 +318,7 @@ impl Bot {
         let fwd_cell = world.grid.get(pose.fwd_pos);
         match top.kind {
             SubgoalKind::Close => {
-                let door = fwd_cell.ok_or(broken("Forward cell is empty"))?;
+                let door = fwd_cell.ok_or_else(|| broken("Forward cell is empty"))?;
                 if door.kind != ObjectKind::Door {
                     return Err(broken("Forward cell has to be a door"));
                 }
@@ -358,7 +357,7 @@ impl Bot {
         let door = world
             .grid
             .get(pose.fwd_pos)
-            .ok_or(broken("Forward cell is empty"))?;
+            .ok_or_else(|| broken("Forward cell is empty"))?;
         if door.kind != ObjectKind::Door {
             return Err(broken("Forward cell has to be a door"));
         }
@@ -411,18 +410,18 @@ impl Bot {
         let datum = top
             .datum
             .as_ref()
-            .ok_or(broken("GoNextTo without a target"))?;
+            .ok_or_else(|| broken("GoNextTo without a target"))?;
         // (the door to open, when the target is one)
         let mut target_door = None;
         let target_pos = match datum {
-            Datum::Pos(p) => p.ok_or(broken("GoNextTo a position that was never found"))?,
+            Datum::Pos(p) => p.ok_or_else(|| broken("GoNextTo a position that was never found"))?,
             Datum::Door(p) => {
                 target_door = world.grid.get(*p).filter(|o| o.kind == ObjectKind::Door);
                 *p
             }
             Datum::Clause { .. } | Datum::Own { .. } => {
                 let (kind, targets) = Self::desc_targets(world, datum)
-                    .ok_or(broken("GoNextTo a description the instruction lacks"))?;
+                    .ok_or_else(|| broken("GoNextTo a description the instruction lacks"))?;
                 let (obj, pos) = self.planner.find_obj_pos(
                     world,
                     kind,
@@ -435,13 +434,10 @@ impl Bot {
                     return Ok(None);
                 };
                 // `target_obj` is the object paired with `pos`; only a door's state is read.
-                target_door = obj.and_then(|id| {
-                    world
-                        .grid
-                        .objects()
-                        .find(|(_, o)| o.id == id && o.kind == ObjectKind::Door)
-                        .map(|(_, o)| o)
-                });
+                target_door = obj
+                    .and_then(|id| world.grid.find_id(id))
+                    .and_then(|p| world.grid.get(p))
+                    .filter(|o| o.kind == ObjectKind::Door);
                 pos
             }
         };
@@ -454,11 +450,7 @@ impl Bot {
         {
             let key = Self::key_desc(world, door.color);
             if world.carrying.is_none() {
-                let at = world
-                    .grid
-                    .objects()
-                    .find(|(_, o)| o.id == door.id)
-                    .map_or(target_pos, |(p, _)| p);
+                let at = world.grid.find_id(door.id).unwrap_or(target_pos);
                 self.stack.pop();
                 self.stack
                     .push(Subgoal::go_next_to(Datum::Door(at), Some(Reason::Open)));
@@ -605,7 +597,7 @@ impl Bot {
         let door = world
             .grid
             .get(door_pos)
-            .ok_or(broken("the door to explore is gone"))?;
+            .ok_or_else(|| broken("the door to explore is gone"))?;
         let got_the_key = world
             .carrying
             .is_some_and(|c| c.kind == ObjectKind::Key && c.color == door.color);

@@ -52,7 +52,7 @@ pub fn run(args: &BenchBotArgs) -> anyhow::Result<ExitStatus> {
             };
             let mut expert = Expert::new(&world);
             loop {
-                let Some(action) = expert.advise(&world) else {
+                let Some(action) = expert.advise(&world, &world.observe()) else {
                     gave_up += 1;
                     break;
                 };

@@ -82,7 +82,7 @@ pub struct DoneArgs {
 
 impl DoneArgs {
     /// The done-action setting of a level whose default is `default`.
-    pub fn resolve(self, default: bool) -> bool {
+    fn resolve(self, default: bool) -> bool {
         if self.done {
             true
         } else if self.no_done {
@@ -161,10 +161,7 @@ impl SweepArgs {
         }
         Ok(paper_levels(base, &self.sizes, &self.objects)?
             .into_iter()
-            .map(|l| LevelConfig {
-                done_required: self.done.resolve(l.done_required),
-                ..l
-            })
+            .map(|l| self.done.apply(l))
             .collect())
     }
 }
@@ -215,14 +212,7 @@ impl EpisodeArgs {
             return Ok(self.done.apply(LevelConfig::babyai(id, false)));
         }
         let level = super::policy_cmd::level_from(base, self.room_size, self.objects)?;
-        Ok(if level.babyai.is_some() {
-            self.done.apply(level)
-        } else {
-            LevelConfig {
-                done_required: self.done.resolve(level.done_required),
-                ..level
-            }
-        })
+        Ok(self.done.apply(level))
     }
 }
 

@@ -231,9 +231,10 @@ pub fn evaluate_episodes_explored<P: Acting + ?Sized>(
         // The bot beside each episode, told the last action taken: what it would do now.
         let advice: Vec<Option<Action>> = active
             .iter()
-            .map(|&i| {
+            .zip(&obs)
+            .map(|(&i, o)| {
                 let r = &mut running[i];
-                r.expert.advise(&r.world)
+                r.expert.advise(&r.world, o)
             })
             .collect();
         let missions: Vec<&[u32]> = active

@@ -76,19 +76,29 @@ pub(super) fn shard_step(
         (rows.len(), 1),
         &Device::Cpu,
     )?;
-    let mut losses = ppo_loss(
-        &logits,
-        &values,
-        &actions,
-        &gather(&ro.logps)?,
-        &gather(&ro.values)?,
-        &gather(&ro.advantages)?,
-        &gather(&ro.returns)?,
-        ppo,
-    )?;
-    if ppo.imitate {
-        losses = imitation_loss(&logits, &actions, &gather(&ro.expert)?, losses, ppo)?;
-    }
+    let (old_values, returns) = (gather(&ro.values)?, gather(&ro.returns)?);
+    let losses = if ppo.imitate {
+        imitation_loss(
+            &logits,
+            &values,
+            &actions,
+            &gather(&ro.expert)?,
+            &old_values,
+            &returns,
+            ppo,
+        )?
+    } else {
+        ppo_loss(
+            &logits,
+            &values,
+            &actions,
+            &gather(&ro.logps)?,
+            &old_values,
+            &gather(&ro.advantages)?,
+            &returns,
+            ppo,
+        )?
+    };
     times.update_forward = secs(forward_t);
     let backward_t = std::time::Instant::now();
     let grads = losses.total.backward()?;
@@ -131,20 +141,45 @@ pub fn ppo_loss(
     cfg: &PpoConfig,
 ) -> Result<PpoLosses, PolicyError> {
     let clip = cfg.clip_eps;
+    let (logp, entropy, value) = shared_terms(logits, values, actions, old_values, returns, cfg)?;
+    let ratio = (logp - old_logp)?.exp()?;
+    let surr1 = (&ratio * adv)?;
+    let surr2 = (ratio.clamp(1.0 - clip, 1.0 + clip)? * adv)?;
+    let policy = surr1.minimum(&surr2)?.mean_all()?.neg()?;
+    combine(policy, entropy, value, cfg)
+}
+
+/// What PPO and imitation share: the log-probability of each taken action, the mean
+/// entropy, and the clipped value loss `mean(max((V − R)², (V_clip − R)²))`.
+fn shared_terms(
+    logits: &Tensor,
+    values: &Tensor,
+    actions: &Tensor,
+    old_values: &Tensor,
+    returns: &Tensor,
+    cfg: &PpoConfig,
+) -> Result<(Tensor, Tensor, Tensor), PolicyError> {
+    let clip = cfg.clip_eps;
     let logp_all = log_probs(logits)?;
     let entropy = (logp_all.exp()? * &logp_all)?
         .sum(D::Minus1)?
         .mean_all()?
         .neg()?;
     let logp = logp_all.gather(actions, 1)?.squeeze(1)?;
-    let ratio = (logp - old_logp)?.exp()?;
-    let surr1 = (&ratio * adv)?;
-    let surr2 = (ratio.clamp(1.0 - clip, 1.0 + clip)? * adv)?;
-    let policy = surr1.minimum(&surr2)?.mean_all()?.neg()?;
     let v_clipped = (old_values + (values - old_values)?.clamp(-clip, clip)?)?;
     let l1 = (values - returns)?.sqr()?;
     let l2 = (v_clipped - returns)?.sqr()?;
     let value = l1.maximum(&l2)?.mean_all()?;
+    Ok((logp, entropy, value))
+}
+
+/// `policy − c_ent·entropy + c_v·value`.
+fn combine(
+    policy: Tensor,
+    entropy: Tensor,
+    value: Tensor,
+    cfg: &PpoConfig,
+) -> Result<PpoLosses, PolicyError> {
     let total = ((&policy - (&entropy * cfg.entropy_coef)?)? + (&value * cfg.value_loss_coef)?)?;
     Ok(PpoLosses {
         total,
@@ -159,22 +194,17 @@ pub fn ppo_loss(
 /// the entropy bonus and the value loss stay PPO's.
 pub fn imitation_loss(
     logits: &Tensor,
+    values: &Tensor,
     actions: &Tensor,
     expert: &Tensor,
-    ppo: PpoLosses,
+    old_values: &Tensor,
+    returns: &Tensor,
     cfg: &PpoConfig,
 ) -> Result<PpoLosses, PolicyError> {
-    let logp = log_probs(logits)?.gather(actions, 1)?.squeeze(1)?;
+    let (logp, entropy, value) = shared_terms(logits, values, actions, old_values, returns, cfg)?;
     let frames = expert.sum_all()?.to_scalar::<f32>()?.max(1.0);
     let policy = ((logp * expert)?.sum_all()? / f64::from(frames))?.neg()?;
-    let total =
-        ((&policy - (&ppo.entropy * cfg.entropy_coef)?)? + (&ppo.value * cfg.value_loss_coef)?)?;
-    Ok(PpoLosses {
-        total,
-        policy,
-        value: ppo.value,
-        entropy: ppo.entropy,
-    })
+    combine(policy, entropy, value, cfg)
 }
 
 /// Converts the optimizer's step count and tensors to safetensors-ready f32 data.

@@ -75,10 +75,13 @@ impl Trainer {
                     })
                     .unwrap_or(probs.len() - 1);
                 // Imitation: the bot's action, the policy's own where the bot gave up.
-                let advice = env.expert.as_mut().and_then(|e| e.advise(&env.world));
+                ro.obs[i] = env.world.observe();
+                let advice = env
+                    .expert
+                    .as_mut()
+                    .and_then(|e| e.advise(&env.world, &ro.obs[i]));
                 ro.expert[i] = f32::from(u8::from(advice.is_some()));
                 let a = advice.map_or(sampled, |a| a as usize);
-                ro.obs[i] = env.world.observe();
                 ro.tokens[i].clone_from(&env.tokens);
                 ro.actions[i] = a as u32;
                 ro.values[i] = out.values[p];
