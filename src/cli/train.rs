@@ -9,9 +9,9 @@ use std::time::Instant;
 use anyhow::Context as _;
 use clap::ArgMatches;
 use clap::Args;
-use groundscope::metrics::tracking::EVAL_LOG_HEADER;
+use groundscope::metrics::tracking::{EVAL_LOG_HEADER, EVAL_LOG_HEADER_V1, TrackedEval};
 use groundscope::policy::checkpoint::write_atomic;
-use groundscope::policy::ppo::{PpoConfig, TemperatureAnneal, Trainer, UpdateLog};
+use groundscope::policy::ppo::{LevelMix, PpoConfig, TemperatureAnneal, Trainer, UpdateLog};
 use groundscope::policy::{ModelConfig, Net, Params, TrainingState, WordTemperature};
 
 use crate::ExitStatus;
@@ -28,7 +28,7 @@ use groundscope::policy::ppo::run_dir::{self, Tracking};
     reason = "command-line switches, each its own flag"
 )]
 #[command(
-    after_long_help = "EXAMPLES:\n  groundscope train --model attention --out runs/att --frames 5000000\n  groundscope train --model attention --out runs/att --frames 8000000 --resume\n  groundscope train --model attention --out runs/att2 --init runs/att/model --entropy-coef 0.001 --frames 9000000\n  groundscope train --imitate --level BabyAI-PutNextLocal-v0 --out runs/il --frames 2000000"
+    after_long_help = "EXAMPLES:\n  groundscope train --model attention --out runs/att --frames 5000000\n  groundscope train --model attention --out runs/att --frames 8000000 --resume\n  groundscope train --model attention --out runs/att2 --init runs/att/model --entropy-coef 0.001 --frames 9000000\n  groundscope train --imitate --level BabyAI-PutNextLocal-v0 --out runs/il --frames 2000000\n  groundscope train --imitate --levels BabyAI-GoToLocal-v0,BabyAI-PickupLoc-v0:2 --out runs/mix --eval-episodes 100"
 )]
 pub struct TrainArgs {
     /// attention or baseline.
@@ -56,6 +56,16 @@ pub struct TrainArgs {
     pub save_interval: u64,
     #[command(flatten)]
     pub level: LevelArgs,
+    /// Train on several registered levels at once: ids separated by commas, each optionally
+    /// weighted `ID:WEIGHT` (default 1), e.g. BabyAI-GoToLocal-v0:2,BabyAI-PickupLoc-v0. Each
+    /// episode's level is drawn by its seed; `--done` applies to all; the tracked evaluation
+    /// runs on every level and writes their mean too.
+    #[arg(
+        long,
+        value_name = "IDS",
+        conflicts_with_all = ["level", "size", "objects", "tasks", "always_color", "no_done"]
+    )]
+    pub levels: Option<String>,
     /// Environments stepped together.
     #[arg(long, default_value_t = PpoConfig::default().procs, allow_negative_numbers = true)]
     pub procs: usize,
@@ -111,6 +121,16 @@ pub struct TrainArgs {
     /// logs, checkpoints, `--resume`) as a PPO run's. Then PPO from its weights: `--init RUN`.
     #[arg(long)]
     pub imitate: bool,
+    /// With --imitate: the share of steps (0 to 1) that take the policy's own sampled action
+    /// while the bot's advice stays the label (DAgger's mixture: the bot replans from where
+    /// the agent went, so the policy learns to recover from its mistakes); 0 is pure cloning.
+    #[arg(
+        long,
+        value_name = "P",
+        default_value_t = 0.0,
+        allow_negative_numbers = true
+    )]
+    pub imitate_policy_share: f64,
     /// Anneal the word temperature from --word-temperature (the model's, with --init) to 1,
     /// the paper's, linearly between START and END frames: START:END, e.g. 6000000:9000000.
     #[arg(long, value_name = "START:END", allow_hyphen_values = true)]
@@ -168,7 +188,16 @@ pub(super) fn ppo_config(a: &TrainArgs, from: f32) -> anyhow::Result<PpoConfig> 
         temperature_anneal,
         freeze_attention_at: a.freeze_attention_at,
         imitate: a.imitate,
+        imitate_policy_share: a.imitate_policy_share,
     })
+}
+
+/// The levels a new run trains on: `--levels`, or the one level the level flags describe.
+pub(super) fn level_mix(a: &TrainArgs) -> anyhow::Result<LevelMix> {
+    match &a.levels {
+        Some(list) => Ok(LevelMix::parse(list, a.level.done)?),
+        None => Ok(a.level.config()?.into()),
+    }
 }
 
 /// The training state recorded with a checkpoint: `last` is the newest update's log (a run
@@ -244,20 +273,65 @@ fn log_rows_upto(path: &Path, header: &str, updates: u64) -> String {
         return String::new();
     };
     let mut lines = text.lines();
-    if lines.next() != Some(header) {
-        return String::new();
-    }
+    // An eval_log.csv written before it named the level gains an empty `level` field.
+    let pad = match lines.next() {
+        Some(h) if h == header => "",
+        Some(h) if h == EVAL_LOG_HEADER_V1 && header == EVAL_LOG_HEADER => ",",
+        _ => return String::new(),
+    };
     let mut rows = String::new();
     for line in lines {
         match line.split(',').next().and_then(|u| u.parse::<u64>().ok()) {
             Some(u) if u <= updates => {
                 rows.push_str(line);
+                rows.push_str(pad);
                 rows.push('\n');
             }
             _ => break,
         }
     }
     rows
+}
+
+/// The tracked held-out evaluation of one update: a row per level, and for a `--levels`
+/// run a row of their mean, appended to `eval_log.csv` in one write.
+fn tracked_eval(
+    trainer: &Trainer,
+    episodes: u64,
+    log: &UpdateLog,
+    eval_file: &mut std::fs::File,
+    quiet: bool,
+) -> anyhow::Result<()> {
+    let net = Net::new(trainer.model, trainer.params.detached())?;
+    let mut rows = Vec::new();
+    for e in trainer.levels.entries() {
+        rows.push(groundscope::metrics::tracking::track(
+            &net, &e.level, episodes, log.update, log.frames,
+        )?);
+    }
+    if trainer.levels.is_mix() {
+        rows.extend(TrackedEval::mean_of(&rows));
+    }
+    let text: String = rows
+        .iter()
+        .map(|r| groundscope::table::line(&r.record()))
+        .collect();
+    eval_file.write_all(text.as_bytes())?;
+    if quiet {
+        for row in &rows {
+            println!(
+                "eval update {} frames {} {}: greedy success {:.3} object acc_ng {:.3} colour acc_ng {:.3} ({:.1} s)",
+                row.update,
+                row.frames,
+                row.level,
+                row.greedy_success,
+                row.object.1,
+                row.color.1,
+                row.eval_secs
+            );
+        }
+    }
+    Ok(())
 }
 
 /// Runs `train`.
@@ -280,7 +354,7 @@ pub fn run(args: &TrainArgs, matches: Option<&ArgMatches>) -> anyhow::Result<Exi
         // Everything a new run can get wrong is refused before its directory is made.
         model.validate()?;
         ppo_config(args, model.word_temperature.0)?.validate()?;
-        args.level.config()?;
+        level_mix(args)?;
     }
     let created = !args.out.exists();
     let had_checkpoints = args.out.join("checkpoints").exists();
@@ -440,10 +514,10 @@ fn train_in(
                 args.out.display()
             );
         }
-        let level = args.level.config()?;
+        let levels = level_mix(args)?;
         let ppo = ppo_config(args, model.word_temperature.0)?;
         let (trainer, parent_rows, parent_evals) = if let Some(name) = &args.init {
-            let trainer = warm_start(name, variant, level, ppo, args, matches)?;
+            let trainer = warm_start(name, variant, levels, ppo, args, matches)?;
             let u = trainer.state.updates;
             (
                 trainer,
@@ -452,12 +526,18 @@ fn train_in(
             )
         } else {
             // A model for a BabyAI level gets rows for all of BabyAI's words.
+            let vocab_size = levels
+                .entries()
+                .iter()
+                .map(|e| ModelConfig::vocab_size_for(&e.level))
+                .max()
+                .unwrap_or(model.vocab_size);
             let model = ModelConfig {
-                vocab_size: ModelConfig::vocab_size_for(&level),
+                vocab_size,
                 ..model
             };
             let params = Params::init(&model, args.seed)?;
-            let trainer = Trainer::new(model, level, ppo, params, args.seed)?;
+            let trainer = Trainer::new(model, levels, ppo, params, args.seed)?;
             (trainer, String::new(), String::new())
         };
         wrote.push(log_path.clone());
@@ -501,7 +581,7 @@ fn train_in(
     println!(
         "training {} on {} ({} parameters), {} frames/update, from frame {}",
         variant.name(),
-        trainer.level,
+        trainer.levels,
         trainer.params.count(),
         trainer.ppo.frames_per_update(),
         trainer.state.frames
@@ -536,26 +616,13 @@ fn train_in(
             );
         }
         if track.eval_interval > 0 && log.update % track.eval_interval == 0 {
-            let net = Net::new(trainer.model, trainer.params.detached())?;
-            let row = groundscope::metrics::tracking::track(
-                &net,
-                &trainer.level,
+            tracked_eval(
+                &trainer,
                 track.eval_episodes,
-                log.update,
-                log.frames,
+                &log,
+                &mut eval_file,
+                args.quiet,
             )?;
-            eval_file.write_all(groundscope::table::line(&row.record()).as_bytes())?;
-            if args.quiet {
-                println!(
-                    "eval update {} frames {} greedy success {:.3} object acc_ng {:.3} colour acc_ng {:.3} ({:.1} s)",
-                    row.update,
-                    row.frames,
-                    row.greedy_success,
-                    row.object.1,
-                    row.color.1,
-                    row.eval_secs
-                );
-            }
         }
         if log.update % args.save_interval == 0 {
             save_run(

@@ -55,7 +55,7 @@ pub(super) fn resume_run(
     }
     let saved = Fixed {
         ppo: info.ppo,
-        level: info.level,
+        levels: info.levels,
         hidden: info.hidden,
         model: info.model,
         seed: info.seed,
@@ -69,7 +69,7 @@ pub(super) fn resume_run(
 pub(super) fn warm_start(
     name: &str,
     variant: groundscope::policy::Variant,
-    level: groundscope::env::level::LevelConfig,
+    levels: groundscope::policy::ppo::LevelMix,
     ppo: PpoConfig,
     args: &TrainArgs,
     matches: Option<&ArgMatches>,
@@ -109,7 +109,7 @@ pub(super) fn warm_start(
     }
     Ok(Trainer::warm_start(
         ckpt.meta.model,
-        level,
+        levels,
         ppo,
         ckpt.params,
         args.seed,
@@ -127,7 +127,7 @@ fn given(matches: Option<&ArgMatches>, id: &str) -> bool {
 /// flag given with another value is an error rather than silently ignored.
 struct Fixed {
     ppo: PpoConfig,
-    level: groundscope::env::level::LevelConfig,
+    levels: groundscope::policy::ppo::LevelMix,
     hidden: usize,
     model: groundscope::policy::ModelConfig,
     seed: u64,
@@ -143,7 +143,14 @@ impl Fixed {
     ) -> anyhow::Result<()> {
         let (now, run) = (ppo_config(args, self.model.word_temperature.0)?, &self.ppo);
         let a = &args.level;
-        let l = &self.level;
+        let l = &self.levels.first();
+        // The levels as given, or as the run has them where the flag is left out.
+        let levels_now = match (&args.levels, &args.level.level) {
+            (Some(_), _) | (None, Some(_)) => {
+                crate::cli::train::level_mix(args).map_or_else(|e| e.to_string(), |m| m.to_string())
+            }
+            (None, None) => self.levels.to_string(),
+        };
         let schedule = |p: &PpoConfig| {
             p.temperature_anneal
                 .map_or_else(String::new, |a| format!("{}:{}", a.start, a.end))
@@ -152,7 +159,14 @@ impl Fixed {
             p.freeze_attention_at
                 .map_or_else(String::new, |f| f.to_string())
         };
-        let pairs: [(&str, String, String); 24] = [
+        let pairs: [(&str, String, String); 27] = [
+            (
+                "imitate_policy_share",
+                now.imitate_policy_share.to_string(),
+                run.imitate_policy_share.to_string(),
+            ),
+            ("levels", levels_now.clone(), self.levels.to_string()),
+            ("level", levels_now, self.levels.to_string()),
             ("imitate", now.imitate.to_string(), run.imitate.to_string()),
             ("word_temperature_anneal", schedule(&now), schedule(run)),
             ("freeze_attention_at", freeze(&now), freeze(run)),

@@ -1,7 +1,7 @@
 //! Grounding tracked during training (`train --eval-interval`): a fixed held-out set of greedy
-//! episodes on the training level, evaluated every few updates and appended to
-//! `eval_log.csv`, so a recipe can be chosen on data that is neither trained on nor the final
-//! test set.
+//! episodes on the training level (on each level of a `--levels` run, and their mean),
+//! evaluated every few updates and appended to `eval_log.csv`, so a recipe can be chosen on
+//! data that is neither trained on nor the final test set.
 
 use serde::{Deserialize, Serialize};
 
@@ -14,7 +14,14 @@ use crate::episode::ActionMode;
 pub use crate::env::seeds::VALIDATION_SEED_BASE;
 
 /// The `eval_log.csv` header.
-pub const EVAL_LOG_HEADER: &str = "update,frames,episodes,greedy_success,mean_reward,mean_length,object_acc,object_acc_ng,color_acc,color_acc_ng,combined_acc,combined_acc_ng,eval_secs";
+pub const EVAL_LOG_HEADER: &str = "update,frames,episodes,greedy_success,mean_reward,mean_length,object_acc,object_acc_ng,color_acc,color_acc_ng,combined_acc,combined_acc_ng,eval_secs,level";
+
+/// The header `eval_log.csv` had before it named the level (such logs are read with an empty
+/// `level`: the run's level).
+pub const EVAL_LOG_HEADER_V1: &str = "update,frames,episodes,greedy_success,mean_reward,mean_length,object_acc,object_acc_ng,color_acc,color_acc_ng,combined_acc,combined_acc_ng,eval_secs";
+
+/// The `level` of a `--levels` run's row that averages its levels' rows.
+pub const MEAN_OF_LEVELS: &str = "mean of levels";
 
 /// One row of `eval_log.csv`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -39,6 +46,8 @@ pub struct TrackedEval {
     pub combined: (f64, f64),
     /// Wall time of the evaluation.
     pub eval_secs: f64,
+    /// The level evaluated (as `LevelConfig` displays it), or [`MEAN_OF_LEVELS`].
+    pub level: String,
 }
 
 impl TrackedEval {
@@ -65,6 +74,34 @@ impl TrackedEval {
             .field(f(self.combined.0))
             .field(f(self.combined.1))
             .field(format!("{:.2}", self.eval_secs))
+            .field(&self.level)
+    }
+
+    /// The unweighted mean of several levels' rows (each field over the levels where it is
+    /// defined; episodes and wall time summed), labelled [`MEAN_OF_LEVELS`].
+    pub fn mean_of(rows: &[Self]) -> Option<Self> {
+        let first = rows.first()?;
+        let mean = |f: &dyn Fn(&Self) -> f64| {
+            let xs: Vec<f64> = rows.iter().map(f).filter(|x| x.is_finite()).collect();
+            if xs.is_empty() {
+                f64::NAN
+            } else {
+                xs.iter().sum::<f64>() / xs.len() as f64
+            }
+        };
+        Some(Self {
+            update: first.update,
+            frames: first.frames,
+            episodes: rows.iter().map(|r| r.episodes).sum(),
+            greedy_success: mean(&|r| r.greedy_success),
+            mean_reward: mean(&|r| r.mean_reward),
+            mean_length: mean(&|r| r.mean_length),
+            object: (mean(&|r| r.object.0), mean(&|r| r.object.1)),
+            color: (mean(&|r| r.color.0), mean(&|r| r.color.1)),
+            combined: (mean(&|r| r.combined.0), mean(&|r| r.combined.1)),
+            eval_secs: rows.iter().map(|r| r.eval_secs).sum(),
+            level: MEAN_OF_LEVELS.to_owned(),
+        })
     }
 }
 
@@ -98,6 +135,7 @@ pub fn track<P: crate::policy::Acting + ?Sized>(
         color: acc(WordKind::Color),
         combined: acc(WordKind::Combined),
         eval_secs: start.elapsed().as_secs_f64(),
+        level: level.to_string(),
     })
 }
 
@@ -118,11 +156,19 @@ mod tests {
             color: (f64::NAN, f64::NAN),
             combined: (0.3, 0.4),
             eval_secs: 1.5,
-        }
-        .record();
-        let row = crate::table::line(&row);
+            level: "BabyAI-GoToLocal-v0".into(),
+        };
+        let mut other = row.clone();
+        other.greedy_success = f64::NAN;
+        other.object = (0.3, 0.4);
+        let mean = TrackedEval::mean_of(&[row.clone(), other]).unwrap();
+        assert_eq!(mean.greedy_success, 0.5);
+        assert!((mean.object.0 - 0.2).abs() < 1e-12);
+        assert_eq!(mean.episodes, 20);
+        assert_eq!(mean.level, MEAN_OF_LEVELS);
+        let row = crate::table::line(&row.record());
         assert_eq!(row.split(',').count(), EVAL_LOG_HEADER.split(',').count());
-        assert!(row.ends_with("1.50\n"), "{row}");
+        assert!(row.ends_with("1.50,BabyAI-GoToLocal-v0\n"), "{row}");
         assert!(row.contains(",0.2000,,,0.3000,"), "{row}");
     }
 }

@@ -64,6 +64,20 @@ pub struct PpoConfig {
     /// as PPO's. Written only when set, so older run settings read as before.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub imitate: bool,
+    /// With `imitate`: the share of steps on which the policy's own sampled action is taken
+    /// while the bot's advice stays the label (DAgger's mixture; the bot, told every action,
+    /// replans from wherever the agent went), so the policy learns to recover from its own
+    /// mistakes. 0 is pure behavioural cloning. Written only when set.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub imitate_policy_share: f64,
+}
+
+#[expect(
+    clippy::trivially_copy_pass_by_ref,
+    reason = "serde's skip_serializing_if passes a reference"
+)]
+fn is_zero(x: &f64) -> bool {
+    *x == 0.0
 }
 
 /// The word temperature annealed over training: `from` until `start` frames, then linearly
@@ -151,6 +165,7 @@ impl Default for PpoConfig {
             temperature_anneal: None,
             freeze_attention_at: None,
             imitate: false,
+            imitate_policy_share: 0.0,
         }
     }
 }
@@ -212,6 +227,15 @@ impl PpoConfig {
             if !(v.is_finite() && v >= 0.0) {
                 return bad(format!("{name} {v} must be a number ≥ 0"));
             }
+        }
+        if !(0.0..=1.0).contains(&self.imitate_policy_share) {
+            return bad(format!(
+                "--imitate-policy-share {} must be between 0 and 1",
+                self.imitate_policy_share
+            ));
+        }
+        if self.imitate_policy_share > 0.0 && !self.imitate {
+            return bad("--imitate-policy-share needs --imitate".into());
         }
         self.validate_anneal()
     }

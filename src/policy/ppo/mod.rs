@@ -16,6 +16,7 @@ mod gae;
 pub mod grads;
 mod loss;
 mod missions;
+mod mix;
 mod rollout;
 pub mod run_dir;
 mod state;
@@ -35,6 +36,7 @@ use adam::{Adam, AdamConfig};
 
 pub use config::{PpoConfig, TemperatureAnneal};
 pub use loss::{PpoLosses, ppo_loss, tensor_to_vec};
+pub use mix::{LevelMix, MixEntry};
 
 pub use crate::env::seeds::TRAIN_SEED_OFFSET;
 
@@ -121,8 +123,8 @@ pub struct UpdateLog {
 pub struct Trainer {
     /// Network sizes.
     pub model: ModelConfig,
-    /// The level trained on.
-    pub level: LevelConfig,
+    /// The levels trained on (one, or a weighted mix).
+    pub levels: LevelMix,
     /// Hyper-parameters.
     pub ppo: PpoConfig,
     /// Weights.
@@ -195,13 +197,16 @@ impl Trainer {
     /// A fresh run: weights from `seed`, P environments on the first training seeds.
     pub fn new(
         model: ModelConfig,
-        level: LevelConfig,
+        levels: impl Into<LevelMix>,
         ppo: PpoConfig,
         params: Params,
         seed: u64,
     ) -> Result<Self, PolicyError> {
         ppo.validate()?;
-        level.validate()?;
+        let levels = levels.into();
+        for e in levels.entries() {
+            e.level.validate()?;
+        }
         if ppo.freeze_attention_at.is_some() && !model.has_attention() {
             return Err(PolicyError::Input(
                 "--freeze-attention-at: a baseline has no word maps to freeze; use --model attention"
@@ -220,12 +225,17 @@ impl Trainer {
         let mut next_seed = 0;
         let mut envs = Vec::with_capacity(ppo.procs);
         for _ in 0..ppo.procs {
-            envs.push(new_slot(&level, next_seed, model.lstm_hidden, ppo.imitate)?);
+            envs.push(new_slot(
+                &levels,
+                next_seed,
+                model.lstm_hidden,
+                ppo.imitate,
+            )?);
             next_seed += 1;
         }
         Ok(Self {
             model,
-            level,
+            levels,
             ppo,
             params,
             adam,
@@ -249,22 +259,32 @@ impl Trainer {
     /// parent can have used: it started at most `frames + procs` episodes.
     pub fn warm_start(
         model: ModelConfig,
-        level: LevelConfig,
+        levels: impl Into<LevelMix>,
         ppo: PpoConfig,
         params: Params,
         seed: u64,
         frames: u64,
         updates: u64,
     ) -> Result<Self, PolicyError> {
-        let mut trainer = Self::new(model, level, ppo, params, seed)?;
+        let mut trainer = Self::new(model, levels, ppo, params, seed)?;
         let first = frames + WARM_START_SEED_GAP;
         for (k, slot) in trainer.state.envs.iter_mut().enumerate() {
-            *slot = new_slot(&level, first + k as u64, model.lstm_hidden, ppo.imitate)?;
+            *slot = new_slot(
+                &trainer.levels,
+                first + k as u64,
+                model.lstm_hidden,
+                ppo.imitate,
+            )?;
         }
         trainer.state.next_seed = first + ppo.procs as u64;
         trainer.state.frames = frames;
         trainer.state.updates = updates;
         Ok(trainer)
+    }
+
+    /// The level a checkpoint of this run names (the first of a mix).
+    pub fn level(&self) -> LevelConfig {
+        self.levels.first()
     }
 
     /// Collects one rollout and runs the PPO epochs on it.
@@ -310,11 +330,12 @@ impl Trainer {
 }
 
 fn new_slot(
-    level: &LevelConfig,
+    levels: &LevelMix,
     k: u64,
     hidden: usize,
     imitate: bool,
 ) -> Result<EnvSlot, PolicyError> {
+    let level = levels.pick(k);
     let seed = TRAIN_SEED_OFFSET + k;
     let world = level.generate(seed)?;
     let tokens = vocab::tokenize_on_level(&world.mission, || format!("{level} seed {seed}"))?;

@@ -74,18 +74,22 @@ impl Trainer {
                         u < acc
                     })
                     .unwrap_or(probs.len() - 1);
-                // Imitation: the bot's action, the policy's own where the bot gave up.
+                // Imitation: the bot's action is the label, and the action taken unless
+                // this step takes the policy's own (DAgger's mixture) or the bot gave up.
                 ro.obs[i] = env.world.observe();
                 let advice = env
                     .expert
                     .as_mut()
                     .and_then(|e| e.advise(&env.world, &ro.obs[i]));
                 ro.expert[i] = f32::from(u8::from(advice.is_some()));
-                let a = advice.map_or(sampled, |a| a as usize);
+                let label = advice.map_or(sampled, |a| a as usize);
+                let share = self.ppo.imitate_policy_share;
+                let own = share > 0.0 && st.act_rng.random::<f64>() < share;
+                let a = if own { sampled } else { label };
                 ro.tokens[i].clone_from(&env.tokens);
-                ro.actions[i] = a as u32;
+                ro.actions[i] = label as u32;
                 ro.values[i] = out.values[p];
-                ro.logps[i] = probs[a].max(1e-12).ln();
+                ro.logps[i] = probs[label].max(1e-12).ln();
                 ro.masks[i] = env.mask;
                 ro.h[i].clone_from(&env.h);
                 ro.c[i].clone_from(&env.c);
@@ -104,7 +108,7 @@ impl Trainer {
                     stats.successes += u64::from(outcome.reward > 0.0);
                     stats.return_sum += env.ep_return;
                     stats.length_sum += u64::from(env.ep_len);
-                    let fresh = new_slot(&self.level, st.next_seed, hid, self.ppo.imitate)?;
+                    let fresh = new_slot(&self.levels, st.next_seed, hid, self.ppo.imitate)?;
                     st.next_seed += 1;
                     *env = EnvSlot {
                         mask: 0.0,

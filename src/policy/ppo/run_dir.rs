@@ -37,6 +37,10 @@ pub struct ResumeFile {
     /// The run's held-out tracking settings (absent in runs saved before they were kept).
     #[serde(default)]
     pub tracking: Option<Tracking>,
+    /// The levels of a run on several (`train --levels`); a run on one level names it in its
+    /// checkpoint alone.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub levels: Option<super::LevelMix>,
 }
 
 /// How often, and on how many held-out episodes, a run evaluates itself (`eval_log.csv`).
@@ -94,7 +98,7 @@ pub fn save(
         .with_context(|| format!("saving a checkpoint in {}", parent.display()))?;
     let mut ckpt = Checkpoint::new(
         trainer.model,
-        trainer.level,
+        trainer.level(),
         training,
         trainer.params.clone(),
     );
@@ -118,6 +122,7 @@ pub fn save(
         adam_step: trainer.adam.step,
         updates: trainer.state.updates,
         tracking: Some(tracking),
+        levels: trainer.levels.is_mix().then(|| trainer.levels.clone()),
     };
     write_atomic(
         &tmp.path().join("resume.json"),
@@ -227,9 +232,23 @@ pub fn restore(saved: Saved) -> anyhow::Result<Trainer> {
     let state_path = saved.from.join("run_state.json");
     let (opt_path, _) = checkpoint_paths(&saved.from.join("optimizer"));
     let ckpt = saved.ckpt;
+    let levels = saved
+        .resume
+        .levels
+        .clone()
+        .unwrap_or_else(|| ckpt.meta.level.into());
+    if levels.first() != ckpt.meta.level {
+        anyhow::bail!(
+            "{}: the run's first level is {}, but {} names {}",
+            saved.from.join("resume.json").display(),
+            levels.first(),
+            saved.from.join("model.json").display(),
+            ckpt.meta.level
+        );
+    }
     let mut trainer = Trainer::new(
         ckpt.meta.model,
-        ckpt.meta.level,
+        levels,
         saved.resume.ppo,
         ckpt.params,
         saved.resume.seed,
@@ -267,7 +286,11 @@ pub fn load_latest(run: &Path) -> anyhow::Result<(Trainer, RunInfo)> {
             let info = RunInfo {
                 seed: saved.resume.seed,
                 ppo: saved.resume.ppo,
-                level: saved.ckpt.meta.level,
+                levels: saved
+                    .resume
+                    .levels
+                    .clone()
+                    .unwrap_or_else(|| saved.ckpt.meta.level.into()),
                 hidden: saved.ckpt.meta.model.lstm_hidden,
                 model: saved.ckpt.meta.model,
                 variant: saved.ckpt.meta.model.variant,
@@ -303,8 +326,8 @@ pub struct RunInfo {
     pub seed: u64,
     /// Its PPO settings.
     pub ppo: PpoConfig,
-    /// Its level.
-    pub level: crate::env::level::LevelConfig,
+    /// Its levels.
+    pub levels: super::LevelMix,
     /// Its hidden size.
     pub hidden: usize,
     /// Its network (sizes and model options).
