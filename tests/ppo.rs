@@ -98,12 +98,12 @@ fn losses_are_deterministic_for_a_seed() {
 }
 
 #[test]
-fn update_threads_share_a_minibatch_without_changing_the_maths() {
-    let ppo = |update_threads| PpoConfig {
+fn threads_share_a_minibatch_without_changing_the_maths() {
+    let ppo = |threads| PpoConfig {
         procs: 4,
         frames_per_proc: 16,
         batch_size: 32,
-        update_threads,
+        threads,
         ..PpoConfig::default()
     };
     let (mut one, mut two, mut again) =

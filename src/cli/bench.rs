@@ -54,9 +54,15 @@ pub enum BenchCommand {
         /// Frames to train (whole updates of 2,048 frames).
         #[arg(long, default_value_t = 40_960, allow_negative_numbers = true)]
         frames: u64,
-        /// Threads for the update (`train --update-threads`).
-        #[arg(long, default_value_t = 1, allow_negative_numbers = true)]
-        update_threads: usize,
+        /// Thread counts to time (`train --threads`), e.g. 1,2: one JSON line each, then one
+        /// with each count's speed over the first's.
+        #[arg(
+            long,
+            alias = "update-threads",
+            value_name = "N,..",
+            default_value = "1"
+        )]
+        threads: String,
     },
     /// Recording speed and size: the bundled attention checkpoint's episodes on consecutive
     /// seeds written as `.rrd` and as MCAP (episodes are run first and not timed).
@@ -93,8 +99,8 @@ pub fn run(cmd: &BenchCommand) -> anyhow::Result<ExitStatus> {
         BenchCommand::Train {
             model,
             frames,
-            update_threads,
-        } => bench_train(model, *frames, *update_threads),
+            threads,
+        } => bench_train_counts(model, *frames, threads),
         BenchCommand::Policy {
             model,
             secs,
@@ -258,20 +264,54 @@ fn bench_policy(model: &str, secs: f64, rec: usize) -> anyhow::Result<ExitStatus
     Ok(ExitStatus::Success)
 }
 
-fn bench_train(model: &str, frames: u64, update_threads: usize) -> anyhow::Result<ExitStatus> {
-    use groundscope::policy::ppo::{PpoConfig, Trainer};
-    use groundscope::policy::{ModelConfig, Params};
-
+/// `bench train --threads A,B,..`: every count timed in turn, then their speed ratios.
+fn bench_train_counts(model: &str, frames: u64, list: &str) -> anyhow::Result<ExitStatus> {
     if !(2048..=10_000_000).contains(&frames) {
         anyhow::bail!("--frames {frames}: must be in 2048..=10000000");
     }
-    if !(1..=64).contains(&update_threads) {
-        anyhow::bail!("--update-threads {update_threads}: must be in 1..=64");
+    let mut counts = Vec::new();
+    for item in list.split(',').map(str::trim) {
+        match item.parse::<usize>() {
+            Ok(n) if (1..=64).contains(&n) => counts.push(n),
+            _ => anyhow::bail!("--threads {list}: {item:?} is not a thread count in 1..=64"),
+        }
     }
     let variant = crate::cli::policy_cmd::parse_variant(model)?;
+    let mut speeds = Vec::new();
+    for &n in &counts {
+        speeds.push((n, bench_train(variant, frames, n)?));
+    }
+    if let [(_, first), ..] = speeds[..]
+        && speeds.len() > 1
+    {
+        let ratios: serde_json::Map<String, serde_json::Value> = speeds
+            .iter()
+            .map(|&(n, fps)| {
+                let r = (fps / first * 1000.0).round() / 1000.0;
+                (n.to_string(), serde_json::json!(r))
+            })
+            .collect();
+        println!(
+            "{}",
+            serde_json::json!({"bench": "train-scaling", "model": variant.name(),
+                "speed_over_first": ratios, "first_threads": counts[0]})
+        );
+    }
+    Ok(ExitStatus::Success)
+}
+
+/// Trains `frames` with `threads` threads and prints one JSON line; returns frames/s.
+fn bench_train(
+    variant: groundscope::policy::Variant,
+    frames: u64,
+    threads: usize,
+) -> anyhow::Result<f64> {
+    use groundscope::policy::ppo::{PpoConfig, Trainer};
+    use groundscope::policy::{ModelConfig, Params};
+
     let cfg = ModelConfig::new(variant);
     let ppo = PpoConfig {
-        update_threads,
+        threads,
         ..PpoConfig::default()
     };
     let mut trainer = Trainer::new(cfg, LevelConfig::default(), ppo, Params::init(&cfg, 0)?, 0)?;
@@ -289,15 +329,16 @@ fn bench_train(model: &str, frames: u64, update_threads: usize) -> anyhow::Resul
             serde_json::json!((secs * 1000.0).round() / 1000.0),
         );
     }
-    let threads = std::env::var("RAYON_NUM_THREADS").unwrap_or_else(|_| "default".into());
+    let candle = std::env::var("RAYON_NUM_THREADS").unwrap_or_else(|_| "default".into());
+    let fps = trainer.state.frames as f64 / total;
     println!(
         "{}",
         serde_json::json!({"bench": "train", "model": variant.name(), "frames": trainer.state.frames,
-            "frames_per_sec": (trainer.state.frames as f64 / total).round(), "seconds": total,
+            "frames_per_sec": fps.round(), "seconds": total,
             "phase_seconds": phases, "untimed_seconds": total - timed,
-            "update_threads": update_threads, "candle_threads": threads})
+            "threads": threads, "candle_threads": candle})
     );
-    Ok(ExitStatus::Success)
+    Ok(fps)
 }
 
 fn bench_record(episodes: u64) -> anyhow::Result<ExitStatus> {

@@ -105,10 +105,11 @@ pub struct TrainArgs {
     /// PPO clip epsilon.
     #[arg(long, default_value_t = PpoConfig::default().clip_eps, allow_negative_numbers = true)]
     pub clip_eps: f64,
-    /// Threads sharing each minibatch's forward and backward pass and the optimizer step (use
-    /// the cores the rollout leaves idle; results depend on the count, not on timing).
-    #[arg(long, default_value_t = PpoConfig::default().update_threads, allow_negative_numbers = true)]
-    pub update_threads: usize,
+    /// Threads for the whole update: the rollout's environments and forward passes, each
+    /// minibatch's forward and backward pass and the optimizer step are split over them
+    /// (results depend on the count, never on timing). `--update-threads` is the old name.
+    #[arg(long, alias = "update-threads", default_value_t = PpoConfig::default().threads, allow_negative_numbers = true)]
+    pub threads: usize,
     /// Multiply rewards by this for GAE and the value loss (BabyAI: 20); logs stay unscaled.
     #[arg(long, default_value_t = PpoConfig::default().reward_scale, allow_negative_numbers = true)]
     pub reward_scale: f64,
@@ -182,7 +183,7 @@ pub(super) fn ppo_config(a: &TrainArgs, from: f32) -> anyhow::Result<PpoConfig> 
         value_loss_coef: a.value_loss_coef,
         max_grad_norm: a.max_grad_norm,
         clip_eps: a.clip_eps,
-        update_threads: a.update_threads,
+        threads: a.threads,
         reward_scale: a.reward_scale,
         normalize_advantages: a.normalize_advantages,
         temperature_anneal,

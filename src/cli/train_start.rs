@@ -233,11 +233,7 @@ impl Fixed {
                 now.clip_eps.to_string(),
                 run.clip_eps.to_string(),
             ),
-            (
-                "update_threads",
-                now.update_threads.to_string(),
-                run.update_threads.to_string(),
-            ),
+            ("threads", now.threads.to_string(), run.threads.to_string()),
             ("hidden", args.hidden.to_string(), self.hidden.to_string()),
             ("seed", args.seed.to_string(), self.seed.to_string()),
             ("size", a.size.to_string(), l.room_size.to_string()),

@@ -34,11 +34,13 @@ pub struct PpoConfig {
     pub max_grad_norm: f64,
     /// PPO clip ε (ratio and value).
     pub clip_eps: f64,
-    /// Threads that share each minibatch's forward and backward pass, each on its share of
-    /// the sequences; their gradients are summed in shard order, so a run is deterministic
-    /// for a given count (runs saved before the flag existed used 1).
-    #[serde(default = "one_thread")]
-    pub update_threads: usize,
+    /// Threads of the whole update (`train --threads`): the rollout's environments and its
+    /// forward passes are split into this many contiguous shards, and each minibatch's forward
+    /// and backward pass likewise by sequences; gradients are summed in shard order, so a run
+    /// is deterministic for a given count (runs saved before the flag existed used 1; those
+    /// saved as `update_threads` split only the update, and now split the rollout too).
+    #[serde(default = "one_thread", alias = "update_threads")]
+    pub threads: usize,
     /// Rewards are multiplied by this before GAE and the value loss (BabyAI uses 20, which
     /// makes the entropy bonus 20× weaker relative to the returns); logs stay unscaled.
     #[serde(default = "unit_scale")]
@@ -159,7 +161,7 @@ impl Default for PpoConfig {
             value_loss_coef: 0.5,
             max_grad_norm: 0.5,
             clip_eps: 0.2,
-            update_threads: 1,
+            threads: 1,
             reward_scale: 1.0,
             normalize_advantages: false,
             temperature_anneal: None,
@@ -178,10 +180,10 @@ impl PpoConfig {
             || self.frames_per_proc == 0
             || self.epochs == 0
             || self.recurrence == 0
-            || self.update_threads == 0
+            || self.threads == 0
         {
             return bad(
-                "--procs, --frames-per-proc, --epochs, --recurrence and --update-threads must be positive"
+                "--procs, --frames-per-proc, --epochs, --recurrence and --threads must be positive"
                     .into(),
             );
         }

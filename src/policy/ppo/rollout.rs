@@ -58,54 +58,40 @@ impl Trainer {
             expert: vec![0.0; n],
         };
         let mut stats = EpisodeStats::default();
+        let (share, scale) = (self.ppo.imitate_policy_share, self.ppo.reward_scale);
         for t in 0..t_n {
             let out = self.act_all(&net, &mut missions)?;
             let env_t = std::time::Instant::now();
             let st = &mut self.state;
-            for (p, env) in st.envs.iter_mut().enumerate() {
+            // The action stream is drawn in environment order, whatever the thread count.
+            let draws: Vec<Draw> = out
+                .probs
+                .iter()
+                .map(|probs| {
+                    let u: f32 = st.act_rng.random();
+                    let sampled = sample(probs, u);
+                    let own = share > 0.0 && st.act_rng.random::<f64>() < share;
+                    Draw { sampled, own }
+                })
+                .collect();
+            let stepped = on_shards(&mut st.envs, self.ppo.threads, |p, env| {
+                step_env(env, draws[p], &out, p)
+            })?;
+            for (p, (env, s)) in st.envs.iter_mut().zip(stepped).enumerate() {
                 let i = p * t_n + t;
-                let probs = &out.probs[p];
-                let u: f32 = st.act_rng.random();
-                let mut acc = 0.0;
-                let sampled = probs
-                    .iter()
-                    .position(|&q| {
-                        acc += q;
-                        u < acc
-                    })
-                    .unwrap_or(probs.len() - 1);
-                // Imitation: the bot's action is the label, and the action taken unless
-                // this step takes the policy's own (DAgger's mixture) or the bot gave up.
-                ro.obs[i] = env.world.observe();
-                let advice = env
-                    .expert
-                    .as_mut()
-                    .and_then(|e| e.advise(&env.world, &ro.obs[i]));
-                ro.expert[i] = f32::from(u8::from(advice.is_some()));
-                let label = advice.map_or(sampled, |a| a as usize);
-                let share = self.ppo.imitate_policy_share;
-                let own = share > 0.0 && st.act_rng.random::<f64>() < share;
-                let a = if own { sampled } else { label };
+                ro.obs[i] = s.obs;
+                ro.expert[i] = f32::from(u8::from(s.advised));
                 ro.tokens[i].clone_from(&env.tokens);
-                ro.actions[i] = label as u32;
+                ro.actions[i] = s.label as u32;
                 ro.values[i] = out.values[p];
-                ro.logps[i] = probs[label].max(1e-12).ln();
-                ro.masks[i] = env.mask;
-                ro.h[i].clone_from(&env.h);
-                ro.c[i].clone_from(&env.c);
-                let action = Action::from_index(a).unwrap_or(Action::Done);
-                let outcome = env.world.step(action)?;
-                if let Some(e) = env.expert.as_mut() {
-                    e.told(action);
-                }
-                ro.rewards[i] = (outcome.reward * self.ppo.reward_scale) as f32;
-                env.h.clone_from(&out.h[p]);
-                env.c.clone_from(&out.c[p]);
-                env.ep_return += outcome.reward;
-                env.ep_len += 1;
-                if outcome.terminated || outcome.truncated {
+                ro.logps[i] = out.probs[p][s.label].max(1e-12).ln();
+                ro.masks[i] = s.mask;
+                ro.h[i] = s.h;
+                ro.c[i] = s.c;
+                ro.rewards[i] = (s.outcome.reward * scale) as f32;
+                if s.outcome.terminated || s.outcome.truncated {
                     stats.episodes += 1;
-                    stats.successes += u64::from(outcome.reward > 0.0);
+                    stats.successes += u64::from(s.outcome.reward > 0.0);
                     stats.return_sum += env.ep_return;
                     stats.length_sum += u64::from(env.ep_len);
                     let fresh = new_slot(&self.levels, st.next_seed, hid, self.ppo.imitate)?;
@@ -171,21 +157,175 @@ impl Trainer {
             h: Tensor::from_vec(h, (envs.len(), hid), &Device::Cpu)?,
             c: Tensor::from_vec(c, (envs.len(), hid), &Device::Cpu)?,
         };
-        let codes = crate::policy::obs::CellCodes::new(&obs);
         let encoded = secs(encode_t);
         let forward_t = std::time::Instant::now();
         let mission = cache.inputs(net, &missions)?;
-        let (logits, values, memory) = net.step_untraced(&codes, &mission, &mem)?;
-        let out = ActAll {
-            probs: crate::policy::model::probs_host(&logits)?,
-            values: values.to_vec1::<f32>()?,
-            h: memory.h.to_vec2::<f32>()?,
-            c: memory.c.to_vec2::<f32>()?,
+        let n = envs.len();
+        let per = n.div_ceil(self.ppo.threads.max(1));
+        // Each thread runs the forward pass of its own rows (a row's numbers depend on the
+        // rows computed beside it only through the kernels' blocking, so on the count alone).
+        let mut parts: Vec<std::ops::Range<usize>> = (0..n)
+            .step_by(per.max(1))
+            .map(|lo| lo..(lo + per).min(n))
+            .collect();
+        if parts.is_empty() {
+            parts.push(0..0);
+        }
+        let forward = |r: &std::ops::Range<usize>| -> Result<ActAll, PolicyError> {
+            let (codes, shard_mission, shard_mem);
+            let (m, mm) = if parts.len() == 1 {
+                codes = crate::policy::obs::CellCodes::new(&obs);
+                (&mission, &mem)
+            } else {
+                codes = crate::policy::obs::CellCodes::new(&obs[r.clone()]);
+                let rows = Tensor::arange(r.start as u32, r.end as u32, &Device::Cpu)?;
+                shard_mission = mission.select(&rows)?;
+                shard_mem = Memory {
+                    h: mem.h.narrow(0, r.start, r.len())?,
+                    c: mem.c.narrow(0, r.start, r.len())?,
+                };
+                (&shard_mission, &shard_mem)
+            };
+            let (logits, values, memory) = net.step_untraced(&codes, m, mm)?;
+            Ok(ActAll {
+                obs: Vec::new(),
+                probs: crate::policy::model::probs_host(&logits)?,
+                values: values.to_vec1::<f32>()?,
+                h: memory.h.to_vec2::<f32>()?,
+                c: memory.c.to_vec2::<f32>()?,
+            })
         };
+        let outs: Vec<ActAll> = if parts.len() == 1 {
+            vec![forward(&parts[0])?]
+        } else {
+            std::thread::scope(|scope| {
+                let handles: Vec<_> = parts.iter().map(|r| scope.spawn(|| forward(r))).collect();
+                handles
+                    .into_iter()
+                    .map(|h| {
+                        h.join()
+                            .map_err(|_| PolicyError::Input("a rollout thread panicked".into()))?
+                    })
+                    .collect::<Result<Vec<_>, PolicyError>>()
+            })?
+        };
+        let mut out = ActAll {
+            obs: Vec::new(),
+            probs: Vec::with_capacity(n),
+            values: Vec::with_capacity(n),
+            h: Vec::with_capacity(n),
+            c: Vec::with_capacity(n),
+        };
+        for o in outs {
+            out.probs.extend(o.probs);
+            out.values.extend(o.values);
+            out.h.extend(o.h);
+            out.c.extend(o.c);
+        }
+        out.obs = obs;
         self.times.rollout_encode += encoded;
         self.times.rollout_forward += secs(forward_t);
         Ok(out)
     }
+}
+
+/// The actions drawn for one environment's step.
+#[derive(Clone, Copy)]
+struct Draw {
+    /// The policy's sampled action.
+    sampled: usize,
+    /// Imitation: this step takes the policy's action rather than the bot's.
+    own: bool,
+}
+
+/// What one environment's step leaves for the rollout buffers.
+struct Stepped {
+    obs: Observation,
+    /// The bot advised an action (imitation).
+    advised: bool,
+    /// The action learnt from: the bot's where it advised, else the one taken.
+    label: usize,
+    /// The memory and mask the step was taken with.
+    mask: f32,
+    h: Vec<f32>,
+    c: Vec<f32>,
+    outcome: crate::env::world::StepOutcome,
+}
+
+/// Inverse-CDF sampling of `probs` at `u` ∈ [0, 1).
+fn sample(probs: &[f32], u: f32) -> usize {
+    let mut acc = 0.0;
+    probs
+        .iter()
+        .position(|&q| {
+            acc += q;
+            u < acc
+        })
+        .unwrap_or(probs.len() - 1)
+}
+
+/// Steps environment `p`: the bot's advice (imitation), the action, the world, the memory.
+fn step_env(env: &mut EnvSlot, draw: Draw, out: &ActAll, p: usize) -> Result<Stepped, PolicyError> {
+    // Imitation: the bot's action is the label, and the action taken unless this step takes
+    // the policy's own (DAgger's mixture) or the bot gave up.
+    let obs = out.obs[p];
+    let advice = env.expert.as_mut().and_then(|e| e.advise(&env.world, &obs));
+    let label = advice.map_or(draw.sampled, |a| a as usize);
+    let a = if draw.own { draw.sampled } else { label };
+    let action = Action::from_index(a).unwrap_or(Action::Done);
+    let outcome = env.world.step(action)?;
+    if let Some(e) = env.expert.as_mut() {
+        e.told(action);
+    }
+    env.ep_return += outcome.reward;
+    env.ep_len += 1;
+    Ok(Stepped {
+        obs,
+        advised: advice.is_some(),
+        label,
+        mask: env.mask,
+        h: std::mem::replace(&mut env.h, out.h[p].clone()),
+        c: std::mem::replace(&mut env.c, out.c[p].clone()),
+        outcome,
+    })
+}
+
+/// `f(p, env)` for every environment, the environments split into `threads` contiguous
+/// shards stepped on their own threads; results in environment order.
+fn on_shards<T: Send>(
+    envs: &mut [EnvSlot],
+    threads: usize,
+    f: impl Fn(usize, &mut EnvSlot) -> Result<T, PolicyError> + Sync,
+) -> Result<Vec<T>, PolicyError> {
+    let n = envs.len();
+    let per = n.div_ceil(threads.max(1)).max(1);
+    if threads <= 1 || n <= per {
+        return envs.iter_mut().enumerate().map(|(p, e)| f(p, e)).collect();
+    }
+    let f = &f;
+    std::thread::scope(|scope| {
+        let handles: Vec<_> = envs
+            .chunks_mut(per)
+            .enumerate()
+            .map(|(k, chunk)| {
+                scope.spawn(move || {
+                    chunk
+                        .iter_mut()
+                        .enumerate()
+                        .map(|(j, e)| f(k * per + j, e))
+                        .collect::<Result<Vec<T>, PolicyError>>()
+                })
+            })
+            .collect();
+        let mut all = Vec::with_capacity(n);
+        for h in handles {
+            all.extend(
+                h.join()
+                    .map_err(|_| PolicyError::Input("a rollout thread panicked".into()))??,
+            );
+        }
+        Ok(all)
+    })
 }
 
 /// `x ← (x − mean) / (std + 1e-8)`, the population statistics taken in f64.
@@ -204,6 +344,8 @@ fn normalize(xs: &mut [f32]) {
 }
 
 struct ActAll {
+    /// The observations the step was computed from (each environment's next input).
+    obs: Vec<Observation>,
     probs: Vec<Vec<f32>>,
     values: Vec<f32>,
     h: Vec<Vec<f32>>,

@@ -49,7 +49,7 @@ impl Trainer {
         let mut n_batches = 0.0;
         for _ in 0..self.ppo.epochs {
             for starts in self.batch_starts() {
-                let per = starts.len().div_ceil(self.ppo.update_threads);
+                let per = starts.len().div_ceil(self.ppo.threads);
                 let parts: Vec<&[usize]> = starts.chunks(per).collect();
                 let outs: Vec<(GradStore, ShardOut)> = if let [only] = parts.as_slice() {
                     vec![shard_step(&net, ro, only, &self.ppo)?]
@@ -91,7 +91,7 @@ impl Trainer {
                     log.entropy += w * out.entropy;
                     self.times.add(&out.times);
                 }
-                let (adam, threads) = (&mut self.adam, self.ppo.update_threads);
+                let (adam, threads) = (&mut self.adam, self.ppo.threads);
                 let norm = with_minibatch_grads(&trainable, &stores, &shares, threads, |grads| {
                     let (norm, clip) = clip_factor(grads, self.ppo.max_grad_norm);
                     adam.step_host(grads, clip, threads)?;
