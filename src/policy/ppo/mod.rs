@@ -227,11 +227,10 @@ impl Trainer {
         for _ in 0..ppo.procs {
             envs.push(new_slot(
                 &levels,
-                next_seed,
+                &mut next_seed,
                 model.lstm_hidden,
                 ppo.imitate,
             )?);
-            next_seed += 1;
         }
         Ok(Self {
             model,
@@ -267,16 +266,16 @@ impl Trainer {
         updates: u64,
     ) -> Result<Self, PolicyError> {
         let mut trainer = Self::new(model, levels, ppo, params, seed)?;
-        let first = frames + WARM_START_SEED_GAP;
-        for (k, slot) in trainer.state.envs.iter_mut().enumerate() {
+        let mut next_seed = frames + WARM_START_SEED_GAP;
+        for slot in &mut trainer.state.envs {
             *slot = new_slot(
                 &trainer.levels,
-                first + k as u64,
+                &mut next_seed,
                 model.lstm_hidden,
                 ppo.imitate,
             )?;
         }
-        trainer.state.next_seed = first + ppo.procs as u64;
+        trainer.state.next_seed = next_seed;
         trainer.state.frames = frames;
         trainer.state.updates = updates;
         Ok(trainer)
@@ -329,15 +328,24 @@ impl Trainer {
     }
 }
 
+/// A fresh episode on the next training seed, `next_seed` advanced past it (and past any
+/// seed minigrid cannot generate: it loops forever there, so no such level exists).
 fn new_slot(
     levels: &LevelMix,
-    k: u64,
+    next_seed: &mut u64,
     hidden: usize,
     imitate: bool,
 ) -> Result<EnvSlot, PolicyError> {
-    let level = levels.pick(k);
-    let seed = TRAIN_SEED_OFFSET + k;
-    let world = level.generate(seed)?;
+    let (level, seed, world) = loop {
+        let k = *next_seed;
+        *next_seed += 1;
+        let level = levels.pick(k);
+        let seed = TRAIN_SEED_OFFSET + k;
+        match level.generate(seed) {
+            Err(crate::env::EnvError::GenerationHangs { .. }) => {}
+            world => break (level, seed, world?),
+        }
+    };
     let tokens = vocab::tokenize_on_level(&world.mission, || format!("{level} seed {seed}"))?;
     Ok(EnvSlot {
         expert: imitate.then(|| crate::bot::Expert::new(&world)),
@@ -349,4 +357,27 @@ fn new_slot(
         ep_return: 0.0,
         ep_len: 0,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A training seed minigrid loops forever on (SynthS5R2's 2^32 + 14829, met by a real
+    /// run) is passed over: the slot takes the next seed, and the counter moves past both.
+    #[test]
+    fn training_skips_seeds_minigrid_cannot_generate() {
+        let id = crate::env::level::LevelId::parse("BabyAI-SynthS5R2-v0").unwrap();
+        let levels = LevelMix::from(LevelConfig::babyai(id, false));
+        let mut next = 14_829;
+        assert!(matches!(
+            levels.first().generate(TRAIN_SEED_OFFSET + next),
+            Err(crate::env::EnvError::GenerationHangs { .. })
+        ));
+        let slot = new_slot(&levels, &mut next, 8, true).unwrap();
+        assert_eq!(next, 14_831);
+        let world = levels.first().generate(TRAIN_SEED_OFFSET + 14_830).unwrap();
+        assert_eq!(slot.world.mission, world.mission);
+        assert!(slot.expert.is_some());
+    }
 }

@@ -94,8 +94,7 @@ impl Trainer {
                     stats.successes += u64::from(s.outcome.reward > 0.0);
                     stats.return_sum += env.ep_return;
                     stats.length_sum += u64::from(env.ep_len);
-                    let fresh = new_slot(&self.levels, st.next_seed, hid, self.ppo.imitate)?;
-                    st.next_seed += 1;
+                    let fresh = new_slot(&self.levels, &mut st.next_seed, hid, self.ppo.imitate)?;
                     *env = EnvSlot {
                         mask: 0.0,
                         h: std::mem::take(&mut env.h),
