@@ -183,10 +183,10 @@ fn the_mission_editor_names_the_words_this_model_was_not_trained_on() {
     );
 }
 
-/// Picking a level the loaded model cannot read runs minigrid's bot instead, saying so; the
-/// bot's plan stands where the maps would be, and every step names the expert's action.
+/// Picking a level the loaded model cannot read runs `bundled:babyai` instead, saying so, with
+/// the expert's action beside it.
 #[test]
-fn a_level_the_model_cannot_read_runs_the_bot_and_shows_its_plan() {
+fn a_level_the_pair_cannot_read_runs_the_babyai_model() {
     let mut h = build(&options("bundled:attention", None, 3));
     show_until(&mut h, "step 0 of ");
     // Beside the bundled model on the paper's level: the expert's action and plan.
@@ -196,13 +196,23 @@ fn a_level_the_model_cannot_read_runs_the_bot_and_shows_its_plan() {
     // A level high in the picker's list, so that its row is on screen to be clicked.
     h.get_by_label("BabyAI-GoToDoor-v0").click();
     show_until(&mut h, "cannot read this level");
-    show_until(&mut h, "running minigrid's bot instead");
+    show_until(&mut h, "running the bundled BabyAI model instead");
+    let world = babyai("BabyAI-GoToDoor-v0").generate(3).unwrap();
+    show_until(&mut h, &world.mission);
+    show_until(&mut h, "expert (minigrid's bot): ");
+    assert!(
+        h.query_all_by_value("bundled:babyai").next().is_some(),
+        "the checkpoint field names the BabyAI model"
+    );
+}
+
+/// The bot as the agent: its plan stands where the maps would be.
+#[test]
+fn the_bot_shows_its_plan_in_place_of_the_maps() {
+    let mut h = build(&options("bot", Some(babyai("BabyAI-GoToDoor-v0")), 3));
+    show_until(&mut h, "step 0 of ");
     let world = babyai("BabyAI-GoToDoor-v0").generate(3).unwrap();
     show_until(&mut h, &world.mission);
     show_until(&mut h, "plan: GoNextTo ");
     show_until(&mut h, "no attention maps and no network to probe");
-    assert!(
-        h.query_all_by_value("bot").next().is_some(),
-        "the checkpoint field names the bot"
-    );
 }

@@ -95,7 +95,7 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitStatus> {
     check(args)?;
     let stop = Stop::install();
     let specs = if args.checkpoint.is_empty() {
-        groundscope::policy::bundled::names()
+        groundscope::policy::bundled::pair()
     } else {
         args.checkpoint.clone()
     };

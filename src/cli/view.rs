@@ -20,8 +20,9 @@ xvfb-run -a groundscope view --screenshot shot.png --seed 3 --step 4 --window 14
 )]
 pub struct ViewArgs {
     /// Checkpoint: NAME (NAME.json + NAME.safetensors), a run directory (its model),
-    /// bundled:attention / bundled:baseline or an ONNX graph FILE.onnx (docs/onnx.md)
-    /// [default: bundled:attention].
+    /// bundled:attention / bundled:baseline / bundled:babyai or an ONNX graph FILE.onnx
+    /// (docs/onnx.md) [default: bundled:attention, or bundled:babyai on a level whose mission
+    /// it cannot read].
     #[arg(long, value_name = "NAME")]
     pub checkpoint: Option<String>,
     /// A second checkpoint (any form --checkpoint takes), run on the same seed side by side.
@@ -67,6 +68,24 @@ fn parse_size(s: &str) -> anyhow::Result<[f32; 2]> {
 }
 
 /// Runs `view`.
+/// Without `--checkpoint`: the paper's attention model, or `bundled:babyai` where it cannot
+/// read the mission of the level and seed asked for (a BabyAI level's words it never met).
+fn default_checkpoint(args: &ViewArgs) -> anyhow::Result<String> {
+    let first = groundscope::policy::bundled::names()[0].clone();
+    let agent = groundscope::policy::Agent::load(&first)?;
+    let level = args.episode.level(agent.level())?;
+    if args.episode.mission.is_none()
+        && let Ok(world) = level.generate(args.episode.seed)
+        && groundscope::policy::acting::mission_tokens(agent.acting(), &world.mission, || {
+            level.to_string()
+        })
+        .is_err()
+    {
+        return Ok(groundscope::policy::bundled::BABYAI.to_owned());
+    }
+    Ok(first)
+}
+
 pub fn run(args: &ViewArgs) -> anyhow::Result<ExitStatus> {
     // `groundscope` with no arguments builds `ViewArgs::default()`, whose size is empty.
     let size = if args.window.is_empty() {
@@ -78,10 +97,10 @@ pub fn run(args: &ViewArgs) -> anyhow::Result<ExitStatus> {
         check_extension(p, "png", "--screenshot")?;
     }
     // Load once here so that a bad checkpoint or level is a one-line error, not a window.
-    let checkpoint = args
-        .checkpoint
-        .clone()
-        .unwrap_or_else(|| groundscope::policy::bundled::names()[0].clone());
+    let checkpoint = match &args.checkpoint {
+        Some(c) => c.clone(),
+        None => default_checkpoint(args)?,
+    };
     let agent = groundscope::policy::Agent::load(&checkpoint)?;
     if let Some(c) = &args.compare {
         groundscope::policy::Agent::load(c)?;
@@ -111,4 +130,45 @@ pub fn run(args: &ViewArgs) -> anyhow::Result<ExitStatus> {
         println!("wrote {}", p.display());
     }
     Ok(ExitStatus::Success)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser as _;
+
+    /// Parses `groundscope view ARGS`.
+    fn view_args(args: &[&str]) -> ViewArgs {
+        let cli =
+            crate::cli::Cli::try_parse_from(["groundscope", "view"].iter().chain(args)).unwrap();
+        match cli.command {
+            Some(crate::cli::Command::View(v)) => *v,
+            _ => panic!("not a view command"),
+        }
+    }
+
+    /// Without `--checkpoint` the paper's model opens wherever it reads the mission, and
+    /// `bundled:babyai` where it does not.
+    #[test]
+    fn the_default_model_is_one_that_reads_the_mission() {
+        assert_eq!(
+            default_checkpoint(&view_args(&[])).unwrap(),
+            "bundled:attention"
+        );
+        assert_eq!(
+            default_checkpoint(&view_args(&["--level", "BabyAI-GoToLocal-v0"])).unwrap(),
+            "bundled:attention"
+        );
+        for id in [
+            "BabyAI-GoToDoor-v0",
+            "BabyAI-OpenDoor-v0",
+            "BabyAI-UnlockLocal-v0",
+        ] {
+            assert_eq!(
+                default_checkpoint(&view_args(&["--level", id, "--seed", "2"])).unwrap(),
+                groundscope::policy::bundled::BABYAI,
+                "{id}"
+            );
+        }
+    }
 }

@@ -1,5 +1,6 @@
-//! The checkpoints shipped in `assets/` and embedded in the binary: the default of every
-//! command (`bundled:attention` first, then `bundled:baseline`).
+//! The checkpoints shipped in `assets/` and embedded in the binary: the paper's pair, the
+//! default of every command (`bundled:attention` first, then `bundled:baseline`), and
+//! `bundled:babyai`, an attention model that reads BabyAI's whole grammar.
 
 use std::path::Path;
 
@@ -10,7 +11,7 @@ use super::error::PolicyError;
 pub const PREFIX: &str = "bundled:";
 
 /// The embedded checkpoints: name, JSON, weights.
-const BUNDLED: [(&str, &str, &[u8]); 2] = [
+const BUNDLED: [(&str, &str, &[u8]); 3] = [
     (
         "attention",
         include_str!("../../assets/attention.json"),
@@ -21,7 +22,21 @@ const BUNDLED: [(&str, &str, &[u8]); 2] = [
         include_str!("../../assets/baseline.json"),
         include_bytes!("../../assets/baseline.safetensors"),
     ),
+    (
+        "babyai",
+        include_str!("../../assets/babyai.json"),
+        include_bytes!("../../assets/babyai.safetensors"),
+    ),
 ];
+
+/// The bundled model for BabyAI's levels: it reads every word of their missions.
+pub const BABYAI: &str = "bundled:babyai";
+
+/// The paper's pair, `bundled:attention` then `bundled:baseline`: what `eval`, `replay` and
+/// `faithfulness` run without `--checkpoint`.
+pub fn pair() -> Vec<String> {
+    names().into_iter().take(2).collect()
+}
 
 /// Names of the embedded checkpoints, default first.
 pub fn names() -> Vec<String> {
@@ -59,7 +74,13 @@ mod tests {
     fn every_bundled_checkpoint_loads_and_matches_its_name() {
         for n in names() {
             let c = load(&n).unwrap();
-            assert_eq!(format!("{PREFIX}{}", c.meta.model.variant.name()), n);
+            let variant = c.meta.model.variant.name();
+            if n == BABYAI {
+                assert_eq!(variant, "attention");
+                assert_eq!(c.meta.model.vocab_size, crate::env::vocab::VOCAB_SIZE);
+            } else {
+                assert_eq!(format!("{PREFIX}{variant}"), n);
+            }
         }
         assert!(
             load("bundled:transformer")

@@ -219,32 +219,43 @@ impl Debugger {
         if level != self.level {
             self.level = level;
             self.mission_text.clear();
-            self.bot_where_unreadable();
+            self.fallback_where_unreadable();
             self.run_episode(None);
         }
     }
 
     /// Where the loaded agent cannot read the picked level's mission (a word it was not
-    /// trained on), minigrid's bot acts instead, and the message bar says so.
-    fn bot_where_unreadable(&mut self) {
+    /// trained on), `bundled:babyai` acts instead — or minigrid's bot where even it cannot —
+    /// and the message bar says so.
+    fn fallback_where_unreadable(&mut self) {
         let Some(agent) = &self.agent else { return };
         let Ok(world) = self.level.generate(self.seed) else {
             return;
         };
-        let acting = agent.policy.acting();
-        let Err(e) = crate::policy::acting::mission_tokens(acting, &world.mission, || {
-            self.level.to_string()
-        }) else {
-            return;
+        let reads = |a: &Agent| {
+            crate::policy::acting::mission_tokens(a.policy.acting(), &world.mission, || {
+                self.level.to_string()
+            })
         };
-        match Agent::load(crate::policy::acting::BOT) {
-            Ok(bot) => {
+        let Err(e) = reads(agent) else { return };
+        let babyai = Agent::load(crate::policy::bundled::BABYAI)
+            .ok()
+            .filter(|b| reads(b).is_ok());
+        let (fallback, what) = match babyai {
+            Some(b) => (Ok(b), "the bundled BabyAI model"),
+            None => (
+                Agent::load(crate::policy::acting::BOT),
+                "minigrid's bot (checkpoint \"bot\")",
+            ),
+        };
+        match fallback {
+            Ok(next) => {
                 self.info(format!(
-                    "{} cannot read this level ({e}): running minigrid's bot instead (checkpoint \"bot\")",
+                    "{} cannot read this level ({e}): running {what} instead",
                     agent.spec
                 ));
-                self.checkpoint_text.clone_from(&bot.spec);
-                self.agent = Some(bot);
+                self.checkpoint_text.clone_from(&next.spec);
+                self.agent = Some(next);
             }
             Err(e) => self.error(e),
         }
