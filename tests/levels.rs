@@ -103,6 +103,8 @@ fn a_sweep_over_levels_reports_each_level_and_word_class() {
         "2",
         "--episodes",
         "10",
+        "--top-k",
+        "3",
         "--quiet",
         "--out",
         out.to_str().unwrap(),
@@ -159,10 +161,34 @@ fn a_sweep_over_levels_reports_each_level_and_word_class() {
             rows[0]
         );
     }
-    // The worst episodes replay on their own level.
+    // The worst episodes replay on their own level, and each level keeps its own list.
     let failures = std::fs::read_to_string(out.join("failures.json")).unwrap();
     if failures.contains("\"failed\"") {
         assert!(failures.contains("--level BabyAI-"), "{failures}");
+    }
+    let listed: Vec<serde_json::Value> = serde_json::from_str(&failures).unwrap();
+    for (k, cell) in cells.iter().enumerate() {
+        let failed = cell["failure_classes"]
+            .as_object()
+            .unwrap()
+            .values()
+            .map(|n| n.as_u64().unwrap())
+            .sum::<u64>();
+        let shown = listed
+            .iter()
+            .filter(|f| f["kind"] == "failed" && f["level"] == cell["level"])
+            .count() as u64;
+        assert_eq!(shown, failed.min(3), "cell {k}: {failures}");
+        // Every failure has one behaviour count (none included).
+        let behaviours = cell
+            .get("behaviours")
+            .and_then(|b| b.as_object())
+            .map_or(0, |b| b.values().map(|n| n.as_u64().unwrap()).sum::<u64>());
+        assert_eq!(behaviours, failed, "cell {k}");
+    }
+    // report.md defines every class it counts.
+    for class in ["target_never_visible", "grounding", "wrong_object", "other"] {
+        assert!(md.contains(&format!("- `{class}`: ")), "{md}");
     }
     // Twice the same level, or an unknown one, is refused before anything is written.
     let bad = dir.path().join("bad");

@@ -20,6 +20,7 @@ fn failure(kind: &str, length: u32) -> Failure {
         acc_cmb: None,
         replay: "groundscope replay --checkpoint bundled:attention --room-size 16 --objects 10 --seed 42".to_owned(),
         class: None,
+        behaviour: None,
         target_visible_steps: None,
         m_on_target_steps: None,
         counterfactual: None,

@@ -3,7 +3,7 @@
 //! test, another tool) assembles a cell the same way.
 
 use super::exploration::{EpisodeExploration, cell_exploration};
-use super::failure::class_counts;
+use super::failure::{behaviour_counts, class_counts};
 use super::grounding::WordKind;
 use super::report::{Cell, CellAccuracy, size_and_objects};
 use super::sweep::{EpisodeSummary, expert_stats, grounding, performance};
@@ -50,6 +50,9 @@ pub fn cell_from_episodes(
         accuracy,
     )
     .with_failure_classes(classes)
+    .with_behaviours(behaviour_counts(
+        eps.iter().filter_map(|e| e.failure.as_ref()),
+    ))
     .with_exploration(exploration)
     .with_level(level.babyai.map(|id| id.id().to_owned()));
     let cell = Cell {

@@ -32,6 +32,17 @@
 //! 11. [`FailureClass::Other`]: everything else (wandering to the limit, `done` in front of
 //!     nothing, ...).
 //!
+//! Besides its class, every failed episode gets a *behaviour* ([`Diagnosis::behaviour`]):
+//! what the agent was doing, whichever rule decided the class — the first of
+//! [`FailureClass::WrongOrder`], [`FailureClass::WrongNeighbour`], [`FailureClass::WrongObject`],
+//! [`FailureClass::TurningInPlace`] and [`FailureClass::BlockedForward`] (truncated with the
+//! agent in the same cell over its last [`TURN_WINDOW`] steps, at least one a `forward` into a
+//! cell it cannot enter) whose condition holds, or none. An agent in a maze that turns until
+//! the step limit is `door_never_opened` by the order above (the targets lay behind closed
+//! doors) and `turning_in_place` by behaviour: the class says what it never reached, the
+//! behaviour what it did instead. The class order is kept so that the paper's level's counts
+//! stay comparable across reports.
+//!
 //! Rules 1–3 and 6–8 ([`mechanics`]) need doors, rooms, sequences or PutNext: on the paper's
 //! level they never fire. Without `M` (a baseline checkpoint) rule 5 is skipped: a baseline
 //! failure with the target visible is classed by the later rules only, so its counts never
@@ -96,6 +107,9 @@ pub enum FailureClass {
     WrongOrder,
     /// PutNext's object was put down beside the wrong objects.
     WrongNeighbour,
+    /// Truncated while standing in one cell over the last [`TURN_WINDOW`] steps, walking
+    /// into something it cannot enter (a behaviour only, never a class).
+    BlockedForward,
 }
 
 impl FailureClass {
@@ -112,6 +126,48 @@ impl FailureClass {
         Self::TurningInPlace,
         Self::Other,
     ];
+
+    /// The behaviours ([`Diagnosis::behaviour`]), in the order they are decided.
+    pub const BEHAVIOURS: [Self; 5] = [
+        Self::WrongOrder,
+        Self::WrongNeighbour,
+        Self::WrongObject,
+        Self::TurningInPlace,
+        Self::BlockedForward,
+    ];
+
+    /// What each class and behaviour means, in one line (`report.md` lists them).
+    pub fn definition(self) -> &'static str {
+        match self {
+            Self::LockedDoorNoKey => {
+                "the targets lay in rooms never entered behind closed doors, one locked and its key never carried"
+            }
+            Self::DoorNeverOpened => {
+                "the targets lay behind doors never opened, or an Open clause's door never opened"
+            }
+            Self::TargetRoomNeverEntered => {
+                "the targets lay in rooms never entered, though a door to them had been open"
+            }
+            Self::TargetNeverVisible => "no target object was ever in the agent's view",
+            Self::Grounding => {
+                "a target was in view but M pointed at it (or the cell before it) at fewer than half of those steps"
+            }
+            Self::WrongOrder => "an object of a later clause was picked up or opened first",
+            Self::WrongNeighbour => {
+                "PutNext's object was put down beside objects the clause did not name"
+            }
+            Self::WrongObject => {
+                "`done` or `pickup` ended the episode at, or carrying, an object outside every clause"
+            }
+            Self::TurningInPlace => "at the step limit, the last 8 actions were all turns",
+            Self::Other => {
+                "none of the above (wandering to the step limit, `done` before nothing, ...)"
+            }
+            Self::BlockedForward => {
+                "at the step limit, the agent stood in one cell over its last 8 steps, walking into something it cannot enter"
+            }
+        }
+    }
 
     /// The classes of BabyAI's mechanics, reported only for cells whose levels have doors,
     /// several rooms, sequences or PutNext.
@@ -136,6 +192,7 @@ impl FailureClass {
             Self::TargetRoomNeverEntered => "target_room_never_entered",
             Self::WrongOrder => "wrong_order",
             Self::WrongNeighbour => "wrong_neighbour",
+            Self::BlockedForward => "blocked_forward",
         }
     }
 
@@ -211,6 +268,9 @@ pub struct Evidence {
     pub m_on_target_steps: u32,
     /// The last [`TURN_WINDOW`] actions, oldest first.
     pub recent_actions: Vec<Action>,
+    /// For each of [`Self::recent_actions`]: the agent's cell before it, and whether it was a
+    /// `forward` into a cell the agent cannot enter.
+    pub recent_moves: Vec<((i32, i32), bool)>,
     /// The last step, once the episode ended.
     pub ending: Option<Ending>,
     /// Rooms, doors, keys, sequences and PutNext ([`mechanics`]).
@@ -227,6 +287,9 @@ pub struct Diagnosis {
     /// Of those, steps with `M` on a target (`None` when `M` was never evaluated: a
     /// baseline, or no visible target).
     pub m_on_target_steps: Option<u32>,
+    /// What the agent was doing ([`FailureClass::BEHAVIOURS`]; `None`: none of them).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub behaviour: Option<FailureClass>,
 }
 
 /// The objects of every clause (both of PutNext's descriptions): what is not a distractor.
@@ -287,8 +350,13 @@ impl Evidence {
         }
         if self.recent_actions.len() == TURN_WINDOW {
             self.recent_actions.remove(0);
+            self.recent_moves.remove(0);
         }
         self.recent_actions.push(step.action);
+        let w = step.world;
+        let blocked = step.action == Action::Forward
+            && w.grid.get(w.front_pos()).is_some_and(|o| !o.can_overlap());
+        self.recent_moves.push((w.agent_pos, blocked));
         self.mechanics.push(step);
         if step.terminated || step.truncated {
             let w = step.world;
@@ -328,40 +396,52 @@ impl Evidence {
             return None;
         }
         let with_m = self.m_steps > 0;
+        let act = self.mechanics.act_class();
+        let wrong_object = self.ending.is_some_and(|e| {
+            e.terminated
+                && matches!(e.action, Action::Done | Action::Pickup)
+                && (e.front == Relation::NonTarget || e.carried == Relation::NonTarget)
+        });
+        let truncated = self.ending.is_some_and(|e| e.truncated);
+        let full = self.recent_actions.len() == TURN_WINDOW;
+        let turning = truncated
+            && full
+            && self
+                .recent_actions
+                .iter()
+                .all(|a| matches!(a, Action::Left | Action::Right));
+        let blocked = truncated
+            && full
+            && self.recent_moves.iter().any(|&(_, b)| b)
+            && self
+                .recent_moves
+                .iter()
+                .all(|&(p, _)| p == self.recent_moves[0].0);
         let class = if let Some(c) = self.mechanics.room_class() {
             c
         } else if self.target_visible_steps == 0 {
             FailureClass::TargetNeverVisible
         } else if with_m && 2 * self.m_on_target_steps < self.m_steps {
             FailureClass::Grounding
-        } else if let Some(c) = self.mechanics.act_class() {
+        } else if let Some(c) = act {
             c
+        } else if wrong_object {
+            FailureClass::WrongObject
+        } else if turning {
+            FailureClass::TurningInPlace
         } else {
-            match self.ending {
-                Some(e)
-                    if e.terminated
-                        && matches!(e.action, Action::Done | Action::Pickup)
-                        && (e.front == Relation::NonTarget || e.carried == Relation::NonTarget) =>
-                {
-                    FailureClass::WrongObject
-                }
-                Some(e)
-                    if e.truncated
-                        && self.recent_actions.len() == TURN_WINDOW
-                        && self
-                            .recent_actions
-                            .iter()
-                            .all(|a| matches!(a, Action::Left | Action::Right)) =>
-                {
-                    FailureClass::TurningInPlace
-                }
-                _ => FailureClass::Other,
-            }
+            FailureClass::Other
         };
+        let behaviour = act
+            .filter(|c| matches!(c, FailureClass::WrongOrder | FailureClass::WrongNeighbour))
+            .or_else(|| wrong_object.then_some(FailureClass::WrongObject))
+            .or_else(|| turning.then_some(FailureClass::TurningInPlace))
+            .or_else(|| blocked.then_some(FailureClass::BlockedForward));
         Some(Diagnosis {
             class,
             target_visible_steps: self.target_visible_steps,
             m_on_target_steps: with_m.then_some(self.m_on_target_steps),
+            behaviour,
         })
     }
 }
@@ -382,6 +462,18 @@ pub fn class_counts<'a>(
         .collect();
     for d in failures {
         *counts.entry(d.class).or_default() += 1;
+    }
+    counts
+}
+
+/// Counts of each behaviour over `failures` ([`Diagnosis::behaviour`]), `None` for the
+/// failures that showed none; only behaviours seen are present.
+pub fn behaviour_counts<'a>(
+    failures: impl IntoIterator<Item = &'a Diagnosis>,
+) -> BTreeMap<Option<FailureClass>, u64> {
+    let mut counts = BTreeMap::new();
+    for d in failures {
+        *counts.entry(d.behaviour).or_default() += 1;
     }
     counts
 }

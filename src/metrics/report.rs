@@ -107,6 +107,11 @@ pub struct Cell {
     /// for baselines, which have no `M` to decide it.
     #[serde(default)]
     pub failure_classes: BTreeMap<FailureClass, u64>,
+    /// Failed episodes per behaviour ([`super::failure::Diagnosis::behaviour`], by name;
+    /// `none` for failures that showed none of them); absent in older reports and where
+    /// nothing failed.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub behaviours: BTreeMap<String, u64>,
     /// Exploration coverage of all, successful and failed episodes
     /// ([`super::exploration`]); absent in older reports.
     #[serde(default)]
@@ -166,6 +171,7 @@ impl Cell {
             reward_given_success: perf.reward_given_success,
             accuracy,
             failure_classes: BTreeMap::new(),
+            behaviours: BTreeMap::new(),
             exploration: None,
             level: None,
             expert: None,
@@ -177,6 +183,16 @@ impl Cell {
     #[must_use]
     pub fn with_failure_classes(mut self, counts: BTreeMap<FailureClass, u64>) -> Self {
         self.failure_classes = counts;
+        self
+    }
+
+    /// The cell with its behaviour counts ([`super::failure::behaviour_counts`]).
+    #[must_use]
+    pub fn with_behaviours(mut self, counts: BTreeMap<Option<FailureClass>, u64>) -> Self {
+        self.behaviours = counts
+            .into_iter()
+            .map(|(b, n)| (b.map_or("none", FailureClass::name).to_owned(), n))
+            .collect();
         self
     }
 
@@ -231,6 +247,9 @@ pub struct Failure {
     /// Its failure class (`None` for a successful episode listed for its low acc_cmb).
     #[serde(default)]
     pub class: Option<FailureClass>,
+    /// What the agent was doing (failed episodes that showed a behaviour only).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub behaviour: Option<FailureClass>,
     /// Steps with a target in view (failed episodes only).
     #[serde(default)]
     pub target_visible_steps: Option<u32>,
@@ -344,6 +363,7 @@ pub fn worst_episodes(
                 level: level_id.clone(),
                 done_required: Some(level.done_required),
                 class: e.failure.map(|d| d.class),
+                behaviour: e.failure.and_then(|d| d.behaviour),
                 target_visible_steps: e.failure.map(|d| d.target_visible_steps),
                 m_on_target_steps: e.failure.and_then(|d| d.m_on_target_steps),
                 counterfactual: None,
@@ -363,10 +383,33 @@ pub fn worst_episodes(
             .unwrap_or(std::cmp::Ordering::Equal)
             .then(a.seed.cmp(&b.seed))
     });
-    failed.truncate(k);
-    low.truncate(k);
-    failed.extend(low);
-    failed
+    let mut out = per_level(failed, k);
+    out.extend(per_level(low, k));
+    out
+}
+
+/// The first `k` of `sorted` for each BabyAI level, in order of each level's first entry
+/// (the paper's cells, level `None`, count as one: its worst episodes across sizes as before).
+fn per_level(sorted: Vec<Failure>, k: usize) -> Vec<Failure> {
+    let mut taken: Vec<(Option<String>, usize)> = Vec::new();
+    let mut kept = Vec::new();
+    for f in sorted {
+        let n = match taken.iter_mut().find(|(l, _)| *l == f.level) {
+            Some((_, n)) => n,
+            None => {
+                taken.push((f.level.clone(), 0));
+                &mut taken.last_mut().expect("just pushed").1
+            }
+        };
+        if *n < k {
+            *n += 1;
+            kept.push(f);
+        }
+    }
+    // Grouped by level, the groups in order of their worst entry.
+    let order: Vec<Option<String>> = taken.into_iter().map(|(l, _)| l).collect();
+    kept.sort_by_key(|f| order.iter().position(|l| *l == f.level));
+    kept
 }
 
 impl Report {

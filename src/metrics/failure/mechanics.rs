@@ -199,11 +199,20 @@ mod tests {
 
     /// Runs `world` with `actions` (then turning left to the end) and classifies it, as the
     /// sweep does, without `M`.
-    fn classify(mut world: World, actions: &[Action]) -> Option<FailureClass> {
+    fn classify(world: World, actions: &[Action]) -> Option<FailureClass> {
+        diagnose(world, actions, Action::Left).map(|d| d.class)
+    }
+
+    /// Runs `world` with `actions`, then `then` to the end, and diagnoses it without `M`.
+    fn diagnose(
+        mut world: World,
+        actions: &[Action],
+        then: Action,
+    ) -> Option<super::super::Diagnosis> {
         let mut e = Evidence::default();
         let mut t = 0;
         while !world.ended() {
-            let action = actions.get(t).copied().unwrap_or(Action::Left);
+            let action = actions.get(t).copied().unwrap_or(then);
             t += 1;
             let obs = world.observe();
             let before = world.clone();
@@ -218,7 +227,28 @@ mod tests {
                 truncated: out.truncated,
             });
         }
-        e.diagnose().map(|d| d.class)
+        e.diagnose()
+    }
+
+    /// The class says what the agent never reached, the behaviour what it did instead:
+    /// turning until the limit behind KeyCorridor's locked door is `locked_door_no_key` by
+    /// class and `turning_in_place` by behaviour; walking into the wall ahead to the limit is
+    /// `blocked_forward` by behaviour (its class unchanged).
+    #[test]
+    fn the_behaviour_names_what_the_agent_did() {
+        for seed in 0..3 {
+            let world = babyai("BabyAI-KeyCorridorS3R3-v0").generate(seed).unwrap();
+            let d = diagnose(world.clone(), &[], Action::Left).unwrap();
+            assert_eq!(d.class, FailureClass::LockedDoorNoKey);
+            assert_eq!(d.behaviour, Some(FailureClass::TurningInPlace));
+            let d = diagnose(world, &[], Action::Forward).unwrap();
+            assert_eq!(d.class, FailureClass::LockedDoorNoKey, "seed {seed}");
+            assert_eq!(
+                d.behaviour,
+                Some(FailureClass::BlockedForward),
+                "seed {seed}"
+            );
+        }
     }
 
     fn babyai(id: &str) -> LevelConfig {

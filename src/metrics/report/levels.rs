@@ -11,13 +11,14 @@ use plotters::prelude::*;
 use super::{Cell, Report};
 use crate::env::level::LevelConfig;
 use crate::metrics::error::MetricsError;
+use crate::metrics::failure::FailureClass;
 use crate::metrics::figures::{save_rgb, series_color};
 use crate::metrics::grounding::WordKind;
 use crate::metrics::sweep::EpisodeSummary;
 use crate::table::{Record, Table};
 
 /// `episodes.csv`'s header.
-pub const EPISODES_CSV_HEADER: &str = "checkpoint,level,eval_seed,episode,level_seed,mission,success,steps,return,failure_class,actions,expert_agreement,first_divergence,bot_steps,path_efficiency";
+pub const EPISODES_CSV_HEADER: &str = "checkpoint,level,eval_seed,episode,level_seed,mission,success,steps,return,failure_class,actions,expert_agreement,first_divergence,bot_steps,path_efficiency,behaviour";
 
 /// The name `episodes.csv` gives a level: the BabyAI id, or for the paper's level the id its
 /// minigrid class is registered under in the dumps (`groundscope-PaperLocalS8N4-v0`).
@@ -69,7 +70,12 @@ pub fn episodes_csv(cells: &[(String, LevelConfig, Vec<EpisodeSummary>)]) -> Str
                     .field(number(x.agreement()))
                     .field(x.first_divergence.map_or(String::new(), |t| t.to_string()))
                     .field(x.bot_length.map_or(String::new(), |n| n.to_string()))
-                    .field(number(x.path_efficiency(e.success, e.length))),
+                    .field(number(x.path_efficiency(e.success, e.length)))
+                    .field(
+                        e.failure
+                            .and_then(|d| d.behaviour)
+                            .map_or("", FailureClass::name),
+                    ),
             );
             index += 1;
         }

@@ -147,7 +147,7 @@ impl Report {
         let _ = writeln!(s, "\n## Worst episodes\n");
         let _ = writeln!(
             s,
-            "| why {} seed | mission | reward | length | acc_cmb (M) | class | without distractors | replay · open in the debugger |",
+            "| why {} seed | mission | reward | length | acc_cmb (M) | class (behaviour) | without distractors | replay · open in the debugger |",
             self.key_header()
         );
         let _ = writeln!(s, "|---{}---|---|---|---|---|---|---|---|", self.key_rule());
@@ -162,7 +162,10 @@ impl Report {
                 f.reward,
                 f.length,
                 f.acc_cmb.map_or("–".into(), |a| format!("{a:.3}")),
-                f.class.map_or("–", FailureClass::name),
+                f.class.map_or("–".into(), |c| match f.behaviour {
+                    Some(b) if b != c => format!("{} ({})", c.name(), b.name()),
+                    _ => c.name().to_owned(),
+                }),
                 f.counterfactual.map_or("–".into(), |c| format!(
                     "{} ({} removed, {} steps)",
                     if c.success { "succeeds" } else { "fails" },
@@ -216,6 +219,55 @@ impl Report {
                 }
             }
             s.push('\n');
+        }
+        self.behaviour_table(s);
+        let _ = writeln!(
+            s,
+            "\nEach failed episode gets the first class whose rule holds, in the columns' order              (docs/evaluation.md#failure-classes):\n"
+        );
+        for k in &classes {
+            let _ = writeln!(s, "- `{}`: {}.", k.name(), k.definition());
+        }
+    }
+
+    /// What the failed agents were doing, whatever their class: a behaviour per failed
+    /// episode ([`crate::metrics::failure::Diagnosis::behaviour`]), counted per cell.
+    fn behaviour_table(&self, s: &mut String) {
+        if self.cells.iter().all(|c| c.behaviours.is_empty()) {
+            return;
+        }
+        let _ = writeln!(s, "\n### What the agent was doing\n");
+        let behaviours = FailureClass::BEHAVIOURS;
+        let mut header = format!("{} failed |", self.key_header());
+        for b in behaviours {
+            let _ = write!(header, " {} |", b.name().replace('_', " "));
+        }
+        let _ = writeln!(s, "{header} none of these |");
+        let _ = writeln!(
+            s,
+            "{}---|{}---|",
+            self.key_rule(),
+            "---|".repeat(behaviours.len())
+        );
+        for c in &self.cells {
+            let n = |name: &str| c.behaviours.get(name).copied().unwrap_or(0);
+            let _ = write!(
+                s,
+                "{} {} |",
+                self.cell_key(c),
+                c.behaviours.values().sum::<u64>()
+            );
+            for b in behaviours {
+                let _ = write!(s, " {} |", n(b.name()));
+            }
+            let _ = writeln!(s, " {} |", n("none"));
+        }
+        let _ = writeln!(
+            s,
+            "\nThe first behaviour that holds, in the columns' order:\n"
+        );
+        for b in behaviours {
+            let _ = writeln!(s, "- `{}`: {}.", b.name(), b.definition());
         }
     }
 }
