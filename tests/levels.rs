@@ -138,12 +138,13 @@ fn a_sweep_over_levels_reports_each_level_and_word_class() {
     // Two levels of one room size are two rows of every table, not one shared row.
     let md = std::fs::read_to_string(out.join("report.md")).unwrap();
     for id in ["BabyAI-GoToLocal-v0", "BabyAI-PickupLoc-v0"] {
+        // Keyed by level, its grid and its rooms (not "size 8, objects 0").
         assert!(
-            md.contains(&format!("| bundled:attention | {id} | 8 | 0 |")),
+            md.contains(&format!("| bundled:attention | {id} | 8×8 | 1×1 |")),
             "{md}"
         );
         // The failed episodes' exploration, one row per level.
-        assert!(md.contains(&format!("| {id} | – |")), "{md}");
+        assert!(md.contains(&format!("| {id} | 8×8 | 1×1 |")), "{md}");
     }
     // Every CSV that names cells by size and objects names a BabyAI cell's level too.
     for csv in [
@@ -186,6 +187,10 @@ fn a_sweep_over_levels_reports_each_level_and_word_class() {
             .map_or(0, |b| b.values().map(|n| n.as_u64().unwrap()).sum::<u64>());
         assert_eq!(behaviours, failed, "cell {k}");
     }
+    assert!(!md.contains("| size | objects |"), "{md}");
+    // The exploration figure has a row per level: as tall as the per-level success figure.
+    let dims = |f: &str| image::image_dimensions(out.join(f)).unwrap();
+    assert_eq!(dims("fig_exploration.png"), dims("levels_success.png"));
     // report.md defines every class it counts.
     for class in ["target_never_visible", "grounding", "wrong_object", "other"] {
         assert!(md.contains(&format!("- `{class}`: ")), "{md}");

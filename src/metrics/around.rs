@@ -65,10 +65,11 @@ impl Report {
         );
         let _ = writeln!(
             s,
-            "| checkpoint | size | objects | word | {} |",
+            "{} word | {} |",
+            self.key_header(),
             AROUND_NAMES.join(" | ")
         );
-        let _ = writeln!(s, "|---|---|---|---|{}", "---|".repeat(AROUND.len()));
+        let _ = writeln!(s, "{}---|{}", self.key_rule(), "---|".repeat(AROUND.len()));
         for (c, kind, g) in self.around_rows() {
             let cols: Vec<String> = g
                 .around
@@ -77,10 +78,8 @@ impl Report {
                 .collect();
             let _ = writeln!(
                 s,
-                "| {} | {} | {} | {} | {} |",
-                c.checkpoint,
-                c.size,
-                c.objects,
+                "{} {} | {} |",
+                self.cell_key(c),
                 kind.name(),
                 cols.join(" | ")
             );

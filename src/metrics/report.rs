@@ -3,7 +3,7 @@
 //! place only when complete, so a failure leaves no partial report.
 
 mod levels;
-mod markdown;
+pub(crate) mod markdown;
 
 pub use levels::{EPISODES_CSV_HEADER, episodes_csv, level_name};
 

@@ -158,8 +158,8 @@ impl Report {
              `words.csv` has `acc_ng`, the std and the counts). **⚠** marks a word far below \
              its class (under half the class's `acc`): the class mean hides it.\n"
         );
-        let _ = writeln!(s, "| checkpoint | size | objects | {} |", words.join(" | "));
-        let _ = writeln!(s, "|---|---|---|{}", "---|".repeat(words.len()));
+        let _ = writeln!(s, "{} {} |", self.key_header(), words.join(" | "));
+        let _ = writeln!(s, "{}{}", self.key_rule(), "---|".repeat(words.len()));
         for c in &self.cells {
             let Some(a) = &c.accuracy else { continue };
             let cols: Vec<String> = words
@@ -176,14 +176,7 @@ impl Report {
                     }
                 })
                 .collect();
-            let _ = writeln!(
-                s,
-                "| {} | {} | {} | {} |",
-                c.checkpoint,
-                c.size,
-                c.objects,
-                cols.join(" | ")
-            );
+            let _ = writeln!(s, "{} {} |", self.cell_key(c), cols.join(" | "));
         }
     }
 }

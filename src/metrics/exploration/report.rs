@@ -77,7 +77,7 @@ fn labels(report: &Report) -> Vec<(String, String)> {
 }
 
 /// The attention checkpoints' maps while a target is hidden / visible, all episodes.
-fn maps_table(with: &[&Cell], s: &mut String) {
+fn maps_table(report: &Report, with: &[&Cell], s: &mut String) {
     let rows: Vec<(&Cell, &super::CellMapSplit)> = with
         .iter()
         .filter_map(|c| Some((*c, c.exploration.as_ref()?.all.maps.as_ref()?)))
@@ -98,16 +98,15 @@ fn maps_table(with: &[&Cell], s: &mut String) {
     );
     let _ = writeln!(
         s,
-        "| checkpoint | size | objects | hidden steps | H(M) hidden | H(M) visible | max M hidden | max M visible | H(w) hidden | H(w) visible |"
+        "{} hidden steps | H(M) hidden | H(M) visible | max M hidden | max M visible | H(w) hidden | H(w) visible |",
+        report.key_header()
     );
-    let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|---|");
+    let _ = writeln!(s, "{}---|---|---|---|---|---|---|", report.key_rule());
     for (c, m) in rows {
         let _ = writeln!(
             s,
-            "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
-            c.checkpoint,
-            c.size,
-            c.objects,
+            "{} {} | {} | {} | {} | {} | {} | {} |",
+            report.cell_key(c),
             m.hidden.steps,
             mean3(&m.hidden.m_entropy),
             mean3(&m.visible.m_entropy),
@@ -176,8 +175,18 @@ impl Report {
              `exploration.csv` has the std, the successes and more; see docs/exploration.md).\n"
         );
         let names: Vec<&str> = self.checkpoints.iter().map(|c| c.name.as_str()).collect();
-        let _ = writeln!(s, "| size | objects | {} |", names.join(" | "));
-        let _ = writeln!(s, "|---|---|{}", "---|".repeat(names.len()));
+        let key = if self.has_levels() {
+            "| level | grid | rooms |"
+        } else {
+            "| size | objects |"
+        };
+        let rule = if self.has_levels() {
+            "|---|---|---|"
+        } else {
+            "|---|---|"
+        };
+        let _ = writeln!(s, "{key} {} |", names.join(" | "));
+        let _ = writeln!(s, "{rule}{}", "---|".repeat(names.len()));
         // A BabyAI level is its own row: two levels of one room size must not share one.
         let mut keys: Vec<(usize, usize, Option<&str>)> = Vec::new();
         for c in &with {
@@ -210,16 +219,14 @@ impl Report {
                     }
                 })
                 .collect();
-            match level {
-                Some(id) => {
-                    let _ = writeln!(s, "| {id} | – | {} |", cols.join(" | "));
-                }
-                None => {
-                    let _ = writeln!(s, "| {size} | {objects} | {} |", cols.join(" | "));
-                }
+            if self.has_levels() {
+                let key = crate::metrics::report::markdown::level_key(level, size, objects);
+                let _ = writeln!(s, "| {key} | {} |", cols.join(" | "));
+            } else {
+                let _ = writeln!(s, "| {size} | {objects} | {} |", cols.join(" | "));
             }
         }
-        maps_table(&with, s);
+        maps_table(self, &with, s);
     }
 
     /// Draws the exploration figures into `dir`; returns the names of those written
@@ -240,7 +247,23 @@ impl Report {
                 .find(|(n, _)| *n == c.checkpoint)
                 .map_or(c.checkpoint.clone(), |(_, l)| l.clone())
         };
-        self.figure(
+        // A sweep over BabyAI levels plots a row per level; the paper's, size × objects.
+        let figure = |path: &Path,
+                      title: &str,
+                      series: &dyn Fn(&Cell) -> Vec<(String, MeanStd)>|
+         -> Result<(), MetricsError> {
+            if self.has_levels() {
+                self.levels_bars(
+                    path,
+                    title,
+                    "share (mean over episodes; line: ± std)",
+                    series,
+                )
+            } else {
+                self.figure(path, title, series)
+            }
+        };
+        figure(
             &dir.join(FIG_EXPLORATION),
             "Failed episodes: share of the floor ever seen",
             &|c| {
@@ -256,7 +279,7 @@ impl Report {
             .iter()
             .any(|c| c.exploration.as_ref().is_some_and(|x| x.all.maps.is_some()));
         if any_maps {
-            self.figure(
+            figure(
                 &dir.join(FIG_EXPLORATION_MAPS),
                 "H(M) / ln 49 while no target is visible (hidden) and while one is",
                 &|c| {

@@ -14,7 +14,7 @@ use crate::metrics::error::MetricsError;
 use crate::metrics::failure::FailureClass;
 use crate::metrics::figures::{save_rgb, series_color};
 use crate::metrics::grounding::WordKind;
-use crate::metrics::sweep::EpisodeSummary;
+use crate::metrics::sweep::{EpisodeSummary, MeanStd};
 use crate::table::{Record, Table};
 
 /// `episodes.csv`'s header.
@@ -163,6 +163,24 @@ impl Report {
     /// `levels_success.png`: the success rate (± std over seeds) of every checkpoint on every
     /// level of the sweep, one row of bars per level.
     pub(super) fn levels_figure(&self, path: &Path) -> Result<(), MetricsError> {
+        self.levels_bars(
+            path,
+            "Success rate per level",
+            "success rate (mean over seeds; line: ± std)",
+            &|c| vec![(c.checkpoint.clone(), c.success)],
+        )
+    }
+
+    /// A figure of one row of bars per level of the sweep, one bar per series `series` gives
+    /// a cell (a value in [0, 1], mean ± std over seeds): the level-keyed form of the
+    /// report's figures, whose paper form plots room size against object count.
+    pub(crate) fn levels_bars(
+        &self,
+        path: &Path,
+        title: &str,
+        x_desc: &str,
+        series: &dyn Fn(&Cell) -> Vec<(String, MeanStd)>,
+    ) -> Result<(), MetricsError> {
         crate::metrics::figures::register_font();
         let err = |e: &dyn std::fmt::Display| MetricsError::Io {
             path: path.to_path_buf(),
@@ -174,8 +192,10 @@ impl Report {
             if !levels.contains(&c.label()) {
                 levels.push(c.label());
             }
-            if !ckpts.contains(&c.checkpoint) {
-                ckpts.push(c.checkpoint.clone());
+            for (name, _) in series(c) {
+                if !ckpts.contains(&name) {
+                    ckpts.push(name);
+                }
             }
         }
         let row = 14 * ckpts.len().max(1) as u32 + 10;
@@ -186,7 +206,7 @@ impl Report {
             root.fill(&WHITE).map_err(|e| err(&e))?;
             let n = levels.len() as f64;
             let mut chart = ChartBuilder::on(&root)
-                .caption("Success rate per level", ("sans-serif", 22))
+                .caption(title, ("sans-serif", 22))
                 .margin(12)
                 .x_label_area_size(40)
                 .y_label_area_size(300)
@@ -202,7 +222,7 @@ impl Report {
             };
             chart
                 .configure_mesh()
-                .x_desc("success rate (mean over seeds; line: ± std)")
+                .x_desc(x_desc)
                 .y_labels(levels.len() * 2 + 1)
                 .y_label_formatter(&label_of)
                 .label_style(("sans-serif", 13))
@@ -214,11 +234,12 @@ impl Report {
                 let color = series_color(j);
                 let bars: Vec<(f64, f64, f64)> = self
                     .level_cells()
-                    .filter(|c| c.checkpoint == *ckpt)
-                    .filter_map(|c| {
+                    .flat_map(|c| series(c).into_iter().map(move |(name, m)| (c, name, m)))
+                    .filter(|(_, name, _)| name == ckpt)
+                    .filter_map(|(c, _, m)| {
                         let i = levels.iter().position(|l| *l == c.label())? as f64;
                         let top = n - i - 0.1 - 0.8 * j as f64 / k;
-                        Some((top, c.success.mean?, c.success.std.unwrap_or(0.0)))
+                        Some((top, m.mean?.clamp(0.0, 1.0), m.std.unwrap_or(0.0)))
                     })
                     .collect();
                 let h = 0.8 / k;

@@ -7,19 +7,38 @@ use crate::metrics::failure::FailureClass;
 use crate::metrics::grounding::WordKind;
 use crate::metrics::sweep::MeanStd;
 
+/// `level | grid | rooms` of a level-keyed row: a BabyAI id with its grid and room layout,
+/// or the paper's level as `S{size} N{objects}` in one room of its size.
+pub(crate) fn level_key(level: Option<&str>, size: usize, objects: usize) -> String {
+    match level.and_then(|id| crate::env::level::LevelId::parse(id).ok()) {
+        Some(id) => {
+            let rooms = id.spec().rooms;
+            let (w, h) = rooms.grid_size();
+            format!(
+                "{} | {w}×{h} | {}×{}",
+                id.id(),
+                rooms.num_cols,
+                rooms.num_rows
+            )
+        }
+        None => format!("S{size} N{objects} | {size}×{size} | 1×1"),
+    }
+}
+
 impl Report {
     /// The header cells that name a row's cell: `checkpoint`, then with BabyAI levels in the
-    /// sweep ([`Report::has_levels`]) `level`, then `size` and `objects`.
-    fn key_header(&self) -> &'static str {
+    /// sweep ([`Report::has_levels`]) `level`, its `grid` (width × height, walls included) and
+    /// `rooms` (columns × rows), as `env list` gives them; else `size` and `objects`.
+    pub(crate) fn key_header(&self) -> &'static str {
         if self.has_levels() {
-            "| checkpoint | level | size | objects |"
+            "| checkpoint | level | grid | rooms |"
         } else {
             "| checkpoint | size | objects |"
         }
     }
 
     /// The separator cells under [`Report::key_header`].
-    fn key_rule(&self) -> &'static str {
+    pub(crate) fn key_rule(&self) -> &'static str {
         if self.has_levels() {
             "|---|---|---|---|"
         } else {
@@ -37,15 +56,14 @@ impl Report {
         objects: usize,
     ) -> String {
         if self.has_levels() {
-            let label = level.map_or_else(|| format!("S{size} N{objects}"), str::to_owned);
-            format!("| {checkpoint} | {label} | {size} | {objects} |")
+            format!("| {checkpoint} | {} |", level_key(level, size, objects))
         } else {
             format!("| {checkpoint} | {size} | {objects} |")
         }
     }
 
     /// [`Report::key_cells`] of a cell.
-    fn cell_key(&self, c: &Cell) -> String {
+    pub(crate) fn cell_key(&self, c: &Cell) -> String {
         self.key_cells(&c.checkpoint, c.level.as_deref(), c.size, c.objects)
     }
 
@@ -317,15 +335,15 @@ mod tests {
         ]);
         let md = r.markdown(&[]);
         for row in [
-            "| ck | S8 N4 | 8 | 4 | 0.500 ± 0.000 |",
-            "| ck | BabyAI-GoToLocal-v0 | 8 | 0 | 0.250 ± 0.000 |",
-            "| ck | BabyAI-PickupLoc-v0 | 8 | 0 | 0.750 ± 0.000 |",
+            "| ck | S8 N4 | 8×8 | 1×1 | 0.500 ± 0.000 |",
+            "| ck | BabyAI-GoToLocal-v0 | 8×8 | 1×1 | 0.250 ± 0.000 |",
+            "| ck | BabyAI-PickupLoc-v0 | 8×8 | 1×1 | 0.750 ± 0.000 |",
         ] {
             // The performance table names every cell by its level.
             assert!(md.contains(row), "{row}\n{md}");
         }
-        assert!(md.contains("| checkpoint | level | size | objects | reward |"));
-        assert!(md.contains("| checkpoint | level | size | objects | failed |"));
+        assert!(md.contains("| checkpoint | level | grid | rooms | reward |"));
+        assert!(md.contains("| checkpoint | level | grid | rooms | failed |"));
         let csv = r.performance_csv();
         let (header, rows) = crate::table::read(&csv).unwrap();
         assert_eq!(header.last().map(String::as_str), Some("level"));
