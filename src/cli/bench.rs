@@ -143,14 +143,33 @@ fn bench_env(
         Some(id) => LevelConfig::babyai(groundscope::env::LevelId::parse(id)?, done),
         None => LevelConfig::default(),
     };
+    // Seeds minigrid loops forever on have no level: passed over, and counted.
+    let mut endless = 0u64;
+    let mut generate = |seed: u64| -> anyhow::Result<Option<groundscope::env::World>> {
+        match cfg.generate(seed) {
+            Err(groundscope::env::EnvError::GenerationHangs { .. }) => {
+                endless += 1;
+                Ok(None)
+            }
+            w => Ok(Some(w?)),
+        }
+    };
     let start = Instant::now();
     for seed in 0..resets {
-        black_box(cfg.generate(seed)?.observe());
+        black_box(generate(seed)?.map(|w| w.observe()));
     }
     let reset_secs = start.elapsed().as_secs_f64();
     let mut rng = Pcg64Mcg::seed_from_u64(0);
     let mut seed = 0;
-    let mut world = cfg.generate(seed)?;
+    let mut next = |seed: &mut u64| -> anyhow::Result<groundscope::env::World> {
+        loop {
+            if let Some(w) = generate(*seed)? {
+                return Ok(w);
+            }
+            *seed += 1;
+        }
+    };
+    let mut world = next(&mut seed)?;
     let mut episodes = 1u64;
     let start = Instant::now();
     for _ in 0..steps {
@@ -160,10 +179,11 @@ fn bench_env(
         if out.terminated || out.truncated {
             seed += 1;
             episodes += 1;
-            world = cfg.generate(seed)?;
+            world = next(&mut seed)?;
         }
     }
     let secs = start.elapsed().as_secs_f64();
+    drop(next);
     let line = serde_json::json!({
         "bench": "env",
         "steps_per_sec": (steps as f64 / secs).round(),
@@ -172,6 +192,7 @@ fn bench_env(
         "level": cfg.to_string(),
         "steps": steps,
         "episodes": episodes,
+        "endless_seeds": endless,
         "threads": 1,
         "elapsed_secs": secs,
     });
