@@ -1,5 +1,7 @@
 """groundscope.make against gymnasium.make over minigrid 3.2.0, step by step."""
 
+import zlib
+
 import gymnasium as gym
 import numpy as np
 import pytest
@@ -20,7 +22,7 @@ def test_every_babyai_id_is_ported():
 def test_make_equals_minigrid(env_id):
     ref = gym.make(env_id)
     ours = groundscope.make(env_id)
-    rng = np.random.default_rng(abs(hash(env_id)) % 2**32)
+    rng = np.random.default_rng(zlib.crc32(env_id.encode()))
     resets = 0
     for seed in SEEDS:
         o_ref, i_ref = ref.reset(seed=seed)
