@@ -11,6 +11,9 @@ The envs are also registered with gymnasium as ``groundscope/BabyAI-…-v0``.
 
 from __future__ import annotations
 
+import json
+import os
+
 import gymnasium as gym
 
 from . import _core
@@ -20,9 +23,11 @@ __all__ = [
     "GroundscopeEnv",
     "GroundscopeVecEnv",
     "MINIGRID_VERSION",
+    "evaluate",
     "level_ids",
     "make",
     "make_vec",
+    "record",
 ]
 
 NAMESPACE = "groundscope"
@@ -78,6 +83,80 @@ def make_vec(id: str, num_envs: int, *, num_threads: int = 0, copy: bool = True)
     level = _bare(id)
     _register(level)
     return GroundscopeVecEnv(level, num_envs, num_threads=num_threads, copy=copy)
+
+
+def evaluate(
+    act,
+    levels,
+    seeds: int = 5,
+    episodes: int = 100,
+    out: str | os.PathLike = "run",
+    first_seed: int = 0,
+    sample: bool = False,
+    *,
+    alpha: float = 0.5,
+    name: str = "python",
+    map_layout: str = "image",
+    top_k: int = 10,
+) -> dict:
+    """Evaluates a Python policy as ``groundscope eval`` evaluates a checkpoint, writing the
+    same report to ``out`` (report.md, report.json, episodes.csv, the CSV tables, figures).
+
+    ``act(obs, first)`` gets a batch dict (``image`` (N,7,7,3) uint8, ``direction`` (N,)
+    int64, ``mission`` a list of N str) and a bool array ``first`` (N,) marking episode
+    starts (a recurrent policy resets its memory there). Row ``i`` is the same episode at
+    every call; a finished episode's row repeats its last observation and its output is
+    ignored. It returns logits (N,7), or a dict with ``logits`` and optionally ``word_maps``
+    (N,L,7,7) — one map per mission word (BabyAI's split: runs of a-z), in the axis order of
+    ``image`` (``map_layout="image"``, ``[vx][vy]``) or ``"agent-up"`` (``[vy][vx]``) —
+    ``word_weights`` (N,L), ``combined_map`` (N,7,7) and ``values`` (N,). With word maps the
+    report holds the grounding accuracies.
+
+    ``levels``: BabyAI ids (or ``groundscope-PaperLocalS{S}N{N}-v0``); episode ``e`` of
+    evaluation seed ``s`` runs level seed ``s * 10**6 + e``. Greedy actions unless ``sample``.
+    Returns report.json's content as a dict.
+    """
+    if isinstance(levels, str):
+        levels = [levels]
+    for k, v in (("seeds", seeds), ("episodes", episodes), ("first_seed", first_seed), ("top_k", top_k)):
+        if isinstance(v, bool) or not isinstance(v, int) or v < 0:
+            raise ValueError(f"{k} must be a non-negative int, got {v!r}")
+    report = _core.evaluate(
+        act,
+        [_bare(level) for level in levels],
+        seeds,
+        episodes,
+        os.fspath(out),
+        first_seed,
+        bool(sample),
+        float(alpha),
+        str(name),
+        map_layout,
+        top_k,
+    )
+    return json.loads(report)
+
+
+def record(
+    act,
+    level: str,
+    seed: int,
+    path: str | os.PathLike,
+    sample: bool = False,
+    *,
+    alpha: float = 0.5,
+    name: str = "python",
+    map_layout: str = "image",
+):
+    """Runs ``act`` (as in :func:`evaluate`, with N = 1) on one episode of ``level`` from level
+    seed ``seed`` and writes what ``groundscope replay`` writes: a Rerun recording (``.rrd``)
+    or MCAP (``.mcap``), word maps included when ``act`` returns them. Returns
+    ``(success, steps, reward)``."""
+    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+        raise ValueError(f"seed must be a non-negative int, got {seed!r}")
+    return _core.record(
+        act, _bare(level), seed, os.fspath(path), bool(sample), float(alpha), str(name), map_layout
+    )
 
 
 for _level in _core.level_ids():
