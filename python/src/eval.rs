@@ -55,7 +55,10 @@ fn check_alpha(alpha: f64) -> PyResult<()> {
 /// writes the report to `out`. Returns report.json's content.
 #[pyfunction]
 #[pyo3(signature = (act, levels, seeds=5, episodes=100, out=PathBuf::from("run"), first_seed=0, sample=false, alpha=0.5, name="python".to_owned(), map_layout="image", top_k=10))]
-#[expect(clippy::too_many_arguments, reason = "the keyword arguments of the Python function")]
+#[expect(
+    clippy::too_many_arguments,
+    reason = "the keyword arguments of the Python function"
+)]
 pub fn evaluate(
     py: Python<'_>,
     act: Bound<'_, PyAny>,
@@ -173,7 +176,10 @@ pub fn evaluate(
 /// `(success, steps, reward)`.
 #[pyfunction]
 #[pyo3(signature = (act, level, seed, path, sample=false, alpha=0.5, name="python".to_owned(), map_layout="image"))]
-#[expect(clippy::too_many_arguments, reason = "the keyword arguments of the Python function")]
+#[expect(
+    clippy::too_many_arguments,
+    reason = "the keyword arguments of the Python function"
+)]
 pub fn record(
     act: Bound<'_, PyAny>,
     level: &str,
@@ -210,7 +216,8 @@ pub fn record(
     };
     let world = initial_world(&spec).map_err(|e| PyValueError::new_err(e.to_string()))?;
     policy.begin(vec![world.mission.clone()]);
-    let trace = run_from(&policy, &name, &spec, world).map_err(|e: PolicyError| run_error(&policy, &e))?;
+    let trace =
+        run_from(&policy, &name, &spec, world).map_err(|e: PolicyError| run_error(&policy, &e))?;
     let summary = (trace.success(), trace.steps.len(), trace.total_reward());
     let episodes = [trace];
     if rrd {

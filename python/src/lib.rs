@@ -18,6 +18,9 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(env::level_ids, m)?)?;
     m.add_function(wrap_pyfunction!(eval::evaluate, m)?)?;
     m.add_function(wrap_pyfunction!(eval::record, m)?)?;
-    m.add("MINIGRID_VERSION", groundscope::env::snapshot::MINIGRID_VERSION)?;
+    m.add(
+        "MINIGRID_VERSION",
+        groundscope::env::snapshot::MINIGRID_VERSION,
+    )?;
     Ok(())
 }

@@ -19,7 +19,7 @@ use groundscope::env::view::Observation;
 use groundscope::policy::onnx::{MapOutputs, trace};
 use groundscope::policy::trace::ViewMap;
 use groundscope::policy::{
-    Acting, ActOutput, Intervention, Memory, MissionInputs, PolicyError, Variant,
+    ActOutput, Acting, Intervention, Memory, MissionInputs, PolicyError, Variant,
 };
 use numpy::{PyArray1, PyArrayMethods as _};
 use pyo3::exceptions::PyValueError;
@@ -63,6 +63,9 @@ struct Batch {
     error: Option<PyErr>,
 }
 
+/// What one call returned for the active rows: logits, values and (with maps) the maps.
+type Outputs = (Vec<Vec<f32>>, Vec<f32>, Option<Vec<MapOutputs>>);
+
 /// A Python callable acting through the core's `Acting` interface.
 pub struct PyPolicy<'py> {
     act: Bound<'py, PyAny>,
@@ -83,9 +86,7 @@ fn floats(value: &Bound<'_, PyAny>, what: &str) -> PyResult<(Vec<usize>, Vec<f32
     let arr = np
         .call_method1("asarray", (value,))
         .and_then(|a| a.call_method1("astype", ("float32",)))
-        .map_err(|e| {
-            PyValueError::new_err(format!("{what}: not an array of numbers ({e})"))
-        })?;
+        .map_err(|e| PyValueError::new_err(format!("{what}: not an array of numbers ({e})")))?;
     let arr = arr.call_method0("ravel")?.cast_into::<PyArray1<f32>>()?;
     let shape: Vec<usize> = np
         .call_method1("shape", (value,))?
@@ -137,7 +138,12 @@ impl<'py> PyPolicy<'py> {
     }
 
     /// Calls the callable on the full batch; returns its output object.
-    fn call(&self, rows: &[usize], obs: &[Observation], dirs: &[u8]) -> PyResult<Bound<'py, PyAny>> {
+    fn call(
+        &self,
+        rows: &[usize],
+        obs: &[Observation],
+        dirs: &[u8],
+    ) -> PyResult<Bound<'py, PyAny>> {
         let py = self.act.py();
         let (image, direction, first, missions) = {
             let mut b = self.batch.borrow_mut();
@@ -173,7 +179,7 @@ impl<'py> PyPolicy<'py> {
         out: &Bound<'py, PyAny>,
         rows: &[usize],
         tokens: &[&[u32]],
-    ) -> PyResult<(Vec<Vec<f32>>, Vec<f32>, Option<Vec<MapOutputs>>)> {
+    ) -> PyResult<Outputs> {
         let n = self.batch.borrow().missions.len();
         let dict = out.cast::<PyDict>().ok();
         let get = |key: &str| -> PyResult<Option<Bound<'py, PyAny>>> {
@@ -183,9 +189,8 @@ impl<'py> PyPolicy<'py> {
             }
         };
         let logits_obj = match &dict {
-            Some(_) => get("logits")?.ok_or_else(|| {
-                PyValueError::new_err("act returned a dict without 'logits'")
-            })?,
+            Some(_) => get("logits")?
+                .ok_or_else(|| PyValueError::new_err("act returned a dict without 'logits'"))?,
             None => out.clone(),
         };
         let (shape, flat) = floats(&logits_obj, "logits")?;

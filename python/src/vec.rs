@@ -205,7 +205,10 @@ impl VecEnv {
             .zip(truncated.iter_mut())
             .zip(acts)
             .map(
-                |(((((((env, autoreset), image), direction), reward), terminated), truncated), action)| Slot {
+                |(
+                    ((((((env, autoreset), image), direction), reward), terminated), truncated),
+                    action,
+                )| Slot {
                     env,
                     autoreset,
                     image,
