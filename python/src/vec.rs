@@ -131,7 +131,6 @@ impl VecEnv {
     #[pyo3(signature = (seeds, image, direction, mask=None))]
     fn reset(
         &mut self,
-        py: Python<'_>,
         seeds: Vec<Bound<'_, PyAny>>,
         mut image: PyReadwriteArray4<'_, u8>,
         mut direction: PyReadwriteArray1<'_, i64>,
@@ -158,7 +157,6 @@ impl VecEnv {
             self.autoreset[i] = false;
             direction[i] = self.envs[i].write_obs(&mut image[i * IMAGE_BYTES..][..IMAGE_BYTES]);
         }
-        let _ = py;
         Ok(self.envs.iter().map(|e| e.mission().to_owned()).collect())
     }
 
