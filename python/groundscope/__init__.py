@@ -75,11 +75,15 @@ def make(id: str, **kwargs) -> gym.Env:
     return gym.make(_register(level), **kwargs)
 
 
-def make_vec(id: str, num_envs: int, *, num_threads: int = 0, copy: bool = True) -> GroundscopeVecEnv:
+def make_vec(
+    id: str, num_envs: int, *, num_threads: int | None = None, copy: bool = True
+) -> GroundscopeVecEnv:
     """``num_envs`` envs of level ``id`` as one ``gymnasium.vector.VectorEnv``, equal step by
     step to ``gymnasium.make_vec(id, num_envs, vectorization_mode="sync")`` over minigrid
-    (autoreset mode NEXT_STEP), stepped in Rust on ``num_threads`` threads (0: one per core)
-    with the GIL released."""
+    (autoreset mode NEXT_STEP), stepped in Rust with the GIL released on ``num_threads``
+    threads: None (default) one per 256 envs up to one per core, 0 one per core, 1 the
+    calling thread. ``copy=False`` returns the preallocated arrays, overwritten by the next
+    step."""
     level = _bare(id)
     _register(level)
     return GroundscopeVecEnv(level, num_envs, num_threads=num_threads, copy=copy)

@@ -7,6 +7,7 @@ seeds; ``GroundscopeVecEnv`` as ``gymnasium.make_vec(id, n, vectorization_mode="
 
 from __future__ import annotations
 
+import os
 import string
 from typing import Any
 
@@ -81,13 +82,26 @@ class GroundscopeEnv(gym.Env):
         return self._core.agent_pos
 
 
+# Envs per thread before a second thread pays: a BabyAI step costs about a microsecond, a
+# fork-join across threads tens of them, and on the 2-core machine measured a second thread
+# never helped a 64–4096-env vector (docs/performance.md#python-vector-envs).
+ENVS_PER_THREAD = 256
+
+
+def default_threads(num_envs: int) -> int:
+    """The default thread count of a vector of ``num_envs`` envs: one per ``ENVS_PER_THREAD``
+    envs, at most one per core."""
+    return max(1, min(os.cpu_count() or 1, num_envs // ENVS_PER_THREAD))
+
+
 class GroundscopeVecEnv(VectorEnv):
     """``num_envs`` BabyAI envs stepped in Rust (use ``groundscope.make_vec``).
 
     Equal step by step to ``gymnasium.make_vec(id, num_envs, vectorization_mode="sync")``
     over minigrid: ``reset(seed=s)`` seeds env ``i`` with ``s + i``; an env that ended is reset
     on the next step (its own generator continued), which returns reward 0 and both flags
-    false. ``num_threads``: 0 one per core, 1 the calling thread. ``copy=False`` returns the
+    false. ``num_threads``: None one per 256 envs up to one per core, 0 one per core, 1 the
+    calling thread. ``copy=False`` returns the
     preallocated arrays themselves (overwritten by the next step) instead of copies.
     """
 
@@ -97,12 +111,14 @@ class GroundscopeVecEnv(VectorEnv):
         self,
         level: str,
         num_envs: int,
-        num_threads: int = 0,
+        num_threads: int | None = None,
         copy: bool = True,
         render_mode: str | None = None,
     ):
         if render_mode is not None:
             raise ValueError(f"render_mode: groundscope envs do not render, got {render_mode!r}")
+        if num_threads is None:
+            num_threads = default_threads(num_envs) if isinstance(num_envs, int) else 1
         for name, value, low in (("num_envs", num_envs, 1), ("num_threads", num_threads, 0)):
             if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < low:
                 raise ValueError(f"{name} must be an int >= {low}, got {value!r}")

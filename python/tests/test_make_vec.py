@@ -1,6 +1,7 @@
 """groundscope.make_vec against gymnasium.make_vec(..., vectorization_mode="sync") over
 minigrid 3.2.0, step by step, autoresets included."""
 
+import os
 import zlib
 
 import gymnasium as gym
@@ -74,6 +75,12 @@ def test_threads_do_not_change_results():
         assert_batch_equal(oa, ob, "threads")
         np.testing.assert_array_equal(ra, rb)
         np.testing.assert_array_equal(ta | ua, tb | ub)
+
+
+def test_default_threads_follow_the_vector_size():
+    assert groundscope.make_vec("BabyAI-GoToLocal-v0", 64).num_threads == 1
+    many = groundscope.make_vec("BabyAI-GoToLocal-v0", 1024).num_threads
+    assert many == min(os.cpu_count(), 4)
 
 
 def test_seed_lists_none_and_reset_mask_follow_gymnasium():
