@@ -234,3 +234,34 @@ fn generate_from(
     }
     Ok(world)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn continuing_a_fresh_stream_is_a_seeded_reset_and_continues_deterministically() {
+        // python/tests hold the continued levels against minigrid's own reset(seed=None).
+        for id in [
+            "BabyAI-GoToLocal-v0",
+            "BabyAI-BossLevel-v0",
+            "BabyAI-PutNextS5N2Carrying-v0",
+        ] {
+            let spec = spec(id).unwrap();
+            let seeded = generate(spec, 7, false).unwrap();
+            let mut rng = NumpyRng::new(7);
+            let first = generate_continuing(spec, &mut rng, 7, false).unwrap();
+            assert_eq!(first, seeded, "{id}");
+            assert!(rng.calls() > 0, "{id}: the stream moved on");
+            let mut again = NumpyRng::new(7);
+            generate_continuing(spec, &mut again, 7, false).unwrap();
+            let second = generate_continuing(spec, &mut rng, 7, false).unwrap();
+            assert_eq!(
+                second,
+                generate_continuing(spec, &mut again, 7, false).unwrap()
+            );
+            // The next level is drawn from where the first left the stream, not reseeded.
+            assert_ne!(second, seeded, "{id}");
+        }
+    }
+}
