@@ -82,17 +82,15 @@ fn memory_of_rows(rows: usize) -> Result<Memory, PolicyError> {
 /// One float array out of a Python value (numpy array, list, or anything `np.asarray` takes,
 /// such as a CPU torch tensor without grad), with its shape.
 fn floats(value: &Bound<'_, PyAny>, what: &str) -> PyResult<(Vec<usize>, Vec<f32>)> {
-    let np = value.py().import("numpy")?;
-    let arr = np
+    let arr = value
+        .py()
+        .import("numpy")?
         .call_method1("asarray", (value,))
         .and_then(|a| a.call_method1("astype", ("float32",)))
         .map_err(|e| PyValueError::new_err(format!("{what}: not an array of numbers ({e})")))?;
-    let arr = arr.call_method0("ravel")?.cast_into::<PyArray1<f32>>()?;
-    let shape: Vec<usize> = np
-        .call_method1("shape", (value,))?
-        .extract()
-        .unwrap_or_default();
-    let data = arr.readonly().as_slice()?.to_vec();
+    let shape: Vec<usize> = arr.getattr("shape")?.extract()?;
+    let flat = arr.call_method0("ravel")?.cast_into::<PyArray1<f32>>()?;
+    let data = flat.readonly().as_slice()?.to_vec();
     Ok((shape, data))
 }
 

@@ -184,3 +184,12 @@ def test_record_refuses_bad_paths_and_levels(tmp_path):
     with pytest.raises(ValueError, match="seed"):
         groundscope.record(reactive, LEVEL, -1, tmp_path / "ep.rrd")
     assert list(tmp_path.iterdir()) == []
+
+
+def test_every_babyai_level_evaluates_with_word_maps(tmp_path):
+    """Every level's missions reach the callable and are graded: no word outside the
+    vocabulary, maps long enough for the longest missions (BossLevel's)."""
+    report = groundscope.evaluate(grounded, groundscope.level_ids(), seeds=1, episodes=2, out=tmp_path / "all")
+    assert [c["level"] for c in report["cells"]] == groundscope.level_ids()
+    assert all(c["episodes"] == 2 for c in report["cells"])
+    assert len(episodes(tmp_path / "all")) == 2 * 96
