@@ -8,6 +8,7 @@
 //! downward; in the agent's 7×7 view the agent sits at `(3, 6)` facing up. Displays show the
 //! view agent-up: row = `vy`, column = `vx`.
 
+#[cfg(feature = "app")]
 pub mod app;
 pub mod bot;
 pub mod env;

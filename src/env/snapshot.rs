@@ -8,7 +8,7 @@
 mod json_path;
 mod verify;
 
-pub use verify::{MINIGRID_VERSION, Mismatch, verify_dump, verify_generation};
+pub use verify::{MINIGRID_VERSION, Mismatch, paper_level, verify_dump, verify_generation};
 
 use serde::{Deserialize, Serialize};
 

@@ -26,7 +26,7 @@ use super::grid::Pos;
 use super::instr::{Instr, Targets};
 use super::mission::{ObjDesc, TaskKind};
 use super::object::{Color, ObjectId, ObjectKind};
-use super::rng::Call;
+use super::rng::{Call, NumpyRng};
 use super::world::World;
 
 /// Attempts before generation gives up. minigrid retries forever; the levels measured need
@@ -151,6 +151,22 @@ pub fn generate_logged(
     generate_with(spec, seed, done_actions, true)
 }
 
+/// The next level drawn from `rng`, as minigrid's `reset()` without a seed makes it: the
+/// env's generator is not reseeded, so each level continues the stream where the previous
+/// one's generation left it (step draws nothing). `seed` only names the stream in errors.
+pub fn generate_continuing(
+    spec: &LevelSpec,
+    rng: &mut NumpyRng,
+    seed: u64,
+    done_actions: bool,
+) -> Result<World, EnvError> {
+    let mut g = Gen::with_rng(spec.rooms, rng.clone());
+    let out = generate_from(spec, &mut g, seed, done_actions);
+    // Even a failed generation has drawn (minigrid's stream would have moved on too).
+    *rng = g.rng;
+    out
+}
+
 fn generate_with(
     spec: &LevelSpec,
     seed: u64,
@@ -161,6 +177,16 @@ fn generate_with(
     if log {
         g.rng.record();
     }
+    let world = generate_from(spec, &mut g, seed, done_actions)?;
+    Ok((world, g.rng.take_log()))
+}
+
+fn generate_from(
+    spec: &LevelSpec,
+    g: &mut Gen,
+    seed: u64,
+    done_actions: bool,
+) -> Result<World, EnvError> {
     let mut tries = 0;
     let out = loop {
         if tries >= MAX_ATTEMPTS {
@@ -170,7 +196,7 @@ fn generate_with(
             });
         }
         tries += 1;
-        match attempt(spec, &mut g) {
+        match attempt(spec, g) {
             Ok(out) => break out,
             Err(Retry::Endless(why)) => {
                 return Err(EnvError::GenerationHangs {
@@ -186,9 +212,8 @@ fn generate_with(
         let rs = spec.rooms.room_size as u32;
         out.instr.num_navs() * rs * rs * (spec.rooms.num_rows * spec.rooms.num_cols) as u32
     });
-    let calls = g.rng.take_log();
     let mut world = World::with_tree(
-        g.grid,
+        std::mem::replace(&mut g.grid, super::grid::Grid::new(0, 0)),
         spec.rooms,
         g.agent_pos,
         g.agent_dir,
@@ -198,7 +223,7 @@ fn generate_with(
         done_actions,
         g.next_id,
     )?;
-    world.box_contents = g.box_contents;
+    world.box_contents = std::mem::take(&mut g.box_contents);
     if let Some(id) = out.lift
         && let Some(pos) = world.grid.find_id(id)
     {
@@ -207,5 +232,36 @@ fn generate_with(
         world.grid.set(pos, None);
         world.reset_floor = Some(pos);
     }
-    Ok((world, calls))
+    Ok(world)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn continuing_a_fresh_stream_is_a_seeded_reset_and_continues_deterministically() {
+        // python/tests hold the continued levels against minigrid's own reset(seed=None).
+        for id in [
+            "BabyAI-GoToLocal-v0",
+            "BabyAI-BossLevel-v0",
+            "BabyAI-PutNextS5N2Carrying-v0",
+        ] {
+            let spec = spec(id).unwrap();
+            let seeded = generate(spec, 7, false).unwrap();
+            let mut rng = NumpyRng::new(7);
+            let first = generate_continuing(spec, &mut rng, 7, false).unwrap();
+            assert_eq!(first, seeded, "{id}");
+            assert!(rng.calls() > 0, "{id}: the stream moved on");
+            let mut again = NumpyRng::new(7);
+            generate_continuing(spec, &mut again, 7, false).unwrap();
+            let second = generate_continuing(spec, &mut rng, 7, false).unwrap();
+            assert_eq!(
+                second,
+                generate_continuing(spec, &mut again, 7, false).unwrap()
+            );
+            // The next level is drawn from where the first left the stream, not reseeded.
+            assert_ne!(second, seeded, "{id}");
+        }
+    }
 }

@@ -97,8 +97,13 @@ pub struct Gen {
 impl Gen {
     /// A generator for `rooms`, seeded as `reset(seed=seed)` seeds minigrid.
     pub fn new(rooms: Rooms, seed: u64) -> Self {
+        Self::with_rng(rooms, NumpyRng::new(seed))
+    }
+
+    /// A generator drawing from `rng` where it stands (minigrid's `reset()` without a seed).
+    pub fn with_rng(rooms: Rooms, rng: NumpyRng) -> Self {
         Self {
-            rng: NumpyRng::new(seed),
+            rng,
             rooms,
             // Built by `gen_grid`; an empty grid costs nothing.
             grid: Grid::new(0, 0),

@@ -142,6 +142,12 @@ pub const PAPER_PREFIX: &str = "groundscope-PaperLocalS";
 
 /// The spec of a paper-level id, `None` for other ids.
 fn paper_spec(id: &str) -> Result<Option<babyai::LevelSpec>, EnvError> {
+    Ok(paper_level(id)?.map(|cfg| cfg.spec()))
+}
+
+/// The paper's level named by `groundscope-PaperLocalS{S}N{N}-v0` (the name episodes.csv
+/// gives it), `None` for ids without that prefix; a malformed one is an error naming it.
+pub fn paper_level(id: &str) -> Result<Option<crate::env::LevelConfig>, EnvError> {
     let Some(rest) = id.strip_prefix(PAPER_PREFIX) else {
         return Ok(None);
     };
@@ -163,7 +169,7 @@ fn paper_spec(id: &str) -> Result<Option<babyai::LevelSpec>, EnvError> {
         return Err(bad());
     }
     cfg.validate()?;
-    Ok(Some(cfg.spec()))
+    Ok(Some(cfg))
 }
 
 /// Two instruction trees agree in kind, descriptions, strictness and matched positions (a

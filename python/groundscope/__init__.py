@@ -1,0 +1,168 @@
+"""groundscope in Python: BabyAI environments seed-exact with minigrid 3.2.0 and stepped in
+Rust, and evaluation and recording of any Python policy with groundscope's metrics.
+
+    import groundscope
+    env = groundscope.make("BabyAI-GoToLocal-v0")          # a gymnasium.Env
+    envs = groundscope.make_vec("BabyAI-GoToLocal-v0", 64)  # a gymnasium VectorEnv
+    groundscope.evaluate(act, levels=["BabyAI-GoToLocal-v0"], out="run")
+
+The envs are also registered with gymnasium as ``groundscope/BabyAI-…-v0``.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+
+import gymnasium as gym
+
+from . import _core
+from .envs import GroundscopeEnv, GroundscopeVecEnv
+
+__all__ = [
+    "GroundscopeEnv",
+    "GroundscopeVecEnv",
+    "MINIGRID_VERSION",
+    "evaluate",
+    "level_ids",
+    "make",
+    "make_vec",
+    "record",
+]
+
+NAMESPACE = "groundscope"
+
+#: The minigrid release the environments reproduce.
+MINIGRID_VERSION: str = _core.MINIGRID_VERSION
+
+
+def level_ids() -> list[str]:
+    """Every registered BabyAI id of minigrid 3.2.0, in registration order."""
+    return list(_core.level_ids())
+
+
+def _bare(id: str) -> str:
+    if not isinstance(id, str):
+        raise ValueError(f"id must be a str, got {id!r}")
+    prefix = NAMESPACE + "/"
+    return id[len(prefix):] if id.startswith(prefix) else id
+
+
+def _register(level: str) -> str:
+    """Registers ``groundscope/<level>`` with gymnasium (once) and returns that id."""
+    full = f"{NAMESPACE}/{level}"
+    if full not in gym.registry:
+        gym.register(
+            id=full,
+            entry_point="groundscope.envs:GroundscopeEnv",
+            vector_entry_point="groundscope.envs:GroundscopeVecEnv",
+            kwargs={"level": level},
+        )
+    return full
+
+
+def make(id: str, **kwargs) -> gym.Env:
+    """The env of level ``id`` as ``gymnasium.make(id)`` makes minigrid's: the same
+    observations, rewards, terminations and truncations for the same seeds.
+
+    ``id`` is a BabyAI id (``BabyAI-GoToLocal-v0``, with or without the ``groundscope/``
+    namespace) or the paper's level ``groundscope-PaperLocalS{S}N{N}-v0``. An unknown id is a
+    ``ValueError`` naming the closest ones.
+    """
+    level = _bare(id)
+    # Checked here so that a bad id is one line naming it, not gymnasium's registry error.
+    _core.Env(level)
+    return gym.make(_register(level), **kwargs)
+
+
+def make_vec(
+    id: str, num_envs: int, *, num_threads: int | None = None, copy: bool = True
+) -> GroundscopeVecEnv:
+    """``num_envs`` envs of level ``id`` as one ``gymnasium.vector.VectorEnv``, equal step by
+    step to ``gymnasium.make_vec(id, num_envs, vectorization_mode="sync")`` over minigrid
+    (autoreset mode NEXT_STEP), stepped in Rust with the GIL released on ``num_threads``
+    threads: None (default) one per 256 envs up to one per core, 0 one per core, 1 the
+    calling thread. ``copy=False`` returns the preallocated arrays, overwritten by the next
+    step."""
+    level = _bare(id)
+    _register(level)
+    return GroundscopeVecEnv(level, num_envs, num_threads=num_threads, copy=copy)
+
+
+def evaluate(
+    act,
+    levels,
+    seeds: int = 5,
+    episodes: int = 100,
+    out: str | os.PathLike = "run",
+    first_seed: int = 0,
+    sample: bool = False,
+    *,
+    alpha: float = 0.5,
+    name: str = "python",
+    map_layout: str = "image",
+    top_k: int = 10,
+) -> dict:
+    """Evaluates a Python policy as ``groundscope eval`` evaluates a checkpoint, writing the
+    same report to ``out`` (report.md, report.json, episodes.csv, the CSV tables, figures).
+
+    ``act(obs, first)`` gets a batch dict (``image`` (N,7,7,3) uint8, ``direction`` (N,)
+    int64, ``mission`` a list of N str) and a bool array ``first`` (N,) marking episode
+    starts (a recurrent policy resets its memory there). Row ``i`` is the same episode at
+    every call; a finished episode's row repeats its last observation and its output is
+    ignored. It returns logits (N,7), or a dict with ``logits`` and optionally ``word_maps``
+    (N,L,7,7) — one map per mission word (BabyAI's split: runs of a-z), in the axis order of
+    ``image`` (``map_layout="image"``, ``[vx][vy]``) or ``"agent-up"`` (``[vy][vx]``) —
+    ``word_weights`` (N,L), ``combined_map`` (N,7,7) and ``values`` (N,). With word maps the
+    report holds the grounding accuracies.
+
+    ``levels``: BabyAI ids (or ``groundscope-PaperLocalS{S}N{N}-v0``); episode ``e`` of
+    evaluation seed ``s`` runs level seed ``s * 10**6 + e``. Greedy actions unless ``sample``.
+    Returns report.json's content as a dict.
+    """
+    if isinstance(levels, str):
+        levels = [levels]
+    for k, v in (("seeds", seeds), ("episodes", episodes), ("first_seed", first_seed), ("top_k", top_k)):
+        if isinstance(v, bool) or not isinstance(v, int) or v < 0:
+            raise ValueError(f"{k} must be a non-negative int, got {v!r}")
+    report = _core.evaluate(
+        act,
+        [_bare(level) for level in levels],
+        seeds,
+        episodes,
+        os.fspath(out),
+        first_seed,
+        bool(sample),
+        float(alpha),
+        str(name),
+        map_layout,
+        top_k,
+    )
+    return json.loads(report)
+
+
+def record(
+    act,
+    level: str,
+    seed: int,
+    path: str | os.PathLike,
+    sample: bool = False,
+    *,
+    alpha: float = 0.5,
+    name: str = "python",
+    map_layout: str = "image",
+):
+    """Runs ``act`` (as in :func:`evaluate`, with N = 1) on one episode of ``level`` from level
+    seed ``seed`` and writes what ``groundscope replay`` writes: a Rerun recording (``.rrd``)
+    or MCAP (``.mcap``), word maps included when ``act`` returns them. Returns
+    ``(success, steps, reward)``."""
+    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+        raise ValueError(f"seed must be a non-negative int, got {seed!r}")
+    return _core.record(
+        act, _bare(level), seed, os.fspath(path), bool(sample), float(alpha), str(name), map_layout
+    )
+
+
+for _level in _core.level_ids():
+    _register(_level)
+del _level

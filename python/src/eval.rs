@@ -1,0 +1,234 @@
+//! `groundscope.evaluate` and `groundscope.record` for a Python policy: the core's sweep,
+//! metrics, report writer and recorders, with [`PyPolicy`] in place of a checkpoint. The
+//! report directory holds what `groundscope eval` writes (report.md/json, episodes.csv, the
+//! CSV tables, figures); the recording what `groundscope replay --save / --mcap` writes.
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use groundscope::env::seeds::{EPISODES_PER_EVAL_SEED, MAX_EVAL_SEEDS, eval_level_seed};
+use groundscope::episode::{ActionMode, EpisodeSpec, initial_world, run_from};
+use groundscope::metrics::assemble::cell_from_episodes;
+use groundscope::metrics::report::{
+    CheckpointInfo, Report, SCHEMA_VERSION, episodes_csv, worst_episodes,
+};
+use groundscope::metrics::sweep::{EvalOptions, evaluate_episodes_explored};
+use groundscope::policy::PolicyError;
+use groundscope::record::{RerunTargets, record_rerun, write_mcap};
+use pyo3::exceptions::{PyRuntimeError, PyValueError};
+use pyo3::prelude::*;
+
+use crate::env::Level;
+use crate::policy::{MapLayout, PyPolicy};
+
+/// The most episodes one level may run at once (rows are carried as f32 indices).
+const MAX_BATCH: u64 = 1 << 24;
+
+/// The Python exception for a failed run: the callable's own exception where it raised one
+/// (or its output was refused), else the core's error.
+fn run_error(policy: &PyPolicy<'_>, e: &dyn std::fmt::Display) -> PyErr {
+    policy
+        .take_error()
+        .unwrap_or_else(|| PyRuntimeError::new_err(e.to_string()))
+}
+
+fn mode(sample: bool) -> ActionMode {
+    if sample {
+        ActionMode::Sampled
+    } else {
+        ActionMode::Greedy
+    }
+}
+
+fn check_alpha(alpha: f64) -> PyResult<()> {
+    if (0.0..=1.0).contains(&alpha) {
+        Ok(())
+    } else {
+        Err(PyValueError::new_err(format!(
+            "alpha {alpha} is outside [0, 1]"
+        )))
+    }
+}
+
+/// Runs `act` on `episodes` episodes of each evaluation seed `first_seed ..
+/// first_seed + seeds` of every level (level seeds `s·10⁶ + e`, as `groundscope eval`) and
+/// writes the report to `out`. Returns report.json's content.
+#[pyfunction]
+#[pyo3(signature = (act, levels, seeds=5, episodes=100, out=PathBuf::from("run"), first_seed=0, sample=false, alpha=0.5, name="python".to_owned(), map_layout="image", top_k=10))]
+#[expect(
+    clippy::too_many_arguments,
+    reason = "the keyword arguments of the Python function"
+)]
+pub fn evaluate(
+    py: Python<'_>,
+    act: Bound<'_, PyAny>,
+    levels: Vec<String>,
+    seeds: u64,
+    episodes: u64,
+    out: PathBuf,
+    first_seed: u64,
+    sample: bool,
+    alpha: f64,
+    name: String,
+    map_layout: &str,
+    top_k: usize,
+) -> PyResult<String> {
+    let layout = MapLayout::parse(map_layout)?;
+    check_alpha(alpha)?;
+    if levels.is_empty() {
+        return Err(PyValueError::new_err("levels: give at least one level id"));
+    }
+    if seeds == 0 || episodes == 0 {
+        return Err(PyValueError::new_err(format!(
+            "seeds and episodes must be at least 1, got seeds={seeds} episodes={episodes}"
+        )));
+    }
+    if episodes >= EPISODES_PER_EVAL_SEED {
+        return Err(PyValueError::new_err(format!(
+            "episodes={episodes} must be below 1000000 (level seeds are seed·10⁶ + episode)"
+        )));
+    }
+    if first_seed
+        .checked_add(seeds)
+        .is_none_or(|end| end > MAX_EVAL_SEEDS)
+    {
+        return Err(PyValueError::new_err(format!(
+            "first_seed={first_seed} seeds={seeds} reaches past evaluation seed {}",
+            MAX_EVAL_SEEDS - 1
+        )));
+    }
+    if seeds * episodes > MAX_BATCH {
+        return Err(PyValueError::new_err(format!(
+            "seeds × episodes = {} is above {MAX_BATCH} episodes per level",
+            seeds * episodes
+        )));
+    }
+    // Every level is checked before anything runs: no partial report.
+    let levels = levels
+        .iter()
+        .map(|id| Level::parse_py(id))
+        .collect::<PyResult<Vec<_>>>()?;
+    let policy = PyPolicy::new(act, layout)?;
+    let opts = EvalOptions {
+        alpha,
+        mode: mode(sample),
+        saliency: false,
+    };
+    let start = Instant::now();
+    let mut explored_cells = Vec::new();
+    for level in &levels {
+        let plan: Vec<(u64, u64)> = (first_seed..first_seed + seeds)
+            .flat_map(|s| (0..episodes).map(move |e| (s, eval_level_seed(s, e))))
+            .collect();
+        let missions = plan
+            .iter()
+            .map(|&(_, seed)| level.config.generate(seed).map(|w| w.mission))
+            .collect::<Result<Vec<_>, _>>()
+            .map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
+        policy.begin(missions);
+        let explored =
+            evaluate_episodes_explored(&policy, &level.config, &plan, &opts, &mut |_| {})
+                .map_err(|e| run_error(&policy, &e))?;
+        explored_cells.push((level.config, explored));
+        // Ctrl-C in the notebook or terminal stops between levels.
+        py.check_signals()?;
+    }
+    let variant = policy.variant_seen();
+    let mut cells = Vec::new();
+    let mut all_eps = Vec::new();
+    for (config, explored) in explored_cells {
+        let (cell, eps) = cell_from_episodes(&name, variant, &config, explored, false);
+        cells.push(cell);
+        all_eps.push((name.clone(), config, eps));
+    }
+    let report = Report {
+        schema_version: SCHEMA_VERSION,
+        groundscope_version: env!("CARGO_PKG_VERSION").into(),
+        alpha,
+        mode: opts.mode.name().into(),
+        seeds,
+        first_seed,
+        episodes_per_seed: episodes,
+        saliency: false,
+        checkpoints: vec![CheckpointInfo {
+            name: name.clone(),
+            variant: variant.name().into(),
+            frames: 0,
+            level: levels[0].config,
+            model_name: None,
+        }],
+        cells,
+        elapsed_secs: start.elapsed().as_secs_f64(),
+    };
+    let sample_arg = if sample { ", sample=True" } else { "" };
+    let failures = worst_episodes(&all_eps, top_k, &|_, level, seed| {
+        let id = groundscope::metrics::report::level_name(level);
+        format!("groundscope.record(act, \"{id}\", {seed}, \"episode.rrd\"{sample_arg})")
+    });
+    report
+        .write(&out, &failures, &episodes_csv(&all_eps))
+        .map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
+    serde_json::to_string(&report).map_err(|e| PyRuntimeError::new_err(e.to_string()))
+}
+
+/// Runs `act` on one episode of `level` from level seed `seed` and writes it to `path`: a
+/// Rerun recording (`.rrd`) or MCAP (`.mcap`), as `groundscope replay` writes them. Returns
+/// `(success, steps, reward)`.
+#[pyfunction]
+#[pyo3(signature = (act, level, seed, path, sample=false, alpha=0.5, name="python".to_owned(), map_layout="image"))]
+#[expect(
+    clippy::too_many_arguments,
+    reason = "the keyword arguments of the Python function"
+)]
+pub fn record(
+    act: Bound<'_, PyAny>,
+    level: &str,
+    seed: u64,
+    path: PathBuf,
+    sample: bool,
+    alpha: f64,
+    name: String,
+    map_layout: &str,
+) -> PyResult<(bool, usize, f64)> {
+    let layout = MapLayout::parse(map_layout)?;
+    check_alpha(alpha)?;
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
+    let rrd = match ext.as_deref() {
+        Some("rrd") => true,
+        Some("mcap") => false,
+        _ => {
+            return Err(PyValueError::new_err(format!(
+                "path {} must end in .rrd (Rerun) or .mcap",
+                path.display()
+            )));
+        }
+    };
+    let level = Level::parse_py(level)?;
+    let policy = PyPolicy::new(act, layout)?;
+    let spec = EpisodeSpec {
+        level: level.config,
+        seed,
+        mission: None,
+        mode: mode(sample),
+    };
+    let world = initial_world(&spec).map_err(|e| PyValueError::new_err(e.to_string()))?;
+    policy.begin(vec![world.mission.clone()]);
+    let trace =
+        run_from(&policy, &name, &spec, world).map_err(|e: PolicyError| run_error(&policy, &e))?;
+    let summary = (trace.success(), trace.steps.len(), trace.total_reward());
+    let episodes = [trace];
+    if rrd {
+        let targets = RerunTargets {
+            save: Some(path),
+            ..RerunTargets::default()
+        };
+        record_rerun(&episodes, &targets, alpha, None).map(|_| ())
+    } else {
+        write_mcap(&episodes, &path, alpha, None).map(|_| ())
+    }
+    .map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
+    Ok(summary)
+}

@@ -1,0 +1,195 @@
+"""groundscope.evaluate and groundscope.record on Python policies: the episodes they run are
+minigrid's, the callable sees each episode in a fixed row, the maps it returns are graded, and
+bad input leaves nothing behind."""
+
+import csv
+import json
+import os
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import groundscope
+from policies import grounded, reactive, reactive_logits
+
+LEVEL = "BabyAI-GoToLocal-v0"
+
+
+def episodes(out):
+    with open(os.path.join(out, "episodes.csv"), newline="") as f:
+        return list(csv.DictReader(f))
+
+
+@pytest.mark.parametrize("level", [LEVEL, "BabyAI-PickupLoc-v0", "BabyAI-OpenDoor-v0"])
+def test_episodes_replay_in_minigrid(tmp_path, level):
+    out = tmp_path / "run"
+    report = groundscope.evaluate(reactive, [level], seeds=2, episodes=8, out=out, first_seed=3)
+    rows = episodes(out)
+    assert len(rows) == 16
+    outcomes = set()
+    assert report["cells"][0]["episodes"] == 16
+    for row in rows:
+        seed = int(row["level_seed"])
+        assert seed == int(row["eval_seed"]) * 10**6 + int(row["episode"])
+        assert int(row["eval_seed"]) in (3, 4)
+        env = gym.make(level)
+        obs, _ = env.reset(seed=seed)
+        assert obs["mission"] == row["mission"]
+        actions = [int(a) for a in row["actions"].split()]
+        assert len(actions) == int(row["steps"])
+        total = 0.0
+        for t, a in enumerate(actions):
+            # The policy chose each action from the observation minigrid shows.
+            assert int(np.argmax(reactive_logits(obs["image"], obs["direction"]))) == a, (seed, t)
+            obs, r, term, trunc, _ = env.step(a)
+            total += r
+            assert (term or trunc) == (t == len(actions) - 1), (seed, t)
+        assert abs(total - float(row["return"])) < 1e-6
+        assert row["success"] == ("1" if total > 0 else "0")
+        outcomes.add(len(actions))
+    # Episodes ended at different steps, not all truncated alike (picking up the wrong object
+    # fails at once).
+    assert len(outcomes) > 1 or level != "BabyAI-PickupLoc-v0"
+
+
+def test_rows_stay_fixed_and_first_marks_starts(tmp_path):
+    calls = []
+
+    def act(obs, first):
+        calls.append((list(obs["mission"]), first.copy(), obs["image"].shape, obs["direction"].dtype))
+        return reactive(obs, first)
+
+    groundscope.evaluate(act, [LEVEL], seeds=2, episodes=5, out=tmp_path / "run")
+    missions = [r["mission"] for r in episodes(tmp_path / "run")]
+    assert len(calls) > 1
+    for k, (m, first, shape, dtype) in enumerate(calls):
+        assert m == missions
+        assert shape == (10, 7, 7, 3) and dtype == np.int64
+        assert first.dtype == np.bool_ and first.tolist() == [k == 0] * 10
+
+
+def test_grounded_maps_score_and_a_wrong_layout_does_not(tmp_path):
+    right = groundscope.evaluate(grounded, [LEVEL], seeds=1, episodes=20, out=tmp_path / "a")
+    acc = right["cells"][0]["accuracy"]
+    assert right["checkpoints"][0]["variant"] == "attention"
+    assert acc["object"]["acc"]["mean"] > 0.99
+    assert acc["color"]["acc"]["mean"] > 0.99
+    # The same maps read as agent-up are transposed: they miss most objects.
+    wrong = groundscope.evaluate(
+        grounded, [LEVEL], seeds=1, episodes=20, out=tmp_path / "b", map_layout="agent-up"
+    )
+    assert wrong["cells"][0]["accuracy"]["object"]["acc"]["mean"] < 0.6
+    # Maps given agent-up and declared so score as the image-order ones.
+    up = groundscope.evaluate(
+        lambda o, f: grounded(o, f, layout="agent-up"),
+        [LEVEL],
+        seeds=1,
+        episodes=20,
+        out=tmp_path / "c",
+        map_layout="agent-up",
+    )
+    assert up["cells"][0]["accuracy"] == acc
+    with open(tmp_path / "a" / "words.csv") as f:
+        assert "ball" in f.read()
+
+
+def test_report_files_as_the_cli_writes_them(tmp_path):
+    out = tmp_path / "run"
+    report = groundscope.evaluate(
+        reactive, [LEVEL, "groundscope-PaperLocalS8N4-v0"], seeds=1, episodes=4, out=out
+    )
+    for name in ("report.md", "report.json", "episodes.csv", "performance.csv", "levels_success.png"):
+        assert (out / name).stat().st_size > 0, name
+    assert json.loads((out / "report.json").read_text()) == report
+    assert report["checkpoints"][0]["variant"] == "baseline"
+    assert [c["episodes"] for c in report["cells"]] == [4, 4]
+    levels = {r["level"] for r in episodes(out)}
+    assert levels == {LEVEL, "groundscope-PaperLocalS8N4-v0"}
+    assert "python" in (out / "report.md").read_text()
+
+
+def test_the_callables_exception_propagates_and_nothing_is_written(tmp_path):
+    def broken(obs, first):
+        raise KeyError("no such head")
+
+    with pytest.raises(KeyError, match="no such head"):
+        groundscope.evaluate(broken, [LEVEL], seeds=1, episodes=2, out=tmp_path / "run")
+    assert not (tmp_path / "run").exists()
+
+
+@pytest.mark.parametrize(
+    "output, word",
+    [
+        (lambda n: np.zeros((n, 6), np.float32), "logits"),
+        (lambda n: np.full((n, 7), np.nan, np.float32), "non-finite"),
+        (lambda n: {"word_maps": np.zeros((n, 9, 7, 7))}, "logits"),
+        (lambda n: {"logits": np.zeros((n, 7)), "word_maps": np.zeros((n, 1, 7, 7))}, "word_maps"),
+        (lambda n: {"logits": np.zeros((n, 7)), "word_maps": -np.ones((n, 9, 7, 7))}, "negative"),
+        (lambda n: "left", "logits"),
+    ],
+)
+def test_bad_outputs_are_one_line_value_errors(tmp_path, output, word):
+    with pytest.raises(ValueError, match=word) as e:
+        groundscope.evaluate(
+            lambda o, f: output(len(o["mission"])), [LEVEL], seeds=1, episodes=2, out=tmp_path / "r"
+        )
+    assert "\n" not in str(e.value)
+    assert not (tmp_path / "r").exists()
+
+
+@pytest.mark.parametrize(
+    "kwargs, word",
+    [
+        ({"levels": ["BabyAI-GoToLocl-v0"]}, "GoToLocal"),
+        ({"levels": []}, "levels"),
+        ({"seeds": 0}, "seeds"),
+        ({"episodes": 10**6}, "episodes"),
+        ({"first_seed": 2147}, "first_seed"),
+        ({"map_layout": "xy"}, "map_layout"),
+    ],
+)
+def test_bad_arguments_are_refused_before_running(tmp_path, kwargs, word):
+    called = []
+    args = {"levels": [LEVEL], "seeds": 1, "episodes": 2, "out": tmp_path / "r"} | kwargs
+    with pytest.raises(ValueError, match=word):
+        groundscope.evaluate(lambda o, f: called.append(1), **args)
+    assert not called and not (tmp_path / "r").exists()
+
+
+def test_record_writes_rerun_and_mcap_with_word_maps(tmp_path):
+    seed = 4
+    rrd = tmp_path / "ep.rrd"
+    success, steps, reward = groundscope.record(grounded, LEVEL, seed, rrd)
+    assert rrd.read_bytes()[:4] == b"RRF2"
+    # The same episode as evaluate runs for that level seed.
+    groundscope.evaluate(grounded, [LEVEL], seeds=1, episodes=seed + 1, out=tmp_path / "run")
+    row = episodes(tmp_path / "run")[seed]
+    assert (int(row["steps"]), row["success"]) == (steps, "1" if success else "0")
+    assert abs(float(row["return"]) - reward) < 1e-6
+    with_maps = tmp_path / "maps.mcap"
+    without = tmp_path / "plain.mcap"
+    groundscope.record(grounded, LEVEL, seed, with_maps)
+    groundscope.record(reactive, LEVEL, seed, without)
+    assert with_maps.read_bytes()[:8] == b"\x89MCAP0\r\n"
+    assert b"/attention/words/" in with_maps.read_bytes()
+    assert b"/attention/words/" not in without.read_bytes()
+
+
+def test_record_refuses_bad_paths_and_levels(tmp_path):
+    with pytest.raises(ValueError, match=r"\.rrd"):
+        groundscope.record(reactive, LEVEL, 0, tmp_path / "ep.txt")
+    with pytest.raises(ValueError, match="GoToLocal"):
+        groundscope.record(reactive, "BabyAI-GoToLocl-v0", 0, tmp_path / "ep.rrd")
+    with pytest.raises(ValueError, match="seed"):
+        groundscope.record(reactive, LEVEL, -1, tmp_path / "ep.rrd")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_every_babyai_level_evaluates_with_word_maps(tmp_path):
+    """Every level's missions reach the callable and are graded: no word outside the
+    vocabulary, maps long enough for the longest missions (BossLevel's)."""
+    report = groundscope.evaluate(grounded, groundscope.level_ids(), seeds=1, episodes=2, out=tmp_path / "all")
+    assert [c["level"] for c in report["cells"]] == groundscope.level_ids()
+    assert all(c["episodes"] == 2 for c in report["cells"])
+    assert len(episodes(tmp_path / "all")) == 2 * 96

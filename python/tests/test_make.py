@@ -1,0 +1,137 @@
+"""groundscope.make against gymnasium.make over minigrid 3.2.0, step by step."""
+
+import zlib
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import groundscope
+from conftest import BABYAI_IDS, assert_obs_equal
+
+SEEDS = (0, 7)
+STEPS = 100
+
+
+def test_every_babyai_id_is_ported():
+    assert sorted(groundscope.level_ids()) == BABYAI_IDS
+    assert len(BABYAI_IDS) == 96
+
+
+@pytest.mark.parametrize("env_id", BABYAI_IDS)
+def test_make_equals_minigrid(env_id):
+    ref = gym.make(env_id)
+    ours = groundscope.make(env_id)
+    rng = np.random.default_rng(zlib.crc32(env_id.encode()))
+    resets = 0
+    for seed in SEEDS:
+        o_ref, i_ref = ref.reset(seed=seed)
+        o, i = ours.reset(seed=seed)
+        assert i == i_ref == {}
+        assert_obs_equal(o, o_ref, f"{env_id} reset(seed={seed})")
+        assert ours.unwrapped.max_steps == ref.unwrapped.max_steps
+        for t in range(STEPS):
+            a = int(rng.integers(0, 7))
+            o_ref, r_ref, term_ref, trunc_ref, _ = ref.step(a)
+            o, r, term, trunc, info = ours.step(a)
+            where = f"{env_id} seed {seed} step {t} action {a}"
+            assert_obs_equal(o, o_ref, where)
+            assert (r, term, trunc) == (r_ref, term_ref, trunc_ref), where
+            assert info == {}
+            if term or trunc:
+                # No seed: both continue their own generator, as minigrid's reset(seed=None).
+                o_ref, _ = ref.reset()
+                o, _ = ours.reset()
+                assert_obs_equal(o, o_ref, f"{where}: reset without a seed")
+                resets += 1
+    ref.close()
+    ours.close()
+
+
+def test_random_actions_reach_resets_on_some_levels():
+    """The comparison above covers episode ends: random actions end these levels quickly."""
+    ends = 0
+    for env_id in ("BabyAI-GoToRedBallGrey-v0", "BabyAI-PickupLoc-v0", "BabyAI-OneRoomS8-v0"):
+        env = groundscope.make(env_id)
+        env.reset(seed=1)
+        rng = np.random.default_rng(0)
+        for _ in range(STEPS):
+            _, _, term, trunc, _ = env.step(int(rng.integers(0, 7)))
+            if term or trunc:
+                ends += 1
+                env.reset()
+    assert ends >= 3
+
+
+def test_unseeded_first_reset_draws_a_level():
+    env = groundscope.make("BabyAI-GoToLocal-v0")
+    obs, _ = env.reset()
+    assert obs["mission"].startswith("go to")
+
+
+def test_the_paper_level():
+    env = groundscope.make("groundscope-PaperLocalS8N4-v0")
+    obs, _ = env.reset(seed=3)
+    assert obs["image"].shape == (7, 7, 3)
+    assert obs["mission"].split()[0] in ("go", "pick")
+    # Same seed, same level.
+    again, _ = groundscope.make("groundscope-PaperLocalS8N4-v0").reset(seed=3)
+    assert again["mission"] == obs["mission"]
+    np.testing.assert_array_equal(again["image"], obs["image"])
+
+
+def test_registered_with_gymnasium():
+    env = gym.make("groundscope/BabyAI-GoToLocal-v0")
+    ref = gym.make("BabyAI-GoToLocal-v0")
+    assert_obs_equal(env.reset(seed=5)[0], ref.reset(seed=5)[0], "gym.make")
+    vec = gym.make_vec("groundscope/BabyAI-GoToLocal-v0", 3)
+    assert isinstance(vec.unwrapped, groundscope.GroundscopeVecEnv)
+    assert vec.reset(seed=1)[0]["image"].shape == (3, 7, 7, 3)
+
+
+@pytest.mark.parametrize(
+    "bad, word",
+    [
+        ("BabyAI-GoToLocl-v0", "BabyAI-GoToLocal-v0"),
+        ("groundscope-PaperLocalS8-v0", "PaperLocal"),
+        ("groundscope-PaperLocalS3N4-v0", "room_size"),
+    ],
+)
+def test_unknown_ids_are_one_line_errors(bad, word):
+    with pytest.raises(ValueError, match=word) as e:
+        groundscope.make(bad)
+    assert "\n" not in str(e.value)
+
+
+def test_bad_inputs_raise_without_changing_the_env():
+    # Unwrapped: gymnasium's passive checker trips over a first step that raised.
+    env = groundscope.make("BabyAI-GoToLocal-v0").unwrapped
+    with pytest.raises(ValueError, match="seed"):
+        env.reset(seed=-1)
+    with pytest.raises(ValueError, match="seed"):
+        env.reset(seed=2**64)
+    with pytest.raises(RuntimeError, match="reset"):
+        env.step(0)
+    obs, _ = env.reset(seed=0)
+    with pytest.raises(ValueError, match="action"):
+        env.step(7)
+    with pytest.raises(TypeError, match="action"):
+        env.step("left")
+    # The failed steps did not move the agent: the next step matches a fresh env's.
+    ref = groundscope.make("BabyAI-GoToLocal-v0")
+    ref.reset(seed=0)
+    assert_obs_equal(env.step(2)[0], ref.step(2)[0], "after bad actions")
+
+
+def test_step_after_the_end_asks_for_reset():
+    env = groundscope.make("BabyAI-GoToRedBallGrey-v0")
+    env.reset(seed=0)
+    done = False
+    for _ in range(1000):
+        _, _, term, trunc, _ = env.step(0)  # turning never succeeds: truncated at max_steps
+        if term or trunc:
+            done = True
+            break
+    assert done
+    with pytest.raises(RuntimeError, match="reset"):
+        env.step(0)
