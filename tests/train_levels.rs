@@ -90,7 +90,7 @@ fn a_run_on_several_levels_tracks_each_and_resumes_exactly() {
     );
     for block in evals.chunks(3) {
         let s = |r: &Vec<String>| r[3].parse::<f64>().unwrap();
-        assert!((s(&block[2]) - (s(&block[0]) + s(&block[1])) / 2.0).abs() < 1e-3);
+        assert!((s(&block[2]) - f64::midpoint(s(&block[0]), s(&block[1]))).abs() < 1e-3);
         assert_eq!(
             block[2][2], "6",
             "the mean row counts both levels' episodes"

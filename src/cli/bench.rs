@@ -183,7 +183,6 @@ fn bench_env(
         }
     }
     let secs = start.elapsed().as_secs_f64();
-    drop(next);
     let line = serde_json::json!({
         "bench": "env",
         "steps_per_sec": (steps as f64 / secs).round(),

@@ -394,15 +394,14 @@ fn per_level(sorted: Vec<Failure>, k: usize) -> Vec<Failure> {
     let mut taken: Vec<(Option<String>, usize)> = Vec::new();
     let mut kept = Vec::new();
     for f in sorted {
-        let n = match taken.iter_mut().find(|(l, _)| *l == f.level) {
-            Some((_, n)) => n,
-            None => {
-                taken.push((f.level.clone(), 0));
-                &mut taken.last_mut().expect("just pushed").1
-            }
+        let group = if let Some(i) = taken.iter().position(|(l, _)| *l == f.level) {
+            i
+        } else {
+            taken.push((f.level.clone(), 0));
+            taken.len() - 1
         };
-        if *n < k {
-            *n += 1;
+        if taken[group].1 < k {
+            taken[group].1 += 1;
             kept.push(f);
         }
     }
