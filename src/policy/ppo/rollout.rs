@@ -74,7 +74,14 @@ impl Trainer {
                     Draw { sampled, own }
                 })
                 .collect();
-            let stepped = on_shards(&mut st.envs, self.ppo.threads, |p, env| {
+            // A world's step takes microseconds, less than starting a thread; the bot's
+            // advice (imitation) is worth spreading.
+            let env_threads = if self.ppo.imitate {
+                self.ppo.threads
+            } else {
+                1
+            };
+            let stepped = on_shards(&mut st.envs, env_threads, |p, env| {
                 step_env(env, draws[p], &out, p)
             })?;
             for (p, (env, s)) in st.envs.iter_mut().zip(stepped).enumerate() {
