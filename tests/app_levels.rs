@@ -216,3 +216,25 @@ fn the_bot_shows_its_plan_in_place_of_the_maps() {
     show_until(&mut h, "plan: GoNextTo ");
     show_until(&mut h, "no attention maps and no network to probe");
 }
+
+/// A long mission's maps stay on screen: `M` first, the words' maps grouped by clause, the
+/// function words folded into one line (and out of the weight bars) until the box is unticked.
+#[test]
+fn a_long_missions_maps_fold_their_function_words_and_keep_m_in_view() {
+    let level = babyai("BabyAI-SynthSeq-v0");
+    let world = level.generate(3).unwrap();
+    assert!(world.mission.split(' ').count() > 9, "{}", world.mission);
+    let mut h = build(&options("bundled:babyai", Some(level), 3));
+    show_until(&mut h, "step 0 of ");
+    show_until(&mut h, "folded (w): ");
+    show_until(&mut h, "word weights w (function words folded)");
+    assert!(h.query_by_label_contains("combined M").is_some());
+    // The folded words have no map title of their own; a word with a role has one.
+    assert!(h.query_all_by_label("the").next().is_none());
+    assert!(h.query_all_by_label("door").next().is_some());
+    h.get_by_label("fold function words").click();
+    h.run();
+    show_until(&mut h, "word weights w");
+    assert!(h.query_by_label_contains("folded (w)").is_none());
+    assert!(h.query_all_by_label("the").next().is_some());
+}

@@ -106,6 +106,9 @@ pub struct Debugger {
     shot_pending: bool,
     /// Show the faithfulness view (occlusion, interventions, probes).
     show_faithfulness: bool,
+    /// Whether the maps of words with no role (function words: "go", "the", "then") fold into
+    /// one line; `None` folds them on missions longer than BabyAI's local ones (9 words).
+    fold_function_words: Option<bool>,
     faithfulness: super::faithful::FaithfulnessView,
 }
 
@@ -163,6 +166,7 @@ impl Debugger {
             shot_rx,
             shot_pending: false,
             show_faithfulness: opts.faithfulness,
+            fold_function_words: None,
             faithfulness: super::faithful::FaithfulnessView::default(),
         };
         me.run_episode(opts.mission.clone());
@@ -316,7 +320,8 @@ impl Debugger {
         }
         let n_maps =
             step.attention.as_ref().map_or(0, |a| a.words.len() + 1) + usize::from(faithful);
-        let side = numbers::map_side(ui, n_maps);
+        // Maps wrap into rows of at most this many: a long mission's maps stay on screen.
+        let side = numbers::map_side(ui, n_maps.min(numbers::MAPS_PER_ROW));
         if mapless {
             ui.label(
                 "no attention maps: the occlusion saliency below (how much the action distribution changes when a cell becomes floor) stands in for them",
@@ -332,10 +337,21 @@ impl Debugger {
                 }
             });
             self.faithfulness = taken;
-            ui.checkbox(
-                &mut self.show_faithfulness,
-                "faithfulness: does this step's behaviour depend on M?",
-            );
+            ui.horizontal(|ui| {
+                ui.checkbox(
+                    &mut self.show_faithfulness,
+                    "faithfulness: does this step's behaviour depend on M?",
+                );
+                let words = step.attention.as_ref().map_or(0, |a| a.words.len());
+                let mut fold = self.folds(words);
+                if ui
+                    .checkbox(&mut fold, "fold function words")
+                    .on_hover_text("the maps of words with no role in the grammar (go, to, the, then, …) as one line")
+                    .changed()
+                {
+                    self.fold_function_words = Some(fold);
+                }
+            });
         }
         if let Some(agent) = agent {
             let combined = step.attention.as_ref().map(|a| &a.combined);

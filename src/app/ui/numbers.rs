@@ -12,16 +12,31 @@ use crate::episode::StepRecord;
 use crate::record::StepScene;
 use crate::record::scene::{NEGLIGIBLE_WEIGHT, accuracy_rows, action_names};
 
+/// The most maps in one row: more wrap to the next ([`Debugger::maps_row`]).
+pub(super) const MAPS_PER_ROW: usize = 9;
+
+/// Missions longer than this (BabyAI's local ones have at most 9 words) fold their function
+/// words' maps by default.
+const FOLD_ABOVE_WORDS: usize = 9;
+
 /// Side of one map in points, from the width there is for `panels` maps and a colour bar.
 pub(super) fn map_side(ui: &egui::Ui, panels: usize) -> f32 {
     let panels = panels.max(1) as f32;
-    let gaps = ui.spacing().item_spacing.x * panels + 70.0;
+    // The colour bar with its caption, and the clause numbers of a sequence.
+    let gaps = ui.spacing().item_spacing.x * (panels + 2.0) + 130.0;
     ((ui.available_width() - gaps) / panels).clamp(70.0, 210.0)
 }
 
 impl Debugger {
-    /// The row of maps: every word's, `M`, and `delta` (the faithfulness view's Δ column)
-    /// right after `M`, then the colour bar the word maps and `M` share.
+    /// Whether function words' maps fold on a mission of `words` words.
+    pub(super) fn folds(&self, words: usize) -> bool {
+        self.fold_function_words.unwrap_or(words > FOLD_ABOVE_WORDS)
+    }
+
+    /// The maps: `M` first, `delta` (the faithfulness view's Δ column) right after it and the
+    /// colour bar they share, so they stay in view; then every word's map in a grid that
+    /// wraps, grouped by clause on a mission of several, function words folded into one line
+    /// when [`Self::folds`] says so.
     pub(super) fn maps_row(
         &mut self,
         ui: &mut egui::Ui,
@@ -33,35 +48,14 @@ impl Debugger {
         let Some(att) = &step.attention else {
             return;
         };
+        let roles = crate::env::roles::word_roles(&step.world.instr);
+        let roles = (roles.len() == att.words.len()).then_some(roles);
+        let clauses = roles
+            .as_ref()
+            .and_then(|r| r.iter().filter_map(|x| x.clause).max())
+            .map_or(1, |m| m + 1);
+        let fold = roles.is_some() && self.folds(att.words.len());
         ui.horizontal_top(|ui| {
-            for (i, w) in att.words.iter().enumerate() {
-                ui.vertical(|ui| {
-                    ui.set_width(side);
-                    let dimmed = w.weight < NEGLIGIBLE_WEIGHT;
-                    let title = egui::RichText::new(&w.word).strong();
-                    ui.label(if dimmed { title.weak() } else { title });
-                    ui.label(format!("w {:.3} · H {:.2}", w.weight, w.entropy));
-                    let hits = scene
-                        .hits_of(Some(i))
-                        .map(|g| g.hits.as_slice())
-                        .unwrap_or_default();
-                    let look = MapLook {
-                        hi: scene.scale_max,
-                        side,
-                        selected: i == self.selected_word && self.overlay == Overlay::Word,
-                        dimmed,
-                        obs: Some(&step.obs),
-                        hits,
-                    };
-                    if Self::heat_map(ui, &w.map, &look).clicked() {
-                        self.selected_word = i;
-                        self.overlay = Overlay::Word;
-                    }
-                    if dimmed {
-                        ui.label(egui::RichText::new("w < 0.005: not in M").small().weak());
-                    }
-                });
-            }
             ui.vertical(|ui| {
                 ui.set_width(side);
                 ui.label(egui::RichText::new("combined M").strong());
@@ -89,6 +83,79 @@ impl Debugger {
                 side * 0.8,
                 "shared scale:\nall word maps and M",
             );
+            // The words wrap within what is left of the row, never past its edge.
+            let rest = ui.available_width();
+            ui.vertical(|ui| {
+                ui.set_max_width(rest);
+                let mut folded = Vec::new();
+                ui.horizontal_wrapped(|ui| {
+                    let mut clause = None;
+                    for (i, w) in att.words.iter().enumerate() {
+                        let role = roles.as_ref().map(|r| r[i]);
+                        if fold
+                            && role.is_some_and(|r| r.class == crate::env::roles::WordClass::Other)
+                        {
+                            folded.push(format!("{} {:.3}", w.word, w.weight));
+                            continue;
+                        }
+                        let here = role.and_then(|r| r.clause);
+                        if clauses > 1 && here.is_some() && here != clause {
+                            clause = here;
+                            ui.label(
+                                egui::RichText::new(format!("{}", here.unwrap_or(0) + 1))
+                                    .strong()
+                                    .size(16.0),
+                            )
+                            .on_hover_text("the clause these words belong to");
+                        }
+                        self.word_map(ui, step, scene, side, i);
+                    }
+                });
+                if !folded.is_empty() {
+                    ui.label(
+                        egui::RichText::new(format!("folded (w): {}", folded.join(" · "))).weak(),
+                    );
+                }
+            });
+        });
+    }
+
+    /// One word's map with its name, weight and entropy; a click selects it for the overlay.
+    fn word_map(
+        &mut self,
+        ui: &mut egui::Ui,
+        step: &StepRecord,
+        scene: &StepScene,
+        side: f32,
+        i: usize,
+    ) {
+        let Some(att) = &step.attention else { return };
+        let w = &att.words[i];
+        ui.vertical(|ui| {
+            ui.set_width(side);
+            let dimmed = w.weight < NEGLIGIBLE_WEIGHT;
+            let title = egui::RichText::new(&w.word).strong();
+            ui.label(if dimmed { title.weak() } else { title });
+            ui.label(format!("w {:.3} · H {:.2}", w.weight, w.entropy));
+            let hits = scene
+                .hits_of(Some(i))
+                .map(|g| g.hits.as_slice())
+                .unwrap_or_default();
+            let look = MapLook {
+                hi: scene.scale_max,
+                side,
+                selected: i == self.selected_word && self.overlay == Overlay::Word,
+                dimmed,
+                obs: Some(&step.obs),
+                hits,
+            };
+            if Self::heat_map(ui, &w.map, &look).clicked() {
+                self.selected_word = i;
+                self.overlay = Overlay::Word;
+            }
+            if dimmed {
+                ui.label(egui::RichText::new("w < 0.005: not in M").small().weak());
+            }
         });
     }
 
@@ -98,10 +165,24 @@ impl Debugger {
         let Some(att) = &step.attention else {
             return;
         };
-        ui.label("word weights w");
-        let labels: Vec<String> = att.words.iter().map(|w| w.word.clone()).collect();
-        let values: Vec<f32> = att.words.iter().map(|w| w.weight).collect();
-        bars(ui, &labels, &values, Some(self.selected_word), None);
+        // Folded function words leave the bars too (their weights stand in the maps' fold).
+        let roles = crate::env::roles::word_roles(&step.world.instr);
+        let shown: Vec<usize> = (0..att.words.len())
+            .filter(|&i| {
+                !(roles.len() == att.words.len()
+                    && self.folds(att.words.len())
+                    && roles[i].class == crate::env::roles::WordClass::Other)
+            })
+            .collect();
+        ui.label(if shown.len() < att.words.len() {
+            "word weights w (function words folded)"
+        } else {
+            "word weights w"
+        });
+        let labels: Vec<String> = shown.iter().map(|&i| att.words[i].word.clone()).collect();
+        let values: Vec<f32> = shown.iter().map(|&i| att.words[i].weight).collect();
+        let selected = shown.iter().position(|&i| i == self.selected_word);
+        bars(ui, &labels, &values, selected, None);
         ui.add_space(4.0);
         for (kind, row) in accuracy_rows(step, scene) {
             match row {
