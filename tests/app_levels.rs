@@ -238,3 +238,26 @@ fn a_long_missions_maps_fold_their_function_words_and_keep_m_in_view() {
     assert!(h.query_by_label_contains("folded (w)").is_none());
     assert!(h.query_all_by_label("the").next().is_some());
 }
+
+/// An agent without maps (rl-starter-files' ACModel as ONNX): the overlay offers no `M` and no
+/// word, the occlusion map standing in for the maps has the word maps' outlines and a colour
+/// bar of its own, and no ρ(M, Δ) names an `M` that does not exist.
+#[test]
+fn an_agent_without_maps_is_offered_nothing_it_lacks() {
+    let level = babyai("BabyAI-GoToRedBallGrey-v0");
+    let mut h = build(&options(
+        "tests/fixtures/onnx/acmodel_gotoredballgrey.onnx",
+        Some(level),
+        2,
+    ));
+    show_until(&mut h, "step 0 of ");
+    show_until(&mut h, "no attention maps: the occlusion saliency");
+    show_until(&mut h, "Δ's own scale");
+    for name in ["M", "selected word"] {
+        assert!(
+            h.get_by_label(name).accesskit_node().is_disabled(),
+            "the {name} overlay is offered"
+        );
+    }
+    assert!(h.query_by_label_contains("ρ(M, Δ)").is_none());
+}

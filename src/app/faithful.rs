@@ -47,31 +47,38 @@ impl FaithfulnessView {
     }
 
     /// The occlusion map Δ as one column of the row of maps (on its own scale).
-    pub fn occlusion_ui(&self, ui: &mut egui::Ui, side: f32) {
+    pub fn occlusion_ui(
+        &self,
+        ui: &mut egui::Ui,
+        side: f32,
+        obs: Option<&crate::env::view::Observation>,
+        own_bar: bool,
+    ) {
         let Some(Ok((f, _))) = &self.result else {
             return;
         };
+        let hi = f.occlusion.iter().flatten().fold(1e-6f32, |a, b| a.max(*b));
         ui.vertical(|ui| {
             ui.set_width(side);
             ui.label(egui::RichText::new("occlusion Δ").strong());
-            let hi = f
-                .occlusion
-                .iter()
-                .flatten()
-                .fold(1e-6f32, |a, b| a.max(*b));
             ui.label(format!("scale 0–{hi:.3}"));
+            // The step's walls and objects outlined and the unseen cells hatched, as on the
+            // word maps, so the stand-in map reads the same way.
             let look = MapLook {
                 hi,
                 side,
                 selected: false,
                 dimmed: false,
-                obs: None,
+                obs,
                 hits: &[],
             };
             Debugger::heat_map(ui, &f.occlusion, &look).on_hover_text(
                 "how much the action distribution changes (total variation) when this cell alone becomes empty floor; its own scale",
             );
         });
+        if own_bar {
+            Debugger::color_bar(ui, hi, side * 0.8, "Δ's own scale");
+        }
     }
 
     /// ρ(M, Δ) with the peaks' agreement, the one-step interventions and whether they flip
@@ -86,10 +93,13 @@ impl FaithfulnessView {
         match &self.result {
             Some(Ok((f, ms))) => {
                 ui.horizontal_wrapped(|ui| {
-                    ui.label(match f.rank_correlation {
-                        Some(r) => format!("Spearman ρ(M, Δ) = {r:.3}"),
-                        None => "ρ(M, Δ): undefined (M or Δ constant)".to_owned(),
-                    });
+                    // A model without maps has no M to rank Δ against.
+                    if combined.is_some() {
+                        ui.label(match f.rank_correlation {
+                            Some(r) => format!("Spearman ρ(M, Δ) = {r:.3}"),
+                            None => "ρ(M, Δ): undefined (M or Δ constant)".to_owned(),
+                        });
+                    }
                     if let Some(m) = combined {
                         ui.label(peak_line(m, &f.occlusion)).on_hover_text(
                             "ρ ranks all 48 cells; the top cells are where M and Δ matter",

@@ -175,28 +175,31 @@ impl Debugger {
     fn level_picker(&mut self, ui: &mut egui::Ui) {
         let current = self.level.babyai.map_or(PAPER_LEVEL, LevelId::id);
         let mut picked = None;
-        ui.label("level");
-        egui::ComboBox::from_id_salt("level")
-            .selected_text(current)
-            .height(420.0)
-            .show_ui(ui, |ui| {
-                if ui
-                    .selectable_label(self.level.babyai.is_none(), PAPER_LEVEL)
-                    .clicked()
-                {
-                    picked = Some(None);
-                }
-                for id in LevelId::all() {
+        // The label and its picker as one unit: a wrapping top bar keeps them together.
+        ui.horizontal(|ui| {
+            ui.label("level");
+            egui::ComboBox::from_id_salt("level")
+                .selected_text(current)
+                .height(420.0)
+                .show_ui(ui, |ui| {
                     if ui
-                        .selectable_label(self.level.babyai == Some(id), id.id())
+                        .selectable_label(self.level.babyai.is_none(), PAPER_LEVEL)
                         .clicked()
                     {
-                        picked = Some(Some(id));
+                        picked = Some(None);
                     }
-                }
-            })
-            .response
-            .on_hover_text("the paper's level or any of minigrid 3.2.0's 96 BabyAI levels");
+                    for id in LevelId::all() {
+                        if ui
+                            .selectable_label(self.level.babyai == Some(id), id.id())
+                            .clicked()
+                        {
+                            picked = Some(Some(id));
+                        }
+                    }
+                })
+                .response
+                .on_hover_text("the paper's level or any of minigrid 3.2.0's 96 BabyAI levels");
+        });
         let mut done = self.level.done_required;
         let toggled = ui
             .checkbox(&mut done, "done action")

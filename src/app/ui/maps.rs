@@ -182,7 +182,7 @@ impl Debugger {
 
     /// A vertical colour bar `height` points tall for the scale `0..=hi`, with its ends
     /// labelled and a caption saying which maps use it.
-    pub(super) fn color_bar(ui: &mut egui::Ui, hi: f32, height: f32, caption: &str) {
+    pub(crate) fn color_bar(ui: &mut egui::Ui, hi: f32, height: f32, caption: &str) {
         ui.vertical(|ui| {
             ui.label(format!("{hi:.3}"));
             let (rect, _) = ui.allocate_exact_size(Vec2::new(14.0, height), Sense::hover());

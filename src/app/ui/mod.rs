@@ -247,11 +247,27 @@ impl Debugger {
     /// The overlay choice, the world, the agent's view and the probe.
     fn left_column(&mut self, ui: &mut egui::Ui, side: f32) {
         let ctx = ui.ctx().clone();
+        // A model without maps (or the bot) has no M and no word to overlay.
+        // (Judged from the episode shown; while none is, everything stays offered.)
+        let has_maps = self.shown.as_ref().is_none_or(|s| {
+            s.trace
+                .steps
+                .first()
+                .is_none_or(|st| st.attention.is_some())
+        });
+        if !has_maps {
+            self.overlay = Overlay::None;
+        }
         ui.horizontal(|ui| {
             ui.label("overlay");
             ui.radio_value(&mut self.overlay, Overlay::None, "none");
-            ui.radio_value(&mut self.overlay, Overlay::Combined, "M");
-            ui.radio_value(&mut self.overlay, Overlay::Word, "selected word");
+            for (o, name) in [(Overlay::Combined, "M"), (Overlay::Word, "selected word")] {
+                let r = ui.add_enabled(has_maps, egui::RadioButton::new(self.overlay == o, name));
+                if r.clicked() {
+                    self.overlay = o;
+                }
+                r.on_disabled_hover_text("this model has no attention maps");
+            }
         });
         self.world_panel(ui, false, side);
         ui.label(
@@ -326,14 +342,17 @@ impl Debugger {
             ui.label(
                 "no attention maps: the occlusion saliency below (how much the action distribution changes when a cell becomes floor) stands in for them",
             );
-            self.faithfulness.occlusion_ui(ui, side);
+            ui.horizontal_top(|ui| {
+                self.faithfulness
+                    .occlusion_ui(ui, side, Some(&step.obs), true);
+            });
         } else {
             // The row borrows the debugger mutably (a click selects a map), so Δ's view is
             // taken out for the while.
             let taken = std::mem::take(&mut self.faithfulness);
             self.maps_row(ui, step, scene, side, |ui| {
                 if faithful {
-                    taken.occlusion_ui(ui, side);
+                    taken.occlusion_ui(ui, side, Some(&step.obs), false);
                 }
             });
             self.faithfulness = taken;
