@@ -274,7 +274,6 @@ impl Debugger {
             egui::RichText::new(
                 "magenta corners: targets waited on · numbers: clauses · dots: cells visited · floor tint and rings: the map",
             )
-            .small()
             .weak(),
         );
         ui.add_space(6.0);

@@ -20,7 +20,8 @@ impl Debugger {
     /// the doors.
     pub(super) fn tree_panel(ui: &mut egui::Ui, tree: &InstructionTree) {
         for n in &tree.nodes {
-            ui.horizontal(|ui| {
+            // Wrapped, at the normal text size: a long clause's targets stay in the panel.
+            ui.horizontal_wrapped(|ui| {
                 ui.add_space(18.0 * n.depth as f32);
                 ui.label(
                     RichText::new(n.stage.name())
@@ -39,7 +40,7 @@ impl Debugger {
                 ui.label(text);
                 if n.clause.is_some() {
                     ui.label(
-                        RichText::new(format!("targets: {}", targets_text(&n.targets))).small(),
+                        RichText::new(format!("targets: {}", targets_text(&n.targets))).weak(),
                     )
                     .on_hover_text(
                         "what the clause's description matched at reset, and where it is now; \
@@ -49,7 +50,7 @@ impl Debugger {
             });
         }
         if !tree.doors.is_empty() {
-            ui.label(RichText::new(format!("doors: {}", doors_text(&tree.doors))).small());
+            ui.label(RichText::new(format!("doors: {}", doors_text(&tree.doors))).weak());
         }
     }
 
@@ -70,7 +71,7 @@ impl Debugger {
                 Stroke::new(1.5, color),
                 StrokeKind::Inside,
             );
-            let font = FontId::proportional((r.height() * 0.4).clamp(9.0, 16.0));
+            let font = FontId::proportional((r.height() * 0.5).clamp(12.0, 18.0));
             let at = r.left_top() + egui::vec2(2.0, 1.0);
             // A dark backing keeps the numbers legible on any tile.
             let galley = painter.layout_no_wrap(m.label, font, color);
