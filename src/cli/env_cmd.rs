@@ -231,7 +231,7 @@ fn list(agent: Option<&groundscope::policy::Agent>) {
     let mut readable = 0;
     for l in levels {
         let m = l.mechanics();
-        let (w, h) = l.rooms.grid_size();
+        let (grid, rooms) = l.rooms.layout_names();
         let reads = agent.map_or_else(String::new, |a| {
             let r = reads_level(a, l);
             readable += usize::from(r.starts_with("all"));
@@ -239,13 +239,7 @@ fn list(agent: Option<&groundscope::policy::Agent>) {
         });
         println!(
             "{:<36} {:>5} {:>6} {:>9}  {:<18} {:<26} {:<30}{reads}",
-            l.id,
-            format!("{}×{}", l.rooms.num_cols, l.rooms.num_rows),
-            l.rooms.room_size,
-            format!("{w}×{h}"),
-            m.doors,
-            m.locks,
-            m.instructions
+            l.id, rooms, l.rooms.room_size, grid, m.doors, m.locks, m.instructions
         );
     }
     if agent.is_some() {

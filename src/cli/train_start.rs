@@ -145,11 +145,10 @@ impl Fixed {
         let a = &args.level;
         let l = &self.levels.first();
         // The levels as given, or as the run has them where the flag is left out.
-        let levels_now = match (&args.levels, &args.level.level) {
-            (Some(_), _) | (None, Some(_)) => {
-                crate::cli::train::level_mix(args).map_or_else(|e| e.to_string(), |m| m.to_string())
-            }
-            (None, None) => self.levels.to_string(),
+        let levels_now = if args.levels.is_some() || args.level.level.is_some() {
+            crate::cli::train::level_mix(args)?.to_string()
+        } else {
+            self.levels.to_string()
         };
         let schedule = |p: &PpoConfig| {
             p.temperature_anneal

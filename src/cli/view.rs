@@ -69,8 +69,9 @@ fn parse_size(s: &str) -> anyhow::Result<[f32; 2]> {
 
 /// Runs `view`.
 /// Without `--checkpoint`: the paper's attention model, or `bundled:babyai` where it cannot
-/// read the mission of the level and seed asked for (a BabyAI level's words it never met).
-fn default_checkpoint(args: &ViewArgs) -> anyhow::Result<String> {
+/// read the mission of the level and seed asked for (a BabyAI level's words it never met);
+/// the name and the loaded model.
+fn default_checkpoint(args: &ViewArgs) -> anyhow::Result<(String, groundscope::policy::Agent)> {
     let first = groundscope::policy::bundled::names()[0].clone();
     let agent = groundscope::policy::Agent::load(&first)?;
     let level = args.episode.level(agent.level())?;
@@ -81,9 +82,10 @@ fn default_checkpoint(args: &ViewArgs) -> anyhow::Result<String> {
         })
         .is_err()
     {
-        return Ok(groundscope::policy::bundled::BABYAI.to_owned());
+        let babyai = groundscope::policy::bundled::BABYAI;
+        return Ok((babyai.to_owned(), groundscope::policy::Agent::load(babyai)?));
     }
-    Ok(first)
+    Ok((first, agent))
 }
 
 pub fn run(args: &ViewArgs) -> anyhow::Result<ExitStatus> {
@@ -97,11 +99,10 @@ pub fn run(args: &ViewArgs) -> anyhow::Result<ExitStatus> {
         check_extension(p, "png", "--screenshot")?;
     }
     // Load once here so that a bad checkpoint or level is a one-line error, not a window.
-    let checkpoint = match &args.checkpoint {
-        Some(c) => c.clone(),
+    let (checkpoint, agent) = match &args.checkpoint {
+        Some(c) => (c.clone(), groundscope::policy::Agent::load(c)?),
         None => default_checkpoint(args)?,
     };
-    let agent = groundscope::policy::Agent::load(&checkpoint)?;
     if let Some(c) = &args.compare {
         groundscope::policy::Agent::load(c)?;
     }
@@ -152,11 +153,13 @@ mod tests {
     #[test]
     fn the_default_model_is_one_that_reads_the_mission() {
         assert_eq!(
-            default_checkpoint(&view_args(&[])).unwrap(),
+            default_checkpoint(&view_args(&[])).unwrap().0,
             "bundled:attention"
         );
         assert_eq!(
-            default_checkpoint(&view_args(&["--level", "BabyAI-GoToLocal-v0"])).unwrap(),
+            default_checkpoint(&view_args(&["--level", "BabyAI-GoToLocal-v0"]))
+                .unwrap()
+                .0,
             "bundled:attention"
         );
         for id in [
@@ -165,7 +168,9 @@ mod tests {
             "BabyAI-UnlockLocal-v0",
         ] {
             assert_eq!(
-                default_checkpoint(&view_args(&["--level", id, "--seed", "2"])).unwrap(),
+                default_checkpoint(&view_args(&["--level", id, "--seed", "2"]))
+                    .unwrap()
+                    .0,
                 groundscope::policy::bundled::BABYAI,
                 "{id}"
             );

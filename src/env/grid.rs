@@ -38,6 +38,16 @@ impl Rooms {
         )
     }
 
+    /// The grid and the room layout as `env list` and the reports name them: `("22×22",
+    /// "3×3")` (width × height walls included, columns × rows).
+    pub fn layout_names(self) -> (String, String) {
+        let (w, h) = self.grid_size();
+        (
+            format!("{w}×{h}"),
+            format!("{}×{}", self.num_cols, self.num_rows),
+        )
+    }
+
     /// `room_from_pos`: the room `(i, j)` holding `pos` (clamped to the grid's rooms, where
     /// Python would assert).
     pub fn room_of(self, (x, y): Pos) -> (i32, i32) {

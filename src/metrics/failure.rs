@@ -266,15 +266,23 @@ pub struct Evidence {
     pub m_steps: u32,
     /// Of those, the steps where `M` was on a visible target ([`m_points_at`]).
     pub m_on_target_steps: u32,
-    /// The last [`TURN_WINDOW`] actions, oldest first.
-    pub recent_actions: Vec<Action>,
-    /// For each of [`Self::recent_actions`]: the agent's cell before it, and whether it was a
-    /// `forward` into a cell the agent cannot enter.
-    pub recent_moves: Vec<((i32, i32), bool)>,
+    /// The last [`TURN_WINDOW`] steps, oldest first.
+    pub recent: Vec<RecentStep>,
     /// The last step, once the episode ended.
     pub ending: Option<Ending>,
     /// Rooms, doors, keys, sequences and PutNext ([`mechanics`]).
     pub mechanics: Mechanics,
+}
+
+/// One of an episode's last steps, as the ending rules read it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RecentStep {
+    /// The action taken.
+    pub action: Action,
+    /// The agent's cell before it.
+    pub pos: (i32, i32),
+    /// It was a `forward` into a cell the agent cannot enter.
+    pub blocked: bool,
 }
 
 /// The class of one failed episode and the counts it rests on.
@@ -348,18 +356,18 @@ impl Evidence {
                 }
             }
         }
-        if self.recent_actions.len() == TURN_WINDOW {
-            self.recent_actions.remove(0);
-            self.recent_moves.remove(0);
+        if self.recent.len() == TURN_WINDOW {
+            self.recent.remove(0);
         }
-        self.recent_actions.push(step.action);
         let w = step.world;
-        let blocked = step.action == Action::Forward
-            && w.grid.get(w.front_pos()).is_some_and(|o| !o.can_overlap());
-        self.recent_moves.push((w.agent_pos, blocked));
+        self.recent.push(RecentStep {
+            action: step.action,
+            pos: w.agent_pos,
+            blocked: step.action == Action::Forward
+                && w.grid.get(w.front_pos()).is_some_and(|o| !o.can_overlap()),
+        });
         self.mechanics.push(step);
         if step.terminated || step.truncated {
-            let w = step.world;
             self.ending = Some(Ending {
                 success: step.reward > 0.0,
                 terminated: step.terminated,
@@ -403,20 +411,17 @@ impl Evidence {
                 && (e.front == Relation::NonTarget || e.carried == Relation::NonTarget)
         });
         let truncated = self.ending.is_some_and(|e| e.truncated);
-        let full = self.recent_actions.len() == TURN_WINDOW;
+        let full = self.recent.len() == TURN_WINDOW;
         let turning = truncated
             && full
             && self
-                .recent_actions
+                .recent
                 .iter()
-                .all(|a| matches!(a, Action::Left | Action::Right));
+                .all(|r| matches!(r.action, Action::Left | Action::Right));
         let blocked = truncated
             && full
-            && self.recent_moves.iter().any(|&(_, b)| b)
-            && self
-                .recent_moves
-                .iter()
-                .all(|&(p, _)| p == self.recent_moves[0].0);
+            && self.recent.iter().any(|r| r.blocked)
+            && self.recent.iter().all(|r| r.pos == self.recent[0].pos);
         let class = if let Some(c) = self.mechanics.room_class() {
             c
         } else if self.target_visible_steps == 0 {

@@ -12,14 +12,8 @@ use crate::metrics::sweep::MeanStd;
 pub(crate) fn level_key(level: Option<&str>, size: usize, objects: usize) -> String {
     match level.and_then(|id| crate::env::level::LevelId::parse(id).ok()) {
         Some(id) => {
-            let rooms = id.spec().rooms;
-            let (w, h) = rooms.grid_size();
-            format!(
-                "{} | {w}×{h} | {}×{}",
-                id.id(),
-                rooms.num_cols,
-                rooms.num_rows
-            )
+            let (grid, rooms) = id.spec().rooms.layout_names();
+            format!("{} | {grid} | {rooms}", id.id())
         }
         None => format!("S{size} N{objects} | {size}×{size} | 1×1"),
     }

@@ -189,6 +189,26 @@ impl PhaseTimes {
     }
 }
 
+/// Runs every job on a thread of its own (the only one inline) and returns their results in
+/// job order: the rollout's and the update's shards, whose order fixes the result.
+fn in_threads<T: Send>(
+    jobs: Vec<impl FnOnce() -> Result<T, PolicyError> + Send>,
+) -> Result<Vec<T>, PolicyError> {
+    if jobs.len() <= 1 {
+        return jobs.into_iter().map(|job| job()).collect();
+    }
+    std::thread::scope(|scope| {
+        let handles: Vec<_> = jobs.into_iter().map(|job| scope.spawn(job)).collect();
+        handles
+            .into_iter()
+            .map(|h| {
+                h.join()
+                    .map_err(|_| PolicyError::Input("a training thread panicked".into()))?
+            })
+            .collect()
+    })
+}
+
 fn secs(t: std::time::Instant) -> f64 {
     t.elapsed().as_secs_f64()
 }

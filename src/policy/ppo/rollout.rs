@@ -4,7 +4,7 @@
 use candle_core::{Device, Tensor};
 use rand::Rng as _;
 
-use super::{EnvSlot, EpisodeStats, Trainer, missions, new_slot, secs};
+use super::{EnvSlot, EpisodeStats, Trainer, in_threads, missions, new_slot, secs};
 use crate::env::view::Observation;
 use crate::env::world::Action;
 use crate::policy::error::PolicyError;
@@ -201,20 +201,7 @@ impl Trainer {
                 c: memory.c.to_vec2::<f32>()?,
             })
         };
-        let outs: Vec<ActAll> = if parts.len() == 1 {
-            vec![forward(&parts[0])?]
-        } else {
-            std::thread::scope(|scope| {
-                let handles: Vec<_> = parts.iter().map(|r| scope.spawn(|| forward(r))).collect();
-                handles
-                    .into_iter()
-                    .map(|h| {
-                        h.join()
-                            .map_err(|_| PolicyError::Input("a rollout thread panicked".into()))?
-                    })
-                    .collect::<Result<Vec<_>, PolicyError>>()
-            })?
-        };
+        let outs = in_threads(parts.iter().map(|r| || forward(r)).collect())?;
         let mut out = ActAll {
             obs: Vec::new(),
             probs: Vec::with_capacity(n),
@@ -303,35 +290,23 @@ fn on_shards<T: Send>(
     threads: usize,
     f: impl Fn(usize, &mut EnvSlot) -> Result<T, PolicyError> + Sync,
 ) -> Result<Vec<T>, PolicyError> {
-    let n = envs.len();
-    let per = n.div_ceil(threads.max(1)).max(1);
-    if threads <= 1 || n <= per {
-        return envs.iter_mut().enumerate().map(|(p, e)| f(p, e)).collect();
-    }
+    // One shard (one thread) runs inline.
+    let per = envs.len().div_ceil(threads.max(1)).max(1);
     let f = &f;
-    std::thread::scope(|scope| {
-        let handles: Vec<_> = envs
-            .chunks_mut(per)
-            .enumerate()
-            .map(|(k, chunk)| {
-                scope.spawn(move || {
-                    chunk
-                        .iter_mut()
-                        .enumerate()
-                        .map(|(j, e)| f(k * per + j, e))
-                        .collect::<Result<Vec<T>, PolicyError>>()
-                })
-            })
-            .collect();
-        let mut all = Vec::with_capacity(n);
-        for h in handles {
-            all.extend(
-                h.join()
-                    .map_err(|_| PolicyError::Input("a rollout thread panicked".into()))??,
-            );
-        }
-        Ok(all)
-    })
+    let jobs: Vec<_> = envs
+        .chunks_mut(per)
+        .enumerate()
+        .map(|(k, chunk)| {
+            move || {
+                chunk
+                    .iter_mut()
+                    .enumerate()
+                    .map(|(j, e)| f(k * per + j, e))
+                    .collect::<Result<Vec<T>, PolicyError>>()
+            }
+        })
+        .collect();
+    Ok(in_threads(jobs)?.into_iter().flatten().collect())
 }
 
 /// `x ← (x − mean) / (std + 1e-8)`, the population statistics taken in f64.

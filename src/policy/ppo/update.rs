@@ -10,7 +10,7 @@ use rand::seq::SliceRandom as _;
 use super::grads::{clip_factor, with_minibatch_grads};
 use super::loss::{ShardOut, shard_step};
 use super::rollout::Rollout;
-use super::{Trainer, UpdateLog, secs};
+use super::{Trainer, UpdateLog, in_threads, secs};
 use crate::policy::error::PolicyError;
 use crate::policy::model::Net;
 use crate::policy::params::computes_maps;
@@ -51,26 +51,13 @@ impl Trainer {
             for starts in self.batch_starts() {
                 let per = starts.len().div_ceil(self.ppo.threads);
                 let parts: Vec<&[usize]> = starts.chunks(per).collect();
-                let outs: Vec<(GradStore, ShardOut)> = if let [only] = parts.as_slice() {
-                    vec![shard_step(&net, ro, only, &self.ppo)?]
-                } else {
-                    let ro_ref: &Rollout = ro;
-                    let (net, ppo) = (&net, &self.ppo);
-                    std::thread::scope(|scope| {
-                        let handles: Vec<_> = parts
-                            .iter()
-                            .map(|part| scope.spawn(move || shard_step(net, ro_ref, part, ppo)))
-                            .collect();
-                        handles
-                            .into_iter()
-                            .map(|h| {
-                                h.join().map_err(|_| {
-                                    PolicyError::Input("an update thread panicked".into())
-                                })?
-                            })
-                            .collect::<Result<Vec<_>, PolicyError>>()
-                    })?
-                };
+                let (ro_ref, net, ppo): (&Rollout, _, _) = (ro, &net, &self.ppo);
+                let outs: Vec<(GradStore, ShardOut)> = in_threads(
+                    parts
+                        .iter()
+                        .map(|part| move || shard_step(net, ro_ref, part, ppo))
+                        .collect(),
+                )?;
                 // Each shard's loss is a mean over its frames: its share of the minibatch.
                 let shares: Vec<f64> = parts
                     .iter()
