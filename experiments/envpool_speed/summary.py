@@ -1,6 +1,8 @@
 #!/usr/bin/env python3
 """Per-level ratios from run.sh's JSON lines: groundscope's resets/s and steps/s over
-EnvPool's (and minigrid's where measured), as a markdown table, the slowest ratio first."""
+EnvPool's (and minigrid's where measured), as a markdown table, the slowest ratio first.
+Where a level was measured in several rounds (run.sh's ROUNDS), each side's median is used."""
+import statistics
 import json
 import sys
 
@@ -12,7 +14,18 @@ for line in open(sys.argv[1]):
     r = json.loads(line)
     level = r["level"].split(" ")[0]
     side = {"env": "gs", "envpool-env": "ep", "minigrid-env": "mg"}[r["bench"]]
-    rows.setdefault(level, {})[side] = r
+    rows.setdefault(level, {}).setdefault(side, []).append(r)
+
+def median(runs):
+    """One row per side: the median of each rate over the rounds (an error if any failed)."""
+    if not runs:
+        return None
+    if any(r.get("error") for r in runs):
+        return {"error": True}
+    out = dict(runs[0])
+    for key in ("resets_per_sec", "steps_per_sec"):
+        out[key] = statistics.median(r[key] for r in runs)
+    return out
 
 def ratio(a, b, key):
     if a is None or b is None or a.get("error") or b.get("error"):
@@ -21,7 +34,7 @@ def ratio(a, b, key):
 
 table = []
 for level, r in rows.items():
-    gs, ep, mg = r.get("gs"), r.get("ep"), r.get("mg")
+    gs, ep, mg = (median(r.get(side, [])) for side in ("gs", "ep", "mg"))
     table.append((level, gs, ep, mg, ratio(gs, ep, "resets_per_sec"), ratio(gs, ep, "steps_per_sec"),
                   ratio(gs, mg, "resets_per_sec"), ratio(gs, mg, "steps_per_sec")))
 table.sort(key=lambda t: (t[4] is None, t[4] or 0))

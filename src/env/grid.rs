@@ -294,6 +294,15 @@ impl Grid {
         }
     }
 
+    /// Every object but the walls, with its position, in x-major order: what a description
+    /// of a key, ball, box or door can match, gathered once where many descriptions are tried
+    /// on one grid (a big level's instruction generation scans it dozens of times).
+    pub fn objects_but_walls(&self) -> Vec<(Pos, WorldObj)> {
+        self.objects()
+            .filter(|(_, o)| o.kind != ObjectKind::Wall)
+            .collect()
+    }
+
     /// Every non-empty cell with its position, in x-major order (MiniGrid's scan order).
     pub fn objects(&self) -> impl Iterator<Item = (Pos, WorldObj)> + '_ {
         self.cells.iter().enumerate().filter_map(move |(i, c)| {

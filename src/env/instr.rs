@@ -187,19 +187,33 @@ impl Instr {
     /// per-step state of the sequences and of Pickup / PutNext (`lastStepMatch` is kept, as
     /// Python keeps it).
     pub fn reset(&mut self, grid: &Grid, rooms: Rooms, agent_pos: Pos, agent_dir: u8) {
+        let objects = grid.objects_but_walls();
+        self.reset_among(&objects, grid, rooms, agent_pos, agent_dir);
+    }
+
+    /// [`Self::reset`] with the grid's objects gathered once for every clause.
+    fn reset_among(
+        &mut self,
+        objects: &[(Pos, WorldObj)],
+        grid: &Grid,
+        rooms: Rooms,
+        agent_pos: Pos,
+        agent_dir: u8,
+    ) {
+        let find = |desc: ObjDesc| {
+            let (obj_set, obj_poss) =
+                desc.find_matching_among(objects, grid, rooms, agent_pos, agent_dir);
+            Targets { obj_set, obj_poss }
+        };
         match self {
             Self::Action(n) => {
-                n.targets = Targets::find(n.instr.desc, grid, rooms, agent_pos, agent_dir);
-                n.fixed_targets = n
-                    .instr
-                    .fixed
-                    .map(|f| Targets::find(f, grid, rooms, agent_pos, agent_dir))
-                    .unwrap_or_default();
+                n.targets = find(n.instr.desc);
+                n.fixed_targets = n.instr.fixed.map(find).unwrap_or_default();
                 n.pre_carrying = None;
             }
             Self::Seq(s) => {
-                s.a.reset(grid, rooms, agent_pos, agent_dir);
-                s.b.reset(grid, rooms, agent_pos, agent_dir);
+                s.a.reset_among(objects, grid, rooms, agent_pos, agent_dir);
+                s.b.reset_among(objects, grid, rooms, agent_pos, agent_dir);
                 s.a_done = Status::Continue;
                 s.b_done = Status::Continue;
             }

@@ -124,12 +124,39 @@ impl ObjDesc {
         agent_pos: Pos,
         agent_dir: u8,
     ) -> (Vec<u32>, Vec<Pos>) {
+        self.matching_among(grid.objects(), rooms, agent_pos, agent_dir)
+    }
+
+    /// [`Self::find_matching`] over `objects`, the grid's [`Grid::objects_but_walls`]: the
+    /// same answer, since only a description without a type (or of walls) can match a wall,
+    /// and for those the whole grid is scanned.
+    pub fn find_matching_among(
+        &self,
+        objects: &[(Pos, WorldObj)],
+        grid: &Grid,
+        rooms: Rooms,
+        agent_pos: Pos,
+        agent_dir: u8,
+    ) -> (Vec<u32>, Vec<Pos>) {
+        if self.kind.is_none_or(|k| k == ObjectKind::Wall) {
+            return self.find_matching(grid, rooms, agent_pos, agent_dir);
+        }
+        self.matching_among(objects.iter().copied(), rooms, agent_pos, agent_dir)
+    }
+
+    fn matching_among(
+        &self,
+        objects: impl Iterator<Item = (Pos, WorldObj)>,
+        rooms: Rooms,
+        agent_pos: Pos,
+        agent_dir: u8,
+    ) -> (Vec<u32>, Vec<Pos>) {
         let d1 = DIR_TO_VEC[usize::from(agent_dir & 3)];
         let d2 = (-d1.1, d1.0);
         let room = rooms.room_of(agent_pos);
         let mut ids = Vec::new();
         let mut poss = Vec::new();
-        for (pos, obj) in grid.objects() {
+        for (pos, obj) in objects {
             if !self.matches(&obj) {
                 continue;
             }
@@ -449,6 +476,50 @@ fn parse_desc(w: &[&str]) -> Result<(ObjDesc, usize), ParseError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Matching among the objects gathered once gives what the full scan gives, for every
+    /// description (no type and walls included, which must fall back to the scan) on big
+    /// multi-room grids, at every agent direction.
+    #[test]
+    fn matching_among_gathered_objects_is_the_full_scan() {
+        use crate::env::level::{LevelConfig, LevelId};
+        let level = LevelConfig::babyai(LevelId::parse("BabyAI-BossLevel-v0").unwrap(), false);
+        let kinds = std::iter::once(None).chain(ObjectKind::ALL.into_iter().map(Some));
+        let kinds: Vec<_> = kinds.collect();
+        let colors: Vec<_> = std::iter::once(None)
+            .chain(Color::ALL.into_iter().map(Some))
+            .collect();
+        let locs = [
+            None,
+            Some(Loc::Left),
+            Some(Loc::Right),
+            Some(Loc::Front),
+            Some(Loc::Behind),
+        ];
+        let mut matched = 0;
+        for seed in 0..4 {
+            let w = level.generate(seed).unwrap();
+            let objects = w.grid.objects_but_walls();
+            for dir in 0..4 {
+                for &kind in &kinds {
+                    for &color in &colors {
+                        for &loc in &locs {
+                            let d = ObjDesc { kind, color, loc };
+                            let full = d.find_matching(&w.grid, w.rooms, w.agent_pos, dir);
+                            let among =
+                                d.find_matching_among(&objects, &w.grid, w.rooms, w.agent_pos, dir);
+                            assert_eq!(full, among, "{d:?} seed {seed} dir {dir}");
+                            matched += full.0.len();
+                        }
+                    }
+                }
+            }
+        }
+        assert!(
+            matched > 1000,
+            "only {matched} matches: the grids hold too few objects"
+        );
+    }
 
     #[test]
     fn surface_text_is_babyai_s() {

@@ -4,9 +4,10 @@
 use super::Generated;
 use super::open::LOC_NAMES;
 use super::roomgrid::{COLOR_NAMES, Gen, Retry};
+use crate::env::grid::Pos;
 use crate::env::instr::{Instr, SeqKind};
 use crate::env::mission::{Instruction, ObjDesc, TaskKind};
-use crate::env::object::{Color, ObjectKind};
+use crate::env::object::{Color, ObjectKind, WorldObj};
 
 /// `OBJ_TYPES`, in BabyAI's order (not the distractors' order).
 const OBJ_TYPES: [ObjectKind; 4] = [
@@ -84,7 +85,9 @@ pub fn gen_mission(g: &mut Gen, p: &Params) -> Result<Generated, Retry> {
     if !p.unblocking {
         g.check_objs_reachable()?;
     }
-    let instr = rand_instr(g, p, locked_room, p.action_kinds, p.instr_kinds)?;
+    // The grid is final from here on: its objects are gathered once for every description.
+    let objects = g.grid.objects_but_walls();
+    let instr = rand_instr(g, p, &objects, locked_room, p.action_kinds, p.instr_kinds)?;
     let mut out = Generated::from(instr);
     out.unblocking = p.unblocking;
     Ok(out)
@@ -121,6 +124,7 @@ fn add_locked_room(g: &mut Gen) -> Result<usize, Retry> {
 fn rand_obj(
     g: &mut Gen,
     p: &Params,
+    objects: &[(Pos, WorldObj)],
     locked_room: Option<usize>,
     types: &[ObjectKind],
 ) -> Result<ObjDesc, Retry> {
@@ -145,7 +149,8 @@ fn rand_obj(
             color,
             loc,
         };
-        let (objs, poss) = desc.find_matching(&g.grid, g.rooms, g.agent_pos, g.agent_dir);
+        let (objs, poss) =
+            desc.find_matching_among(objects, &g.grid, g.rooms, g.agent_pos, g.agent_dir);
         if objs.is_empty() {
             continue;
         }
@@ -168,6 +173,7 @@ fn rand_obj(
 fn rand_instr(
     g: &mut Gen,
     p: &Params,
+    objects: &[(Pos, WorldObj)],
     locked_room: Option<usize>,
     actions: &[TaskKind],
     kinds: &[InstrKind],
@@ -177,31 +183,33 @@ fn rand_instr(
             let action = g.rand_elem(actions);
             Ok(match action {
                 TaskKind::GoTo => {
-                    Instruction::new(action, rand_obj(g, p, locked_room, &OBJ_TYPES)?)
+                    Instruction::new(action, rand_obj(g, p, objects, locked_room, &OBJ_TYPES)?)
                 }
-                TaskKind::Pickup => {
-                    Instruction::new(action, rand_obj(g, p, locked_room, &OBJ_TYPES_NOT_DOOR)?)
-                }
-                TaskKind::Open => {
-                    Instruction::new(action, rand_obj(g, p, locked_room, &[ObjectKind::Door])?)
-                }
+                TaskKind::Pickup => Instruction::new(
+                    action,
+                    rand_obj(g, p, objects, locked_room, &OBJ_TYPES_NOT_DOOR)?,
+                ),
+                TaskKind::Open => Instruction::new(
+                    action,
+                    rand_obj(g, p, objects, locked_room, &[ObjectKind::Door])?,
+                ),
                 TaskKind::PutNext => {
-                    let moved = rand_obj(g, p, locked_room, &OBJ_TYPES_NOT_DOOR)?;
-                    let fixed = rand_obj(g, p, locked_room, &OBJ_TYPES)?;
+                    let moved = rand_obj(g, p, objects, locked_room, &OBJ_TYPES_NOT_DOOR)?;
+                    let fixed = rand_obj(g, p, objects, locked_room, &OBJ_TYPES)?;
                     Instruction::put_next(moved, fixed)
                 }
             }
             .into())
         }
         InstrKind::And => {
-            let a = rand_instr(g, p, locked_room, actions, &[InstrKind::Action])?;
-            let b = rand_instr(g, p, locked_room, actions, &[InstrKind::Action])?;
+            let a = rand_instr(g, p, objects, locked_room, actions, &[InstrKind::Action])?;
+            let b = rand_instr(g, p, objects, locked_room, actions, &[InstrKind::Action])?;
             Ok(Instr::seq(SeqKind::And, a, b))
         }
         InstrKind::Seq => {
             let parts = [InstrKind::Action, InstrKind::And];
-            let a = rand_instr(g, p, locked_room, actions, &parts)?;
-            let b = rand_instr(g, p, locked_room, actions, &parts)?;
+            let a = rand_instr(g, p, objects, locked_room, actions, &parts)?;
+            let b = rand_instr(g, p, objects, locked_room, actions, &parts)?;
             let kind = g.rand_elem(&[SeqKind::Before, SeqKind::After]);
             Ok(Instr::seq(kind, a, b))
         }
