@@ -19,13 +19,15 @@ pub mod unlock;
 
 pub use registry::{Family, LevelSpec, closest_ids, level_ids, spec};
 
+use std::cell::OnceCell;
+
 use roomgrid::{Gen, Retry};
 
 use super::error::EnvError;
 use super::grid::Pos;
 use super::instr::{Instr, Targets};
 use super::mission::{ObjDesc, TaskKind};
-use super::object::{Color, ObjectId, ObjectKind};
+use super::object::{Color, ObjectId, ObjectKind, WorldObj};
 use super::rng::{Call, NumpyRng};
 use super::world::World;
 
@@ -83,20 +85,41 @@ pub fn door_list(g: &Gen) -> Vec<(ObjectId, Color)> {
 
 /// `RoomGridLevel.validate_instrs`.
 fn validate(g: &Gen, instr: &Instr, unblocking: bool, locked: &[Color]) -> Result<(), Retry> {
+    validate_among(g, &OnceCell::new(), instr, unblocking, locked)
+}
+
+/// [`validate`] with the grid's objects gathered at most once for all its PutNext clauses
+/// (each asks for two descriptions and the moved objects' positions).
+fn validate_among(
+    g: &Gen,
+    objects: &OnceCell<Vec<(Pos, WorldObj)>>,
+    instr: &Instr,
+    unblocking: bool,
+    locked: &[Color],
+) -> Result<(), Retry> {
     match instr {
         Instr::Seq(s) => {
-            validate(g, &s.a, unblocking, locked)?;
-            validate(g, &s.b, unblocking, locked)
+            validate_among(g, objects, &s.a, unblocking, locked)?;
+            validate_among(g, objects, &s.b, unblocking, locked)
         }
         Instr::Action(n) => {
             if let (TaskKind::PutNext, Some(f)) = (n.instr.task, n.instr.fixed) {
-                let find = |d| Targets::find(d, &g.grid, g.rooms, g.agent_pos, g.agent_dir);
+                let objects = objects.get_or_init(|| g.grid.objects_but_walls());
+                let find = |d: ObjDesc| {
+                    let (obj_set, obj_poss) =
+                        d.find_matching_among(objects, &g.grid, g.rooms, g.agent_pos, g.agent_dir);
+                    Targets { obj_set, obj_poss }
+                };
                 let (moved, fixed) = (&find(n.instr.desc), &find(f));
                 if moved.obj_set.iter().any(|id| fixed.obj_set.contains(id)) {
                     return Err(Retry::Reject("objects match both sides of PutNext"));
                 }
+                let pos_of = |id: ObjectId| {
+                    let listed = objects.iter().find(|(_, o)| o.id == id).map(|(p, _)| *p);
+                    listed.or_else(|| g.pos_of(id))
+                };
                 let next = moved.obj_set.iter().any(|id| {
-                    g.pos_of(*id).is_some_and(|a: Pos| {
+                    pos_of(*id).is_some_and(|a: Pos| {
                         fixed
                             .obj_poss
                             .iter()
