@@ -486,13 +486,8 @@ fn the_panels_say_what_their_numbers_mean() {
     // Every step either shows each kind of accuracy or says why not; a word whose weight is
     // about 0 says it is not in M.
     let mut reasons = 0;
-    for (k, (step, scene)) in shown
-        .trace
-        .steps
-        .iter()
-        .zip(shown.scenes.iter())
-        .enumerate()
-    {
+    for (k, step) in shown.trace.steps.iter().enumerate() {
+        let scene = shown.scene(k).unwrap();
         if k > 0 {
             h.key_press(egui::Key::ArrowRight);
             show_until(&mut h, &format!("step {k} of "));

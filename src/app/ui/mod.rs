@@ -79,6 +79,8 @@ pub struct Debugger {
     sample: bool,
     mission_text: String,
     shown: Option<Shown>,
+    /// Whether `shown` is an episode whose steps are still coming.
+    streaming: bool,
     compared: Option<Shown>,
     cursor: Cursor,
     selected_word: usize,
@@ -143,6 +145,7 @@ impl Debugger {
             sample: opts.sample,
             mission_text: opts.mission.clone().unwrap_or_default(),
             shown: None,
+            streaming: false,
             compared: None,
             cursor: Cursor::default(),
             selected_word: 0,
@@ -171,6 +174,26 @@ impl Debugger {
         };
         me.run_episode(opts.mission.clone());
         me
+    }
+
+    /// How far the main episode has come: its steps so far and whether it is complete;
+    /// `None` before its first step is there.
+    pub fn episode_progress(&self) -> Option<(usize, bool)> {
+        let shown = self.shown.as_ref()?;
+        Some((shown.len(), shown.is_complete() && !self.streaming))
+    }
+
+    /// Moves the cursor to step `k`, or to the last step there is.
+    pub fn go_to_step(&mut self, k: usize) {
+        let len = self.shown.as_ref().map_or(0, Shown::len);
+        self.cursor.step = k.min(len.saturating_sub(1));
+    }
+
+    /// The last message of the window, if it is an error.
+    pub fn last_error(&self) -> Option<&str> {
+        self.messages
+            .last()
+            .and_then(|(err, m)| err.then_some(m.as_str()))
     }
 
     fn info(&mut self, m: impl Into<String>) {
@@ -297,9 +320,10 @@ impl Debugger {
             return;
         };
         let i = self.cursor.step.min(shown.len().saturating_sub(1));
-        let (Some(step), Some(scene)) = (shown.trace.steps.get(i), shown.scenes.get(i)) else {
+        let (Some(step), Some(scene)) = (shown.trace.steps.get(i), shown.scene(i)) else {
             return;
         };
+        let scene = &*scene;
         Self::policy_header(ui, step, &shown);
         Self::tree_panel(ui, &scene.tree);
         ui.horizontal_top(|ui| {
