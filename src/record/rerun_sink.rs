@@ -16,9 +16,9 @@
 //! | `attention/combined` (+ `/label`, `/grounding`) | DepthImage, Boxes2D, Points2D | `M` |
 //! | `attention/landmarks/*` | Boxes2D, LineStrips2D, Points2D | walls, objects, unseen cells, agent |
 //! | `attention/colorbar` | DepthImage | the maps' shared scale |
-//! | `attention/weights`, `attention/entropy` | Boxes2D (named tracks) + LineStrips2D (solid bars) | w and H in word order |
+//! | `attention/weights`, `attention/entropy` | Points2D (each row's label, above its bar) + Boxes2D (tracks) + LineStrips2D (solid bars) | w and H in word order |
 //! | `attention/legend` | TextDocument | word, w and H as a table |
-//! | `policy/probs` | Boxes2D (named tracks) + LineStrips2D (solid bars) | action probabilities |
+//! | `policy/probs` | Points2D (labels) + Boxes2D (tracks) + LineStrips2D (solid bars) | action probabilities |
 //! | `policy/value`, `policy/reward` | Scalars | critic value, reward |
 //! | `policy/status` | TextDocument | mission, step, action, probabilities |
 //! | `policy/action` | TextLog | one line per step |

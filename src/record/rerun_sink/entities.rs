@@ -196,7 +196,7 @@ fn log_faithfulness(
     Ok(())
 }
 
-/// Logs named bars at `path` (the labelled tracks) and `path/bars` (the bars).
+/// Logs named bars at `path` (the labels), `path/tracks` and `path/bars`.
 fn log_bars(
     rec: &RecordingStream,
     path: &str,
@@ -204,9 +204,11 @@ fn log_bars(
     full: f32,
     highlight: Option<usize>,
 ) -> Result<(), RecordError> {
-    let (tracks, bars) = labelled_bars(rows, full, highlight);
-    rec.log(path, &tracks).map_err(sdk)?;
-    rec.log(format!("{path}/bars"), &bars).map_err(sdk)
+    let chart = labelled_bars(rows, full, highlight);
+    rec.log(path, &chart.labels).map_err(sdk)?;
+    rec.log(format!("{path}/tracks"), &chart.tracks)
+        .map_err(sdk)?;
+    rec.log(format!("{path}/bars"), &chart.bars).map_err(sdk)
 }
 
 /// The world's marks at step `k`: the targets, the clauses' targets and the instruction tree

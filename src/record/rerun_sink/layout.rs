@@ -8,11 +8,13 @@ use rerun::blueprint::{
     SelectionPanel, Spatial2DView, TextDocumentView, TextLogView, TimePanel, TimeSeriesView,
     Vertical,
 };
-use rerun::external::re_sdk_types::blueprint::archetypes::PlotLegend;
+use rerun::external::re_sdk_types::blueprint::archetypes::{PlotLegend, VisualBounds2D};
+use rerun::external::re_sdk_types::datatypes::{Range1D, Range2D};
 use rerun::log::LogMsg;
 use rerun::{RecordingStream, RecordingStreamBuilder};
 
 use super::{RecordError, marks, sdk};
+use crate::env::world::Action;
 
 /// The title of word map `path` (`attention/words/<i>_<word>`): the word, with its position
 /// when the recording holds the same word at several positions.
@@ -48,21 +50,15 @@ fn map_columns(n_maps: usize) -> u32 {
 /// the policy's status, value and reward, the words table, grounding and faithfulness (as
 /// text: a plot's legend would cover its points) on the right. Every map
 /// view also shows the landmarks (walls, objects, unseen cells, the agent).
-fn layout(
-    word_paths: &[String],
-    attention: bool,
-    faithfulness: bool,
-) -> (Blueprint, Option<String>) {
+fn layout(word_paths: &[String], attention: bool, faithfulness: bool) -> (Blueprint, Settings) {
+    let mut settings = Settings::default();
     // Its legend would sit on the curves (at the start the value is high, at the end the
     // reward spikes): it is hidden, and the title names each series by its colour.
     let plot: ContainerLike = TimeSeriesView::new(VALUE_PLOT)
         .with_origin("/policy")
         .with_contents(["/policy/value", "/policy/reward"])
         .into();
-    let plot_path = match &plot {
-        ContainerLike::View(v) => Some(v.blueprint_path().to_string()),
-        _ => None,
-    };
+    settings.hidden_legends.extend(view_path(&plot));
     let left = Vertical::new([
         Spatial2DView::new("world (magenta: target waited on · numbers: clauses · line: trail)")
             .with_origin("/world")
@@ -85,18 +81,19 @@ fn layout(
             .with_origin("/policy/expert")
             .into(),
     ];
-    let probs = || {
-        Spatial2DView::new("action probabilities")
-            .with_origin("/policy/probs")
-            .into()
-    };
+    let probs = bar_view(
+        "action probabilities",
+        "/policy/probs",
+        Action::COUNT,
+        &mut settings,
+    );
     if !attention {
-        right.insert(1, probs());
+        right.insert(1, probs);
         let bp = panels(Blueprint::new(Horizontal::new([
             left.into(),
             Vertical::new(right).into(),
         ])));
-        return (bp, plot_path);
+        return (bp, settings);
     }
     right.push(
         TextDocumentView::new("words: w and H")
@@ -152,13 +149,19 @@ fn layout(
         .with_column_shares([12.0, 1.0])
         .into(),
         Horizontal::new([
-            Spatial2DView::new("weights w")
-                .with_origin("/attention/weights")
-                .into(),
-            Spatial2DView::new("entropies H (nats)")
-                .with_origin("/attention/entropy")
-                .into(),
-            probs(),
+            bar_view(
+                "weights w",
+                "/attention/weights",
+                n_words(word_paths),
+                &mut settings,
+            ),
+            bar_view(
+                "entropies H (nats)",
+                "/attention/entropy",
+                n_words(word_paths),
+                &mut settings,
+            ),
+            probs,
         ])
         .into(),
     ])
@@ -167,7 +170,59 @@ fn layout(
         Horizontal::new([left.into(), middle.into(), Vertical::new(right).into()])
             .with_column_shares([1.2, 2.0, 1.0]),
     ));
-    (bp, plot_path)
+    (bp, settings)
+}
+
+/// What the layout sets that the Rust blueprint API has no call for: plots whose legend is
+/// hidden, and views' first visible bounds; each by its view's blueprint path.
+#[derive(Default)]
+struct Settings {
+    hidden_legends: Vec<String>,
+    bounds: Vec<(String, Range2D)>,
+}
+
+fn view_path(view: &ContainerLike) -> Option<String> {
+    match view {
+        ContainerLike::View(v) => Some(v.blueprint_path().to_string()),
+        _ => None,
+    }
+}
+
+/// Rows of the w and H charts: the longest mission's words.
+fn n_words(word_paths: &[String]) -> usize {
+    word_paths
+        .iter()
+        .filter_map(|p| {
+            p.rsplit('/')
+                .next()?
+                .split_once('_')?
+                .0
+                .parse::<usize>()
+                .ok()
+        })
+        .max()
+        .map_or(0, |i| i + 1)
+}
+
+/// A bar chart's view of `rows` rows, showing the first [`marks::BAR_ROWS_SHOWN`] at a
+/// size their labels can be read at; a longer chart scrolls, and its title says so.
+fn bar_view(title: &str, origin: &str, rows: usize, settings: &mut Settings) -> ContainerLike {
+    let shown = rows.clamp(1, marks::BAR_ROWS_SHOWN);
+    let title = if rows > shown {
+        format!("{title} (first {shown} of {rows}: drag to scroll)")
+    } else {
+        title.to_owned()
+    };
+    let view: ContainerLike = Spatial2DView::new(title).with_origin(origin).into();
+    if let Some(path) = view_path(&view) {
+        let margin = f64::from(marks::BAR_GAP);
+        let range = Range2D {
+            x_range: Range1D([-margin, f64::from(marks::BAR_LENGTH) + margin]),
+            y_range: Range1D([-margin, shown as f64 * f64::from(marks::BAR_PITCH) + margin]),
+        };
+        settings.bounds.push((path, range));
+    }
+    view
 }
 
 /// The title of the value-and-reward plot, whose series it names by colour (the colours
@@ -185,7 +240,7 @@ pub(super) fn send_layout(
     attention: bool,
     faithfulness: bool,
 ) -> Result<(), RecordError> {
-    let (bp, plot) = layout(word_paths, attention, faithfulness);
+    let (bp, settings) = layout(word_paths, attention, faithfulness);
     let (carrier, storage) = RecordingStreamBuilder::new(super::APP_ID)
         .memory()
         .map_err(sdk)?;
@@ -218,29 +273,37 @@ pub(super) fn send_layout(
         return Err(RecordError::Rerun("the blueprint has no activation".into()));
     };
     msgs.truncate(at);
-    if let Some(plot) = plot {
-        let (legend_rec, legend) = RecordingStreamBuilder::new(super::APP_ID)
-            .blueprint()
-            .memory()
-            .map_err(sdk)?;
-        legend_rec.set_time_sequence("blueprint", 0);
-        legend_rec
+    let (settings_rec, logged) = RecordingStreamBuilder::new(super::APP_ID)
+        .blueprint()
+        .memory()
+        .map_err(sdk)?;
+    settings_rec.set_time_sequence("blueprint", 0);
+    for plot in &settings.hidden_legends {
+        settings_rec
             .log(
                 format!("{plot}/PlotLegend"),
                 &PlotLegend::new().with_visible(false),
             )
             .map_err(sdk)?;
-        msgs.extend(
-            legend
-                .take()
-                .into_iter()
-                .filter(|m| matches!(m, LogMsg::ArrowMsg(..)))
-                .map(|mut m| {
-                    m.set_store_id(activate.blueprint_id.clone());
-                    m
-                }),
-        );
     }
+    for (view, range) in &settings.bounds {
+        settings_rec
+            .log(
+                format!("{view}/VisualBounds2D"),
+                &VisualBounds2D::new(*range),
+            )
+            .map_err(sdk)?;
+    }
+    msgs.extend(
+        logged
+            .take()
+            .into_iter()
+            .filter(|m| matches!(m, LogMsg::ArrowMsg(..)))
+            .map(|mut m| {
+                m.set_store_id(activate.blueprint_id.clone());
+                m
+            }),
+    );
     rec.send_blueprint(msgs, activate);
     Ok(())
 }
