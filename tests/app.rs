@@ -230,7 +230,11 @@ fn the_debugger_shows_the_step_it_opens_on_and_steps_with_the_arrow_keys() {
         );
         h.get_by_label(&format!("w {:.3} · H {:.2}", w.weight, w.entropy));
     }
-    for label in ["combined M", "word weights w", "agent view (agent-up)"] {
+    for label in [
+        "combined M",
+        "word weights w",
+        "agent view (agent-up; hatched: not seen)",
+    ] {
         h.get_by_label(label);
     }
     // The faithfulness view is one click away, not open.

@@ -103,7 +103,10 @@ fn check_chart(d: &Decoded, path: &str, full: f32, key: &str, names: &[Vec<Strin
             );
             let [tx0, ty0, tx1, ty1] = tracks[i];
             assert!((ty0 - top).abs() < 1e-4 && (ty1 - bottom).abs() < 1e-4);
-            assert!((ax - f32::midpoint(tx0, tx1)).abs() < 1e-4, "centred on its bar");
+            assert!(
+                (ax - f32::midpoint(tx0, tx1)).abs() < 1e-4,
+                "centred on its bar"
+            );
             prev_bottom = bottom;
         }
         let frame = frames[k.min(frames.len() - 1)][0];

@@ -225,7 +225,8 @@ impl Debugger {
         egui::Panel::left("world")
             .exact_size(side + 16.0)
             .show(ui, |ui| {
-                egui::ScrollArea::vertical().show(ui, |ui| self.left_column(ui, side));
+                let height = ui.available_height();
+                egui::ScrollArea::vertical().show(ui, |ui| self.left_column(ui, side, height));
             });
         if self.compare && self.compared.is_some() {
             egui::Panel::right("compare")
@@ -267,9 +268,11 @@ impl Debugger {
         (cells as f32 * 30.0).clamp(300.0, most)
     }
 
-    /// The overlay choice, the world, the agent's view and the probe.
-    fn left_column(&mut self, ui: &mut egui::Ui, side: f32) {
+    /// The overlay choice, the world, the agent's view and the probe; the view shrinks (to
+    /// 96 points at least) to fit under the world in the column's `height`.
+    fn left_column(&mut self, ui: &mut egui::Ui, side: f32, height: f32) {
         let ctx = ui.ctx().clone();
+        let top = ui.cursor().min.y;
         // A model without maps (or the bot) has no M and no word to overlay.
         // (Judged from the episode shown; while none is, everything stays offered.)
         let has_maps = self.shown.as_ref().is_none_or(|s| {
@@ -300,9 +303,11 @@ impl Debugger {
             .weak(),
         );
         ui.add_space(6.0);
-        ui.label("agent view (agent-up)");
+        ui.label("agent view (agent-up; hatched: not seen)");
+        let left = height - (ui.cursor().min.y - top) - 10.0;
+        let view_side = left.min(side * 0.6).clamp(96.0, 200.0);
         if let Some(t) = self.texture(&ctx, self.cursor.step, 1, false) {
-            ui.add(egui::Image::new(&t).fit_to_exact_size(Vec2::splat((side * 0.6).min(200.0))));
+            ui.add(egui::Image::new(&t).fit_to_exact_size(Vec2::splat(view_side)));
         }
         ui.separator();
         self.edit_panel(ui);
