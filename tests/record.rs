@@ -348,12 +348,10 @@ fn every_bar_and_map_of_a_recording_is_named() {
                 format!("{} · w {:.2} · H {:.2}", w.word, w.weight, w.entropy)
             );
             assert_eq!(entropies[i], format!("{} · H {:.2}", w.word, w.entropy));
+            // The map's view is titled by the word: its label gives w and H.
             let label = &d.labels[&format!("/attention/words/{i}_{}/label", w.word)][k][0];
             assert!(
-                label.starts_with(&format!(
-                    "{} · w {:.2} · H {:.2}",
-                    w.word, w.weight, w.entropy
-                )),
+                label.starts_with(&format!("w {:.2} · H {:.2}", w.weight, w.entropy)),
                 "{label}"
             );
         }

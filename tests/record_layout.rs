@@ -191,3 +191,60 @@ fn a_long_missions_bar_charts_scroll_instead_of_overprinting() {
     }
     assert_eq!(rows_shown("action probabilities"), 7);
 }
+
+/// A 22×22 world is in view whole, its legend is text beside it rather than a title the
+/// panel cuts, a long mission's map titles are short and their labels leave the word to the
+/// title, and the text logs spend their width on the text.
+#[test]
+fn a_big_world_and_a_long_mission_fit_their_views() {
+    let mut ep = episode("bundled:babyai", Some("BabyAI-BossLevel-v0"), 3);
+    // The layout does not depend on the episode's length: its first steps will do.
+    ep.steps.truncate(20);
+    let (w, h) = (ep.final_world.grid.width(), ep.final_world.grid.height());
+    assert_eq!((w, h), (22, 22));
+    let d = recorded(std::slice::from_ref(&ep));
+    let tile = f64::from(groundscope::record::scene::TILE_PX);
+    assert_eq!(
+        d.view_bounds.get("world"),
+        Some(&[0.0, 22.0 * tile, 0.0, 22.0 * tile]),
+        "{:?}",
+        d.view_bounds
+    );
+    assert!(d.view_names.contains("world legend"));
+    assert!(
+        d.view_names.iter().all(|n| !n.starts_with("world (")),
+        "no legend in a title: {:?}",
+        d.view_names
+    );
+    let legend = &d.texts["/world/legend"];
+    assert!(legend[0].contains("magenta corners") && legend[0].contains("trail"));
+    assert!(d.static_entities.contains("/world/legend"));
+    for log in ["actions", "expert (minigrid's bot): its action and plan"] {
+        assert_eq!(
+            d.hidden_log_columns.get(log).map(Vec::as_slice),
+            Some(["EntityPath".to_owned(), "LogLevel".to_owned()].as_slice()),
+            "{log}: {:?}",
+            d.hidden_log_columns
+        );
+    }
+    // BossLevel seed 3's mission repeats "the": those maps are titled by position.
+    for (i, word) in ep.words().iter().enumerate() {
+        let path = format!("/attention/words/{i}_{word}/label");
+        for label in &d.labels[&path] {
+            assert!(label[0].starts_with("w "), "{path}: {label:?}");
+            assert!(label[0].contains(" · H "), "{path}: {label:?}");
+        }
+        let repeated = ep.words().iter().filter(|w| *w == word).count() > 1;
+        let title = if repeated {
+            format!("{i}:{word}")
+        } else {
+            (*word).to_owned()
+        };
+        assert!(
+            d.view_names.contains(&title),
+            "{title:?} in {:?}",
+            d.view_names
+        );
+        assert!(title.chars().count() <= 9, "{title}");
+    }
+}

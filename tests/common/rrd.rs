@@ -22,6 +22,9 @@ pub struct Decoded {
     pub boxes: BTreeMap<String, Vec<Vec<[f32; 4]>>>,
     /// The visual bounds the blueprint gives a view, by the view's name: `[x0, x1, y0, y1]`.
     pub view_bounds: BTreeMap<String, [f64; 4]>,
+    /// The text log columns the blueprint hides in a view (`EntityPath`, `LogLevel`), by the
+    /// view's name.
+    pub hidden_log_columns: BTreeMap<String, Vec<String>>,
     /// The text of every `TextDocument` entity, one per row, in step order.
     pub texts: BTreeMap<String, Vec<String>>,
     /// The points of every `LineStrips2D` entity's strips, one list per row, in step order.
@@ -44,6 +47,8 @@ pub fn decode(path: &Path) -> Decoded {
     let half_sizes = rerun::Boxes2D::descriptor_half_sizes().component;
     let bounds: rerun::ComponentIdentifier = "VisualBounds2D:range".into();
     let mut view_bounds = Vec::new();
+    let log_columns: rerun::ComponentIdentifier = "TextLogColumns:text_log_columns".into();
+    let mut hidden_columns = Vec::new();
     let text = rerun::TextDocument::descriptor_text().component;
     let strip = rerun::LineStrips2D::descriptor_strips().component;
     let legend_visible: rerun::ComponentIdentifier = "PlotLegend:visible".into();
@@ -77,6 +82,19 @@ pub fn decode(path: &Path) -> Decoded {
                     {
                         let (x, y) = (r.x_range.0, r.y_range.0);
                         view_bounds.push((view.to_owned(), [x[0], x[1], y[0], y[1]]));
+                    }
+                }
+                for c in chunk
+                    .iter_component::<rerun::external::re_sdk_types::blueprint::components::TextLogColumn>(log_columns)
+                {
+                    if let Some(view) = entity.strip_suffix("/TextLogColumns") {
+                        let hidden = c
+                            .as_slice()
+                            .iter()
+                            .filter(|c| !c.0.visible.0)
+                            .map(|c| format!("{:?}", c.0.kind))
+                            .collect();
+                        hidden_columns.push((view.to_owned(), hidden));
                     }
                 }
                 for v in chunk.iter_component::<rerun::components::Visible>(legend_visible) {
@@ -155,6 +173,10 @@ pub fn decode(path: &Path) -> Decoded {
             _ => {}
         }
     }
+    out.hidden_log_columns = hidden_columns
+        .into_iter()
+        .filter_map(|(p, h)| Some((view_paths.get(&p)?.clone(), h)))
+        .collect();
     out.view_bounds = view_bounds
         .into_iter()
         .filter_map(|(p, b)| Some((view_paths.get(&p)?.clone(), b)))

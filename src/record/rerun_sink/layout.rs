@@ -8,7 +8,12 @@ use rerun::blueprint::{
     SelectionPanel, Spatial2DView, TextDocumentView, TextLogView, TimePanel, TimeSeriesView,
     Vertical,
 };
-use rerun::external::re_sdk_types::blueprint::archetypes::{PlotLegend, VisualBounds2D};
+use rerun::external::re_sdk_types::blueprint::archetypes::{
+    PlotLegend, TextLogColumns, VisualBounds2D,
+};
+use rerun::external::re_sdk_types::blueprint::datatypes::{
+    TextLogColumn, TextLogColumnKind, TimelineColumn,
+};
 use rerun::external::re_sdk_types::datatypes::{Range1D, Range2D};
 use rerun::log::LogMsg;
 use rerun::{RecordingStream, RecordingStreamBuilder};
@@ -17,7 +22,8 @@ use super::{RecordError, marks, sdk};
 use crate::env::world::Action;
 
 /// The title of word map `path` (`attention/words/<i>_<word>`): the word, with its position
-/// when the recording holds the same word at several positions.
+/// first (`"3:the"`) when the recording holds the same word at several positions. Short, so
+/// that a long mission's grid of small maps does not cut it ("go (word 0)" read "go (wo…").
 fn word_title(path: &str, all: &[String]) -> String {
     let name = path.rsplit('/').next().unwrap_or(path);
     let (i, word) = name.split_once('_').unwrap_or(("", name));
@@ -32,7 +38,7 @@ fn word_title(path: &str, all: &[String]) -> String {
         })
         .count();
     if same > 1 {
-        format!("{word} (word {i})")
+        format!("{i}:{word}")
     } else {
         word.to_owned()
     }
@@ -50,7 +56,12 @@ fn map_columns(n_maps: usize) -> u32 {
 /// the policy's status, value and reward, the words table, grounding and faithfulness (as
 /// text: a plot's legend would cover its points) on the right. Every map
 /// view also shows the landmarks (walls, objects, unseen cells, the agent).
-fn layout(word_paths: &[String], attention: bool, faithfulness: bool) -> (Blueprint, Settings) {
+fn layout(
+    word_paths: &[String],
+    attention: bool,
+    faithfulness: bool,
+    world_cells: (usize, usize),
+) -> (Blueprint, Settings) {
     let mut settings = Settings::default();
     // Its legend would sit on the curves (at the start the value is high, at the end the
     // reward spikes): it is hidden, and the title names each series by its colour.
@@ -59,13 +70,24 @@ fn layout(word_paths: &[String], attention: bool, faithfulness: bool) -> (Bluepr
         .with_contents(["/policy/value", "/policy/reward"])
         .into();
     settings.hidden_legends.extend(view_path(&plot));
+    // The whole world in view, however big: Rerun's own fit cut a 22×22 world at 1600×1000.
+    let world: ContainerLike = Spatial2DView::new("world").with_origin("/world").into();
+    if let Some(path) = view_path(&world) {
+        let tile = f64::from(crate::record::scene::TILE_PX);
+        let range = Range2D {
+            x_range: Range1D([0.0, world_cells.0 as f64 * tile]),
+            y_range: Range1D([0.0, world_cells.1 as f64 * tile]),
+        };
+        settings.bounds.push((path, range));
+    }
     let left = Vertical::new([
-        Spatial2DView::new("world (magenta: target waited on · numbers: clauses · line: trail)")
-            .with_origin("/world")
+        world,
+        TextDocumentView::new("world legend")
+            .with_origin(format!("/{}", super::entities::WORLD_LEGEND))
             .into(),
         Spatial2DView::new("agent view").with_origin("/view").into(),
     ])
-    .with_row_shares([3.0, 1.0]);
+    .with_row_shares([3.0, 0.5, 1.0]);
     let mut right = vec![
         TextDocumentView::new("status")
             .with_origin("/policy/status")
@@ -74,12 +96,12 @@ fn layout(word_paths: &[String], attention: bool, faithfulness: bool) -> (Bluepr
             .with_origin("/mission/tree")
             .into(),
         plot,
-        TextLogView::new("actions")
-            .with_origin("/policy/action")
-            .into(),
-        TextLogView::new("expert (minigrid's bot): its action and plan")
-            .with_origin("/policy/expert")
-            .into(),
+        text_log("actions", "/policy/action", &mut settings),
+        text_log(
+            "expert (minigrid's bot): its action and plan",
+            "/policy/expert",
+            &mut settings,
+        ),
     ];
     let probs = bar_view(
         "action probabilities",
@@ -166,11 +188,25 @@ fn layout(word_paths: &[String], attention: bool, faithfulness: bool) -> (Bluepr
         .into(),
     ])
     .with_row_shares([3.0, 1.0]);
+    // A big world (BabyAI's 3×3 rooms: 22×22 cells) gets a wider column.
+    let left_share = if world_cells.0.max(world_cells.1) > 12 {
+        1.6
+    } else {
+        1.2
+    };
     let bp = panels(Blueprint::new(
         Horizontal::new([left.into(), middle.into(), Vertical::new(right).into()])
-            .with_column_shares([1.2, 2.0, 1.0]),
+            .with_column_shares([left_share, 2.0, 1.0]),
     ));
     (bp, settings)
+}
+
+/// A text log view showing only the `step` and each line's text: the entity-path and level
+/// columns Rerun shows by default took half its width and say the same on every row.
+fn text_log(title: &str, origin: &str, settings: &mut Settings) -> ContainerLike {
+    let view: ContainerLike = TextLogView::new(title).with_origin(origin).into();
+    settings.text_logs.extend(view_path(&view));
+    view
 }
 
 /// What the layout sets that the Rust blueprint API has no call for: plots whose legend is
@@ -179,6 +215,7 @@ fn layout(word_paths: &[String], attention: bool, faithfulness: bool) -> (Bluepr
 struct Settings {
     hidden_legends: Vec<String>,
     bounds: Vec<(String, Range2D)>,
+    text_logs: Vec<String>,
 }
 
 fn view_path(view: &ContainerLike) -> Option<String> {
@@ -239,8 +276,9 @@ pub(super) fn send_layout(
     word_paths: &[String],
     attention: bool,
     faithfulness: bool,
+    world_cells: (usize, usize),
 ) -> Result<(), RecordError> {
-    let (bp, settings) = layout(word_paths, attention, faithfulness);
+    let (bp, settings) = layout(word_paths, attention, faithfulness, world_cells);
     let (carrier, storage) = RecordingStreamBuilder::new(super::APP_ID)
         .memory()
         .map_err(sdk)?;
@@ -284,6 +322,25 @@ pub(super) fn send_layout(
                 format!("{plot}/PlotLegend"),
                 &PlotLegend::new().with_visible(false),
             )
+            .map_err(sdk)?;
+    }
+    for view in &settings.text_logs {
+        let column = |kind, visible: bool| TextLogColumn {
+            visible: visible.into(),
+            kind,
+        };
+        let columns = TextLogColumns::new()
+            .with_timeline_columns([TimelineColumn {
+                visible: true.into(),
+                timeline: "step".into(),
+            }])
+            .with_text_log_columns([
+                column(TextLogColumnKind::EntityPath, false),
+                column(TextLogColumnKind::LogLevel, false),
+                column(TextLogColumnKind::Body, true),
+            ]);
+        settings_rec
+            .log(format!("{view}/TextLogColumns"), &columns)
             .map_err(sdk)?;
     }
     for (view, range) in &settings.bounds {
@@ -333,7 +390,7 @@ mod tests {
             "attention/words/5_the".to_owned(),
             "attention/words/3_yellow".to_owned(),
         ];
-        assert_eq!(word_title(&paths[0], &paths), "the (word 2)");
+        assert_eq!(word_title(&paths[0], &paths), "2:the");
         assert_eq!(word_title(&paths[2], &paths), "yellow");
     }
 }
