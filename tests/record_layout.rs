@@ -179,8 +179,8 @@ fn a_long_missions_bar_charts_scroll_instead_of_overprinting() {
         ((b[3] - b[2]) / f64::from(pitch)).floor() as usize
     };
     for title in [
-        format!("weights w (first 8 of {n}: drag to scroll)"),
-        format!("entropies H (nats) (first 8 of {n}: drag to scroll)"),
+        format!("weights w, 8 of {n}"),
+        format!("entropies H (nats), 8 of {n}"),
     ] {
         assert!(
             d.view_names.contains(&title),

@@ -242,11 +242,13 @@ fn n_words(word_paths: &[String]) -> usize {
 }
 
 /// A bar chart's view of `rows` rows, showing the first [`marks::BAR_ROWS_SHOWN`] at a
-/// size their labels can be read at; a longer chart scrolls, and its title says so.
+/// size their labels can be read at; a longer chart scrolls (drag it), and its title says
+/// how many rows it shows of how many.
 fn bar_view(title: &str, origin: &str, rows: usize, settings: &mut Settings) -> ContainerLike {
     let shown = rows.clamp(1, marks::BAR_ROWS_SHOWN);
     let title = if rows > shown {
-        format!("{title} (first {shown} of {rows}: drag to scroll)")
+        // Short: the viewer cut "weights w (first 8 of 11: drag to scroll)" after "(first".
+        format!("{title}, {shown} of {rows}")
     } else {
         title.to_owned()
     };
