@@ -1,7 +1,7 @@
 //! Episode traces: the one hand-off from `env` + `policy` to every consumer (metrics,
 //! recordings, the debugger). A trace is never recomputed elsewhere.
 
-use std::path::Path;
+mod json;
 
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
@@ -9,7 +9,6 @@ use serde::Serialize;
 
 use crate::bot::Expert;
 use crate::env::level::LevelConfig;
-use crate::env::snapshot::Snapshot;
 use crate::env::view::Observation;
 use crate::env::vocab;
 use crate::env::world::{Action, World};
@@ -241,7 +240,33 @@ pub fn run_from<P: Acting + ?Sized>(
     spec: &EpisodeSpec,
     world: World,
 ) -> Result<EpisodeTrace, PolicyError> {
-    run_fresh(net, checkpoint, spec, world, None)
+    run_fresh(net, checkpoint, spec, world, Hooks::default())
+}
+
+/// [`run_from`], showing `on_step` the episode so far after each step (the debugger shows
+/// the first steps while the rest are computed): its last step is the new one and its
+/// `final_world` the world after it. `on_step` returning `false` stops the episode there,
+/// with the steps taken so far. Stopped or not, the steps are those [`run_from`] takes.
+pub fn run_from_observed<P: Acting + ?Sized>(
+    net: &P,
+    checkpoint: &str,
+    spec: &EpisodeSpec,
+    world: World,
+    on_step: &mut dyn FnMut(&EpisodeTrace) -> bool,
+) -> Result<EpisodeTrace, PolicyError> {
+    let hooks = Hooks {
+        intervene: None,
+        on_step: Some(on_step),
+    };
+    run_fresh(net, checkpoint, spec, world, hooks)
+}
+
+/// What a running episode calls besides the policy: an intervention before each step and an
+/// observer after it.
+#[derive(Default)]
+struct Hooks<'a> {
+    intervene: Option<Intervene<'a>>,
+    on_step: Option<&'a mut dyn FnMut(&EpisodeTrace) -> bool>,
 }
 
 /// An episode from `world` with a fresh memory and sampling RNG.
@@ -250,7 +275,7 @@ fn run_fresh<P: Acting + ?Sized>(
     checkpoint: &str,
     spec: &EpisodeSpec,
     world: World,
-    intervene: Option<Intervene<'_>>,
+    hooks: Hooks<'_>,
 ) -> Result<EpisodeTrace, PolicyError> {
     let tokens = crate::policy::acting::mission_tokens(net, &world.mission, || {
         format!("{} seed {}", spec.level, spec.seed)
@@ -266,7 +291,7 @@ fn run_fresh<P: Acting + ?Sized>(
         memory,
         episode_rng(spec.seed),
         (Vec::new(), expert),
-        intervene,
+        hooks,
     )
 }
 
@@ -288,7 +313,11 @@ pub fn run_from_with<P: Acting + ?Sized>(
     world: World,
     intervene: Intervene<'_>,
 ) -> Result<EpisodeTrace, PolicyError> {
-    run_fresh(net, checkpoint, spec, world, Some(intervene))
+    let hooks = Hooks {
+        intervene: Some(intervene),
+        on_step: None,
+    };
+    run_fresh(net, checkpoint, spec, world, hooks)
 }
 
 /// The action-sampling RNG of an episode.
@@ -347,7 +376,7 @@ pub fn rerun_from<P: Acting + ?Sized>(
         memory,
         rng,
         (prefix, expert),
-        None,
+        Hooks::default(),
     )
 }
 
@@ -359,35 +388,52 @@ fn run_loop<P: Acting + ?Sized>(
     net: &P,
     checkpoint: &str,
     spec: &EpisodeSpec,
-    mut world: World,
+    world: World,
     tokens: Vec<u32>,
     mut memory: Memory,
     mut rng: Pcg64Mcg,
-    (mut steps, mut expert): (Vec<StepRecord>, Expert),
-    intervene: Option<Intervene<'_>>,
+    (steps, mut expert): (Vec<StepRecord>, Expert),
+    mut hooks: Hooks<'_>,
 ) -> Result<EpisodeTrace, PolicyError> {
     let mission = net.prepare(&tokens)?;
-    while !world.ended() {
+    // The trace is built as the episode goes, its `final_world` the world now, so that an
+    // observer sees the episode so far.
+    let mut trace = EpisodeTrace {
+        checkpoint: checkpoint.to_owned(),
+        variant: net.variant(),
+        level: spec.level,
+        seed: spec.seed,
+        mission: world.mission.clone(),
+        input_token_ids: net.input_token_ids(&tokens),
+        model_name: net.model_name(),
+        tokens,
+        mode: spec.mode,
+        steps,
+        final_world: world,
+    };
+    while !trace.final_world.ended() {
+        let world = &mut trace.final_world;
+        let t = trace.steps.len();
         let obs = world.observe();
-        let expert_action = expert.advise(&world, &obs);
-        let expert_plan = expert.plan(&world);
+        let expert_action = expert.advise(world, &obs);
+        let expert_plan = expert.plan(world);
         let out = if net.reads_world() {
             net.act_from_expert(&[expert_action])?
         } else {
-            let iv = match intervene {
-                Some(f) => f(&world, &obs, &tokens, &memory)?,
+            let iv = match hooks.intervene {
+                Some(f) => f(world, &obs, &trace.tokens, &memory)?,
                 None => None,
             };
             net.act_one(
                 obs,
                 world.agent_dir,
-                &tokens,
+                &trace.tokens,
                 mission.as_ref(),
                 &memory,
                 true,
                 iv.as_ref(),
             )
-            .map_err(|e| at_step(e, steps.len(), spec))?
+            .map_err(|e| at_step(e, t, spec))?
         };
         memory = out.memory;
         let probs_v = out.probs.into_iter().next().unwrap_or_default();
@@ -397,13 +443,13 @@ fn run_loop<P: Acting + ?Sized>(
         }
         let value = out.values.first().copied().unwrap_or(0.0);
         let attention = out.traces.and_then(|t| t.into_iter().next());
-        check_finite(&probs, value, attention.as_ref(), steps.len(), spec)?;
+        check_finite(&probs, value, attention.as_ref(), t, spec)?;
         let action = choose(&probs, spec.mode, &mut rng);
         expert.told(action);
         let before = world.clone();
         let outcome = world.step(action)?;
-        steps.push(StepRecord {
-            t: steps.len(),
+        trace.steps.push(StepRecord {
+            t,
             world: before,
             obs,
             attention,
@@ -417,20 +463,13 @@ fn run_loop<P: Acting + ?Sized>(
             expert_plan,
             faithfulness: None,
         });
+        if let Some(on_step) = hooks.on_step.as_mut()
+            && !on_step(&trace)
+        {
+            break;
+        }
     }
-    Ok(EpisodeTrace {
-        checkpoint: checkpoint.to_owned(),
-        variant: net.variant(),
-        level: spec.level,
-        seed: spec.seed,
-        mission: world.mission.clone(),
-        input_token_ids: net.input_token_ids(&tokens),
-        model_name: net.model_name(),
-        tokens,
-        mode: spec.mode,
-        steps,
-        final_world: world,
-    })
+    Ok(trace)
 }
 
 /// Runs a checkpoint on an episode spec.
@@ -441,106 +480,6 @@ pub fn run_episode(
 ) -> Result<EpisodeTrace, PolicyError> {
     let net = Net::new(ckpt.meta.model, ckpt.params.detached())?;
     run_from(&net, name, spec, initial_world(spec)?)
-}
-
-/// JSON form of one step (documented in docs/formats.md#episode-traces).
-#[derive(Serialize)]
-struct StepJson<'a> {
-    t: usize,
-    agent_pos: [i32; 2],
-    agent_dir: u8,
-    carrying: Option<[u8; 3]>,
-    obs: Vec<Vec<Vec<u8>>>,
-    action: u8,
-    action_name: &'static str,
-    probs: &'a [f32],
-    value: f32,
-    reward: f64,
-    terminated: bool,
-    truncated: bool,
-    attention: Option<&'a AttentionTrace>,
-    expert_action: Option<u8>,
-    expert_plan: &'a str,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    faithfulness: Option<&'a StepFaithfulness>,
-}
-
-/// JSON form of a trace (documented in docs/formats.md#episode-traces).
-#[derive(Serialize)]
-struct TraceJson<'a> {
-    schema_version: u32,
-    checkpoint: &'a str,
-    variant: &'static str,
-    level: &'a LevelConfig,
-    seed: u64,
-    mission: &'a str,
-    tokens: Vec<&'static str>,
-    token_ids: &'a [u32],
-    #[serde(skip_serializing_if = "Option::is_none")]
-    graph_token_ids: Option<&'a [i64]>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    model_name: Option<&'a str>,
-    mode: ActionMode,
-    success: bool,
-    total_reward: f64,
-    initial_state: Snapshot,
-    steps: Vec<StepJson<'a>>,
-}
-
-impl EpisodeTrace {
-    /// The trace as pretty JSON.
-    pub fn to_json(&self) -> String {
-        let first = self.steps.first().map_or(&self.final_world, |s| &s.world);
-        let json = TraceJson {
-            schema_version: 1,
-            checkpoint: &self.checkpoint,
-            variant: self.variant.name(),
-            level: &self.level,
-            seed: self.seed,
-            mission: &self.mission,
-            tokens: self.words(),
-            token_ids: &self.tokens,
-            graph_token_ids: self.input_token_ids.as_deref(),
-            model_name: self.model_name.as_deref(),
-            mode: self.mode,
-            success: self.success(),
-            total_reward: self.total_reward(),
-            initial_state: Snapshot::from_world(
-                first,
-                Some(self.level.to_string()),
-                Some(self.seed),
-            ),
-            steps: self
-                .steps
-                .iter()
-                .map(|s| StepJson {
-                    t: s.t,
-                    agent_pos: [s.world.agent_pos.0, s.world.agent_pos.1],
-                    agent_dir: s.world.agent_dir,
-                    carrying: s.world.carrying.map(|c| c.encode()),
-                    obs: s.obs.to_nested(),
-                    action: s.action as u8,
-                    action_name: s.action.name(),
-                    probs: &s.probs,
-                    value: s.value,
-                    reward: s.reward,
-                    terminated: s.terminated,
-                    truncated: s.truncated,
-                    attention: s.attention.as_ref(),
-                    expert_action: s.expert_action.map(|a| a as u8),
-                    expert_plan: &s.expert_plan,
-                    faithfulness: s.faithfulness.as_ref(),
-                })
-                .collect(),
-        };
-        // Plain data with string keys and finite floats cannot fail to serialise.
-        serde_json::to_string_pretty(&json).unwrap_or_default()
-    }
-
-    /// Writes the JSON trace atomically.
-    pub fn save_json(&self, path: &Path) -> Result<(), PolicyError> {
-        policy::checkpoint::write_atomic(path, self.to_json().as_bytes())
-    }
 }
 
 #[cfg(test)]

@@ -230,7 +230,11 @@ fn the_debugger_shows_the_step_it_opens_on_and_steps_with_the_arrow_keys() {
         );
         h.get_by_label(&format!("w {:.3} · H {:.2}", w.weight, w.entropy));
     }
-    for label in ["combined M", "word weights w", "agent view (agent-up)"] {
+    for label in [
+        "combined M",
+        "word weights w",
+        "agent view (agent-up; hatched: not seen)",
+    ] {
         h.get_by_label(label);
     }
     // The faithfulness view is one click away, not open.
@@ -486,13 +490,8 @@ fn the_panels_say_what_their_numbers_mean() {
     // Every step either shows each kind of accuracy or says why not; a word whose weight is
     // about 0 says it is not in M.
     let mut reasons = 0;
-    for (k, (step, scene)) in shown
-        .trace
-        .steps
-        .iter()
-        .zip(shown.scenes.iter())
-        .enumerate()
-    {
+    for (k, step) in shown.trace.steps.iter().enumerate() {
+        let scene = shown.scene(k).unwrap();
         if k > 0 {
             h.key_press(egui::Key::ArrowRight);
             show_until(&mut h, &format!("step {k} of "));

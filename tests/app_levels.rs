@@ -261,3 +261,18 @@ fn an_agent_without_maps_is_offered_nothing_it_lacks() {
     }
     assert!(h.query_by_label_contains("ρ(M, Δ)").is_none());
 }
+
+/// A long episode opens before it has been run to its end: the steps come in as they are
+/// taken, the step asked for shows once it is there, and the episode that ends is the one
+/// `replay` runs (BossLevel seed 3 runs to its 1,728-step limit).
+#[test]
+fn a_long_episode_streams_in_and_opens_at_the_step_asked_for() {
+    let level = babyai("BabyAI-BossLevel-v0");
+    let mut opts = options("bundled:babyai", Some(level), 3);
+    opts.step = 1000;
+    let mut h = build(&opts);
+    show_until(&mut h, "step 1000 of 0–1727 · failure");
+    assert_eq!(h.state().episode_progress(), Some((1728, true)));
+    h.state_mut().go_to_step(5000);
+    show_until(&mut h, "step 1727 of 0–1727 · failure");
+}

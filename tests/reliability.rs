@@ -902,3 +902,51 @@ fn a_refused_training_leaves_the_running_ones_files() {
     first.kill().unwrap();
     first.wait().unwrap();
 }
+
+/// `bench view` times each level in a process of its own and then puts them side by side;
+/// the paper's level's episode is in by its first frame, BossLevel's (run to its step limit)
+/// only later; a bad level is one line naming it.
+#[test]
+fn bench_view_times_each_level_and_puts_them_side_by_side() {
+    let o = gs(&[
+        "bench",
+        "view",
+        "--levels",
+        "paper,BabyAI-BossLevel-v0",
+        "--seed",
+        "3",
+    ]);
+    assert_eq!(
+        o.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let lines: Vec<serde_json::Value> = String::from_utf8_lossy(&o.stdout)
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    assert_eq!(lines.len(), 3, "a line per level and one side by side");
+    let (paper, boss, both) = (&lines[0], &lines[1], &lines[2]);
+    assert_eq!(
+        (paper["level"].as_str(), boss["steps"].as_u64()),
+        (Some("paper"), Some(1728))
+    );
+    assert_eq!(boss["checkpoint"], "bundled:babyai");
+    for l in [paper, boss] {
+        let first = l["time_to_first_frame_s"].as_f64().unwrap();
+        let full = l["time_to_full_episode_s"].as_f64().unwrap();
+        assert!(first > 0.0 && first <= full, "{l}");
+        assert!(l["peak_rss_bytes"].as_u64().unwrap() > 1 << 20, "{l}");
+    }
+    assert_eq!(both["side_by_side"], true);
+    assert_eq!(both["steps"], serde_json::json!([paper["steps"], 1728]));
+    assert_eq!(
+        both["peak_rss_bytes"],
+        serde_json::json!([paper["peak_rss_bytes"], boss["peak_rss_bytes"]])
+    );
+    assert_bad_input(
+        &gs(&["bench", "view", "--levels", "paper,BabyAI-Nope-v0"]),
+        "BabyAI-Nope-v0",
+    );
+}

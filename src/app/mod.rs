@@ -7,6 +7,7 @@
 pub mod faithful;
 pub mod gif;
 pub mod session;
+pub mod shown;
 pub mod ui;
 
 use std::path::PathBuf;

@@ -5,16 +5,21 @@
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
-use std::sync::mpsc::{Receiver, channel};
+use std::sync::mpsc::{Receiver, Sender, channel};
+use std::time::{Duration, Instant};
 
 use crate::env::edit::{Edit, apply};
 use crate::env::level::LevelConfig;
-use crate::episode::{ActionMode, EpisodeSpec, EpisodeTrace, rerun_from, run_from, run_from_with};
-use crate::metrics::failure::{Diagnosis, Evidence};
+use crate::episode::{
+    ActionMode, EpisodeSpec, EpisodeTrace, StepRecord, rerun_from, run_from, run_from_observed,
+    run_from_with,
+};
 use crate::metrics::faithfulness::episode::{Loop, intervention};
 use crate::panics::panic_line;
 use crate::policy::Acting;
-use crate::record::{RerunTargets, StepScene, episode_scenes, record_rerun, write_mcap};
+use crate::record::{RerunTargets, record_rerun, write_mcap};
+
+pub use super::shown::{SCENES_KEPT, Shown, next_miss};
 
 /// A loaded policy, ready to act: a native checkpoint or an imported ONNX graph.
 #[derive(Clone, Debug)]
@@ -47,42 +52,14 @@ impl Agent {
     }
 }
 
-/// An episode with its per-step scenes.
-#[derive(Clone, Debug)]
-pub struct Shown {
-    /// The trace.
-    pub trace: Arc<EpisodeTrace>,
-    /// One scene per step.
-    pub scenes: Arc<Vec<StepScene>>,
-    /// Why the episode failed, as `eval` classifies it (`None` for a success).
-    pub failure: Option<Diagnosis>,
-}
-
-impl Shown {
-    fn new(trace: EpisodeTrace, alpha: f64) -> Self {
-        let scenes = episode_scenes(&trace, alpha);
-        let failure = Evidence::from_trace(&trace).diagnose();
-        Self {
-            trace: Arc::new(trace),
-            scenes: Arc::new(scenes),
-            failure,
-        }
-    }
-
-    /// Steps in the episode.
-    pub fn len(&self) -> usize {
-        self.trace.steps.len()
-    }
-
-    /// Whether the episode has no step.
-    pub fn is_empty(&self) -> bool {
-        self.trace.steps.is_empty()
-    }
-}
-
-/// The result of a background job.
+/// The result of a background job, or (the first two) news from one still running.
 #[derive(Debug)]
 pub enum JobResult {
+    /// The main episode so far, while the job goes on: its first steps (the next come as
+    /// [`JobResult::Steps`]), or the whole of it while the compared one runs.
+    Running(Box<Shown>),
+    /// The next steps of the main episode [`JobResult::Running`] began.
+    Steps(Vec<StepRecord>),
     /// Fresh episodes: the main one and, in compare mode, the second checkpoint's.
     Episodes(Box<(Shown, Option<Shown>)>),
     /// A probe: the main episode re-run from an edited state.
@@ -91,6 +68,13 @@ pub enum JobResult {
     Exported(String),
     /// Something failed; the message is shown in the UI.
     Failed(String),
+}
+
+impl JobResult {
+    /// Whether more results follow from the same job.
+    pub fn is_progress(&self) -> bool {
+        matches!(self, Self::Running(_) | Self::Steps(_))
+    }
 }
 
 /// A job running on another thread.
@@ -102,6 +86,8 @@ pub struct Job {
     pub done: Arc<AtomicUsize>,
     /// Steps in all.
     pub total: usize,
+    /// Whether it runs the episode shown (a newer episode drops it).
+    pub episode: bool,
     rx: Receiver<JobResult>,
 }
 
@@ -111,6 +97,16 @@ impl Job {
         total: usize,
         work: impl FnOnce(&AtomicUsize) -> JobResult + Send + 'static,
     ) -> Self {
+        Self::spawn_with(what, total, move |done, _| work(done))
+    }
+
+    /// A job that also sends progress ([`JobResult::is_progress`]) on the channel it is
+    /// given; a send fails once the job has been dropped, which tells the work to stop.
+    fn spawn_with(
+        what: String,
+        total: usize,
+        work: impl FnOnce(&AtomicUsize, &Sender<JobResult>) -> JobResult + Send + 'static,
+    ) -> Self {
         let (tx, rx) = channel();
         let done = Arc::new(AtomicUsize::new(0));
         let d = done.clone();
@@ -118,7 +114,7 @@ impl Job {
         std::thread::spawn(move || {
             // A panic is the job's error, shown in the window (and the end of a headless
             // screenshot), not a job the window waits on for ever.
-            let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| work(&d)))
+            let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| work(&d, &tx)))
                 .unwrap_or_else(|p| {
                     JobResult::Failed(format!("{label} failed: {}", panic_line(p.as_ref())))
                 });
@@ -128,6 +124,7 @@ impl Job {
             what,
             done,
             total,
+            episode: false,
             rx,
         }
     }
@@ -145,10 +142,15 @@ impl Job {
     }
 
     /// Blocks until the job has finished (tests and the headless screenshot).
+    /// Progress on the way is skipped.
     pub fn wait(self) -> JobResult {
-        self.rx
-            .recv()
-            .unwrap_or_else(|_| JobResult::Failed(format!("{} stopped", self.what)))
+        loop {
+            match self.rx.recv() {
+                Ok(r) if r.is_progress() => {}
+                Ok(r) => return r,
+                Err(_) => return JobResult::Failed(format!("{} stopped", self.what)),
+            }
+        }
     }
 }
 
@@ -193,13 +195,63 @@ pub fn run_request(agent: &Agent, req: &Request, alpha: f64) -> Result<Shown, St
     Ok(Shown::new(trace, alpha))
 }
 
-/// Starts running the main (and compared) agent on `req`.
+/// How often a running episode sends its new steps: the window redraws no more often than
+/// this for them.
+const STEPS_EVERY: Duration = Duration::from_millis(40);
+
+/// Runs `agent` on `req`, sending its first step as [`JobResult::Running`] as soon as it is
+/// taken and the next ones as [`JobResult::Steps`] every [`STEPS_EVERY`]. `None` when the
+/// receiver is gone (a newer episode replaced this one).
+pub fn stream_request(
+    agent: &Agent,
+    req: &Request,
+    alpha: f64,
+    tx: &Sender<JobResult>,
+) -> Result<Option<Shown>, String> {
+    let spec = EpisodeSpec {
+        level: req.level,
+        seed: req.seed,
+        mission: req.mission.clone(),
+        mode: req.mode,
+    };
+    let world = crate::episode::initial_world(&spec).map_err(|e| e.to_string())?;
+    let (mut sent, mut last_sent, mut open) = (0, Instant::now(), true);
+    let trace = run_from_observed(
+        agent.acting(),
+        &agent.spec,
+        &spec,
+        world,
+        &mut |so_far: &EpisodeTrace| {
+            let n = so_far.steps.len();
+            if sent == 0 {
+                let first = Shown::running(so_far.clone(), alpha);
+                open = tx.send(JobResult::Running(Box::new(first))).is_ok();
+                (sent, last_sent) = (n, Instant::now());
+            } else if last_sent.elapsed() >= STEPS_EVERY {
+                let steps = so_far.steps[sent..].to_vec();
+                open = tx.send(JobResult::Steps(steps)).is_ok();
+                (sent, last_sent) = (n, Instant::now());
+            }
+            open
+        },
+    )
+    .map_err(|e| e.to_string())?;
+    Ok(open.then(|| Shown::new(trace, alpha)))
+}
+
+/// Starts running the main (and compared) agent on `req`: the main episode's steps come as
+/// they are taken ([`stream_request`]), then the whole of both.
 pub fn start_episodes(main: Agent, compare: Option<Agent>, req: Request, alpha: f64) -> Job {
-    Job::spawn(format!("running seed {}", req.seed), 0, move |_| {
-        let a = match run_request(&main, &req, alpha) {
-            Ok(a) => a,
+    let what = format!("running seed {}", req.seed);
+    let mut job = Job::spawn_with(what, 0, move |_, tx| {
+        let a = match stream_request(&main, &req, alpha, tx) {
+            Ok(Some(a)) => a,
+            Ok(None) => return JobResult::Failed("replaced by a newer episode".into()),
             Err(e) => return JobResult::Failed(e),
         };
+        if compare.is_some() {
+            let _ = tx.send(JobResult::Running(Box::new(a.clone())));
+        }
         let b = match compare
             .as_ref()
             .map(|c| run_request(c, &req, alpha))
@@ -209,7 +261,9 @@ pub fn start_episodes(main: Agent, compare: Option<Agent>, req: Request, alpha: 
             Err(e) => return JobResult::Failed(format!("compared checkpoint: {e}")),
         };
         JobResult::Episodes(Box::new((a, b)))
-    })
+    });
+    job.episode = true;
+    job
 }
 
 /// Applies `edit` to the world at step `k` of `shown` and starts re-running the agent from
@@ -367,188 +421,10 @@ impl Cursor {
     }
 }
 
-/// The first step after `from` where some evaluated map misses a related object (under
-/// `acc_cmb`), wrapping around; `None` if no step has a miss.
-pub fn next_miss(scenes: &[StepScene], from: usize) -> Option<usize> {
-    let n = scenes.len();
-    (1..=n).map(|d| (from + d) % n).find(|&i| {
-        scenes[i]
-            .grounding
-            .iter()
-            .any(|g| g.hits.iter().any(|h| !h.acc_cmb))
-    })
-}
-
 /// The step where the episode failed: the last step of a failed episode.
 pub fn failure_step(trace: &EpisodeTrace) -> Option<usize> {
     (!trace.success()).then(|| trace.steps.len().saturating_sub(1))
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn shown(seed: u64) -> (Agent, Shown) {
-        let agent = Agent::load("bundled:attention").unwrap();
-        let req = Request {
-            level: agent.level(),
-            seed,
-            mode: ActionMode::Greedy,
-            mission: None,
-        };
-        let s = run_request(&agent, &req, 0.5).unwrap();
-        (agent, s)
-    }
-
-    #[test]
-    fn cursor_steps_plays_and_stops_at_the_end() {
-        let mut c = Cursor::default();
-        c.nudge(-1, 10);
-        assert_eq!(c.step, 0);
-        c.nudge(3, 10);
-        assert_eq!(c.step, 3);
-        c.nudge(100, 10);
-        assert_eq!(c.step, 9);
-        c.step = 0;
-        c.playing = true;
-        c.speed = 4.0;
-        c.tick(0.5, 10);
-        assert_eq!(c.step, 2);
-        c.tick(10.0, 10);
-        assert_eq!((c.step, c.playing), (9, false));
-    }
-
-    #[test]
-    fn episodes_and_probes_run_off_thread() {
-        let (agent, s) = shown(3);
-        let job = start_episodes(
-            agent.clone(),
-            Some(Agent::load("bundled:baseline").unwrap()),
-            Request {
-                level: agent.level(),
-                seed: 3,
-                mode: ActionMode::Greedy,
-                mission: None,
-            },
-            0.5,
-        );
-        let JobResult::Episodes(pair) = job.wait() else {
-            panic!("episodes failed")
-        };
-        assert_eq!(pair.0.trace.steps.len(), s.len(), "deterministic");
-        assert!(pair.1.is_some());
-        // Turning the agent at step 0 changes what it sees at step 0 onwards.
-        let w = &s.trace.steps[0].world;
-        let edit = Edit::TurnAgent((w.agent_dir + 2) % 4);
-        let JobResult::Probed(p, k) = start_probe(&agent, &s, 0, &edit, 0.5).unwrap().wait() else {
-            panic!("probe failed")
-        };
-        assert_eq!(k, 0);
-        assert_eq!(p.trace.steps[0].world.agent_dir, (w.agent_dir + 2) % 4);
-        // A refused edit says why, synchronously.
-        let err = start_probe(&agent, &s, 0, &Edit::MoveAgent((0, 0)), 0.5).unwrap_err();
-        assert!(err.contains("wall"), "{err}");
-        let err = start_probe(
-            &agent,
-            &s,
-            0,
-            &Edit::Mission("go to the pink key".into()),
-            0.5,
-        )
-        .unwrap_err();
-        assert!(err.contains("pink"), "{err}");
-    }
-
-    #[test]
-    fn attention_probes_rerun_the_episode_with_m_changed_at_every_step() {
-        let (agent, s) = shown(3);
-        let JobResult::Probed(p, k) = start_attention_probe(&agent, &s, Loop::Uniform, 0.5).wait()
-        else {
-            panic!("probe failed")
-        };
-        assert_eq!(k, 0);
-        for step in &p.trace.steps {
-            let m = &step.attention.as_ref().unwrap().combined;
-            assert!(m.iter().flatten().all(|v| (v - 1.0 / 49.0).abs() < 1e-6));
-        }
-        // With no change at all the probe is the episode itself.
-        let JobResult::Probed(same, _) = start_attention_probe(&agent, &s, Loop::None, 0.5).wait()
-        else {
-            panic!("probe failed")
-        };
-        assert_eq!(same.trace.to_json(), s.trace.to_json());
-    }
-
-    #[test]
-    fn a_probe_at_step_k_keeps_the_first_k_steps() {
-        let (agent, s) = shown(5);
-        let k = s.len().min(3) - 1;
-        let w = &s.trace.steps[k].world;
-        let job = start_probe(&agent, &s, k, &Edit::TurnAgent(w.agent_dir), 0.5).unwrap();
-        let JobResult::Probed(p, _) = job.wait() else {
-            panic!("probe failed")
-        };
-        // A no-op edit reproduces the episode exactly: the memory was rebuilt faithfully.
-        assert_eq!(p.len(), s.len());
-        for (a, b) in p.trace.steps.iter().zip(&s.trace.steps) {
-            assert_eq!((a.action, a.probs), (b.action, b.probs));
-        }
-    }
-
-    #[test]
-    fn exports_write_files_off_thread() {
-        let (_, s) = shown(3);
-        let dir = tempfile::tempdir().unwrap();
-        for export in [
-            Export::Rrd(dir.path().join("e.rrd")),
-            Export::Mcap(dir.path().join("e.mcap")),
-            Export::Gif(dir.path().join("e.gif")),
-        ] {
-            let job = start_export(&s, export.clone(), 0.5, Arc::new(AtomicBool::new(false)));
-            match job.wait() {
-                JobResult::Exported(m) => assert!(m.starts_with("wrote"), "{m}"),
-                other => panic!("{export:?}: {other:?}"),
-            }
-        }
-        let gif = image::open(dir.path().join("e.gif")).unwrap();
-        assert!(gif.width() > 0);
-        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 3);
-    }
-
-    #[test]
-    fn a_job_that_panics_fails_instead_of_running_for_ever() {
-        let job = Job::spawn("exploding".into(), 0, |_| panic!("boom"));
-        let deadline = std::time::Instant::now() + std::time::Duration::from_mins(1);
-        let result = loop {
-            if let Some(r) = job.poll() {
-                break r;
-            }
-            assert!(
-                std::time::Instant::now() < deadline,
-                "the job never finished"
-            );
-            std::thread::sleep(std::time::Duration::from_millis(5));
-        };
-        match result {
-            JobResult::Failed(e) => assert!(e.contains("exploding failed: boom"), "{e}"),
-            _ => panic!("a panicking job must fail"),
-        }
-    }
-
-    #[test]
-    fn next_miss_and_failure_step_find_their_steps() {
-        let (_, s) = shown(3);
-        if let Some(i) = next_miss(&s.scenes, 0) {
-            assert!(
-                s.scenes[i]
-                    .grounding
-                    .iter()
-                    .any(|g| g.hits.iter().any(|h| !h.acc_cmb))
-            );
-        }
-        match failure_step(&s.trace) {
-            Some(i) => assert_eq!(i, s.len() - 1),
-            None => assert!(s.trace.success()),
-        }
-    }
-}
+mod tests;

@@ -85,6 +85,11 @@ pub enum BenchCommand {
     /// (default: six levels from one room to BossLevel), in each level's registered mode, as
     /// one JSON line per level.
     Bot(super::bench_bot::BenchBotArgs),
+    /// The debugger opening an episode without a window, each level in its own process
+    /// (default: the paper's level and BossLevel, seed 3): time to the first frame showing
+    /// step 0, time until the whole episode is in, a frame's time over the episode's steps
+    /// and peak memory, as one JSON line per level and one with them side by side.
+    View(super::bench_view::BenchViewArgs),
 }
 
 /// Runs a benchmark.
@@ -118,6 +123,7 @@ pub fn run(cmd: &BenchCommand) -> anyhow::Result<ExitStatus> {
         BenchCommand::Onnx(args) => super::bench_onnx::run(args),
         BenchCommand::Levels(args) => super::bench_levels::run(args),
         BenchCommand::Bot(args) => super::bench_bot::run(args),
+        BenchCommand::View(args) => super::bench_view::run(args),
         BenchCommand::Record { episodes } => {
             if !(1..=10_000).contains(episodes) {
                 anyhow::bail!("--episodes {episodes}: must be in 1..=10000");

@@ -67,7 +67,6 @@ fn parse_size(s: &str) -> anyhow::Result<[f32; 2]> {
     Ok([parse(w)?, parse(h)?])
 }
 
-/// Runs `view`.
 /// Without `--checkpoint`: the paper's attention model, or `bundled:babyai` where it cannot
 /// read the mission of the level and seed asked for (a BabyAI level's words it never met);
 /// the name and the loaded model.
@@ -88,16 +87,39 @@ fn default_checkpoint(args: &ViewArgs) -> anyhow::Result<(String, groundscope::p
     Ok((first, agent))
 }
 
+/// Runs `view`.
 pub fn run(args: &ViewArgs) -> anyhow::Result<ExitStatus> {
-    // `groundscope` with no arguments builds `ViewArgs::default()`, whose size is empty.
-    let size = if args.window.is_empty() {
-        [1400.0, 900.0]
-    } else {
-        parse_size(&args.window)?
-    };
+    let size = window_size(args)?;
     if let Some(p) = &args.screenshot {
         check_extension(p, "png", "--screenshot")?;
     }
+    let start = start_options(args)?;
+    app::run(
+        &start,
+        &WindowOptions {
+            size,
+            screenshot: args.screenshot.clone(),
+        },
+    )?;
+    if let Some(p) = &args.screenshot {
+        println!("wrote {}", p.display());
+    }
+    Ok(ExitStatus::Success)
+}
+
+/// The window's size from `--window`.
+pub fn window_size(args: &ViewArgs) -> anyhow::Result<[f32; 2]> {
+    // `groundscope` with no arguments builds `ViewArgs::default()`, whose size is empty.
+    if args.window.is_empty() {
+        Ok([1400.0, 900.0])
+    } else {
+        parse_size(&args.window)
+    }
+}
+
+/// What the debugger opens with: the checkpoint (or the default one for the level), level,
+/// seed and mission, each checked here.
+pub fn start_options(args: &ViewArgs) -> anyhow::Result<StartOptions> {
     // Load once here so that a bad checkpoint or level is a one-line error, not a window.
     let (checkpoint, agent) = match &args.checkpoint {
         Some(c) => (c.clone(), groundscope::policy::Agent::load(c)?),
@@ -110,7 +132,7 @@ pub fn run(args: &ViewArgs) -> anyhow::Result<ExitStatus> {
     if let Some(m) = &args.episode.mission {
         groundscope::env::parse_mission(m)?;
     }
-    let start = StartOptions {
+    Ok(StartOptions {
         checkpoint,
         compare: args.compare.clone(),
         level: Some(level),
@@ -119,18 +141,7 @@ pub fn run(args: &ViewArgs) -> anyhow::Result<ExitStatus> {
         step: args.step,
         mission: args.episode.mission.clone(),
         faithfulness: args.faithfulness,
-    };
-    app::run(
-        &start,
-        &WindowOptions {
-            size,
-            screenshot: args.screenshot.clone(),
-        },
-    )?;
-    if let Some(p) = &args.screenshot {
-        println!("wrote {}", p.display());
-    }
-    Ok(ExitStatus::Success)
+    })
 }
 
 #[cfg(test)]

@@ -7,18 +7,19 @@
 //! | `world/attention` | Image (RGBA, one pixel per cell, scaled by a static transform) | `M` on the view's empty floor |
 //! | `world/attention/rings` | Boxes2D | `M`'s colour round occupied cells (their contents keep their colours) |
 //! | `world/marks/targets`, `world/marks/trail` | Boxes2D, LineStrips2D | `M`'s targets (the clauses waited on); the agent's path |
+//! | `world/legend` | TextDocument (static) | what the world's marks mean |
 //! | `world/clauses` | Boxes2D | every clause's targets, numbered, framed by stage (waited on, done, later) |
 //! | `mission/tree` | TextDocument | the instruction tree: stages, targets and cells, doors and their states |
 //! | `view/image` | Image | the agent's view, agent-up |
 //! | `attention/words/<i>_<word>` | DepthImage (7×7, viridis; grey when w ≈ 0) | word i's map |
-//! | `attention/words/<i>_<word>/label` | Boxes2D | word, weight w, entropy H and the shared scale |
+//! | `attention/words/<i>_<word>/label` | Boxes2D | weight w and entropy H (the word is the view's title) |
 //! | `attention/words/<i>_<word>/grounding` | Points2D | hit / miss at each related object |
 //! | `attention/combined` (+ `/label`, `/grounding`) | DepthImage, Boxes2D, Points2D | `M` |
 //! | `attention/landmarks/*` | Boxes2D, LineStrips2D, Points2D | walls, objects, unseen cells, agent |
 //! | `attention/colorbar` | DepthImage | the maps' shared scale |
-//! | `attention/weights`, `attention/entropy` | Boxes2D (named tracks) + LineStrips2D (solid bars) | w and H in word order |
+//! | `attention/weights`, `attention/entropy` | Points2D (each row's label, above its bar) + Boxes2D (tracks) + LineStrips2D (solid bars) | w and H in word order |
 //! | `attention/legend` | TextDocument | word, w and H as a table |
-//! | `policy/probs` | Boxes2D (named tracks) + LineStrips2D (solid bars) | action probabilities |
+//! | `policy/probs` | Points2D (labels) + Boxes2D (tracks) + LineStrips2D (solid bars) | action probabilities |
 //! | `policy/value`, `policy/reward` | Scalars | critic value, reward |
 //! | `policy/status` | TextDocument | mission, step, action, probabilities |
 //! | `policy/action` | TextLog | one line per step |
@@ -218,6 +219,10 @@ impl RerunRecorder {
             word_paths,
             attention,
             first.steps.iter().any(|s| s.faithfulness.is_some()),
+            (
+                first.final_world.grid.width(),
+                first.final_world.grid.height(),
+            ),
         )?;
         // Recordings of the same episodes then differ only in row ids.
         rec.set_log_time_enabled(false);

@@ -54,32 +54,17 @@ impl StepScene {
     pub fn new(step: &StepRecord, alpha: f64) -> Self {
         let world = render_world(&step.world, TILE_PX, true);
         let view = render_view(&step.obs, TILE_PX);
-        let (overlay, scale_max, grounding) = match &step.attention {
-            Some(att) => {
-                let scale_max = att
-                    .words
-                    .iter()
-                    .flat_map(|w| w.map.iter().flatten())
-                    .chain(att.combined.iter().flatten())
-                    .fold(f32::EPSILON, |m, &v| m.max(v));
-                let overlay = attention_layer(&step.world, &att.combined, scale_max);
-                let words: Vec<(&str, &ViewMap)> = att
-                    .words
-                    .iter()
-                    .map(|w| (w.word.as_str(), &w.map))
-                    .collect();
-                let grounding =
-                    ground_step(&step.world, &step.obs, &words, &att.combined, alpha).evaluated;
-                (Some(overlay), scale_max, grounding)
-            }
-            None => (None, 1.0, Vec::new()),
-        };
+        let scale_max = step_scale_max(step);
+        let overlay = step
+            .attention
+            .as_ref()
+            .map(|att| attention_layer(&step.world, &att.combined, scale_max));
         Self {
             world,
             view,
             overlay,
             scale_max,
-            grounding,
+            grounding: step_grounding(step, alpha),
             tree: InstructionTree::of(&step.world),
         }
     }
@@ -88,6 +73,32 @@ impl StepScene {
     pub fn hits_of(&self, word: Option<usize>) -> Option<&EvaluatedMap> {
         self.grounding.iter().find(|g| g.word == word)
     }
+}
+
+/// The upper end of the colour scale of `step`'s maps ([`StepScene::scale_max`]): 1 for a
+/// model without maps.
+pub fn step_scale_max(step: &StepRecord) -> f32 {
+    step.attention.as_ref().map_or(1.0, |att| {
+        att.words
+            .iter()
+            .flat_map(|w| w.map.iter().flatten())
+            .chain(att.combined.iter().flatten())
+            .fold(f32::EPSILON, |m, &v| m.max(v))
+    })
+}
+
+/// The hits and misses of `step`'s maps ([`StepScene::grounding`]) without the pictures: what
+/// a search over every step of an episode needs.
+pub fn step_grounding(step: &StepRecord, alpha: f64) -> Vec<EvaluatedMap> {
+    let Some(att) = &step.attention else {
+        return Vec::new();
+    };
+    let words: Vec<(&str, &ViewMap)> = att
+        .words
+        .iter()
+        .map(|w| (w.word.as_str(), &w.map))
+        .collect();
+    ground_step(&step.world, &step.obs, &words, &att.combined, alpha).evaluated
 }
 
 /// A view map projected onto the world grid: one RGBA pixel per world cell, the map's viridis

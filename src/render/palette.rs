@@ -18,9 +18,14 @@ pub const AGENT: Rgb = [255, 0, 0];
 /// Lava, whatever its nominal colour (`MiniGrid` hard-codes orange).
 pub const LAVA: Rgb = [255, 128, 0];
 
-/// Cells the agent did not see, in the view render. Black, like the floor, but they never get
-/// the highlight that every seen cell gets, so they read as darker.
+/// Cells the agent did not see, in the view render: near black, as the floor is before the
+/// highlight every seen cell gets, and hatched with [`UNSEEN_HATCH`] so that they read as
+/// unseen, not as floor or as the panel behind the picture.
 pub const UNSEEN: Rgb = [0, 0, 0];
+
+/// The hatching of unseen cells in the view render: a grey between the panel's background
+/// (27) and a seen floor (76), on the diagonals the maps' unseen cells are hatched along.
+pub const UNSEEN_HATCH: Rgb = [58, 58, 66];
 
 /// Colour the highlight blends towards (`highlight_img`'s default).
 pub const HIGHLIGHT_TOWARDS: Rgb = [255, 255, 255];

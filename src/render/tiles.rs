@@ -342,6 +342,11 @@ impl TileKey {
         let mut canvas = Canvas::new(tile_size);
         if self.unseen {
             canvas.rect(0.0, 1.0, 0.0, 1.0, palette::UNSEEN);
+            // Two diagonals off the centre, as the maps hatch their unseen cells.
+            for t in [1.0 / 3.0, 2.0 / 3.0] {
+                canvas.line((0.0, t), (t, 0.0), 0.04, palette::UNSEEN_HATCH);
+                canvas.line((1.0 - t, 1.0), (1.0, 1.0 - t), 0.04, palette::UNSEEN_HATCH);
+            }
         }
         canvas.rect(0.0, GRID_LINE_WIDTH, 0.0, 1.0, palette::GRID_LINE);
         canvas.rect(0.0, 1.0, 0.0, GRID_LINE_WIDTH, palette::GRID_LINE);

@@ -115,6 +115,12 @@ mod tests {
         );
         let unseen = tile(&img, (3, 0), ts);
         assert_eq!(unseen.get_pixel(ts / 2, ts / 2).0, palette::UNSEEN);
+        // Hatched, so that it reads neither as floor nor as the panel behind the picture.
+        assert!(
+            unseen
+                .pixels()
+                .any(|p| p.0[2] >= palette::UNSEEN_HATCH[2] / 2)
+        );
         let floor = tile(&img, (3, 4), ts);
         assert!(floor.get_pixel(ts / 2, ts / 2).0[0] > unseen.get_pixel(ts / 2, ts / 2).0[0]);
     }

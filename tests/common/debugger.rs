@@ -17,11 +17,15 @@ pub fn build(opts: &StartOptions) -> Harness<'static, Debugger> {
         )
 }
 
-/// Runs frames until a label containing `text` shows (the episode runs in the background).
+/// Runs frames until a label containing `text` shows and the episode, if one is shown, is
+/// all in (it runs in the background and shows its first steps while the rest come).
 pub fn show_until(h: &mut Harness<'_, Debugger>, text: &str) {
     super::wait_until(&format!("a label with {text:?}"), || {
         h.step();
         // Compare mode shows a second policy panel: any match will do.
         h.query_all_by_label_contains(text).next().is_some()
+            && h.state()
+                .episode_progress()
+                .is_none_or(|(_, all_in)| all_in)
     });
 }

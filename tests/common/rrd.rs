@@ -14,8 +14,17 @@ pub struct Decoded {
     pub static_entities: BTreeSet<String>,
     pub versions: BTreeSet<String>,
     pub scalars: BTreeMap<String, Vec<Vec<f64>>>,
-    /// The `Boxes2D` labels of every entity, one list per row, in step order.
+    /// The `Boxes2D` or `Points2D` labels of every entity, one list per row, in step order.
     pub labels: BTreeMap<String, Vec<Vec<String>>>,
+    /// The `Points2D` positions of every entity, one list per row, in step order.
+    pub points: BTreeMap<String, Vec<Vec<[f32; 2]>>>,
+    /// The `Boxes2D` of every entity as `[min x, min y, max x, max y]`, one list per row.
+    pub boxes: BTreeMap<String, Vec<Vec<[f32; 4]>>>,
+    /// The visual bounds the blueprint gives a view, by the view's name: `[x0, x1, y0, y1]`.
+    pub view_bounds: BTreeMap<String, [f64; 4]>,
+    /// The text log columns the blueprint hides in a view (`EntityPath`, `LogLevel`), by the
+    /// view's name.
+    pub hidden_log_columns: BTreeMap<String, Vec<String>>,
     /// The text of every `TextDocument` entity, one per row, in step order.
     pub texts: BTreeMap<String, Vec<String>>,
     /// The points of every `LineStrips2D` entity's strips, one list per row, in step order.
@@ -32,6 +41,14 @@ pub fn decode(path: &Path) -> Decoded {
     let mut out = Decoded::default();
     let scalar = rerun::Scalars::descriptor_scalars().component;
     let label = rerun::Boxes2D::descriptor_labels().component;
+    let point_label = rerun::Points2D::descriptor_labels().component;
+    let position = rerun::Points2D::descriptor_positions().component;
+    let centers = rerun::Boxes2D::descriptor_centers().component;
+    let half_sizes = rerun::Boxes2D::descriptor_half_sizes().component;
+    let bounds: rerun::ComponentIdentifier = "VisualBounds2D:range".into();
+    let mut view_bounds = Vec::new();
+    let log_columns: rerun::ComponentIdentifier = "TextLogColumns:text_log_columns".into();
+    let mut hidden_columns = Vec::new();
     let text = rerun::TextDocument::descriptor_text().component;
     let strip = rerun::LineStrips2D::descriptor_strips().component;
     let legend_visible: rerun::ComponentIdentifier = "PlotLegend:visible".into();
@@ -55,6 +72,29 @@ pub fn decode(path: &Path) -> Decoded {
                     for n in names.as_slice() {
                         out.view_names.insert(n.as_str().to_owned());
                         view_paths.insert(entity.clone(), n.as_str().to_owned());
+                    }
+                }
+                for b in chunk
+                    .iter_component::<rerun::external::re_sdk_types::blueprint::components::VisualBounds2D>(bounds)
+                {
+                    if let (Some(r), Some(view)) =
+                        (b.as_slice().first(), entity.strip_suffix("/VisualBounds2D"))
+                    {
+                        let (x, y) = (r.x_range.0, r.y_range.0);
+                        view_bounds.push((view.to_owned(), [x[0], x[1], y[0], y[1]]));
+                    }
+                }
+                for c in chunk
+                    .iter_component::<rerun::external::re_sdk_types::blueprint::components::TextLogColumn>(log_columns)
+                {
+                    if let Some(view) = entity.strip_suffix("/TextLogColumns") {
+                        let hidden = c
+                            .as_slice()
+                            .iter()
+                            .filter(|c| !c.0.visible.0)
+                            .map(|c| format!("{:?}", c.0.kind))
+                            .collect();
+                        hidden_columns.push((view.to_owned(), hidden));
                     }
                 }
                 for v in chunk.iter_component::<rerun::components::Visible>(legend_visible) {
@@ -99,16 +139,48 @@ pub fn decode(path: &Path) -> Decoded {
                         .or_default()
                         .extend(t.as_slice().iter().map(|t| t.as_str().to_owned()));
                 }
-                for l in chunk.iter_component::<rerun::components::Text>(label) {
-                    out.labels
+                for component in [label, point_label] {
+                    for l in chunk.iter_component::<rerun::components::Text>(component) {
+                        out.labels
+                            .entry(entity.clone())
+                            .or_default()
+                            .push(l.as_slice().iter().map(|t| t.as_str().to_owned()).collect());
+                    }
+                }
+                for p in chunk.iter_component::<rerun::components::Position2D>(position) {
+                    out.points
                         .entry(entity.clone())
                         .or_default()
-                        .push(l.as_slice().iter().map(|t| t.as_str().to_owned()).collect());
+                        .push(p.as_slice().iter().map(|p| [p.x(), p.y()]).collect());
+                }
+                let sizes: Vec<Vec<[f32; 2]>> = chunk
+                    .iter_component::<rerun::components::HalfSize2D>(half_sizes)
+                    .map(|h| h.as_slice().iter().map(|h| [h.0.x(), h.0.y()]).collect())
+                    .collect();
+                let mids: Vec<Vec<[f32; 2]>> = chunk
+                    .iter_component::<rerun::components::Position2D>(centers)
+                    .map(|c| c.as_slice().iter().map(|c| [c.x(), c.y()]).collect())
+                    .collect();
+                for (m, h) in mids.iter().zip(&sizes) {
+                    out.boxes.entry(entity.clone()).or_default().push(
+                        m.iter()
+                            .zip(h)
+                            .map(|(m, h)| [m[0] - h[0], m[1] - h[1], m[0] + h[0], m[1] + h[1]])
+                            .collect(),
+                    );
                 }
             }
             _ => {}
         }
     }
+    out.hidden_log_columns = hidden_columns
+        .into_iter()
+        .filter_map(|(p, h)| Some((view_paths.get(&p)?.clone(), h)))
+        .collect();
+    out.view_bounds = view_bounds
+        .into_iter()
+        .filter_map(|(p, b)| Some((view_paths.get(&p)?.clone(), b)))
+        .collect();
     out.hidden_legends = hidden
         .iter()
         .filter_map(|p| view_paths.get(p).cloned())

@@ -296,14 +296,14 @@ impl Debugger {
             ui.add(egui::Slider::new(&mut self.cursor.speed, 0.5..=20.0).text("steps/s"));
             if let Some(shown) = &self.shown {
                 if ui.button("next grounding miss").clicked() {
-                    match next_miss(&shown.scenes, self.cursor.step) {
+                    match next_miss(shown, self.cursor.step) {
                         Some(i) => self.cursor.step = i,
                         None => self
                             .messages
                             .push((false, "no grounding miss in this episode".into())),
                     }
                 }
-                let fail = failure_step(&shown.trace);
+                let fail = failure_step(&shown.trace).filter(|_| shown.is_complete());
                 if ui
                     .add_enabled(fail.is_some(), egui::Button::new("failure"))
                     .clicked()

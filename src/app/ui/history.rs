@@ -2,7 +2,7 @@
 //! action's probability over every step, with the cursor; a click moves the cursor there.
 
 use eframe::egui;
-use egui::{Color32, Pos2, Sense, Stroke, Vec2};
+use egui::{Align2, Color32, FontId, Pos2, Rect, Sense, Stroke, Vec2};
 
 use super::Debugger;
 use crate::app::session::Shown;
@@ -38,11 +38,20 @@ impl Debugger {
             ui.colored_label(Color32::GRAY, "p of the chosen action");
             ui.colored_label(super::numbers::EXPERT_LEFT, "| left the expert's plan");
         });
+        // What the legend above left of the column, so that the step axis stays on screen
+        // however many lines the legend took.
+        let height = height.min(ui.available_height() - 6.0).max(70.0);
         let width = ui.available_width().max(100.0);
-        let (rect, resp) = ui.allocate_exact_size(Vec2::new(width, height), Sense::click());
-        let painter = ui.painter_at(rect);
+        let (outer, resp) = ui.allocate_exact_size(Vec2::new(width, height), Sense::click());
+        // The plot itself, inside margins for the axes' tick labels.
+        let rect = Rect::from_min_max(
+            outer.min + Vec2::new(AXIS_LEFT, 2.0),
+            outer.max - Vec2::new(4.0, AXIS_BOTTOM),
+        );
+        let painter = ui.painter_at(outer);
         painter.rect_filled(rect, 2.0, ui.visuals().extreme_bg_color);
         let last = steps.len().saturating_sub(1).max(1) as f32;
+        axes(&painter, rect, last, ui.visuals().weak_text_color());
         let at = |k: usize, v: f32| {
             Pos2::new(
                 rect.min.x + rect.width() * k as f32 / last,
@@ -83,18 +92,94 @@ impl Debugger {
             [Pos2::new(x, rect.min.y), Pos2::new(x, rect.max.y)],
             Stroke::new(1.5, Color32::from_rgb(0, 160, 255)),
         );
-        painter.text(
-            rect.left_top() + Vec2::new(3.0, 2.0),
-            egui::Align2::LEFT_TOP,
-            "1",
-            egui::FontId::proportional(10.0),
-            Color32::GRAY,
-        );
         if let Some(pos) = resp.interact_pointer_pos()
             && resp.clicked()
         {
             let t = ((pos.x - rect.min.x) / rect.width()).clamp(0.0, 1.0);
             self.cursor.step = (t * last).round() as usize;
         }
+    }
+}
+
+/// Width left of the plot for the value axis's labels.
+const AXIS_LEFT: f32 = 26.0;
+
+/// Height under the plot for the step axis's labels.
+const AXIS_BOTTOM: f32 = 15.0;
+
+/// A step between ticks that is 1, 2 or 5 times a power of ten and gives at most about
+/// `most` ticks over `0..=last`.
+fn tick_step(last: f32, most: f32) -> f32 {
+    let raw = (last / most.max(1.0)).max(1.0);
+    let power = 10f32.powf(raw.log10().floor());
+    [1.0, 2.0, 5.0, 10.0]
+        .into_iter()
+        .map(|m| m * power)
+        .find(|s| *s >= raw)
+        .unwrap_or(10.0 * power)
+}
+
+/// The axes' ticks and labels: w and p from 0 to 1 on the left, steps below, with faint grid
+/// lines across the plot.
+fn axes(painter: &egui::Painter, rect: Rect, last: f32, color: Color32) {
+    let font = FontId::proportional(11.0);
+    let grid = Stroke::new(1.0, color.gamma_multiply(0.25));
+    let tick = Stroke::new(1.0, color);
+    for v in [0.0, 0.5, 1.0] {
+        let y = rect.max.y - rect.height() * v;
+        painter.line_segment([Pos2::new(rect.min.x, y), Pos2::new(rect.max.x, y)], grid);
+        painter.line_segment(
+            [Pos2::new(rect.min.x - 4.0, y), Pos2::new(rect.min.x, y)],
+            tick,
+        );
+        painter.text(
+            Pos2::new(rect.min.x - 6.0, y),
+            Align2::RIGHT_CENTER,
+            format!("{v}"),
+            font.clone(),
+            color,
+        );
+    }
+    // About one label every 70 points, so that they never touch.
+    let step = tick_step(last, rect.width() / 70.0);
+    let mut k = 0.0;
+    while k <= last + 0.5 {
+        let x = rect.min.x + rect.width() * k / last;
+        painter.line_segment(
+            [Pos2::new(x, rect.max.y), Pos2::new(x, rect.max.y + 4.0)],
+            tick,
+        );
+        // The axis's name takes the right end.
+        if x < rect.max.x - 36.0 {
+            painter.text(
+                Pos2::new(x, rect.max.y + 3.0),
+                Align2::CENTER_TOP,
+                format!("{k}"),
+                font.clone(),
+                color,
+            );
+        }
+        k += step;
+    }
+    painter.text(
+        Pos2::new(rect.max.x, rect.max.y + 3.0),
+        Align2::RIGHT_TOP,
+        "step",
+        font,
+        color,
+    );
+}
+
+#[cfg(test)]
+mod tests {
+    use super::tick_step;
+
+    #[test]
+    fn ticks_are_round_and_few() {
+        assert_eq!(tick_step(8.0, 10.0), 1.0);
+        assert_eq!(tick_step(69.0, 10.0), 10.0);
+        assert_eq!(tick_step(1727.0, 15.0), 200.0);
+        assert_eq!(tick_step(30.0, 20.0), 2.0);
+        assert!(1727.0 / tick_step(1727.0, 15.0) <= 15.0);
     }
 }

@@ -9,7 +9,7 @@ use eframe::egui;
 
 use super::Debugger;
 use crate::app::session::{
-    Agent, Cursor, Export, JobResult, Request, start_episodes, start_export,
+    Agent, Cursor, Export, JobResult, Request, Shown, start_episodes, start_export,
 };
 use crate::episode::ActionMode;
 
@@ -34,8 +34,52 @@ impl Debugger {
         } else {
             None
         };
+        // The episode asked for last is the one shown: an older one still running stops
+        // (its job dropped, its next send fails).
+        self.jobs.retain(|j| !j.episode);
+        self.streaming = false;
         self.jobs
             .push(start_episodes(agent, compare, req, self.alpha));
+    }
+
+    /// Takes in a new main episode (and the compared one): a fresh episode starts at the
+    /// step asked for, a later part of the same one keeps the cursor where it is.
+    fn take_episode(&mut self, a: Shown, b: Option<Shown>, fresh: bool) {
+        if fresh {
+            self.generation += 1;
+            self.textures.clear();
+            self.cursor = Cursor::default();
+            self.mission_text.clone_from(&a.trace.mission);
+            self.selected_word = 0;
+        }
+        self.shown = Some(a);
+        if b.is_some() || fresh {
+            self.compared = b;
+        }
+        self.go_to_pending_step();
+    }
+
+    /// Moves the cursor to `--step K` once step K is there, or to the last step when the
+    /// episode ended before it.
+    fn go_to_pending_step(&mut self) {
+        let (Some(step), Some(shown)) = (self.pending_step, &self.shown) else {
+            return;
+        };
+        let last = shown.len().saturating_sub(1);
+        if step <= last {
+            self.cursor.step = step;
+        } else if shown.is_complete() {
+            // Said once, on stderr and in the window, rather than clamped silently.
+            let m = format!(
+                "--step {step} is past this episode's last step {last}; showing step {last}"
+            );
+            eprintln!("groundscope: warning: {m}");
+            self.error(m);
+            self.cursor.step = last;
+        } else {
+            return;
+        }
+        self.pending_step = None;
     }
 
     pub(super) fn load_checkpoints(&mut self) {
@@ -61,40 +105,41 @@ impl Debugger {
 
     pub(super) fn poll_jobs(&mut self, ctx: &egui::Context) {
         let mut finished = Vec::new();
-        self.jobs.retain(|job| match job.poll() {
-            Some(r) => {
-                finished.push(r);
-                false
+        self.jobs.retain(|job| {
+            while let Some(r) = job.poll() {
+                let more = r.is_progress();
+                finished.push((job.episode, r));
+                if !more {
+                    return false;
+                }
             }
-            None => true,
+            true
         });
-        for r in finished {
+        for (from_episode, r) in finished {
             match r {
+                JobResult::Running(a) => {
+                    let fresh = !self.streaming;
+                    self.streaming = true;
+                    self.take_episode(*a, None, fresh);
+                }
+                JobResult::Steps(steps) => {
+                    if let Some(shown) = self.shown.as_mut()
+                        && self.streaming
+                    {
+                        shown.extend(steps);
+                    }
+                    self.go_to_pending_step();
+                }
                 JobResult::Episodes(pair) => {
                     let (a, b) = *pair;
-                    self.generation += 1;
-                    self.textures.clear();
-                    let step = self.pending_step.take().unwrap_or(0);
-                    let last = a.len().saturating_sub(1);
-                    if step > last {
-                        // Said once, on stderr and in the window, rather than clamped
-                        // silently.
-                        let m = format!(
-                            "--step {step} is past this episode's last step {last}; showing step {last}"
-                        );
-                        eprintln!("groundscope: warning: {m}");
-                        self.error(m);
-                    }
-                    self.cursor = Cursor {
-                        step: step.min(last),
-                        ..Cursor::default()
-                    };
-                    self.mission_text.clone_from(&a.trace.mission);
-                    self.shown = Some(a);
-                    self.compared = b;
-                    self.selected_word = 0;
+                    let fresh = !self.streaming;
+                    self.streaming = false;
+                    self.take_episode(a, b, fresh);
                 }
                 JobResult::Probed(s, k) => {
+                    // The probe's episode replaces the one shown, even one still running.
+                    self.jobs.retain(|j| !j.episode);
+                    self.streaming = false;
                     self.generation += 1;
                     self.textures.clear();
                     self.info(format!(
@@ -115,7 +160,12 @@ impl Debugger {
                     self.shown = Some(*s);
                 }
                 JobResult::Exported(m) => self.info(m),
-                JobResult::Failed(e) => self.error(e),
+                JobResult::Failed(e) => {
+                    if from_episode {
+                        self.streaming = false;
+                    }
+                    self.error(e);
+                }
             }
         }
         if self.busy() {
@@ -128,6 +178,10 @@ impl Debugger {
         let Some(shown) = &self.shown else {
             return;
         };
+        if !shown.is_complete() {
+            self.info("the episode is still running: export it once it has ended");
+            return;
+        }
         self.cancel = Arc::new(AtomicBool::new(false));
         let job = start_export(shown, what, self.alpha, self.cancel.clone());
         self.jobs.push(job);

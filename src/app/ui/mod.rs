@@ -79,6 +79,8 @@ pub struct Debugger {
     sample: bool,
     mission_text: String,
     shown: Option<Shown>,
+    /// Whether `shown` is an episode whose steps are still coming.
+    streaming: bool,
     compared: Option<Shown>,
     cursor: Cursor,
     selected_word: usize,
@@ -143,6 +145,7 @@ impl Debugger {
             sample: opts.sample,
             mission_text: opts.mission.clone().unwrap_or_default(),
             shown: None,
+            streaming: false,
             compared: None,
             cursor: Cursor::default(),
             selected_word: 0,
@@ -171,6 +174,26 @@ impl Debugger {
         };
         me.run_episode(opts.mission.clone());
         me
+    }
+
+    /// How far the main episode has come: its steps so far and whether it is complete;
+    /// `None` before its first step is there.
+    pub fn episode_progress(&self) -> Option<(usize, bool)> {
+        let shown = self.shown.as_ref()?;
+        Some((shown.len(), shown.is_complete() && !self.streaming))
+    }
+
+    /// Moves the cursor to step `k`, or to the last step there is.
+    pub fn go_to_step(&mut self, k: usize) {
+        let len = self.shown.as_ref().map_or(0, Shown::len);
+        self.cursor.step = k.min(len.saturating_sub(1));
+    }
+
+    /// The last message of the window, if it is an error.
+    pub fn last_error(&self) -> Option<&str> {
+        self.messages
+            .last()
+            .and_then(|(err, m)| err.then_some(m.as_str()))
     }
 
     fn info(&mut self, m: impl Into<String>) {
@@ -202,7 +225,8 @@ impl Debugger {
         egui::Panel::left("world")
             .exact_size(side + 16.0)
             .show(ui, |ui| {
-                egui::ScrollArea::vertical().show(ui, |ui| self.left_column(ui, side));
+                let height = ui.available_height();
+                egui::ScrollArea::vertical().show(ui, |ui| self.left_column(ui, side, height));
             });
         if self.compare && self.compared.is_some() {
             egui::Panel::right("compare")
@@ -244,9 +268,11 @@ impl Debugger {
         (cells as f32 * 30.0).clamp(300.0, most)
     }
 
-    /// The overlay choice, the world, the agent's view and the probe.
-    fn left_column(&mut self, ui: &mut egui::Ui, side: f32) {
+    /// The overlay choice, the world, the agent's view and the probe; the view shrinks (to
+    /// 96 points at least) to fit under the world in the column's `height`.
+    fn left_column(&mut self, ui: &mut egui::Ui, side: f32, height: f32) {
         let ctx = ui.ctx().clone();
+        let top = ui.cursor().min.y;
         // A model without maps (or the bot) has no M and no word to overlay.
         // (Judged from the episode shown; while none is, everything stays offered.)
         let has_maps = self.shown.as_ref().is_none_or(|s| {
@@ -277,9 +303,11 @@ impl Debugger {
             .weak(),
         );
         ui.add_space(6.0);
-        ui.label("agent view (agent-up)");
+        ui.label("agent view (agent-up; hatched: not seen)");
+        let left = height - (ui.cursor().min.y - top) - 10.0;
+        let view_side = left.min(side * 0.6).clamp(96.0, 200.0);
         if let Some(t) = self.texture(&ctx, self.cursor.step, 1, false) {
-            ui.add(egui::Image::new(&t).fit_to_exact_size(Vec2::splat((side * 0.6).min(200.0))));
+            ui.add(egui::Image::new(&t).fit_to_exact_size(Vec2::splat(view_side)));
         }
         ui.separator();
         self.edit_panel(ui);
@@ -297,9 +325,10 @@ impl Debugger {
             return;
         };
         let i = self.cursor.step.min(shown.len().saturating_sub(1));
-        let (Some(step), Some(scene)) = (shown.trace.steps.get(i), shown.scenes.get(i)) else {
+        let (Some(step), Some(scene)) = (shown.trace.steps.get(i), shown.scene(i)) else {
             return;
         };
+        let scene = &*scene;
         Self::policy_header(ui, step, &shown);
         Self::tree_panel(ui, &scene.tree);
         ui.horizontal_top(|ui| {

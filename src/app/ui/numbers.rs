@@ -260,6 +260,12 @@ impl Debugger {
 /// `"step 4 of 0–12 · success · total reward 0.817"`: steps count from 0, so the range is
 /// given rather than a count that the last step never reaches.
 pub fn step_line(t: usize, shown: &Shown) -> String {
+    if !shown.is_complete() {
+        return format!(
+            "step {t} of 0–{} so far · the episode is still running",
+            shown.len().saturating_sub(1)
+        );
+    }
     format!(
         "step {t} of 0–{} · {} · total reward {:.3}",
         shown.len().saturating_sub(1),

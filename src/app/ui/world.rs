@@ -11,6 +11,10 @@ use crate::env::edit::Edit;
 use crate::env::view::view_from_world;
 use crate::record::scene::{trail, world_picture};
 
+/// How many step pictures stay on the GPU: the steps around the cursor, in both episodes of
+/// compare mode, with every overlay of the last few.
+const TEXTURES_KEPT: usize = 64;
+
 fn rgb_texture(ctx: &egui::Context, name: &str, img: &image::RgbImage) -> TextureHandle {
     let (w, h) = img.dimensions();
     ctx.load_texture(
@@ -36,6 +40,15 @@ impl Debugger {
         }
         let img = self.picture(step, kind, compared)?;
         let t = rgb_texture(ctx, &format!("{key:?}"), &img);
+        if self.textures.len() >= TEXTURES_KEPT {
+            // Playing a long episode would otherwise keep every step's pictures (0.5 MB each
+            // on a 22×22 world): the half farthest from this step goes.
+            let mut keys: Vec<_> = self.textures.keys().copied().collect();
+            keys.sort_by_key(|k| (k.0 != key.0, k.1.abs_diff(step)));
+            for k in keys.split_off(TEXTURES_KEPT / 2) {
+                self.textures.remove(&k);
+            }
+        }
         self.textures.insert(key, t.clone());
         Some(t)
     }
@@ -48,7 +61,7 @@ impl Debugger {
         } else {
             self.shown.as_ref()?
         };
-        let scene = shown.scenes.get(step)?;
+        let scene = shown.scene(step)?;
         if kind == 1 {
             return Some(scene.view.clone());
         }
@@ -129,7 +142,7 @@ impl Debugger {
                 Vec2::splat(cell),
             )
         };
-        if let Some(scene) = shown.scenes.get(step_i) {
+        if let Some(scene) = shown.scene(step_i) {
             Self::paint_clause_marks(&painter, &scene.tree, cell_rect);
         }
         if let Some(sel) = self.selected_cell

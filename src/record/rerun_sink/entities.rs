@@ -23,6 +23,14 @@ use crate::record::scene::{
     attention_rings, cell_centre, hit_color,
 };
 
+/// Where the world's legend is logged (static).
+pub const WORLD_LEGEND: &str = "world/legend";
+
+/// What the world picture's marks mean.
+pub const WORLD_LEGEND_TEXT: &str = "**magenta corners**: the targets waited on · **numbers**: \
+    each clause's targets (magenta waited on, grey done, blue later) · **line**: the agent's \
+    trail · **floor tint and rings**: the map `M` · **bright cells**: what the agent sees";
+
 pub(super) fn log_static(
     rec: &RecordingStream,
     first: &EpisodeTrace,
@@ -56,6 +64,13 @@ pub(super) fn log_static(
     .map_err(sdk)?;
     rec.log_static(WORLD_MARKS, &rerun::Transform3D::from_scale((s, s, 1.0)))
         .map_err(sdk)?;
+    // The world's legend as text beside the picture: as the view's title it was cut to
+    // "world (magenta: targ…" in any panel narrower than it.
+    rec.log_static(
+        WORLD_LEGEND,
+        &rerun::TextDocument::from_markdown(WORLD_LEGEND_TEXT),
+    )
+    .map_err(sdk)?;
     rec.log_static("policy/probs/frame", &bar_frame(Action::COUNT))
         .map_err(sdk)?;
     if first.variant.name() == "attention" {
@@ -133,8 +148,10 @@ fn grounding_points(g: &EvaluatedMap) -> rerun::Points2D {
 /// An invisible point under a map: Rerun fits a 2-D view to its contents but not to their
 /// labels, and a map's label is drawn under the map, so without it a view sized to the map
 /// would cut the label off.
+/// An invisible point under a map that keeps its label (two lines when the view is narrow)
+/// inside the view.
 fn label_room() -> rerun::Points2D {
-    rerun::Points2D::new([(3.5, 8.3)])
+    rerun::Points2D::new([(3.5, 9.6)])
         .with_radii([0.001])
         .with_colors([[0, 0, 0]])
 }
@@ -196,7 +213,7 @@ fn log_faithfulness(
     Ok(())
 }
 
-/// Logs named bars at `path` (the labelled tracks) and `path/bars` (the bars).
+/// Logs named bars at `path` (the labels), `path/tracks` and `path/bars`.
 fn log_bars(
     rec: &RecordingStream,
     path: &str,
@@ -204,9 +221,11 @@ fn log_bars(
     full: f32,
     highlight: Option<usize>,
 ) -> Result<(), RecordError> {
-    let (tracks, bars) = labelled_bars(rows, full, highlight);
-    rec.log(path, &tracks).map_err(sdk)?;
-    rec.log(format!("{path}/bars"), &bars).map_err(sdk)
+    let chart = labelled_bars(rows, full, highlight);
+    rec.log(path, &chart.labels).map_err(sdk)?;
+    rec.log(format!("{path}/tracks"), &chart.tracks)
+        .map_err(sdk)?;
+    rec.log(format!("{path}/bars"), &chart.bars).map_err(sdk)
 }
 
 /// The world's marks at step `k`: the targets, the clauses' targets and the instruction tree
@@ -379,14 +398,12 @@ pub(super) fn log_step(
         let grey = wa.weight < NEGLIGIBLE_WEIGHT;
         rec.log(path.as_str(), &map_image(&wa.map, hi, grey))
             .map_err(sdk)?;
-        // Short, so that it fits under the map; the scale is on M's label and the bar.
+        // Short, so that it fits under the map (the word is the view's title; the scale is
+        // on M's label and the bar); a narrow view wraps it onto a second line.
         let note = if grey { " · not in M" } else { "" };
         rec.log(
             format!("{path}/label"),
-            &label_box(format!(
-                "{} · w {:.2} · H {:.2}{note}",
-                wa.word, wa.weight, wa.entropy
-            )),
+            &label_box(format!("w {:.2} · H {:.2}{note}", wa.weight, wa.entropy)),
         )
         .map_err(sdk)?;
         rec.log(format!("{path}/pad"), &label_room()).map_err(sdk)?;

@@ -8,14 +8,22 @@ use rerun::blueprint::{
     SelectionPanel, Spatial2DView, TextDocumentView, TextLogView, TimePanel, TimeSeriesView,
     Vertical,
 };
-use rerun::external::re_sdk_types::blueprint::archetypes::PlotLegend;
+use rerun::external::re_sdk_types::blueprint::archetypes::{
+    PlotLegend, TextLogColumns, VisualBounds2D,
+};
+use rerun::external::re_sdk_types::blueprint::datatypes::{
+    TextLogColumn, TextLogColumnKind, TimelineColumn,
+};
+use rerun::external::re_sdk_types::datatypes::{Range1D, Range2D};
 use rerun::log::LogMsg;
 use rerun::{RecordingStream, RecordingStreamBuilder};
 
 use super::{RecordError, marks, sdk};
+use crate::env::world::Action;
 
 /// The title of word map `path` (`attention/words/<i>_<word>`): the word, with its position
-/// when the recording holds the same word at several positions.
+/// first (`"3:the"`) when the recording holds the same word at several positions. Short, so
+/// that a long mission's grid of small maps does not cut it ("go (word 0)" read "go (wo…").
 fn word_title(path: &str, all: &[String]) -> String {
     let name = path.rsplit('/').next().unwrap_or(path);
     let (i, word) = name.split_once('_').unwrap_or(("", name));
@@ -30,7 +38,7 @@ fn word_title(path: &str, all: &[String]) -> String {
         })
         .count();
     if same > 1 {
-        format!("{word} (word {i})")
+        format!("{i}:{word}")
     } else {
         word.to_owned()
     }
@@ -52,24 +60,34 @@ fn layout(
     word_paths: &[String],
     attention: bool,
     faithfulness: bool,
-) -> (Blueprint, Option<String>) {
+    world_cells: (usize, usize),
+) -> (Blueprint, Settings) {
+    let mut settings = Settings::default();
     // Its legend would sit on the curves (at the start the value is high, at the end the
     // reward spikes): it is hidden, and the title names each series by its colour.
     let plot: ContainerLike = TimeSeriesView::new(VALUE_PLOT)
         .with_origin("/policy")
         .with_contents(["/policy/value", "/policy/reward"])
         .into();
-    let plot_path = match &plot {
-        ContainerLike::View(v) => Some(v.blueprint_path().to_string()),
-        _ => None,
-    };
+    settings.hidden_legends.extend(view_path(&plot));
+    // The whole world in view, however big: Rerun's own fit cut a 22×22 world at 1600×1000.
+    let world: ContainerLike = Spatial2DView::new("world").with_origin("/world").into();
+    if let Some(path) = view_path(&world) {
+        let tile = f64::from(crate::record::scene::TILE_PX);
+        let range = Range2D {
+            x_range: Range1D([0.0, world_cells.0 as f64 * tile]),
+            y_range: Range1D([0.0, world_cells.1 as f64 * tile]),
+        };
+        settings.bounds.push((path, range));
+    }
     let left = Vertical::new([
-        Spatial2DView::new("world (magenta: target waited on · numbers: clauses · line: trail)")
-            .with_origin("/world")
+        world,
+        TextDocumentView::new("world legend")
+            .with_origin(format!("/{}", super::entities::WORLD_LEGEND))
             .into(),
         Spatial2DView::new("agent view").with_origin("/view").into(),
     ])
-    .with_row_shares([3.0, 1.0]);
+    .with_row_shares([3.0, 0.5, 1.0]);
     let mut right = vec![
         TextDocumentView::new("status")
             .with_origin("/policy/status")
@@ -78,25 +96,26 @@ fn layout(
             .with_origin("/mission/tree")
             .into(),
         plot,
-        TextLogView::new("actions")
-            .with_origin("/policy/action")
-            .into(),
-        TextLogView::new("expert (minigrid's bot): its action and plan")
-            .with_origin("/policy/expert")
-            .into(),
+        text_log("actions", "/policy/action", &mut settings),
+        text_log(
+            "expert (minigrid's bot): its action and plan",
+            "/policy/expert",
+            &mut settings,
+        ),
     ];
-    let probs = || {
-        Spatial2DView::new("action probabilities")
-            .with_origin("/policy/probs")
-            .into()
-    };
+    let probs = bar_view(
+        "action probabilities",
+        "/policy/probs",
+        Action::COUNT,
+        &mut settings,
+    );
     if !attention {
-        right.insert(1, probs());
+        right.insert(1, probs);
         let bp = panels(Blueprint::new(Horizontal::new([
             left.into(),
             Vertical::new(right).into(),
         ])));
-        return (bp, plot_path);
+        return (bp, settings);
     }
     right.push(
         TextDocumentView::new("words: w and H")
@@ -152,22 +171,97 @@ fn layout(
         .with_column_shares([12.0, 1.0])
         .into(),
         Horizontal::new([
-            Spatial2DView::new("weights w")
-                .with_origin("/attention/weights")
-                .into(),
-            Spatial2DView::new("entropies H (nats)")
-                .with_origin("/attention/entropy")
-                .into(),
-            probs(),
+            bar_view(
+                "weights w",
+                "/attention/weights",
+                n_words(word_paths),
+                &mut settings,
+            ),
+            bar_view(
+                "entropies H (nats)",
+                "/attention/entropy",
+                n_words(word_paths),
+                &mut settings,
+            ),
+            probs,
         ])
         .into(),
     ])
     .with_row_shares([3.0, 1.0]);
+    // A big world (BabyAI's 3×3 rooms: 22×22 cells) gets a wider column.
+    let left_share = if world_cells.0.max(world_cells.1) > 12 {
+        1.6
+    } else {
+        1.2
+    };
     let bp = panels(Blueprint::new(
         Horizontal::new([left.into(), middle.into(), Vertical::new(right).into()])
-            .with_column_shares([1.2, 2.0, 1.0]),
+            .with_column_shares([left_share, 2.0, 1.0]),
     ));
-    (bp, plot_path)
+    (bp, settings)
+}
+
+/// A text log view showing only the `step` and each line's text: the entity-path and level
+/// columns Rerun shows by default took half its width and say the same on every row.
+fn text_log(title: &str, origin: &str, settings: &mut Settings) -> ContainerLike {
+    let view: ContainerLike = TextLogView::new(title).with_origin(origin).into();
+    settings.text_logs.extend(view_path(&view));
+    view
+}
+
+/// What the layout sets that the Rust blueprint API has no call for: plots whose legend is
+/// hidden, and views' first visible bounds; each by its view's blueprint path.
+#[derive(Default)]
+struct Settings {
+    hidden_legends: Vec<String>,
+    bounds: Vec<(String, Range2D)>,
+    text_logs: Vec<String>,
+}
+
+fn view_path(view: &ContainerLike) -> Option<String> {
+    match view {
+        ContainerLike::View(v) => Some(v.blueprint_path().to_string()),
+        _ => None,
+    }
+}
+
+/// Rows of the w and H charts: the longest mission's words.
+fn n_words(word_paths: &[String]) -> usize {
+    word_paths
+        .iter()
+        .filter_map(|p| {
+            p.rsplit('/')
+                .next()?
+                .split_once('_')?
+                .0
+                .parse::<usize>()
+                .ok()
+        })
+        .max()
+        .map_or(0, |i| i + 1)
+}
+
+/// A bar chart's view of `rows` rows, showing the first [`marks::BAR_ROWS_SHOWN`] at a
+/// size their labels can be read at; a longer chart scrolls (drag it), and its title says
+/// how many rows it shows of how many.
+fn bar_view(title: &str, origin: &str, rows: usize, settings: &mut Settings) -> ContainerLike {
+    let shown = rows.clamp(1, marks::BAR_ROWS_SHOWN);
+    let title = if rows > shown {
+        // Short: the viewer cut "weights w (first 8 of 11: drag to scroll)" after "(first".
+        format!("{title}, {shown} of {rows}")
+    } else {
+        title.to_owned()
+    };
+    let view: ContainerLike = Spatial2DView::new(title).with_origin(origin).into();
+    if let Some(path) = view_path(&view) {
+        let margin = f64::from(marks::BAR_GAP);
+        let range = Range2D {
+            x_range: Range1D([-margin, f64::from(marks::BAR_LENGTH) + margin]),
+            y_range: Range1D([-margin, shown as f64 * f64::from(marks::BAR_PITCH) + margin]),
+        };
+        settings.bounds.push((path, range));
+    }
+    view
 }
 
 /// The title of the value-and-reward plot, whose series it names by colour (the colours
@@ -184,8 +278,9 @@ pub(super) fn send_layout(
     word_paths: &[String],
     attention: bool,
     faithfulness: bool,
+    world_cells: (usize, usize),
 ) -> Result<(), RecordError> {
-    let (bp, plot) = layout(word_paths, attention, faithfulness);
+    let (bp, settings) = layout(word_paths, attention, faithfulness, world_cells);
     let (carrier, storage) = RecordingStreamBuilder::new(super::APP_ID)
         .memory()
         .map_err(sdk)?;
@@ -218,29 +313,56 @@ pub(super) fn send_layout(
         return Err(RecordError::Rerun("the blueprint has no activation".into()));
     };
     msgs.truncate(at);
-    if let Some(plot) = plot {
-        let (legend_rec, legend) = RecordingStreamBuilder::new(super::APP_ID)
-            .blueprint()
-            .memory()
-            .map_err(sdk)?;
-        legend_rec.set_time_sequence("blueprint", 0);
-        legend_rec
+    let (settings_rec, logged) = RecordingStreamBuilder::new(super::APP_ID)
+        .blueprint()
+        .memory()
+        .map_err(sdk)?;
+    settings_rec.set_time_sequence("blueprint", 0);
+    for plot in &settings.hidden_legends {
+        settings_rec
             .log(
                 format!("{plot}/PlotLegend"),
                 &PlotLegend::new().with_visible(false),
             )
             .map_err(sdk)?;
-        msgs.extend(
-            legend
-                .take()
-                .into_iter()
-                .filter(|m| matches!(m, LogMsg::ArrowMsg(..)))
-                .map(|mut m| {
-                    m.set_store_id(activate.blueprint_id.clone());
-                    m
-                }),
-        );
     }
+    for view in &settings.text_logs {
+        let column = |kind, visible: bool| TextLogColumn {
+            visible: visible.into(),
+            kind,
+        };
+        let columns = TextLogColumns::new()
+            .with_timeline_columns([TimelineColumn {
+                visible: true.into(),
+                timeline: "step".into(),
+            }])
+            .with_text_log_columns([
+                column(TextLogColumnKind::EntityPath, false),
+                column(TextLogColumnKind::LogLevel, false),
+                column(TextLogColumnKind::Body, true),
+            ]);
+        settings_rec
+            .log(format!("{view}/TextLogColumns"), &columns)
+            .map_err(sdk)?;
+    }
+    for (view, range) in &settings.bounds {
+        settings_rec
+            .log(
+                format!("{view}/VisualBounds2D"),
+                &VisualBounds2D::new(*range),
+            )
+            .map_err(sdk)?;
+    }
+    msgs.extend(
+        logged
+            .take()
+            .into_iter()
+            .filter(|m| matches!(m, LogMsg::ArrowMsg(..)))
+            .map(|mut m| {
+                m.set_store_id(activate.blueprint_id.clone());
+                m
+            }),
+    );
     rec.send_blueprint(msgs, activate);
     Ok(())
 }
@@ -270,7 +392,7 @@ mod tests {
             "attention/words/5_the".to_owned(),
             "attention/words/3_yellow".to_owned(),
         ];
-        assert_eq!(word_title(&paths[0], &paths), "the (word 2)");
+        assert_eq!(word_title(&paths[0], &paths), "2:the");
         assert_eq!(word_title(&paths[2], &paths), "yellow");
     }
 }

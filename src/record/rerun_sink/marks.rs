@@ -1,6 +1,6 @@
 //! What makes the Rerun views read at a glance: bar charts whose every bar carries its name
-//! and value (Rerun 0.36's `BarChart` has no per-bar names, so bars are labelled tracks with
-//! solid bars inside, in a 2-D view), landmarks shared by every map (walls, objects, unseen
+//! and value (Rerun 0.36's `BarChart` has no per-bar names, so bars are tracks with solid bars
+//! inside and a label above each, in a 2-D view), landmarks shared by every map (walls, objects, unseen
 //! cells, the agent), the world's attention rings, targets, numbered clause targets and trail,
 //! and the colour bar of the maps' shared scale.
 
@@ -16,12 +16,43 @@ use crate::render::{decode_view_cell, palette};
 /// Length of a full bar (probability or weight 1) in the bars' 2-D space.
 pub const BAR_LENGTH: f32 = 10.0;
 
-/// Rows of a bar chart are this far apart and each bar [`BAR_HEIGHT`] tall: the gap leaves
-/// room for the label Rerun draws at the bar, wherever it anchors it.
-pub const BAR_PITCH: f32 = 1.5;
+/// Rows of a bar chart are this far apart: each row is its label's band, then its bar
+/// ([`BAR_HEIGHT`]), then a gap ([`BAR_GAP`]) before the next row's label.
+pub const BAR_PITCH: f32 = 3.0;
 
 /// Height of one bar.
-pub const BAR_HEIGHT: f32 = 0.7;
+pub const BAR_HEIGHT: f32 = 0.8;
+
+/// Gap between a bar and the next row's label band.
+pub const BAR_GAP: f32 = 0.2;
+
+/// Rows a bar chart's view shows at first; a longer chart (a long mission's words) scrolls,
+/// since Rerun draws labels at a fixed size in pixels and more rows would overprint them.
+pub const BAR_ROWS_SHOWN: usize = 8;
+
+/// Top of row `i`'s bar (y grows downward).
+pub fn bar_top(i: usize) -> f32 {
+    (i + 1) as f32 * BAR_PITCH - BAR_GAP - BAR_HEIGHT
+}
+
+/// Where row `i`'s label is anchored: mid-width at the top of its row. Rerun 0.36 draws a
+/// 2-D label centred *below* its anchor (a box's label below the box), so the text lies in
+/// the row's label band, right above its own bar; a label anchored on the bar itself would
+/// sit over the next row's bar, and the last one under the chart's edge.
+pub fn label_anchor(i: usize) -> (f32, f32) {
+    (BAR_LENGTH / 2.0, i as f32 * BAR_PITCH)
+}
+
+/// A bar chart as logged: the labels (invisible points, one per row, at [`label_anchor`]),
+/// the rows' full-length grey tracks and the solid bars.
+pub struct LabelledBars {
+    /// One label per row, e.g. `"forward 0.910"`.
+    pub labels: rerun::Points2D,
+    /// The rows' full-length tracks.
+    pub tracks: rerun::Boxes2D,
+    /// The bars (`highlight` in orange).
+    pub bars: rerun::LineStrips2D,
+}
 
 /// Where the landmarks every map view also shows are logged.
 pub const LANDMARKS: &str = "attention/landmarks";
@@ -29,24 +60,20 @@ pub const LANDMARKS: &str = "attention/landmarks";
 /// Entity holding the marks drawn over the world in cell units (scaled by the tile size).
 pub const WORLD_MARKS: &str = "world/marks";
 
-/// Horizontal bars, one per `(label, value)` row, value `full` = [`BAR_LENGTH`]: the rows'
-/// full-length tracks, each labelled with its text (e.g. `"forward 0.91"`) so that the label
-/// sits mid-row however short the bar, and the bars themselves, solid (`highlight` in orange),
-/// to be logged at a child entity. Rerun 0.36's boxes have no fill, so a bar is a line strip
-/// along the row's middle, as thick as the row's bar: a solid bar of the right length.
-pub fn labelled_bars(
-    rows: &[(String, f32)],
-    full: f32,
-    highlight: Option<usize>,
-) -> (rerun::Boxes2D, rerun::LineStrips2D) {
+/// Horizontal bars, one per `(label, value)` row, value `full` = [`BAR_LENGTH`], each row's
+/// label right above its bar ([`label_anchor`]). Rerun 0.36's boxes have no fill, so a bar is a
+/// line strip along the row's bar, as thick as the bar: a solid bar of the right length.
+pub fn labelled_bars(rows: &[(String, f32)], full: f32, highlight: Option<usize>) -> LabelledBars {
     let scale = BAR_LENGTH / full.max(f32::EPSILON);
-    let top = |i: usize| i as f32 * BAR_PITCH + BAR_PITCH - BAR_HEIGHT;
+    let labels = rerun::Points2D::new((0..rows.len()).map(label_anchor))
+        .with_radii([0.0])
+        .with_labels(rows.iter().map(|(l, _)| l.clone()))
+        .with_show_labels(true)
+        .with_colors([[220, 220, 220]]);
     let tracks = rerun::Boxes2D::from_mins_and_sizes(
-        (0..rows.len()).map(|i| (0.0, top(i))),
+        (0..rows.len()).map(|i| (0.0, bar_top(i))),
         vec![(BAR_LENGTH, BAR_HEIGHT); rows.len()],
     )
-    .with_labels(rows.iter().map(|(l, _)| l.clone()))
-    .with_show_labels(true)
     .with_colors([[70, 70, 70]]);
     let strips: Vec<[[f32; 2]; 2]> = rows
         .iter()
@@ -54,7 +81,7 @@ pub fn labelled_bars(
         .map(|(i, (_, v))| {
             // The viewer rounds a strip's ends by its radius: the strip stops a radius short
             // of each end so the bar covers exactly [0, length] (a dot at least).
-            let (y, r) = (top(i) + BAR_HEIGHT / 2.0, BAR_HEIGHT / 2.0);
+            let (y, r) = (bar_top(i) + BAR_HEIGHT / 2.0, BAR_HEIGHT / 2.0);
             let length = (v.max(0.0) * scale).min(BAR_LENGTH);
             [[r, y], [(length - r).max(r), y]]
         })
@@ -71,7 +98,11 @@ pub fn labelled_bars(
     let bars = rerun::LineStrips2D::new(strips)
         .with_colors(colors)
         .with_radii([BAR_HEIGHT / 2.0]);
-    (tracks, bars)
+    LabelledBars {
+        labels,
+        tracks,
+        bars,
+    }
 }
 
 /// The frame of a bar chart with `n` rows: fixes the view's bounds so bars do not rescale.
