@@ -145,7 +145,7 @@ impl ObjDesc {
     }
 
     fn matching_among(
-        &self,
+        self,
         objects: impl Iterator<Item = (Pos, WorldObj)>,
         rooms: Rooms,
         agent_pos: Pos,
