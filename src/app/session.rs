@@ -182,14 +182,21 @@ pub struct Request {
     pub mission: Option<String>,
 }
 
+impl Request {
+    /// The episode this request asks for.
+    fn spec(&self) -> EpisodeSpec {
+        EpisodeSpec {
+            level: self.level,
+            seed: self.seed,
+            mission: self.mission.clone(),
+            mode: self.mode,
+        }
+    }
+}
+
 /// Runs `agent` on `req`.
 pub fn run_request(agent: &Agent, req: &Request, alpha: f64) -> Result<Shown, String> {
-    let spec = EpisodeSpec {
-        level: req.level,
-        seed: req.seed,
-        mission: req.mission.clone(),
-        mode: req.mode,
-    };
+    let spec = req.spec();
     let world = crate::episode::initial_world(&spec).map_err(|e| e.to_string())?;
     let trace = run_from(agent.acting(), &agent.spec, &spec, world).map_err(|e| e.to_string())?;
     Ok(Shown::new(trace, alpha))
@@ -208,12 +215,7 @@ pub fn stream_request(
     alpha: f64,
     tx: &Sender<JobResult>,
 ) -> Result<Option<Shown>, String> {
-    let spec = EpisodeSpec {
-        level: req.level,
-        seed: req.seed,
-        mission: req.mission.clone(),
-        mode: req.mode,
-    };
+    let spec = req.spec();
     let world = crate::episode::initial_world(&spec).map_err(|e| e.to_string())?;
     let (mut sent, mut last_sent, mut open) = (0, Instant::now(), true);
     let trace = run_from_observed(
