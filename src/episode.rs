@@ -149,17 +149,7 @@ pub fn choose(probs: &[f32], mode: ActionMode, rng: &mut Pcg64Mcg) -> Action {
                 })
                 .0
         }
-        ActionMode::Sampled => {
-            let u: f32 = rng.random();
-            let mut acc = 0.0;
-            probs
-                .iter()
-                .position(|&p| {
-                    acc += p;
-                    u < acc
-                })
-                .unwrap_or(probs.len() - 1)
-        }
+        ActionMode::Sampled => crate::policy::sample_index(probs, rng.random()),
     };
     Action::from_index(idx).unwrap_or(Action::Done)
 }

@@ -98,6 +98,20 @@ pub fn act(
     })
 }
 
+/// Inverse-CDF sampling: the first action whose cumulative probability exceeds `u` ∈ [0, 1)
+/// (the last one where rounding leaves the sum below `u`). Training's rollout and a sampled
+/// episode draw their actions with it, so a seed picks the same action in both.
+pub fn sample_index(probs: &[f32], u: f32) -> usize {
+    let mut acc = 0.0;
+    probs
+        .iter()
+        .position(|&q| {
+            acc += q;
+            u < acc
+        })
+        .unwrap_or(probs.len().saturating_sub(1))
+}
+
 /// The mission's inputs (text code, queries) of a single episode, computed once: they do not
 /// change while it runs, and computing them is most of a batch-1 step (the GRU).
 pub fn episode_mission(net: &Net, tokens: &[u32]) -> Result<MissionInputs, PolicyError> {

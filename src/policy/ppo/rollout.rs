@@ -69,7 +69,7 @@ impl Trainer {
                 .iter()
                 .map(|probs| {
                     let u: f32 = st.act_rng.random();
-                    let sampled = sample(probs, u);
+                    let sampled = crate::policy::sample_index(probs, u);
                     let own = share > 0.0 && st.act_rng.random::<f64>() < share;
                     Draw { sampled, own }
                 })
@@ -243,18 +243,6 @@ struct Stepped {
     h: Vec<f32>,
     c: Vec<f32>,
     outcome: crate::env::world::StepOutcome,
-}
-
-/// Inverse-CDF sampling of `probs` at `u` ∈ [0, 1).
-fn sample(probs: &[f32], u: f32) -> usize {
-    let mut acc = 0.0;
-    probs
-        .iter()
-        .position(|&q| {
-            acc += q;
-            u < acc
-        })
-        .unwrap_or(probs.len() - 1)
 }
 
 /// Steps environment `p`: the bot's advice (imitation), the action, the world, the memory.
