@@ -140,7 +140,7 @@ impl Adam {
                     }
                 }
             };
-            on_threads(jobs, run);
+            on_threads(jobs, run)?;
         }
         for (&(_, var, _), (_, out)) in grads.iter().zip(outputs) {
             let shape = var.as_tensor().shape().clone();

@@ -110,7 +110,7 @@ pub fn with_minibatch_grads<R>(
             }
         }
     };
-    on_threads(jobs, run);
+    on_threads(jobs, run)?;
     let grads: Vec<ParamGrad<'_>> = terms
         .iter()
         .zip(&merged)
@@ -119,16 +119,23 @@ pub fn with_minibatch_grads<R>(
     f(&grads)
 }
 
-/// Runs each thread's list of jobs on a thread of its own, the first on the calling thread.
-pub(super) fn on_threads<J: Send>(jobs: Vec<Vec<J>>, run: impl Fn(Vec<J>) + Sync) {
-    let mut jobs = jobs.into_iter();
-    let first = jobs.next().unwrap_or_default();
-    std::thread::scope(|scope| {
-        for rest in jobs.by_ref() {
-            scope.spawn(|| run(rest));
-        }
-        run(first);
-    });
+/// Runs each thread's list of jobs on a thread of its own, the first on the calling thread
+/// and the others on the training pool's warm threads.
+pub(super) fn on_threads<J: Send>(
+    jobs: Vec<Vec<J>>,
+    run: impl Fn(Vec<J>) + Sync,
+) -> Result<(), PolicyError> {
+    let run = &run;
+    let jobs: Vec<_> = jobs
+        .into_iter()
+        .map(|list| {
+            move || -> Result<(), PolicyError> {
+                run(list);
+                Ok(())
+            }
+        })
+        .collect();
+    super::workers::run_all(jobs).map(drop)
 }
 
 /// The global gradient norm `‖g‖₂` (each parameter's sum of squares in f32, added in f64 in

@@ -21,6 +21,7 @@ mod rollout;
 pub mod run_dir;
 mod state;
 mod update;
+mod workers;
 
 use rand::SeedableRng as _;
 use rand_pcg::Pcg64Mcg;
@@ -189,24 +190,13 @@ impl PhaseTimes {
     }
 }
 
-/// Runs every job on a thread of its own (the only one inline) and returns their results in
-/// job order: the rollout's and the update's shards, whose order fixes the result.
+/// Runs every job on a thread of its own (the first inline, the others on the pool's warm
+/// threads) and returns their results in job order: the rollout's and the update's shards,
+/// whose order fixes the result.
 fn in_threads<T: Send>(
     jobs: Vec<impl FnOnce() -> Result<T, PolicyError> + Send>,
 ) -> Result<Vec<T>, PolicyError> {
-    if jobs.len() <= 1 {
-        return jobs.into_iter().map(|job| job()).collect();
-    }
-    std::thread::scope(|scope| {
-        let handles: Vec<_> = jobs.into_iter().map(|job| scope.spawn(job)).collect();
-        handles
-            .into_iter()
-            .map(|h| {
-                h.join()
-                    .map_err(|_| PolicyError::Input("a training thread panicked".into()))?
-            })
-            .collect()
-    })
+    workers::run_all(jobs)
 }
 
 fn secs(t: std::time::Instant) -> f64 {
