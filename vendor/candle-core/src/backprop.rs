@@ -170,9 +170,11 @@ impl Tensor {
             if node.is_variable() {
                 continue;
             }
-            let grad = grads
-                .remove(node)
-                .expect("candle internal error - grad not populated");
+            // groundscope: a `w.t()` whose every use was a product that gave `w` its gradient
+            // directly has none of its own.
+            let Some(grad) = grads.remove(node) else {
+                continue;
+            };
             // https://github.com/huggingface/candle/issues/1241
             // Ideally, we would make these operations in place where possible to ensure that we
             // do not have to allocate too often. Here we just call `.detach` to avoid computing
@@ -445,8 +447,16 @@ impl Tensor {
                         let lhs_grad = grad.matmul(&rhs.t()?)?;
                         grads.accumulate(lhs, &lhs_grad)?;
 
-                        let rhs_grad = lhs.t()?.matmul(&grad)?;
-                        grads.accumulate(rhs, &rhs_grad)?;
+                        // groundscope: a 2-D `x.matmul(&w.t())` (every linear layer) gives `w`
+                        // its gradient as `gradᵀ·x`, row-major, instead of `(xᵀ·grad)ᵀ`, which
+                        // `accumulate` would copy out of its transposed layout.
+                        if let Some(w) = transposed_matrix(rhs) {
+                            let w_grad = grad.t()?.matmul(lhs)?;
+                            grads.accumulate(w, &w_grad)?;
+                        } else {
+                            let rhs_grad = lhs.t()?.matmul(&grad)?;
+                            grads.accumulate(rhs, &rhs_grad)?;
+                        }
                     }
                     Op::Cat(args, dim) => {
                         let mut start_idx = 0;
@@ -689,6 +699,18 @@ impl Tensor {
 /// A store for gradients, associating a tensor id to the corresponding gradient tensor, used for back propagation.
 #[derive(Default, Debug)]
 pub struct GradStore(HashMap<TensorId, Tensor>);
+
+/// groundscope: `w` where `t` is `w.t()` for a 2-D `w`.
+fn transposed_matrix(t: &Tensor) -> Option<&Tensor> {
+    match t.op() {
+        Some(Op::Transpose(w, 0, 1)) | Some(Op::Transpose(w, 1, 0))
+            if t.rank() == 2 && w.rank() == 2 =>
+        {
+            Some(w)
+        }
+        _ => None,
+    }
+}
 
 impl GradStore {
     /// Create a new gradient store
