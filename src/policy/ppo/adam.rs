@@ -4,11 +4,10 @@
 use std::collections::BTreeMap;
 
 use candle_core::backprop::GradStore;
-use candle_core::{Device, Tensor, Var};
+use candle_core::{CpuStorage, Storage, Var};
 
 use super::grads::{ParamGrad, on_threads, with_minibatch_grads};
 use crate::policy::error::PolicyError;
-use crate::policy::kernels::cpu_f32;
 
 /// Adam hyper-parameters.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -94,11 +93,10 @@ impl Adam {
         // parameter and a tenth of the training time (issue #16).
         let update = AdamUpdate::new(&self.cfg, self.step);
         let scale = scale.map(|s| s as f32);
-        // The moments of each parameter, and a buffer for its new values.
-        let mut outputs = Vec::with_capacity(grads.len());
+        // The moments of each parameter, walked alongside (both in name order).
+        let mut moments = Vec::with_capacity(grads.len());
         let mut rest = self.moments.iter_mut();
         for &(name, var, g) in grads {
-            // Both in name order: walk the moments alongside.
             let mo = rest
                 .find(|(k, _)| k.as_str() == name)
                 .map(|(_, mo)| mo)
@@ -109,55 +107,53 @@ impl Adam {
                     "adam: gradient or moments of {name} do not have its {n} values"
                 )));
             }
-            outputs.push((mo, vec![0f32; n]));
+            moments.push(mo);
         }
+        // Every parameter written in place (as `Var::set` would), cut into `threads` ranges;
+        // thread t updates the t-th range of each.
+        let mut storages = grads
+            .iter()
+            .map(|(_, var, _)| var.write_storage())
+            .collect::<Result<Vec<_>, _>>()?;
+        let threads = threads.max(1);
+        let mut jobs: Vec<Vec<Job<'_>>> = (0..threads).map(|_| Vec::new()).collect();
+        for (((storage, layout), &(name, _, g)), mo) in
+            storages.iter_mut().zip(grads).zip(&mut moments)
         {
-            let guards = grads
-                .iter()
-                .map(|(_, var, _)| var.as_tensor().storage_and_layout())
-                .collect::<Vec<_>>();
-            // Every parameter cut into `threads` ranges; thread t updates the t-th of each.
-            let threads = threads.max(1);
-            let mut jobs: Vec<Vec<Job<'_>>> = (0..threads).map(|_| Vec::new()).collect();
-            for (((ps, pl), &(_, _, g)), (mo, out)) in guards.iter().zip(grads).zip(&mut outputs) {
-                let p = cpu_f32(ps, pl, "adam: parameter")?;
-                let per = p.len().div_ceil(threads).max(1);
-                let parts = p
-                    .chunks(per)
-                    .zip(g.chunks(per))
-                    .zip(mo.m.chunks_mut(per))
-                    .zip(mo.v.chunks_mut(per))
-                    .zip(out.chunks_mut(per));
-                for (t, ((((p, g), m), v), out)) in parts.enumerate() {
-                    jobs[t].push(Job { p, g, m, v, out });
-                }
-            }
-            let run = |jobs: Vec<Job<'_>>| {
-                for job in jobs {
-                    match scale {
-                        Some(s) => update.run(job, |g| g * s + 0.0),
-                        None => update.run(job, |g| g),
-                    }
-                }
+            let (Storage::Cpu(CpuStorage::F32(values)), Some((lo, hi))) =
+                (&mut **storage, layout.contiguous_offsets())
+            else {
+                return Err(PolicyError::Input(format!(
+                    "adam: {name} is not a contiguous f32 tensor on the CPU"
+                )));
             };
-            on_threads(jobs, run)?;
+            let p = &mut values[lo..hi];
+            let per = p.len().div_ceil(threads).max(1);
+            let parts = p
+                .chunks_mut(per)
+                .zip(g.chunks(per))
+                .zip(mo.m.chunks_mut(per))
+                .zip(mo.v.chunks_mut(per));
+            for (t, (((p, g), m), v)) in parts.enumerate() {
+                jobs[t].push(Job { p, g, m, v });
+            }
         }
-        for (&(_, var, _), (_, out)) in grads.iter().zip(outputs) {
-            let shape = var.as_tensor().shape().clone();
-            var.set(&Tensor::from_vec(out, shape, &Device::Cpu)?)?;
-        }
-        Ok(())
+        let run = |jobs: Vec<Job<'_>>| {
+            for job in jobs {
+                update.run(job, scale);
+            }
+        };
+        on_threads(jobs, run)
     }
 }
 
-/// One thread's share of one parameter: its elements' parameter values, gradients, moments
-/// (updated in place) and the new parameter values.
+/// One thread's share of one parameter: its elements' parameter values (updated in place),
+/// gradients and moments (updated in place).
 struct Job<'a> {
-    p: &'a [f32],
+    p: &'a mut [f32],
     g: &'a [f32],
     m: &'a mut [f32],
     v: &'a mut [f32],
-    out: &'a mut [f32],
 }
 
 /// One Adam step's constants in f32, bias corrections of step `t` included.
@@ -184,23 +180,36 @@ impl AdamUpdate {
         }
     }
 
-    /// A job's new parameters and moments from the gradient `grad(g)` of every element.
+    /// A job's new parameters and moments from the gradient of every element, each first
+    /// multiplied by the clip factor `scale` where there is one.
     #[inline]
-    fn run(&self, job: Job<'_>, grad: impl Fn(f32) -> f32) {
-        let Self {
-            b1,
-            b2,
-            bc1,
-            bc2,
-            lr,
-            eps,
-        } = *self;
-        let Job { p, g, m, v, out } = job;
-        for ((((o, &p), m), v), &g) in out.iter_mut().zip(p).zip(m).zip(v).zip(g) {
-            let g = grad(g);
+    fn run(&self, job: Job<'_>, scale: Option<f32>) {
+        let Job { p, g, m, v } = job;
+        let c = [self.b1, self.b2, self.bc1, self.bc2, self.lr, self.eps];
+        adam_elements(p, g, m, v, c, scale.unwrap_or(1.0), scale.is_some());
+    }
+}
+
+crate::multiversion! {
+    /// Adam on a range of elements (compiled for the vector unit the CPU has: the same
+    /// operations in the same order on every clone, so the same bits). `c` holds β₁, β₂,
+    /// the two bias corrections, the learning rate and ε; with `scaled`, each gradient is
+    /// first `g · scale + 0` as candle's `g * scale` computes it.
+    fn adam_elements(
+        p: &mut [f32],
+        g: &[f32],
+        m: &mut [f32],
+        v: &mut [f32],
+        c: [f32; 6],
+        scale: f32,
+        scaled: bool,
+    ) {
+        let [b1, b2, bc1, bc2, lr, eps] = c;
+        for (((p, m), v), &g) in p.iter_mut().zip(m).zip(v).zip(g) {
+            let g = if scaled { g * scale + 0.0 } else { g };
             *m = b1 * *m + (1.0 - b1) * g;
             *v = b2 * *v + (1.0 - b2) * g * g;
-            *o = p - lr * ((*m / bc1) / ((*v / bc2).sqrt() + eps));
+            *p -= lr * ((*m / bc1) / ((*v / bc2).sqrt() + eps));
         }
     }
 }
@@ -208,6 +217,7 @@ impl AdamUpdate {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use candle_core::{Device, Tensor};
 
     #[test]
     fn two_steps_follow_torchs_formula() {

@@ -102,11 +102,7 @@ pub fn with_minibatch_grads<R>(
     let run = |jobs: Vec<MergeJob<'_>>| {
         for (out, parts) in jobs {
             for (k, (g, w)) in parts.into_iter().enumerate() {
-                if k == 0 {
-                    out.iter_mut().zip(g).for_each(|(s, &g)| *s = g * w + 0.0);
-                } else {
-                    out.iter_mut().zip(g).for_each(|(s, &g)| *s += g * w + 0.0);
-                }
+                add_term(out, g, w, k == 0);
             }
         }
     };
@@ -117,6 +113,27 @@ pub fn with_minibatch_grads<R>(
         .map(|((name, var, _), g)| (*name, *var, g.as_slice()))
         .collect();
     f(&grads)
+}
+
+crate::multiversion! {
+    /// `out ← g·w + 0` (`first`) or `out ← out + (g·w + 0)`: one shard's term of a merged
+    /// gradient, as candle's `g * w` and `+` compute it (compiled for the CPU's vector unit;
+    /// the same bits on every clone).
+    fn add_term(out: &mut [f32], g: &[f32], w: f32, first: bool) {
+        if first {
+            out.iter_mut().zip(g).for_each(|(s, &g)| *s = g * w + 0.0);
+        } else {
+            out.iter_mut().zip(g).for_each(|(s, &g)| *s += g * w + 0.0);
+        }
+    }
+}
+
+crate::multiversion! {
+    /// [`sum_squares`] compiled for the CPU's vector unit: its accumulators are explicit,
+    /// so every clone adds in the same order.
+    fn sum_squares_simd(x: &[f32]) -> f32 {
+        sum_squares(x)
+    }
 }
 
 /// Runs each thread's list of jobs on a thread of its own, the first on the calling thread
@@ -144,7 +161,7 @@ pub(super) fn on_threads<J: Send>(
 pub fn clip_factor(grads: &[ParamGrad<'_>], max_norm: f64) -> (f64, Option<f64>) {
     let sq: f64 = grads
         .iter()
-        .map(|(_, _, g)| f64::from(sum_squares(g)))
+        .map(|(_, _, g)| f64::from(sum_squares_simd(g)))
         .sum();
     let norm = sq.sqrt();
     let scale = max_norm / (norm + 1e-6);
@@ -154,6 +171,11 @@ pub fn clip_factor(grads: &[ParamGrad<'_>], max_norm: f64) -> (f64, Option<f64>)
 /// `Σ x²` in f32, added as candle's `x.sqr()?.sum_all()` adds it on a CPU with AVX2 (its
 /// `vec_sum`: four 8-lane accumulators over blocks of 32 values, reduced pairwise, then the
 /// remaining values in order), so that the clip factor keeps the bits it had as candle ops.
+#[expect(
+    clippy::inline_always,
+    reason = "inlined into its multiversioned caller, so the loop is compiled per vector unit"
+)]
+#[inline(always)]
 fn sum_squares(x: &[f32]) -> f32 {
     let mut acc = [[0f32; 8]; 4];
     let blocks = x.chunks_exact(32);

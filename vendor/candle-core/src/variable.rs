@@ -2,7 +2,7 @@
 // weights and being modified by gradient descent.
 // We do not expose a public way to create variables as this would break the invariant that the
 // tensor within a variable is actually with `is_variable` set to `true`.
-use crate::{DType, Device, Error, Result, Shape, Tensor};
+use crate::{DType, Device, Error, Layout, Result, Shape, Tensor};
 
 /// A variable is a wrapper around a tensor, however variables can have their content modified
 /// whereas tensors are immutable.
@@ -123,6 +123,19 @@ impl Var {
     /// Consumes this `Var` and return the underlying tensor.
     pub fn into_inner(self) -> Tensor {
         self.0
+    }
+
+    /// groundscope: a write lock on this variable's storage with its layout, for an optimizer
+    /// that updates the values in place (what `set` does, without a tensor of new values to
+    /// copy from). The storage must be contiguous.
+    pub fn write_storage(&self) -> Result<(crate::StorageMutRef<'_>, Layout)> {
+        let (dst, layout) = self.storage_mut_and_layout();
+        if !layout.is_contiguous() {
+            let msg = "cannot write a non-contiguous variable";
+            Err(Error::CannotSetVar { msg }.bt())?
+        }
+        let layout = layout.clone();
+        Ok((dst, layout))
     }
 
     /// Sets the content of the inner tensor, this does not require a mutable reference as inner
