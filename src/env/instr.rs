@@ -222,11 +222,24 @@ impl Instr {
 
     /// The mission text, from the matches of the last reset ("the" iff one object matched).
     pub fn surface(&self) -> String {
+        let mut s = String::with_capacity(128);
+        self.push_surface(&mut s);
+        s
+    }
+
+    /// [`Self::surface`] appended to `out`.
+    fn push_surface(&self, out: &mut String) {
         match self {
-            Self::Action(n) => n
-                .instr
-                .surface_with(n.targets.obj_set.len(), n.fixed_targets.obj_set.len()),
-            Self::Seq(s) => format!("{}{}{}", s.a.surface(), s.kind.joiner(), s.b.surface()),
+            Self::Action(n) => n.instr.push_surface_with(
+                n.targets.obj_set.len(),
+                n.fixed_targets.obj_set.len(),
+                out,
+            ),
+            Self::Seq(s) => {
+                s.a.push_surface(out);
+                out.push_str(s.kind.joiner());
+                s.b.push_surface(out);
+            }
         }
     }
 

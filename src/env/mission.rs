@@ -185,21 +185,30 @@ impl ObjDesc {
     /// `ObjDesc.surface`: article + [colour] + type [+ location]; "the" iff exactly one
     /// object matches.
     pub fn surface(&self, n_matches: usize) -> String {
-        let mut s = self.kind.map_or("object", ObjectKind::name).to_owned();
+        let mut s = String::with_capacity(40);
+        self.push_surface(n_matches, &mut s);
+        s
+    }
+
+    /// [`Self::surface`] appended to `out` (a mission's text is built in one buffer: level
+    /// generation makes one per reset, and the words' separate strings were a quarter of a
+    /// two-clause level's reset).
+    pub fn push_surface(&self, n_matches: usize, out: &mut String) {
+        out.push_str(if n_matches > 1 { "a " } else { "the " });
         if let Some(c) = self.color {
-            s = format!("{} {s}", c.name());
+            out.push_str(c.name());
+            out.push(' ');
         }
+        out.push_str(self.kind.map_or("object", ObjectKind::name));
         match self.loc {
-            Some(Loc::Front) => s.push_str(" in front of you"),
-            Some(Loc::Behind) => s.push_str(" behind you"),
+            Some(Loc::Front) => out.push_str(" in front of you"),
+            Some(Loc::Behind) => out.push_str(" behind you"),
             Some(l @ (Loc::Left | Loc::Right)) => {
-                s.push_str(" on your ");
-                s.push_str(l.name());
+                out.push_str(" on your ");
+                out.push_str(l.name());
             }
             None => {}
         }
-        let article = if n_matches > 1 { "a" } else { "the" };
-        format!("{article} {s}")
     }
 }
 
@@ -247,13 +256,25 @@ impl Instruction {
 
     /// The mission text with the number of objects each description matched.
     pub fn surface_with(&self, n_matches: usize, n_fixed: usize) -> String {
+        let mut s = String::with_capacity(64);
+        self.push_surface_with(n_matches, n_fixed, &mut s);
+        s
+    }
+
+    /// [`Self::surface_with`] appended to `out`.
+    pub fn push_surface_with(&self, n_matches: usize, n_fixed: usize, out: &mut String) {
         match (self.task, self.fixed) {
-            (TaskKind::PutNext, Some(fixed)) => format!(
-                "put {} next to {}",
-                self.desc.surface(n_matches),
-                fixed.surface(n_fixed)
-            ),
-            _ => format!("{} {}", self.task.verb(), self.desc.surface(n_matches)),
+            (TaskKind::PutNext, Some(fixed)) => {
+                out.push_str("put ");
+                self.desc.push_surface(n_matches, out);
+                out.push_str(" next to ");
+                fixed.push_surface(n_fixed, out);
+            }
+            _ => {
+                out.push_str(self.task.verb());
+                out.push(' ');
+                self.desc.push_surface(n_matches, out);
+            }
         }
     }
 
