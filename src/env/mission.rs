@@ -263,18 +263,15 @@ impl Instruction {
 
     /// [`Self::surface_with`] appended to `out`.
     pub fn push_surface_with(&self, n_matches: usize, n_fixed: usize, out: &mut String) {
-        match (self.task, self.fixed) {
-            (TaskKind::PutNext, Some(fixed)) => {
-                out.push_str("put ");
-                self.desc.push_surface(n_matches, out);
-                out.push_str(" next to ");
-                fixed.push_surface(n_fixed, out);
-            }
-            _ => {
-                out.push_str(self.task.verb());
-                out.push(' ');
-                self.desc.push_surface(n_matches, out);
-            }
+        if let (TaskKind::PutNext, Some(fixed)) = (self.task, self.fixed) {
+            out.push_str("put ");
+            self.desc.push_surface(n_matches, out);
+            out.push_str(" next to ");
+            fixed.push_surface(n_fixed, out);
+        } else {
+            out.push_str(self.task.verb());
+            out.push(' ');
+            self.desc.push_surface(n_matches, out);
         }
     }
 
