@@ -181,15 +181,43 @@ impl Net {
             .reshape((u, l, self.cfg.word_dim))?)
     }
 
-    /// The GRU over each distinct mission's real words; its last state: (U, H_gru).
+    /// The GRU over each distinct mission's real words; its last state: (U, H_gru). One fused
+    /// op over all the words ([`super::kernels::gru`]), the same bits as
+    /// [`Self::encode_text_reference`].
     pub fn encode_text(&self, tb: &TokenBatch, emb: &Tensor) -> Result<Tensor, PolicyError> {
+        let gru = &self.weights.gru;
+        Ok(super::kernels::gru::gru_sequence(
+            &self.gru_inputs(tb, emb)?,
+            &gru.w_hh.w,
+            gru.w_hh.wt.as_ref(),
+            &gru.b_hh,
+            &tb.mask,
+        )?)
+    }
+
+    /// The words' input projections `x W_ihᵀ + b_ih`: (U, L, 3·H_gru).
+    fn gru_inputs(&self, tb: &TokenBatch, emb: &Tensor) -> Result<Tensor, PolicyError> {
+        let (u, l) = tb.tokens.dims2()?;
+        let gru = &self.weights.gru;
+        Ok(
+            Self::times_t(&emb.reshape((u * l, self.cfg.word_dim))?, &gru.w_ih)?
+                .broadcast_add(&gru.b_ih)?
+                .reshape((u, l, 3 * self.cfg.gru_hidden))?,
+        )
+    }
+
+    /// [`Self::encode_text`] word by word in candle ops: the reference the fused op is
+    /// checked against (`tests/fused.rs`).
+    pub fn encode_text_reference(
+        &self,
+        tb: &TokenBatch,
+        emb: &Tensor,
+    ) -> Result<Tensor, PolicyError> {
         let (u, l) = tb.tokens.dims2()?;
         let hg = self.cfg.gru_hidden;
         let gru = &self.weights.gru;
-        let (b_ih, b_hh) = (&gru.b_ih, &gru.b_hh);
-        let gx_all = Self::times_t(&emb.reshape((u * l, self.cfg.word_dim))?, &gru.w_ih)?
-            .broadcast_add(b_ih)?
-            .reshape((u, l, 3 * hg))?;
+        let b_hh = &gru.b_hh;
+        let gx_all = self.gru_inputs(tb, emb)?;
         let mut h = Tensor::zeros((u, hg), DType::F32, &Device::Cpu)?;
         for t in 0..l {
             let gx = gx_all.narrow(1, t, 1)?.squeeze(1)?;

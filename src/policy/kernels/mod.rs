@@ -8,6 +8,7 @@ pub mod act;
 pub mod attention;
 pub mod bias;
 pub mod conv;
+pub mod gru;
 pub mod lstm;
 pub mod sequence;
 pub mod simd;

@@ -24,17 +24,23 @@ struct LstmSequence {
     w_hh_t: Option<Tensor>,
 }
 
-/// `W_hh` for the steps' `x · W_hhᵀ` ([`super::times_transposed`]), with its
+/// `W_hh` (4H or 3H rows) for the steps' `x · W_hhᵀ` ([`super::times_transposed`]), with its
 /// contiguous transpose from two rows on: candle hands a strided `W.t()` to gemm, which then
 /// repacks all of it at every step.
-struct Recurrent {
+pub(super) struct Recurrent {
     w: Tensor,
     wt: Option<Tensor>,
 }
 
 impl Recurrent {
     /// From `W_hh` (4H, H) row-major, and the transpose the caller already keeps (`wt`).
-    fn new(w: &[f32], wt: Option<&Tensor>, h4: usize, h: usize, rows: usize) -> Result<Self> {
+    pub(super) fn new(
+        w: &[f32],
+        wt: Option<&Tensor>,
+        h4: usize,
+        h: usize,
+        rows: usize,
+    ) -> Result<Self> {
         let w = Tensor::from_slice(w, (h4, h), &Device::Cpu)?;
         let wt = match wt {
             Some(wt) if wt.dims() == [h, h4] && wt.is_contiguous() => Some(wt.clone()),
@@ -45,7 +51,7 @@ impl Recurrent {
     }
 
     /// `x · W_hhᵀ` for `x` (rows, H) on the host through candle's matmul.
-    fn times(&self, x: &[f32], rows: usize) -> Result<Vec<f32>> {
+    pub(super) fn times(&self, x: &[f32], rows: usize) -> Result<Vec<f32>> {
         let x = Tensor::from_slice(x, (rows, self.w.dim(1)?), &Device::Cpu)?;
         super::times_transposed(&x, &self.w, self.wt.as_ref())?
             .flatten_all()?
