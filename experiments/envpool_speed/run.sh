@@ -6,11 +6,12 @@
 #   python3 experiments/envpool_speed/summary.py results.jsonl > results.md
 # PYTHON needs envpool==1.2.5 (it installs on Python 3.11); MINIGRID_PYTHON minigrid==3.2.0.
 # ROUNDS=N (default 1) alternates the two sides N times per level; summary.py takes medians.
+# IDS="id id ..." measures those levels only (default: every BabyAI id EnvPool registers).
 set -euo pipefail
 bin="${1:?groundscope binary}"; py="${2:?python with envpool==1.2.5}"; mg="${3:-}"
 here="$(dirname "$0")"
 export RAYON_NUM_THREADS=1
-ids="$("$py" -c 'import envpool; print(" ".join(e for e in envpool.list_all_envs() if e.startswith("BabyAI-")))')"
+ids="${IDS:-$("$py" -c 'import envpool; print(" ".join(e for e in envpool.list_all_envs() if e.startswith("BabyAI-")))')}"
 for id in $ids; do
   for _ in $(seq "${ROUNDS:-1}"); do
     "$bin" bench env --level "$id" --steps 2000000 --resets 200000 || echo "{\"bench\":\"env\",\"level\":\"$id\",\"error\":true}"
