@@ -114,6 +114,15 @@ impl GruSequence {
     fn valid_at(&self, t: usize) -> Vec<f32> {
         (0..self.u).map(|j| self.valid[j * self.l + t]).collect()
     }
+
+    /// A word's shape from its valid flags, for state size `h`.
+    fn word<'a>(&self, valid: &'a [f32], h: usize) -> Word<'a> {
+        Word {
+            valid,
+            h,
+            stride: self.l * 3 * h,
+        }
+    }
 }
 
 impl CustomOp3 for GruSequence {
@@ -161,11 +170,7 @@ impl CustomOp3 for GruSequence {
         for t in 0..l {
             let rec = w.times(&hp, u)?;
             let valid = self.valid_at(t);
-            let word = Word {
-                valid: &valid,
-                h,
-                stride: l * h3,
-            };
+            let word = self.word(&valid, h);
             word_forward(
                 word,
                 &gx[t * h3..],
@@ -219,11 +224,7 @@ impl CustomOp3 for GruSequence {
                 }
             }
             let valid = self.valid_at(t);
-            let word = Word {
-                valid: &valid,
-                h,
-                stride: l * h3,
-            };
+            let word = self.word(&valid, h);
             word_backward(
                 word,
                 &res[t * u * width..(t + 1) * u * width],
