@@ -192,7 +192,7 @@ impl Instr {
     }
 
     /// [`Self::reset`] with the grid's objects gathered once for every clause.
-    fn reset_among(
+    pub(crate) fn reset_among(
         &mut self,
         objects: &[(Pos, WorldObj)],
         grid: &Grid,

@@ -163,13 +163,44 @@ impl World {
         agent_pos: Pos,
         agent_dir: u8,
         carrying: Option<WorldObj>,
-        mut instr: Instr,
+        instr: Instr,
         max_steps: u32,
         done_actions: bool,
         next_id: u32,
     ) -> Result<Self, EnvError> {
+        let pose = (agent_pos, agent_dir);
+        Self::with_tree_among(
+            grid,
+            rooms,
+            pose,
+            carrying,
+            instr,
+            max_steps,
+            done_actions,
+            next_id,
+            None,
+        )
+    }
+
+    /// [`Self::with_tree`] with the grid's objects (`Grid::objects_but_walls`) already
+    /// gathered, where level generation gathered them to validate the instruction.
+    #[expect(clippy::too_many_arguments, reason = "mirrors the state a dump holds")]
+    pub(crate) fn with_tree_among(
+        grid: Grid,
+        rooms: Rooms,
+        (agent_pos, agent_dir): (Pos, u8),
+        carrying: Option<WorldObj>,
+        mut instr: Instr,
+        max_steps: u32,
+        done_actions: bool,
+        next_id: u32,
+        objects: Option<&[(Pos, WorldObj)]>,
+    ) -> Result<Self, EnvError> {
         check_pose(&grid, agent_pos, agent_dir)?;
-        instr.reset(&grid, rooms, agent_pos, agent_dir);
+        match objects {
+            Some(objects) => instr.reset_among(objects, &grid, rooms, agent_pos, agent_dir),
+            None => instr.reset(&grid, rooms, agent_pos, agent_dir),
+        }
         if let Some(clause) = instr.unmatched() {
             return Err(EnvError::InvalidState {
                 field: "instr".into(),

@@ -83,16 +83,12 @@ pub fn door_list(g: &Gen) -> Vec<(ObjectId, Color)> {
     out
 }
 
-/// `RoomGridLevel.validate_instrs`.
-fn validate(g: &Gen, instr: &Instr, unblocking: bool, locked: &[Color]) -> Result<(), Retry> {
-    validate_among(g, &OnceCell::new(), instr, unblocking, locked)
-}
-
-/// [`validate`] with the grid's objects gathered at most once for all its PutNext clauses
-/// (each asks for two descriptions and the moved objects' positions).
+/// `RoomGridLevel.validate_instrs`, with the grid's objects gathered into `objects` at most
+/// once for all its PutNext clauses (each asks for two descriptions and the moved objects'
+/// positions).
 fn validate_among(
     g: &Gen,
-    objects: &OnceCell<Vec<(Pos, WorldObj)>>,
+    objects: &OnceCell<Objects>,
     instr: &Instr,
     unblocking: bool,
     locked: &[Color],
@@ -146,7 +142,12 @@ fn validate_among(
 }
 
 /// One attempt: `RoomGrid._gen_grid`, the level's `gen_mission`, `validate_instrs`.
-fn attempt(spec: &LevelSpec, g: &mut Gen) -> Result<Generated, Retry> {
+/// The grid's objects but walls with their positions (`Grid::objects_but_walls`).
+type Objects = Vec<(Pos, WorldObj)>;
+
+/// One try at a level: the grid, the mission, its validation; with the grid's objects where
+/// validation gathered them (PutNext), for the verifier's reset to reuse.
+fn attempt(spec: &LevelSpec, g: &mut Gen) -> Result<(Generated, Option<Objects>), Retry> {
     g.gen_grid();
     let out = spec.family.gen_mission(g)?;
     let locked = if out.unblocking {
@@ -154,8 +155,9 @@ fn attempt(spec: &LevelSpec, g: &mut Gen) -> Result<Generated, Retry> {
     } else {
         Vec::new()
     };
-    validate(g, &out.instr, out.unblocking, &locked)?;
-    Ok(out)
+    let objects = OnceCell::new();
+    validate_among(g, &objects, &out.instr, out.unblocking, &locked)?;
+    Ok((out, objects.into_inner()))
 }
 
 /// The level `spec` for `seed`, as `reset(seed=seed)` makes it; `done_actions` is BabyAI's
@@ -211,7 +213,7 @@ fn generate_from(
     done_actions: bool,
 ) -> Result<World, EnvError> {
     let mut tries = 0;
-    let out = loop {
+    let (out, objects) = loop {
         if tries >= MAX_ATTEMPTS {
             return Err(EnvError::GenerationFailed {
                 seed,
@@ -235,16 +237,16 @@ fn generate_from(
         let rs = spec.rooms.room_size as u32;
         out.instr.num_navs() * rs * rs * (spec.rooms.num_rows * spec.rooms.num_cols) as u32
     });
-    let mut world = World::with_tree(
+    let mut world = World::with_tree_among(
         std::mem::replace(&mut g.grid, super::grid::Grid::new(0, 0)),
         spec.rooms,
-        g.agent_pos,
-        g.agent_dir,
+        (g.agent_pos, g.agent_dir),
         None,
         out.instr,
         max_steps,
         done_actions,
         g.next_id,
+        objects.as_deref(),
     )?;
     world.box_contents = std::mem::take(&mut g.box_contents);
     if let Some(id) = out.lift
