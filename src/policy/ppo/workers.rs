@@ -1,5 +1,5 @@
-//! Training's helper threads: one persistent set per thread count, each helper running one
-//! job at a time, so that the rollout's and the update's shards (thousands of jobs per update,
+//! Training's helper threads: persistent sets of them (one per thread count and concurrent
+//! caller), each helper running one job at a time, so that the rollout's and the update's shards (thousands of jobs per update,
 //! some of a fraction of a millisecond) run on warm threads that pick a job up within a few
 //! microseconds. Threads started for each job cost more than the shorter jobs themselves (a
 //! fresh allocator heap and fresh matrix-packing buffers each time), and a pool whose idle
@@ -76,19 +76,29 @@ thread_local! {
     static IN_HELPER: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
 }
 
-/// The helper sets made so far (one per thread count a process uses).
-static SETS: OnceLock<Mutex<Vec<HelperSet>>> = OnceLock::new();
+/// The helper sets not in use. A caller takes a set for the length of one dispatch and puts
+/// it back, so that two trainers in one process (tests run side by side, a Python program
+/// with two threads) never post to the same helper.
+static IDLE_SETS: OnceLock<Mutex<Vec<HelperSet>>> = OnceLock::new();
 
 /// A set of helpers, one per job beyond the caller's.
-type HelperSet = Arc<Vec<Arc<Helper>>>;
+type HelperSet = Vec<Arc<Helper>>;
 
-/// `n` helpers, started on first use; `None` where the system refuses threads (the jobs then
-/// run on scoped threads of their own).
-fn helpers(n: usize) -> Option<HelperSet> {
-    let sets = SETS.get_or_init(|| Mutex::new(Vec::new()));
-    let mut sets = sets.lock().unwrap_or_else(PoisonError::into_inner);
-    if let Some(set) = sets.iter().find(|s| s.len() == n) {
-        return Some(Arc::clone(set));
+fn idle_sets() -> std::sync::MutexGuard<'static, Vec<HelperSet>> {
+    IDLE_SETS
+        .get_or_init(|| Mutex::new(Vec::new()))
+        .lock()
+        .unwrap_or_else(PoisonError::into_inner)
+}
+
+/// An idle set of `n` helpers, or a new one; `None` where the system refuses threads (the
+/// jobs then run on scoped threads of their own).
+fn take_helpers(n: usize) -> Option<HelperSet> {
+    {
+        let mut sets = idle_sets();
+        if let Some(i) = sets.iter().position(|s| s.len() == n) {
+            return Some(sets.swap_remove(i));
+        }
     }
     let mut set = Vec::with_capacity(n);
     for i in 0..n {
@@ -110,8 +120,6 @@ fn helpers(n: usize) -> Option<HelperSet> {
         tx.send(Arc::clone(&helper)).ok()?;
         set.push(helper);
     }
-    let set = Arc::new(set);
-    sets.push(Arc::clone(&set));
     Some(set)
 }
 
@@ -137,7 +145,7 @@ pub(super) fn run_all<T: Send>(
     let Some((head, rest)) = slots.split_first_mut() else {
         return Ok(Vec::new());
     };
-    match helpers(rest.len()) {
+    match take_helpers(rest.len()) {
         Some(set) => {
             let pending = AtomicUsize::new(rest.len());
             let pending = &pending;
@@ -162,6 +170,7 @@ pub(super) fn run_all<T: Send>(
             while pending.load(Ordering::Acquire) != 0 {
                 idle_wait(waiting);
             }
+            idle_sets().push(set);
         }
         None => std::thread::scope(|scope| {
             for (slot, job) in rest.iter_mut().zip(jobs) {
@@ -181,8 +190,8 @@ mod tests {
     use super::*;
 
     /// Results come back in job order whatever thread ran them, the helpers are reused (and
-    /// woken from their park), jobs borrow the caller's data, and a panicking job is an error
-    /// once all jobs have ended, not a crash.
+    /// woken from their park), jobs borrow the caller's data, a panicking job is an error once
+    /// all jobs have ended, not a crash, and two callers at once get helpers of their own.
     #[test]
     fn results_in_job_order_and_panics_are_errors() {
         let data: Vec<usize> = (0..10).collect();
@@ -214,7 +223,31 @@ mod tests {
         let err = run_all(jobs).unwrap_err();
         assert!(err.to_string().contains("panicked"), "{err}");
         assert_eq!(ran.load(Ordering::SeqCst), 2);
-        let sets = SETS.get().unwrap().lock().unwrap();
-        assert_eq!(sets.iter().filter(|s| s.len() == 1).count(), 1);
+        // Two callers at once each get helpers of their own, and both sets are kept.
+        let both = std::sync::Barrier::new(2);
+        std::thread::scope(|scope| {
+            for k in 0..2usize {
+                let both = &both;
+                scope.spawn(move || {
+                    for round in 0..50 {
+                        let jobs: Vec<_> = (0..3)
+                            .map(|i| {
+                                move || {
+                                    if round == 0 && i == 0 {
+                                        both.wait();
+                                    }
+                                    Ok(k * 100 + i)
+                                }
+                            })
+                            .collect();
+                        assert_eq!(
+                            run_all(jobs).unwrap(),
+                            vec![k * 100, k * 100 + 1, k * 100 + 2]
+                        );
+                    }
+                });
+            }
+        });
+        assert!(idle_sets().iter().filter(|s| s.len() == 2).count() >= 2);
     }
 }
