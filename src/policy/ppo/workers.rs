@@ -1,7 +1,8 @@
 //! Training's helper threads: persistent sets of them (one per thread count and concurrent
-//! caller), each helper running one job at a time, so that the rollout's and the update's shards (thousands of jobs per update,
-//! some of a fraction of a millisecond) run on warm threads that pick a job up within a few
-//! microseconds. Threads started for each job cost more than the shorter jobs themselves (a
+//! caller), each helper running one job at a time, so that the rollout's and the update's
+//! shards (thousands of jobs per update, some of a fraction of a millisecond) run on warm
+//! threads that pick a job up within a few microseconds. Threads started for each job cost
+//! more than the shorter jobs themselves (a
 //! fresh allocator heap and fresh matrix-packing buffers each time), and a pool whose idle
 //! threads sleep at once (rayon's) took 55–85 µs to wake one, three times per minibatch.
 //!
