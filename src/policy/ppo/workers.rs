@@ -2,9 +2,9 @@
 //! caller), each helper running one job at a time, so that the rollout's and the update's
 //! shards (thousands of jobs per update, some of a fraction of a millisecond) run on warm
 //! threads that pick a job up within a few microseconds. Threads started for each job cost
-//! more than the shorter jobs themselves (a
-//! fresh allocator heap and fresh matrix-packing buffers each time), and a pool whose idle
-//! threads sleep at once (rayon's) took 55–85 µs to wake one, three times per minibatch.
+//! more than the shorter jobs themselves (a fresh allocator heap and fresh matrix-packing
+//! buffers each time), and a pool whose idle threads sleep at once (rayon's) took 55–85 µs to
+//! wake one, three times per minibatch.
 //!
 //! An idle helper, and a caller waiting for its helpers, yield the core for [`SPIN`] before
 //! they park: training dispatches again well within that, while an idle process (the
