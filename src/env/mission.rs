@@ -518,6 +518,13 @@ mod tests {
         for seed in 0..4 {
             let w = level.generate(seed).unwrap();
             let objects = w.grid.objects_but_walls();
+            // The column-by-column gathering is the scan order of `objects`, walls left out.
+            let scanned: Vec<_> = w
+                .grid
+                .objects()
+                .filter(|(_, o)| o.kind != ObjectKind::Wall)
+                .collect();
+            assert_eq!(objects, scanned, "seed {seed}");
             for dir in 0..4 {
                 for &kind in &kinds {
                     for &color in &colors {
