@@ -50,6 +50,19 @@ impl Targets {
         Self { obj_set, obj_poss }
     }
 
+    /// [`Self::find`] among the grid's objects gathered once ([`ObjDesc::find_matching_among`]).
+    pub(crate) fn find_among(
+        desc: ObjDesc,
+        objects: &[(Pos, WorldObj)],
+        grid: &Grid,
+        rooms: Rooms,
+        (agent_pos, agent_dir): (Pos, u8),
+    ) -> Self {
+        let (obj_set, obj_poss) =
+            desc.find_matching_among(objects, grid, rooms, agent_pos, agent_dir);
+        Self { obj_set, obj_poss }
+    }
+
     /// `find_matching_objs(use_location=False)`: the tracked objects' positions, scan order.
     fn refresh(&mut self, desc: ObjDesc, grid: &Grid) {
         self.obj_poss.clear();
@@ -200,11 +213,7 @@ impl Instr {
         agent_pos: Pos,
         agent_dir: u8,
     ) {
-        let find = |desc: ObjDesc| {
-            let (obj_set, obj_poss) =
-                desc.find_matching_among(objects, grid, rooms, agent_pos, agent_dir);
-            Targets { obj_set, obj_poss }
-        };
+        let find = |desc| Targets::find_among(desc, objects, grid, rooms, (agent_pos, agent_dir));
         match self {
             Self::Action(n) => {
                 n.targets = find(n.instr.desc);

@@ -90,6 +90,7 @@ pub fn gen_mission(g: &mut Gen, p: &Params) -> Result<Generated, Retry> {
     let instr = rand_instr(g, p, &objects, locked_room, p.action_kinds, p.instr_kinds)?;
     let mut out = Generated::from(instr);
     out.unblocking = p.unblocking;
+    out.objects = Some(objects);
     Ok(out)
 }
 

@@ -44,6 +44,9 @@ pub struct Generated {
     pub lift: Option<ObjectId>,
     /// LevelGen's `unblocking`: keys of locked doors may not be named.
     pub unblocking: bool,
+    /// The final grid's objects, where the level gathered them to draw its descriptions
+    /// (LevelGen): validation and the verifier's reset use them instead of a new scan.
+    pub objects: Option<Objects>,
 }
 
 impl From<Instr> for Generated {
@@ -52,6 +55,7 @@ impl From<Instr> for Generated {
             instr,
             lift: None,
             unblocking: false,
+            objects: None,
         }
     }
 }
@@ -101,10 +105,8 @@ fn validate_among(
         Instr::Action(n) => {
             if let (TaskKind::PutNext, Some(f)) = (n.instr.task, n.instr.fixed) {
                 let objects = objects.get_or_init(|| g.grid.objects_but_walls());
-                let find = |d: ObjDesc| {
-                    let (obj_set, obj_poss) =
-                        d.find_matching_among(objects, &g.grid, g.rooms, g.agent_pos, g.agent_dir);
-                    Targets { obj_set, obj_poss }
+                let find = |d| {
+                    Targets::find_among(d, objects, &g.grid, g.rooms, (g.agent_pos, g.agent_dir))
                 };
                 let (moved, fixed) = (&find(n.instr.desc), &find(f));
                 if moved.obj_set.iter().any(|id| fixed.obj_set.contains(id)) {
@@ -141,21 +143,24 @@ fn validate_among(
     }
 }
 
-/// One attempt: `RoomGrid._gen_grid`, the level's `gen_mission`, `validate_instrs`.
 /// The grid's objects but walls with their positions (`Grid::objects_but_walls`).
-type Objects = Vec<(Pos, WorldObj)>;
+pub type Objects = Vec<(Pos, WorldObj)>;
 
-/// One try at a level: the grid, the mission, its validation; with the grid's objects where
-/// validation gathered them (PutNext), for the verifier's reset to reuse.
+/// One attempt: `RoomGrid._gen_grid`, the level's `gen_mission`, `validate_instrs`; with the
+/// grid's objects where the level or validation gathered them (LevelGen, PutNext), for the
+/// verifier's reset to reuse.
 fn attempt(spec: &LevelSpec, g: &mut Gen) -> Result<(Generated, Option<Objects>), Retry> {
     g.gen_grid();
-    let out = spec.family.gen_mission(g)?;
+    let mut out = spec.family.gen_mission(g)?;
     let locked = if out.unblocking {
         g.locked_door_colors()
     } else {
         Vec::new()
     };
-    let objects = OnceCell::new();
+    let objects = out
+        .objects
+        .take()
+        .map_or_else(OnceCell::new, OnceCell::from);
     validate_among(g, &objects, &out.instr, out.unblocking, &locked)?;
     Ok((out, objects.into_inner()))
 }
