@@ -190,15 +190,6 @@ impl PhaseTimes {
     }
 }
 
-/// Runs every job on a thread of its own (the first inline, the others on the pool's warm
-/// threads) and returns their results in job order: the rollout's and the update's shards,
-/// whose order fixes the result.
-fn in_threads<T: Send>(
-    jobs: Vec<impl FnOnce() -> Result<T, PolicyError> + Send>,
-) -> Result<Vec<T>, PolicyError> {
-    workers::run_all(jobs)
-}
-
 fn secs(t: std::time::Instant) -> f64 {
     t.elapsed().as_secs_f64()
 }

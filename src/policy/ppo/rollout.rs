@@ -4,7 +4,8 @@
 use candle_core::{Device, Tensor};
 use rand::Rng as _;
 
-use super::{EnvSlot, EpisodeStats, Trainer, in_threads, missions, new_slot, secs};
+use super::workers::run_all;
+use super::{EnvSlot, EpisodeStats, Trainer, missions, new_slot, secs};
 use crate::env::view::Observation;
 use crate::env::world::Action;
 use crate::policy::error::PolicyError;
@@ -201,7 +202,7 @@ impl Trainer {
                 c: memory.c.to_vec2::<f32>()?,
             })
         };
-        let outs = in_threads(parts.iter().map(|r| || forward(r)).collect())?;
+        let outs = run_all(parts.iter().map(|r| || forward(r)).collect())?;
         let mut out = ActAll {
             obs: Vec::new(),
             probs: Vec::with_capacity(n),
@@ -294,7 +295,7 @@ fn on_shards<T: Send>(
             }
         })
         .collect();
-    Ok(in_threads(jobs)?.into_iter().flatten().collect())
+    Ok(run_all(jobs)?.into_iter().flatten().collect())
 }
 
 /// `x ← (x − mean) / (std + 1e-8)`, the population statistics taken in f64.

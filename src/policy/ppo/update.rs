@@ -10,7 +10,8 @@ use rand::seq::SliceRandom as _;
 use super::grads::{clip_factor, with_minibatch_grads};
 use super::loss::{ShardOut, shard_step};
 use super::rollout::Rollout;
-use super::{Trainer, UpdateLog, in_threads, secs};
+use super::workers::run_all;
+use super::{Trainer, UpdateLog, secs};
 use crate::policy::error::PolicyError;
 use crate::policy::model::Net;
 use crate::policy::params::computes_maps;
@@ -52,7 +53,7 @@ impl Trainer {
                 let per = starts.len().div_ceil(self.ppo.threads);
                 let parts: Vec<&[usize]> = starts.chunks(per).collect();
                 let (ro_ref, net, ppo): (&Rollout, _, _) = (ro, &net, &self.ppo);
-                let outs: Vec<(GradStore, ShardOut)> = in_threads(
+                let outs: Vec<(GradStore, ShardOut)> = run_all(
                     parts
                         .iter()
                         .map(|part| move || shard_step(net, ro_ref, part, ppo))
