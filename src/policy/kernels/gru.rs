@@ -18,7 +18,7 @@ use super::{cpu_f32, f32_slice as slice, sigmoid, tanh_fast};
 /// output per word and mission `[h | r | z | n | ghₙ]` (L·U, 5H), word-major, kept for the
 /// backward (`h` after the padding mask).
 struct GruSequence {
-    /// (U·L) mission-major: 1 for a word, 0 for padding (the state carries over).
+    /// (L·U) word-major: 1 for a word, 0 for padding (the state carries over).
     valid: Arc<[f32]>,
     u: usize,
     l: usize,
@@ -110,15 +110,10 @@ crate::multiversion! {
 }
 
 impl GruSequence {
-    /// The valid flags of word `t` for every mission.
-    fn valid_at(&self, t: usize) -> Vec<f32> {
-        (0..self.u).map(|j| self.valid[j * self.l + t]).collect()
-    }
-
-    /// A word's shape from its valid flags, for state size `h`.
-    fn word<'a>(&self, valid: &'a [f32], h: usize) -> Word<'a> {
+    /// Word `t`'s shape for state size `h`: its missions' valid flags and the rows' stride.
+    fn word(&self, t: usize, h: usize) -> Word<'_> {
         Word {
-            valid,
+            valid: &self.valid[t * self.u..(t + 1) * self.u],
             h,
             stride: self.l * 3 * h,
         }
@@ -169,8 +164,7 @@ impl CustomOp3 for GruSequence {
         let mut hp = vec![0f32; u * h];
         for t in 0..l {
             let rec = w.times(&hp, u)?;
-            let valid = self.valid_at(t);
-            let word = self.word(&valid, h);
+            let word = self.word(t, h);
             word_forward(
                 word,
                 &gx[t * h3..],
@@ -223,8 +217,7 @@ impl CustomOp3 for GruSequence {
                         .copy_from_slice(&res[prev..prev + h]);
                 }
             }
-            let valid = self.valid_at(t);
-            let word = self.word(&valid, h);
+            let word = self.word(t, h);
             word_backward(
                 word,
                 &res[t * u * width..(t + 1) * u * width],
@@ -273,7 +266,8 @@ pub fn gru_sequence(
     if l == 0 || u == 0 {
         return Tensor::zeros((u, h), candle_core::DType::F32, &Device::Cpu);
     }
-    let valid: Vec<f32> = valid.flatten_all()?.to_vec1()?;
+    // Word-major, so that each word's flags are one slice.
+    let valid: Vec<f32> = valid.t()?.flatten_all()?.to_vec1()?;
     let out = gx.contiguous()?.apply_op3(
         &w_hh.contiguous()?,
         &b_hh.contiguous()?,
