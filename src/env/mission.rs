@@ -138,10 +138,37 @@ impl ObjDesc {
         agent_pos: Pos,
         agent_dir: u8,
     ) -> (Vec<u32>, Vec<Pos>) {
-        if self.kind.is_none_or(|k| k == ObjectKind::Wall) {
+        if self.may_match_walls() {
             return self.find_matching(grid, rooms, agent_pos, agent_dir);
         }
         self.matching_among(objects.iter().copied(), rooms, agent_pos, agent_dir)
+    }
+
+    /// Whether [`Self::find_matching_among`] finds an object at a position `keep` accepts,
+    /// without gathering them: level generation draws descriptions until one matches, a dozen
+    /// times per level on the mixed levels.
+    pub fn any_matching_among(
+        &self,
+        objects: &[(Pos, WorldObj)],
+        grid: &Grid,
+        rooms: Rooms,
+        agent_pos: Pos,
+        agent_dir: u8,
+        mut keep: impl FnMut(Pos) -> bool,
+    ) -> bool {
+        if self.may_match_walls() {
+            return self
+                .matched(grid.objects(), rooms, agent_pos, agent_dir)
+                .any(|(pos, _)| keep(pos));
+        }
+        self.matched(objects.iter().copied(), rooms, agent_pos, agent_dir)
+            .any(|(pos, _)| keep(pos))
+    }
+
+    /// Only a description without a type (or of walls) can match a wall, which
+    /// [`Grid::objects_but_walls`] leaves out.
+    fn may_match_walls(&self) -> bool {
+        self.kind.is_none_or(|k| k == ObjectKind::Wall)
     }
 
     fn matching_among(
@@ -151,35 +178,42 @@ impl ObjDesc {
         agent_pos: Pos,
         agent_dir: u8,
     ) -> (Vec<u32>, Vec<Pos>) {
+        self.matched(objects, rooms, agent_pos, agent_dir)
+            .map(|(pos, obj)| (obj.id, pos))
+            .unzip()
+    }
+
+    /// The objects among `objects` this description picks out: type and colour, and with a
+    /// location word only those of the agent's room on that side of it.
+    fn matched(
+        self,
+        objects: impl Iterator<Item = (Pos, WorldObj)>,
+        rooms: Rooms,
+        agent_pos: Pos,
+        agent_dir: u8,
+    ) -> impl Iterator<Item = (Pos, WorldObj)> {
         let d1 = DIR_TO_VEC[usize::from(agent_dir & 3)];
         let d2 = (-d1.1, d1.0);
         let room = rooms.room_of(agent_pos);
-        let mut ids = Vec::new();
-        let mut poss = Vec::new();
-        for (pos, obj) in objects {
+        objects.filter(move |&(pos, obj)| {
             if !self.matches(&obj) {
-                continue;
+                return false;
             }
-            if let Some(loc) = self.loc {
-                if !rooms.pos_inside(room, pos) {
-                    continue;
-                }
-                let v = (pos.0 - agent_pos.0, pos.1 - agent_pos.1);
-                let dot = |d: Pos| v.0 * d.0 + v.1 * d.1;
-                let ok = match loc {
-                    Loc::Left => dot(d2) < 0,
-                    Loc::Right => dot(d2) > 0,
-                    Loc::Front => dot(d1) > 0,
-                    Loc::Behind => dot(d1) < 0,
-                };
-                if !ok {
-                    continue;
-                }
+            let Some(loc) = self.loc else {
+                return true;
+            };
+            if !rooms.pos_inside(room, pos) {
+                return false;
             }
-            ids.push(obj.id);
-            poss.push(pos);
-        }
-        (ids, poss)
+            let v = (pos.0 - agent_pos.0, pos.1 - agent_pos.1);
+            let dot = |d: Pos| v.0 * d.0 + v.1 * d.1;
+            match loc {
+                Loc::Left => dot(d2) < 0,
+                Loc::Right => dot(d2) > 0,
+                Loc::Front => dot(d1) > 0,
+                Loc::Behind => dot(d1) < 0,
+            }
+        })
     }
 
     /// `ObjDesc.surface`: article + [colour] + type [+ location]; "the" iff exactly one

@@ -152,14 +152,25 @@ impl NumpyRng {
 
     /// `integers(low, high)` (int64, `high` exclusive), Lemire's method as numpy draws it.
     /// `high <= low` is a caller's bug; it returns `low` (numpy raises).
+    #[inline]
     pub fn integers(&mut self, low: i64, high: i64) -> i64 {
         let v = self.integers_unlogged(low, high);
-        if let Some(log) = &mut self.log {
-            log.push(Call::Integers(low, high, v));
+        if self.log.is_some() {
+            self.log_call(Call::Integers(low, high, v));
         }
         v
     }
 
+    #[cold]
+    fn log_call(&mut self, call: Call) {
+        if let Some(log) = &mut self.log {
+            log.push(call);
+        }
+    }
+
+    /// Inlined into the rejection loops of level generation, which draw small ranges by the
+    /// dozen per level: only the common path (a range below 2³², one draw accepted) is here.
+    #[inline]
     fn integers_unlogged(&mut self, low: i64, high: i64) -> i64 {
         if high <= low {
             return low;
@@ -169,21 +180,37 @@ impl NumpyRng {
             return low;
         }
         self.draws += 1;
-        if let Ok(rng) = u32::try_from(rng) {
-            if rng == u32::MAX {
-                return low + i64::from(self.next_u32());
+        match u32::try_from(rng) {
+            Ok(rng) if rng != u32::MAX => {
+                let excl = rng + 1;
+                let m = u64::from(self.next_u32()) * u64::from(excl);
+                let m = if (m as u32) < excl {
+                    self.lemire_u32_retry(m, rng)
+                } else {
+                    m
+                };
+                low + (m >> 32) as i64
             }
-            let excl = rng + 1;
-            let mut m = u64::from(self.next_u32()) * u64::from(excl);
-            let mut left = m as u32;
-            if left < excl {
-                let threshold = (u32::MAX - rng) % excl;
-                while left < threshold {
-                    m = u64::from(self.next_u32()) * u64::from(excl);
-                    left = m as u32;
-                }
-            }
-            return low + (m >> 32) as i64;
+            _ => self.integers_wide(low, rng),
+        }
+    }
+
+    /// Lemire's rejection for a 32-bit range whose first product fell in the low band.
+    #[cold]
+    fn lemire_u32_retry(&mut self, mut m: u64, rng: u32) -> u64 {
+        let excl = rng + 1;
+        let threshold = (u32::MAX - rng) % excl;
+        while (m as u32) < threshold {
+            m = u64::from(self.next_u32()) * u64::from(excl);
+        }
+        m
+    }
+
+    /// A range of 2³² values or more: whole 32-bit draws, or Lemire's method on 64 bits.
+    #[cold]
+    fn integers_wide(&mut self, low: i64, rng: u64) -> i64 {
+        if rng == u64::from(u32::MAX) {
+            return low + i64::from(self.next_u32());
         }
         if rng == u64::MAX {
             return low.wrapping_add(self.next_u64() as i64);
@@ -212,8 +239,8 @@ impl NumpyRng {
         self.draws += 1;
         let unit = (self.next_u64() >> 11) as f64 * (1.0 / 9_007_199_254_740_992.0);
         let v = a + (b - a) * unit;
-        if let Some(log) = &mut self.log {
-            log.push(Call::Uniform(a, b, v));
+        if self.log.is_some() {
+            self.log_call(Call::Uniform(a, b, v));
         }
         v
     }

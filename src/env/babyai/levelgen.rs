@@ -133,6 +133,12 @@ fn rand_obj(
     for (slot, c) in colors[1..].iter_mut().zip(COLOR_NAMES) {
         *slot = Some(c);
     }
+    // A description must match an object outside the locked room when unlocking must be
+    // explicit.
+    let locked = locked_room.filter(|_| !p.implicit_unlock).map(|room| {
+        let cols = g.rooms.num_cols;
+        ((room as i32) % cols, (room as i32) / cols)
+    });
     let mut tries = 0;
     loop {
         if tries > 100 {
@@ -150,21 +156,10 @@ fn rand_obj(
             color,
             loc,
         };
-        let (objs, poss) =
-            desc.find_matching_among(objects, &g.grid, g.rooms, g.agent_pos, g.agent_dir);
-        if objs.is_empty() {
+        let (rooms, pos, dir) = (g.rooms, g.agent_pos, g.agent_dir);
+        let outside = |at: Pos| locked.is_none_or(|room| !rooms.pos_inside(room, at));
+        if !desc.any_matching_among(objects, &g.grid, rooms, pos, dir, outside) {
             continue;
-        }
-        if !p.implicit_unlock
-            && let Some(room) = locked_room
-        {
-            let (i, j) = (
-                (room as i32) % g.rooms.num_cols,
-                (room as i32) / g.rooms.num_cols,
-            );
-            if poss.iter().all(|pos| g.rooms.pos_inside((i, j), *pos)) {
-                continue;
-            }
         }
         return Ok(desc);
     }

@@ -71,6 +71,14 @@ pub struct Room {
     pub locked: bool,
 }
 
+/// The bit of [`Gen::placed`] that stands for `(kind, color)`.
+fn placed_bit(kind: ObjectKind, color: Color) -> u128 {
+    1u128 << ((kind as u32) * 8 + color as u32)
+}
+
+// The index above stays below 128.
+const _: () = assert!(ObjectKind::ALL.len() <= 16 && COLOR_NAMES.len() <= 8);
+
 /// The state a level's `gen_mission` works on.
 pub struct Gen {
     /// numpy's stream.
@@ -90,8 +98,9 @@ pub struct Gen {
     /// What each box holds.
     pub box_contents: Vec<(ObjectId, WorldObj)>,
     /// `(type, colour)` of every object placed in a room (the union of the rooms' `objs`,
-    /// which `add_distractors` reads only as a set).
-    pub placed: Vec<(ObjectKind, Color)>,
+    /// which `add_distractors` reads only as a set), one bit per pair ([`placed_bit`]): the
+    /// uniqueness test runs once per draw, dozens of times per level with many objects.
+    pub placed: u128,
 }
 
 impl Gen {
@@ -112,7 +121,7 @@ impl Gen {
             agent_dir: 0,
             next_id: 0,
             box_contents: Vec::new(),
-            placed: Vec::new(),
+            placed: 0,
         }
     }
 
@@ -124,21 +133,25 @@ impl Gen {
     }
 
     /// `_rand_int(low, high)`.
+    #[inline]
     pub fn rand_int(&mut self, low: i32, high: i32) -> i32 {
         self.rng.integers(i64::from(low), i64::from(high)) as i32
     }
 
     /// `_rand_bool()`: `integers(0, 2) == 0`.
+    #[inline]
     pub fn rand_bool(&mut self) -> bool {
         self.rng.integers(0, 2) == 0
     }
 
     /// `_rand_elem(list)`.
+    #[inline]
     pub fn rand_elem<T: Copy>(&mut self, items: &[T]) -> T {
         items[self.rng.below(0, items.len())]
     }
 
     /// `_rand_color()`.
+    #[inline]
     pub fn rand_color(&mut self) -> Color {
         self.rand_elem(&COLOR_NAMES)
     }
@@ -187,7 +200,7 @@ impl Gen {
             n
         });
         self.box_contents.clear();
-        self.placed.clear();
+        self.placed = 0;
         let rs = self.rooms.room_size;
         let (cols, rows) = (self.rooms.num_cols, self.rooms.num_rows);
         self.room_list.clear();
@@ -275,7 +288,7 @@ impl Gen {
         let r = self.room_index(i, j);
         let (top, rs) = (self.room_list[r].top, self.rooms.room_size);
         let pos = self.place_obj(Some(obj), top, (rs, rs), true, 1000)?;
-        self.placed.push((obj.kind, obj.color));
+        self.placed |= placed_bit(obj.kind, obj.color);
         Ok(pos)
     }
 
@@ -522,7 +535,7 @@ impl Gen {
         while dists.len() < n {
             let color = self.rand_color();
             let kind = self.rand_elem(&DISTRACTOR_TYPES);
-            if all_unique && self.placed.contains(&(kind, color)) {
+            if all_unique && self.placed & placed_bit(kind, color) != 0 {
                 continue;
             }
             let ri = match i {
