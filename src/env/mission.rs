@@ -167,7 +167,7 @@ impl ObjDesc {
 
     /// Only a description without a type (or of walls) can match a wall, which
     /// [`Grid::objects_but_walls`] leaves out.
-    fn may_match_walls(&self) -> bool {
+    fn may_match_walls(self) -> bool {
         self.kind.is_none_or(|k| k == ObjectKind::Wall)
     }
 
