@@ -446,8 +446,16 @@ impl Gen {
         let start = self.room_at(self.agent_pos);
         let total = self.room_list.len();
         let mut itrs = 0u32;
-        // The rooms reached change only when a door is added.
-        let mut reached = self.reach(start);
+        // The rooms reached change only when a door is added, and then only by what the
+        // door's far side reaches: the flood goes on from there (up to 64 rooms; past that
+        // the whole fill again).
+        let small = total <= 64;
+        let mut seen = if small { self.flood(0, start) } else { 0 };
+        let mut reached = if small {
+            seen.count_ones() as usize
+        } else {
+            self.reach_large(start)
+        };
         loop {
             if itrs > 5000 {
                 return Err(Retry::Recursion("connect_all failed"));
@@ -472,18 +480,20 @@ impl Gen {
             }
             let color = self.rand_elem(door_colors);
             self.add_door(i, j, Some(k), Some(color), Some(false));
-            reached = self.reach(start);
+            if !small {
+                reached = self.reach_large(start);
+            } else if (seen >> r) & 1 != (seen >> n) & 1 {
+                seen = self.flood(seen, if (seen >> r) & 1 == 1 { n } else { r });
+                reached = seen.count_ones() as usize;
+            }
         }
     }
 
-    /// How many rooms the agent's room reaches through doors and removed walls (a flood
-    /// fill on a bit mask of rooms; RoomGrid levels have at most nine).
-    fn reach(&self, start: usize) -> usize {
-        if self.room_list.len() > 64 {
-            return self.reach_large(start);
-        }
-        let mut seen = 1u64 << start;
-        let mut frontier = seen;
+    /// The rooms in `seen` (a bit mask, at most 64 rooms) with every room `from` reaches
+    /// through doors and removed walls without passing a room of `seen`.
+    fn flood(&self, seen: u64, from: usize) -> u64 {
+        let mut seen = seen | 1 << from;
+        let mut frontier = 1u64 << from;
         while frontier != 0 {
             let r = frontier.trailing_zeros() as usize;
             frontier &= frontier - 1;
@@ -498,7 +508,7 @@ impl Gen {
                 }
             }
         }
-        seen.count_ones() as usize
+        seen
     }
 
     /// [`Self::reach`] for more than 64 rooms.
