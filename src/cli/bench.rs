@@ -240,7 +240,7 @@ fn bench_policy(model: &str, secs: f64, rec: usize) -> anyhow::Result<ExitStatus
         .map(groundscope::env::World::observe)
         .collect();
     let net = Net::new(cfg, params.detached())?;
-    for batch in [1usize, 16, 256] {
+    for batch in [1usize, 16, 256].into_iter().filter(|_| std::env::var_os("GS_ONLY_TRAIN").is_none()) {
         let missions: Vec<&[u32]> = tokens[..batch].iter().map(Vec::as_slice).collect();
         let mem = Memory::zeros(batch, cfg.lstm_hidden)?;
         let calls = rate(secs, || {
@@ -255,7 +255,7 @@ fn bench_policy(model: &str, secs: f64, rec: usize) -> anyhow::Result<ExitStatus
     }
     let train_net = Net::new(cfg, params.tracked())?;
     let ppo = PpoConfig::default();
-    for frames in [256usize, 2048] {
+    for frames in std::env::var("GS_FRAMES").ok().map_or(vec![128usize, 256, 2048], |v| vec![v.parse().unwrap()]) {
         let n = frames / rec;
         let missions: Vec<&[u32]> = tokens[..frames].iter().map(Vec::as_slice).collect();
         let p = CellCodes::new(&obs[..frames]);

@@ -94,7 +94,7 @@ impl Net {
     }
 
     fn linear(x: &Tensor, l: &Linear) -> Result<Tensor, PolicyError> {
-        Ok(Self::times_t(x, &l.w)?.broadcast_add(&l.b)?)
+        Ok(super::kernels::bias::add_bias(&Self::times_t(x, &l.w)?, &l.b)?)
     }
 
     /// `Õ = ReLU(Conv(O))` (3×3 or 1×1, `conv_kernel`) for the B frames of `codes`:
@@ -200,9 +200,11 @@ impl Net {
         let (u, l) = tb.tokens.dims2()?;
         let gru = &self.weights.gru;
         Ok(
-            Self::times_t(&emb.reshape((u * l, self.cfg.word_dim))?, &gru.w_ih)?
-                .broadcast_add(&gru.b_ih)?
-                .reshape((u, l, 3 * self.cfg.gru_hidden))?,
+            super::kernels::bias::add_bias(
+                &Self::times_t(&emb.reshape((u * l, self.cfg.word_dim))?, &gru.w_ih)?,
+                &gru.b_ih,
+            )?
+            .reshape((u, l, 3 * self.cfg.gru_hidden))?,
         )
     }
 

@@ -237,11 +237,11 @@ impl CustomOp3 for GruSequence {
                 *d = p + r;
             }
         }
+        let db = Tensor::from_vec(super::bias::column_sums_of(&dgh_all, h3), h3, &Device::Cpu)?;
         let dgh = Tensor::from_vec(dgh_all, (l * u, h3), &Device::Cpu)?;
         let dw = dgh
             .t()?
             .matmul(&Tensor::from_vec(hp_all, (l * u, h), &Device::Cpu)?)?;
-        let db = dgh.sum(0)?;
         Ok((
             Some(Tensor::from_vec(dgx, (u, l, h3), &Device::Cpu)?),
             Some(dw),
