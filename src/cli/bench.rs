@@ -31,7 +31,7 @@ pub enum BenchCommand {
         done: bool,
     },
     /// Policy speed, one thread: batched inference steps/s at batch 1, 16 (a rollout step) and
-    /// 256, and training forward+backward frames/s on PPO minibatches (256 and 2048 frames,
+    /// 256, and training forward+backward frames/s on PPO minibatches (128, 256 and 2048 frames,
     /// `--recurrence`).
     Policy {
         /// attention or baseline.
@@ -240,7 +240,7 @@ fn bench_policy(model: &str, secs: f64, rec: usize) -> anyhow::Result<ExitStatus
         .map(groundscope::env::World::observe)
         .collect();
     let net = Net::new(cfg, params.detached())?;
-    for batch in [1usize, 16, 256].into_iter().filter(|_| std::env::var_os("GS_ONLY_TRAIN").is_none()) {
+    for batch in [1usize, 16, 256] {
         let missions: Vec<&[u32]> = tokens[..batch].iter().map(Vec::as_slice).collect();
         let mem = Memory::zeros(batch, cfg.lstm_hidden)?;
         let calls = rate(secs, || {
@@ -255,7 +255,9 @@ fn bench_policy(model: &str, secs: f64, rec: usize) -> anyhow::Result<ExitStatus
     }
     let train_net = Net::new(cfg, params.tracked())?;
     let ppo = PpoConfig::default();
-    for frames in std::env::var("GS_FRAMES").ok().map_or(vec![128usize, 256, 2048], |v| vec![v.parse().unwrap()]) {
+    // 128 frames: a minibatch's shard on two threads (`train --threads 2`); a minibatch holds
+    // at least one sequence of `rec` frames.
+    for frames in [128usize, 256, 2048].into_iter().filter(|&f| f >= rec) {
         let n = frames / rec;
         let missions: Vec<&[u32]> = tokens[..frames].iter().map(Vec::as_slice).collect();
         let p = CellCodes::new(&obs[..frames]);

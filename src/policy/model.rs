@@ -94,7 +94,10 @@ impl Net {
     }
 
     fn linear(x: &Tensor, l: &Linear) -> Result<Tensor, PolicyError> {
-        Ok(super::kernels::bias::add_bias(&Self::times_t(x, &l.w)?, &l.b)?)
+        Ok(super::kernels::bias::add_bias(
+            &Self::times_t(x, &l.w)?,
+            &l.b,
+        )?)
     }
 
     /// `Õ = ReLU(Conv(O))` (3×3 or 1×1, `conv_kernel`) for the B frames of `codes`:
@@ -199,13 +202,11 @@ impl Net {
     fn gru_inputs(&self, tb: &TokenBatch, emb: &Tensor) -> Result<Tensor, PolicyError> {
         let (u, l) = tb.tokens.dims2()?;
         let gru = &self.weights.gru;
-        Ok(
-            super::kernels::bias::add_bias(
-                &Self::times_t(&emb.reshape((u * l, self.cfg.word_dim))?, &gru.w_ih)?,
-                &gru.b_ih,
-            )?
-            .reshape((u, l, 3 * self.cfg.gru_hidden))?,
-        )
+        Ok(super::kernels::bias::add_bias(
+            &Self::times_t(&emb.reshape((u * l, self.cfg.word_dim))?, &gru.w_ih)?,
+            &gru.b_ih,
+        )?
+        .reshape((u, l, 3 * self.cfg.gru_hidden))?)
     }
 
     /// [`Self::encode_text`] word by word in candle ops: the reference the fused op is

@@ -164,9 +164,13 @@ mod tests {
     fn add_bias_is_broadcast_add_bit_for_bit() {
         for (rows, cols) in [(1, 7), (128, 64), (256, 1), (333, 384)] {
             let n = rows * cols;
-            let xs: Vec<f32> = (0..n).map(|i| ((i * 37 % 101) as f32 - 50.0) / 7.0).collect();
+            let xs: Vec<f32> = (0..n)
+                .map(|i| ((i * 37 % 101) as f32 - 50.0) / 7.0)
+                .collect();
             let bs: Vec<f32> = (0..cols).map(|i| (i as f32).sin() * 3.0).collect();
-            let ws: Vec<f32> = (0..n).map(|i| ((i * 13 % 29) as f32 - 14.0) / 3.0).collect();
+            let ws: Vec<f32> = (0..n)
+                .map(|i| ((i * 13 % 29) as f32 - 14.0) / 3.0)
+                .collect();
             let w = Tensor::from_vec(ws, (rows, cols), &Device::Cpu).unwrap();
             let run = |fused: bool| {
                 let x = Var::from_vec(xs.clone(), (rows, cols), &Device::Cpu).unwrap();
