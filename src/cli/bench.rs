@@ -309,14 +309,14 @@ fn bench_train_counts(model: &str, frames: u64, list: &str) -> anyhow::Result<Ex
     for &n in &counts {
         speeds.push((n, bench_train(variant, frames, n)?));
     }
-    if let [(_, first), ..] = speeds[..]
-        && speeds.len() > 1
-    {
-        let ratios: serde_json::Map<String, serde_json::Value> = speeds
-            .iter()
-            .map(|&(n, fps)| {
-                let r = (fps / first * 1000.0).round() / 1000.0;
-                (n.to_string(), serde_json::json!(r))
+    if speeds.len() > 1 {
+        let ratios: serde_json::Map<String, serde_json::Value> = speed_over_first(&speeds)
+            .into_iter()
+            .map(|(n, r)| {
+                (
+                    n.to_string(),
+                    serde_json::json!((r * 1000.0).round() / 1000.0),
+                )
             })
             .collect();
         println!(
@@ -326,6 +326,33 @@ fn bench_train_counts(model: &str, frames: u64, list: &str) -> anyhow::Result<Ex
         );
     }
     Ok(ExitStatus::Success)
+}
+
+/// Each thread count's speed over the first count's, in the order the counts first appear: a
+/// count listed several times (`1,2,1,2`, alternating against the machine's drift) stands for
+/// the median of its runs, the first count's too.
+fn speed_over_first(speeds: &[(usize, f64)]) -> Vec<(usize, f64)> {
+    let median_of = |n: usize| {
+        let mut runs: Vec<f64> = speeds.iter().filter(|s| s.0 == n).map(|s| s.1).collect();
+        runs.sort_by(f64::total_cmp);
+        let mid = runs.len() / 2;
+        if runs.len().is_multiple_of(2) {
+            f64::midpoint(runs[mid - 1], runs[mid])
+        } else {
+            runs[mid]
+        }
+    };
+    let Some(&(first, _)) = speeds.first() else {
+        return Vec::new();
+    };
+    let base = median_of(first);
+    let mut out: Vec<(usize, f64)> = Vec::new();
+    for &(n, _) in speeds {
+        if !out.iter().any(|o| o.0 == n) {
+            out.push((n, median_of(n) / base));
+        }
+    }
+    out
 }
 
 /// Trains `frames` with `threads` threads and prints one JSON line; returns frames/s.
@@ -415,4 +442,25 @@ fn bench_record(episodes: u64) -> anyhow::Result<ExitStatus> {
         println!("{line}");
     }
     Ok(ExitStatus::Success)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Alternating counts compare medians: the first count's drift (100, 110, 90) and the
+    /// second's (170, 160) give 165 / 100, not the last run over the first.
+    #[test]
+    fn repeated_thread_counts_compare_medians() {
+        let speeds = [(1, 100.0), (2, 170.0), (1, 110.0), (2, 160.0), (1, 90.0)];
+        let r = speed_over_first(&speeds);
+        assert_eq!(r.len(), 2);
+        assert_eq!(r[0], (1, 1.0));
+        assert_eq!(r[1].0, 2);
+        assert!((r[1].1 - 1.65).abs() < 1e-12, "{r:?}");
+        assert_eq!(
+            speed_over_first(&[(4, 50.0), (1, 25.0)]),
+            vec![(4, 1.0), (1, 0.5)]
+        );
+    }
 }
