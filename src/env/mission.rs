@@ -529,7 +529,8 @@ fn parse_desc(w: &[&str]) -> Result<(ObjDesc, usize), ParseError> {
 mod tests {
     use super::*;
 
-    /// Matching among the objects gathered once gives what the full scan gives, for every
+    /// Matching among the objects gathered once gives what the full scan gives (and asking
+    /// whether any matches agrees with both), for every
     /// description (no type and walls included, which must fall back to the scan) on big
     /// multi-room grids, at every agent direction.
     #[test]
@@ -569,6 +570,19 @@ mod tests {
                                 d.find_matching_among(&objects, &w.grid, w.rooms, w.agent_pos, dir);
                             assert_eq!(full, among, "{d:?} seed {seed} dir {dir}");
                             matched += full.0.len();
+                            // Asking whether any matches, anywhere or in the agent's column
+                            // only, answers as the gathered positions do.
+                            let (rooms, at) = (w.rooms, w.agent_pos);
+                            let any = |keep: fn(Pos, Pos) -> bool| {
+                                let found = full.1.iter().any(|&p| keep(p, at));
+                                let asked =
+                                    d.any_matching_among(&objects, &w.grid, rooms, at, dir, |p| {
+                                        keep(p, at)
+                                    });
+                                assert_eq!(asked, found, "{d:?} seed {seed} dir {dir}");
+                            };
+                            any(|_, _| true);
+                            any(|p, a| p.0 == a.0);
                         }
                     }
                 }
