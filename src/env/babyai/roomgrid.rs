@@ -511,7 +511,8 @@ impl Gen {
         seen
     }
 
-    /// [`Self::reach`] for more than 64 rooms.
+    /// How many rooms `start` reaches through doors and removed walls, for more than the 64
+    /// rooms [`Self::flood`] holds.
     fn reach_large(&self, start: usize) -> usize {
         let mut seen = vec![false; self.room_list.len()];
         let mut stack = vec![start];
