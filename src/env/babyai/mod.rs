@@ -45,7 +45,8 @@ pub struct Generated {
     /// LevelGen's `unblocking`: keys of locked doors may not be named.
     pub unblocking: bool,
     /// The final grid's objects, where the level gathered them to draw its descriptions
-    /// (LevelGen): validation and the verifier's reset use them instead of a new scan.
+    /// (LevelGen) or validation did (PutNext): validation and the verifier's reset use them
+    /// instead of a new scan.
     pub objects: Option<Objects>,
 }
 
@@ -146,10 +147,10 @@ fn validate_among(
 /// The grid's objects but walls with their positions (`Grid::objects_but_walls`).
 pub type Objects = Vec<(Pos, WorldObj)>;
 
-/// One attempt: `RoomGrid._gen_grid`, the level's `gen_mission`, `validate_instrs`; with the
-/// grid's objects where the level or validation gathered them (LevelGen, PutNext), for the
-/// verifier's reset to reuse.
-fn attempt(spec: &LevelSpec, g: &mut Gen) -> Result<(Generated, Option<Objects>), Retry> {
+/// One attempt: `RoomGrid._gen_grid`, the level's `gen_mission`, `validate_instrs`; its
+/// `objects` are the grid's where the level or validation gathered them (LevelGen, PutNext),
+/// for the verifier's reset to reuse.
+fn attempt(spec: &LevelSpec, g: &mut Gen) -> Result<Generated, Retry> {
     g.gen_grid();
     let mut out = spec.family.gen_mission(g)?;
     let locked = if out.unblocking {
@@ -162,7 +163,8 @@ fn attempt(spec: &LevelSpec, g: &mut Gen) -> Result<(Generated, Option<Objects>)
         .take()
         .map_or_else(OnceCell::new, OnceCell::from);
     validate_among(g, &objects, &out.instr, out.unblocking, &locked)?;
-    Ok((out, objects.into_inner()))
+    out.objects = objects.into_inner();
+    Ok(out)
 }
 
 /// The level `spec` for `seed`, as `reset(seed=seed)` makes it; `done_actions` is BabyAI's
@@ -218,7 +220,7 @@ fn generate_from(
     done_actions: bool,
 ) -> Result<World, EnvError> {
     let mut tries = 0;
-    let (out, objects) = loop {
+    let out = loop {
         if tries >= MAX_ATTEMPTS {
             return Err(EnvError::GenerationFailed {
                 seed,
@@ -251,7 +253,7 @@ fn generate_from(
         max_steps,
         done_actions,
         g.next_id,
-        objects.as_deref(),
+        out.objects.as_deref(),
     )?;
     world.box_contents = std::mem::take(&mut g.box_contents);
     if let Some(id) = out.lift
