@@ -6,7 +6,7 @@ use std::collections::BTreeMap;
 use candle_core::backprop::GradStore;
 use candle_core::{CpuStorage, Storage, Var};
 
-use super::grads::{ParamGrad, on_threads, with_minibatch_grads};
+use super::grads::{Grad, ParamGrad, on_threads, with_minibatch_grads};
 use crate::policy::error::PolicyError;
 
 /// Adam hyper-parameters.
@@ -72,7 +72,7 @@ impl Adam {
         vars: &BTreeMap<String, Var>,
         grads: &GradStore,
     ) -> Result<(), PolicyError> {
-        with_minibatch_grads(vars, std::slice::from_ref(grads), &[1.0], 1, |g| {
+        with_minibatch_grads(vars, std::slice::from_ref(grads), &[1.0], |g| {
             self.step_host(g, None, 1)
         })
     }
@@ -96,9 +96,9 @@ impl Adam {
         // The moments of each parameter, walked alongside (both in name order).
         let mut moments = Vec::with_capacity(grads.len());
         let mut rest = self.moments.iter_mut();
-        for &(name, var, g) in grads {
+        for (name, var, g) in grads {
             let mo = rest
-                .find(|(k, _)| k.as_str() == name)
+                .find(|(k, _)| k.as_str() == *name)
                 .map(|(_, mo)| mo)
                 .ok_or_else(|| PolicyError::Input(format!("adam: no moments for {name}")))?;
             let n = var.as_tensor().elem_count();
@@ -117,7 +117,7 @@ impl Adam {
             .collect::<Result<Vec<_>, _>>()?;
         let threads = threads.max(1);
         let mut jobs: Vec<Vec<Job<'_>>> = (0..threads).map(|_| Vec::new()).collect();
-        for (((storage, layout), &(name, _, g)), mo) in
+        for (((storage, layout), (name, _, g)), mo) in
             storages.iter_mut().zip(grads).zip(&mut moments)
         {
             let (Storage::Cpu(CpuStorage::F32(values)), Some((lo, hi))) =
@@ -131,10 +131,11 @@ impl Adam {
             let per = p.len().div_ceil(threads).max(1);
             let parts = p
                 .chunks_mut(per)
-                .zip(g.chunks(per))
                 .zip(mo.m.chunks_mut(per))
                 .zip(mo.v.chunks_mut(per));
-            for (t, (((p, g), m), v)) in parts.enumerate() {
+            for (t, ((p, m), v)) in parts.enumerate() {
+                let from = t * per;
+                let g = (g, from..from + p.len());
                 jobs[t].push(Job { p, g, m, v });
             }
         }
@@ -148,10 +149,10 @@ impl Adam {
 }
 
 /// One thread's share of one parameter: its elements' parameter values (updated in place),
-/// gradients and moments (updated in place).
+/// gradients (the parameter's and the range) and moments (updated in place).
 struct Job<'a> {
     p: &'a mut [f32],
-    g: &'a [f32],
+    g: (&'a Grad<'a>, std::ops::Range<usize>),
     m: &'a mut [f32],
     v: &'a mut [f32],
 }
@@ -186,7 +187,19 @@ impl AdamUpdate {
     fn run(&self, job: Job<'_>, scale: Option<f32>) {
         let Job { p, g, m, v } = job;
         let c = [self.b1, self.b2, self.bc1, self.bc2, self.lr, self.eps];
-        adam_elements(p, g, m, v, c, scale.unwrap_or(1.0), scale.is_some());
+        let (grad, range) = g;
+        grad.for_each_chunk(range, |off, g| {
+            let r = off..off + g.len();
+            adam_elements(
+                &mut p[r.clone()],
+                g,
+                &mut m[r.clone()],
+                &mut v[r],
+                c,
+                scale.unwrap_or(1.0),
+                scale.is_some(),
+            );
+        });
     }
 }
 
@@ -301,7 +314,7 @@ mod tests {
                     .reduce(|a, b| (a + b).unwrap())
                     .unwrap();
                 let grads = loss.backward().unwrap();
-                with_minibatch_grads(&vars, std::slice::from_ref(&grads), &[1.0], threads, |g| {
+                with_minibatch_grads(&vars, std::slice::from_ref(&grads), &[1.0], |g| {
                     adam.step_host(g, (step == 1).then_some(0.5), threads)
                 })
                 .unwrap();

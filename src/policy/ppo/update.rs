@@ -80,8 +80,8 @@ impl Trainer {
                     self.times.add(&out.times);
                 }
                 let (adam, threads) = (&mut self.adam, self.ppo.threads);
-                let norm = with_minibatch_grads(&trainable, &stores, &shares, threads, |grads| {
-                    let (norm, clip) = clip_factor(grads, self.ppo.max_grad_norm);
+                let norm = with_minibatch_grads(&trainable, &stores, &shares, |grads| {
+                    let (norm, clip) = clip_factor(grads, self.ppo.max_grad_norm, threads)?;
                     adam.step_host(grads, clip, threads)?;
                     Ok(norm)
                 })?;
