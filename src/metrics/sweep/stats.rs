@@ -1,0 +1,214 @@
+//! What a sweep's episodes add up to: the paper's performance and grounding statistics (over
+//! the steps of an episode, then its episodes, then mean ± std over evaluation seeds) and the
+//! expert's agreement.
+
+use std::collections::BTreeMap;
+
+use serde::{Deserialize, Serialize};
+
+use super::EpisodeSummary;
+use crate::metrics::grounding::WordKind;
+
+/// Mean and population standard deviation (numpy's default, ddof = 0).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct MeanStd {
+    /// Mean (null in JSON when nothing was measured).
+    pub mean: Option<f64>,
+    /// Standard deviation.
+    pub std: Option<f64>,
+}
+
+impl MeanStd {
+    /// Over the finite values of `xs`; `None`s when there are none.
+    pub fn of(xs: &[f64]) -> Self {
+        let v: Vec<f64> = xs.iter().copied().filter(|x| x.is_finite()).collect();
+        if v.is_empty() {
+            return Self {
+                mean: None,
+                std: None,
+            };
+        }
+        let n = v.len() as f64;
+        let mean = v.iter().sum::<f64>() / n;
+        let var = v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / n;
+        Self {
+            mean: Some(mean),
+            std: Some(var.sqrt()),
+        }
+    }
+}
+
+impl MeanStd {
+    /// As a table over evaluation seeds shows it: `mean ± std` where `spread` (several
+    /// seeds), the mean alone where not (one seed: its std is 0 by definition, not a measured
+    /// spread), `–` when nothing was measured. [`Display`](std::fmt::Display) always shows the
+    /// std (the exploration's spreads are over episodes, measured even for one seed).
+    pub fn shown(&self, spread: bool) -> String {
+        match self.mean {
+            Some(m) if !spread => format!("{m:.3}"),
+            _ => self.to_string(),
+        }
+    }
+}
+
+impl std::fmt::Display for MeanStd {
+    /// `mean ± std` with three decimals, or `–` when nothing was measured.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match (self.mean, self.std) {
+            (Some(m), Some(s)) => write!(f, "{m:.3} ± {s:.3}"),
+            _ => f.write_str("–"),
+        }
+    }
+}
+
+fn mean(xs: impl Iterator<Item = f64>) -> f64 {
+    let (s, n) = xs.fold((0.0, 0usize), |(s, n), x| (s + x, n + 1));
+    if n == 0 { f64::NAN } else { s / n as f64 }
+}
+
+/// Task performance of a cell: over episodes per seed, then mean ± std over seeds.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Performance {
+    /// Mean reward.
+    pub reward: MeanStd,
+    /// Success rate.
+    pub success: MeanStd,
+    /// Mean episode length.
+    pub length: MeanStd,
+    /// Mean reward of the successful episodes.
+    pub reward_given_success: MeanStd,
+}
+
+/// Grounding accuracies of one word kind in a cell.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct GroundingStats {
+    /// `acc`.
+    pub acc: MeanStd,
+    /// `acc_ng`.
+    pub acc_ng: MeanStd,
+    /// `acc_bs`.
+    pub acc_bs: MeanStd,
+    /// `acc_cmb`.
+    pub acc_cmb: MeanStd,
+    /// The hit rate at each offset of [`super::grounding::AROUND`], averaged as the four
+    /// accuracies are (`around[4]` is `acc`, `around[1]` is `acc_bs`).
+    #[serde(default)]
+    pub around: Vec<MeanStd>,
+    /// Evaluated steps over all episodes.
+    pub evaluated_steps: u64,
+    /// Episodes with no evaluated step (left out of the averages).
+    pub episodes_without: u64,
+}
+
+/// Splits summaries by evaluation seed, in seed order.
+fn by_seed(eps: &[EpisodeSummary]) -> Vec<Vec<&EpisodeSummary>> {
+    let mut m: BTreeMap<u64, Vec<&EpisodeSummary>> = BTreeMap::new();
+    for e in eps {
+        m.entry(e.eval_seed).or_default().push(e);
+    }
+    m.into_values().collect()
+}
+
+/// Task performance: per seed over its episodes, then mean ± std over seeds.
+pub fn performance(eps: &[EpisodeSummary]) -> Performance {
+    let seeds = by_seed(eps);
+    let per = |f: &dyn Fn(&[&EpisodeSummary]) -> f64| {
+        MeanStd::of(&seeds.iter().map(|s| f(s)).collect::<Vec<_>>())
+    };
+    Performance {
+        reward: per(&|s| mean(s.iter().map(|e| e.reward))),
+        success: per(&|s| mean(s.iter().map(|e| f64::from(u8::from(e.success))))),
+        length: per(&|s| mean(s.iter().map(|e| f64::from(e.length)))),
+        reward_given_success: per(&|s| mean(s.iter().filter(|e| e.success).map(|e| e.reward))),
+    }
+}
+
+/// A cell's episodes beside minigrid's bot: per seed over its episodes, then mean ± std over
+/// seeds.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ExpertStats {
+    /// Share of the steps (where the bot had an action) at which the agent took it.
+    pub agreement: MeanStd,
+    /// Failed episodes: the step at which the agent first left the bot's plan.
+    pub first_divergence: MeanStd,
+    /// Successful episodes the bot also solves: the bot's steps alone / the agent's steps.
+    pub path_efficiency: MeanStd,
+    /// The bot's own success rate from the same starts.
+    pub bot_success: MeanStd,
+}
+
+/// [`ExpertStats`] of a cell's episodes.
+pub fn expert_stats(eps: &[EpisodeSummary]) -> ExpertStats {
+    let seeds = by_seed(eps);
+    let per = |f: &dyn Fn(&[&EpisodeSummary]) -> f64| {
+        MeanStd::of(&seeds.iter().map(|s| f(s)).collect::<Vec<_>>())
+    };
+    let finite = |x: f64| x.is_finite();
+    ExpertStats {
+        agreement: per(&|s| {
+            mean(
+                s.iter()
+                    .map(|e| e.expert.agreement())
+                    .filter(|&x| finite(x)),
+            )
+        }),
+        first_divergence: per(&|s| {
+            mean(
+                s.iter()
+                    .filter(|e| !e.success)
+                    .filter_map(|e| e.expert.first_divergence.map(f64::from)),
+            )
+        }),
+        path_efficiency: per(&|s| {
+            mean(
+                s.iter()
+                    .map(|e| e.expert.path_efficiency(e.success, e.length))
+                    .filter(|&x| finite(x)),
+            )
+        }),
+        bot_success: per(&|s| {
+            mean(
+                s.iter()
+                    .map(|e| f64::from(u8::from(e.expert.bot_length.is_some()))),
+            )
+        }),
+    }
+}
+
+/// Grounding accuracies of `kind`: per episode over its evaluated steps (already in the
+/// summaries), then per seed over episodes that had any, then mean ± std over seeds.
+pub fn grounding(eps: &[EpisodeSummary], kind: WordKind) -> GroundingStats {
+    let seeds = by_seed(eps);
+    // The four accuracies, then the nine offsets.
+    let per_seed: Vec<[f64; 13]> = seeds
+        .iter()
+        .map(|s| {
+            let vals: Vec<[f64; 13]> = s
+                .iter()
+                .filter_map(|e| e.grounding.get(&kind))
+                .map(|(a, _)| {
+                    let v = a.values();
+                    std::array::from_fn(|i| if i < 4 { v[i] } else { a.around[i - 4] })
+                })
+                .collect();
+            std::array::from_fn(|i| mean(vals.iter().map(|v| v[i])))
+        })
+        .collect();
+    let col = |i: usize| MeanStd::of(&per_seed.iter().map(|v| v[i]).collect::<Vec<_>>());
+    GroundingStats {
+        acc: col(0),
+        acc_ng: col(1),
+        acc_bs: col(2),
+        acc_cmb: col(3),
+        around: (4..13).map(col).collect(),
+        evaluated_steps: eps
+            .iter()
+            .filter_map(|e| e.grounding.get(&kind))
+            .map(|(_, n)| u64::from(*n))
+            .sum(),
+        episodes_without: eps
+            .iter()
+            .filter(|e| !e.grounding.contains_key(&kind))
+            .count() as u64,
+    }
+}
