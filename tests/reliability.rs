@@ -38,6 +38,12 @@ fn bad_training_settings_are_refused_before_anything_is_written() {
         (&["--reward-scale", "0"][..], "--reward-scale"),
         (&["--gae-lambda", "2"][..], "--gae-lambda"),
         (&["--discount", "1.5"][..], "--discount"),
+        // A huge value is named as written, not as its 200 digits.
+        (&["--discount", "1e200"][..], "--discount 1e200 must"),
+        (
+            &["--imitate-policy-share", "1e250"][..],
+            "--imitate-policy-share 1e250 must",
+        ),
         (&["--adam-eps", "0"][..], "--adam-eps"),
         (&["--entropy-coef", "-0.01"][..], "--entropy-coef"),
         (&["--value-loss-coef", "nan"][..], "--value-loss-coef"),

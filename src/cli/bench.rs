@@ -112,7 +112,7 @@ pub fn run(cmd: &BenchCommand) -> anyhow::Result<ExitStatus> {
             recurrence,
         } => {
             if !(secs.is_finite() && *secs > 0.0 && *secs <= 3600.0) {
-                anyhow::bail!("--secs {secs}: must be a number of seconds in (0, 3600]");
+                anyhow::bail!("--secs {secs:?}: must be a number of seconds in (0, 3600]");
             }
             if !matches!(recurrence, 1 | 2 | 4 | 8 | 16 | 32 | 64 | 128 | 256) {
                 anyhow::bail!("--recurrence {recurrence}: must be a power of two in 1..=256");

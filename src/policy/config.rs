@@ -365,7 +365,7 @@ impl ModelConfig {
         let t = self.word_temperature.0;
         if !(t.is_finite() && (WordTemperature::MIN..=WordTemperature::MAX).contains(&t)) {
             return Err(super::PolicyError::Input(format!(
-                "model setting word_temperature = {t} must be in [{}, {}]",
+                "model setting word_temperature = {t:?} must be in [{}, {}]",
                 WordTemperature::MIN,
                 WordTemperature::MAX
             )));

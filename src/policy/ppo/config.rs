@@ -209,7 +209,7 @@ impl PpoConfig {
             ("--reward-scale", self.reward_scale),
         ] {
             if !(v.is_finite() && v > 0.0) {
-                return bad(format!("{name} {v} must be a positive number"));
+                return bad(format!("{name} {v:?} must be a positive number"));
             }
         }
         // Above 1 the returns and advantages grow without bound (training diverges).
@@ -218,7 +218,7 @@ impl PpoConfig {
             ("--gae-lambda", self.gae_lambda),
         ] {
             if v > 1.0 {
-                return bad(format!("{name} {v} must be at most 1"));
+                return bad(format!("{name} {v:?} must be at most 1"));
             }
         }
         // A negative coefficient would reward the loss term it weighs.
@@ -227,12 +227,12 @@ impl PpoConfig {
             ("--value-loss-coef", self.value_loss_coef),
         ] {
             if !(v.is_finite() && v >= 0.0) {
-                return bad(format!("{name} {v} must be a number ≥ 0"));
+                return bad(format!("{name} {v:?} must be a number ≥ 0"));
             }
         }
         if !(0.0..=1.0).contains(&self.imitate_policy_share) {
             return bad(format!(
-                "--imitate-policy-share {} must be between 0 and 1",
+                "--imitate-policy-share {:?} must be between 0 and 1",
                 self.imitate_policy_share
             ));
         }
@@ -248,7 +248,7 @@ impl PpoConfig {
             for t in [a.from, a.to] {
                 if !(t.is_finite() && t > 0.0 && t <= crate::policy::WordTemperature::MAX) {
                     return Err(PolicyError::Input(format!(
-                        "--word-temperature-anneal: temperature {t} must be in (0, {}]",
+                        "--word-temperature-anneal: temperature {t:?} must be in (0, {}]",
                         crate::policy::WordTemperature::MAX
                     )));
                 }

@@ -45,7 +45,7 @@ impl LevelMix {
         for (i, e) in entries.iter().enumerate() {
             if !(e.weight.is_finite() && e.weight > 0.0) {
                 return Err(PolicyError::Input(format!(
-                    "--levels: {}: weight {} must be a positive number",
+                    "--levels: {}: weight {:?} must be a positive number",
                     e.level, e.weight
                 )));
             }
