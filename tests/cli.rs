@@ -460,6 +460,10 @@ fn eval_writes_a_complete_report_and_gates_on_thresholds() {
     let bad = dir.path().join("bad");
     let b = bad.to_str().unwrap();
     assert_bad_input(&gs(&["eval", "--out", b, "--alpha", "1.5"]), "--alpha");
+    assert_bad_input(
+        &gs(&["eval", "--out", b, "--min-success", "1e300"]),
+        "--min-success 1e300 is outside",
+    );
     assert_bad_input(&gs(&["eval", "--out", b, "--episodes", "0"]), "empty");
     assert_bad_input(&gs(&["eval", "--out", b, "--sizes", "4"]), "room_size");
     assert_bad_input(

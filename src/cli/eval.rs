@@ -74,7 +74,7 @@ fn check(args: &EvalArgs) -> anyhow::Result<()> {
         anyhow::bail!("--jobs 0: give at least one worker");
     }
     if !(0.0..=1.0).contains(&args.alpha) {
-        anyhow::bail!("--alpha {} is outside [0, 1]", args.alpha);
+        anyhow::bail!("--alpha {:?} is outside [0, 1]", args.alpha);
     }
     args.sweep.check()?;
     for (flag, v) in [
@@ -84,7 +84,7 @@ fn check(args: &EvalArgs) -> anyhow::Result<()> {
         if let Some(x) = v
             && !(0.0..=1.0).contains(&x)
         {
-            anyhow::bail!("{flag} {x} is outside [0, 1]");
+            anyhow::bail!("{flag} {x:?} is outside [0, 1]");
         }
     }
     Ok(())

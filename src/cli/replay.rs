@@ -83,7 +83,7 @@ pub fn replay(args: &ReplayArgs) -> anyhow::Result<ExitStatus> {
         anyhow::bail!("--trace writes one episode; drop --episodes or use --save / --mcap");
     }
     if !(0.0..=1.0).contains(&args.alpha) {
-        anyhow::bail!("--alpha {} is outside [0, 1]", args.alpha);
+        anyhow::bail!("--alpha {:?} is outside [0, 1]", args.alpha);
     }
     if let Some(p) = &args.save {
         check_extension(p, "rrd", "--save")?;
