@@ -44,9 +44,9 @@ pub struct Generated {
     pub lift: Option<ObjectId>,
     /// LevelGen's `unblocking`: keys of locked doors may not be named.
     pub unblocking: bool,
-    /// The final grid's objects, where the level gathered them to draw its descriptions
-    /// (LevelGen) or validation did (PutNext): validation and the verifier's reset use them
-    /// instead of a new scan.
+    /// The final grid's objects in scan order, where the level gathered them to draw its
+    /// descriptions (LevelGen), placed them all itself (PutNext, MoveTwoAcross) or validation
+    /// gathered them: validation and the verifier's reset use them instead of a new scan.
     pub objects: Option<Objects>,
 }
 
@@ -153,6 +153,11 @@ pub type Objects = Vec<(Pos, WorldObj)>;
 fn attempt(spec: &LevelSpec, g: &mut Gen) -> Result<Generated, Retry> {
     g.gen_grid();
     let mut out = spec.family.gen_mission(g)?;
+    // A level that lists its grid's objects must list them as a scan would.
+    #[cfg(test)]
+    if let Some(objects) = &out.objects {
+        assert_eq!(*objects, g.grid.objects_but_walls(), "{}", spec.id);
+    }
     let locked = if out.unblocking {
         g.locked_door_colors()
     } else {
@@ -270,6 +275,20 @@ fn generate_from(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Every level that hands its grid's objects to validation lists them as a scan of the
+    /// final grid would (`attempt` asserts it under test), over 40 seeds of every id.
+    #[test]
+    fn listed_objects_are_the_scanned_objects() {
+        for spec in registry::LEVELS {
+            for seed in 0..40 {
+                match generate(spec, seed, false) {
+                    Ok(_) | Err(EnvError::GenerationHangs { .. }) => {}
+                    Err(e) => panic!("{} seed {seed}: {e}", spec.id),
+                }
+            }
+        }
+    }
 
     #[test]
     fn continuing_a_fresh_stream_is_a_seeded_reset_and_continues_deterministically() {

@@ -543,7 +543,35 @@ impl Gen {
         all_unique: bool,
     ) -> Result<Vec<WorldObj>, Retry> {
         let mut dists = Vec::with_capacity(n);
-        while dists.len() < n {
+        self.distractors(i, j, n, all_unique, |o, _| dists.push(o))?;
+        Ok(dists)
+    }
+
+    /// [`Gen::add_distractors`] with each object's position (for a level that knows every
+    /// object of its grid without scanning it).
+    pub fn add_distractors_placed(
+        &mut self,
+        i: Option<i32>,
+        j: Option<i32>,
+        n: usize,
+        all_unique: bool,
+    ) -> Result<Vec<(Pos, WorldObj)>, Retry> {
+        let mut dists = Vec::with_capacity(n);
+        self.distractors(i, j, n, all_unique, |o, pos| dists.push((pos, o)))?;
+        Ok(dists)
+    }
+
+    /// `add_distractors`' loop, handing each placed object and its position to `keep`.
+    fn distractors(
+        &mut self,
+        i: Option<i32>,
+        j: Option<i32>,
+        n: usize,
+        all_unique: bool,
+        mut keep: impl FnMut(WorldObj, Pos),
+    ) -> Result<(), Retry> {
+        let mut placed = 0;
+        while placed < n {
             let color = self.rand_color();
             let kind = self.rand_elem(&DISTRACTOR_TYPES);
             if all_unique && self.placed & placed_bit(kind, color) != 0 {
@@ -557,10 +585,11 @@ impl Gen {
                 Some(j) => j,
                 None => self.rand_int(0, self.rooms.num_rows),
             };
-            let (dist, _) = self.add_object(ri, rj, Some(kind), Some(color))?;
-            dists.push(dist);
+            let (dist, pos) = self.add_object(ri, rj, Some(kind), Some(color))?;
+            keep(dist, pos);
+            placed += 1;
         }
-        Ok(dists)
+        Ok(())
     }
 
     /// `check_objs_reachable`: every non-wall object reachable from the agent.
