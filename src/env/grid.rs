@@ -147,6 +147,17 @@ impl Grid {
         .into()
     }
 
+    /// A grid of no cells, without the work [`Grid::new`] does to check a shape: the
+    /// placeholder a generator leaves where it hands its grid on.
+    pub const fn empty() -> Self {
+        Self {
+            width: 0,
+            height: 0,
+            cells: Vec::new(),
+            codes: Vec::new(),
+        }
+    }
+
     /// The walls of `rooms` (every room's outer ring, shared between neighbours), with ids
     /// from `next_id` in x-major order: `RoomGrid._gen_grid`'s grid before any door.
     pub fn room_walls(rooms: Rooms, next_id: &mut u32) -> Self {

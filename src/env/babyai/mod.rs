@@ -250,7 +250,7 @@ fn generate_from(
         out.instr.num_navs() * rs * rs * (spec.rooms.num_rows * spec.rooms.num_cols) as u32
     });
     let mut world = World::with_tree_among(
-        std::mem::replace(&mut g.grid, super::grid::Grid::new(0, 0)),
+        std::mem::replace(&mut g.grid, super::grid::Grid::empty()),
         spec.rooms,
         (g.agent_pos, g.agent_dir),
         None,

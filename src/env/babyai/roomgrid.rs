@@ -115,7 +115,7 @@ impl Gen {
             rng,
             rooms,
             // Built by `gen_grid`; an empty grid costs nothing.
-            grid: Grid::new(0, 0),
+            grid: Grid::empty(),
             room_list: Vec::new(),
             agent_pos: (-1, -1),
             agent_dir: 0,
