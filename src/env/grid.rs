@@ -500,3 +500,57 @@ impl Grid {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{Rng, SeedableRng};
+    use rand_pcg::Pcg64Mcg;
+
+    /// `objects_but_walls` lists what a plain scan of `objects` keeps (every object but the
+    /// walls, x-major), on grids of many shapes, before and after writes, with and without
+    /// cells a grid holds only when built directly (objects of the unseen or empty type).
+    #[test]
+    fn objects_but_walls_is_the_scan_without_walls() {
+        let mut rng = Pcg64Mcg::seed_from_u64(7);
+        let sizes = [
+            (1, 1),
+            (3, 5),
+            (7, 13),
+            (13, 7),
+            (25, 25),
+            (5, 64),
+            (4, 65),
+            (3, 130),
+        ];
+        for ((w, h), typeless) in sizes.into_iter().flat_map(|s| [(s, false), (s, true)]) {
+            let mut grid = Grid::new(w, h);
+            for round in 0..4 {
+                let typeless = typeless && round < 3;
+                for _ in 0..(w * h / 2).max(1) {
+                    let pos = (rng.random_range(0..w as i32), rng.random_range(0..h as i32));
+                    let cell = match rng.random_range(0..4) {
+                        0 => None,
+                        1 => Some(WorldObj::new(ObjectKind::Wall, Color::Grey, 0)),
+                        _ => {
+                            let kinds = if typeless {
+                                &ObjectKind::ALL[..]
+                            } else {
+                                &ObjectKind::ALL[2..]
+                            };
+                            let kind = kinds[rng.random_range(0..kinds.len())];
+                            let color = Color::ALL[rng.random_range(0..Color::ALL.len())];
+                            Some(WorldObj::new(kind, color, rng.random_range(0..1000)))
+                        }
+                    };
+                    grid.set(pos, cell);
+                }
+                let want: Vec<(Pos, WorldObj)> = grid
+                    .objects()
+                    .filter(|(_, o)| o.kind != ObjectKind::Wall)
+                    .collect();
+                assert_eq!(grid.objects_but_walls(), want, "{w} × {h}, round {round}");
+            }
+        }
+    }
+}
