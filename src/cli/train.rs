@@ -1,5 +1,7 @@
 //! `groundscope train`: recurrent PPO with checkpoints, resume, logs and Ctrl-C handling.
 
+mod lock;
+
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -20,6 +22,7 @@ use crate::cli::model_options::ModelOptions;
 use crate::cli::policy_cmd::parse_variant;
 use crate::cli::train_start::{resume_run, tracking, warm_start};
 use groundscope::policy::ppo::run_dir::{self, Tracking};
+use lock::{RUN_LOCK, lock_run};
 
 /// `groundscope train`.
 #[derive(Debug, Args)]
@@ -395,99 +398,12 @@ pub fn run(args: &TrainArgs, matches: Option<&ArgMatches>) -> anyhow::Result<Exi
     result
 }
 
-/// The run directory's lock file: a training holds an exclusive lock on it, and its pid in it.
-const RUN_LOCK: &str = ".train-lock";
-
 /// Refuses a directory this process cannot write into.
 fn writable(dir: &Path) -> anyhow::Result<()> {
     let probe = tempfile::NamedTempFile::new_in(dir)
         .with_context(|| format!("{} is not writable", dir.display()))?;
     drop(probe);
     Ok(())
-}
-
-/// A held lock on a run directory ([`lock_run`]).
-struct RunLock {
-    /// The lock file, locked (the system releases it when it is closed or the process dies).
-    _file: std::fs::File,
-    /// Whether this process made the lock file (a new run that fails removes it).
-    created: bool,
-}
-
-/// Locks the run directory for this process: a second training (a new run or a `--resume`)
-/// on the same directory is refused naming the holder, instead of both writing its files.
-/// The lock is the system's (`flock`): a crashed or killed training releases it. A lock
-/// taken on a file that was removed meanwhile (by a failed new run, which removes its lock
-/// file while holding it) locks nothing, so it is taken again on the file now there.
-fn lock_run(dir: &Path) -> anyhow::Result<RunLock> {
-    use std::io::Write as _;
-    let path = dir.join(RUN_LOCK);
-    loop {
-        let (mut file, created) = open_lock_file(&path)?;
-        match file.try_lock() {
-            Ok(()) => {
-                if !same_file(&file, &path) {
-                    continue;
-                }
-                file.set_len(0)?;
-                write!(file, "{}", std::process::id())?;
-                return Ok(RunLock {
-                    _file: file,
-                    created,
-                });
-            }
-            Err(std::fs::TryLockError::WouldBlock) => {
-                let holder = std::fs::read_to_string(&path).unwrap_or_default();
-                anyhow::bail!(
-                    "{}: another training (pid {}) is writing this run directory; wait for it \
-                     to end or choose another --out",
-                    dir.display(),
-                    holder.trim()
-                )
-            }
-            Err(std::fs::TryLockError::Error(e)) => {
-                return Err(e).with_context(|| format!("locking {}", path.display()));
-            }
-        }
-    }
-}
-
-/// Opens (or makes) the lock file at `path`, saying whether this call made it.
-fn open_lock_file(path: &Path) -> anyhow::Result<(std::fs::File, bool)> {
-    let open = |create_new: bool| {
-        std::fs::OpenOptions::new()
-            .create_new(create_new)
-            .read(true)
-            .write(true)
-            .open(path)
-    };
-    match open(true) {
-        Ok(file) => Ok((file, true)),
-        Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => match open(false) {
-            Ok(file) => Ok((file, false)),
-            // Removed between the two opens: make it again.
-            Err(e) if e.kind() == std::io::ErrorKind::NotFound => open_lock_file(path),
-            Err(e) => Err(e).with_context(|| format!("opening {}", path.display())),
-        },
-        Err(e) => Err(e).with_context(|| format!("opening {}", path.display())),
-    }
-}
-
-/// Whether the open `file` is still the file at `path` (not removed or replaced since).
-fn same_file(file: &std::fs::File, path: &Path) -> bool {
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::MetadataExt as _;
-        match (file.metadata(), std::fs::metadata(path)) {
-            (Ok(a), Ok(b)) => a.dev() == b.dev() && a.ino() == b.ino(),
-            _ => false,
-        }
-    }
-    #[cfg(not(unix))]
-    {
-        let _ = file;
-        path.exists()
-    }
 }
 
 /// `train` once its run directory exists.

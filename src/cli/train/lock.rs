@@ -1,0 +1,92 @@
+//! The run directory's lock: one training at a time writes a run directory.
+
+use std::path::Path;
+
+use anyhow::Context as _;
+
+/// The run directory's lock file: a training holds an exclusive lock on it, and its pid in it.
+pub(super) const RUN_LOCK: &str = ".train-lock";
+
+/// A held lock on a run directory ([`lock_run`]).
+pub(super) struct RunLock {
+    /// The lock file, locked (the system releases it when it is closed or the process dies).
+    _file: std::fs::File,
+    /// Whether this process made the lock file (a new run that fails removes it).
+    pub(super) created: bool,
+}
+
+/// Locks the run directory for this process: a second training (a new run or a `--resume`)
+/// on the same directory is refused naming the holder, instead of both writing its files.
+/// The lock is the system's (`flock`): a crashed or killed training releases it. A lock
+/// taken on a file that was removed meanwhile (by a failed new run, which removes its lock
+/// file while holding it) locks nothing, so it is taken again on the file now there.
+pub(super) fn lock_run(dir: &Path) -> anyhow::Result<RunLock> {
+    use std::io::Write as _;
+    let path = dir.join(RUN_LOCK);
+    loop {
+        let (mut file, created) = open_lock_file(&path)?;
+        match file.try_lock() {
+            Ok(()) => {
+                if !same_file(&file, &path) {
+                    continue;
+                }
+                file.set_len(0)?;
+                write!(file, "{}", std::process::id())?;
+                return Ok(RunLock {
+                    _file: file,
+                    created,
+                });
+            }
+            Err(std::fs::TryLockError::WouldBlock) => {
+                let holder = std::fs::read_to_string(&path).unwrap_or_default();
+                anyhow::bail!(
+                    "{}: another training (pid {}) is writing this run directory; wait for it \
+                     to end or choose another --out",
+                    dir.display(),
+                    holder.trim()
+                )
+            }
+            Err(std::fs::TryLockError::Error(e)) => {
+                return Err(e).with_context(|| format!("locking {}", path.display()));
+            }
+        }
+    }
+}
+
+/// Opens (or makes) the lock file at `path`, saying whether this call made it.
+fn open_lock_file(path: &Path) -> anyhow::Result<(std::fs::File, bool)> {
+    let open = |create_new: bool| {
+        std::fs::OpenOptions::new()
+            .create_new(create_new)
+            .read(true)
+            .write(true)
+            .open(path)
+    };
+    match open(true) {
+        Ok(file) => Ok((file, true)),
+        Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => match open(false) {
+            Ok(file) => Ok((file, false)),
+            // Removed between the two opens: make it again.
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => open_lock_file(path),
+            Err(e) => Err(e).with_context(|| format!("opening {}", path.display())),
+        },
+        Err(e) => Err(e).with_context(|| format!("opening {}", path.display())),
+    }
+}
+
+/// Whether the open `file` is still the file at `path` (not removed or replaced since).
+fn same_file(file: &std::fs::File, path: &Path) -> bool {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt as _;
+        match (file.metadata(), std::fs::metadata(path)) {
+            (Ok(a), Ok(b)) => a.dev() == b.dev() && a.ino() == b.ino(),
+            _ => false,
+        }
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = file;
+        path.exists()
+    }
+}
