@@ -174,11 +174,23 @@ fn fused_attention_matches_reference(scale: u32, t: f32, null: bool) {
                 .f
         };
         let loss = (&f * &weights).unwrap().sum_all().unwrap();
-        (f, loss.backward().unwrap())
+        let grads = loss.backward().unwrap();
+        (f, grads, loss)
     };
-    let (ff, gf) = run(true);
-    let (fr, gr) = run(false);
+    let (ff, gf, loss_f) = run(true);
+    let (fr, gr, _) = run(false);
     close(&ff, &fr, "F");
+    // The first backward reads the maps the forward kept; a second one through the same
+    // graph finds none and computes them again, to the same bits.
+    let again = loss_f.backward().unwrap();
+    let bits = |t: &Tensor| -> Vec<u32> {
+        let v: Vec<f32> = t.flatten_all().unwrap().to_vec1().unwrap();
+        v.into_iter().map(f32::to_bits).collect()
+    };
+    for v in [&q, &wk, &o, &k0] {
+        let (first, second) = (gf.get(v.as_tensor()), again.get(v.as_tensor()));
+        assert_eq!(first.map(bits), second.map(bits));
+    }
     for (name, v) in [("q", &q), ("w_k", &wk), ("o", &o)] {
         close(
             gf.get(v.as_tensor()).unwrap(),
