@@ -464,3 +464,29 @@ fn contiguous_transposes_change_no_bit() {
         }
     }
 }
+
+/// The rollout's probabilities on the host are candle-nn's `softmax_last_dim` to the bit, for
+/// logits small and large, equal and far apart.
+#[test]
+fn host_probabilities_are_candles_softmax() {
+    use rand::{Rng, SeedableRng};
+    let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(3);
+    for scale in [1e-3f32, 1.0, 10.0, 80.0] {
+        let mut v: Vec<f32> = (0..64 * 7)
+            .map(|_| rng.random_range(-1.0f32..1.0) * scale)
+            .collect();
+        // Rows with ties and with one dominant entry.
+        v[..7].fill(0.25);
+        v[7..14].copy_from_slice(&[0.0, 0.0, 0.0, 90.0, 0.0, 0.0, 0.0]);
+        let logits = Tensor::from_vec(v, (64, 7), &Device::Cpu).unwrap();
+        let host = groundscope::policy::model::probs_host(&logits).unwrap();
+        let reference = candle_nn::ops::softmax_last_dim(&logits)
+            .unwrap()
+            .to_vec2::<f32>()
+            .unwrap();
+        let to_bits = |rows: &[Vec<f32>]| -> Vec<u32> {
+            rows.iter().flatten().map(|x| x.to_bits()).collect()
+        };
+        assert_eq!(to_bits(&host), to_bits(&reference), "scale {scale}");
+    }
+}

@@ -625,9 +625,27 @@ impl MissionInputs {
     }
 }
 
-/// Softmax probabilities of logits on the host, row by row.
+/// Softmax probabilities of logits on the host, row by row: candle-nn's `softmax_last_dim`
+/// to the bit (the row's maximum folded from its first entry, the exponentials summed in
+/// order from 0), without its rayon dispatch — which, called from the training threads,
+/// handed every rollout step's rows to rayon's one worker and waited for it.
 pub fn probs_host(logits: &Tensor) -> Result<Vec<Vec<f32>>, PolicyError> {
-    Ok(candle_nn::ops::softmax_last_dim(logits)?.to_vec2::<f32>()?)
+    let mut rows = logits.to_vec2::<f32>()?;
+    for row in &mut rows {
+        let Some(&first) = row.first() else {
+            continue;
+        };
+        let max = row.iter().fold(first, |m, x| m.max(*x));
+        let mut sum = 0f32;
+        for x in row.iter_mut() {
+            *x = (*x - max).exp();
+            sum += *x;
+        }
+        for x in row.iter_mut() {
+            *x /= sum;
+        }
+    }
+    Ok(rows)
 }
 
 /// Log-probabilities (B, A) with gradient.
