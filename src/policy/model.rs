@@ -625,27 +625,15 @@ impl MissionInputs {
     }
 }
 
-/// Softmax probabilities of logits on the host, row by row: candle-nn's `softmax_last_dim`
-/// to the bit (the row's maximum folded from its first entry, the exponentials summed in
-/// order from 0), without its rayon dispatch — which, called from the training threads,
-/// handed every rollout step's rows to rayon's one worker and waited for it.
+/// Softmax probabilities of logits on the host, row by row ([`super::acting::softmax`]):
+/// candle-nn's `softmax_last_dim` to the bit, without its rayon dispatch — which, called from
+/// the training threads, handed every rollout step's rows to rayon's one worker and waited.
 pub fn probs_host(logits: &Tensor) -> Result<Vec<Vec<f32>>, PolicyError> {
-    let mut rows = logits.to_vec2::<f32>()?;
-    for row in &mut rows {
-        let Some(&first) = row.first() else {
-            continue;
-        };
-        let max = row.iter().fold(first, |m, x| m.max(*x));
-        let mut sum = 0f32;
-        for x in row.iter_mut() {
-            *x = (*x - max).exp();
-            sum += *x;
-        }
-        for x in row.iter_mut() {
-            *x /= sum;
-        }
-    }
-    Ok(rows)
+    Ok(logits
+        .to_vec2::<f32>()?
+        .iter()
+        .map(|row| super::acting::softmax(row))
+        .collect())
 }
 
 /// Log-probabilities (B, A) with gradient.

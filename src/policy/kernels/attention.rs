@@ -10,7 +10,7 @@
 //! column, its null logit `Q_i k₀ᵀ / √d_k`, and its map is
 //! [`crate::policy::attention::attention_maps_null`]'s.
 
-use std::sync::Mutex;
+use std::sync::{Mutex, PoisonError};
 
 use candle_core::{CpuStorage, CustomOp3, Layout, Result, Shape, Tensor};
 
@@ -85,13 +85,15 @@ struct AttentionFilterBackward {
     saved: Mutex<Option<Saved>>,
 }
 
-/// One frame's maps, weights and `M` (the slices of [`Saved`] for one frame).
+/// One frame's maps, weights and `M` (the slices of [`Saved`] for one frame), and room for
+/// its words' `−H/t` (m).
 struct FrameMaps<'a> {
     a: &'a mut [f32],
     la: &'a mut [f32],
     w: &'a mut [f32],
     p0: &'a mut [f32],
     mm: &'a mut [f32],
+    neg_h: &'a mut [f32],
 }
 
 /// Per frame: maps `a` (m × 49), the logs `la` of their values clamped to [TINY, 1], weights
@@ -104,16 +106,15 @@ struct FrameMaps<'a> {
 )]
 #[inline(always)]
 fn maps(s: &[f32], null: Option<&[f32]>, mask: &[f32], t: f32, out: FrameMaps<'_>) {
-    let FrameMaps { a, la, w, p0, mm } = out;
+    let FrameMaps {
+        a,
+        la,
+        w,
+        p0,
+        mm,
+        neg_h,
+    } = out;
     let m = mask.len();
-    let mut neg_h = [0f32; MAX_WORDS_ON_STACK];
-    let mut neg_h_heap = Vec::new();
-    let neg_h: &mut [f32] = if m <= MAX_WORDS_ON_STACK {
-        &mut neg_h[..m]
-    } else {
-        neg_h_heap.resize(m, 0f32);
-        &mut neg_h_heap
-    };
     for i in 0..m {
         let row = &s[i * N_CELLS..(i + 1) * N_CELLS];
         let ar = &mut a[i * N_CELLS..(i + 1) * N_CELLS];
@@ -166,9 +167,6 @@ fn maps(s: &[f32], null: Option<&[f32]>, mask: &[f32], t: f32, out: FrameMaps<'_
         }
     }
 }
-
-/// Missions up to this many words keep their per-word entropies on the stack.
-const MAX_WORDS_ON_STACK: usize = 64;
 
 /// Per frame: `S = Q̂ Õᵀ` (m × 49) from `Q̂` (m × `width`, of which the first K columns) and
 /// `Õᵀ` (K × 49, `ot`); with the null key, each row's column K (its null logit) goes to `null`
@@ -229,7 +227,7 @@ crate::multiversion! {
     ) {
         let (m, k, width) = (d.m, d.k, d.width());
         let (mut s, mut null) = (vec![0f32; m * N_CELLS], vec![0f32; m]);
-        let mut ot = vec![0f32; k * N_CELLS];
+        let (mut ot, mut neg_h) = (vec![0f32; k * N_CELLS], vec![0f32; m]);
         let b = saved.mm.len() / N_CELLS;
         let mut out = out;
         for r in 0..b {
@@ -248,6 +246,7 @@ crate::multiversion! {
                     w: &mut saved.w[r * m..(r + 1) * m],
                     p0: &mut saved.p0[r * m..(r + 1) * m],
                     mm: &mut *mm,
+                    neg_h: &mut neg_h,
                 },
             );
             if let Some(out) = out.as_deref_mut() {
@@ -281,20 +280,9 @@ fn shapes(l1: &Layout, l2: &Layout, l3: &Layout, null: bool) -> Result<(usize, u
     Ok((b, m, k))
 }
 
-/// Takes what a mutex holds, whether or not a thread panicked while holding it.
-fn take<T>(slot: &Mutex<Option<T>>) -> Option<T> {
-    match slot.lock() {
-        Ok(mut g) => g.take(),
-        Err(poisoned) => poisoned.into_inner().take(),
-    }
-}
-
-/// Leaves `value` in `slot` (see [`take`]).
-fn put<T>(slot: &Mutex<Option<T>>, value: T) {
-    match slot.lock() {
-        Ok(mut g) => *g = Some(value),
-        Err(poisoned) => *poisoned.into_inner() = Some(value),
-    }
+/// Takes what the op's slot holds, whether or not a thread panicked while holding it.
+fn take(slot: &Mutex<Option<Saved>>) -> Option<Saved> {
+    slot.lock().unwrap_or_else(PoisonError::into_inner).take()
 }
 
 impl CustomOp3 for AttentionFilter {
@@ -321,7 +309,7 @@ impl CustomOp3 for AttentionFilter {
         let mut saved = Saved::zeros(b, m);
         let d = Dims { m, k, ..self.dims };
         forward_frames(qk, mask, o, d, &mut saved, Some(&mut out));
-        put(&self.saved, saved);
+        *self.saved.lock().unwrap_or_else(PoisonError::into_inner) = Some(saved);
         Ok((CpuStorage::F32(out), Shape::from((b, N_CELLS, k))))
     }
 
