@@ -2,10 +2,12 @@
 //! list of worst episodes. Everything is written to a temporary directory first and moved into
 //! place only when complete, so a failure leaves no partial report.
 
+mod failures;
 mod levels;
 pub(crate) mod markdown;
 mod plots;
 
+pub use failures::{Failure, worst_episodes};
 pub use levels::{EPISODES_CSV_HEADER, episodes_csv, level_name};
 
 use std::collections::BTreeMap;
@@ -15,9 +17,9 @@ use serde::{Deserialize, Serialize};
 
 use super::error::MetricsError;
 use super::exploration::CellExploration;
-use super::failure::{Counterfactual, FailureClass};
+use super::failure::FailureClass;
 use super::grounding::WordKind;
-use super::sweep::{EpisodeSummary, GroundingStats, MeanStd, Performance};
+use super::sweep::{GroundingStats, MeanStd, Performance};
 use crate::env::level::LevelConfig;
 use crate::table::{Record, Table};
 
@@ -220,90 +222,6 @@ pub struct CheckpointInfo {
     pub model_name: Option<String>,
 }
 
-/// One of the worst episodes, enough to replay it.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct Failure {
-    /// Why it is listed: `failed` or `low_acc_cmb`.
-    pub kind: String,
-    /// Checkpoint name.
-    pub checkpoint: String,
-    /// Room size (as its cell's: [`size_and_objects`]).
-    pub size: usize,
-    /// Object count (0 on a BabyAI level, as its cell's).
-    pub objects: usize,
-    /// Level seed (`groundscope replay --seed`).
-    pub seed: u64,
-    /// Mission.
-    pub mission: String,
-    /// Return.
-    pub reward: f64,
-    /// Length.
-    pub length: u32,
-    /// Episode acc_cmb of `M` on the targets, when evaluated.
-    pub acc_cmb: Option<f64>,
-    /// The command that replays it.
-    pub replay: String,
-    /// Its failure class (`None` for a successful episode listed for its low acc_cmb).
-    #[serde(default)]
-    pub class: Option<FailureClass>,
-    /// What the agent was doing (failed episodes that showed a behaviour only).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub behaviour: Option<FailureClass>,
-    /// Steps with a target in view (failed episodes only).
-    #[serde(default)]
-    pub target_visible_steps: Option<u32>,
-    /// Of those, steps with `M` on a target (failed episodes of attention models only).
-    #[serde(default)]
-    pub m_on_target_steps: Option<u32>,
-    /// The same seed re-run without the non-target objects (failed episodes only; filled in
-    /// by the caller, which holds the networks).
-    #[serde(default)]
-    pub counterfactual: Option<Counterfactual>,
-    /// The registered BabyAI level (absent: the paper's level of `size` and `objects`).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub level: Option<String>,
-    /// Whether the episode ran in the done-action mode (absent in older files: the model's).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub done_required: Option<bool>,
-}
-
-impl Failure {
-    /// The level the episode ran on, for a model trained on `base`.
-    pub fn level_config(&self, base: LevelConfig) -> Result<LevelConfig, crate::env::EnvError> {
-        let base = LevelConfig {
-            done_required: self.done_required.unwrap_or(base.done_required),
-            ..base
-        };
-        Ok(match &self.level {
-            Some(id) => LevelConfig {
-                babyai: Some(crate::env::level::LevelId::parse(id)?),
-                ..base
-            },
-            None => LevelConfig {
-                room_size: self.size,
-                n_objects: self.objects,
-                babyai: None,
-                ..base
-            },
-        })
-    }
-}
-
-impl Failure {
-    /// The `groundscope view` command that opens the episode in the debugger: at its last
-    /// step, where it failed, for a failed episode (the debugger's "failure" step).
-    pub fn view_command(&self) -> String {
-        let view = self
-            .replay
-            .replacen("groundscope replay", "groundscope view", 1);
-        if self.kind == "failed" && self.length > 0 {
-            format!("{view} --step {}", self.length - 1)
-        } else {
-            view
-        }
-    }
-}
-
 /// `report.json`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Report {
@@ -332,82 +250,6 @@ pub struct Report {
     pub cells: Vec<Cell>,
     /// Wall time of the sweep.
     pub elapsed_secs: f64,
-}
-
-/// Picks the K worst episodes of each kind: failures (lowest reward, then longest) and the
-/// lowest acc_cmb of `M` on visible targets.
-pub fn worst_episodes(
-    all: &[(String, LevelConfig, Vec<EpisodeSummary>)],
-    k: usize,
-    replay_args: &dyn Fn(&str, &LevelConfig, u64) -> String,
-) -> Vec<Failure> {
-    let mut failed = Vec::new();
-    let mut low = Vec::new();
-    for (ckpt, level, eps) in all {
-        let (size, objects) = size_and_objects(level);
-        let level_id = level.babyai.map(|id| id.id().to_owned());
-        for e in eps {
-            let acc_cmb = e.grounding.get(&WordKind::Combined).map(|(a, _)| a.acc_cmb);
-            let f = |kind: &str| Failure {
-                kind: kind.to_owned(),
-                checkpoint: ckpt.clone(),
-                size,
-                objects,
-                seed: e.level_seed,
-                mission: e.mission.clone(),
-                reward: e.reward,
-                length: e.length,
-                acc_cmb,
-                replay: replay_args(ckpt, level, e.level_seed),
-                level: level_id.clone(),
-                done_required: Some(level.done_required),
-                class: e.failure.map(|d| d.class),
-                behaviour: e.failure.and_then(|d| d.behaviour),
-                target_visible_steps: e.failure.map(|d| d.target_visible_steps),
-                m_on_target_steps: e.failure.and_then(|d| d.m_on_target_steps),
-                counterfactual: None,
-            };
-            if !e.success {
-                failed.push(f("failed"));
-            }
-            if acc_cmb.is_some() {
-                low.push(f("low_acc_cmb"));
-            }
-        }
-    }
-    failed.sort_by(|a, b| b.length.cmp(&a.length).then(a.seed.cmp(&b.seed)));
-    low.sort_by(|a, b| {
-        a.acc_cmb
-            .partial_cmp(&b.acc_cmb)
-            .unwrap_or(std::cmp::Ordering::Equal)
-            .then(a.seed.cmp(&b.seed))
-    });
-    let mut out = per_level(failed, k);
-    out.extend(per_level(low, k));
-    out
-}
-
-/// The first `k` of `sorted` for each BabyAI level, in order of each level's first entry
-/// (the paper's cells, level `None`, count as one: its worst episodes across sizes as before).
-fn per_level(sorted: Vec<Failure>, k: usize) -> Vec<Failure> {
-    let mut taken: Vec<(Option<String>, usize)> = Vec::new();
-    let mut kept = Vec::new();
-    for f in sorted {
-        let group = if let Some(i) = taken.iter().position(|(l, _)| *l == f.level) {
-            i
-        } else {
-            taken.push((f.level.clone(), 0));
-            taken.len() - 1
-        };
-        if taken[group].1 < k {
-            taken[group].1 += 1;
-            kept.push(f);
-        }
-    }
-    // Grouped by level, the groups in order of their worst entry.
-    let order: Vec<Option<String>> = taken.into_iter().map(|(l, _)| l).collect();
-    kept.sort_by_key(|f| order.iter().position(|l| *l == f.level));
-    kept
 }
 
 impl Report {

@@ -12,14 +12,17 @@ use std::collections::BTreeMap;
 use candle_core::{D, DType, Device, Tensor};
 
 use super::attention::{AttentionOut, Intervention, attend_with};
-use super::config::{AttendWords, ColourCodes, ModelConfig};
+use super::config::{ColourCodes, ModelConfig};
 use super::error::PolicyError;
 use super::kernels::{act, times_transposed};
 use super::obs::{CellCodes, N_CELLS, TokenBatch, patch_len};
 use crate::env::world::Action;
 
+mod mission;
+
 pub use super::weights::TRANSPOSED;
 use super::weights::{Linear, Matrix, Weights};
+pub use mission::MissionInputs;
 
 /// The network's weights plus its config; cheap to clone (tensors share storage).
 #[derive(Clone, Debug)]
@@ -160,95 +163,6 @@ impl Net {
         Ok(o.reshape((rows / N_CELLS, N_CELLS, k))?)
     }
 
-    /// Word embeddings `g̃` of the distinct missions: (U, L, E).
-    pub fn embed(&self, tb: &TokenBatch) -> Result<Tensor, PolicyError> {
-        // A word past the embedding's rows was never trained: refuse it by name.
-        if let Some(&t) = tb
-            .distinct
-            .iter()
-            .flatten()
-            .find(|&&t| t as usize >= self.cfg.vocab_size)
-        {
-            return Err(PolicyError::Input(format!(
-                "the mission word {:?} is not one this model was trained on: it knows the paper's \
-                 {} words (a model trained on the paper's level); train one on a BabyAI level \
-                 (`train --level ID`) for all of BabyAI's words",
-                crate::env::vocab::word(t).unwrap_or("?"),
-                self.cfg.vocab_size - 1
-            )));
-        }
-        let (u, l) = tb.tokens.dims2()?;
-        let emb = &self.weights.word_emb;
-        Ok(emb
-            .index_select(&tb.tokens.flatten_all()?, 0)?
-            .reshape((u, l, self.cfg.word_dim))?)
-    }
-
-    /// The GRU over each distinct mission's real words; its last state: (U, H_gru). One fused
-    /// op over all the words ([`super::kernels::gru`]), the same bits as
-    /// [`Self::encode_text_reference`].
-    pub fn encode_text(&self, tb: &TokenBatch, emb: &Tensor) -> Result<Tensor, PolicyError> {
-        let gru = &self.weights.gru;
-        Ok(super::kernels::gru::gru_sequence(
-            &self.gru_inputs(tb, emb)?,
-            &gru.w_hh.w,
-            gru.w_hh.wt.as_ref(),
-            &gru.b_hh,
-            &tb.mask,
-        )?)
-    }
-
-    /// The words' input projections `x W_ihᵀ + b_ih`: (U, L, 3·H_gru).
-    fn gru_inputs(&self, tb: &TokenBatch, emb: &Tensor) -> Result<Tensor, PolicyError> {
-        let (u, l) = tb.tokens.dims2()?;
-        let gru = &self.weights.gru;
-        Ok(super::kernels::bias::add_bias(
-            &Self::times_t(&emb.reshape((u * l, self.cfg.word_dim))?, &gru.w_ih)?,
-            &gru.b_ih,
-        )?
-        .reshape((u, l, 3 * self.cfg.gru_hidden))?)
-    }
-
-    /// [`Self::encode_text`] word by word in candle ops: the reference the fused op is
-    /// checked against (`tests/fused.rs`).
-    pub fn encode_text_reference(
-        &self,
-        tb: &TokenBatch,
-        emb: &Tensor,
-    ) -> Result<Tensor, PolicyError> {
-        let (u, l) = tb.tokens.dims2()?;
-        let hg = self.cfg.gru_hidden;
-        let gru = &self.weights.gru;
-        let b_hh = &gru.b_hh;
-        let gx_all = self.gru_inputs(tb, emb)?;
-        let mut h = Tensor::zeros((u, hg), DType::F32, &Device::Cpu)?;
-        for t in 0..l {
-            let gx = gx_all.narrow(1, t, 1)?.squeeze(1)?;
-            let gh = Self::times_t(&h, &gru.w_hh)?.broadcast_add(b_hh)?;
-            let rz = act::sigmoid(&(gx.narrow(1, 0, 2 * hg)? + gh.narrow(1, 0, 2 * hg)?)?)?;
-            let r = rz.narrow(1, 0, hg)?;
-            let z = rz.narrow(1, hg, hg)?;
-            let n = act::tanh(&(gx.narrow(1, 2 * hg, hg)? + (r * gh.narrow(1, 2 * hg, hg)?)?)?)?;
-            let h_new = ((&n + (&z * (&h - &n)?)?)?).clone();
-            // Padding steps keep the state: h = h_new·valid + h·(1 − valid).
-            let valid = tb.mask.narrow(1, t, 1)?;
-            h = (&h + (h_new - &h)?.broadcast_mul(&valid)?)?;
-        }
-        Ok(h)
-    }
-
-    /// Word queries `Q = g̃ W_q` of the distinct missions: (U, L, d_k).
-    pub fn queries(&self, emb: &Tensor) -> Result<Tensor, PolicyError> {
-        let (u, l, e) = emb.dims3()?;
-        Ok(
-            Self::times_t(&emb.reshape((u * l, e))?, &self.attention_weights()?.q)?.reshape((
-                u,
-                l,
-                self.cfg.key_dim,
-            ))?,
-        )
-    }
-
     /// The visual path for B frames: `Õ`, then (attention variant) `Kc`, A, H, w, M and `F`.
     /// `q` is (B, L, d_k) and `mask` (B, L), both gathered per frame; `o_key` the split keys'
     /// features ([`Self::key_cells`]), `None` to take the keys from `o`.
@@ -379,45 +293,6 @@ impl Net {
         }
     }
 
-    /// The mission inputs of the training path: text codes per frame and, for attention, the
-    /// keyed queries `Q̂` ([`super::attention::keyed_queries`], computed per distinct mission;
-    /// with the null key one more column, [`super::attention::null_logits`])
-    /// and the mask, gathered per frame.
-    pub fn mission_inputs_keyed(&self, tb: &TokenBatch) -> Result<MissionInputs, PolicyError> {
-        let emb = self.embed(tb)?;
-        let text = self.encode_text(tb, &emb)?.index_select(&tb.index, 0)?;
-        let queries = if self.cfg.has_attention() {
-            let att = self.attention_weights()?;
-            let q = self.queries(&emb)?;
-            let qk = super::attention::keyed_queries(&q, &att.k)?;
-            // With the null key each row also carries its null logit, as the fused op reads it.
-            let qk = match &att.null {
-                Some(k0) => Tensor::cat(&[&qk, &super::attention::null_logits(&q, k0)?], 2)?,
-                None => qk,
-            }
-            .index_select(&tb.index, 0)?;
-            let mask = self.attention_mask(tb)?.index_select(&tb.index, 0)?;
-            Some((qk, mask))
-        } else {
-            None
-        };
-        Ok(MissionInputs { text, queries })
-    }
-
-    /// The attention's word mask (U, L) of the distinct missions: the padding mask, with the
-    /// words [`ModelConfig::attend_words`] leaves out set to 0 as well.
-    fn attention_mask(&self, tb: &TokenBatch) -> Result<Tensor, PolicyError> {
-        if self.cfg.attend_words == AttendWords::All {
-            return Ok(tb.mask.clone());
-        }
-        let (u, l) = tb.mask.dims2()?;
-        let mut mask = vec![0f32; u * l];
-        for (row, d) in mask.chunks_mut(l).zip(&tb.distinct) {
-            row[..d.len()].copy_from_slice(&self.cfg.attend_words.mask(d));
-        }
-        Ok(Tensor::from_vec(mask, (u, l), tb.mask.device())?)
-    }
-
     /// The LSTM input projection for all frames at once: `x W_ihᵀ + b_ih`, (B, 4H).
     pub fn lstm_input(&self, x: &Tensor) -> Result<Tensor, PolicyError> {
         let lstm = &self.weights.lstm;
@@ -460,20 +335,6 @@ impl Net {
         let a = Self::linear(&act::tanh(&Self::linear(&z, &actor.hidden)?)?, &actor.out)?;
         let v = Self::linear(&act::tanh(&Self::linear(&z, &critic.hidden)?)?, &critic.out)?;
         Ok((a, v.squeeze(1)?))
-    }
-
-    /// Everything that depends only on the missions: text codes and queries per frame.
-    pub fn mission_inputs(&self, tb: &TokenBatch) -> Result<MissionInputs, PolicyError> {
-        let emb = self.embed(tb)?;
-        let text = self.encode_text(tb, &emb)?.index_select(&tb.index, 0)?;
-        let queries = if self.cfg.has_attention() {
-            let q = self.queries(&emb)?.index_select(&tb.index, 0)?;
-            let mask = self.attention_mask(tb)?.index_select(&tb.index, 0)?;
-            Some((q, mask))
-        } else {
-            None
-        };
-        Ok(MissionInputs { text, queries })
     }
 
     /// One step for B frames: returns logits, values, the new memory and the visual outputs.
@@ -600,28 +461,6 @@ impl Net {
     /// Number of actions the actor scores.
     pub fn n_actions(&self) -> usize {
         Action::COUNT
-    }
-}
-
-/// Per-frame mission inputs: the GRU code (B, H_gru) and, for attention, queries and mask.
-#[derive(Clone, Debug)]
-pub struct MissionInputs {
-    /// (B, H_gru).
-    pub text: Tensor,
-    /// (B, L, d_k) queries and (B, L) word mask.
-    pub queries: Option<(Tensor, Tensor)>,
-}
-
-impl MissionInputs {
-    /// The rows `rows` (u32 indices), e.g. the environments still running.
-    pub fn select(&self, rows: &Tensor) -> Result<Self, PolicyError> {
-        Ok(Self {
-            text: self.text.index_select(rows, 0)?,
-            queries: match &self.queries {
-                Some((q, m)) => Some((q.index_select(rows, 0)?, m.index_select(rows, 0)?)),
-                None => None,
-            },
-        })
     }
 }
 

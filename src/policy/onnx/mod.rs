@@ -3,6 +3,7 @@
 //! model. Built with the `onnx` cargo feature (on by default); without it loading an `.onnx`
 //! file is a one-line error.
 
+mod acting;
 #[cfg(feature = "onnx")]
 pub mod bounds;
 pub mod contract;
