@@ -31,8 +31,8 @@ pub enum BenchCommand {
         done: bool,
     },
     /// Policy speed, one thread: batched inference steps/s at batch 1, 16 (a rollout step) and
-    /// 256, and training forward+backward frames/s on PPO minibatches (128, 256 and 2048 frames,
-    /// `--recurrence`).
+    /// 256, training forward+backward frames/s on PPO minibatches (128, 256 and 2048 frames,
+    /// `--recurrence`), and the GFLOP/s of the network's largest product alone.
     Policy {
         /// attention or baseline.
         #[arg(long, default_value = "attention")]
@@ -289,7 +289,38 @@ fn bench_policy(model: &str, secs: f64, rec: usize) -> anyhow::Result<ExitStatus
                 "recurrence": rec, "frames_per_sec": (calls * frames as f64).round(), "threads": threads})
         );
     }
+    bench_matmul(&cfg, secs, &threads)?;
     Ok(ExitStatus::Success)
+}
+
+/// The network's largest product, the LSTM input projection `(rows × 784) · (784 × 512)`,
+/// alone through candle's matmul: the arithmetic rate this core's gemm reaches, against which
+/// the training figures read (about half a training thread's time is this kernel).
+fn bench_matmul(
+    cfg: &groundscope::policy::ModelConfig,
+    secs: f64,
+    threads: &str,
+) -> anyhow::Result<()> {
+    use candle_core::{Device, Tensor};
+    let (k, n) = (
+        groundscope::policy::obs::N_CELLS * cfg.conv_channels,
+        4 * cfg.lstm_hidden,
+    );
+    let w_t = Tensor::randn(0f32, 1.0, (k, n), &Device::Cpu)?;
+    for rows in [128usize, 256, 2048] {
+        let x = Tensor::randn(0f32, 1.0, (rows, k), &Device::Cpu)?;
+        let calls = rate(secs, || {
+            black_box(x.matmul(&w_t)?);
+            Ok(())
+        })?;
+        let flops = 2.0 * (rows * k * n) as f64;
+        println!(
+            "{}",
+            serde_json::json!({"bench": "policy_matmul", "rows": rows, "inner": k, "columns": n,
+                "gflops": (calls * flops / 1e8).round() / 10.0, "threads": threads})
+        );
+    }
+    Ok(())
 }
 
 /// `bench train --threads A,B,..`: every count timed in turn, then their speed ratios.
