@@ -7,6 +7,8 @@
 //! ```
 //! The LSTM and GRU follow PyTorch's equations and gate orders (LSTM i, f, g, o; GRU r, z, n).
 
+mod mission;
+
 use std::collections::BTreeMap;
 
 use candle_core::{D, DType, Device, Tensor};
@@ -17,8 +19,6 @@ use super::error::PolicyError;
 use super::kernels::{act, times_transposed};
 use super::obs::{CellCodes, N_CELLS, TokenBatch, patch_len};
 use crate::env::world::Action;
-
-mod mission;
 
 pub use super::weights::TRANSPOSED;
 use super::weights::{Linear, Matrix, Weights};
