@@ -7,6 +7,7 @@
 # PYTHON needs envpool==1.2.5 (it installs on Python 3.11); MINIGRID_PYTHON minigrid==3.2.0.
 # ROUNDS=N (default 1) alternates the two sides N times per level; summary.py takes medians.
 # IDS="id id ..." measures those levels only (default: every BabyAI id EnvPool registers).
+# MG_RESETS=N (default 300) resets on minigrid's side, once per level (it is the slow side).
 set -euo pipefail
 bin="${1:?groundscope binary}"; py="${2:?python with envpool==1.2.5}"; mg="${3:-}"
 here="$(dirname "$0")"
@@ -18,6 +19,6 @@ for id in $ids; do
     "$py" "$here/envpool_speed.py" --env "$id" --reset-batches 60 --step-batches 200 || echo "{\"bench\":\"envpool-env\",\"level\":\"$id\",\"error\":true}"
   done
   if [ -n "$mg" ]; then
-    "$mg" "$here/../babyai_speed/minigrid_env_speed.py" --env "$id" --resets 300 --steps 3000
+    "$mg" "$here/../babyai_speed/minigrid_env_speed.py" --env "$id" --resets "${MG_RESETS:-300}" --steps 3000
   fi
 done
