@@ -295,7 +295,7 @@ fn bench_policy(model: &str, secs: f64, rec: usize) -> anyhow::Result<ExitStatus
 
 /// The network's largest product, the LSTM input projection `(rows × 784) · (784 × 512)`,
 /// alone through candle's matmul: the arithmetic rate this core's gemm reaches, against which
-/// the training figures read (about half a training thread's time is this kernel).
+/// the training figures read (gemm's kernels are about half of a training thread's time).
 fn bench_matmul(
     cfg: &groundscope::policy::ModelConfig,
     secs: f64,
