@@ -149,6 +149,12 @@ impl super::OnnxAgent {
     }
 }
 
+/// What every call of an imported graph answers in a build without the `onnx` feature.
+#[cfg(not(feature = "onnx"))]
+fn unbuilt() -> PolicyError {
+    PolicyError::Input("built without the onnx feature".into())
+}
+
 #[cfg(not(feature = "onnx"))]
 impl Acting for super::OnnxAgent {
     fn variant(&self) -> Variant {
@@ -156,11 +162,11 @@ impl Acting for super::OnnxAgent {
     }
 
     fn zero_memory(&self) -> Result<Memory, PolicyError> {
-        Err(PolicyError::Input("built without the onnx feature".into()))
+        Err(unbuilt())
     }
 
     fn prepare(&self, _tokens: &[u32]) -> Result<Option<MissionInputs>, PolicyError> {
-        Err(PolicyError::Input("built without the onnx feature".into()))
+        Err(unbuilt())
     }
 
     fn act_one(
@@ -173,15 +179,15 @@ impl Acting for super::OnnxAgent {
         _with_traces: bool,
         _intervention: Option<&Intervention>,
     ) -> Result<ActOutput, PolicyError> {
-        Err(PolicyError::Input("built without the onnx feature".into()))
+        Err(unbuilt())
     }
 
     fn zero_memory_batch(&self, _batch: usize) -> Result<Memory, PolicyError> {
-        Err(PolicyError::Input("built without the onnx feature".into()))
+        Err(unbuilt())
     }
 
     fn prepare_batch(&self, _missions: &[&[u32]]) -> Result<Option<MissionInputs>, PolicyError> {
-        Err(PolicyError::Input("built without the onnx feature".into()))
+        Err(unbuilt())
     }
 
     fn act_batch(
@@ -194,7 +200,7 @@ impl Acting for super::OnnxAgent {
         _with_traces: bool,
         _intervention: Option<&Intervention>,
     ) -> Result<ActOutput, PolicyError> {
-        Err(PolicyError::Input("built without the onnx feature".into()))
+        Err(unbuilt())
     }
 
     fn takes_interventions(&self) -> bool {
