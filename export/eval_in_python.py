@@ -71,6 +71,14 @@ def main() -> int:
         rows = list(csv.DictReader(f))
     if not rows or list(rows[0].keys())[: len(HEADER)] != HEADER:
         fail(f"{args.episodes}: not a groundscope episodes.csv (header {HEADER})")
+    # minigrid's registered levels end an episode when the instruction is satisfied; rows of
+    # groundscope's done-action mode (`--done`, the paper's) would replay in the wrong mode.
+    done_rows = [r for r in rows if r.get("done_required") == "1"]
+    if done_rows:
+        r = done_rows[0]
+        fail(f"{args.episodes}: {len(done_rows)} rows ran in the done-action mode (first: "
+             f"{r['checkpoint']} {r['level']} seed {r['level_seed']}); minigrid's registered "
+             f"levels do not require 'done', so they cannot be replayed here: evaluate without --done")
     if args.checkpoint is not None:
         rows = [r for r in rows if r["checkpoint"] == args.checkpoint]
         if not rows:

@@ -19,4 +19,6 @@ pub mod panics;
 pub mod policy;
 pub mod record;
 pub mod render;
+pub mod stats;
+pub mod study;
 pub mod table;

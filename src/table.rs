@@ -6,7 +6,7 @@
 
 use std::fmt::Display;
 
-use crate::metrics::sweep::MeanStd;
+use crate::stats::MeanStd;
 
 /// One record, built field by field.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]

@@ -24,6 +24,7 @@ fn failure(kind: &str, length: u32) -> Failure {
         target_visible_steps: None,
         m_on_target_steps: None,
         counterfactual: None,
+        counterfactual_skipped: None,
         level: None,
         done_required: Some(true),
     }

@@ -20,6 +20,7 @@ from . import _core
 from .envs import GroundscopeEnv, GroundscopeVecEnv
 
 __all__ = [
+    "__version__",
     "GroundscopeEnv",
     "GroundscopeVecEnv",
     "MINIGRID_VERSION",
@@ -31,6 +32,14 @@ __all__ = [
 ]
 
 NAMESPACE = "groundscope"
+
+try:
+    from importlib.metadata import PackageNotFoundError, version as _version
+
+    #: The installed package's version (the Rust crate's, from pyproject.toml).
+    __version__: str = _version("groundscope")
+except PackageNotFoundError:  # imported from a source tree without installing
+    __version__ = "0+unknown"
 
 #: The minigrid release the environments reproduce.
 MINIGRID_VERSION: str = _core.MINIGRID_VERSION

@@ -58,10 +58,13 @@ class GroundscopeEnv(gym.Env):
         return {"image": image, "direction": np.int64(direction), "mission": mission}, {}
 
     def step(self, action):
-        try:
-            a = int(action)
-        except (TypeError, ValueError):
-            raise TypeError(f"action must be an int 0-6, got {action!r}") from None
+        # As minigrid: an action is an integer (Python's, numpy's or a 0-d integer array);
+        # 2.7 or '2' is refused, not rounded or parsed.
+        if isinstance(action, np.ndarray) and action.shape == () and action.dtype.kind in "iub":
+            action = action.item()
+        if not isinstance(action, (int, np.integer)):
+            raise ValueError(f"Unknown action: {action!r} (actions are the integers 0-6)")
+        a = int(action)
         image, direction, mission, reward, terminated, truncated = self._core.step(a)
         obs = {"image": image, "direction": np.int64(direction), "mission": mission}
         return obs, reward, terminated, truncated, {}

@@ -153,8 +153,9 @@ pub fn evaluate(
         checkpoints: vec![CheckpointInfo {
             name: name.clone(),
             variant: variant.name().into(),
-            frames: 0,
-            level: levels[0].config,
+            // A Python policy's training is its own: not known here.
+            frames: None,
+            level: None,
             model_name: None,
         }],
         cells,
@@ -163,7 +164,7 @@ pub fn evaluate(
     let sample_arg = if sample { ", sample=True" } else { "" };
     let failures = worst_episodes(&all_eps, top_k, &|_, level, seed| {
         let id = groundscope::metrics::report::level_name(level);
-        format!("groundscope.record(act, \"{id}\", {seed}, \"episode.rrd\"{sample_arg})")
+        format!("groundscope.record(act, \"{id}\", {seed}, \"{id}-seed{seed}.rrd\"{sample_arg})")
     });
     report
         .write(&out, &failures, &episodes_csv(&all_eps))

@@ -2,6 +2,10 @@
 //! minigrid 3.2.0 ([`env`], [`vec`]); a Python callable as a policy ([`policy`]) evaluated
 //! and recorded with the core's metrics and recorders ([`eval`]); the Python side (python/groundscope/) wraps them in
 //! gymnasium's `Env` and `VectorEnv` and registers them.
+#![allow(
+    clippy::needless_pass_by_value,
+    reason = "PyO3 extracts every argument of a Python-facing function by value"
+)]
 
 mod env;
 mod eval;

@@ -50,6 +50,19 @@ impl MapLayout {
     }
 }
 
+/// The keys a callable's output dict may have.
+const OUTPUT_KEYS: [&str; 5] = [
+    "logits",
+    "values",
+    "word_maps",
+    "word_weights",
+    "combined_map",
+];
+
+/// How far a map's sum may stray from 1 (float32 softmaxes sum within 1e-6; a map normalised
+/// in float16 within about 1e-3).
+const MAP_SUM_TOLERANCE: f32 = 1e-2;
+
 /// The batch the callable sees (full size, fixed rows).
 #[derive(Default)]
 struct Batch {
@@ -180,6 +193,23 @@ impl<'py> PyPolicy<'py> {
     ) -> PyResult<Outputs> {
         let n = self.batch.borrow().missions.len();
         let dict = out.cast::<PyDict>().ok();
+        if let Some(d) = &dict {
+            // A misspelt key would otherwise drop its output in silence ('wordmaps': no maps).
+            for key in d.keys() {
+                let name: String = key.str()?.extract()?;
+                if !OUTPUT_KEYS.contains(&name.as_str()) {
+                    let close = OUTPUT_KEYS
+                        .iter()
+                        .min_by_key(|k| groundscope::env::babyai::registry::edit_distance(k, &name))
+                        .copied()
+                        .unwrap_or("logits");
+                    return Err(PyValueError::new_err(format!(
+                        "act returned an unknown key {name:?} (did you mean {close:?}? the keys are {})",
+                        OUTPUT_KEYS.join(", ")
+                    )));
+                }
+            }
+        }
         let get = |key: &str| -> PyResult<Option<Bound<'py, PyAny>>> {
             match &dict {
                 Some(d) => Ok(d.get_item(key)?.filter(|v| !v.is_none())),
@@ -274,10 +304,28 @@ impl<'py> PyPolicy<'py> {
                         "act returned a negative or non-finite {what} in row {r}"
                     )));
                 }
+                // The metrics' thresholds (α / n) assume a distribution over the view: an
+                // all-ones map would score every object as found.
+                let sum: f32 = cells.iter().sum();
+                if (sum - 1.0).abs() > MAP_SUM_TOLERANCE {
+                    return Err(PyValueError::new_err(format!(
+                        "act returned a {what} in row {r} that sums to {sum}: maps must be distributions over the 7×7 view (sum 1 ± {MAP_SUM_TOLERANCE}; a softmax over the 49 cells)"
+                    )));
+                }
                 Ok(self.to_agent_up(cells))
             };
+            let mission_words: Vec<&str> = tokens[k]
+                .iter()
+                .map(|&t| groundscope::env::vocab::word(t).unwrap_or("?"))
+                .collect();
             let words_maps = (0..words)
-                .map(|w| map_at(&maps, "word_maps", r * l + w))
+                .map(|w| {
+                    map_at(
+                        &maps,
+                        &format!("word_maps[{r}][{w}] (word {:?})", mission_words[w]),
+                        r * l + w,
+                    )
+                })
                 .collect::<PyResult<Vec<_>>>()?;
             let row_weights = weights
                 .as_ref()

@@ -92,6 +92,11 @@ fn image_slice<'a>(a: &'a mut PyReadwriteArray4<'_, u8>, n: usize) -> PyResult<&
         .map_err(|_| PyValueError::new_err("image must be a contiguous array"))
 }
 
+/// The most envs one vector holds (each about 10 KB: 640 MB at the bound).
+pub const MAX_ENVS: usize = 1 << 16;
+/// The most threads a vector steps on.
+pub const MAX_THREADS: usize = 1024;
+
 #[pymethods]
 impl VecEnv {
     /// `num_envs` envs of level `id`, stepped on `num_threads` threads (0: one per core;
@@ -101,6 +106,18 @@ impl VecEnv {
     fn new(id: &str, num_envs: usize, num_threads: usize) -> PyResult<Self> {
         if num_envs == 0 {
             return Err(PyValueError::new_err("num_envs must be at least 1, got 0"));
+        }
+        // Past these a vector does not fit in memory (an env holds its grid and generator) or
+        // the system stalls creating threads; refused before anything is allocated.
+        if num_envs > MAX_ENVS {
+            return Err(PyValueError::new_err(format!(
+                "num_envs must be at most {MAX_ENVS}, got {num_envs}"
+            )));
+        }
+        if num_threads > MAX_THREADS {
+            return Err(PyValueError::new_err(format!(
+                "num_threads must be at most {MAX_THREADS}, got {num_threads}"
+            )));
         }
         let level = Level::parse_py(id)?;
         let threads = if num_threads == 0 {

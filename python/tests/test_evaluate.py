@@ -106,7 +106,33 @@ def test_report_files_as_the_cli_writes_them(tmp_path):
     assert [c["episodes"] for c in report["cells"]] == [4, 4]
     levels = {r["level"] for r in episodes(out)}
     assert levels == {LEVEL, "groundscope-PaperLocalS8N4-v0"}
-    assert "python" in (out / "report.md").read_text()
+    md = (out / "report.md").read_text()
+    assert "python" in md
+
+
+def test_a_python_policys_report_invents_no_training_facts_and_gives_runnable_replays(tmp_path):
+    out = tmp_path / "run"
+    report = groundscope.evaluate(reactive, [LEVEL], seeds=1, episodes=6, out=out, top_k=3)
+    ckpt = report["checkpoints"][0]
+    # Its training is its own: not known here, and said so (it used to read "0 training
+    # frames, trained on <the first level evaluated>").
+    assert ckpt["frames"] is None and ckpt["level"] is None
+    md = (out / "report.md").read_text()
+    assert "training frames not known" in md and "training levels not known" in md
+    assert "0 training frames" not in md
+    failures = json.loads((out / "failures.json").read_text())
+    assert failures, "the reactive policy fails some GoToLocal episodes"
+    for f in failures:
+        # The replay is a Python call that runs as written (with `act` the policy), and the
+        # episode opens in the Rerun viewer on the file it writes; no CLI flag glued to it.
+        call = f["replay"]
+        assert call.startswith(f'groundscope.record(act, "{LEVEL}", {f["seed"]}, "'), call
+        assert "--step" not in md.split(call)[1].split("\n")[0]
+        path = tmp_path / f"{LEVEL}-seed{f['seed']}.rrd"
+        act = reactive  # noqa: F841  (the name the call uses)
+        ok, steps, _ = eval(call.replace('"' + path.name + '"', repr(str(path))))
+        assert path.stat().st_size > 0 and steps == f["length"]
+        assert f"rerun {path.name}" in md
 
 
 def test_the_callables_exception_propagates_and_nothing_is_written(tmp_path):
@@ -127,6 +153,13 @@ def test_the_callables_exception_propagates_and_nothing_is_written(tmp_path):
         (lambda n: {"logits": np.zeros((n, 7)), "word_maps": np.zeros((n, 1, 7, 7))}, "word_maps"),
         (lambda n: {"logits": np.zeros((n, 7)), "word_maps": -np.ones((n, 9, 7, 7))}, "negative"),
         (lambda n: "left", "logits"),
+        # All-ones maps used to score acc = acc_ng = 1.0: maps are distributions, or refused.
+        (lambda n: {"logits": np.zeros((n, 7)), "word_maps": np.ones((n, 9, 7, 7))}, "sums to 49"),
+        (lambda n: {"logits": np.zeros((n, 7)), "combined_map": np.ones((n, 7, 7)),
+                    "word_maps": np.full((n, 9, 7, 7), 1 / 49)}, "combined_map"),
+        # A misspelt key used to drop its output in silence.
+        (lambda n: {"logits": np.zeros((n, 7)), "wordmaps": np.zeros((n, 9, 7, 7))},
+         "unknown key 'wordmaps'.*did you mean 'word_maps'"),
     ],
 )
 def test_bad_outputs_are_one_line_value_errors(tmp_path, output, word):

@@ -133,3 +133,14 @@ def test_bad_inputs_are_one_line_errors_and_change_nothing():
     o, *_ = envs.step(np.array([2, 2, 2]))
     o_ref, *_ = ref.step(np.array([2, 2, 2]))
     assert_batch_equal(o, o_ref, "after refused steps")
+
+
+def test_sizes_past_memory_and_thread_bounds_are_refused_not_aborted():
+    # 10**12 envs used to abort the interpreter on allocation; 20000 threads used to hang.
+    with pytest.raises(ValueError, match="num_envs must be at most"):
+        groundscope.make_vec("BabyAI-GoToLocal-v0", 10**12)
+    with pytest.raises(ValueError, match="num_threads must be at most"):
+        groundscope.make_vec("BabyAI-GoToLocal-v0", 4, num_threads=20000)
+    envs = groundscope.make_vec("BabyAI-GoToLocal-v0", 4, num_threads=64)
+    envs.reset(seed=0)
+    envs.step(np.zeros(4, np.int64))

@@ -299,6 +299,57 @@ impl Expert {
     }
 }
 
+/// What the bot labels of a level, run alone from the given level seeds: the steps it advised
+/// (an imitation run's labelled frames), the steps the episodes would have lasted (past a
+/// give-up, to the horizon: frames a run spends without a label) and the episodes it gave up.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct LabelShare {
+    /// Steps the bot advised.
+    pub labelled: u64,
+    /// Steps in all: advised, plus each give-up's remaining steps to the horizon.
+    pub steps: u64,
+    /// Episodes where it gave up before the end.
+    pub gave_up: u64,
+    /// Episodes probed.
+    pub episodes: u64,
+}
+
+impl LabelShare {
+    /// The labelled share of the steps (0 when there were none).
+    pub fn share(&self) -> f64 {
+        self.labelled as f64 / self.steps.max(1) as f64
+    }
+}
+
+/// [`LabelShare`] of `level` on `seeds`: the bot acts until the episode ends or it gives up
+/// (KeyInBox's key hidden in a box: it explores a few steps, then has no plan).
+pub fn label_share(
+    level: &crate::env::LevelConfig,
+    seeds: impl IntoIterator<Item = u64>,
+) -> Result<LabelShare, crate::env::EnvError> {
+    let mut out = LabelShare::default();
+    for seed in seeds {
+        let mut world = level.generate(seed)?;
+        let mut expert = Expert::new(&world);
+        out.episodes += 1;
+        while !world.ended() {
+            let Some(action) = expert.advise(&world, &world.observe()) else {
+                out.gave_up += 1;
+                out.steps += u64::from(world.max_steps.saturating_sub(world.step_count));
+                break;
+            };
+            out.labelled += 1;
+            out.steps += 1;
+            let outcome = world.step(action)?;
+            expert.told(action);
+            if outcome.terminated || outcome.truncated {
+                break;
+            }
+        }
+    }
+    Ok(out)
+}
+
 /// The bot alone from `world` to the end of the episode: how many actions it took and
 /// whether it succeeded (`None` where it gave up before the end).
 pub fn solo_length(mut world: World) -> Option<(usize, bool)> {

@@ -26,9 +26,9 @@ pub enum BenchCommand {
         /// A BabyAI level by its gym id (default: the paper's level), in its registered mode.
         #[arg(long, value_name = "ID")]
         level: Option<String>,
-        /// The paper's done-action mode on `--level` (episodes then end at the first `done`).
-        #[arg(long)]
-        done: bool,
+        /// `--done` / `--no-done`, as every command that runs a level takes them.
+        #[command(flatten)]
+        done: super::flags::DoneArgs,
     },
     /// Policy speed, one thread: batched inference steps/s at batch 1, 16 (a rollout step) and
     /// 256, training forward+backward frames/s on PPO minibatches (128, 256 and 2048 frames,
@@ -63,6 +63,17 @@ pub enum BenchCommand {
             default_value = "1"
         )]
         threads: String,
+    },
+    /// Studies on this machine's cores: `--runs` trainings of the paper's recipe (one thread
+    /// each, as a study's runs), first one alone and then all at once; the aggregate frames/s
+    /// of each, their ratio and each run's peak memory.
+    Study {
+        /// Concurrent runs [default: one per core].
+        #[arg(long)]
+        runs: Option<usize>,
+        /// Frames each run trains (whole updates of 2,048 frames).
+        #[arg(long, default_value_t = 20_480, allow_negative_numbers = true)]
+        frames: u64,
     },
     /// Recording speed and size: the bundled attention checkpoint's episodes on consecutive
     /// seeds written as `.rrd` and as MCAP (episodes are run first and not timed).
@@ -106,6 +117,12 @@ pub fn run(cmd: &BenchCommand) -> anyhow::Result<ExitStatus> {
             frames,
             threads,
         } => bench_train_counts(model, *frames, threads),
+        BenchCommand::Study { runs, frames } => super::study_run::bench_study(
+            *frames,
+            runs.unwrap_or_else(|| {
+                std::thread::available_parallelism().map_or(1, std::num::NonZero::get)
+            }),
+        ),
         BenchCommand::Policy {
             model,
             secs,
@@ -137,7 +154,7 @@ fn bench_env(
     steps: u64,
     resets: u64,
     level: Option<&str>,
-    done: bool,
+    done: super::flags::DoneArgs,
 ) -> anyhow::Result<ExitStatus> {
     if steps == 0 {
         anyhow::bail!("--steps 0: must be at least 1");
@@ -145,10 +162,10 @@ fn bench_env(
     if resets == 0 {
         anyhow::bail!("--resets 0: must be at least 1");
     }
-    let cfg = match level {
-        Some(id) => LevelConfig::babyai(groundscope::env::LevelId::parse(id)?, done),
+    let cfg = done.apply(match level {
+        Some(id) => LevelConfig::babyai(groundscope::env::LevelId::parse(id)?, false),
         None => LevelConfig::default(),
-    };
+    });
     // Seeds minigrid loops forever on have no level: passed over, and counted.
     let mut endless = 0u64;
     let mut generate = |seed: u64| -> anyhow::Result<Option<groundscope::env::World>> {

@@ -40,7 +40,7 @@ const DEFAULT_LEVELS: [&str; 20] = [
 /// `bench levels`.
 #[derive(Debug, Args)]
 pub struct BenchLevelsArgs {
-    /// The checkpoint (NAME, run directory, bundled:… or FILE.onnx).
+    /// The checkpoint (NAME, run directory, bundled:…, FILE.onnx or bot).
     #[arg(long, default_value = "bundled:attention", value_name = "NAME")]
     pub checkpoint: String,
     /// The levels to sweep [default: twenty levels of the paper's words, one room to nine].

@@ -29,8 +29,8 @@ use crate::ExitStatus;
 )]
 pub struct EvalArgs {
     /// Checkpoints to evaluate (repeatable): NAME, a run directory (its model),
-    /// bundled:attention / bundled:baseline or an ONNX graph FILE.onnx [default: both bundled
-    /// ones].
+    /// bundled:attention / bundled:baseline / bundled:babyai, an ONNX graph FILE.onnx or
+    /// `bot` (minigrid's BabyAI bot) [default: both bundled ones].
     #[arg(long, value_name = "NAME")]
     pub checkpoint: Vec<String>,
     /// Report directory: report.json, report.md, CSVs, PNG figures, failures.json.
@@ -185,9 +185,9 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitStatus> {
             .iter()
             .map(|(n, c)| CheckpointInfo {
                 name: n.clone(),
-                variant: c.acting().variant().name().into(),
+                variant: c.kind_name().into(),
                 frames: c.frames(),
-                level: c.level(),
+                level: c.trained_level(),
                 model_name: c.acting().model_name(),
             })
             .collect(),
@@ -216,7 +216,12 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitStatus> {
         Stop::report(&args.out);
         return Ok(ExitStatus::Interrupted);
     }
-    counterfactuals?;
+    let skipped = counterfactuals?;
+    if skipped > 0 {
+        println!(
+            "{skipped} failed episode(s) could not be re-run without distractors; report.md says why on each row"
+        );
+    }
     report.write(&args.out, &failures, &episodes_csv(&all_eps))?;
     let failures_dir = args.out.join("failures");
     if args.export_failures {
@@ -366,13 +371,17 @@ fn run_cells(
 }
 
 /// Fills in the counterfactual verdict of every listed failed episode: its level seed re-run
-/// (same checkpoint, mission and action mode) with the non-target objects removed.
+/// (same checkpoint, mission and action mode) with the non-target objects removed. One that
+/// cannot be built (a level whose instruction no longer resolves once the distractors are
+/// gone) is marked on its row and counted, and the others go on: a sweep never loses its
+/// report to one episode. Returns how many were skipped.
 fn add_counterfactuals(
     failures: &mut [groundscope::metrics::report::Failure],
     ckpts: &[(String, Agent)],
     mode: ActionMode,
     stop: &Stop,
-) -> anyhow::Result<()> {
+) -> anyhow::Result<usize> {
+    let mut skipped = 0;
     for f in failures.iter_mut().filter(|f| f.class.is_some()) {
         let Some((name, ckpt)) = ckpts.iter().find(|(n, _)| *n == f.checkpoint) else {
             continue;
@@ -383,12 +392,16 @@ fn add_counterfactuals(
             mission: None,
             mode,
         };
-        f.counterfactual = Some(
-            counterfactual(&stop.guard(ckpt.acting()), name, &spec)
-                .with_context(|| format!("counterfactual of {name} seed {}", f.seed))?,
-        );
+        match counterfactual(&stop.guard(ckpt.acting()), name, &spec) {
+            Ok(c) => f.counterfactual = Some(c),
+            Err(_) if stop.requested() => break,
+            Err(e) => {
+                f.counterfactual_skipped = Some(e.to_string());
+                skipped += 1;
+            }
+        }
     }
-    Ok(())
+    Ok(skipped)
 }
 
 /// Replays every failure (the same level, seed and action mode as in the sweep) and records

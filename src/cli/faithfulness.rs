@@ -42,7 +42,8 @@ pub enum Part {
     mut_arg("objects", |a| a.default_value("4")))]
 pub struct FaithfulnessArgs {
     /// Checkpoints (repeatable): NAME, a run directory (its model), bundled:NAME or an ONNX
-    /// graph FILE.onnx (docs/onnx.md) [default: bundled:attention].
+    /// graph FILE.onnx (docs/onnx.md) [default: bundled:attention]; not `bot`, which has no
+    /// network to probe.
     #[arg(long, value_name = "NAME")]
     pub checkpoint: Vec<String>,
     /// Output directory.

@@ -15,6 +15,8 @@ mod model_options;
 mod policy_cmd;
 mod replay;
 mod stop;
+mod study;
+mod study_run;
 mod train;
 mod train_start;
 mod validate;
@@ -43,7 +45,7 @@ pub struct Cli {
 pub enum Command {
     /// Open the interactive debugger (the default without a subcommand).
     View(Box<view::ViewArgs>),
-    /// Inspect and check the world: `env show`, `env verify`.
+    /// The world: `env list` (the 96 BabyAI levels), `env show`, `env verify`.
     #[command(subcommand)]
     Env(env_cmd::EnvCommand),
     /// Write a freshly, deterministically initialised checkpoint.
@@ -51,8 +53,8 @@ pub enum Command {
     /// Run a checkpoint on episodes and show what it saw and attended to: a JSON trace, Rerun
     /// (`--save`, `--spawn`, `--connect`) and MCAP.
     Replay(replay::ReplayArgs),
-    /// Evaluate checkpoints over room sizes × object counts: performance, grounding accuracies,
-    /// reports and figures.
+    /// Evaluate checkpoints over room sizes × object counts, or over BabyAI levels (`--levels`):
+    /// performance, grounding accuracies, reports and figures.
     Eval(Box<eval::EvalArgs>),
     /// Test whether the attention explains the behaviour: occlusion, deletion/insertion,
     /// interventions on M, closed-loop re-runs, counterfactual worlds, localisation; each
@@ -84,6 +86,10 @@ pub enum Command {
         #[arg(long, value_enum, default_value = "acc-ng")]
         accuracy: curve::Accuracy,
     },
+    /// Studies: seeds × recipes × levels planned into command lines, run here N at a time,
+    /// on Slurm or on Ray, and collected into one report (docs/studies.md).
+    #[command(subcommand)]
+    Study(study::StudyCommand),
     /// Speed benchmarks that print JSON lines.
     #[command(
         subcommand,
@@ -109,6 +115,7 @@ pub fn run(cli: Cli, matches: &clap::ArgMatches) -> anyhow::Result<ExitStatus> {
         } => curve::curve(&logs, &out, accuracy),
         Command::Init(args) => policy_cmd::init(&args),
         Command::Replay(args) => replay::replay(&args),
+        Command::Study(cmd) => study::run(&cmd),
     }
 }
 

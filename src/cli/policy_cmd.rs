@@ -40,7 +40,12 @@ pub fn parse_variant(s: &str) -> anyhow::Result<Variant> {
 pub fn init(args: &InitArgs) -> anyhow::Result<ExitStatus> {
     let variant = parse_variant(&args.model)?;
     let level = args.level.config()?;
-    let cfg = args.model_options.apply(ModelConfig::new(variant))?;
+    // A model made for a BabyAI level gets rows for all of BabyAI's words, as `train --level`
+    // gives it: the paper's 25 would refuse the level it was made for.
+    let cfg = args.model_options.apply(ModelConfig {
+        vocab_size: ModelConfig::vocab_size_for(&level),
+        ..ModelConfig::new(variant)
+    })?;
     cfg.validate()?;
     let params = Params::init(&cfg, args.seed)?;
     let n = params.count();

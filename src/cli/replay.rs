@@ -35,8 +35,8 @@ const DEFAULT_VIEWER_URL: &str = "rerun+http://127.0.0.1:9876/proxy";
     mut_arg("room_size", |a| a.alias("size")))]
 pub struct ReplayArgs {
     /// Checkpoint: NAME (NAME.json + NAME.safetensors), a run directory (its model),
-    /// bundled:attention / bundled:baseline or an ONNX graph FILE.onnx [default:
-    /// bundled:attention].
+    /// bundled:attention / bundled:baseline / bundled:babyai, an ONNX graph FILE.onnx or `bot`
+    /// (minigrid's BabyAI bot) [default: bundled:attention].
     #[arg(long, value_name = "NAME")]
     pub checkpoint: Option<String>,
     /// Number of episodes, on consecutive seeds from --seed.

@@ -297,6 +297,77 @@ fn log_rows_upto(path: &Path, header: &str, updates: u64) -> String {
     rows
 }
 
+/// The rows of a resumed run's log `path` for updates `1..=updates`, refusing a log that does
+/// not match the checkpoint: missing, not a regular file (a FIFO would block the read), not a
+/// training log, a row that is not one (garbage, a line cut short inside the file), or — for
+/// `log.csv` (`every_update`) — updates that do not run one by one up to the checkpoint's (a
+/// deleted row, a short log). The last line alone may be cut short: a crash while it was
+/// being appended leaves it so, and its update is one the checkpoint does not hold.
+fn resume_log_rows(
+    path: &Path,
+    header: &str,
+    updates: u64,
+    every_update: bool,
+) -> anyhow::Result<String> {
+    let shown = path.display();
+    let fix = "restore it, or start a new run from this one's weights with --init";
+    let text = groundscope::files::read_regular_to_string(path)
+        .map_err(|e| anyhow::anyhow!("--resume: {shown}: {e}; {fix}"))?;
+    let mut lines: Vec<&str> = text.split('\n').collect();
+    // What follows the last newline: empty, or a row cut short by a crash.
+    lines.pop();
+    let mut lines = lines.into_iter().enumerate();
+    let pad = match lines.next() {
+        Some((_, h)) if h == header => "",
+        Some((_, h)) if h == EVAL_LOG_HEADER_V1 && header == EVAL_LOG_HEADER => ",",
+        _ => anyhow::bail!(
+            "--resume: {shown} is not a training log (its header is not {header:?}); {fix}"
+        ),
+    };
+    let fields = header.split(',').count() - pad.len();
+    let mut rows = String::new();
+    let mut last = None;
+    for (i, line) in lines {
+        let update = line
+            .split(',')
+            .next()
+            .and_then(|u| u.parse::<u64>().ok())
+            .filter(|_| line.split(',').count() == fields);
+        let Some(update) = update else {
+            anyhow::bail!(
+                "--resume: {shown} line {}: not a row of the log; {fix}",
+                i + 1
+            );
+        };
+        if update > updates {
+            break;
+        }
+        let in_order = match last {
+            None => true,
+            Some(l) if every_update => update == l + 1,
+            Some(l) => update >= l,
+        };
+        if !in_order {
+            anyhow::bail!(
+                "--resume: {shown} line {}: update {update} follows update {}; the log does not match the checkpoint; {fix}",
+                i + 1,
+                last.unwrap_or(0)
+            );
+        }
+        last = Some(update);
+        rows.push_str(line);
+        rows.push_str(pad);
+        rows.push('\n');
+    }
+    if every_update && updates > 0 && last != Some(updates) {
+        anyhow::bail!(
+            "--resume: {shown} ends at update {}, and the checkpoint is at update {updates}; the log does not match it; {fix}",
+            last.unwrap_or(0)
+        );
+    }
+    Ok(rows)
+}
+
 /// The tracked held-out evaluation of one update: a row per level, and for a `--levels`
 /// run a row of their mean, appended to `eval_log.csv` in one write.
 fn tracked_eval(
@@ -357,8 +428,12 @@ pub fn run(args: &TrainArgs, matches: Option<&ArgMatches>) -> anyhow::Result<Exi
     if !args.resume {
         // Everything a new run can get wrong is refused before its directory is made.
         model.validate()?;
-        ppo_config(args, model.word_temperature.0)?.validate()?;
-        level_mix(args)?;
+        let ppo = ppo_config(args, model.word_temperature.0)?;
+        ppo.validate()?;
+        let levels = level_mix(args)?;
+        if ppo.imitate {
+            check_labels(&levels)?;
+        }
     }
     let created = !args.out.exists();
     let had_checkpoints = args.out.join("checkpoints").exists();
@@ -398,6 +473,48 @@ pub fn run(args: &TrainArgs, matches: Option<&ArgMatches>) -> anyhow::Result<Exi
     result
 }
 
+/// How many of each level's first training episodes `--imitate` runs the bot on before
+/// training.
+const LABEL_CHECK_EPISODES: u64 = 20;
+
+/// Below this share of labelled steps a level gives imitation (almost) nothing to learn from.
+const LABEL_SHARE_MIN: f64 = 0.01;
+
+/// Imitation learns only from the steps the bot advises. The bot is run alone on each level's
+/// first training episodes: a level where it labels under [`LABEL_SHARE_MIN`] of the steps
+/// (it gives up at once or nearly, as on KeyInBox) is named in a warning with its share; a run
+/// where every level is so is refused rather than trained on nothing.
+fn check_labels(levels: &groundscope::policy::ppo::LevelMix) -> anyhow::Result<()> {
+    use groundscope::policy::ppo::TRAIN_SEED_OFFSET;
+    let seeds = TRAIN_SEED_OFFSET..TRAIN_SEED_OFFSET + LABEL_CHECK_EPISODES;
+    let mut silent = Vec::new();
+    for e in levels.entries() {
+        let share = groundscope::bot::label_share(&e.level, seeds.clone())?;
+        if share.share() < LABEL_SHARE_MIN {
+            silent.push(format!(
+                "{} ({} of {} steps labelled; the bot gave up on {} of {} episodes)",
+                groundscope::metrics::report::level_name(&e.level),
+                share.labelled,
+                share.steps,
+                share.gave_up,
+                share.episodes
+            ));
+        }
+    }
+    if silent.len() == levels.entries().len() {
+        anyhow::bail!(
+            "--imitate: the bot labels almost nothing of {}: imitation would learn from no labelled frame",
+            silent.join("; ")
+        );
+    }
+    for what in silent {
+        eprintln!(
+            "groundscope: warning: --imitate: the bot labels almost nothing of {what}: its episodes give imitation no labels"
+        );
+    }
+    Ok(())
+}
+
 /// Refuses a directory this process cannot write into.
 fn writable(dir: &Path) -> anyhow::Result<()> {
     let probe = tempfile::NamedTempFile::new_in(dir)
@@ -419,10 +536,14 @@ fn train_in(
     let (mut trainer, seed, kept, track) = if args.resume {
         let (trainer, seed, kept, saved) = resume_run(args, matches, variant)?;
         let u = trainer.state.updates;
-        let rows = log_rows_upto(&log_path, LOG_HEADER, u);
+        // Both logs are checked before either is rewritten.
+        let rows = resume_log_rows(&log_path, LOG_HEADER, u, true)?;
+        let eval_rows = resume_log_rows(&eval_path, EVAL_LOG_HEADER, u, false)?;
         write_atomic(&log_path, format!("{LOG_HEADER}\n{rows}").as_bytes())?;
-        let rows = log_rows_upto(&eval_path, EVAL_LOG_HEADER, u);
-        write_atomic(&eval_path, format!("{EVAL_LOG_HEADER}\n{rows}").as_bytes())?;
+        write_atomic(
+            &eval_path,
+            format!("{EVAL_LOG_HEADER}\n{eval_rows}").as_bytes(),
+        )?;
         (trainer, seed, Some(kept), tracking(args, matches, saved))
     } else {
         if run_dir::holds_run(&args.out) {
@@ -541,7 +662,7 @@ fn train_in(
                 args.quiet,
             )?;
         }
-        if log.update % args.save_interval == 0 {
+        if log.update % track.save_interval.unwrap_or(args.save_interval) == 0 {
             save_run(
                 &trainer,
                 &args.out,

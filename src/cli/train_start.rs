@@ -34,6 +34,11 @@ pub(super) fn tracking(
             args.eval_episodes,
             run.map(|t| t.eval_episodes),
         ),
+        save_interval: Some(pick(
+            "save_interval",
+            args.save_interval,
+            run.and_then(|t| t.save_interval),
+        )),
     }
 }
 
@@ -44,6 +49,13 @@ pub(super) fn resume_run(
     variant: groundscope::policy::Variant,
 ) -> anyhow::Result<(Trainer, u64, TrainingState, Option<Tracking>)> {
     let dir = &args.out;
+    if !run_dir::holds_run(dir) {
+        // A run stopped before its first save leaves log rows and no checkpoint.
+        anyhow::bail!(
+            "--resume: {} holds no checkpoint to resume (a run stopped before its first save); start it again without --resume",
+            dir.display()
+        );
+    }
     let (trainer, info) = run_dir::load_latest(dir)?;
     if info.variant != variant && given(matches, "model") {
         anyhow::bail!(
@@ -74,6 +86,12 @@ pub(super) fn warm_start(
     args: &TrainArgs,
     matches: Option<&ArgMatches>,
 ) -> anyhow::Result<Trainer> {
+    if name == groundscope::policy::acting::BOT {
+        anyhow::bail!(
+            "--init bot: the bot is a planner with no network weights to start from; to learn \
+             from it, train with --imitate"
+        );
+    }
     if groundscope::policy::onnx::is_onnx(std::path::Path::new(name)) {
         anyhow::bail!(
             "--init {name}: an ONNX graph cannot seed training (it carries no trainable \
@@ -102,6 +120,7 @@ pub(super) fn warm_start(
             anyhow::bail!("--init: {name} was trained with --{flag} {theirs}, not --{flag} {now}");
         }
     }
+    check_words(name, ckpt.meta.model.vocab_size, &levels)?;
     // A schedule starts from the temperature the parent was trained at.
     let mut ppo = ppo;
     if let Some(a) = &mut ppo.temperature_anneal {
@@ -116,6 +135,46 @@ pub(super) fn warm_start(
         ckpt.meta.training.frames,
         ckpt.meta.training.updates,
     )?)
+}
+
+/// How many missions of each level `--init`'s check reads for a word the parent lacks: the
+/// levels' grammars show every word class within a few dozen seeds.
+const WORD_CHECK_SEEDS: u64 = 200;
+
+/// Refuses `--init` from a model with fewer word rows than the levels need, naming a word of
+/// their missions it cannot read (found in the first [`WORD_CHECK_SEEDS`] missions of each
+/// level): such a run would otherwise fail at the first mission that uses it, updates later,
+/// and its `--resume` at once.
+fn check_words(
+    name: &str,
+    known: usize,
+    levels: &groundscope::policy::ppo::LevelMix,
+) -> anyhow::Result<()> {
+    use groundscope::policy::ModelConfig;
+    for entry in levels.entries() {
+        let level = &entry.level;
+        if known >= ModelConfig::vocab_size_for(level) {
+            continue;
+        }
+        let shown = || groundscope::metrics::report::level_name(level);
+        for seed in 0..WORD_CHECK_SEEDS {
+            let world = level
+                .generate(seed)
+                .with_context(|| format!("--init {name}: level {} seed {seed}", shown()))?;
+            let tokens = groundscope::env::vocab::tokenize_on_level(&world.mission, shown)?;
+            if let Some(&t) = tokens.iter().find(|&&t| t as usize >= known) {
+                anyhow::bail!(
+                    "--init {name}: the model knows the paper's {} words, and level {} uses \
+                     {:?} (mission {:?}); warm-start from a model trained on a BabyAI level",
+                    known - 1,
+                    shown(),
+                    groundscope::env::vocab::word(t).unwrap_or("?"),
+                    world.mission
+                );
+            }
+        }
+    }
+    Ok(())
 }
 
 /// Whether flag `id` was given on the command line rather than left at its default.
@@ -255,13 +314,16 @@ impl Fixed {
                 );
             }
         }
-        for (id, on) in [
-            ("no_done", !l.done_required),
-            ("always_color", !l.color_optional),
+        // One rule for the mode flags: a flag that says what the run already does is
+        // accepted, one that contradicts it is refused (never silently ignored).
+        for (id, on, mode) in [
+            ("no_done", !l.done_required, "in the done-action mode"),
+            ("done", l.done_required, "without the done action"),
+            ("always_color", !l.color_optional, "without --always-color"),
         ] {
             if given(matches, id) && !on {
                 anyhow::bail!(
-                    "{how}: the run in {} was started without --{}",
+                    "{how}: the run in {} was started {mode}, not with --{}; leave the flag out to keep the run's mode",
                     dir.display(),
                     id.replace('_', "-")
                 );

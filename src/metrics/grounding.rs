@@ -76,9 +76,78 @@ pub struct Accuracies {
     /// The fraction of objects whose cell at each offset of [`AROUND`] is `≥ τ`.
     #[serde(default)]
     pub around: [f64; 9],
+    /// The pointing game: whether the map's largest cell is on a related object (ties shared:
+    /// the fraction of the largest cells that are related).
+    #[serde(default)]
+    pub pointing: f64,
+    /// Relevance mass: the map's mass on the related objects' cells.
+    #[serde(default)]
+    pub mass: f64,
+    /// Chance: a uniform map's values on the same objects.
+    #[serde(default)]
+    pub chance: Chance,
+}
+
+/// What a uniform map (1/49 on every cell) scores on the same objects: the rate each figure
+/// of [`Accuracies`] is read against. Its pointing game and its mass are both `n / 49`; its
+/// `acc` is 0 unless the objects are so many that `α / n ≤ 1/49`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Chance {
+    /// A uniform map's `acc`.
+    pub acc: f64,
+    /// Its `acc_ng`.
+    pub acc_ng: f64,
+    /// Its `acc_bs`.
+    pub acc_bs: f64,
+    /// Its `acc_cmb`.
+    pub acc_cmb: f64,
+    /// Its pointing game.
+    pub pointing: f64,
+    /// Its relevance mass.
+    pub mass: f64,
+}
+
+impl Chance {
+    fn values(self) -> [f64; 6] {
+        [
+            self.acc,
+            self.acc_ng,
+            self.acc_bs,
+            self.acc_cmb,
+            self.pointing,
+            self.mass,
+        ]
+    }
+
+    fn from_values(v: [f64; 6]) -> Self {
+        Self {
+            acc: v[0],
+            acc_ng: v[1],
+            acc_bs: v[2],
+            acc_cmb: v[3],
+            pointing: v[4],
+            mass: v[5],
+        }
+    }
 }
 
 impl Accuracies {
+    /// The six figures in report order: the paper's four, the pointing game, relevance mass.
+    pub fn all_values(&self) -> [f64; 6] {
+        [
+            self.acc,
+            self.acc_ng,
+            self.acc_bs,
+            self.acc_cmb,
+            self.pointing,
+            self.mass,
+        ]
+    }
+
+    /// Names of [`Self::all_values`], in report order.
+    pub const ALL_NAMES: [&'static str; 6] =
+        ["acc", "acc_ng", "acc_bs", "acc_cmb", "pointing", "mass"];
+
     /// The four values in report order.
     pub fn values(&self) -> [f64; 4] {
         [self.acc, self.acc_ng, self.acc_bs, self.acc_cmb]
@@ -96,6 +165,10 @@ impl Accuracies {
         for (a, b) in self.around.iter_mut().zip(o.around) {
             *a += b;
         }
+        self.pointing += o.pointing;
+        self.mass += o.mass;
+        let (c, d) = (self.chance.values(), o.chance.values());
+        self.chance = Chance::from_values(std::array::from_fn(|i| c[i] + d[i]));
     }
 
     /// Element-wise division.
@@ -107,6 +180,9 @@ impl Accuracies {
             acc_bs: self.acc_bs / by,
             acc_cmb: self.acc_cmb / by,
             around: self.around.map(|a| a / by),
+            pointing: self.pointing / by,
+            mass: self.mass / by,
+            chance: Chance::from_values(self.chance.values().map(|c| c / by)),
         }
     }
 }
@@ -194,16 +270,83 @@ pub fn object_hits(map: &ViewMap, objects: &[ViewCell], alpha: f64) -> Vec<Objec
         .collect()
 }
 
-/// The four accuracies of `map` on `objects` at threshold `α / n`; `None` when there is no
-/// related object (the step is not evaluated).
+/// The uniform map: chance.
+pub const UNIFORM_MAP: ViewMap = [[1.0 / 49.0; VIEW_SIZE]; VIEW_SIZE];
+
+/// Every figure of `map` on `objects` at threshold `α / n`, with chance beside them; `None`
+/// when there is no related object (the step is not evaluated).
 pub fn accuracies(map: &ViewMap, objects: &[ViewCell], alpha: f64) -> Option<Accuracies> {
     if objects.is_empty() {
         return None;
     }
-    Some(accuracies_of_hits(&object_hits(map, objects, alpha)))
+    Some(map_figures(
+        map,
+        objects,
+        &object_hits(map, objects, alpha),
+        alpha,
+    ))
 }
 
-/// The fraction of `hits` that hit under each criterion (all zero for no objects).
+/// The pointing game of `map` on `objects`: the fraction of the map's largest cells that hold
+/// a related object (1 or 0 for a single largest cell; a uniform map scores `n / 49`).
+pub fn pointing(map: &ViewMap, objects: &[ViewCell]) -> f64 {
+    let (flat, related) = flat_cells(map, objects);
+    pointing_flat(&flat, &related)
+}
+
+/// Relevance mass of `map` on `objects`: its mass on their cells.
+pub fn relevance_mass(map: &ViewMap, objects: &[ViewCell]) -> f64 {
+    let (flat, related) = flat_cells(map, objects);
+    relevance_mass_flat(&flat, &related)
+}
+
+/// [`pointing`] of a map given as values and the indices of its related cells: the one
+/// formula of the pointing game (the faithfulness tests' localisation uses it too).
+pub fn pointing_flat(map: &[f64], related: &[usize]) -> f64 {
+    let top = map.iter().fold(f64::NEG_INFINITY, |a, &b| a.max(b));
+    let largest: Vec<usize> = (0..map.len()).filter(|&j| map[j] == top).collect();
+    let on = largest.iter().filter(|j| related.contains(j)).count();
+    on as f64 / largest.len().max(1) as f64
+}
+
+/// [`relevance_mass`] of a map given as values and the indices of its related cells.
+pub fn relevance_mass_flat(map: &[f64], related: &[usize]) -> f64 {
+    related.iter().filter_map(|&j| map.get(j)).sum()
+}
+
+/// `map` as 49 values (row by row, agent-up) and the indices of `objects`' cells.
+fn flat_cells(map: &ViewMap, objects: &[ViewCell]) -> (Vec<f64>, Vec<usize>) {
+    let flat = map.iter().flatten().map(|&v| f64::from(v)).collect();
+    let related = objects.iter().map(|&(x, y)| y * VIEW_SIZE + x).collect();
+    (flat, related)
+}
+
+/// The paper's four accuracies over `hits` (the objects' hits on `map`), the pointing game and
+/// relevance mass of `map` on `objects`, and a uniform map's values on the same objects.
+pub fn map_figures(
+    map: &ViewMap,
+    objects: &[ViewCell],
+    hits: &[ObjectHit],
+    alpha: f64,
+) -> Accuracies {
+    let uniform = accuracies_of_hits(&object_hits(&UNIFORM_MAP, objects, alpha));
+    Accuracies {
+        pointing: pointing(map, objects),
+        mass: relevance_mass(map, objects),
+        chance: Chance {
+            acc: uniform.acc,
+            acc_ng: uniform.acc_ng,
+            acc_bs: uniform.acc_bs,
+            acc_cmb: uniform.acc_cmb,
+            pointing: pointing(&UNIFORM_MAP, objects),
+            mass: relevance_mass(&UNIFORM_MAP, objects),
+        },
+        ..accuracies_of_hits(hits)
+    }
+}
+
+/// The fraction of `hits` that hit under each criterion (all zero for no objects); the
+/// pointing game, mass and chance are left at zero ([`map_figures`] fills them).
 pub fn accuracies_of_hits(hits: &[ObjectHit]) -> Accuracies {
     let mut sum = Accuracies::default();
     for h in hits {
@@ -352,7 +495,7 @@ pub fn ground_step(
             out.evaluated.push(EvaluatedMap {
                 kind,
                 word,
-                accuracies: accuracies_of_hits(&hits),
+                accuracies: map_figures(map, objs, &hits, alpha),
                 hits,
             });
         }
@@ -431,9 +574,40 @@ mod tests {
     }
 
     #[test]
+    fn pointing_and_mass_read_the_map_and_chance_is_a_uniform_maps() {
+        let a = accuracies(&one_hot(2, 3), &[(2, 3), (5, 1)], 0.5).unwrap();
+        assert_eq!((a.pointing, a.mass), (1.0, 1.0));
+        assert_eq!(a.chance.pointing, 2.0 / 49.0);
+        assert!((a.chance.mass - 2.0 / 49.0).abs() < 1e-6);
+        assert_eq!(a.chance.acc, 0.0);
+        // Largest cell off the objects: no point, and only the mass that is on them.
+        let mut m = [[0.0; 7]; 7];
+        m[0][0] = 0.6;
+        m[3][2] = 0.4;
+        let a = accuracies(&m, &[(2, 3)], 0.5).unwrap();
+        assert_eq!(a.pointing, 0.0);
+        assert!((a.mass - 0.4).abs() < 1e-6);
+        // A tie between an object's cell and another: half a point.
+        m[0][0] = 0.4;
+        m[6][6] = 0.2;
+        assert_eq!(accuracies(&m, &[(2, 3)], 0.5).unwrap().pointing, 0.5);
+        // The uniform map is its own chance; at α · 49 ≤ n its acc hits.
+        let u = accuracies(&UNIFORM, &[(2, 3)], 0.5).unwrap();
+        assert_eq!(u.pointing, u.chance.pointing);
+        let many: Vec<ViewCell> = (0..7).flat_map(|y| (0..4).map(move |x| (x, y))).collect();
+        assert_eq!(accuracies(&UNIFORM, &many, 0.5).unwrap().chance.acc, 1.0);
+        // Means over steps keep every figure.
+        let mut sum = a;
+        sum.add(&u);
+        let mean = sum.scaled(2.0);
+        assert!((mean.chance.pointing - 1.0 / 49.0).abs() < 1e-12);
+        assert_eq!(Accuracies::ALL_NAMES[4], "pointing");
+    }
+
+    #[test]
     fn a_uniform_map_misses_at_alpha_one_half() {
         let a = accuracies(&UNIFORM, &[(2, 3)], 0.5).unwrap();
-        assert_eq!(a, Accuracies::default());
+        assert_eq!(a.values(), [0.0; 4]);
         // ... and hits everywhere when α is tiny.
         let a = accuracies(&UNIFORM, &[(2, 3)], 0.01).unwrap();
         assert_eq!(a.values(), [1.0; 4]);

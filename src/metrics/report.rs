@@ -210,12 +210,16 @@ impl Cell {
 pub struct CheckpointInfo {
     /// Name (path or bundled name).
     pub name: String,
-    /// attention or baseline.
+    /// attention, baseline, or bot (minigrid's BabyAI bot, a planner).
     pub variant: String,
-    /// Frames it was trained for.
-    pub frames: u64,
-    /// The level it was trained on.
-    pub level: LevelConfig,
+    /// Frames it was trained for; `null` where that is not known (an imported graph, a Python
+    /// policy, the bot).
+    #[serde(default)]
+    pub frames: Option<u64>,
+    /// The level it was trained on (the first of a mix); `null` where that is not known (a
+    /// Python policy, the bot).
+    #[serde(default)]
+    pub level: Option<LevelConfig>,
     /// The name the model gives itself, beside its file (an imported graph's
     /// `groundscope.name`: `NAME (file.onnx)`); absent for groundscope's own checkpoints.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -307,7 +311,7 @@ impl Report {
     /// `accuracy.csv`: one line per attention cell and word kind.
     pub fn accuracy_csv(&self) -> String {
         let mut t = Table::new(&self.csv_header(
-            "checkpoint,size,objects,word,acc_mean,acc_std,acc_ng_mean,acc_ng_std,acc_bs_mean,acc_bs_std,acc_cmb_mean,acc_cmb_std,evaluated_steps,episodes_without",
+            "checkpoint,size,objects,word,acc_mean,acc_std,acc_ng_mean,acc_ng_std,acc_bs_mean,acc_bs_std,acc_cmb_mean,acc_cmb_std,evaluated_steps,episodes_without,pointing_mean,pointing_std,mass_mean,mass_std,chance_acc,chance_acc_ng,chance_acc_bs,chance_acc_cmb,chance_pointing,chance_mass",
         ));
         for c in &self.cells {
             let Some(a) = &c.accuracy else { continue };
@@ -324,7 +328,10 @@ impl Report {
                             .mean_std(&g.acc_bs)
                             .mean_std(&g.acc_cmb)
                             .field(g.evaluated_steps)
-                            .field(g.episodes_without),
+                            .field(g.episodes_without)
+                            .mean_std(&g.pointing)
+                            .mean_std(&g.mass)
+                            .extend((0..6).fold(Record::new(), |r, i| r.field(g.chance_cell(i)))),
                         c,
                     ),
                 );

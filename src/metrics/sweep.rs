@@ -408,6 +408,7 @@ mod tests {
                         acc_bs: 0.0,
                         acc_cmb: a,
                         around: [0.0, 0.0, 0.0, 0.0, a, 0.0, 0.0, 0.0, 1.0 - a],
+                        ..Accuracies::default()
                     },
                     2,
                 ),

@@ -112,7 +112,7 @@ impl Report {
     /// `words.csv`: one line per attention cell and word named in it.
     pub fn words_csv(&self) -> String {
         let mut t = Table::new(&self.csv_header(
-            "checkpoint,size,objects,kind,word,episodes,acc_mean,acc_std,acc_ng_mean,acc_ng_std,evaluated_steps",
+            "checkpoint,size,objects,kind,word,episodes,acc_mean,acc_std,acc_ng_mean,acc_ng_std,evaluated_steps,pointing_mean,pointing_std,mass_mean,mass_std,chance_acc,chance_pointing",
         ));
         for c in &self.cells {
             let Some(a) = &c.accuracy else { continue };
@@ -128,7 +128,11 @@ impl Report {
                             .field(w.episodes)
                             .mean_std(&w.stats.acc)
                             .mean_std(&w.stats.acc_ng)
-                            .field(w.stats.evaluated_steps),
+                            .field(w.stats.evaluated_steps)
+                            .mean_std(&w.stats.pointing)
+                            .mean_std(&w.stats.mass)
+                            .field(w.stats.chance_cell(0))
+                            .field(w.stats.chance_cell(4)),
                         c,
                     ),
                 );

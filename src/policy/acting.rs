@@ -431,11 +431,28 @@ impl Agent {
         }
     }
 
-    /// Frames it was trained for (0 for an imported graph: its metadata does not say).
-    pub fn frames(&self) -> u64 {
+    /// Frames it was trained for (`None` for an imported graph, whose metadata does not say,
+    /// and for the bot, which is not trained).
+    pub fn frames(&self) -> Option<u64> {
         match self {
-            Self::Native(ckpt, _) => ckpt.meta.training.frames,
-            Self::Onnx(_) | Self::Bot(_) => 0,
+            Self::Native(ckpt, _) => Some(ckpt.meta.training.frames),
+            Self::Onnx(_) | Self::Bot(_) => None,
+        }
+    }
+
+    /// The level it was trained on, where there is one (not the bot's).
+    pub fn trained_level(&self) -> Option<crate::env::LevelConfig> {
+        match self {
+            Self::Bot(_) => None,
+            _ => Some(self.level()),
+        }
+    }
+
+    /// The name a report gives its kind: attention, baseline, or bot.
+    pub fn kind_name(&self) -> &'static str {
+        match self {
+            Self::Bot(_) => "bot",
+            _ => self.acting().variant().name(),
         }
     }
 }

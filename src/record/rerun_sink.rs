@@ -118,7 +118,8 @@ pub fn word_path(i: usize, word: &str) -> String {
 }
 
 /// The word-map entity paths of a recording of these missions (each a list of words), in
-/// a stable order; the blueprint shows one view per path.
+/// mission order — by the word's position, then the word — whatever the mission's length (as
+/// strings, "10_…" would sort before "2_…"); the blueprint shows one view per path.
 pub fn word_paths<'a>(missions: impl IntoIterator<Item = Vec<&'a str>>) -> Vec<String> {
     missions
         .into_iter()
@@ -126,11 +127,12 @@ pub fn word_paths<'a>(missions: impl IntoIterator<Item = Vec<&'a str>>) -> Vec<S
             words
                 .into_iter()
                 .enumerate()
-                .map(|(i, w)| word_path(i, w))
+                .map(|(i, w)| (i, w.to_owned()))
                 .collect::<Vec<_>>()
         })
         .collect::<BTreeSet<_>>()
         .into_iter()
+        .map(|(i, w)| word_path(i, &w))
         .collect()
 }
 
@@ -322,4 +324,39 @@ fn spawn_viewer() -> Result<re_uri::ProxyUri, RecordError> {
     let info = rerun::spawn(&rerun::SpawnOptions::default())
         .map_err(|e| RecordError::Rerun(format!("--spawn: {}", first_line(&e.to_string()))))?;
     Ok(proxy_uri(&format!("rerun+http://127.0.0.1:{}/proxy", info.port))?.0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn word_maps_keep_mission_order_past_ten_words() {
+        let long: Vec<&str> = "put the red ball next to the blue key and then go to a box"
+            .split(' ')
+            .collect();
+        let paths = word_paths([long.clone()]);
+        let want: Vec<String> = long
+            .iter()
+            .enumerate()
+            .map(|(i, w)| word_path(i, w))
+            .collect();
+        assert_eq!(paths, want);
+        // Two missions: each position once per word, positions in order.
+        let two = word_paths([
+            vec!["go", "to", "the", "key"],
+            vec!["go", "to", "a", "ball"],
+        ]);
+        assert_eq!(
+            two,
+            [
+                "attention/words/0_go",
+                "attention/words/1_to",
+                "attention/words/2_a",
+                "attention/words/2_the",
+                "attention/words/3_ball",
+                "attention/words/3_key"
+            ]
+        );
+    }
 }

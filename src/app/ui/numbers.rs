@@ -197,6 +197,14 @@ impl Debugger {
                         a.acc_bs,
                         a.acc_cmb
                     ));
+                    // The pointing game and mass, each beside a uniform map's (chance).
+                    ui.label(
+                        egui::RichText::new(format!(
+                            "   pointing {:.2} (chance {:.2}) · mass {:.2} (chance {:.2})",
+                            a.pointing, a.chance.pointing, a.mass, a.chance.mass
+                        ))
+                        .weak(),
+                    );
                 }
                 Err(reason) => {
                     ui.label(egui::RichText::new(reason).weak());

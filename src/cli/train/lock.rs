@@ -4,8 +4,7 @@ use std::path::Path;
 
 use anyhow::Context as _;
 
-/// The run directory's lock file: a training holds an exclusive lock on it, and its pid in it.
-pub(super) const RUN_LOCK: &str = ".train-lock";
+pub(super) use groundscope::policy::ppo::run_dir::RUN_LOCK;
 
 /// A held lock on a run directory ([`lock_run`]).
 pub(super) struct RunLock {

@@ -187,8 +187,8 @@ pub fn closest_ids(id: &str) -> Vec<&'static str> {
     scored.into_iter().take(3).map(|(_, l)| l).collect()
 }
 
-/// Levenshtein distance.
-fn edit_distance(a: &str, b: &str) -> usize {
+/// Levenshtein distance (the "did you mean" of ids, and of the Python binding's keys).
+pub fn edit_distance(a: &str, b: &str) -> usize {
     let b: Vec<char> = b.chars().collect();
     let mut prev: Vec<usize> = (0..=b.len()).collect();
     for (i, ca) in a.chars().enumerate() {

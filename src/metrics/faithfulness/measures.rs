@@ -107,7 +107,8 @@ pub fn resample(curve: &[f64], points: usize) -> Vec<f64> {
 /// Localisation of a map on a set of related cells, each beside its value for a uniform map.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Localisation {
-    /// Whether the map's largest cell is a related cell.
+    /// Whether the map's largest cell is a related cell (ties shared,
+    /// [`crate::metrics::grounding::pointing_flat`]).
     pub pointing_game: f64,
     /// `Σ map` over the related cells.
     pub relevance_mass: f64,
@@ -129,8 +130,8 @@ pub fn localisation(map: &[f64], related: &[usize]) -> Option<Localisation> {
     order.sort_by(|&a, &b| map[b].total_cmp(&map[a]).then(a.cmp(&b)));
     let top = &order[..related.len().min(order.len())];
     Some(Localisation {
-        pointing_game: f64::from(u8::from(is_related(argmax(map)))),
-        relevance_mass: related.iter().map(|&j| map[j]).sum(),
+        pointing_game: crate::metrics::grounding::pointing_flat(map, related),
+        relevance_mass: crate::metrics::grounding::relevance_mass_flat(map, related),
         rank_accuracy: top.iter().filter(|&&j| is_related(j)).count() as f64 / top.len() as f64,
         chance: related.len() as f64 / map.len() as f64,
     })
@@ -200,6 +201,8 @@ mod tests {
         let u = localisation(&uniform, &[11, 12]).unwrap();
         // A uniform map's mass on the related cells is exactly the chance level.
         assert!((u.relevance_mass - u.chance).abs() < 1e-12);
+        // ... and so is its pointing game: ties share the point.
+        assert!((u.pointing_game - u.chance).abs() < 1e-12);
         assert_eq!(localisation(&map, &[]), None);
     }
 }

@@ -47,6 +47,10 @@ pub struct Failure {
     /// by the caller, which holds the networks).
     #[serde(default)]
     pub counterfactual: Option<Counterfactual>,
+    /// Why the re-run without distractors could not be built, where it could not (the
+    /// episode keeps its row; the sweep goes on).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub counterfactual_skipped: Option<String>,
     /// The registered BabyAI level (absent: the paper's level of `size` and `objects`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub level: Option<String>,
@@ -79,8 +83,22 @@ impl Failure {
 
 impl Failure {
     /// The `groundscope view` command that opens the episode in the debugger: at its last
-    /// step, where it failed, for a failed episode (the debugger's "failure" step).
+    /// step, where it failed, for a failed episode (the debugger's "failure" step). For a
+    /// Python policy's episode, the Rerun viewer on the recording its replay call writes.
     pub fn view_command(&self) -> String {
+        if !self.replay.starts_with("groundscope replay") {
+            // A Python policy's episode is replayed by a Python call that writes a recording
+            // (`groundscope.record(act, …, "FILE.rrd")`): it opens in the Rerun viewer.
+            return self
+                .replay
+                .rsplit('"')
+                .find(|s| {
+                    std::path::Path::new(s)
+                        .extension()
+                        .is_some_and(|e| e.eq_ignore_ascii_case("rrd"))
+                })
+                .map_or_else(String::new, |file| format!("rerun {file}"));
+        }
         let view = self
             .replay
             .replacen("groundscope replay", "groundscope view", 1);
@@ -124,6 +142,7 @@ pub fn worst_episodes(
                 target_visible_steps: e.failure.map(|d| d.target_visible_steps),
                 m_on_target_steps: e.failure.and_then(|d| d.m_on_target_steps),
                 counterfactual: None,
+                counterfactual_skipped: None,
             };
             if !e.success {
                 failed.push(f("failed"));

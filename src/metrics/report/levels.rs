@@ -18,7 +18,7 @@ use crate::metrics::sweep::{EpisodeSummary, MeanStd};
 use crate::table::{Record, Table};
 
 /// `episodes.csv`'s header.
-pub const EPISODES_CSV_HEADER: &str = "checkpoint,level,eval_seed,episode,level_seed,mission,success,steps,return,failure_class,actions,expert_agreement,first_divergence,bot_steps,path_efficiency,behaviour";
+pub const EPISODES_CSV_HEADER: &str = "checkpoint,level,eval_seed,episode,level_seed,mission,success,steps,return,failure_class,actions,expert_agreement,first_divergence,bot_steps,path_efficiency,behaviour,done_required";
 
 /// The name `episodes.csv` gives a level: the BabyAI id, or for the paper's level the id its
 /// minigrid class is registered under in the dumps (`groundscope-PaperLocalS8N4-v0`).
@@ -34,7 +34,8 @@ pub fn level_name(level: &LevelConfig) -> String {
 
 /// `episodes.csv`: one line per episode of every cell, in sweep order (cells as evaluated,
 /// then evaluation seed, then episode): the level, its seed, the mission, the outcome, the
-/// failure class and the actions taken (indices, space-separated).
+/// failure class, the actions taken (indices, space-separated), the episode beside the bot,
+/// and the done mode it ran in (`done_required`: 1 where 'done' had to end it).
 pub fn episodes_csv(cells: &[(String, LevelConfig, Vec<EpisodeSummary>)]) -> String {
     let mut t = Table::new(EPISODES_CSV_HEADER);
     for (checkpoint, level, eps) in cells {
@@ -75,7 +76,8 @@ pub fn episodes_csv(cells: &[(String, LevelConfig, Vec<EpisodeSummary>)]) -> Str
                         e.failure
                             .and_then(|d| d.behaviour)
                             .map_or("", FailureClass::name),
-                    ),
+                    )
+                    .field(u8::from(level.done_required)),
             );
             index += 1;
         }

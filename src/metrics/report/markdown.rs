@@ -86,11 +86,25 @@ impl Report {
             self.elapsed_secs
         );
         for c in &self.checkpoints {
-            let _ = writeln!(
-                s,
-                "- `{}`: {} model, {} training frames, trained on {}",
-                c.name, c.variant, c.frames, c.level
-            );
+            // What is not known is said so, not filled in with a default.
+            let line = if c.variant == "bot" {
+                "minigrid's BabyAI bot (a planner that reads the full state; not trained)"
+                    .to_owned()
+            } else {
+                format!(
+                    "{} model, {}, {}",
+                    c.variant,
+                    c.frames.map_or_else(
+                        || "training frames not known".to_owned(),
+                        |f| format!("{f} training frames")
+                    ),
+                    c.level.map_or_else(
+                        || "training levels not known".to_owned(),
+                        |l| format!("trained on {l}")
+                    )
+                )
+            };
+            let _ = writeln!(s, "- `{}`: {line}", c.name);
         }
         let _ = writeln!(s, "\n## Task performance (paper Fig. 6)\n");
         let _ = writeln!(
@@ -130,22 +144,31 @@ impl Report {
             let _ = writeln!(s, "\n## {title}\n");
             let _ = writeln!(
                 s,
-                "{} acc | acc_ng | acc_bs | acc_cmb | evaluated steps | episodes without |",
+                "{} acc | acc_ng | acc_bs | acc_cmb | pointing | mass | chance: acc · acc_ng · pointing and mass | evaluated steps | episodes without |",
                 self.key_header()
             );
-            let _ = writeln!(s, "{}---|---|---|---|---|---|", self.key_rule());
+            let _ = writeln!(s, "{}---|---|---|---|---|---|---|---|---|", self.key_rule());
             for c in &self.cells {
                 let Some(g) = c.accuracy.as_ref().and_then(|a| a.of(kind)) else {
                     continue;
                 };
+                let chance = |i: usize| {
+                    g.chance_mean(i)
+                        .map_or_else(|| "–".to_owned(), |v| format!("{v:.3}"))
+                };
                 let _ = writeln!(
                     s,
-                    "{} {} | {} | {} | {} | {} | {} |",
+                    "{} {} | {} | {} | {} | {} | {} | {} · {} · {} | {} | {} |",
                     self.cell_key(c),
                     self.over_seeds(&g.acc),
                     self.over_seeds(&g.acc_ng),
                     self.over_seeds(&g.acc_bs),
                     self.over_seeds(&g.acc_cmb),
+                    self.over_seeds(&g.pointing),
+                    self.over_seeds(&g.mass),
+                    chance(0),
+                    chance(1),
+                    chance(4),
                     g.evaluated_steps,
                     g.episodes_without
                 );
@@ -157,6 +180,16 @@ impl Report {
         self.failure_table(&mut s);
         self.exploration_tables(&mut s);
         let _ = writeln!(s, "\n## Worst episodes\n");
+        let skipped = failures
+            .iter()
+            .filter(|f| f.counterfactual_skipped.is_some())
+            .count();
+        if skipped > 0 {
+            let _ = writeln!(
+                s,
+                "{skipped} failed episode(s) could not be re-run without distractors (\"not built\" below, with the reason); the sweep kept them.\n"
+            );
+        }
         let _ = writeln!(
             s,
             "| why {} seed | mission | reward | length | acc_cmb (M) | class (behaviour) | without distractors | replay · open in the debugger |",
@@ -178,12 +211,16 @@ impl Report {
                     Some(b) if b != c => format!("{} ({})", c.name(), b.name()),
                     _ => c.name().to_owned(),
                 }),
-                f.counterfactual.map_or("–".into(), |c| format!(
-                    "{} ({} removed, {} steps)",
-                    if c.success { "succeeds" } else { "fails" },
-                    c.distractors_removed,
-                    c.length
-                )),
+                match (f.counterfactual, &f.counterfactual_skipped) {
+                    (Some(c), _) => format!(
+                        "{} ({} removed, {} steps)",
+                        if c.success { "succeeds" } else { "fails" },
+                        c.distractors_removed,
+                        c.length
+                    ),
+                    (None, Some(why)) => format!("not built: {}", why.replace('|', "/")),
+                    (None, None) => "–".into(),
+                },
                 f.replay,
                 f.view_command()
             );

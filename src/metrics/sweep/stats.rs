@@ -9,57 +9,7 @@ use serde::{Deserialize, Serialize};
 use super::EpisodeSummary;
 use crate::metrics::grounding::WordKind;
 
-/// Mean and population standard deviation (numpy's default, ddof = 0).
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub struct MeanStd {
-    /// Mean (null in JSON when nothing was measured).
-    pub mean: Option<f64>,
-    /// Standard deviation.
-    pub std: Option<f64>,
-}
-
-impl MeanStd {
-    /// Over the finite values of `xs`; `None`s when there are none.
-    pub fn of(xs: &[f64]) -> Self {
-        let v: Vec<f64> = xs.iter().copied().filter(|x| x.is_finite()).collect();
-        if v.is_empty() {
-            return Self {
-                mean: None,
-                std: None,
-            };
-        }
-        let n = v.len() as f64;
-        let mean = v.iter().sum::<f64>() / n;
-        let var = v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / n;
-        Self {
-            mean: Some(mean),
-            std: Some(var.sqrt()),
-        }
-    }
-}
-
-impl MeanStd {
-    /// As a table over evaluation seeds shows it: `mean ± std` where `spread` (several
-    /// seeds), the mean alone where not (one seed: its std is 0 by definition, not a measured
-    /// spread), `–` when nothing was measured. [`Display`](std::fmt::Display) always shows the
-    /// std (the exploration's spreads are over episodes, measured even for one seed).
-    pub fn shown(&self, spread: bool) -> String {
-        match self.mean {
-            Some(m) if !spread => format!("{m:.3}"),
-            _ => self.to_string(),
-        }
-    }
-}
-
-impl std::fmt::Display for MeanStd {
-    /// `mean ± std` with three decimals, or `–` when nothing was measured.
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match (self.mean, self.std) {
-            (Some(m), Some(s)) => write!(f, "{m:.3} ± {s:.3}"),
-            _ => f.write_str("–"),
-        }
-    }
-}
+pub use crate::stats::MeanStd;
 
 fn mean(xs: impl Iterator<Item = f64>) -> f64 {
     let (s, n) = xs.fold((0.0, 0usize), |(s, n), x| (s + x, n + 1));
@@ -94,10 +44,34 @@ pub struct GroundingStats {
     /// accuracies are (`around[4]` is `acc`, `around[1]` is `acc_bs`).
     #[serde(default)]
     pub around: Vec<MeanStd>,
+    /// The pointing game (the map's largest cell on a related object).
+    #[serde(default)]
+    pub pointing: MeanStd,
+    /// Relevance mass (the map's mass on the related objects).
+    #[serde(default)]
+    pub mass: MeanStd,
+    /// Chance: a uniform map's `acc`, `acc_ng`, `acc_bs`, `acc_cmb`, pointing game and mass
+    /// on the same steps, averaged as the figures are ([`crate::metrics::grounding::Accuracies::ALL_NAMES`] order).
+    #[serde(default)]
+    pub chance: Vec<MeanStd>,
     /// Evaluated steps over all episodes.
     pub evaluated_steps: u64,
     /// Episodes with no evaluated step (left out of the averages).
     pub episodes_without: u64,
+}
+
+impl GroundingStats {
+    /// Chance's figure `i` ([`crate::metrics::grounding::Accuracies::ALL_NAMES`] order), mean
+    /// over seeds.
+    pub fn chance_mean(&self, i: usize) -> Option<f64> {
+        self.chance.get(i).and_then(|m| m.mean)
+    }
+
+    /// [`Self::chance_mean`] as a CSV cell: six decimals, empty where not measured.
+    pub fn chance_cell(&self, i: usize) -> String {
+        self.chance_mean(i)
+            .map_or_else(String::new, |v| format!("{v:.6}"))
+    }
 }
 
 /// Splits summaries by evaluation seed, in seed order.
@@ -175,20 +149,28 @@ pub fn expert_stats(eps: &[EpisodeSummary]) -> ExpertStats {
     }
 }
 
+/// The figures [`grounding`] averages per step: six, nine offsets, six of chance.
+const COLUMNS: usize = 21;
+
 /// Grounding accuracies of `kind`: per episode over its evaluated steps (already in the
 /// summaries), then per seed over episodes that had any, then mean ± std over seeds.
 pub fn grounding(eps: &[EpisodeSummary], kind: WordKind) -> GroundingStats {
     let seeds = by_seed(eps);
-    // The four accuracies, then the nine offsets.
-    let per_seed: Vec<[f64; 13]> = seeds
+    // The six figures, the nine offsets, then chance's six figures.
+    let per_seed: Vec<[f64; COLUMNS]> = seeds
         .iter()
         .map(|s| {
-            let vals: Vec<[f64; 13]> = s
+            let vals: Vec<[f64; COLUMNS]> = s
                 .iter()
                 .filter_map(|e| e.grounding.get(&kind))
                 .map(|(a, _)| {
-                    let v = a.values();
-                    std::array::from_fn(|i| if i < 4 { v[i] } else { a.around[i - 4] })
+                    let (v, c) = (a.all_values(), a.chance);
+                    let chance = [c.acc, c.acc_ng, c.acc_bs, c.acc_cmb, c.pointing, c.mass];
+                    std::array::from_fn(|i| match i {
+                        0..6 => v[i],
+                        6..15 => a.around[i - 6],
+                        _ => chance[i - 15],
+                    })
                 })
                 .collect();
             std::array::from_fn(|i| mean(vals.iter().map(|v| v[i])))
@@ -200,7 +182,10 @@ pub fn grounding(eps: &[EpisodeSummary], kind: WordKind) -> GroundingStats {
         acc_ng: col(1),
         acc_bs: col(2),
         acc_cmb: col(3),
-        around: (4..13).map(col).collect(),
+        pointing: col(4),
+        mass: col(5),
+        around: (6..15).map(col).collect(),
+        chance: (15..COLUMNS).map(col).collect(),
         evaluated_steps: eps
             .iter()
             .filter_map(|e| e.grounding.get(&kind))

@@ -20,12 +20,23 @@ pub struct MixEntry {
     pub weight: f64,
 }
 
-/// The levels a run trains on: one, or a weighted list.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+/// The levels a run trains on: one, or a weighted list. Read back from a run's files through
+/// [`LevelMix::new`]'s checks, as the flag is.
+#[derive(Clone, Debug, PartialEq, Serialize)]
 #[serde(transparent)]
 pub struct LevelMix {
     entries: Vec<MixEntry>,
 }
+
+impl<'de> Deserialize<'de> for LevelMix {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        Self::new(Vec::<MixEntry>::deserialize(d)?).map_err(serde::de::Error::custom)
+    }
+}
+
+/// The range of a `--levels` weight: only ratios count, and within it the weights sum and
+/// print as plain numbers (a weight of 1e308 would make the sum infinite and change the mix).
+pub const WEIGHT_RANGE: std::ops::RangeInclusive<f64> = 1e-6..=1e6;
 
 impl From<LevelConfig> for LevelMix {
     fn from(level: LevelConfig) -> Self {
@@ -43,10 +54,13 @@ impl LevelMix {
             return Err(PolicyError::Input("--levels: no level given".into()));
         }
         for (i, e) in entries.iter().enumerate() {
-            if !(e.weight.is_finite() && e.weight > 0.0) {
+            if !WEIGHT_RANGE.contains(&e.weight) {
                 return Err(PolicyError::Input(format!(
-                    "--levels: {}: weight {:?} must be a positive number",
-                    e.level, e.weight
+                    "--levels: {}: weight {:?} must be a positive number from {:e} to {:e} (only the ratios count)",
+                    e.level,
+                    e.weight,
+                    WEIGHT_RANGE.start(),
+                    WEIGHT_RANGE.end()
                 )));
             }
             e.level.validate()?;
@@ -163,10 +177,30 @@ mod tests {
     }
 
     #[test]
+    fn a_saved_mix_is_checked_as_the_flag_is() {
+        let mix = LevelMix::parse("BabyAI-GoToLocal-v0:3, BabyAI-PickupLoc-v0", false).unwrap();
+        let json = serde_json::to_string(&mix).unwrap();
+        assert_eq!(serde_json::from_str::<LevelMix>(&json).unwrap(), mix);
+        for (bad, says) in [
+            (json.replace("3.0", "-3.0"), "positive"),
+            (json.replace("PickupLoc", "GoToLocal"), "twice"),
+            ("[]".to_owned(), "no level"),
+        ] {
+            let e = serde_json::from_str::<LevelMix>(&bad)
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains(says), "{bad}: {e}");
+        }
+    }
+
+    #[test]
     fn bad_lists_are_refused_naming_the_item() {
         for (list, says) in [
             ("", "no level"),
             ("BabyAI-GoToLocal-v0:0", "positive"),
+            ("BabyAI-GoToLocal-v0:1e308,BabyAI-PickupLoc-v0:1e308", "1e6"),
+            ("BabyAI-GoToLocal-v0:1e-300", "positive"),
+            ("BabyAI-GoToLocal-v0:nan", "positive"),
             ("BabyAI-GoToLocal-v0:x", "\"x\""),
             ("BabyAI-GoToLocal-v0,BabyAI-GoToLocal-v0", "twice"),
             ("BabyAI-Nope-v0", "BabyAI-Nope-v0"),

@@ -43,6 +43,10 @@ pub struct ResumeFile {
     pub levels: Option<super::LevelMix>,
 }
 
+/// The run directory's lock file: a training holds an exclusive lock on it (the system's
+/// `flock`), and its pid in it; its modification time is when the training took it.
+pub const RUN_LOCK: &str = ".train-lock";
+
 /// How often, and on how many held-out episodes, a run evaluates itself (`eval_log.csv`).
 /// Kept with the run so a `--resume` that leaves the flags out goes on tracking the same way.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -52,6 +56,10 @@ pub struct Tracking {
     pub eval_interval: u64,
     /// `--eval-episodes`: episodes per evaluation.
     pub eval_episodes: u64,
+    /// `--save-interval`: updates between checkpoints (absent in runs saved before it was
+    /// kept: a resume then takes the flag's value).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub save_interval: Option<u64>,
 }
 
 /// Whether `dir` already holds a run (either layout).
@@ -90,8 +98,15 @@ pub fn save(
     let seed = training.seed;
     let parent = checkpoints_dir(run);
     std::fs::create_dir_all(&parent).with_context(|| format!("creating {}", parent.display()))?;
-    remove_stale(&parent, ".saving-");
-    remove_stale(run, ".groundscope-");
+    // Generations being saved are this training's alone (the run lock keeps a second one
+    // out); in the run directory itself, only temporary files left before this training took
+    // its lock are stale: another command's output in progress there (an `eval --out` of the
+    // same directory stages its report in a hidden directory) is not this process's to remove.
+    remove_stale(&parent, ".saving-", None);
+    let since = std::fs::metadata(run.join(RUN_LOCK)).and_then(|m| m.modified());
+    if let Ok(since) = since {
+        remove_stale(run, ".groundscope-", Some(since));
+    }
     let tmp = tempfile::Builder::new()
         .prefix(".saving-")
         .tempdir_in(&parent)
@@ -158,18 +173,32 @@ pub fn save(
 /// Removes what a killed save left behind: entries of `dir` named `prefix…` (temporary
 /// generations, temporary checkpoint files). Only one trainer writes a run, so none of them
 /// is in use.
-fn remove_stale(dir: &Path, prefix: &str) {
+/// Removes the entries of `dir` named `prefix…`; with `before`, only the plain files last
+/// written before that time (directories are left alone).
+fn remove_stale(dir: &Path, prefix: &str, before: Option<std::time::SystemTime>) {
     let Ok(entries) = std::fs::read_dir(dir) else {
         return;
     };
     for e in entries.filter_map(Result::ok) {
-        if e.file_name().to_string_lossy().starts_with(prefix) {
-            let p = e.path();
-            let _ = if p.is_dir() {
-                std::fs::remove_dir_all(&p)
-            } else {
-                std::fs::remove_file(&p)
-            };
+        if !e.file_name().to_string_lossy().starts_with(prefix) {
+            continue;
+        }
+        let p = e.path();
+        match before {
+            None if p.is_dir() => {
+                let _ = std::fs::remove_dir_all(&p);
+            }
+            None => {
+                let _ = std::fs::remove_file(&p);
+            }
+            Some(t) => {
+                let old = e
+                    .metadata()
+                    .is_ok_and(|m| m.is_file() && m.modified().is_ok_and(|m| m < t));
+                if old {
+                    let _ = std::fs::remove_file(&p);
+                }
+            }
         }
     }
 }

@@ -17,13 +17,16 @@ use crate::policy::model::Net;
 use crate::policy::params::computes_maps;
 
 impl Trainer {
-    /// torch-ac's `_get_batches_starting_indexes`.
+    /// torch-ac's `_get_batches_starting_indexes`, but for one case: where a process's
+    /// frames are one chunk (`frames_per_proc == recurrence`) no chunk can start half a chunk
+    /// later, and torch-ac's shifted call returns no start at all (its odd updates then train
+    /// on nothing and log NaN). Here the odd calls keep the unshifted starts instead.
     fn batch_starts(&mut self) -> Vec<Vec<usize>> {
         let (rec, fpp) = (self.ppo.recurrence, self.ppo.frames_per_proc);
         let n = self.ppo.frames_per_update();
         let mut idx: Vec<usize> = (0..n).step_by(rec).collect();
         idx.shuffle(&mut self.state.batch_rng);
-        if self.state.batch_num % 2 == 1 {
+        if self.state.batch_num % 2 == 1 && fpp > rec {
             idx.retain(|&i| (i + rec) % fpp != 0);
             for i in &mut idx {
                 *i += rec / 2;

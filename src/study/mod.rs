@@ -1,0 +1,282 @@
+//! Studies: seeds × recipes × levels, each trained and then evaluated, planned once into plain
+//! command lines and a manifest, run by whatever engine the user has (this machine's cores, a
+//! Slurm array, Ray tasks) and collected from the runs' own files.
+//!
+//! A study directory holds:
+//! - `study.toml`: the spec it was planned from;
+//! - `manifest.json`: every run's name, recipe, level set, seed and the arguments of its steps
+//!   (`train`, then `eval`, then optionally `faithfulness`), each with a hash of its spec;
+//! - `commands.txt`: one `groundscope study exec STUDY NAME` line per run, in manifest order;
+//! - `slurm.sbatch`: an array job that runs line `$SLURM_ARRAY_TASK_ID`;
+//! - `ray_driver.py`: the same lines as Ray tasks;
+//! - `runs/NAME/`: the run's training directory, with `eval/` and `faithfulness/` reports,
+//!   `study.log` (what its steps printed) and `study-done.json` once every step has ended.
+//!
+//! Each step is an ordinary resumable command, so an engine only schedules: a killed run is
+//! run again with `train --resume` and goes on from its last checkpoint.
+
+pub mod collect;
+mod spec;
+
+pub use spec::{LevelSet, StudySpec};
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+use sha2::{Digest as _, Sha256};
+
+/// `manifest.json`'s `format`.
+pub const MANIFEST_FORMAT: &str = "groundscope-study";
+/// The file a finished run holds (its steps all ended with status 0).
+pub const DONE_FILE: &str = "study-done.json";
+/// The file a run whose last attempt failed holds: the step and its exit status.
+pub const FAILED_FILE: &str = "study-failed.json";
+/// The lock a run's executor holds while it runs (so one run never runs twice at once).
+pub const LOCK_FILE: &str = ".study-lock";
+/// What a run's steps printed, appended attempt after attempt.
+pub const LOG_FILE: &str = "study.log";
+
+/// An error in a study's spec or files, naming the file and the field.
+#[derive(Debug, thiserror::Error)]
+#[error("{0}")]
+pub struct StudyError(pub String);
+
+/// One run of a study: a recipe on a level set from a seed.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PlannedRun {
+    /// `RECIPE-LEVELS-sSEED`: the run's directory under `runs/`.
+    pub name: String,
+    /// The recipe's name.
+    pub recipe: String,
+    /// The level set's name.
+    pub levels: String,
+    /// The training seed.
+    pub seed: u64,
+    /// `groundscope train` arguments (without the program), run in the study directory.
+    pub train: Vec<String>,
+    /// `groundscope eval` arguments.
+    pub eval: Vec<String>,
+    /// `groundscope faithfulness` arguments, where the spec asks for it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub faithfulness: Option<Vec<String>>,
+    /// Threads its training uses (`--threads`): what an engine reserves for it.
+    pub threads: usize,
+    /// SHA-256 of the run's name and steps: a plan again may add runs, never change one.
+    pub hash: String,
+}
+
+impl PlannedRun {
+    /// The run's directory inside study `dir`.
+    pub fn dir(&self, study: &Path) -> PathBuf {
+        study.join("runs").join(&self.name)
+    }
+
+    /// Its steps in order: `(command, arguments)`.
+    pub fn steps(&self) -> Vec<(&'static str, &[String])> {
+        let mut steps = vec![
+            ("train", self.train.as_slice()),
+            ("eval", self.eval.as_slice()),
+        ];
+        if let Some(f) = &self.faithfulness {
+            steps.push(("faithfulness", f.as_slice()));
+        }
+        steps
+    }
+}
+
+/// `manifest.json`.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Manifest {
+    /// [`MANIFEST_FORMAT`].
+    pub format: String,
+    /// The study's name (its directory's).
+    pub name: String,
+    /// The binary that runs the lines (`commands.txt`, the sbatch script, the Ray driver).
+    pub binary: String,
+    /// Every run, in the order the engines take them: seed by seed, recipe by recipe.
+    pub runs: Vec<PlannedRun>,
+}
+
+impl Manifest {
+    /// Reads `STUDY/manifest.json`, naming the file in every error.
+    pub fn read(study: &Path) -> Result<Self, StudyError> {
+        let path = study.join("manifest.json");
+        let text = crate::files::read_regular_to_string(&path).map_err(|e| {
+            StudyError(format!(
+                "{}: {e} (plan the study first: groundscope study plan SPEC --out {})",
+                path.display(),
+                study.display()
+            ))
+        })?;
+        let m: Self = serde_json::from_str(&text)
+            .map_err(|e| StudyError(format!("{}: {e}", path.display())))?;
+        if m.format != MANIFEST_FORMAT {
+            return Err(StudyError(format!(
+                "{}: format {:?} is not {MANIFEST_FORMAT:?}",
+                path.display(),
+                m.format
+            )));
+        }
+        Ok(m)
+    }
+
+    /// The run called `name`.
+    pub fn run(&self, name: &str) -> Result<&PlannedRun, StudyError> {
+        self.runs.iter().find(|r| r.name == name).ok_or_else(|| {
+            StudyError(format!(
+                "the study {} has no run {name:?} (its runs: {})",
+                self.name,
+                self.runs
+                    .iter()
+                    .map(|r| r.name.as_str())
+                    .take(6)
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ))
+        })
+    }
+
+    /// `commands.txt`: one line per run.
+    pub fn commands(&self, study: &Path) -> String {
+        let dir = shell(study);
+        let mut out = String::new();
+        for r in &self.runs {
+            let _ = writeln!(out, "{} study exec {dir} {}", self.binary, r.name);
+        }
+        out
+    }
+
+    /// `slurm.sbatch`: an array of one task per line of `commands.txt`, each with the CPUs its
+    /// training uses; logs in `slurm-logs/`.
+    pub fn sbatch(&self, study: &Path) -> String {
+        let cpus = self.runs.iter().map(|r| r.threads).max().unwrap_or(1);
+        let last = self.runs.len().saturating_sub(1);
+        let dir = shell(study);
+        format!(
+            "#!/bin/bash\n\
+             # groundscope study {name}: one array task per line of commands.txt.\n\
+             # Submit: sbatch {dir}/slurm.sbatch   (then: groundscope study collect {dir})\n\
+             #SBATCH --job-name=gs-{name}\n\
+             #SBATCH --array=0-{last}\n\
+             #SBATCH --cpus-per-task={cpus}\n\
+             #SBATCH --output={dir}/slurm-logs/%A_%a.txt\n\
+             set -euo pipefail\n\
+             line=$(sed -n \"$((SLURM_ARRAY_TASK_ID + 1))p\" {dir}/commands.txt)\n\
+             exec bash -c \"$line\"\n",
+            name = self.name,
+        )
+    }
+
+    /// `ray_driver.py`: every run as a Ray task with `num_cpus` = its threads, on the cluster
+    /// at `--address` (default: a local one); waits for all and names the ones that failed.
+    pub fn ray_driver(study: &Path) -> String {
+        // A JSON string is a Python string literal, whatever the path holds.
+        let literal = serde_json::to_string(&study.display().to_string()).unwrap_or_default();
+        include_str!("ray_driver.py").replace("\"@STUDY@\"", &literal)
+    }
+}
+
+/// A path as one shell word (quoted where it holds anything but safe characters).
+fn shell(p: &Path) -> String {
+    let s = p.display().to_string();
+    if s.chars()
+        .all(|c| c.is_ascii_alphanumeric() || "/._-+,=:".contains(c))
+    {
+        s
+    } else {
+        format!("'{}'", s.replace('\'', "'\\''"))
+    }
+}
+
+/// The hash of a run: its name and every step's arguments.
+fn run_hash(name: &str, steps: &[(&str, &[String])]) -> String {
+    let mut h = Sha256::new();
+    h.update(name.as_bytes());
+    for (cmd, args) in steps {
+        h.update([0]);
+        h.update(cmd.as_bytes());
+        for a in *args {
+            h.update([1]);
+            h.update(a.as_bytes());
+        }
+    }
+    format!("{:x}", h.finalize())
+}
+
+/// Where each run of a study stands, from its own files.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum RunState {
+    /// Not started.
+    Pending,
+    /// Started (a training directory or a log) and not finished: resumable.
+    Partial,
+    /// Its last attempt failed (`study-failed.json`).
+    Failed,
+    /// Every step ended with status 0 (`study-done.json`).
+    Done,
+}
+
+impl RunState {
+    /// The state of `run` in study `dir` (the lock is not looked at: a running run is partial).
+    pub fn of(study: &Path, run: &PlannedRun) -> Self {
+        let dir = run.dir(study);
+        if dir.join(DONE_FILE).is_file() {
+            Self::Done
+        } else if dir.join(FAILED_FILE).is_file() {
+            Self::Failed
+        } else if dir.exists() {
+            Self::Partial
+        } else {
+            Self::Pending
+        }
+    }
+
+    /// Lowercase name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Pending => "pending",
+            Self::Partial => "unfinished",
+            Self::Failed => "failed",
+            Self::Done => "done",
+        }
+    }
+}
+
+/// Checks a new plan against the manifest already in the study: the same runs give the same
+/// manifest; new runs may be added; a run whose steps changed, or that the spec no longer has,
+/// is refused by name (its directory holds results of the old steps).
+pub fn check_replan(old: &Manifest, new: &Manifest) -> Result<(), StudyError> {
+    for run in &old.runs {
+        match new.runs.iter().find(|r| r.name == run.name) {
+            None => {
+                return Err(StudyError(format!(
+                    "the new spec drops run {} of the planned study; a study's runs may only be added (plan into a new --out)",
+                    run.name
+                )));
+            }
+            Some(r) if r.hash != run.hash => {
+                return Err(StudyError(format!(
+                    "the new spec changes run {} (its {} arguments differ from the planned ones); a study's runs may only be added (plan into a new --out)",
+                    run.name,
+                    changed_step(run, r)
+                )));
+            }
+            Some(_) => {}
+        }
+    }
+    Ok(())
+}
+
+fn changed_step(old: &PlannedRun, new: &PlannedRun) -> &'static str {
+    if old.train != new.train {
+        "train"
+    } else if old.eval != new.eval {
+        "eval"
+    } else {
+        "faithfulness"
+    }
+}
