@@ -23,15 +23,17 @@ cleanup() {
 }
 trap cleanup EXIT
 
-# munge: its own key, socket, pid and log files, run as the munge user.
-mkdir -p "$work/munge"
-$SUDO mungekey -c -k "$work/munge/munge.key" >/dev/null
-$SUDO chown -R munge:munge "$work/munge"
-$SUDO chmod 700 "$work/munge"
-$SUDO chmod 400 "$work/munge/munge.key"
+# munge: its own key (a private directory) and socket, pid, seed and log (a directory every
+# user can reach, as munged requires of its socket's), run as the munge user.
+mkdir -p "$work/munge-key" "$work/munge"
+$SUDO mungekey -c -k "$work/munge-key/munge.key" >/dev/null
+$SUDO chown -R munge:munge "$work/munge-key" "$work/munge"
+$SUDO chmod 700 "$work/munge-key"
+$SUDO chmod 400 "$work/munge-key/munge.key"
+$SUDO chmod 755 "$work/munge"
 sock="$work/munge/munge.socket"
 if [ -z "$SUDO" ]; then as_munge=(runuser -u munge --); else as_munge=(sudo -u munge); fi
-"${as_munge[@]}" /usr/sbin/munged --key-file="$work/munge/munge.key" --socket="$sock" \
+"${as_munge[@]}" /usr/sbin/munged --key-file="$work/munge-key/munge.key" --socket="$sock" \
   --pid-file="$work/munge/munged.pid" --log-file="$work/munge/munged.log" \
   --seed-file="$work/munge/munged.seed"
 for _ in $(seq 50); do [ -S "$sock" ] && [ -s "$work/munge/munged.pid" ] && break; sleep 0.1; done

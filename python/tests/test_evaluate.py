@@ -159,7 +159,7 @@ def test_the_callables_exception_propagates_and_nothing_is_written(tmp_path):
                     "word_maps": np.full((n, 9, 7, 7), 1 / 49)}, "combined_map"),
         # A misspelt key used to drop its output in silence.
         (lambda n: {"logits": np.zeros((n, 7)), "wordmaps": np.zeros((n, 9, 7, 7))},
-         "unknown key 'wordmaps'.*did you mean 'word_maps'"),
+         'unknown key "wordmaps".*did you mean "word_maps"'),
     ],
 )
 def test_bad_outputs_are_one_line_value_errors(tmp_path, output, word):
