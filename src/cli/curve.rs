@@ -50,6 +50,18 @@ pub(super) fn curve(
     out: &Path,
     accuracy: Accuracy,
 ) -> anyhow::Result<ExitStatus> {
+    draw(logs, out, accuracy, true)?;
+    Ok(ExitStatus::Success)
+}
+
+/// [`curve`]'s figures, saying what it wrote where `say`; returns whether the grounding figure
+/// was drawn (`study collect` draws into a staging directory and names the figures itself).
+pub(super) fn draw(
+    logs: &[PathBuf],
+    out: &Path,
+    accuracy: Accuracy,
+    say: bool,
+) -> anyhow::Result<bool> {
     check_extension(out, "png", "--out")?;
     // A glob such as `experiments/runs/*_log.csv` also matches the tracked evaluations; those are
     // read beside their logs, not drawn as logs.
@@ -97,7 +109,9 @@ pub(super) fn curve(
             out,
         )?;
     }
-    println!("wrote {}", out.display());
+    if say {
+        println!("wrote {}", out.display());
+    }
     let stem = out.with_extension("");
     let g = PathBuf::from(format!("{}_grounding.png", stem.display()));
     if let Some(panels) = panels {
@@ -106,16 +120,22 @@ pub(super) fn curve(
             "Grounding emergence (tracked held-out evaluation)",
             &g,
         )?;
-        println!("wrote {}", g.display());
-    } else if g.is_file() {
+        if say {
+            println!("wrote {}", g.display());
+        }
+        return Ok(true);
+    }
+    if g.is_file() {
         // An earlier run's grounding figure would pass for this one's.
         std::fs::remove_file(&g).with_context(|| format!("removing {}", g.display()))?;
-        println!(
-            "removed {} (these logs have no tracked evaluation)",
-            g.display()
-        );
+        if say {
+            println!(
+                "removed {} (these logs have no tracked evaluation)",
+                g.display()
+            );
+        }
     }
-    Ok(ExitStatus::Success)
+    Ok(false)
 }
 
 /// One panel per tracked metric (column, title) with a band per recipe, from the

@@ -171,23 +171,35 @@ fn ended(
     let name = &r.run.name;
     if dir.join(DONE_FILE).is_file() {
         tally.done += 1;
-        bar.println(format!("{name}: done"));
+        say(bar, format!("{name}: done"));
     } else if status.success() {
         // Its lock was held: another runner (or engine) has it.
         tally.elsewhere += 1;
-        bar.println(format!("{name}: running elsewhere; left alone"));
+        say(bar, format!("{name}: running elsewhere; left alone"));
     } else if status.code() == Some(130) || !dir.join(FAILED_FILE).is_file() {
-        bar.println(format!("{name}: stopped; it resumes on the next run"));
+        say(bar, format!("{name}: stopped; it resumes on the next run"));
     } else {
         tally.failed.push(name.clone());
         let log = std::fs::read_to_string(dir.join(LOG_FILE)).unwrap_or_default();
         let tail: Vec<&str> = log.lines().rev().take(5).collect();
-        bar.println(format!(
+        say(
+            bar,
+            format!(
             "{name}: failed ({}); the end of {}:\n  {}",
             std::fs::read_to_string(dir.join(FAILED_FILE)).unwrap_or_default(),
             dir.join(LOG_FILE).display(),
             tail.into_iter().rev().collect::<Vec<_>>().join("\n  ")
-        ));
+        ),
+        );
+    }
+}
+
+/// A line above the progress line, or on its own where there is none (`--quiet`).
+fn say(bar: &indicatif::ProgressBar, line: String) {
+    if bar.is_hidden() {
+        println!("{line}");
+    } else {
+        bar.println(line);
     }
 }
 

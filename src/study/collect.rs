@@ -219,18 +219,25 @@ impl Collected {
         }
         let names: std::collections::BTreeSet<&String> =
             self.rows.iter().flat_map(|r| r.figures.keys()).collect();
-        // Task performance first, then the word classes, then faithfulness.
-        let order = |n: &str| {
-            if ["success", "reward", "length"].contains(&n) {
-                0
-            } else if n.starts_with("faith_") {
-                2
-            } else {
-                1
+        // Task performance first, then the word classes in report order (each: acc, pointing,
+        // mass, chance), then faithfulness.
+        let order = |n: &str| -> (usize, usize) {
+            if let Some(i) = ["success", "reward", "length"].iter().position(|x| *x == n) {
+                return (0, i);
             }
+            for (k, kind) in WordKind::ALL.iter().enumerate() {
+                if let Some(rest) = n.strip_prefix(&format!("{}_", kind.name())) {
+                    let i = ["acc", "pointing", "mass", "chance"]
+                        .iter()
+                        .position(|x| *x == rest)
+                        .unwrap_or(4);
+                    return (1 + k, i);
+                }
+            }
+            (9, 0)
         };
         let mut names: Vec<&String> = names.into_iter().collect();
-        names.sort_by_key(|n| (order(n), n.as_str()));
+        names.sort_by_key(|n| (order(n), n.as_str().to_owned()));
         let _ = writeln!(s, "\n## Results\n");
         let _ = writeln!(
             s,
