@@ -308,9 +308,13 @@ fn collect_cmd(study: &Path, out: Option<&Path>) -> anyhow::Result<ExitStatus> {
             continue;
         }
         let file = format!("curves_{set}.png");
-        let grounding =
-            super::curve::draw(&logs, &staged.path(&file), super::curve::Accuracy::AccNg, false)
-                .with_context(|| format!("drawing {file}"))?;
+        let grounding = super::curve::draw(
+            &logs,
+            &staged.path(&file),
+            super::curve::Accuracy::AccNg,
+            false,
+        )
+        .with_context(|| format!("drawing {file}"))?;
         figures.push(file);
         if grounding {
             figures.push(format!("curves_{set}_grounding.png"));

@@ -185,11 +185,11 @@ fn ended(
         say(
             bar,
             format!(
-            "{name}: failed ({}); the end of {}:\n  {}",
-            std::fs::read_to_string(dir.join(FAILED_FILE)).unwrap_or_default(),
-            dir.join(LOG_FILE).display(),
-            tail.into_iter().rev().collect::<Vec<_>>().join("\n  ")
-        ),
+                "{name}: failed ({}); the end of {}:\n  {}",
+                std::fs::read_to_string(dir.join(FAILED_FILE)).unwrap_or_default(),
+                dir.join(LOG_FILE).display(),
+                tail.into_iter().rev().collect::<Vec<_>>().join("\n  ")
+            ),
         );
     }
 }

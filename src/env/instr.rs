@@ -41,13 +41,21 @@ pub struct Targets {
     pub obj_set: Vec<ObjectId>,
     /// Positions of those still on the grid.
     pub obj_poss: Vec<Pos>,
+    /// The agent's pose the description was resolved at, where it has a location word
+    /// ("on your left" is a half-plane of that pose, fixed at reset).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pose: Option<(Pos, u8)>,
 }
 
 impl Targets {
     /// `find_matching_objs(use_location=True)`.
     pub fn find(desc: ObjDesc, grid: &Grid, rooms: Rooms, agent_pos: Pos, agent_dir: u8) -> Self {
         let (obj_set, obj_poss) = desc.find_matching(grid, rooms, agent_pos, agent_dir);
-        Self { obj_set, obj_poss }
+        Self {
+            obj_set,
+            obj_poss,
+            pose: desc.loc.map(|_| (agent_pos, agent_dir)),
+        }
     }
 
     /// [`Self::find`] among the grid's objects gathered once ([`ObjDesc::find_matching_among`]).
@@ -60,7 +68,11 @@ impl Targets {
     ) -> Self {
         let (obj_set, obj_poss) =
             desc.find_matching_among(objects, grid, rooms, agent_pos, agent_dir);
-        Self { obj_set, obj_poss }
+        Self {
+            obj_set,
+            obj_poss,
+            pose: desc.loc.map(|_| (agent_pos, agent_dir)),
+        }
     }
 
     /// `find_matching_objs(use_location=False)`: the tracked objects' positions, scan order.

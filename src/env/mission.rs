@@ -183,6 +183,22 @@ impl ObjDesc {
             .unzip()
     }
 
+    /// Whether `pos` lies on the side of the agent at `agent_pos`, facing `agent_dir`, that
+    /// `loc` names: minigrid's half-planes of `find_matching_objs` (the room aside), the one
+    /// definition the verifier and the location words' region score use.
+    pub fn on_side(loc: Loc, pos: Pos, agent_pos: Pos, agent_dir: u8) -> bool {
+        let d1 = DIR_TO_VEC[usize::from(agent_dir & 3)];
+        let d2 = (-d1.1, d1.0);
+        let v = (pos.0 - agent_pos.0, pos.1 - agent_pos.1);
+        let dot = |d: Pos| v.0 * d.0 + v.1 * d.1;
+        match loc {
+            Loc::Left => dot(d2) < 0,
+            Loc::Right => dot(d2) > 0,
+            Loc::Front => dot(d1) > 0,
+            Loc::Behind => dot(d1) < 0,
+        }
+    }
+
     /// The objects among `objects` this description picks out: type and colour, and with a
     /// location word only those of the agent's room on that side of it.
     fn matched(
@@ -192,8 +208,6 @@ impl ObjDesc {
         agent_pos: Pos,
         agent_dir: u8,
     ) -> impl Iterator<Item = (Pos, WorldObj)> {
-        let d1 = DIR_TO_VEC[usize::from(agent_dir & 3)];
-        let d2 = (-d1.1, d1.0);
         let room = rooms.room_of(agent_pos);
         objects.filter(move |&(pos, obj)| {
             if !self.matches(&obj) {
@@ -202,17 +216,7 @@ impl ObjDesc {
             let Some(loc) = self.loc else {
                 return true;
             };
-            if !rooms.pos_inside(room, pos) {
-                return false;
-            }
-            let v = (pos.0 - agent_pos.0, pos.1 - agent_pos.1);
-            let dot = |d: Pos| v.0 * d.0 + v.1 * d.1;
-            match loc {
-                Loc::Left => dot(d2) < 0,
-                Loc::Right => dot(d2) > 0,
-                Loc::Front => dot(d1) > 0,
-                Loc::Behind => dot(d1) < 0,
-            }
+            rooms.pos_inside(room, pos) && Self::on_side(loc, pos, agent_pos, agent_dir)
         })
     }
 

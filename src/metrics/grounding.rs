@@ -86,6 +86,22 @@ pub struct Accuracies {
     /// Chance: a uniform map's values on the same objects.
     #[serde(default)]
     pub chance: Chance,
+    /// Location words only: the map's mass inside the half-plane the word names, fixed at
+    /// reset by the agent's start pose (minigrid's verifier) and carried into the current
+    /// view ([`location_region`]); `None` for every other map.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub region: Option<f64>,
+    /// A uniform map's region mass: the share of the view's cells inside the half-plane.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub region_chance: Option<f64>,
+}
+
+/// The sum of two optional figures (one kind's steps all have it or all lack it).
+fn add_opt(a: Option<f64>, b: Option<f64>) -> Option<f64> {
+    match (a, b) {
+        (Some(x), Some(y)) => Some(x + y),
+        (x, y) => x.or(y),
+    }
 }
 
 /// What a uniform map (1/49 on every cell) scores on the same objects: the rate each figure
@@ -169,6 +185,8 @@ impl Accuracies {
         self.mass += o.mass;
         let (c, d) = (self.chance.values(), o.chance.values());
         self.chance = Chance::from_values(std::array::from_fn(|i| c[i] + d[i]));
+        self.region = add_opt(self.region, o.region);
+        self.region_chance = add_opt(self.region_chance, o.region_chance);
     }
 
     /// Element-wise division.
@@ -183,6 +201,8 @@ impl Accuracies {
             pointing: self.pointing / by,
             mass: self.mass / by,
             chance: Chance::from_values(self.chance.values().map(|c| c / by)),
+            region: self.region.map(|r| r / by),
+            region_chance: self.region_chance.map(|r| r / by),
         }
     }
 }
@@ -345,6 +365,25 @@ pub fn map_figures(
     }
 }
 
+/// The view cells inside the half-plane a location word names: minigrid's verifier fixes it
+/// at reset, relative to the agent's start pose (`start`), and the agent moves since; each
+/// cell of the current view is placed in the world and tested against the start pose
+/// ([`crate::env::ObjDesc::on_side`], the verifier's own test). The room is not looked at:
+/// the region is the side, the referent is what the whole description selects.
+pub fn location_region(
+    world: &World,
+    loc: crate::env::Loc,
+    start: (crate::env::Pos, u8),
+) -> Vec<ViewCell> {
+    (0..VIEW_SIZE)
+        .flat_map(|vy| (0..VIEW_SIZE).map(move |vx| (vx, vy)))
+        .filter(|&cell| {
+            let p = crate::env::world_from_view(world.agent_pos, world.agent_dir, cell);
+            crate::env::ObjDesc::on_side(loc, p, start.0, start.1)
+        })
+        .collect()
+}
+
 /// The fraction of `hits` that hit under each criterion (all zero for no objects); the
 /// pointing game, mass and chance are left at zero ([`map_figures`] fills them).
 pub fn accuracies_of_hits(hits: &[ObjectHit]) -> Accuracies {
@@ -423,11 +462,7 @@ pub struct StepGrounding {
 /// the word's kind: the definitions of the module's header. Words that name nothing by
 /// themselves are left out; so is every word when the mission's words do not follow the
 /// instruction tree (a mission typed by hand that the tree does not read back).
-pub fn word_targets(
-    world: &World,
-    obs: &Observation,
-    n_words: usize,
-) -> Vec<(usize, WordKind, Vec<ViewCell>)> {
+pub fn word_targets(world: &World, obs: &Observation, n_words: usize) -> Vec<WordTargets> {
     let roles = word_roles(&world.instr);
     if roles.len() != n_words {
         return Vec::new();
@@ -473,9 +508,34 @@ pub fn word_targets(
             ),
             WordClass::Other => continue,
         };
-        out.push((i, kind, cells));
+        let region = match (role.class, desc.loc, matched.pose) {
+            (WordClass::Location, Some(loc), Some(start)) => {
+                Some(location_region(world, loc, start))
+            }
+            _ => None,
+        };
+        out.push(WordTargets {
+            word: i,
+            kind,
+            cells,
+            region,
+        });
     }
     out
+}
+
+/// What one scored word of a mission names at a step ([`word_targets`]).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct WordTargets {
+    /// The word's index in the mission.
+    pub word: usize,
+    /// Its class.
+    pub kind: WordKind,
+    /// The visible cells of the objects it names (a location word: its description's
+    /// referents).
+    pub cells: Vec<ViewCell>,
+    /// A location word's region: the view cells in the half-plane it names.
+    pub region: Option<Vec<ViewCell>>,
 }
 
 /// Evaluates one step of `world` (the world the agent saw, `obs`): each scored word's map on
@@ -489,25 +549,41 @@ pub fn ground_step(
     alpha: f64,
 ) -> StepGrounding {
     let mut out = StepGrounding::default();
-    let mut evaluate = |kind: WordKind, word: Option<usize>, map: &ViewMap, objs: &[ViewCell]| {
+    let mut evaluate = |kind: WordKind,
+                        word: Option<usize>,
+                        map: &ViewMap,
+                        objs: &[ViewCell],
+                        region: Option<&[ViewCell]>| {
         if !objs.is_empty() {
             let hits = object_hits(map, objs, alpha);
+            let mut accuracies = map_figures(map, objs, &hits, alpha);
+            if let Some(r) = region {
+                accuracies.region = Some(relevance_mass(map, r));
+                accuracies.region_chance = Some(relevance_mass(&UNIFORM_MAP, r));
+            }
             out.evaluated.push(EvaluatedMap {
                 kind,
                 word,
-                accuracies: map_figures(map, objs, &hits, alpha),
+                accuracies,
                 hits,
             });
         }
     };
-    for (i, kind, cells) in word_targets(world, obs, words.len()) {
-        evaluate(kind, Some(i), words[i].1, &cells);
+    for t in word_targets(world, obs, words.len()) {
+        evaluate(
+            t.kind,
+            Some(t.word),
+            words[t.word].1,
+            &t.cells,
+            t.region.as_deref(),
+        );
     }
     evaluate(
         WordKind::Combined,
         None,
         combined,
         &pending_targets(world, obs),
+        None,
     );
     out
 }
@@ -602,6 +678,33 @@ mod tests {
         let mean = sum.scaled(2.0);
         assert!((mean.chance.pointing - 1.0 / 49.0).abs() < 1e-12);
         assert_eq!(Accuracies::ALL_NAMES[4], "pointing");
+    }
+
+    /// The half-planes are the start pose's: at reset "left" is the view's left three columns,
+    /// "in front" its six rows ahead, "behind" nothing in view; once the agent has turned left,
+    /// what was in front of it at the start is on its right.
+    #[test]
+    fn a_location_region_is_the_start_poses_half_plane_carried_into_the_view() {
+        use crate::env::Loc;
+        let mut world = crate::env::level::LevelConfig::default()
+            .generate(3)
+            .unwrap();
+        let start = (world.agent_pos, world.agent_dir);
+        let cells = |w: &World, loc| location_region(w, loc, start);
+        let left = cells(&world, Loc::Left);
+        assert_eq!(left.len(), 21);
+        assert!(left.iter().all(|&(vx, _)| vx < 3));
+        let right = cells(&world, Loc::Right);
+        assert!(right.len() == 21 && right.iter().all(|&(vx, _)| vx > 3));
+        let front = cells(&world, Loc::Front);
+        assert!(front.len() == 42 && front.iter().all(|&(_, vy)| vy < 6));
+        assert!(cells(&world, Loc::Behind).is_empty());
+        world.step(crate::env::world::Action::Left).unwrap();
+        let front = cells(&world, Loc::Front);
+        assert!(front.iter().all(|&(vx, _)| vx > 3), "{front:?}");
+        assert_eq!(front.len(), 21);
+        // A uniform map's mass on a region is its share of the view.
+        assert!((relevance_mass(&UNIFORM, &front) - 21.0 / 49.0).abs() < 1e-6);
     }
 
     #[test]
@@ -728,6 +831,13 @@ mod tests {
                                 _ => {}
                             }
                         }
+                    }
+                    for e in &g.evaluated {
+                        assert_eq!(
+                            e.accuracies.region.is_some(),
+                            e.kind == WordKind::Location,
+                            "{id} {seed}: only location words have a region"
+                        );
                     }
                     // `M`'s targets are exactly the pending clauses' objects in view.
                     let m = g.evaluated.iter().find(|e| e.kind == WordKind::Combined);

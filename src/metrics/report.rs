@@ -311,7 +311,7 @@ impl Report {
     /// `accuracy.csv`: one line per attention cell and word kind.
     pub fn accuracy_csv(&self) -> String {
         let mut t = Table::new(&self.csv_header(
-            "checkpoint,size,objects,word,acc_mean,acc_std,acc_ng_mean,acc_ng_std,acc_bs_mean,acc_bs_std,acc_cmb_mean,acc_cmb_std,evaluated_steps,episodes_without,pointing_mean,pointing_std,mass_mean,mass_std,chance_acc,chance_acc_ng,chance_acc_bs,chance_acc_cmb,chance_pointing,chance_mass",
+            "checkpoint,size,objects,word,acc_mean,acc_std,acc_ng_mean,acc_ng_std,acc_bs_mean,acc_bs_std,acc_cmb_mean,acc_cmb_std,evaluated_steps,episodes_without,pointing_mean,pointing_std,mass_mean,mass_std,chance_acc,chance_acc_ng,chance_acc_bs,chance_acc_cmb,chance_pointing,chance_mass,region_mean,region_std,chance_region",
         ));
         for c in &self.cells {
             let Some(a) = &c.accuracy else { continue };
@@ -331,7 +331,13 @@ impl Report {
                             .field(g.episodes_without)
                             .mean_std(&g.pointing)
                             .mean_std(&g.mass)
-                            .extend((0..6).fold(Record::new(), |r, i| r.field(g.chance_cell(i)))),
+                            .extend((0..6).fold(Record::new(), |r, i| r.field(g.chance_cell(i))))
+                            .mean_std(&g.region)
+                            .field(
+                                g.region_chance
+                                    .mean
+                                    .map_or_else(String::new, |v| format!("{v:.6}")),
+                            ),
                         c,
                     ),
                 );

@@ -205,6 +205,14 @@ impl Debugger {
                         ))
                         .weak(),
                     );
+                    if let (Some(r), Some(c)) = (a.region, a.region_chance) {
+                        ui.label(
+                            egui::RichText::new(format!(
+                                "   region (the side it names, from the start pose) {r:.2} (chance {c:.2})"
+                            ))
+                            .weak(),
+                        );
+                    }
                 }
                 Err(reason) => {
                     ui.label(egui::RichText::new(reason).weak());

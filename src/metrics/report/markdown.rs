@@ -173,6 +173,27 @@ impl Report {
                     g.episodes_without
                 );
             }
+            if kind == WordKind::Location {
+                let _ = writeln!(
+                    s,
+                    "\nRegion (the map's mass in the half-plane the word names, fixed at reset by the start pose): {}",
+                    self.cells
+                        .iter()
+                        .filter_map(|c| {
+                            let g = c.accuracy.as_ref()?.of(kind)?;
+                            Some(format!(
+                                "{} {} (chance {})",
+                                c.level.as_deref().unwrap_or(&c.checkpoint),
+                                self.over_seeds(&g.region),
+                                g.region_chance
+                                    .mean
+                                    .map_or_else(|| "–".into(), |v| format!("{v:.3}"))
+                            ))
+                        })
+                        .collect::<Vec<_>>()
+                        .join("; ")
+                );
+            }
         }
         self.around_table(&mut s);
         self.words_table(&mut s);

@@ -54,6 +54,13 @@ pub struct GroundingStats {
     /// on the same steps, averaged as the figures are ([`crate::metrics::grounding::Accuracies::ALL_NAMES`] order).
     #[serde(default)]
     pub chance: Vec<MeanStd>,
+    /// Location words only: the map's mass in the half-plane the word names, and a uniform
+    /// map's (nothing measured for the other classes).
+    #[serde(default)]
+    pub region: MeanStd,
+    /// A uniform map's region mass on the same steps.
+    #[serde(default)]
+    pub region_chance: MeanStd,
     /// Evaluated steps over all episodes.
     pub evaluated_steps: u64,
     /// Episodes with no evaluated step (left out of the averages).
@@ -149,8 +156,9 @@ pub fn expert_stats(eps: &[EpisodeSummary]) -> ExpertStats {
     }
 }
 
-/// The figures [`grounding`] averages per step: six, nine offsets, six of chance.
-const COLUMNS: usize = 21;
+/// The figures [`grounding`] averages per step: six, nine offsets, six of chance, the region
+/// and its chance.
+const COLUMNS: usize = 23;
 
 /// Grounding accuracies of `kind`: per episode over its evaluated steps (already in the
 /// summaries), then per seed over episodes that had any, then mean ± std over seeds.
@@ -169,7 +177,9 @@ pub fn grounding(eps: &[EpisodeSummary], kind: WordKind) -> GroundingStats {
                     std::array::from_fn(|i| match i {
                         0..6 => v[i],
                         6..15 => a.around[i - 6],
-                        _ => chance[i - 15],
+                        15..21 => chance[i - 15],
+                        21 => a.region.unwrap_or(f64::NAN),
+                        _ => a.region_chance.unwrap_or(f64::NAN),
                     })
                 })
                 .collect();
@@ -185,7 +195,9 @@ pub fn grounding(eps: &[EpisodeSummary], kind: WordKind) -> GroundingStats {
         pointing: col(4),
         mass: col(5),
         around: (6..15).map(col).collect(),
-        chance: (15..COLUMNS).map(col).collect(),
+        chance: (15..21).map(col).collect(),
+        region: col(21),
+        region_chance: col(22),
         evaluated_steps: eps
             .iter()
             .filter_map(|e| e.grounding.get(&kind))
