@@ -146,6 +146,8 @@ fn env_show_prints_the_level_and_writes_pictures() {
         out.contains("mission: ") && out.contains("WGWGWGWGWGWGWGWG"),
         "{out}"
     );
+    // The grid's letters are explained under it.
+    assert!(out.contains("legend: ") && out.contains("A ball"), "{out}");
     let img = image::open(&png).unwrap();
     assert_eq!((img.width(), img.height()), (256, 256));
     let again = gs(&["env", "show", "--seed", "4"]);

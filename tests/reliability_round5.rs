@@ -666,3 +666,40 @@ fn an_evaluation_into_a_training_directory_keeps_its_report() {
     let status = common::wait_for_exit(&mut train, "the training");
     assert!(status.success());
 }
+
+/// `eval`'s terminal summary aligns long level ids (it used to push their columns out of
+/// line) and gives one seed's cells as the mean alone, without a `± 0.000` of no spread.
+#[test]
+fn the_terminal_summary_aligns_long_ids_and_drops_a_spread_of_one_seed() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("r");
+    let o = gs(&[
+        "eval",
+        "--checkpoint",
+        "bot",
+        "--levels",
+        "BabyAI-GoToRedBall-v0,BabyAI-PutNextS7N4Carrying-v0",
+        "--seeds",
+        "1",
+        "--episodes",
+        "3",
+        "--quiet",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let text = stdout(&o);
+    let table: Vec<&str> = text
+        .lines()
+        .skip_while(|l| !l.starts_with("checkpoint"))
+        .take(3)
+        .collect();
+    assert_eq!(table.len(), 3, "{text}");
+    assert!(!text.contains('±'), "{text}");
+    // Every row's reward column starts where the header's does.
+    let at = table[0].find("reward").unwrap();
+    for row in &table[1..] {
+        let level_end = row.find("-v0").unwrap() + 3;
+        assert!(level_end < at, "the level overflows its column: {row:?}");
+    }
+}

@@ -148,6 +148,12 @@ pub fn run(cmd: EnvCommand) -> anyhow::Result<ExitStatus> {
     }
 }
 
+/// What `env show`'s grid letters mean (minigrid's `pprint_grid`).
+const GRID_LEGEND: &str = "legend: two characters a cell, the object then its colour's initial \
+(R red, G green or grey, B blue, P purple, Y yellow): W wall, K key, A ball, B box, D door \
+(closed), L locked door, __ open door, G goal, V lava, F floor; the agent >>, VV, <<, ^^ \
+facing right, down, left, up";
+
 fn show(
     seed: u64,
     level: &LevelArgs,
@@ -166,6 +172,8 @@ fn show(
     for line in &snap.grid_ascii {
         println!("{line}");
     }
+    // minigrid's pprint_grid letters, which a reader cannot guess.
+    println!("{GRID_LEGEND}");
     if let Some(path) = png {
         if !(4..=256).contains(&tile) {
             anyhow::bail!("--tile {tile} is outside 4..=256");

@@ -255,20 +255,38 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitStatus> {
         "evaluated {total} episodes in {elapsed:.1} s; report in {}",
         args.out.display()
     );
+    // Columns as wide as their longest entry (a BabyAI id is up to 34 characters); one seed
+    // has no spread, so its cells give the mean alone, as report.md does.
+    let spread = args.sweep.seeds != 1;
+    let wc = report
+        .cells
+        .iter()
+        .map(|c| c.checkpoint.chars().count())
+        .chain([10])
+        .max()
+        .unwrap_or(10);
+    let wl = report
+        .cells
+        .iter()
+        .map(|c| c.label().chars().count())
+        .chain([5])
+        .max()
+        .unwrap_or(5);
+    let wv = if spread { 15 } else { 7 };
     println!(
-        "{:<22} {:>8}  {:>15}  {:>15}  {:>15}",
+        "{:<wc$}  {:<wl$}  {:>wv$}  {:>wv$}  {:>wv$}",
         "checkpoint", "level", "reward", "success", "obj acc_ng"
     );
     let mut failed_checks = Vec::new();
     for c in &report.cells {
         let acc_ng = c.accuracy.as_ref().map(|a| a.object.acc_ng);
         println!(
-            "{:<22} {:>8}  {:>15}  {:>15}  {:>15}",
+            "{:<wc$}  {:<wl$}  {:>wv$}  {:>wv$}  {:>wv$}",
             c.checkpoint,
             c.label(),
-            c.reward.to_string(),
-            c.success.to_string(),
-            acc_ng.map_or("–".into(), |a| a.to_string())
+            c.reward.shown(spread),
+            c.success.shown(spread),
+            acc_ng.map_or("–".into(), |a| a.shown(spread))
         );
         if let (Some(min), Some(s)) = (args.min_success, c.success.mean)
             && s < min
