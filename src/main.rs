@@ -114,8 +114,22 @@ fn usage_error(err: &clap::Error) -> ExitCode {
         let _ = err.print();
         return ExitCode::from(2);
     }
+    // clap puts its "did you mean" in a tip below the first paragraph: kept in the one line.
+    let suggested = [
+        clap::error::ContextKind::SuggestedArg,
+        clap::error::ContextKind::SuggestedSubcommand,
+        clap::error::ContextKind::SuggestedValue,
+    ]
+    .into_iter()
+    .find_map(|k| match err.get(k) {
+        Some(clap::error::ContextValue::String(s)) => Some(s.clone()),
+        // clap lists its candidates from the least to the most similar.
+        Some(clap::error::ContextValue::Strings(v)) => v.last().cloned(),
+        _ => None,
+    });
+    let hint = suggested.map_or_else(String::new, |s| format!("; did you mean {s}?"));
     eprintln!(
-        "groundscope: {} (see --help)",
+        "groundscope: {}{hint} (see --help)",
         usage_message(&err.render().to_string())
     );
     ExitCode::from(2)

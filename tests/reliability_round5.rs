@@ -703,3 +703,19 @@ fn the_terminal_summary_aligns_long_ids_and_drops_a_spread_of_one_seed() {
         assert!(level_end < at, "the level overflows its column: {row:?}");
     }
 }
+
+/// A misspelt flag, subcommand or value names the one meant, in the one line of the error.
+#[test]
+fn typos_get_did_you_mean() {
+    for (args, says) in [
+        (&["eval", "--episodez", "3"][..], "did you mean --episodes?"),
+        (&["evl"][..], "did you mean eval?"),
+        (
+            &["curve", "x.csv", "--out", "x.png", "--accuracy", "acc-nq"][..],
+            "did you mean acc-ng?",
+        ),
+    ] {
+        let o = gs(args);
+        assert_bad_input(&o, says);
+    }
+}
