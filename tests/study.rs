@@ -270,3 +270,53 @@ fn a_killed_run_resumes_from_its_checkpoint() {
         std::fs::read(straight.join("model.safetensors")).unwrap()
     );
 }
+
+/// Ctrl-C (here SIGINT to the runner alone, as an engine's scancel or a kill would send it)
+/// stops every running run at its next update, saved: the runner exits 130, no run is marked
+/// failed or done, and no process of the study is left (a later `study run` resumes the runs
+/// from their checkpoints, as the killed run's test shows).
+#[test]
+fn a_stopped_runner_leaves_runs_that_resume() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = spec("[1]", false)
+        .replace("frames = 128", "frames = 64000")
+        .replace("tiny", "long");
+    let o = plan(dir.path(), &text);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let study = dir.path().join("study");
+    let s = study.to_str().unwrap();
+    let mut runner = std::process::Command::new(env!("CARGO_BIN_EXE_groundscope"))
+        .args(["study", "run", s, "--jobs", "2", "--quiet"])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let runs = study.join("runs");
+    common::wait_until("both runs logging", || {
+        ["long-small-s1", "other-small-s1"].iter().all(|n| {
+            std::fs::read_to_string(runs.join(n).join("log.csv"))
+                .is_ok_and(|l| l.lines().count() > 2)
+        })
+    });
+    let ok = std::process::Command::new("kill")
+        .args(["-INT", &runner.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(ok.success());
+    let status = common::wait_for_exit(&mut runner, "the stopped runner");
+    assert_eq!(status.code(), Some(130));
+    for n in ["long-small-s1", "other-small-s1"] {
+        let run = runs.join(n);
+        assert!(!run.join("study-failed.json").exists(), "{n}");
+        assert!(!run.join("study-done.json").exists(), "{n}");
+        let log = read(&run.join("study.log"));
+        assert!(log.contains("interrupted; saved"), "{n}: {log}");
+    }
+    // No process of the study is left running.
+    common::wait_until("the study's processes to end", || {
+        std::process::Command::new("pgrep")
+            .args(["-f", s])
+            .output()
+            .is_ok_and(|o| o.stdout.is_empty())
+    });
+}

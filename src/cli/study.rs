@@ -204,7 +204,7 @@ fn exec(study: &Path, name: &str) -> anyhow::Result<ExitStatus> {
     let start = std::time::Instant::now();
     for (cmd, args) in run.steps() {
         let args = step_args(study, run, cmd, args);
-        let status = run_step(study, &dir, cmd, &args)?;
+        let status = run_step(study, &dir, cmd, &args, &stop)?;
         if stop.requested() {
             eprintln!("{name}: interrupted during {cmd}; run the line again to resume it");
             return Ok(ExitStatus::Interrupted);
@@ -257,11 +257,14 @@ fn step_args(study: &Path, run: &PlannedRun, cmd: &str, args: &[String]) -> Vec<
 }
 
 /// Runs `groundscope CMD ARGS` in the study directory, its output appended to the run's log.
+/// A stop asked of this process (SIGINT, SIGTERM, SIGHUP: a runner's or an engine's) is passed
+/// on to the step, so that a training saves at its next update and ends.
 fn run_step(
     study: &Path,
     dir: &Path,
     cmd: &str,
     args: &[String],
+    stop: &Stop,
 ) -> anyhow::Result<std::process::ExitStatus> {
     use std::io::Write as _;
     let log_path = dir.join(LOG_FILE);
@@ -272,16 +275,28 @@ fn run_step(
         .with_context(|| format!("opening {}", log_path.display()))?;
     writeln!(log, "== groundscope {cmd} {}", args.join(" "))?;
     let exe = std::env::current_exe().context("finding this binary")?;
-    let status = Command::new(exe)
+    let mut child = Command::new(exe)
         .arg(cmd)
         .args(args)
         .current_dir(study)
         .stdin(std::process::Stdio::null())
         .stdout(log.try_clone()?)
         .stderr(log.try_clone()?)
-        .status()
+        .spawn()
         .with_context(|| format!("starting groundscope {cmd}"))?;
-    Ok(status)
+    let mut passed_on = false;
+    loop {
+        if let Some(status) = child.try_wait()? {
+            return Ok(status);
+        }
+        if stop.requested() && !passed_on {
+            let _ = Command::new("kill")
+                .args(["-INT", &child.id().to_string()])
+                .status();
+            passed_on = true;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
 }
 
 fn collect_cmd(study: &Path, out: Option<&Path>) -> anyhow::Result<ExitStatus> {
