@@ -255,58 +255,7 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitStatus> {
         "evaluated {total} episodes in {elapsed:.1} s; report in {}",
         args.out.display()
     );
-    // Columns as wide as their longest entry (a BabyAI id is up to 34 characters); one seed
-    // has no spread, so its cells give the mean alone, as report.md does.
-    let spread = args.sweep.seeds != 1;
-    let wc = report
-        .cells
-        .iter()
-        .map(|c| c.checkpoint.chars().count())
-        .chain([10])
-        .max()
-        .unwrap_or(10);
-    let wl = report
-        .cells
-        .iter()
-        .map(|c| c.label().chars().count())
-        .chain([5])
-        .max()
-        .unwrap_or(5);
-    let wv = if spread { 15 } else { 7 };
-    println!(
-        "{:<wc$}  {:<wl$}  {:>wv$}  {:>wv$}  {:>wv$}",
-        "checkpoint", "level", "reward", "success", "obj acc_ng"
-    );
-    let mut failed_checks = Vec::new();
-    for c in &report.cells {
-        let acc_ng = c.accuracy.as_ref().map(|a| a.object.acc_ng);
-        println!(
-            "{:<wc$}  {:<wl$}  {:>wv$}  {:>wv$}  {:>wv$}",
-            c.checkpoint,
-            c.label(),
-            c.reward.shown(spread),
-            c.success.shown(spread),
-            acc_ng.map_or("–".into(), |a| a.shown(spread))
-        );
-        if let (Some(min), Some(s)) = (args.min_success, c.success.mean)
-            && s < min
-        {
-            failed_checks.push(format!(
-                "success {s:.3} < --min-success {min} ({} {})",
-                c.checkpoint,
-                c.label()
-            ));
-        }
-        if let (Some(min), Some(a)) = (args.min_acc_ng, acc_ng.and_then(|a| a.mean))
-            && a < min
-        {
-            failed_checks.push(format!(
-                "object acc_ng {a:.3} < --min-acc-ng {min} ({} {})",
-                c.checkpoint,
-                c.label()
-            ));
-        }
-    }
+    let failed_checks = summary(args, &report);
     if failed_checks.is_empty() {
         Ok(ExitStatus::Success)
     } else {
@@ -386,6 +335,64 @@ fn run_cells(
         }
     });
     results
+}
+
+/// The terminal summary, a line per cell, and the gate's failed checks (`--min-success`,
+/// `--min-acc-ng`).
+fn summary(args: &EvalArgs, report: &groundscope::metrics::report::Report) -> Vec<String> {
+    // Columns as wide as their longest entry (a BabyAI id is up to 34 characters); one seed
+    // has no spread, so its cells give the mean alone, as report.md does.
+    let spread = args.sweep.seeds != 1;
+    let wc = report
+        .cells
+        .iter()
+        .map(|c| c.checkpoint.chars().count())
+        .chain([10])
+        .max()
+        .unwrap_or(10);
+    let wl = report
+        .cells
+        .iter()
+        .map(|c| c.label().chars().count())
+        .chain([5])
+        .max()
+        .unwrap_or(5);
+    let wv = if spread { 15 } else { 7 };
+    println!(
+        "{:<wc$}  {:<wl$}  {:>wv$}  {:>wv$}  {:>wv$}",
+        "checkpoint", "level", "reward", "success", "obj acc_ng"
+    );
+    let mut failed_checks = Vec::new();
+    for c in &report.cells {
+        let acc_ng = c.accuracy.as_ref().map(|a| a.object.acc_ng);
+        println!(
+            "{:<wc$}  {:<wl$}  {:>wv$}  {:>wv$}  {:>wv$}",
+            c.checkpoint,
+            c.label(),
+            c.reward.shown(spread),
+            c.success.shown(spread),
+            acc_ng.map_or("–".into(), |a| a.shown(spread))
+        );
+        if let (Some(min), Some(s)) = (args.min_success, c.success.mean)
+            && s < min
+        {
+            failed_checks.push(format!(
+                "success {s:.3} < --min-success {min} ({} {})",
+                c.checkpoint,
+                c.label()
+            ));
+        }
+        if let (Some(min), Some(a)) = (args.min_acc_ng, acc_ng.and_then(|a| a.mean))
+            && a < min
+        {
+            failed_checks.push(format!(
+                "object acc_ng {a:.3} < --min-acc-ng {min} ({} {})",
+                c.checkpoint,
+                c.label()
+            ));
+        }
+    }
+    failed_checks
 }
 
 /// Fills in the counterfactual verdict of every listed failed episode: its level seed re-run
