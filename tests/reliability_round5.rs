@@ -719,3 +719,18 @@ fn typos_get_did_you_mean() {
         assert_bad_input(&o, says);
     }
 }
+
+/// A refusal on a level the model cannot read names the bundled agent that can.
+#[test]
+fn a_level_the_model_cannot_read_names_the_babyai_agent() {
+    let o = gs(&[
+        "replay",
+        "--checkpoint",
+        "bundled:attention",
+        "--level",
+        "BabyAI-GoToDoor-v0",
+        "--seed",
+        "1",
+    ]);
+    assert_bad_input(&o, "--checkpoint bundled:babyai");
+}
