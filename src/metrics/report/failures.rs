@@ -160,7 +160,15 @@ pub fn worst_episodes(
             .then(a.seed.cmp(&b.seed))
     });
     let mut out = per_level(failed, k);
-    out.extend(per_level(low, k));
+    // A level whose lowest acc_cmb are all 0 (a diffuse `M` passes τ nowhere) would list K
+    // episodes in seed order, chosen by nothing: its list is left out.
+    let low = per_level(low, k);
+    let all_zero = |level: &Option<String>| {
+        low.iter()
+            .filter(|f| &f.level == level)
+            .all(|f| f.acc_cmb == Some(0.0))
+    };
+    out.extend(low.iter().filter(|f| !all_zero(&f.level)).cloned());
     out
 }
 
@@ -185,4 +193,59 @@ fn per_level(sorted: Vec<Failure>, k: usize) -> Vec<Failure> {
     let order: Vec<Option<String>> = taken.into_iter().map(|(l, _)| l).collect();
     kept.sort_by_key(|f| order.iter().position(|l| *l == f.level));
     kept
+}
+
+#[cfg(test)]
+mod tests {
+    use std::collections::BTreeMap;
+
+    use super::*;
+    use crate::metrics::grounding::Accuracies;
+
+    fn episode(seed: u64, acc_cmb: f64) -> EpisodeSummary {
+        let mut grounding = BTreeMap::new();
+        grounding.insert(
+            WordKind::Combined,
+            (
+                Accuracies {
+                    acc_cmb,
+                    ..Accuracies::default()
+                },
+                3,
+            ),
+        );
+        EpisodeSummary {
+            eval_seed: 0,
+            level_seed: seed,
+            mission: "go to the red ball".into(),
+            success: true,
+            reward: 0.9,
+            length: 5,
+            grounding,
+            failure: None,
+            actions: Vec::new(),
+            expert: crate::metrics::sweep::EpisodeExpert::default(),
+        }
+    }
+
+    /// The low-acc_cmb list is a ranking: one of nothing but zeros says nothing and is left
+    /// out; a list with something above zero keeps its zeros.
+    #[test]
+    fn a_low_acc_cmb_list_of_zeros_is_left_out() {
+        let level = LevelConfig::default();
+        let replay = |_: &str, _: &LevelConfig, s: u64| format!("groundscope replay --seed {s}");
+        let zeros = vec![(
+            "m".to_owned(),
+            level,
+            (0..5).map(|s| episode(s, 0.0)).collect(),
+        )];
+        assert!(worst_episodes(&zeros, 3, &replay).is_empty());
+        let some = vec![(
+            "m".to_owned(),
+            level,
+            vec![episode(0, 0.0), episode(1, 0.5), episode(2, 0.0)],
+        )];
+        let listed = worst_episodes(&some, 3, &replay);
+        assert_eq!(listed.iter().map(|f| f.seed).collect::<Vec<_>>(), [0, 2, 1]);
+    }
 }
