@@ -6,23 +6,7 @@
 
 mod common;
 
-use common::{assert_bad_input, gs, onnx_fixture, stderr, stdout};
-
-/// The rows of an `episodes.csv`, as header name → value maps.
-fn rows(path: &std::path::Path) -> Vec<std::collections::BTreeMap<String, String>> {
-    let mut r = csv::Reader::from_path(path).unwrap();
-    let header = r.headers().unwrap().clone();
-    r.records()
-        .map(|rec| {
-            let rec = rec.unwrap();
-            header
-                .iter()
-                .zip(rec.iter())
-                .map(|(h, v)| (h.to_owned(), v.to_owned()))
-                .collect()
-        })
-        .collect()
-}
+use common::{assert_bad_input, csv_rows, gs, onnx_fixture, stderr, stdout};
 
 /// The agent of `export/make_python_agent.sh`: rl-starter-files' ACModel trained in PyTorch
 /// on BabyAI-GoToRedBallGrey-v0, evaluated by groundscope and replayed by
@@ -48,8 +32,8 @@ fn a_python_trained_agent_gives_its_own_python_evaluation_episode_by_episode() {
         out.to_str().unwrap(),
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
-    let ours = rows(&out.join("episodes.csv"));
-    let python = rows(&onnx_fixture("acmodel_gotoredballgrey_python.csv"));
+    let ours = csv_rows(&out.join("episodes.csv"));
+    let python = csv_rows(&onnx_fixture("acmodel_gotoredballgrey_python.csv"));
     assert_eq!(ours.len(), 500);
     assert_eq!(python.len(), ours.len());
     for (a, b) in ours.iter().zip(&python) {
@@ -110,7 +94,7 @@ fn a_sweep_over_levels_reports_each_level_and_word_class() {
         out.to_str().unwrap(),
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
-    let eps = rows(&out.join("episodes.csv"));
+    let eps = csv_rows(&out.join("episodes.csv"));
     assert_eq!(eps.len(), 2 * 2 * 10);
     assert_eq!(
         eps.iter()
@@ -154,7 +138,7 @@ fn a_sweep_over_levels_reports_each_level_and_word_class() {
         "around.csv",
         "exploration.csv",
     ] {
-        let rows = rows(&out.join(csv));
+        let rows = csv_rows(&out.join(csv));
         assert!(!rows.is_empty(), "{csv}");
         assert!(
             rows.iter().all(|r| r["level"].starts_with("BabyAI-")),
@@ -293,7 +277,7 @@ fn training_on_a_door_level_and_a_multi_room_level_works_end_to_end() {
             report.to_str().unwrap(),
         ]);
         assert!(o.status.success(), "{level}: {}", stderr(&o));
-        let eps = rows(&report.join("episodes.csv"));
+        let eps = csv_rows(&report.join("episodes.csv"));
         assert_eq!(eps.len(), 3);
         assert!(eps.iter().all(|r| r["level"] == level), "its own level");
     }

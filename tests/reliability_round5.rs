@@ -9,25 +9,9 @@
 
 mod common;
 
-use common::{assert_bad_input, gs, stderr, stdout};
+use common::{assert_bad_input, csv_rows, gs, stderr, stdout};
 
 use std::path::Path;
-
-/// The rows of a CSV file, as header name → value maps.
-fn rows(path: &Path) -> Vec<std::collections::BTreeMap<String, String>> {
-    let mut r = csv::Reader::from_path(path).unwrap();
-    let header = r.headers().unwrap().clone();
-    r.records()
-        .map(|rec| {
-            let rec = rec.unwrap();
-            header
-                .iter()
-                .zip(rec.iter())
-                .map(|(h, v)| (h.to_owned(), v.to_owned()))
-                .collect()
-        })
-        .collect()
-}
 
 /// A small PPO run on the paper's smallest level, with `extra` flags.
 fn small_train<'a>(dir: &'a str, frames: &'a str, extra: &[&'a str]) -> Vec<&'a str> {
@@ -69,9 +53,34 @@ fn small_run<'a>(dir: &'a str, frames: &'a str, extra: &[&'a str]) -> Vec<&'a st
     args
 }
 
+/// One small imitation update (4 × 16 frames, no tracked evaluation) on the levels `levels`
+/// gives (`--level ID` or `--levels …`), into `out`.
+fn imitation_update<'a>(out: &'a str, levels: &[&'a str]) -> Vec<&'a str> {
+    let mut a = vec!["train", "--imitate"];
+    a.extend_from_slice(levels);
+    a.extend_from_slice(&[
+        "--out",
+        out,
+        "--frames",
+        "64",
+        "--procs",
+        "4",
+        "--frames-per-proc",
+        "16",
+        "--batch-size",
+        "32",
+        "--hidden",
+        "16",
+        "--eval-interval",
+        "0",
+        "--quiet",
+    ]);
+    a
+}
+
 /// The update numbers of a run's `log.csv` rows.
 fn logged_updates(run: &Path) -> Vec<u64> {
-    rows(&run.join("log.csv"))
+    csv_rows(&run.join("log.csv"))
         .iter()
         .map(|r| r["update"].parse().unwrap())
         .collect()
@@ -100,7 +109,7 @@ fn an_evaluation_on_a_carrying_level_keeps_its_report_when_a_counterfactual_cann
     ]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     let md = std::fs::read_to_string(out.join("report.md")).unwrap();
-    let eps = rows(&out.join("episodes.csv"));
+    let eps = csv_rows(&out.join("episodes.csv"));
     assert_eq!(eps.len(), 40);
     let failed = eps.iter().filter(|r| r["success"] != "1").count();
     assert!(
@@ -155,7 +164,7 @@ fn one_chunk_per_process_with_one_epoch_trains() {
         }
         let o = gs(&args);
         assert_eq!(o.status.code(), Some(0), "{name}: {}", stderr(&o));
-        let log = rows(&run.join("log.csv"));
+        let log = csv_rows(&run.join("log.csv"));
         assert_eq!(log.len(), 8, "{name}");
         for r in &log {
             let loss: f64 = r["policy_loss"].parse().unwrap();
@@ -399,27 +408,7 @@ fn resume_keeps_the_save_interval_and_refuses_a_contradicting_done_flag() {
     // A registered-mode BabyAI run, resumed with --done.
     let il = dir.path().join("il");
     let args = |extra: &[&'static str]| {
-        let mut a = vec![
-            "train",
-            "--imitate",
-            "--level",
-            "BabyAI-GoToRedBall-v0",
-            "--out",
-            il.to_str().unwrap(),
-            "--frames",
-            "64",
-            "--procs",
-            "4",
-            "--frames-per-proc",
-            "16",
-            "--batch-size",
-            "32",
-            "--hidden",
-            "16",
-            "--eval-interval",
-            "0",
-            "--quiet",
-        ];
+        let mut a = imitation_update(il.to_str().unwrap(), &["--level", "BabyAI-GoToRedBall-v0"]);
         a.extend_from_slice(extra);
         a.into_iter().map(str::to_owned).collect::<Vec<_>>()
     };
@@ -452,27 +441,7 @@ fn level_weights_out_of_range_are_refused_on_the_flag_and_in_a_saved_run() {
     let run = dir.path().join("mix");
     let r = run.to_str().unwrap();
     let args = |levels: &'static str, extra: &[&'static str]| {
-        let mut a = vec![
-            "train",
-            "--imitate",
-            "--levels",
-            levels,
-            "--out",
-            r,
-            "--frames",
-            "64",
-            "--procs",
-            "4",
-            "--frames-per-proc",
-            "16",
-            "--batch-size",
-            "32",
-            "--hidden",
-            "16",
-            "--eval-interval",
-            "0",
-            "--quiet",
-        ];
+        let mut a = imitation_update(r, &["--levels", levels]);
         a.extend_from_slice(extra);
         a
     };
@@ -510,29 +479,7 @@ fn imitation_without_labels_is_named_and_the_bot_cannot_seed_a_network() {
     let dir = tempfile::tempdir().unwrap();
     let run = dir.path().join("il");
     let r = run.to_str().unwrap();
-    let args = |levels: &'static str| {
-        vec![
-            "train",
-            "--imitate",
-            "--levels",
-            levels,
-            "--out",
-            r,
-            "--frames",
-            "64",
-            "--procs",
-            "4",
-            "--frames-per-proc",
-            "16",
-            "--batch-size",
-            "32",
-            "--hidden",
-            "16",
-            "--eval-interval",
-            "0",
-            "--quiet",
-        ]
-    };
+    let args = |levels: &'static str| imitation_update(r, &["--levels", levels]);
     let o = gs(&args("BabyAI-KeyInBox-v0"));
     assert_bad_input(&o, "BabyAI-KeyInBox-v0");
     assert!(stderr(&o).contains("no labelled frame"), "{}", stderr(&o));
@@ -580,7 +527,7 @@ fn episodes_record_their_done_mode_and_bench_env_takes_no_done() {
             out.to_str().unwrap(),
         ]);
         assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
-        for r in rows(&out.join("episodes.csv")) {
+        for r in csv_rows(&out.join("episodes.csv")) {
             assert_eq!(r["done_required"], want, "{flag}: {r:?}");
         }
     }

@@ -1,5 +1,9 @@
 """Shared helpers: the reference envs (gymnasium + minigrid 3.2.0) and comparisons."""
 
+import os
+import shutil
+from pathlib import Path
+
 import gymnasium as gym
 import minigrid
 import numpy as np
@@ -37,3 +41,20 @@ def assert_batch_equal(ours, ref, where):
     np.testing.assert_array_equal(ours["direction"], ref["direction"], err_msg=where)
     assert isinstance(ours["mission"], tuple), where
     assert ours["mission"] == ref["mission"], where
+
+
+def find_groundscope_bin():
+    """The groundscope binary the tests run: $GROUNDSCOPE_BIN, the release build in
+    $CARGO_TARGET_DIR or target/, or one on PATH; None without."""
+    root = Path(__file__).resolve().parents[2]
+    candidates = [
+        os.environ.get("GROUNDSCOPE_BIN"),
+        os.environ.get("CARGO_TARGET_DIR")
+        and os.path.join(os.environ["CARGO_TARGET_DIR"], "release", "groundscope"),
+        str(root / "target" / "release" / "groundscope"),
+        shutil.which("groundscope"),
+    ]
+    for c in candidates:
+        if c and os.path.isfile(c) and os.access(c, os.X_OK):
+            return c
+    return None

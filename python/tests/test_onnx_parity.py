@@ -8,9 +8,7 @@ $CARGO_TARGET_DIR/release/groundscope, else target/release/groundscope); skipped
 
 import csv
 import json
-import os
 import re
-import shutil
 import subprocess
 from pathlib import Path
 
@@ -18,6 +16,7 @@ import numpy as np
 import pytest
 
 import groundscope
+from conftest import find_groundscope_bin
 
 ort = pytest.importorskip("onnxruntime")
 
@@ -26,16 +25,10 @@ FIXTURES = ROOT / "tests" / "fixtures" / "onnx"
 
 
 def groundscope_bin():
-    candidates = [
-        os.environ.get("GROUNDSCOPE_BIN"),
-        os.environ.get("CARGO_TARGET_DIR") and os.path.join(os.environ["CARGO_TARGET_DIR"], "release", "groundscope"),
-        str(ROOT / "target" / "release" / "groundscope"),
-        shutil.which("groundscope"),
-    ]
-    for c in candidates:
-        if c and os.path.isfile(c) and os.access(c, os.X_OK):
-            return c
-    pytest.skip("no groundscope binary (set GROUNDSCOPE_BIN)")
+    exe = find_groundscope_bin()
+    if exe is None:
+        pytest.skip("no groundscope binary (set GROUNDSCOPE_BIN)")
+    return exe
 
 
 class OnnxAct:

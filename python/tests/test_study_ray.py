@@ -3,18 +3,15 @@
 files in the study directory, where ``groundscope study collect`` reads them."""
 
 import json
-import os
-import shutil
 import subprocess
-from pathlib import Path
 
 import pytest
 
 import groundscope.study
+from conftest import find_groundscope_bin
 
 ray = pytest.importorskip("ray")
 
-ROOT = Path(__file__).resolve().parents[2]
 
 SPEC = """
 seeds = [1, 2]
@@ -31,17 +28,10 @@ paper = { train = [], eval = ["--sizes", "5", "--objects", "1"] }
 
 
 def groundscope_bin():
-    candidates = [
-        os.environ.get("GROUNDSCOPE_BIN"),
-        os.environ.get("CARGO_TARGET_DIR")
-        and os.path.join(os.environ["CARGO_TARGET_DIR"], "release", "groundscope"),
-        str(ROOT / "target" / "release" / "groundscope"),
-        shutil.which("groundscope"),
-    ]
-    for c in candidates:
-        if c and os.path.isfile(c) and os.access(c, os.X_OK):
-            return c
-    pytest.fail("no groundscope binary: build it (cargo build --release) or set GROUNDSCOPE_BIN")
+    exe = find_groundscope_bin()
+    if exe is None:
+        pytest.fail("no groundscope binary: build it (cargo build --release) or set GROUNDSCOPE_BIN")
+    return exe
 
 
 def test_a_study_runs_as_ray_tasks_and_collects(tmp_path):

@@ -44,7 +44,7 @@ struct Tally {
 }
 
 /// The cores of this machine.
-fn cores() -> usize {
+pub(super) fn cores() -> usize {
     std::thread::available_parallelism().map_or(1, std::num::NonZero::get)
 }
 
