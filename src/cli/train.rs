@@ -135,6 +135,17 @@ pub struct TrainArgs {
         allow_negative_numbers = true
     )]
     pub imitate_policy_share: f64,
+    /// Supervise the word maps with weight λ (0 to 100; 0, the default, leaves them
+    /// unsupervised as the paper does): on each frame, −ln of each scored word's map mass on
+    /// the objects it names in view, and of M's mass on the objects the clauses waited on
+    /// matched, added to the loss times λ. Attention models only; named in the checkpoint.
+    #[arg(
+        long,
+        value_name = "LAMBDA",
+        default_value_t = 0.0,
+        allow_negative_numbers = true
+    )]
+    pub ground_loss: f64,
     /// Anneal the word temperature from --word-temperature (the model's, with --init) to 1,
     /// the paper's, linearly between START and END frames: START:END, e.g. 6000000:9000000.
     #[arg(long, value_name = "START:END", allow_hyphen_values = true)]
@@ -193,6 +204,7 @@ pub(super) fn ppo_config(a: &TrainArgs, from: f32) -> anyhow::Result<PpoConfig> 
         freeze_attention_at: a.freeze_attention_at,
         imitate: a.imitate,
         imitate_policy_share: a.imitate_policy_share,
+        ground_loss: a.ground_loss,
     })
 }
 
@@ -225,6 +237,9 @@ fn training_state(
             |l| finite(l.mean_reward),
         ),
         seed,
+        ground_loss: (trainer.ppo.ground_loss > 0.0)
+            .then_some(trainer.ppo.ground_loss)
+            .or(trainer.state.parent_ground_loss),
     }
 }
 
@@ -648,8 +663,14 @@ fn train_in(
             log.success_rate, log.mean_reward
         ));
         if args.quiet && log.update % 10 == 0 {
+            // The grounding term is shown only where it is trained.
+            let ground = if trainer.ppo.ground_loss > 0.0 {
+                format!(" ground {:.3}", log.ground_loss)
+            } else {
+                String::new()
+            };
             println!(
-                "update {} frames {} fps {fps:.0} success {:.3} reward {:.3} entropy {:.3}",
+                "update {} frames {} fps {fps:.0} success {:.3} reward {:.3} entropy {:.3}{ground}",
                 log.update, log.frames, log.success_rate, log.mean_reward, log.entropy
             );
         }

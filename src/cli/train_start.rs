@@ -126,7 +126,7 @@ pub(super) fn warm_start(
     if let Some(a) = &mut ppo.temperature_anneal {
         a.from = ckpt.meta.model.word_temperature.0;
     }
-    Ok(Trainer::warm_start(
+    let mut trainer = Trainer::warm_start(
         ckpt.meta.model,
         levels,
         ppo,
@@ -134,7 +134,9 @@ pub(super) fn warm_start(
         args.seed,
         ckpt.meta.training.frames,
         ckpt.meta.training.updates,
-    )?)
+    )?;
+    trainer.state.parent_ground_loss = ckpt.meta.training.ground_loss;
+    Ok(trainer)
 }
 
 /// How many missions of each level `--init`'s check reads for a word the parent lacks: the
@@ -217,7 +219,12 @@ impl Fixed {
             p.freeze_attention_at
                 .map_or_else(String::new, |f| f.to_string())
         };
-        let pairs: [(&str, String, String); 27] = [
+        let pairs: [(&str, String, String); 28] = [
+            (
+                "ground_loss",
+                now.ground_loss.to_string(),
+                run.ground_loss.to_string(),
+            ),
             (
                 "imitate_policy_share",
                 now.imitate_policy_share.to_string(),

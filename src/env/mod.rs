@@ -18,6 +18,7 @@ pub mod rng;
 pub mod roles;
 pub mod seeds;
 pub mod snapshot;
+pub mod targets;
 pub mod tree;
 pub mod view;
 pub mod vocab;

@@ -37,7 +37,10 @@
 //! [`FailureClass::WrongOrder`], [`FailureClass::WrongNeighbour`], [`FailureClass::WrongObject`],
 //! [`FailureClass::TurningInPlace`] and [`FailureClass::BlockedForward`] (truncated with the
 //! agent in the same cell over its last [`TURN_WINDOW`] steps, at least one a `forward` into a
-//! cell it cannot enter) whose condition holds, or none. An agent in a maze that turns until
+//! cell it cannot enter), [`FailureClass::RepeatedNoOp`] (truncated, its last [`TURN_WINDOW`]
+//! actions all a `pickup`, `drop` or `toggle` that could change nothing) and
+//! [`FailureClass::Cycling`] (truncated, its last [`CYCLE_WINDOW`] steps through at most
+//! [`CYCLE_STATES`] poses, not only turning) whose condition holds, or none. An agent in a maze that turns until
 //! the step limit is `door_never_opened` by the order above (the targets lay behind closed
 //! doors) and `turning_in_place` by behaviour: the class says what it never reached, the
 //! behaviour what it did instead. The class order is kept so that the paper's level's counts
@@ -82,6 +85,14 @@ use crate::policy::{PolicyError, ViewMap};
 /// [`FailureClass::TurningInPlace`]: two full rotations, longer than any useful scan.
 pub const TURN_WINDOW: usize = 8;
 
+/// How many final steps of a truncated episode [`FailureClass::Cycling`] looks at: long
+/// enough that a path revisiting at most [`CYCLE_STATES`] poses cannot be a search.
+pub const CYCLE_WINDOW: usize = 32;
+
+/// The most distinct poses (cell and direction) the last [`CYCLE_WINDOW`] steps may visit for
+/// [`FailureClass::Cycling`]: a loop around one 2×2 block of cells takes eight.
+pub const CYCLE_STATES: usize = 8;
+
 /// Why a failed episode failed.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
@@ -110,6 +121,14 @@ pub enum FailureClass {
     /// Truncated while standing in one cell over the last [`TURN_WINDOW`] steps, walking
     /// into something it cannot enter (a behaviour only, never a class).
     BlockedForward,
+    /// Truncated while its last [`TURN_WINDOW`] actions were all `pickup`, `drop` or `toggle`
+    /// that could change nothing (nothing to pick up, nowhere to drop, nothing to open; a
+    /// behaviour only).
+    RepeatedNoOp,
+    /// Truncated while its last [`CYCLE_WINDOW`] steps moved through at most
+    /// [`CYCLE_STATES`] poses, not only turning (a loop such as right, forward, right,
+    /// forward; a behaviour only).
+    Cycling,
 }
 
 impl FailureClass {
@@ -128,12 +147,14 @@ impl FailureClass {
     ];
 
     /// The behaviours ([`Diagnosis::behaviour`]), in the order they are decided.
-    pub const BEHAVIOURS: [Self; 5] = [
+    pub const BEHAVIOURS: [Self; 7] = [
         Self::WrongOrder,
         Self::WrongNeighbour,
         Self::WrongObject,
         Self::TurningInPlace,
         Self::BlockedForward,
+        Self::RepeatedNoOp,
+        Self::Cycling,
     ];
 
     /// What each class and behaviour means, in one line (`report.md` lists them).
@@ -166,6 +187,12 @@ impl FailureClass {
             Self::BlockedForward => {
                 "at the step limit, the agent stood in one cell over its last 8 steps, walking into something it cannot enter"
             }
+            Self::RepeatedNoOp => {
+                "at the step limit, the last 8 actions were pickup, drop or toggle that could change nothing"
+            }
+            Self::Cycling => {
+                "at the step limit, the last 32 steps went round at most 8 poses (cell and direction), not only turning"
+            }
         }
     }
 
@@ -193,6 +220,8 @@ impl FailureClass {
             Self::WrongOrder => "wrong_order",
             Self::WrongNeighbour => "wrong_neighbour",
             Self::BlockedForward => "blocked_forward",
+            Self::RepeatedNoOp => "repeated_no_op",
+            Self::Cycling => "cycling",
         }
     }
 
@@ -268,6 +297,9 @@ pub struct Evidence {
     pub m_on_target_steps: u32,
     /// The last [`TURN_WINDOW`] steps, oldest first.
     pub recent: Vec<RecentStep>,
+    /// The agent's pose (cell, direction) before each of the last [`CYCLE_WINDOW`] steps,
+    /// oldest first.
+    pub poses: std::collections::VecDeque<((i32, i32), u8)>,
     /// The last step, once the episode ended.
     pub ending: Option<Ending>,
     /// Rooms, doors, keys, sequences and PutNext ([`mechanics`]).
@@ -283,6 +315,29 @@ pub struct RecentStep {
     pub pos: (i32, i32),
     /// It was a `forward` into a cell the agent cannot enter.
     pub blocked: bool,
+    /// It was a `pickup`, `drop` or `toggle` that could change nothing ([`no_op_press`]).
+    pub no_op: bool,
+}
+
+/// Whether `action` in `world` is a `pickup`, `drop` or `toggle` that can change nothing:
+/// pickup with the hands full or nothing to lift in front, drop with empty hands or the cell
+/// in front taken, toggle in front of neither a door nor a box, or of a locked door without
+/// its key in hand.
+pub fn no_op_press(world: &World, action: Action) -> bool {
+    use crate::env::object::{DoorState, ObjectKind};
+    let front = world.grid.get(world.front_pos());
+    match action {
+        Action::Pickup => world.carrying.is_some() || !front.is_some_and(|o| o.kind.can_pickup()),
+        Action::Drop => world.carrying.is_none() || front.is_some(),
+        Action::Toggle => match front {
+            Some(o) if o.kind == ObjectKind::Door && o.state == DoorState::Locked => !world
+                .carrying
+                .is_some_and(|c| c.kind == ObjectKind::Key && c.color == o.color),
+            Some(o) => !matches!(o.kind, ObjectKind::Door | ObjectKind::Box),
+            None => true,
+        },
+        _ => false,
+    }
 }
 
 /// The class of one failed episode and the counts it rests on.
@@ -365,7 +420,12 @@ impl Evidence {
             pos: w.agent_pos,
             blocked: step.action == Action::Forward
                 && w.grid.get(w.front_pos()).is_some_and(|o| !o.can_overlap()),
+            no_op: no_op_press(w, step.action),
         });
+        if self.poses.len() == CYCLE_WINDOW {
+            self.poses.pop_front();
+        }
+        self.poses.push_back((w.agent_pos, w.agent_dir));
         self.mechanics.push(step);
         if step.terminated || step.truncated {
             self.ending = Some(Ending {
@@ -394,6 +454,17 @@ impl Evidence {
             });
         }
         e
+    }
+
+    /// Whether the last [`CYCLE_WINDOW`] steps went through at most [`CYCLE_STATES`] poses
+    /// and more than one cell.
+    fn cycles(&self) -> bool {
+        if self.poses.len() < CYCLE_WINDOW {
+            return false;
+        }
+        let poses: std::collections::BTreeSet<_> = self.poses.iter().collect();
+        let cells: std::collections::BTreeSet<_> = self.poses.iter().map(|p| p.0).collect();
+        poses.len() <= CYCLE_STATES && cells.len() > 1
     }
 
     /// The failure class, or `None` for a successful episode. An episode with no recorded
@@ -437,11 +508,15 @@ impl Evidence {
         } else {
             FailureClass::Other
         };
+        let pressing = truncated && full && self.recent.iter().all(|r| r.no_op);
+        let cycling = truncated && !turning && self.cycles();
         let behaviour = act
             .filter(|c| matches!(c, FailureClass::WrongOrder | FailureClass::WrongNeighbour))
             .or_else(|| wrong_object.then_some(FailureClass::WrongObject))
             .or_else(|| turning.then_some(FailureClass::TurningInPlace))
-            .or_else(|| blocked.then_some(FailureClass::BlockedForward));
+            .or_else(|| blocked.then_some(FailureClass::BlockedForward))
+            .or_else(|| pressing.then_some(FailureClass::RepeatedNoOp))
+            .or_else(|| cycling.then_some(FailureClass::Cycling));
         Some(Diagnosis {
             class,
             target_visible_steps: self.target_visible_steps,

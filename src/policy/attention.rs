@@ -44,7 +44,20 @@ pub fn keyed_queries(q: &Tensor, wk: &Tensor) -> Result<Tensor, PolicyError> {
 
 /// Eq. 3–4: `A = softmax_rows(Q Kcᵀ / √d_k)`, (B, m, 49).
 pub fn attention_maps(q: &Tensor, kc: &Tensor) -> Result<Tensor, PolicyError> {
-    Ok(candle_nn::ops::softmax(&scores(q, kc)?, D::Minus1)?)
+    maps_from_scores(&scores(q, kc)?, None)
+}
+
+/// Eq. 4 from the scores `s` (…, m, 49): each row's softmax over the cells, or with the null
+/// logits `s0` (…, m, 1) a softmax over the cells and the null key whose share is spread
+/// evenly over the cells ([`attention_maps_null`]).
+pub fn maps_from_scores(s: &Tensor, s0: Option<&Tensor>) -> Result<Tensor, PolicyError> {
+    let Some(s0) = s0 else {
+        return Ok(candle_nn::ops::softmax(s, D::Minus1)?);
+    };
+    let p = candle_nn::ops::softmax(&Tensor::cat(&[s, s0], D::Minus1)?, D::Minus1)?;
+    let n = s.dim(D::Minus1)?;
+    let spread = (p.narrow(D::Minus1, n, 1)? / n as f64)?;
+    Ok(p.narrow(D::Minus1, 0, n)?.broadcast_add(&spread)?)
 }
 
 /// Eq. 4 with the null key `k₀` (1, d_k) of [`crate::policy::ModelConfig::null_key`]: each
@@ -53,11 +66,7 @@ pub fn attention_maps(q: &Tensor, kc: &Tensor) -> Result<Tensor, PolicyError> {
 /// `A_ij = p_ij + p_i0 / 49`, (B, m, 49), each row still summing to 1. A word that finds
 /// nothing it names can so make its map flat, and a flat `M` passes the whole view.
 pub fn attention_maps_null(q: &Tensor, kc: &Tensor, k0: &Tensor) -> Result<Tensor, PolicyError> {
-    let s0 = null_logits(q, k0)?;
-    let p = candle_nn::ops::softmax(&Tensor::cat(&[&scores(q, kc)?, &s0], D::Minus1)?, D::Minus1)?;
-    let n = kc.dim(1)?;
-    let spread = (p.narrow(D::Minus1, n, 1)? / n as f64)?;
-    Ok(p.narrow(D::Minus1, 0, n)?.broadcast_add(&spread)?)
+    maps_from_scores(&scores(q, kc)?, Some(&null_logits(q, k0)?))
 }
 
 /// The null key's logits `Q k₀ᵀ / √d_k`, (…, m, 1), for `q` (…, m, d_k) and `k₀` (1, d_k):

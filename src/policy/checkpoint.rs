@@ -35,6 +35,11 @@ pub struct TrainingState {
     pub mean_reward: Option<f64>,
     /// Seed of the run (or of the initialisation).
     pub seed: u64,
+    /// The weight λ of `train --ground-loss` if the maps were supervised, by this run or by a
+    /// run it was started from with `--init`; absent for maps trained from the policy's loss
+    /// alone, as the paper's.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ground_loss: Option<f64>,
 }
 
 /// `NAME.json`: everything about the weights except the weights.

@@ -33,6 +33,19 @@ pub struct Net {
     weights: Weights,
 }
 
+/// What [`Net::sequence_with_maps`] computes for a chunk of frames.
+#[derive(Clone, Debug)]
+pub struct SequenceOut {
+    /// Action logits, one row per frame.
+    pub logits: Tensor,
+    /// Values, one per frame.
+    pub values: Tensor,
+    /// The memory after each chunk step.
+    pub mems: Vec<Memory>,
+    /// The word maps `A` (B, m, 49) and `M` (B, 49), when asked for.
+    pub maps: Option<(Tensor, Tensor)>,
+}
+
 /// Recurrent memory of B environments: LSTM `h` and `c`, each (B, H).
 #[derive(Clone, Debug)]
 pub struct Memory {
@@ -407,17 +420,72 @@ impl Net {
         mem0: &Memory,
         keep: &Tensor,
     ) -> Result<(Tensor, Tensor, Vec<Memory>), PolicyError> {
+        let out = self.sequence_with_maps(codes, tb, mem0, keep, false)?;
+        Ok((out.logits, out.values, out.mems))
+    }
+
+    /// [`Self::sequence`], with every frame's word maps and `M` (with gradient) when `maps`
+    /// is set and the model attends: what `train --ground-loss` supervises.
+    pub fn sequence_with_maps(
+        &self,
+        codes: &CellCodes,
+        tb: &TokenBatch,
+        mem0: &Memory,
+        keep: &Tensor,
+        maps: bool,
+    ) -> Result<SequenceOut, PolicyError> {
         let mission = self.mission_inputs_keyed(tb)?;
         let o = self.cells(codes)?;
         let o_key = self.key_cells(codes)?;
-        let x = self.visual_features(
-            &o,
-            o_key.as_ref(),
-            mission.queries.as_ref().map(|(q, m)| (q, m)),
-        )?;
+        let queries = mission.queries.as_ref().map(|(q, m)| (q, m));
+        let x = self.visual_features(&o, o_key.as_ref(), queries)?;
+        let maps = match queries {
+            Some((qk, mask)) if maps && self.cfg.has_attention() => {
+                Some(self.composite_maps(&o, o_key.as_ref(), qk, mask)?)
+            }
+            _ => None,
+        };
         let (h, mems) = self.lstm_chunk(&x, mem0, keep)?;
         let (logits, values) = self.heads(&h, &mission.text)?;
-        Ok((logits, values, mems))
+        Ok(SequenceOut {
+            logits,
+            values,
+            mems,
+            maps,
+        })
+    }
+
+    /// The word maps `A` (B, m, 49) and `M` (B, 49) the fused op of [`Self::visual_features`]
+    /// computes inside, through the composite ops of [`super::attention`] so that they carry a
+    /// gradient: the scores are `Q̂ Õᵀ` (or `Q̂ Õ_keyᵀ`, `Q̂ [Õ_key | Õ]ᵀ` with split keys and
+    /// key context), with the null key's column where the model has one.
+    fn composite_maps(
+        &self,
+        o: &Tensor,
+        o_key: Option<&Tensor>,
+        qk: &Tensor,
+        mask: &Tensor,
+    ) -> Result<(Tensor, Tensor), PolicyError> {
+        let keys = match o_key {
+            None => o.clone(),
+            Some(ok) if self.cfg.key_context => Tensor::cat(&[ok, o], 2)?,
+            Some(ok) => ok.clone(),
+        };
+        let width = keys.dim(2)?;
+        let s = qk
+            .narrow(2, 0, width)?
+            .contiguous()?
+            .matmul(&keys.transpose(1, 2)?.contiguous()?)?;
+        let s0 = if self.cfg.null_key {
+            Some(qk.narrow(2, width, 1)?)
+        } else {
+            None
+        };
+        let a = super::attention::maps_from_scores(&s, s0.as_ref())?;
+        let h = super::attention::entropies(&a)?;
+        let w = super::attention::word_weights(&h, mask, self.cfg.word_temperature.0)?;
+        let m = super::attention::combined_map(&w, &a)?;
+        Ok((a, m))
     }
 
     /// The LSTM over a chunk of T steps of n sequences (t-major rows of `x`, `keep` (T, n)) as

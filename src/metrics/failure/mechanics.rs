@@ -251,6 +251,41 @@ mod tests {
         }
     }
 
+    /// Pressing `pickup` into a wall to the limit is `repeated_no_op`; going round a loop
+    /// (right, forward, right, forward) is `cycling`; neither changes the class.
+    #[test]
+    fn presses_that_change_nothing_and_loops_are_behaviours() {
+        for seed in 0..3 {
+            let world = babyai("BabyAI-KeyCorridorS3R3-v0").generate(seed).unwrap();
+            let d = diagnose(world.clone(), &[], Action::Pickup).unwrap();
+            assert_eq!(d.class, FailureClass::LockedDoorNoKey, "seed {seed}");
+            assert_eq!(d.behaviour, Some(FailureClass::RepeatedNoOp), "seed {seed}");
+            let loop_: Vec<Action> = (0..world.max_steps)
+                .map(|t| {
+                    if t % 2 == 0 {
+                        Action::Right
+                    } else {
+                        Action::Forward
+                    }
+                })
+                .collect();
+            let d = diagnose(world, &loop_, Action::Right).unwrap();
+            assert_eq!(d.behaviour, Some(FailureClass::Cycling), "seed {seed}");
+        }
+        // A pickup in front of an object can change something: not a no-op.
+        let mut world = babyai("BabyAI-PickupLoc-v0").generate(0).unwrap();
+        let obj = crate::env::object::WorldObj::new(
+            crate::env::object::ObjectKind::Ball,
+            crate::env::object::Color::Red,
+            99,
+        );
+        let front = world.front_pos();
+        world.grid.set(front, Some(obj));
+        assert!(!super::super::no_op_press(&world, Action::Pickup));
+        assert!(super::super::no_op_press(&world, Action::Drop));
+        assert!(super::super::no_op_press(&world, Action::Toggle));
+    }
+
     fn babyai(id: &str) -> LevelConfig {
         LevelConfig {
             babyai: Some(LevelId::parse(id).unwrap()),

@@ -72,6 +72,14 @@ pub struct PpoConfig {
     /// mistakes. 0 is pure behavioural cloning. Written only when set.
     #[serde(default, skip_serializing_if = "is_zero")]
     pub imitate_policy_share: f64,
+    /// Weight λ of the auxiliary grounding loss (`train --ground-loss`): on every frame where
+    /// a scored word names objects in view, `−ln` of the word map's mass on them
+    /// ([`crate::env::targets::word_targets`]), and where the clauses waited on have targets in
+    /// view, `−ln` of `M`'s mass on those ([`crate::env::targets::pending_targets`]); each
+    /// averaged over the pairs that have targets and added to the loss times λ. 0 (the
+    /// default) leaves the maps unsupervised, as the paper does. Written only when set.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub ground_loss: f64,
 }
 
 #[expect(
@@ -137,6 +145,9 @@ impl TemperatureAnneal {
     }
 }
 
+/// The largest `--ground-loss` weight accepted: past it the auxiliary term swamps the policy's.
+pub const MAX_GROUND_LOSS: f64 = 100.0;
+
 fn one_thread() -> usize {
     1
 }
@@ -168,6 +179,7 @@ impl Default for PpoConfig {
             freeze_attention_at: None,
             imitate: false,
             imitate_policy_share: 0.0,
+            ground_loss: 0.0,
         }
     }
 }
@@ -238,6 +250,12 @@ impl PpoConfig {
         }
         if self.imitate_policy_share > 0.0 && !self.imitate {
             return bad("--imitate-policy-share needs --imitate".into());
+        }
+        if !(self.ground_loss.is_finite() && (0.0..=MAX_GROUND_LOSS).contains(&self.ground_loss)) {
+            return bad(format!(
+                "--ground-loss {:?} must be a number from 0 to {MAX_GROUND_LOSS}",
+                self.ground_loss
+            ));
         }
         self.validate_anneal()
     }

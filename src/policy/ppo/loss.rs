@@ -3,6 +3,7 @@
 use candle_core::backprop::GradStore;
 use candle_core::{D, DType, Device, Tensor};
 
+use super::ground::{FrameTargets, ground_loss};
 use super::rollout::Rollout;
 use super::{PhaseTimes, PpoConfig, secs};
 use crate::env::view::Observation;
@@ -19,6 +20,8 @@ pub(super) struct ShardOut {
     pub(super) policy: f64,
     pub(super) value: f64,
     pub(super) entropy: f64,
+    /// The unweighted grounding term (`--ground-loss`; 0 without it or with no target in view).
+    pub(super) ground: f64,
     pub(super) mems: Vec<HostMemory>,
     pub(super) times: PhaseTimes,
 }
@@ -65,8 +68,11 @@ pub(super) fn shard_step(
         ..PhaseTimes::default()
     };
     let forward_t = std::time::Instant::now();
-    let (logits, values, mems) = net.sequence(&codes, &tb, &mem0, &keep)?;
-    let mems = mems
+    let ground = ppo.ground_loss > 0.0;
+    let seq = net.sequence_with_maps(&codes, &tb, &mem0, &keep, ground)?;
+    let (logits, values) = (seq.logits, seq.values);
+    let mems = seq
+        .mems
         .iter()
         .take(rec - 1)
         .map(|m| Ok((m.h.to_vec2::<f32>()?, m.c.to_vec2::<f32>()?)))
@@ -99,15 +105,25 @@ pub(super) fn shard_step(
             ppo,
         )?
     };
+    let mut total = losses.total;
+    let mut ground_term = 0.0;
+    if let Some((a, m)) = &seq.maps {
+        let frames: Vec<&FrameTargets> = rows.iter().map(|&i| &ro.targets[i]).collect();
+        if let Some((weighted, plain)) = ground_loss(a, m, &frames, ppo.ground_loss)? {
+            total = (total + weighted)?;
+            ground_term = plain;
+        }
+    }
     times.update_forward = secs(forward_t);
     let backward_t = std::time::Instant::now();
-    let grads = losses.total.backward()?;
+    let grads = total.backward()?;
     times.update_backward = secs(backward_t);
     let out = ShardOut {
         times,
         policy: f64::from(losses.policy.to_scalar::<f32>()?),
         value: f64::from(losses.value.to_scalar::<f32>()?),
         entropy: f64::from(losses.entropy.to_scalar::<f32>()?),
+        ground: ground_term,
         mems,
     };
     Ok((grads, out))

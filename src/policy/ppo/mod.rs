@@ -14,6 +14,7 @@ pub mod adam;
 mod config;
 mod gae;
 pub mod grads;
+mod ground;
 mod loss;
 mod missions;
 mod mix;
@@ -93,6 +94,10 @@ pub struct RunState {
     /// torch-ac's alternating-offset counter.
     batch_num: u64,
     envs: Vec<EnvSlot>,
+    /// The `--ground-loss` weight of the run this one was started from with `--init` (or of
+    /// its own ancestors), so that a checkpoint names supervision its maps inherited.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub parent_ground_loss: Option<f64>,
 }
 
 /// What one update logged.
@@ -118,6 +123,10 @@ pub struct UpdateLog {
     pub entropy: f64,
     /// Mean pre-clip gradient norm.
     pub grad_norm: f64,
+    /// Mean unweighted grounding term of `--ground-loss` (0 without it): printed, not in
+    /// `log.csv`, whose columns stay the paper's.
+    #[serde(default)]
+    pub ground_loss: f64,
 }
 
 /// A PPO trainer over one level.
@@ -214,6 +223,12 @@ impl Trainer {
                     .into(),
             ));
         }
+        if ppo.ground_loss > 0.0 && !model.has_attention() {
+            return Err(PolicyError::Input(
+                "--ground-loss: a baseline has no word maps to supervise; use --model attention"
+                    .into(),
+            ));
+        }
         let adam = Adam::new(
             AdamConfig {
                 lr: ppo.lr,
@@ -247,6 +262,7 @@ impl Trainer {
                 batch_rng: Pcg64Mcg::seed_from_u64(seed ^ 0xBA7C_4E5D),
                 batch_num: 0,
                 envs,
+                parent_ground_loss: None,
             },
             times: PhaseTimes::default(),
             missions: missions::MissionCache::default(),
@@ -308,6 +324,7 @@ impl Trainer {
             ("value loss", log.value_loss),
             ("entropy", log.entropy),
             ("gradient norm", log.grad_norm),
+            ("grounding loss", log.ground_loss),
         ] {
             if !v.is_finite() {
                 return Err(PolicyError::Input(format!(

@@ -4,6 +4,7 @@
 use candle_core::{Device, Tensor};
 use rand::Rng as _;
 
+use super::ground::FrameTargets;
 use super::workers::run_all;
 use super::{EnvSlot, EpisodeStats, Trainer, missions, new_slot, secs};
 use crate::env::view::Observation;
@@ -26,6 +27,8 @@ pub(super) struct Rollout {
     pub(super) returns: Vec<f32>,
     /// `--imitate`: 1 where the action is the bot's (0 where it had given up).
     pub(super) expert: Vec<f32>,
+    /// `--ground-loss`: what each frame's words name in view (empty without the flag).
+    pub(super) targets: Vec<FrameTargets>,
 }
 
 impl Trainer {
@@ -57,7 +60,12 @@ impl Trainer {
             advantages: vec![0.0; n],
             returns: vec![0.0; n],
             expert: vec![0.0; n],
+            targets: Vec::new(),
         };
+        let ground = self.ppo.ground_loss > 0.0;
+        if ground {
+            ro.targets = vec![FrameTargets::default(); n];
+        }
         let mut stats = EpisodeStats::default();
         let (share, scale) = (self.ppo.imitate_policy_share, self.ppo.reward_scale);
         for t in 0..t_n {
@@ -83,12 +91,15 @@ impl Trainer {
                 1
             };
             let stepped = on_shards(&mut st.envs, env_threads, |p, env| {
-                step_env(env, draws[p], &out, p)
+                step_env(env, draws[p], &out, p, ground)
             })?;
             for (p, (env, s)) in st.envs.iter_mut().zip(stepped).enumerate() {
                 let i = p * t_n + t;
                 ro.obs[i] = s.obs;
                 ro.expert[i] = f32::from(u8::from(s.advised));
+                if let Some(t) = s.targets {
+                    ro.targets[i] = t;
+                }
                 ro.tokens[i].clone_from(&env.tokens);
                 ro.actions[i] = s.label as u32;
                 ro.values[i] = out.values[p];
@@ -244,15 +255,25 @@ struct Stepped {
     h: Vec<f32>,
     c: Vec<f32>,
     outcome: crate::env::world::StepOutcome,
+    /// `--ground-loss`: what the mission's words name in the view the step was taken from.
+    targets: Option<FrameTargets>,
 }
 
-/// Steps environment `p`: the bot's advice (imitation), the action, the world, the memory.
-fn step_env(env: &mut EnvSlot, draw: Draw, out: &ActAll, p: usize) -> Result<Stepped, PolicyError> {
+/// Steps environment `p`: the bot's advice (imitation), the grounding targets (`ground`), the
+/// action, the world, the memory.
+fn step_env(
+    env: &mut EnvSlot,
+    draw: Draw,
+    out: &ActAll,
+    p: usize,
+    ground: bool,
+) -> Result<Stepped, PolicyError> {
     // Imitation: the bot's action is the label, and the action taken unless this step takes
     // the policy's own (DAgger's mixture) or the bot gave up.
     let obs = out.obs[p];
     let advice = env.expert.as_mut().and_then(|e| e.advise(&env.world, &obs));
     let label = advice.map_or(draw.sampled, |a| a as usize);
+    let targets = ground.then(|| FrameTargets::of(&env.world, &obs, env.tokens.len()));
     let a = if draw.own { draw.sampled } else { label };
     let action = Action::from_index(a).unwrap_or(Action::Done);
     let outcome = env.world.step(action)?;
@@ -269,6 +290,7 @@ fn step_env(env: &mut EnvSlot, draw: Draw, out: &ActAll, p: usize) -> Result<Ste
         h: std::mem::replace(&mut env.h, out.h[p].clone()),
         c: std::mem::replace(&mut env.c, out.c[p].clone()),
         outcome,
+        targets,
     })
 }
 

@@ -80,6 +80,7 @@ impl Trainer {
                     log.policy_loss += w * out.policy;
                     log.value_loss += w * out.value;
                     log.entropy += w * out.entropy;
+                    log.ground_loss += w * out.ground;
                     self.times.add(&out.times);
                 }
                 let (adam, threads) = (&mut self.adam, self.ppo.threads);
@@ -96,6 +97,7 @@ impl Trainer {
         log.policy_loss /= n_batches;
         log.value_loss /= n_batches;
         log.entropy /= n_batches;
+        log.ground_loss /= n_batches;
         log.grad_norm /= n_batches;
         Ok(log)
     }
