@@ -496,11 +496,10 @@ fn the_panels_say_what_their_numbers_mean() {
             h.key_press(egui::Key::ArrowRight);
             show_until(&mut h, &format!("step {k} of "));
         }
-        let desc = step.world.desc();
         let shown_kinds = shown_kinds(&step.world);
         for kind in groundscope::metrics::grounding::WordKind::ALL {
             if scene.grounding.iter().all(|g| g.kind != kind) {
-                let reason = no_accuracy_reason(kind, &desc);
+                let reason = no_accuracy_reason(kind, &step.world);
                 if shown_kinds.contains(&kind) {
                     h.get_by_label(&reason);
                     reasons += 1;

@@ -285,4 +285,43 @@ fn the_checkpoint_names_the_supervision_and_its_children_keep_it() {
     // Without the loss the field is absent, as in every checkpoint before it.
     train(&["--out", plain_s, "--frames", "64"]);
     assert!(meta(&plain)["training"].get("ground_loss").is_none());
+    // An evaluation's report says which maps were supervised, and how bundled:babyai was
+    // trained (its metadata names only the first of its sixteen levels).
+    let report = dir.path().join("report");
+    let o = gs(&[
+        "eval",
+        "--checkpoint",
+        child_s,
+        "--checkpoint",
+        plain_s,
+        "--checkpoint",
+        "bundled:babyai",
+        "--levels",
+        "BabyAI-GoToLocal-v0",
+        "--seeds",
+        "1",
+        "--episodes",
+        "2",
+        "--out",
+        report.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let md = std::fs::read_to_string(report.join("report.md")).unwrap();
+    let line = |name: &str| {
+        md.lines()
+            .find(|l| l.starts_with(&format!("- `{name}`")))
+            .unwrap_or_else(|| panic!("no line for {name}:\n{md}"))
+            .to_owned()
+    };
+    assert!(
+        line(child_s).contains("supervised by `--ground-loss 0.5`"),
+        "{md}"
+    );
+    assert!(!line(plain_s).contains("supervised"), "{md}");
+    let babyai = line("bundled:babyai");
+    assert!(
+        babyai.contains("imitation of minigrid's BabyAI bot on sixteen BabyAI levels")
+            && !babyai.contains("trained on"),
+        "{babyai}"
+    );
 }

@@ -157,6 +157,8 @@ pub fn evaluate(
             frames: None,
             level: None,
             model_name: None,
+            training: None,
+            ground_loss: None,
         }],
         cells,
         elapsed_secs: start.elapsed().as_secs_f64(),

@@ -189,6 +189,8 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitStatus> {
                 frames: c.frames(),
                 level: c.trained_level(),
                 model_name: c.acting().model_name(),
+                training: groundscope::policy::bundled::training_note(n).map(str::to_owned),
+                ground_loss: c.ground_loss(),
             })
             .collect(),
         cells: report_cells,

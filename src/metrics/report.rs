@@ -224,6 +224,14 @@ pub struct CheckpointInfo {
     /// `groundscope.name`: `NAME (file.onnx)`); absent for groundscope's own checkpoints.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub model_name: Option<String>,
+    /// How it was trained, where `level` alone would mislead (`bundled:babyai`, trained on
+    /// sixteen levels; [`crate::policy::bundled::training_note`]); absent otherwise.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub training: Option<String>,
+    /// The weight of `train --ground-loss` its maps were supervised with; absent for maps
+    /// learnt from the task alone.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ground_loss: Option<f64>,
 }
 
 /// `report.json`.

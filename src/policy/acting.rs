@@ -440,6 +440,14 @@ impl Agent {
         }
     }
 
+    /// The weight of `train --ground-loss` its maps were supervised with, if they were.
+    pub fn ground_loss(&self) -> Option<f64> {
+        match self {
+            Self::Native(ckpt, _) => ckpt.meta.training.ground_loss,
+            Self::Onnx(_) | Self::Bot(_) => None,
+        }
+    }
+
     /// The level it was trained on, where there is one (not the bot's).
     pub fn trained_level(&self) -> Option<crate::env::LevelConfig> {
         match self {

@@ -32,6 +32,14 @@ const BUNDLED: [(&str, &str, &[u8]); 3] = [
 /// The bundled model for BabyAI's levels: it reads every word of their missions.
 pub const BABYAI: &str = "bundled:babyai";
 
+/// How a bundled checkpoint was trained, where its metadata (which names one level) would
+/// not say it truly; `None` for any other name.
+pub fn training_note(spec: &str) -> Option<&'static str> {
+    (spec == BABYAI).then_some(
+        "imitation of minigrid's BabyAI bot on sixteen BabyAI levels at once (experiments/babyai_agent/levels.txt)",
+    )
+}
+
 /// The paper's pair, `bundled:attention` then `bundled:baseline`: what `eval`, `replay` and
 /// `faithfulness` run without `--checkpoint`.
 pub fn pair() -> Vec<String> {

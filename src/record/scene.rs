@@ -226,32 +226,53 @@ pub fn cell_centre(cell: ViewCell) -> (f32, f32) {
     (cell.0 as f32 + 0.5, cell.1 as f32 + 0.5)
 }
 
-/// Why a kind of grounding accuracy is not shown at this step: which word it needs and what
-/// is missing from the view.
-pub fn no_accuracy_reason(kind: WordKind, desc: &ObjDesc) -> String {
-    let named = |kind: Option<&str>, color: Option<&str>| {
-        [color, Some(kind.unwrap_or("object"))]
-            .into_iter()
-            .flatten()
-            .collect::<Vec<_>>()
-            .join(" ")
+/// Why a kind of grounding accuracy is not shown at this step of `world`: which word it needs
+/// and what is missing from the view, said of the clause the verifier is waiting on (named by
+/// number on a mission of several clauses), since that is the clause `M` is scored on.
+pub fn no_accuracy_reason(kind: WordKind, world: &World) -> String {
+    let clauses = world.instr.clauses();
+    let waited = crate::env::roles::pending_clauses(&world.instr)
+        .first()
+        .and_then(|&c| clauses.get(c).map(|n| (c, n.instr.desc)));
+    let (desc, clause) = match waited {
+        Some((c, d)) => (d, (clauses.len() > 1).then_some(c + 1)),
+        None => (world.desc(), None),
     };
+    let whose = clause.map_or_else(
+        || "the mission".to_owned(),
+        |c| format!("clause {c}, the one waited on,"),
+    );
+    let named = [
+        desc.color.map(crate::env::object::Color::name),
+        Some(
+            desc.kind
+                .map_or("object", crate::env::object::ObjectKind::name),
+        ),
+    ]
+    .into_iter()
+    .flatten()
+    .collect::<Vec<_>>()
+    .join(" ");
     match kind {
         WordKind::Object => match desc.kind {
             Some(k) => format!("object: no {} in view, nothing to score", k.name()),
-            None => "object: the mission names no object type".to_owned(),
+            None => format!("object: {whose} names no object type"),
         },
         WordKind::Color => match desc.color {
             Some(c) => format!("color: no {} object in view, nothing to score", c.name()),
-            None => "color: the mission names no colour".to_owned(),
+            None => format!("color: {whose} names no colour"),
         },
-        WordKind::Combined => format!(
-            "combined: no {} (a target) in view, nothing to score",
-            named(
-                desc.kind.map(crate::env::object::ObjectKind::name),
-                desc.color.map(crate::env::object::Color::name),
-            )
-        ),
+        WordKind::Combined => {
+            let carried = world
+                .carrying
+                .is_some_and(|o| crate::env::tree::pending_target_ids(world).contains(&o.id));
+            let of = clause.map_or_else(String::new, |c| format!(" of clause {c}"));
+            if carried {
+                format!("combined: the target{of} ({named}) is carried, not in view")
+            } else {
+                format!("combined: no {named} (a target{of}) in view, nothing to score")
+            }
+        }
         WordKind::Door => "door: no door in view, nothing to score".to_owned(),
         WordKind::Location => {
             "location: none of the objects its description matched is in view".to_owned()
@@ -298,7 +319,6 @@ pub fn accuracy_rows<'a>(
     step: &StepRecord,
     scene: &'a StepScene,
 ) -> Vec<(WordKind, Result<&'a EvaluatedMap, String>)> {
-    let desc = step.world.desc();
     shown_kinds(&step.world)
         .into_iter()
         .map(|kind| {
@@ -306,7 +326,7 @@ pub fn accuracy_rows<'a>(
                 .grounding
                 .iter()
                 .find(|g| g.kind == kind)
-                .ok_or_else(|| no_accuracy_reason(kind, &desc));
+                .ok_or_else(|| no_accuracy_reason(kind, &step.world));
             (kind, row)
         })
         .collect()
@@ -379,6 +399,44 @@ pub fn action_names() -> [&'static str; Action::COUNT] {
 mod tests {
     use super::*;
     use crate::env::level::{LevelConfig, babyai_world as world};
+
+    #[test]
+    fn a_reason_speaks_of_the_clause_waited_on() {
+        // "… after …" waits on its second clause first: a colour named only by the first
+        // clause must not be reported as missing from "the mission".
+        let mut checked = 0;
+        for seed in 0..300 {
+            let w = world("BabyAI-GoToSeqS5R2-v0", seed);
+            let clauses = w.instr.clauses();
+            let Some(&c) = crate::env::roles::pending_clauses(&w.instr).first() else {
+                continue;
+            };
+            let reason = no_accuracy_reason(WordKind::Color, &w);
+            match clauses[c].instr.desc.color {
+                None => {
+                    let want = if clauses.len() > 1 {
+                        format!(
+                            "color: clause {}, the one waited on, names no colour",
+                            c + 1
+                        )
+                    } else {
+                        "color: the mission names no colour".to_owned()
+                    };
+                    assert_eq!(reason, want, "seed {seed}: {}", w.mission);
+                    checked += usize::from(clauses.iter().any(|n| n.instr.desc.color.is_some()));
+                }
+                Some(col) => assert!(reason.contains(col.name()), "seed {seed}: {reason}"),
+            }
+        }
+        assert!(checked > 0, "no mission whose other clause names a colour");
+        // One clause: "the mission", as before.
+        let w = world("BabyAI-GoToLocal-v0", 0);
+        let r = no_accuracy_reason(WordKind::Combined, &w);
+        assert!(
+            r.starts_with("combined: no ") && !r.contains("clause"),
+            "{r}"
+        );
+    }
 
     #[test]
     fn a_cell_several_clauses_name_gets_one_mark_with_every_number() {

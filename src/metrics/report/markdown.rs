@@ -91,17 +91,21 @@ impl Report {
                 "minigrid's BabyAI bot (a planner that reads the full state; not trained)"
                     .to_owned()
             } else {
+                let trained = match (&c.training, c.level) {
+                    (Some(t), _) => t.clone(),
+                    (None, Some(l)) => format!("trained on {l}"),
+                    (None, None) => "training levels not known".to_owned(),
+                };
+                let supervised = c.ground_loss.map_or_else(String::new, |l| {
+                    format!("; its maps supervised by `--ground-loss {l}`")
+                });
                 format!(
-                    "{} model, {}, {}",
+                    "{} model, {}, {trained}{supervised}",
                     c.variant,
                     c.frames.map_or_else(
                         || "training frames not known".to_owned(),
                         |f| format!("{f} training frames")
                     ),
-                    c.level.map_or_else(
-                        || "training levels not known".to_owned(),
-                        |l| format!("trained on {l}")
-                    )
                 )
             };
             let _ = writeln!(s, "- `{}`: {line}", c.name);
