@@ -5,7 +5,6 @@
 use image::{RgbImage, RgbaImage};
 
 use crate::env::Pos;
-use crate::env::mission::ObjDesc;
 use crate::env::roles::{DescPart, WordClass, word_roles};
 use crate::env::tree::{InstructionTree, Stage, pending_target_cells};
 use crate::env::view::ViewCell;

@@ -225,3 +225,16 @@ pub const SMALL_SWEEP: [&str; 8] = [
     "--episodes",
     "2",
 ];
+
+/// `train --out DIR --quiet` with [`TINY_RUN`]'s flags, less those `extra` sets itself, then
+/// `extra`.
+pub fn train_tiny(dir: &Path, extra: &[&str]) -> Output {
+    let mut args = vec!["train", "--out", dir.to_str().unwrap(), "--quiet"];
+    for pair in TINY_RUN.chunks(2) {
+        if !extra.contains(&pair[0]) {
+            args.extend_from_slice(pair);
+        }
+    }
+    args.extend_from_slice(extra);
+    gs(&args)
+}
