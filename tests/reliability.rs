@@ -14,7 +14,6 @@ use std::os::unix::fs::FileTypeExt as _;
 use std::path::Path;
 use std::process::{Command, Stdio};
 
-
 #[test]
 fn bad_training_settings_are_refused_before_anything_is_written() {
     let tmp = tempfile::tempdir().unwrap();

@@ -11,7 +11,6 @@ mod common;
 
 use common::{assert_bad_input, gs, train_tiny as train};
 
-
 #[test]
 fn env_verify_compares_directions_and_missions_and_rejects_malformed_images() {
     let tmp = tempfile::tempdir().unwrap();
@@ -479,4 +478,3 @@ fn long_level_ids_are_cut_in_errors() {
         );
     }
 }
-

@@ -9,6 +9,7 @@
 
 pub mod debugger;
 pub mod rrd;
+pub mod tensors;
 
 use std::io::BufRead as _;
 use std::path::{Path, PathBuf};
@@ -237,4 +238,44 @@ pub fn train_tiny(dir: &Path, extra: &[&str]) -> Output {
     }
     args.extend_from_slice(extra);
     gs(&args)
+}
+
+/// A small PPO run on the paper's smallest level, with `extra` flags.
+pub fn small_train<'a>(dir: &'a str, frames: &'a str, extra: &[&'a str]) -> Vec<&'a str> {
+    let mut args = vec![
+        "train",
+        "--model",
+        "attention",
+        "--out",
+        dir,
+        "--frames",
+        frames,
+        "--size",
+        "5",
+        "--objects",
+        "1",
+        "--tasks",
+        "goto",
+        "--no-done",
+        "--procs",
+        "4",
+        "--hidden",
+        "16",
+        "--eval-interval",
+        "0",
+        "--quiet",
+    ];
+    args.extend_from_slice(extra);
+    args
+}
+
+/// [`small_train`] with 64-frame updates (4 × 16).
+pub fn small_run<'a>(dir: &'a str, frames: &'a str, extra: &[&'a str]) -> Vec<&'a str> {
+    let mut args = small_train(
+        dir,
+        frames,
+        &["--frames-per-proc", "16", "--batch-size", "32"],
+    );
+    args.extend_from_slice(extra);
+    args
 }
