@@ -122,7 +122,7 @@ fn occlusion_is_zero_where_nothing_is_replaced_and_annotation_is_deterministic()
         tokens: &trace.tokens,
         memory: &mem,
         obs: step.obs,
-        desc: step.world.desc(),
+        words: groundscope::env::targets::word_targets(&step.world, &step.obs, trace.tokens.len()),
         targets: groundscope::metrics::grounding::pending_targets(&step.world, &step.obs),
         probs: &step.probs,
         action: step.action as usize,
@@ -321,4 +321,59 @@ fn replay_adds_faithfulness_to_the_trace_and_the_recordings() {
     gs(&["replay", "--seed", "3", "--trace", plain.to_str().unwrap()]);
     let j: serde_json::Value = serde_json::from_slice(&std::fs::read(&plain).unwrap()).unwrap();
     assert!(j["steps"][0].get("faithfulness").is_none());
+}
+
+/// On a level whose targets are doors (GoToDoor) the door word's map is localised on the
+/// doors, the steps with a door in view are analysed (occlusion ranks doors), and steering `M`
+/// moves it to another door, whose reaching counts as a distractor (issue #64; all three
+/// measured nothing there before).
+#[test]
+fn door_targets_are_localised_ranked_and_steered_to() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("f");
+    let o = gs(&[
+        "faithfulness",
+        "--checkpoint",
+        "bundled:babyai",
+        "--levels",
+        "BabyAI-GoToDoor-v0",
+        "--seeds",
+        "1",
+        "--episodes",
+        "4",
+        "--first-seed",
+        "1400",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", common::stderr(&o));
+    let md = std::fs::read_to_string(out.join("faithfulness.md")).unwrap();
+    let value = |row: &str| {
+        let line = md
+            .lines()
+            .find(|l| l.starts_with(&format!("| {row}")))
+            .unwrap_or_else(|| panic!("no row {row}:\n{md}"));
+        line.split('|').nth(2).unwrap().trim().to_owned()
+    };
+    for row in [
+        "door map: pointing game",
+        "occlusion: the target is the top-Δ object",
+        "closed loop, steered: success / distractor",
+    ] {
+        let v = value(row);
+        assert!(!v.starts_with('–'), "{row}: {v}");
+    }
+    // Steering sends the bundled agent to another door in some episode.
+    let steered = value("closed loop, steered: success / distractor");
+    let distractor: f64 = steered
+        .split('/')
+        .nth(1)
+        .unwrap()
+        .split('±')
+        .next()
+        .unwrap()
+        .trim()
+        .parse()
+        .unwrap();
+    assert!(distractor > 0.0, "{steered}");
 }

@@ -159,7 +159,7 @@ pub fn intervention(
         Loop::Steered => {
             let base = agent.act_one(*obs, world.agent_dir, tokens, None, memory, true, None)?;
             let targets = pending_targets(world, obs);
-            let objects = related_objects(obs, |_, _| true);
+            let objects = super::step::candidate_objects(obs, &targets);
             base.traces
                 .as_ref()
                 .and_then(|t| t.first())
@@ -188,11 +188,30 @@ pub fn word_position(world: &World, tokens: &[u32], color: bool) -> Option<usize
 /// Per-step state of the unperturbed rollout that the step analysis needs.
 struct Visit {
     memory: Memory,
+    words: Vec<crate::env::targets::WordTargets>,
     targets: Vec<crate::env::view::ViewCell>,
     obs: Observation,
     direction: u8,
     out: ActOutput,
     action: usize,
+}
+
+/// Whether the agent faces a door outside the targets of the clauses waited on, while those
+/// targets are all doors.
+fn at_distractor_door(world: &World) -> bool {
+    use crate::env::object::ObjectKind;
+    let ids = crate::env::tree::pending_target_ids(world);
+    let doors = !ids.is_empty()
+        && world
+            .grid
+            .objects()
+            .filter(|(_, o)| ids.contains(&o.id))
+            .all(|(_, o)| o.kind == ObjectKind::Door);
+    doors
+        && world
+            .grid
+            .get(world.front_pos())
+            .is_some_and(|o| o.kind == ObjectKind::Door && !ids.contains(&o.id))
 }
 
 fn argmax_m(out: &ActOutput) -> Option<usize> {
@@ -253,10 +272,16 @@ fn rollout(
         {
             r.distractor = true;
         }
+        // Where the targets are doors, a distractor door is reached by facing it (GoTo's
+        // success is facing its door) or toggling it.
+        if at_distractor_door(&world) {
+            r.distractor = true;
+        }
         let next_memory = out.memory.clone();
         if let Some(v) = visits.as_deref_mut() {
             v.push(Visit {
                 memory: memory.clone(),
+                words: crate::env::targets::word_targets(&world, &obs, tokens.len()),
                 targets: target_cells,
                 obs,
                 direction,
@@ -486,7 +511,7 @@ pub fn analyse_episode(
     let mut steps = Vec::new();
     if parts.steps {
         for v in &visits {
-            if related_objects(&v.obs, |_, _| true).is_empty() {
+            if super::step::candidate_objects(&v.obs, &v.targets).is_empty() {
                 continue;
             }
             let probs = v.out.probs.first().cloned().unwrap_or_default();
@@ -496,7 +521,7 @@ pub fn analyse_episode(
                 tokens: &tokens,
                 memory: &v.memory,
                 obs: v.obs,
-                desc: world.desc(),
+                words: v.words.clone(),
                 targets: v.targets.clone(),
                 probs: &probs,
                 action: v.action,

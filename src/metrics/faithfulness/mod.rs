@@ -158,7 +158,7 @@ fn step_faithfulness(
         tokens,
         memory,
         obs: s.obs,
-        desc: s.world.desc(),
+        words: crate::env::targets::word_targets(&s.world, &s.obs, tokens.len()),
         targets: crate::metrics::grounding::pending_targets(&s.world, &s.obs),
         probs: &s.probs,
         action: s.action as usize,

@@ -13,9 +13,9 @@ use super::measures::{
     Localisation, argmax, flat, localisation, normalised_auc, rank_correlation, resample,
     total_variation,
 };
-use crate::env::mission::ObjDesc;
+use crate::env::targets::{WordTargets, visible_objects};
 use crate::env::view::{AGENT_IN_VIEW, Observation, VIEW_SIZE, ViewCell};
-use crate::metrics::grounding::{WordKind, related_objects};
+use crate::metrics::grounding::WordKind;
 use crate::policy::obs::N_CELLS;
 use crate::policy::{Acting, AttentionTrace, Intervention, Memory, PolicyError};
 
@@ -53,8 +53,9 @@ pub struct StepInput<'a> {
     pub memory: &'a Memory,
     /// The observation.
     pub obs: Observation,
-    /// The first clause's description (which objects the type and colour words name).
-    pub desc: ObjDesc,
+    /// What each scored word of the mission names in view at this step
+    /// ([`crate::env::targets::word_targets`]): the cells its map is localised on.
+    pub words: Vec<WordTargets>,
     /// `M`'s targets in view: the objects the clauses the verifier waits on matched
     /// ([`crate::metrics::grounding::pending_targets`]).
     pub targets: Vec<ViewCell>,
@@ -323,8 +324,8 @@ fn mean_of(curves: &[Vec<f64>]) -> Vec<f64> {
 /// Analyses one step with at least one visible object. `rng` draws the permutation of the
 /// chance control and the random deletion orders.
 pub fn analyse(input: &StepInput<'_>, rng: &mut Pcg64Mcg) -> Result<StepResult, PolicyError> {
-    let objects = related_objects(&input.obs, |_, _| true);
     let targets = input.targets.clone();
+    let objects = candidate_objects(&input.obs, &targets);
     let delta = occlusion(input)?;
     let mut r = StepResult {
         random_pick: (objects.len() >= 2).then(|| 1.0 / objects.len() as f64),
@@ -421,46 +422,54 @@ pub fn analyse(input: &StepInput<'_>, rng: &mut Pcg64Mcg) -> Result<StepResult, 
         }
     }
     if let Some(att) = input.attention {
-        r.localisation = localise(&input.obs, &input.desc, &input.targets, att);
+        r.localisation = localise(&input.words, &input.targets, att);
     }
     r.occlusion = delta;
     Ok(r)
 }
 
-/// Localisation of the type word's map (on objects of that type), the colour word's map (on
-/// objects of that colour) and `M` (on `targets`): the words evaluated are the first ones
-/// spelled like the first clause's type or colour.
+/// Localisation of each kind of word's map on the cells it names ([`StepInput::words`]: a
+/// type, colour or door word on the visible objects it names, a location word on its
+/// referents) — the first word of each kind in the mission — and of `M` on `targets`.
 pub fn localise(
-    obs: &Observation,
-    desc: &ObjDesc,
+    words: &[WordTargets],
     targets: &[ViewCell],
     att: &AttentionTrace,
 ) -> BTreeMap<WordKind, Localisation> {
-    let cells = |v: Vec<ViewCell>| -> Vec<usize> { v.into_iter().map(cell_index).collect() };
-    let find = |name: &str| att.words.iter().find(|w| w.word == name);
+    let cells = |v: &[ViewCell]| -> Vec<usize> { v.iter().copied().map(cell_index).collect() };
     let mut out = BTreeMap::new();
-    if let Some(kind) = desc.kind
-        && let Some(w) = find(kind.name())
-        && let Some(l) = localisation(
-            &flat(&w.map),
-            &cells(related_objects(obs, |k, _| k == kind)),
-        )
-    {
-        out.insert(WordKind::Object, l);
+    for t in words {
+        if out.contains_key(&t.kind) {
+            continue;
+        }
+        if let Some(w) = att.words.get(t.word)
+            && let Some(l) = localisation(&flat(&w.map), &cells(&t.cells))
+        {
+            out.insert(t.kind, l);
+        }
     }
-    if let Some(color) = desc.color
-        && let Some(w) = find(color.name())
-        && let Some(l) = localisation(
-            &flat(&w.map),
-            &cells(related_objects(obs, |_, c| c == color)),
-        )
-    {
-        out.insert(WordKind::Color, l);
-    }
-    if let Some(l) = localisation(&flat(&att.combined), &cells(targets.to_vec())) {
+    if let Some(l) = localisation(&flat(&att.combined), &cells(targets)) {
         out.insert(WordKind::Combined, l);
     }
     out
+}
+
+/// The objects a step's measures rank and steer between: keys, balls and boxes, or the doors
+/// where every one of `M`'s targets in view is a door (GoToDoor, OpenDoor): a door's
+/// distractor is another door.
+pub fn candidate_objects(obs: &Observation, targets: &[ViewCell]) -> Vec<ViewCell> {
+    let is_door = |&(x, y): &ViewCell| {
+        crate::env::object::ObjectKind::from_index(obs.image[x][y][0])
+            == Some(crate::env::object::ObjectKind::Door)
+    };
+    let doors = !targets.is_empty() && targets.iter().all(is_door);
+    visible_objects(obs, |k, _| {
+        if doors {
+            k == crate::env::object::ObjectKind::Door
+        } else {
+            k.can_pickup()
+        }
+    })
 }
 
 #[cfg(test)]
