@@ -7,8 +7,8 @@ use std::time::Instant;
 
 use eframe::egui;
 
+use super::maps::{MapLook, color_bar, heat_map};
 use super::session::{Agent, Shown};
-use super::ui::{Debugger, MapLook};
 use crate::episode::StepFaithfulness;
 use crate::metrics::faithfulness::episode::{Loop, word_position};
 use crate::metrics::faithfulness::peaks::peak_line;
@@ -72,12 +72,12 @@ impl FaithfulnessView {
                 obs,
                 hits: &[],
             };
-            Debugger::heat_map(ui, &f.occlusion, &look).on_hover_text(
+            heat_map(ui, &f.occlusion, &look).on_hover_text(
                 "how much the action distribution changes (total variation) when this cell alone becomes empty floor; its own scale",
             );
         });
         if own_bar {
-            Debugger::color_bar(ui, hi, side * 0.8, "Δ's own scale");
+            color_bar(ui, hi, side * 0.8, "Δ's own scale");
         }
     }
 

@@ -6,6 +6,7 @@
 
 pub mod faithful;
 pub mod gif;
+mod maps;
 pub mod session;
 pub mod shown;
 pub mod ui;

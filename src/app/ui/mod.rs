@@ -7,7 +7,6 @@
 mod controls;
 mod history;
 mod jobs;
-mod maps;
 mod numbers;
 mod probe;
 mod screenshot;
@@ -23,7 +22,6 @@ use std::sync::{Arc, Mutex};
 use eframe::egui;
 use egui::{ColorImage, TextureHandle, Vec2};
 
-pub(in crate::app) use maps::MapLook;
 pub use numbers::step_line;
 
 use super::session::{Agent, Cursor, Job, Shown, start_attention_probe};

@@ -5,8 +5,8 @@
 use eframe::egui;
 use egui::{Color32, Sense, Vec2};
 
-use super::maps::MapLook;
 use super::{Debugger, Overlay};
+use crate::app::maps::{MapLook, color_bar, heat_map};
 use crate::app::session::Shown;
 use crate::episode::StepRecord;
 use crate::record::StepScene;
@@ -72,12 +72,12 @@ impl Debugger {
                     obs: Some(&step.obs),
                     hits,
                 };
-                if Self::heat_map(ui, &att.combined, &look).clicked() {
+                if heat_map(ui, &att.combined, &look).clicked() {
                     self.overlay = Overlay::Combined;
                 }
             });
             delta(ui);
-            Self::color_bar(
+            color_bar(
                 ui,
                 scene.scale_max,
                 side * 0.8,
@@ -149,7 +149,7 @@ impl Debugger {
                 obs: Some(&step.obs),
                 hits,
             };
-            if Self::heat_map(ui, &w.map, &look).clicked() {
+            if heat_map(ui, &w.map, &look).clicked() {
                 self.selected_word = i;
                 self.overlay = Overlay::Word;
             }
