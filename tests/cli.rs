@@ -475,3 +475,63 @@ fn eval_exports_each_listed_failure_as_a_recording() {
         assert!(recorded.contains(&name), "{name} not in {recorded:?}");
     }
 }
+
+/// Without `--checkpoint`, `replay` and `eval` open a model by `view`'s rule: the paper's
+/// where it reads the level's missions, `bundled:babyai` where it does not — said on stderr,
+/// never silently (issue #66).
+#[test]
+fn without_a_checkpoint_every_command_opens_a_model_that_reads_the_level() {
+    let dir = tempfile::tempdir().unwrap();
+    let trace = dir.path().join("t.json");
+    let o = gs(&[
+        "replay",
+        "--level",
+        "BabyAI-GoToDoor-v0",
+        "--seed",
+        "2",
+        "--trace",
+        trace.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("cannot read the missions of")
+            && stderr(&o).contains("opening bundled:babyai"),
+        "{}",
+        stderr(&o)
+    );
+    let o = gs(&[
+        "replay",
+        "--level",
+        "BabyAI-GoToLocal-v0",
+        "--seed",
+        "2",
+        "--trace",
+        trace.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(!stderr(&o).contains("opening"), "{}", stderr(&o));
+    let out = dir.path().join("e");
+    let o = gs(&[
+        "eval",
+        "--levels",
+        "BabyAI-GoToDoor-v0",
+        "--seeds",
+        "1",
+        "--episodes",
+        "2",
+        "--out",
+        out.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("opening bundled:babyai"),
+        "{}",
+        stderr(&o)
+    );
+    let md = std::fs::read_to_string(out.join("report.md")).unwrap();
+    assert!(
+        md.contains("- `bundled:babyai`") && !md.contains("- `bundled:attention`"),
+        "{md}"
+    );
+}

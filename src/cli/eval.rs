@@ -95,7 +95,10 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitStatus> {
     check(args)?;
     let stop = Stop::install();
     let specs = if args.checkpoint.is_empty() {
-        groundscope::policy::bundled::pair()
+        let paper = Agent::load(&groundscope::policy::bundled::names()[0])?;
+        let levels = args.sweep.levels(paper.level())?;
+        let first = groundscope::env::seeds::eval_level_seed(args.sweep.first_seed, 0);
+        super::default_model::for_levels(&levels, first)?
     } else {
         args.checkpoint.clone()
     };

@@ -7,6 +7,7 @@ mod bench_levels;
 mod bench_onnx;
 mod bench_view;
 mod curve;
+mod default_model;
 mod env_cmd;
 mod eval;
 mod faithfulness;

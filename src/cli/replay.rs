@@ -97,13 +97,10 @@ pub fn replay(args: &ReplayArgs) -> anyhow::Result<ExitStatus> {
         // A second handler cannot be installed in the same process (tests call `run` once).
         let _ = ctrlc::set_handler(move || s.store(true, Ordering::Relaxed));
     }
-    let name = args.checkpoint.clone().unwrap_or_else(|| {
-        groundscope::policy::bundled::names()
-            .first()
-            .cloned()
-            .unwrap_or_default()
-    });
-    let agent = Agent::load(&name)?;
+    let (name, agent) = match &args.checkpoint {
+        Some(name) => (name.clone(), Agent::load(name)?),
+        None => super::default_model::for_episode(&args.episode, "replay")?,
+    };
     let level = args.episode.level(agent.level())?;
     let mode = args.episode.mode();
     let last = args

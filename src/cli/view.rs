@@ -67,26 +67,6 @@ fn parse_size(s: &str) -> anyhow::Result<[f32; 2]> {
     Ok([parse(w)?, parse(h)?])
 }
 
-/// Without `--checkpoint`: the paper's attention model, or `bundled:babyai` where it cannot
-/// read the mission of the level and seed asked for (a BabyAI level's words it never met);
-/// the name and the loaded model.
-fn default_checkpoint(args: &ViewArgs) -> anyhow::Result<(String, groundscope::policy::Agent)> {
-    let first = groundscope::policy::bundled::names()[0].clone();
-    let agent = groundscope::policy::Agent::load(&first)?;
-    let level = args.episode.level(agent.level())?;
-    if args.episode.mission.is_none()
-        && let Ok(world) = level.generate(args.episode.seed)
-        && groundscope::policy::acting::mission_tokens(agent.acting(), &world.mission, || {
-            level.to_string()
-        })
-        .is_err()
-    {
-        let babyai = groundscope::policy::bundled::BABYAI;
-        return Ok((babyai.to_owned(), groundscope::policy::Agent::load(babyai)?));
-    }
-    Ok((first, agent))
-}
-
 /// Runs `view`.
 pub fn run(args: &ViewArgs) -> anyhow::Result<ExitStatus> {
     let size = window_size(args)?;
@@ -123,7 +103,7 @@ pub fn start_options(args: &ViewArgs) -> anyhow::Result<StartOptions> {
     // Load once here so that a bad checkpoint or level is a one-line error, not a window.
     let (checkpoint, agent) = match &args.checkpoint {
         Some(c) => (c.clone(), groundscope::policy::Agent::load(c)?),
-        None => default_checkpoint(args)?,
+        None => super::default_model::for_episode(&args.episode, "view")?,
     };
     if let Some(c) = &args.compare {
         groundscope::policy::Agent::load(c)?;
@@ -164,13 +144,18 @@ mod tests {
     #[test]
     fn the_default_model_is_one_that_reads_the_mission() {
         assert_eq!(
-            default_checkpoint(&view_args(&[])).unwrap().0,
+            super::super::default_model::for_episode(&view_args(&[]).episode, "view")
+                .unwrap()
+                .0,
             "bundled:attention"
         );
         assert_eq!(
-            default_checkpoint(&view_args(&["--level", "BabyAI-GoToLocal-v0"]))
-                .unwrap()
-                .0,
+            super::super::default_model::for_episode(
+                &view_args(&["--level", "BabyAI-GoToLocal-v0"]).episode,
+                "view"
+            )
+            .unwrap()
+            .0,
             "bundled:attention"
         );
         for id in [
@@ -179,9 +164,12 @@ mod tests {
             "BabyAI-UnlockLocal-v0",
         ] {
             assert_eq!(
-                default_checkpoint(&view_args(&["--level", id, "--seed", "2"]))
-                    .unwrap()
-                    .0,
+                super::super::default_model::for_episode(
+                    &view_args(&["--level", id, "--seed", "2"]).episode,
+                    "view"
+                )
+                .unwrap()
+                .0,
                 groundscope::policy::bundled::BABYAI,
                 "{id}"
             );
