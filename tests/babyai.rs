@@ -231,11 +231,20 @@ fn a_shown_snapshot_passes_env_verify() {
     );
 }
 
-/// A mission word outside the agent's vocabulary is one line naming the word and the level.
+/// A mission word outside the agent's vocabulary is one line naming the word and the level
+/// (the model given: without `--checkpoint`, `replay` opens `bundled:babyai` there).
 #[test]
 fn an_unknown_mission_word_names_the_level() {
     common::assert_bad_input(
-        &common::gs(&["replay", "--level", "BabyAI-OpenRedDoor-v0", "--seed", "0"]),
+        &common::gs(&[
+            "replay",
+            "--checkpoint",
+            "bundled:attention",
+            "--level",
+            "BabyAI-OpenRedDoor-v0",
+            "--seed",
+            "0",
+        ]),
         "\"open\" in mission \"open the red door\" of level BabyAI-OpenRedDoor-v0",
     );
     let o = common::gs(&["replay", "--level", "BabyAI-GoToObjMaze-v0", "--seed", "1"]);
