@@ -239,33 +239,19 @@ fn the_checkpoint_names_the_supervision_and_its_children_keep_it() {
         child.to_str().unwrap(),
         plain.to_str().unwrap(),
     );
-    let small = [
-        "--procs",
-        "4",
-        "--frames-per-proc",
-        "16",
-        "--batch-size",
-        "32",
-        "--hidden",
-        "16",
-        "--eval-interval",
-        "0",
-        "--quiet",
-    ];
-    let train = |extra: &[&str]| {
-        let mut args = vec!["train"];
-        args.extend_from_slice(extra);
-        args.extend_from_slice(&small);
+    // The small run of the round-5 tests (64-frame updates on a 5×5 room).
+    let train = |dir: &str, frames: &str, extra: &[&str]| {
+        let args = common::small_run(dir, frames, extra);
         let o = gs(&args);
         assert!(o.status.success(), "{args:?}: {}", stderr(&o));
     };
     let meta = |dir: &std::path::Path| -> serde_json::Value {
         serde_json::from_str(&std::fs::read_to_string(dir.join("model.json")).unwrap()).unwrap()
     };
-    train(&["--out", run_s, "--frames", "64", "--ground-loss", "0.5"]);
+    train(run_s, "64", &["--ground-loss", "0.5"]);
     assert_eq!(meta(&run)["training"]["ground_loss"], 0.5);
     // A resume keeps λ; one that gives another is refused naming the flag.
-    train(&["--out", run_s, "--frames", "128", "--resume"]);
+    train(run_s, "128", &["--resume"]);
     assert_eq!(meta(&run)["training"]["ground_loss"], 0.5);
     let o = gs(&[
         "train",
@@ -280,10 +266,10 @@ fn the_checkpoint_names_the_supervision_and_its_children_keep_it() {
     ]);
     assert_bad_input(&o, "--ground-loss");
     // A child started from it without the loss still says its maps were supervised.
-    train(&["--out", child_s, "--frames", "192", "--init", run_s]);
+    train(child_s, "192", &["--init", run_s]);
     assert_eq!(meta(&child)["training"]["ground_loss"], 0.5);
     // Without the loss the field is absent, as in every checkpoint before it.
-    train(&["--out", plain_s, "--frames", "64"]);
+    train(plain_s, "64", &[]);
     assert!(meta(&plain)["training"].get("ground_loss").is_none());
     // An evaluation's report says which maps were supervised, and how bundled:babyai was
     // trained (its metadata names only the first of its sixteen levels).

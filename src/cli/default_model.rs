@@ -46,18 +46,13 @@ pub fn for_episode(episode: &EpisodeArgs, command: &str) -> anyhow::Result<(Stri
     Ok((first, agent))
 }
 
-/// The models `eval` runs without `--checkpoint` on `levels` from level seed `first_seed` on: the paper's
-/// pair, or `bundled:babyai` alone where the pair cannot read one of the levels (said on
-/// stderr, naming it).
-pub fn for_levels(levels: &[LevelConfig], first_seed: u64) -> anyhow::Result<Vec<String>> {
-    let pair = bundled::pair();
-    let Some(name) = pair.first() else {
-        return Ok(pair);
-    };
-    let agent = Agent::load(name)?;
-    if let Some(l) = levels.iter().find(|l| !reads(&agent, l, first_seed)) {
+/// The models `eval` runs without `--checkpoint` on `levels` from level seed `first_seed` on:
+/// the paper's pair, or `bundled:babyai` alone where the pair's attention model (`paper`,
+/// already loaded) cannot read one of the levels (said on stderr, naming it).
+pub fn for_levels(paper: &Agent, levels: &[LevelConfig], first_seed: u64) -> Vec<String> {
+    if let Some(l) = levels.iter().find(|l| !reads(paper, l, first_seed)) {
         eprintln!("{}", switch_note("eval", l));
-        return Ok(vec![bundled::BABYAI.to_owned()]);
+        return vec![bundled::BABYAI.to_owned()];
     }
-    Ok(pair)
+    bundled::pair()
 }

@@ -98,7 +98,7 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitStatus> {
         let paper = Agent::load(&groundscope::policy::bundled::names()[0])?;
         let levels = args.sweep.levels(paper.level())?;
         let first = groundscope::env::seeds::eval_level_seed(args.sweep.first_seed, 0);
-        super::default_model::for_levels(&levels, first)?
+        super::default_model::for_levels(&paper, &levels, first)
     } else {
         args.checkpoint.clone()
     };

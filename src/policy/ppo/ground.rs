@@ -97,18 +97,14 @@ pub(super) fn ground_loss(
             ((mass.log()? * on)?.sum_all()? / f64::from(n))?.neg()?,
         ))
     };
-    let parts = [
+    let total = match (
         term(a, word_mask, word_on, &[b, words], n_words)?,
         term(m, m_mask, m_on, &[b], n_m)?,
-    ];
-    let mut total: Option<Tensor> = None;
-    for p in parts.into_iter().flatten() {
-        total = Some(match total {
-            Some(t) => (t + p)?,
-            None => p,
-        });
-    }
-    let Some(total) = total else { return Ok(None) };
+    ) {
+        (Some(w), Some(c)) => (w + c)?,
+        (Some(t), None) | (None, Some(t)) => t,
+        (None, None) => return Ok(None),
+    };
     let plain = f64::from(total.to_scalar::<f32>()?);
     Ok(Some(((total * lambda)?, plain)))
 }
