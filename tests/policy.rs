@@ -31,6 +31,7 @@ fn tiny(variant: Variant) -> ModelConfig {
         search_query: false,
         null_key: false,
         key_context: false,
+        layout_path: false,
         vocab_size: groundscope::env::vocab::VOCAB_SIZE,
         word_dim: 4,
         key_dim: 4,
@@ -132,8 +133,15 @@ fn gradients_reach_every_parameter_and_match_finite_differences() {
         filter_scale: 1,
         ..tiny(Variant::Attention)
     };
+    // The unattended layout path (issue #64), beside the search query's second copy.
+    let layout_path = ModelConfig {
+        layout_path: true,
+        search_query: true,
+        ..tiny(Variant::Attention)
+    };
     for cfg in [
         cell_values,
+        layout_path,
         key_context,
         null_key,
         null_split,
@@ -156,6 +164,7 @@ fn gradients_reach_every_parameter_and_match_finite_differences() {
             cfg.search_query,
             cfg.null_key,
             cfg.key_context,
+            cfg.layout_path,
         );
         let params = Params::init(&cfg, 3).unwrap();
         let net = Net::new(cfg, params.tracked()).unwrap();

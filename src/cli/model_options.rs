@@ -7,6 +7,10 @@ use groundscope::policy::{AttendWords, ColourCodes, ModelConfig, WordTemperature
 
 /// Model options (defaults: the paper's network as DESIGN.md describes it).
 #[derive(Args, Clone, Debug)]
+#[expect(
+    clippy::struct_excessive_bools,
+    reason = "command-line switches, each its own flag"
+)]
 pub struct ModelOptions {
     /// Side of the encoder's convolution kernel: 3 (the paper's network, DESIGN.md) or 1 (each
     /// cell's features its own codes only, so a word map that helps must cover its object).
@@ -53,6 +57,13 @@ pub struct ModelOptions {
     /// --null-key.
     #[arg(long)]
     pub key_context: bool,
+    /// Give the LSTM the layout unattended: a second encoder over the view with objects'
+    /// identities and doors' colours removed, read beside the filter's features, so M need
+    /// not mark walls and doors to navigate and is free to mark what the words name. With
+    /// --init of a model without it, the new weights start at zero (the run starts where its
+    /// parent is). Departs from the paper. Attention model only.
+    #[arg(long)]
+    pub layout_path: bool,
 }
 
 /// Parses `--key-kernel`: `shared` or a kernel side (checked by [`ModelConfig::validate`]).
@@ -83,13 +94,14 @@ impl ModelOptions {
             search_query: self.search_query,
             null_key: self.null_key,
             key_context: self.key_context,
+            layout_path: self.layout_path,
             ..cfg
         })
     }
 
     /// Each option as `(clap id, the value given, the value in cfg)`, for comparing a command
     /// line with a checkpoint.
-    pub fn against(&self, cfg: &ModelConfig) -> [(&'static str, String, String); 9] {
+    pub fn against(&self, cfg: &ModelConfig) -> [(&'static str, String, String); 10] {
         [
             (
                 "conv_kernel",
@@ -136,6 +148,11 @@ impl ModelOptions {
                 "key_context",
                 self.key_context.to_string(),
                 cfg.key_context.to_string(),
+            ),
+            (
+                "layout_path",
+                self.layout_path.to_string(),
+                cfg.layout_path.to_string(),
             ),
         ]
     }

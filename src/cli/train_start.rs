@@ -77,7 +77,10 @@ pub(super) fn resume_run(
 }
 
 /// `--init NAME`: a new trainer on NAME's weights, refusing a checkpoint of the other model
-/// or a `--hidden` or model option (`--conv-kernel`, …) that differs from its own.
+/// or a `--hidden` or model option (`--conv-kernel`, …) that differs from its own, except
+/// `--layout-path`, which grows a parent without one ([`Params::with_layout_path`]).
+///
+/// [`Params::with_layout_path`]: groundscope::policy::params::Params::with_layout_path
 pub(super) fn warm_start(
     name: &str,
     variant: groundscope::policy::Variant,
@@ -98,8 +101,18 @@ pub(super) fn warm_start(
              weights for groundscope's network); give a groundscope checkpoint NAME or run directory"
         );
     }
-    let ckpt =
+    let mut ckpt =
         groundscope::policy::bundled::load(name).with_context(|| format!("--init {name}"))?;
+    if args.model_options.layout_path && !ckpt.meta.model.layout_path {
+        // The one option a warm start may add: its weights start at zero, so the run begins
+        // with its parent's behaviour.
+        let (model, params) = ckpt
+            .params
+            .with_layout_path(&ckpt.meta.model, args.seed)
+            .with_context(|| format!("--init {name} --layout-path"))?;
+        ckpt.meta.model = model;
+        ckpt.params = params;
+    }
     if ckpt.meta.model.variant != variant {
         anyhow::bail!(
             "--init: {name} is a {} model, not {}",

@@ -192,6 +192,10 @@ impl std::hash::Hash for WordTemperature {
 /// Sizes of the network (DESIGN.md §1 defaults).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
+#[expect(
+    clippy::struct_excessive_bools,
+    reason = "independent model options, each a field of the checkpoint's JSON"
+)]
 pub struct ModelConfig {
     /// Attention or baseline.
     pub variant: Variant,
@@ -250,6 +254,15 @@ pub struct ModelConfig {
     /// part 11). Not with the null key; written only when set.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub key_context: bool,
+    /// An unattended path for the layout (issue #64): a second encoder (`layout.conv.*`, K
+    /// channels, the encoder's kernel) over the cells' codes with every object's type and
+    /// colour and every door's colour removed ([`super::obs::CellCodes::layout`]), whose
+    /// features `L` reach the LSTM beside the filter's, `[F | L]`. Walls, doors and their
+    /// states, and where something stands, pass whatever `M` marks, so `M` is free to mark the
+    /// referents; which object or door is which still passes through `M` alone. Attention
+    /// only; written only when set.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub layout_path: bool,
     /// How many entries of groundscope's vocabulary the word embedding has rows for, padding
     /// included: [`PAPER_VOCAB_SIZE`] (the paper's 25 words; what a model trained on the paper's
     /// level has, and every checkpoint made before BabyAI's whole grammar was added) or
@@ -288,6 +301,7 @@ impl ModelConfig {
             search_query: false,
             null_key: false,
             key_context: false,
+            layout_path: false,
             vocab_size: PAPER_VOCAB_SIZE,
             word_dim: 32,
             key_dim: 32,
@@ -405,6 +419,13 @@ impl ModelConfig {
                 "model setting key_context needs split keys (key_kernel) and no null_key".into(),
             ));
         }
+        if self.layout_path && !self.has_attention() {
+            return Err(super::PolicyError::Input(
+                "model setting layout_path is for the attention model only (the baseline's \
+                 LSTM already reads the whole view)"
+                    .into(),
+            ));
+        }
         if self.attend_words != AttendWords::All && !self.has_attention() {
             return Err(super::PolicyError::Input(
                 "model setting attend_words is for the attention model only".into(),
@@ -445,9 +466,16 @@ impl ModelConfig {
         self.variant == Variant::Attention
     }
 
-    /// Width of the LSTM's input: `49·K`, twice that with the [`Self::search_query`].
+    /// Width of the LSTM's input: `49·K` for the filter's features, and `49·K` more for each
+    /// of the [`Self::search_query`]'s and the [`Self::layout_path`]'s.
     pub fn lstm_input_size(&self) -> usize {
-        49 * self.conv_channels * if self.search_query { 2 } else { 1 }
+        self.filter_input_size() + 49 * self.conv_channels * usize::from(self.layout_path)
+    }
+
+    /// Width of what the attention passes the LSTM: `49·K`, twice that with the
+    /// [`Self::search_query`]; the [`Self::layout_path`]'s features follow these columns.
+    pub fn filter_input_size(&self) -> usize {
+        49 * self.conv_channels * (1 + usize::from(self.search_query))
     }
 }
 

@@ -75,7 +75,8 @@ impl Memory {
 /// Output of the visual path for a batch of frames.
 #[derive(Clone, Debug)]
 pub struct Visual {
-    /// (B, 49·K) LSTM input; (B, 2·49·K) with the search query.
+    /// (B, 49·K) LSTM input; (B, 2·49·K) with the search query; the layout path's 49·K
+    /// columns last ([`ModelConfig::lstm_input_size`]) once [`Net::step_with`] has added them.
     pub x: Tensor,
     /// Attention tensors (attention variant only).
     pub attention: Option<AttentionOut>,
@@ -150,6 +151,21 @@ impl Net {
             &w,
             b,
         )?))
+    }
+
+    /// `x` (B, filter features) with the layout path's features `L = ReLU(Conv_layout(O'))`
+    /// (B, 49·K) after it, where `O'` is the layout of the codes ([`CellCodes::layout`]) and
+    /// the model has a [`ModelConfig::layout_path`]; `x` itself otherwise.
+    fn with_layout(&self, x: Tensor, codes: &CellCodes) -> Result<Tensor, PolicyError> {
+        let Some(conv) = self.weights.layout_encoder.as_ref() else {
+            return Ok(x);
+        };
+        let (k, ks) = (self.cfg.conv_channels, self.cfg.conv_kernel);
+        let w = conv.w.reshape((k, patch_len(ks)))?;
+        let l =
+            super::kernels::conv::conv_codes(&self.read_codes(codes).layout(), ks, &w, &conv.b)?;
+        let b = l.dim(0)?;
+        Ok(Tensor::cat(&[x, l.reshape((b, N_CELLS * k))?], 1)?)
     }
 
     /// The codes as the model's `colour_codes` reads them ([`CellCodes::encoded`]).
@@ -376,6 +392,10 @@ impl Net {
             mission.queries.as_ref().map(|(q, m)| (q, m)),
             intervention,
         )?;
+        let vis = Visual {
+            x: self.with_layout(vis.x, codes)?,
+            ..vis
+        };
         let gx = self.lstm_input(&vis.x)?;
         let mem = self.lstm_cell(&gx, mem)?;
         let (logits, values) = self.heads(&mem.h, &mission.text)?;
@@ -400,6 +420,7 @@ impl Net {
             o_key.as_ref(),
             mission.queries.as_ref().map(|(q, m)| (q, m)),
         )?;
+        let x = self.with_layout(x, codes)?;
         // A chunk of one step through the training path's LSTM op (`mem` is already reset).
         let keep = Tensor::ones((1, mem.h.dim(0)?), DType::F32, &Device::Cpu)?;
         let (h, mut mems) = self.lstm_chunk(&x, mem, &keep)?;
@@ -438,7 +459,7 @@ impl Net {
         let o = self.cells(codes)?;
         let o_key = self.key_cells(codes)?;
         let queries = mission.queries.as_ref().map(|(q, m)| (q, m));
-        let x = self.visual_features(&o, o_key.as_ref(), queries)?;
+        let x = self.with_layout(self.visual_features(&o, o_key.as_ref(), queries)?, codes)?;
         let maps = match queries {
             Some((qk, mask)) if maps && self.cfg.has_attention() => {
                 Some(self.composite_maps(&o, o_key.as_ref(), qk, mask)?)

@@ -52,6 +52,13 @@ const FIRST_COLOURED_TYPE: u8 = 3;
 /// under [`ColourCodes::WallsObjects`].
 const WALL_TYPE: u8 = 2;
 
+/// The door's type code: the layout path ([`CellCodes::layout`]) keeps it without its colour.
+const DOOR_TYPE: u8 = 4;
+
+/// The carriable objects' type codes (key, ball, box): the layout path keeps none of them.
+const FIRST_OBJECT_TYPE: u8 = 5;
+const LAST_OBJECT_TYPE: u8 = 7;
+
 /// Appends the 49 patches of the `cell` codes of one frame (49 × 3, as in [`CellCodes`]) for
 /// a `kernel`×`kernel` convolution (49 × [`patch_len`]`(kernel)` floats) to `out`.
 fn push_patches(cell: &[u8], kernel: usize, out: &mut Vec<f32>) {
@@ -125,6 +132,29 @@ impl CellCodes {
         for cell in codes.chunks_exact_mut(3) {
             if uncoloured(cell[0]) {
                 cell[1] = NO_CODE;
+            }
+        }
+        Self {
+            frames: self.frames,
+            codes: codes.into(),
+        }
+    }
+
+    /// The codes the layout path of a model with [`super::ModelConfig::layout_path`] reads:
+    /// a key, ball or box keeps only its state slot (something stands there, which thing is
+    /// not said), a door loses its colour (open, closed or locked stays); walls, floor and
+    /// empty and unseen cells are as they are.
+    #[must_use]
+    pub fn layout(&self) -> Self {
+        let mut codes = self.codes.to_vec();
+        for cell in codes.chunks_exact_mut(3) {
+            match cell[0] {
+                DOOR_TYPE => cell[1] = NO_CODE,
+                t if (FIRST_OBJECT_TYPE..=LAST_OBJECT_TYPE).contains(&t) => {
+                    cell[0] = NO_CODE;
+                    cell[1] = NO_CODE;
+                }
+                _ => {}
             }
         }
         Self {

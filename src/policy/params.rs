@@ -100,6 +100,15 @@ pub fn param_specs(cfg: &ModelConfig) -> Vec<ParamSpec> {
         ));
         v.push(spec("encoder.key_conv.bias", &[k], Init::Uniform(b)));
     }
+    if cfg.layout_path {
+        let b = 1.0 / conv_fan_in.sqrt();
+        v.push(spec(
+            LAYOUT_WEIGHT,
+            &[k, CELL_CODES, ks, ks],
+            Init::Uniform(b),
+        ));
+        v.push(spec(LAYOUT_BIAS, &[k], Init::Uniform(b)));
+    }
     if cfg.has_attention() {
         v.push(spec("attention.q.weight", &[dk, e], Init::RowNormal));
         // With key context the keys read [Õ_key | Õ], 2K channels.
@@ -118,6 +127,13 @@ pub fn param_specs(cfg: &ModelConfig) -> Vec<ParamSpec> {
 
 /// The null key's parameter ([`ModelConfig::null_key`]).
 pub(crate) const NULL_KEY: &str = "attention.null.weight";
+
+/// The layout path's encoder's parameters ([`ModelConfig::layout_path`]).
+const LAYOUT_WEIGHT: &str = "layout.conv.weight";
+const LAYOUT_BIAS: &str = "layout.conv.bias";
+
+/// The LSTM's input weights, whose columns follow [`ModelConfig::lstm_input_size`].
+const LSTM_W_IH: &str = "lstm.weight_ih_l0";
 
 /// Whether parameter `name` computes the word maps (or the search map): the word
 /// embeddings, the encoders that give the keys and `Õ`, and the query, key, search and
@@ -174,6 +190,46 @@ impl Params {
             vars.insert(s.name, Var::from_tensor(&t)?);
         }
         Ok(Self { vars })
+    }
+
+    /// `self`, the parameters of `cfg`'s network, grown into those of the same network with a
+    /// [`ModelConfig::layout_path`] (`train --init` of a model without one): the layout
+    /// encoder drawn from `seed` as [`Self::init`] draws it, and the LSTM's input weights
+    /// widened by zero columns for its features, so the grown network acts exactly as the
+    /// parent until training moves them. Returns the grown config with the parameters.
+    pub fn with_layout_path(
+        &self,
+        cfg: &ModelConfig,
+        seed: u64,
+    ) -> Result<(ModelConfig, Self), PolicyError> {
+        if cfg.layout_path {
+            return Ok((*cfg, self.clone()));
+        }
+        let grown = ModelConfig {
+            layout_path: true,
+            ..*cfg
+        };
+        grown.validate()?;
+        let mut rng = Pcg64Mcg::seed_from_u64(seed);
+        let mut vars = self.vars.clone();
+        for s in param_specs(&grown)
+            .into_iter()
+            .filter(|s| s.name.starts_with("layout."))
+        {
+            let t = Tensor::from_vec(draw(&s, &mut rng), s.shape.as_slice(), &Device::Cpu)?;
+            vars.insert(s.name, Var::from_tensor(&t)?);
+        }
+        let w_ih = self
+            .vars
+            .get(LSTM_W_IH)
+            .ok_or_else(|| PolicyError::Input(format!("missing parameter {LSTM_W_IH}")))?
+            .as_tensor();
+        let rows = w_ih.dim(0)?;
+        let extra = grown.lstm_input_size() - cfg.lstm_input_size();
+        let zeros = Tensor::zeros((rows, extra), DType::F32, &Device::Cpu)?;
+        let wide = Tensor::cat(&[w_ih, &zeros], 1)?;
+        vars.insert(LSTM_W_IH.to_owned(), Var::from_tensor(&wide)?);
+        Ok((grown, Self { vars }))
     }
 
     /// Parameters holding the given tensors (shapes are the caller's responsibility).

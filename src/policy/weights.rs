@@ -90,6 +90,8 @@ pub(crate) struct Weights {
     pub encoder: Conv,
     /// The split keys' own encoder (`encoder.key_conv.*`), [`ModelConfig::key_kernel`] only.
     pub key_encoder: Option<Conv>,
+    /// The layout path's encoder (`layout.conv.*`), [`ModelConfig::layout_path`] only.
+    pub layout_encoder: Option<Conv>,
     /// Word embeddings (`word_emb.weight`).
     pub word_emb: Tensor,
     /// The attention (`attention.*`), attention variant only.
@@ -136,6 +138,11 @@ impl Weights {
                 Some(_) if cfg.has_attention() => Some(conv(w, "encoder.key_conv")?),
                 _ => None,
             },
+            layout_encoder: if cfg.layout_path {
+                Some(conv(w, LAYOUT_CONV)?)
+            } else {
+                None
+            },
             word_emb: take(w, "word_emb.weight")?,
             attention,
             lstm: recurrent(w, "lstm")?,
@@ -151,6 +158,9 @@ impl Weights {
         })
     }
 }
+
+/// The layout path's encoder's tensors' prefix ([`ModelConfig::layout_path`]).
+pub(crate) const LAYOUT_CONV: &str = "layout.conv";
 
 type Named = BTreeMap<String, Tensor>;
 
