@@ -19,6 +19,7 @@ pub mod panics;
 pub mod policy;
 pub mod record;
 pub mod render;
+pub mod run;
 pub mod stats;
 pub mod study;
 pub mod table;

@@ -19,7 +19,6 @@ mod stop;
 mod study;
 mod study_run;
 mod train;
-mod train_start;
 mod validate;
 mod view;
 

@@ -1,16 +1,17 @@
-//! How a `train` run starts: the settings a run fixes (checked on `--resume`), the tracking
-//! flags it keeps, and warm starts from trained weights (`--init`).
+//! `train`'s flags against what a run already fixed: on `--resume` the run's own settings
+//! (a flag left out takes the run's value, one given with another value is refused naming
+//! it), with `--init` the parent's network, and the tracking flags a run keeps.
 
 use std::path::Path;
 
 use anyhow::Context as _;
 use clap::ArgMatches;
 use clap::parser::ValueSource;
-use groundscope::policy::TrainingState;
-use groundscope::policy::ppo::{PpoConfig, Trainer};
+use groundscope::policy::ppo::PpoConfig;
+use groundscope::policy::ppo::run_dir::{RunInfo, Tracking};
+use groundscope::run::Parent;
 
-use crate::cli::train::{TrainArgs, ppo_config};
-use groundscope::policy::ppo::run_dir::{self, Tracking};
+use super::args::{TrainArgs, level_mix, ppo_config};
 
 /// The tracking settings of this invocation: the flags given, and on `--resume` the run's own
 /// settings for those left out (a run saved before they were kept takes the defaults).
@@ -42,21 +43,15 @@ pub(super) fn tracking(
     }
 }
 
-/// `--resume`: the newest complete checkpoint of the run, refusing flags that contradict it.
-pub(super) fn resume_run(
+/// `--resume`: refuses flags that contradict the run in `dir` (`info`, what it was started
+/// with).
+pub(super) fn check_resume(
     args: &TrainArgs,
     matches: Option<&ArgMatches>,
     variant: groundscope::policy::Variant,
-) -> anyhow::Result<(Trainer, u64, TrainingState, Option<Tracking>)> {
-    let dir = &args.out;
-    if !run_dir::holds_run(dir) {
-        // A run stopped before its first save leaves log rows and no checkpoint.
-        anyhow::bail!(
-            "--resume: {} holds no checkpoint to resume (a run stopped before its first save); start it again without --resume",
-            dir.display()
-        );
-    }
-    let (trainer, info) = run_dir::load_latest(dir)?;
+    info: &RunInfo,
+    dir: &Path,
+) -> anyhow::Result<()> {
     if info.variant != variant && given(matches, "model") {
         anyhow::bail!(
             "--resume: {} holds a {} model, not {}",
@@ -67,129 +62,57 @@ pub(super) fn resume_run(
     }
     let saved = Fixed {
         ppo: info.ppo,
-        levels: info.levels,
+        levels: info.levels.clone(),
         hidden: info.hidden,
         model: info.model,
         seed: info.seed,
     };
-    saved.check_given(args, matches, "--resume", dir)?;
-    Ok((trainer, info.seed, info.training, info.tracking))
+    saved.check_given(args, matches, "--resume", dir)
 }
 
-/// `--init NAME`: a new trainer on NAME's weights, refusing a checkpoint of the other model
-/// or a `--hidden` or model option (`--conv-kernel`, …) that differs from its own, except
-/// `--layout-path`, which grows a parent without one ([`Params::with_layout_path`]).
-///
-/// [`Params::with_layout_path`]: groundscope::policy::params::Params::with_layout_path
-pub(super) fn warm_start(
+/// `--init NAME`: the parent, refusing a checkpoint of the other model or a `--hidden` or
+/// model option (`--conv-kernel`, …) that differs from its own, except `--layout-path`, which
+/// grows a parent without one ([`Parent::grow_layout_path`]), and levels with words it lacks.
+pub(super) fn parent(
     name: &str,
     variant: groundscope::policy::Variant,
-    levels: groundscope::policy::ppo::LevelMix,
-    ppo: PpoConfig,
+    levels: &groundscope::policy::ppo::LevelMix,
     args: &TrainArgs,
     matches: Option<&ArgMatches>,
-) -> anyhow::Result<Trainer> {
-    if name == groundscope::policy::acting::BOT {
-        anyhow::bail!(
-            "--init bot: the bot is a planner with no network weights to start from; to learn \
-             from it, train with --imitate"
-        );
-    }
-    if groundscope::policy::onnx::is_onnx(std::path::Path::new(name)) {
-        anyhow::bail!(
-            "--init {name}: an ONNX graph cannot seed training (it carries no trainable \
-             weights for groundscope's network); give a groundscope checkpoint NAME or run directory"
-        );
-    }
-    let mut ckpt =
-        groundscope::policy::bundled::load(name).with_context(|| format!("--init {name}"))?;
-    if args.model_options.layout_path && !ckpt.meta.model.layout_path {
+) -> anyhow::Result<Parent> {
+    let mut parent = Parent::load(name).with_context(|| format!("--init {name}"))?;
+    if args.model_options.layout_path {
         // The one option a warm start may add: its weights start at zero, so the run begins
         // with its parent's behaviour.
-        let (model, params) = ckpt
-            .params
-            .with_layout_path(&ckpt.meta.model, args.seed)
+        parent
+            .grow_layout_path(args.seed)
             .with_context(|| format!("--init {name} --layout-path"))?;
-        ckpt.meta.model = model;
-        ckpt.params = params;
     }
-    if ckpt.meta.model.variant != variant {
+    let model = &parent.checkpoint.meta.model;
+    if model.variant != variant {
         anyhow::bail!(
             "--init: {name} is a {} model, not {}",
-            ckpt.meta.model.variant.name(),
+            model.variant.name(),
             variant.name()
         );
     }
-    if given(matches, "hidden") && args.hidden != ckpt.meta.model.lstm_hidden {
+    if given(matches, "hidden") && args.hidden != model.lstm_hidden {
         anyhow::bail!(
             "--init: {name} has hidden size {}, not --hidden {}",
-            ckpt.meta.model.lstm_hidden,
+            model.lstm_hidden,
             args.hidden
         );
     }
-    for (id, now, theirs) in args.model_options.against(&ckpt.meta.model) {
+    for (id, now, theirs) in args.model_options.against(model) {
         if given(matches, id) && now != theirs {
             let flag = id.replace('_', "-");
             anyhow::bail!("--init: {name} was trained with --{flag} {theirs}, not --{flag} {now}");
         }
     }
-    check_words(name, ckpt.meta.model.vocab_size, &levels)?;
-    // A schedule starts from the temperature the parent was trained at.
-    let mut ppo = ppo;
-    if let Some(a) = &mut ppo.temperature_anneal {
-        a.from = ckpt.meta.model.word_temperature.0;
-    }
-    let mut trainer = Trainer::warm_start(
-        ckpt.meta.model,
-        levels,
-        ppo,
-        ckpt.params,
-        args.seed,
-        ckpt.meta.training.frames,
-        ckpt.meta.training.updates,
-    )?;
-    trainer.state.parent_ground_loss = ckpt.meta.training.ground_loss;
-    Ok(trainer)
-}
-
-/// How many missions of each level `--init`'s check reads for a word the parent lacks: the
-/// levels' grammars show every word class within a few dozen seeds.
-const WORD_CHECK_SEEDS: u64 = 200;
-
-/// Refuses `--init` from a model with fewer word rows than the levels need, naming a word of
-/// their missions it cannot read (found in the first [`WORD_CHECK_SEEDS`] missions of each
-/// level): such a run would otherwise fail at the first mission that uses it, updates later,
-/// and its `--resume` at once.
-fn check_words(
-    name: &str,
-    known: usize,
-    levels: &groundscope::policy::ppo::LevelMix,
-) -> anyhow::Result<()> {
-    use groundscope::policy::ModelConfig;
-    for entry in levels.entries() {
-        let level = &entry.level;
-        if known >= ModelConfig::vocab_size_for(level) {
-            continue;
-        }
-        let shown = || groundscope::metrics::report::level_name(level);
-        for seed in 0..WORD_CHECK_SEEDS {
-            let world = level
-                .generate(seed)
-                .with_context(|| format!("--init {name}: level {} seed {seed}", shown()))?;
-            let tokens = groundscope::env::vocab::tokenize_on_level(&world.mission, shown)?;
-            if let Some(&t) = tokens.iter().find(|&&t| t as usize >= known) {
-                anyhow::bail!(
-                    "--init {name}: the model knows the paper's {} words, and level {} uses \
-                     {:?} (mission {:?}); warm-start from a model trained on a BabyAI level",
-                    known - 1,
-                    shown(),
-                    groundscope::env::vocab::word(t).unwrap_or("?"),
-                    world.mission
-                );
-            }
-        }
-    }
-    Ok(())
+    parent
+        .check_words(levels)
+        .with_context(|| format!("--init {name}"))?;
+    Ok(parent)
 }
 
 /// Whether flag `id` was given on the command line rather than left at its default.
@@ -220,7 +143,7 @@ impl Fixed {
         let l = &self.levels.first();
         // The levels as given, or as the run has them where the flag is left out.
         let levels_now = if args.levels.is_some() || args.level.level.is_some() {
-            crate::cli::train::level_mix(args)?.to_string()
+            level_mix(args)?.to_string()
         } else {
             self.levels.to_string()
         };

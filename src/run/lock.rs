@@ -4,7 +4,7 @@ use std::path::Path;
 
 use anyhow::Context as _;
 
-pub(super) use groundscope::policy::ppo::run_dir::RUN_LOCK;
+pub(super) use crate::policy::ppo::run_dir::RUN_LOCK;
 
 /// A held lock on a run directory ([`lock_run`]).
 pub(super) struct RunLock {
@@ -40,7 +40,7 @@ pub(super) fn lock_run(dir: &Path) -> anyhow::Result<RunLock> {
                 let holder = std::fs::read_to_string(&path).unwrap_or_default();
                 anyhow::bail!(
                     "{}: another training (pid {}) is writing this run directory; wait for it \
-                     to end or choose another --out",
+                     to end or choose another run directory",
                     dir.display(),
                     holder.trim()
                 )

@@ -1,0 +1,123 @@
+//! What a run starts from, checked before it writes anything: a parent's weights for a warm
+//! start, the words its levels need, and the bot's labels for imitation.
+
+use anyhow::Context as _;
+
+use crate::policy::Checkpoint;
+use crate::policy::ppo::LevelMix;
+
+/// Trained weights a new run starts from (`train --init`), loaded and checked.
+pub struct Parent {
+    /// The name it was given (a checkpoint, a run directory or `bundled:NAME`).
+    pub name: String,
+    /// Its weights and metadata; [`Self::grow_layout_path`] may have grown them.
+    pub checkpoint: Checkpoint,
+}
+
+impl Parent {
+    /// Loads `name`, refusing what has no network weights to start from (the bot, an ONNX
+    /// graph).
+    pub fn load(name: &str) -> anyhow::Result<Self> {
+        if name == crate::policy::acting::BOT {
+            anyhow::bail!(
+                "the bot is a planner with no network weights to start from; to learn from it, \
+                 train with --imitate"
+            );
+        }
+        if crate::policy::onnx::is_onnx(std::path::Path::new(name)) {
+            anyhow::bail!(
+                "an ONNX graph cannot seed training (it carries no trainable weights for \
+                 groundscope's network); give a groundscope checkpoint NAME or run directory"
+            );
+        }
+        Ok(Self {
+            name: name.to_owned(),
+            checkpoint: crate::policy::bundled::load(name)?,
+        })
+    }
+
+    /// Gives the parent a [`crate::policy::ModelConfig::layout_path`] if it has none, the
+    /// new weights drawn from `seed` and its LSTM's new columns zero, so the run starts with
+    /// the parent's behaviour ([`crate::policy::Params::with_layout_path`]).
+    pub fn grow_layout_path(&mut self, seed: u64) -> anyhow::Result<()> {
+        let ckpt = &mut self.checkpoint;
+        let (model, params) = ckpt.params.with_layout_path(&ckpt.meta.model, seed)?;
+        ckpt.meta.model = model;
+        ckpt.params = params;
+        Ok(())
+    }
+
+    /// Refuses `levels` whose missions use a word past the parent's vocabulary, naming one
+    /// (found in the first [`WORD_CHECK_SEEDS`] missions of each level): such a run would
+    /// otherwise fail at the first mission that uses it, updates later, and its resume at
+    /// once.
+    pub fn check_words(&self, levels: &LevelMix) -> anyhow::Result<()> {
+        use crate::policy::ModelConfig;
+        let known = self.checkpoint.meta.model.vocab_size;
+        for entry in levels.entries() {
+            let level = &entry.level;
+            if known >= ModelConfig::vocab_size_for(level) {
+                continue;
+            }
+            let shown = || crate::metrics::report::level_name(level);
+            for seed in 0..WORD_CHECK_SEEDS {
+                let world = level
+                    .generate(seed)
+                    .with_context(|| format!("level {} seed {seed}", shown()))?;
+                let tokens = crate::env::vocab::tokenize_on_level(&world.mission, shown)?;
+                if let Some(&t) = tokens.iter().find(|&&t| t as usize >= known) {
+                    anyhow::bail!(
+                        "the model knows the paper's {} words, and level {} uses {:?} (mission \
+                         {:?}); warm-start from a model trained on a BabyAI level",
+                        known - 1,
+                        shown(),
+                        crate::env::vocab::word(t).unwrap_or("?"),
+                        world.mission
+                    );
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// How many missions of each level [`Parent::check_words`] reads for a word the parent lacks:
+/// the levels' grammars show every word class within a few dozen seeds.
+const WORD_CHECK_SEEDS: u64 = 200;
+
+/// How many of each level's first training episodes [`check_labels`] runs the bot on.
+const LABEL_CHECK_EPISODES: u64 = 20;
+
+/// Below this share of labelled steps a level gives imitation (almost) nothing to learn from.
+const LABEL_SHARE_MIN: f64 = 0.01;
+
+/// Imitation learns only from the steps the bot advises. The bot is run alone on each level's
+/// first training episodes: a run where every level is labelled under [`LABEL_SHARE_MIN`] of
+/// its steps (the bot gives up at once or nearly, as on KeyInBox) is refused rather than
+/// trained on nothing; otherwise returns the levels so labelled, each with its share, for a
+/// warning.
+pub fn check_labels(levels: &LevelMix) -> anyhow::Result<Vec<String>> {
+    use crate::policy::ppo::TRAIN_SEED_OFFSET;
+    let seeds = TRAIN_SEED_OFFSET..TRAIN_SEED_OFFSET + LABEL_CHECK_EPISODES;
+    let mut silent = Vec::new();
+    for e in levels.entries() {
+        let share = crate::bot::label_share(&e.level, seeds.clone())?;
+        if share.share() < LABEL_SHARE_MIN {
+            silent.push(format!(
+                "{} ({} of {} steps labelled; the bot gave up on {} of {} episodes)",
+                crate::metrics::report::level_name(&e.level),
+                share.labelled,
+                share.steps,
+                share.gave_up,
+                share.episodes
+            ));
+        }
+    }
+    if silent.len() == levels.entries().len() {
+        anyhow::bail!(
+            "the bot labels almost nothing of {}: imitation would learn from no labelled frame",
+            silent.join("; ")
+        );
+    }
+    Ok(silent)
+}
