@@ -62,7 +62,7 @@ WALL_TYPE = 2
 # Smallest probability fed to ln (src/policy/attention.rs, TINY): 0 · ln 0 evaluates to 0.
 TINY = 1e-30
 
-# Defaults of fields a checkpoint's model.json may leave out (src/policy/config.rs).
+# Defaults of fields a checkpoint's model.json may leave out (src/policy/config/mod.rs).
 DEFAULTS = {
     "conv_kernel": 3,
     "filter_scale": 49,
@@ -72,7 +72,7 @@ DEFAULTS = {
     "attend_words": "all",
 }
 # Token ids of the object and colour words (src/env/vocab.rs): ball, box, key = 7–9; red …
-# grey = 11–16. attend_words = content weighs only these (src/policy/config.rs, AttendWords).
+# grey = 11–16. attend_words = content weighs only these (src/policy/config/mod.rs, AttendWords).
 CONTENT_IDS = ((7, 9), (11, 16))
 
 
@@ -96,17 +96,21 @@ def model_config(meta: dict) -> dict:
     if cfg["variant"] not in ("attention", "baseline"):
         raise ValueError(f"model.variant = {cfg['variant']!r} must be attention or baseline")
     if cfg.get("search_query"):
-        # The big-room study's part 5 (src/policy/config.rs, search_query): not mirrored here
+        # The big-room study's part 5 (src/policy/config/mod.rs, search_query): not mirrored here
         # unless that recipe is chosen.
         raise ValueError("model.search_query = true is not supported by this export")
     if cfg.get("null_key"):
-        # The big-room study's part 9 (src/policy/config.rs, null_key): not mirrored here
+        # The big-room study's part 9 (src/policy/config/mod.rs, null_key): not mirrored here
         # unless that recipe is chosen.
         raise ValueError("model.null_key = true is not supported by this export")
     if cfg.get("key_context"):
-        # The big-room study's part 11 (src/policy/config.rs, key_context): not mirrored here
+        # The big-room study's part 11 (src/policy/config/mod.rs, key_context): not mirrored here
         # unless that recipe is chosen.
         raise ValueError("model.key_context = true is not supported by this export")
+    if cfg.get("layout_path"):
+        # Issue #64's unattended layout path (src/policy/config/mod.rs, layout_path): not mirrored
+        # here unless that recipe is chosen.
+        raise ValueError("model.layout_path = true is not supported by this export")
     if cfg["colour_codes"] not in ("all", "objects", "walls-objects"):
         raise ValueError(
             f"model.colour_codes = {cfg['colour_codes']!r} must be all, objects or walls-objects"
