@@ -14,13 +14,10 @@
 
 use std::cell::RefCell;
 
-use candle_core::{Device, Tensor};
 use groundscope::env::view::Observation;
 use groundscope::policy::onnx::{MapOutputs, trace};
 use groundscope::policy::trace::ViewMap;
-use groundscope::policy::{
-    ActOutput, Acting, Intervention, Memory, MissionInputs, PolicyError, Variant,
-};
+use groundscope::policy::{ActOutput, Acting, Memory, MissionInputs, PolicyError, Step, Variant};
 use numpy::{PyArray1, PyArrayMethods as _};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
@@ -86,10 +83,10 @@ pub struct PyPolicy<'py> {
     batch: RefCell<Batch>,
 }
 
+/// The memory of `rows` episodes of a Python policy: nothing (the policy keeps its own state,
+/// per row of [`Step::rows`]).
 fn memory_of_rows(rows: usize) -> Result<Memory, PolicyError> {
-    let ids: Vec<f32> = (0..rows).map(|i| i as f32).collect();
-    let h = Tensor::from_vec(ids, (rows, 1), &Device::Cpu)?;
-    Ok(Memory { c: h.clone(), h })
+    groundscope::policy::acting::flat_memory_rows(Vec::new(), rows)
 }
 
 /// One float array out of a Python value (numpy array, list, or anything `np.asarray` takes,
@@ -366,18 +363,11 @@ impl<'py> PyPolicy<'py> {
         obs: &[Observation],
         dirs: &[u8],
         tokens: &[&[u32]],
+        rows: &[usize],
         memory: &Memory,
     ) -> PyResult<ActOutput> {
-        let rows: Vec<usize> = memory
-            .h
-            .flatten_all()
-            .and_then(|t| t.to_vec1::<f32>())
-            .map_err(|e| PyValueError::new_err(e.to_string()))?
-            .into_iter()
-            .map(|x| x as usize)
-            .collect();
-        let out = self.call(&rows, obs, dirs)?;
-        let (logits, values, maps) = self.read(&out, &rows, tokens)?;
+        let out = self.call(rows, obs, dirs)?;
+        let (logits, values, maps) = self.read(&out, rows, tokens)?;
         {
             let mut b = self.batch.borrow_mut();
             let has = maps.is_some();
@@ -428,18 +418,15 @@ impl Acting for PyPolicy<'_> {
         Ok(None)
     }
 
-    fn act_one(
-        &self,
-        obs: Observation,
-        direction: u8,
-        tokens: &[u32],
-        _prepared: Option<&MissionInputs>,
-        memory: &Memory,
-        _with_traces: bool,
-        _intervention: Option<&Intervention>,
-    ) -> Result<ActOutput, PolicyError> {
-        self.step(&[obs], &[direction], &[tokens], memory)
-            .map_err(|e| self.fail(e))
+    fn act_step(&self, step: &Step<'_>) -> Result<ActOutput, PolicyError> {
+        self.step(
+            step.obs,
+            step.directions,
+            step.missions,
+            step.rows,
+            step.memory,
+        )
+        .map_err(|e| self.fail(e))
     }
 
     fn zero_memory_batch(&self, batch: usize) -> Result<Memory, PolicyError> {
@@ -448,20 +435,6 @@ impl Acting for PyPolicy<'_> {
 
     fn prepare_batch(&self, _missions: &[&[u32]]) -> Result<Option<MissionInputs>, PolicyError> {
         Ok(None)
-    }
-
-    fn act_batch(
-        &self,
-        obs: &[Observation],
-        directions: &[u8],
-        missions: &[&[u32]],
-        _prepared: Option<&MissionInputs>,
-        memory: &Memory,
-        _with_traces: bool,
-        _intervention: Option<&Intervention>,
-    ) -> Result<ActOutput, PolicyError> {
-        self.step(obs, directions, missions, memory)
-            .map_err(|e| self.fail(e))
     }
 
     fn takes_interventions(&self) -> bool {

@@ -9,10 +9,7 @@ use std::path::Path;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 
-use groundscope::env::view::Observation;
-use groundscope::policy::{
-    ActOutput, Acting, Intervention, Memory, MissionInputs, PolicyError, Variant,
-};
+use groundscope::policy::{ActOutput, Acting, Memory, MissionInputs, PolicyError, Step, Variant};
 
 /// Set by the signal handler; read by the workers between steps.
 #[derive(Clone, Debug, Default)]
@@ -91,26 +88,9 @@ impl Acting for Stoppable<'_> {
         self.agent.prepare(tokens)
     }
 
-    fn act_one(
-        &self,
-        obs: Observation,
-        direction: u8,
-        tokens: &[u32],
-        prepared: Option<&MissionInputs>,
-        memory: &Memory,
-        with_traces: bool,
-        intervention: Option<&Intervention>,
-    ) -> Result<ActOutput, PolicyError> {
+    fn act_step(&self, step: &Step<'_>) -> Result<ActOutput, PolicyError> {
         self.check()?;
-        self.agent.act_one(
-            obs,
-            direction,
-            tokens,
-            prepared,
-            memory,
-            with_traces,
-            intervention,
-        )
+        self.agent.act_step(step)
     }
 
     fn zero_memory_batch(&self, batch: usize) -> Result<Memory, PolicyError> {
@@ -120,28 +100,6 @@ impl Acting for Stoppable<'_> {
     fn prepare_batch(&self, missions: &[&[u32]]) -> Result<Option<MissionInputs>, PolicyError> {
         self.check()?;
         self.agent.prepare_batch(missions)
-    }
-
-    fn act_batch(
-        &self,
-        obs: &[Observation],
-        directions: &[u8],
-        missions: &[&[u32]],
-        prepared: Option<&MissionInputs>,
-        memory: &Memory,
-        with_traces: bool,
-        intervention: Option<&Intervention>,
-    ) -> Result<ActOutput, PolicyError> {
-        self.check()?;
-        self.agent.act_batch(
-            obs,
-            directions,
-            missions,
-            prepared,
-            memory,
-            with_traces,
-            intervention,
-        )
     }
 
     fn takes_interventions(&self) -> bool {

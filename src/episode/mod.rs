@@ -12,7 +12,7 @@ use crate::env::level::LevelConfig;
 use crate::env::view::Observation;
 use crate::env::vocab;
 use crate::env::world::{Action, World};
-use crate::policy::{self, Acting, AttentionTrace, Checkpoint, Memory, Net, PolicyError};
+use crate::policy::{self, Acting, AttentionTrace, Checkpoint, Memory, Net, PolicyError, Step};
 
 /// How actions are chosen from the policy's probabilities.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -338,15 +338,11 @@ pub fn rerun_from<P: Acting + ?Sized>(
             choose(&s.probs, trace.mode, &mut rng);
             continue;
         }
-        let out = net.act_one(
-            s.obs,
-            s.world.agent_dir,
-            &trace.tokens,
-            mission.as_ref(),
-            &memory,
-            false,
-            None,
-        )?;
+        let tokens = trace.tokens.as_slice();
+        let out = net.act_step(&Step {
+            prepared: mission.as_ref(),
+            ..Step::one(&s.obs, &s.world.agent_dir, &tokens, &memory)
+        })?;
         memory = out.memory;
         choose(&s.probs, trace.mode, &mut rng);
     }
@@ -414,15 +410,13 @@ fn run_loop<P: Acting + ?Sized>(
                 Some(f) => f(world, &obs, &trace.tokens, &memory)?,
                 None => None,
             };
-            net.act_one(
-                obs,
-                world.agent_dir,
-                &trace.tokens,
-                mission.as_ref(),
-                &memory,
-                true,
-                iv.as_ref(),
-            )
+            let tokens = trace.tokens.as_slice();
+            net.act_step(&Step {
+                prepared: mission.as_ref(),
+                traces: true,
+                intervention: iv.as_ref(),
+                ..Step::one(&obs, &world.agent_dir, &tokens, &memory)
+            })
             .map_err(|e| at_step(e, t, spec))?
         };
         memory = out.memory;

@@ -86,6 +86,57 @@ pub fn known_word_list<P: Acting + ?Sized>(policy: &P) -> Vec<&'static str> {
         .collect()
 }
 
+/// One step's whole input for B environments, as every [`Acting`] policy reads it.
+#[derive(Clone, Copy)]
+pub struct Step<'a> {
+    /// Each environment's observation.
+    pub obs: &'a [Observation],
+    /// Each agent's direction (0–3).
+    pub directions: &'a [u8],
+    /// Each environment's mission tokens.
+    pub missions: &'a [&'a [u32]],
+    /// Which of the caller's episodes each row is (the caller's numbering: `0..B` where the
+    /// batch is all of them, the running ones' indices as episodes end): what a policy that
+    /// keeps state of its own per episode (a Python policy) reads.
+    pub rows: &'a [usize],
+    /// What [`Acting::prepare`] / [`Acting::prepare_batch`] returned, these rows of it
+    /// (`select`ed); `None` to compute it.
+    pub prepared: Option<&'a MissionInputs>,
+    /// The memory before the step, a row per environment.
+    pub memory: &'a Memory,
+    /// Whether to return the attention traces.
+    pub traces: bool,
+    /// An intervention on the attention ([`Acting::takes_interventions`]).
+    pub intervention: Option<&'a Intervention>,
+}
+
+/// The rows `0..n`, for [`Step::rows`] of a batch that is all of the caller's episodes.
+pub fn all_rows(n: usize) -> Vec<usize> {
+    (0..n).collect()
+}
+
+impl<'a> Step<'a> {
+    /// The step of one episode (its row 0) with nothing prepared, no traces and no
+    /// intervention; set the fields to add them.
+    pub fn one(
+        obs: &'a Observation,
+        direction: &'a u8,
+        tokens: &'a &'a [u32],
+        memory: &'a Memory,
+    ) -> Self {
+        Self {
+            obs: std::slice::from_ref(obs),
+            directions: std::slice::from_ref(direction),
+            missions: std::slice::from_ref(tokens),
+            rows: &[0],
+            prepared: None,
+            memory,
+            traces: false,
+            intervention: None,
+        }
+    }
+}
+
 /// A policy that acts in one environment at a time.
 pub trait Acting {
     /// Attention (the traces carry maps) or baseline (they do not).
@@ -105,44 +156,14 @@ pub trait Acting {
     /// policy has nothing to keep).
     fn prepare(&self, tokens: &[u32]) -> Result<Option<MissionInputs>, PolicyError>;
 
-    /// One step: the observation, the agent's direction (0–3), the mission, what
-    /// [`Self::prepare`] returned and the memory before the step.
-    #[expect(
-        clippy::too_many_arguments,
-        reason = "one step's whole input, as the acting functions take it"
-    )]
-    fn act_one(
-        &self,
-        obs: Observation,
-        direction: u8,
-        tokens: &[u32],
-        prepared: Option<&MissionInputs>,
-        memory: &Memory,
-        with_traces: bool,
-        intervention: Option<&Intervention>,
-    ) -> Result<ActOutput, PolicyError>;
+    /// One step of the B environments of `step` (B = 1 for an episode's step).
+    fn act_step(&self, step: &Step<'_>) -> Result<ActOutput, PolicyError>;
 
     /// The memory of B fresh episodes.
     fn zero_memory_batch(&self, batch: usize) -> Result<Memory, PolicyError>;
 
     /// [`Self::prepare`] for B missions at once (the rows are later `select`ed).
     fn prepare_batch(&self, missions: &[&[u32]]) -> Result<Option<MissionInputs>, PolicyError>;
-
-    /// One step of B environments; `prepared` holds their rows of [`Self::prepare_batch`].
-    #[expect(
-        clippy::too_many_arguments,
-        reason = "one step's whole input, as the acting functions take it"
-    )]
-    fn act_batch(
-        &self,
-        obs: &[Observation],
-        directions: &[u8],
-        missions: &[&[u32]],
-        prepared: Option<&MissionInputs>,
-        memory: &Memory,
-        with_traces: bool,
-        intervention: Option<&Intervention>,
-    ) -> Result<ActOutput, PolicyError>;
 
     /// Whether [`Intervention`]s on the attention can be applied (a native attention network;
     /// an imported graph with maps that takes the override inputs of docs/onnx.md).
@@ -228,16 +249,7 @@ impl Acting for BotAgent {
         Ok(None)
     }
 
-    fn act_one(
-        &self,
-        _obs: Observation,
-        _direction: u8,
-        _tokens: &[u32],
-        _prepared: Option<&MissionInputs>,
-        _memory: &Memory,
-        _with_traces: bool,
-        _intervention: Option<&Intervention>,
-    ) -> Result<ActOutput, PolicyError> {
+    fn act_step(&self, _step: &Step<'_>) -> Result<ActOutput, PolicyError> {
         Err(bot_reads_the_world())
     }
 
@@ -247,19 +259,6 @@ impl Acting for BotAgent {
 
     fn prepare_batch(&self, _missions: &[&[u32]]) -> Result<Option<MissionInputs>, PolicyError> {
         Ok(None)
-    }
-
-    fn act_batch(
-        &self,
-        _obs: &[Observation],
-        _directions: &[u8],
-        _missions: &[&[u32]],
-        _prepared: Option<&MissionInputs>,
-        _memory: &Memory,
-        _with_traces: bool,
-        _intervention: Option<&Intervention>,
-    ) -> Result<ActOutput, PolicyError> {
-        Err(bot_reads_the_world())
     }
 
     fn takes_interventions(&self) -> bool {
@@ -293,25 +292,16 @@ impl Acting for Net {
             .map(Some)
     }
 
-    fn act_batch(
-        &self,
-        obs: &[Observation],
-        _directions: &[u8],
-        missions: &[&[u32]],
-        prepared: Option<&MissionInputs>,
-        memory: &Memory,
-        with_traces: bool,
-        intervention: Option<&Intervention>,
-    ) -> Result<ActOutput, PolicyError> {
+    fn act_step(&self, step: &Step<'_>) -> Result<ActOutput, PolicyError> {
         super::act(
             self,
-            obs,
-            missions,
-            memory,
+            step.obs,
+            step.missions,
+            step.memory,
             ActOptions {
-                traces: with_traces,
-                intervention,
-                prepared,
+                traces: step.traces,
+                intervention: step.intervention,
+                prepared: step.prepared,
             },
         )
     }
@@ -326,36 +316,6 @@ impl Acting for Net {
 
     fn prepare(&self, tokens: &[u32]) -> Result<Option<MissionInputs>, PolicyError> {
         episode_mission(self, tokens).map(Some)
-    }
-
-    fn act_one(
-        &self,
-        obs: Observation,
-        _direction: u8,
-        tokens: &[u32],
-        prepared: Option<&MissionInputs>,
-        memory: &Memory,
-        with_traces: bool,
-        intervention: Option<&Intervention>,
-    ) -> Result<ActOutput, PolicyError> {
-        let owned;
-        let mission = if let Some(m) = prepared {
-            m
-        } else {
-            owned = episode_mission(self, tokens)?;
-            &owned
-        };
-        super::act(
-            self,
-            &[obs],
-            &[tokens],
-            memory,
-            ActOptions {
-                traces: with_traces,
-                intervention,
-                prepared: Some(mission),
-            },
-        )
     }
 }
 

@@ -18,7 +18,7 @@ pub mod weights;
 
 use candle_core::{Device, Tensor};
 
-pub use acting::{Acting, Agent};
+pub use acting::{Acting, Agent, Step};
 pub use attention::Intervention;
 pub use checkpoint::{Checkpoint, CheckpointMeta, TrainingState, checkpoint_paths};
 pub use config::{AttendWords, ColourCodes, ModelConfig, Variant, WordTemperature};

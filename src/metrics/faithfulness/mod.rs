@@ -24,7 +24,7 @@ use rand::SeedableRng as _;
 
 use crate::env::level::LevelConfig;
 use crate::episode::{ActionMode, EpisodeTrace, InterventionOutcome, StepFaithfulness};
-use crate::policy::{Acting, PolicyError, trace::to_map};
+use crate::policy::{Acting, PolicyError, Step, trace::to_map};
 
 /// Analyses one episode per `(eval_seed, level_seed)` of `plan` on `jobs` threads; results
 /// come back in plan order. `progress` is called after each episode with the number done.
@@ -110,7 +110,7 @@ fn feed(
     memory: &crate::policy::Memory,
 ) -> Result<crate::policy::Memory, PolicyError> {
     Ok(agent
-        .act_one(s.obs, s.world.agent_dir, tokens, None, memory, false, None)?
+        .act_step(&Step::one(&s.obs, &s.world.agent_dir, &tokens, memory))?
         .memory)
 }
 

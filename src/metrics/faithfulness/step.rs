@@ -17,7 +17,7 @@ use crate::env::targets::{WordTargets, visible_objects};
 use crate::env::view::{AGENT_IN_VIEW, Observation, VIEW_SIZE, ViewCell};
 use crate::metrics::grounding::WordKind;
 use crate::policy::obs::N_CELLS;
-use crate::policy::{Acting, AttentionTrace, Intervention, Memory, PolicyError};
+use crate::policy::{Acting, AttentionTrace, Intervention, Memory, PolicyError, Step};
 
 /// What an occluded cell becomes: empty floor, `(1, 0, 0)`.
 pub const EMPTY_FLOOR: [u8; 3] = [1, 0, 0];
@@ -159,16 +159,19 @@ fn probs_of<P: Acting + ?Sized>(
         return Ok(Vec::new());
     }
     let n = obs.len();
+    let memory = repeat(memory, n)?;
     Ok(agent
-        .act_batch(
+        .act_step(&Step {
             obs,
-            &vec![direction; n],
-            &vec![tokens; n],
-            None,
-            &repeat(memory, n)?,
-            false,
+            directions: &vec![direction; n],
+            missions: &vec![tokens; n],
+            // Every row is the same episode's step, perturbed.
+            rows: &vec![0; n],
+            prepared: None,
+            memory: &memory,
+            traces: false,
             intervention,
-        )?
+        })?
         .probs)
 }
 

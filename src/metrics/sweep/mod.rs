@@ -20,7 +20,7 @@ use crate::env::world::{Action, World};
 use crate::episode::{ActionMode, choose};
 use candle_core::{Device, Tensor};
 
-use crate::policy::{Acting, Memory, PolicyError};
+use crate::policy::{Acting, Memory, PolicyError, Step};
 
 mod stats;
 
@@ -257,15 +257,16 @@ pub fn evaluate_episodes_explored<P: Acting + ?Sized>(
         let out = if net.reads_world() {
             net.act_from_expert(&advice)?
         } else {
-            net.act_batch(
-                &obs,
-                &dirs,
-                &missions,
-                mission.as_ref(),
-                &memory,
-                want_traces,
-                None,
-            )?
+            net.act_step(&Step {
+                obs: &obs,
+                directions: &dirs,
+                missions: &missions,
+                rows: &active,
+                prepared: mission.as_ref(),
+                memory: &memory,
+                traces: want_traces,
+                intervention: None,
+            })?
         };
         let mut keep = Vec::with_capacity(active.len());
         for (row, &i) in active.iter().enumerate() {

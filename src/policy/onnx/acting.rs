@@ -1,11 +1,13 @@
 //! An imported graph behind the acting interface ([`crate::policy::Acting`]); without the
 //! `onnx` feature every call is a one-line error.
 
+#[cfg(feature = "onnx")]
 use crate::env::view::Observation;
 use crate::policy::ActOutput;
-use crate::policy::acting::Acting;
+use crate::policy::acting::{Acting, Step};
 #[cfg(feature = "onnx")]
 use crate::policy::acting::{flat_memory, flat_memory_rows, softmax};
+#[cfg(feature = "onnx")]
 use crate::policy::attention::Intervention;
 use crate::policy::config::Variant;
 use crate::policy::error::PolicyError;
@@ -45,18 +47,11 @@ impl Acting for super::OnnxAgent {
         Ok(None)
     }
 
-    fn act_batch(
-        &self,
-        obs: &[Observation],
-        directions: &[u8],
-        missions: &[&[u32]],
-        _prepared: Option<&MissionInputs>,
-        memory: &Memory,
-        with_traces: bool,
-        intervention: Option<&Intervention>,
-    ) -> Result<ActOutput, PolicyError> {
+    fn act_step(&self, step: &Step<'_>) -> Result<ActOutput, PolicyError> {
+        let (obs, directions, missions) = (step.obs, step.directions, step.missions);
+        let (memory, with_traces) = (step.memory, step.traces);
         let mem = memory.h.flatten_all()?.to_vec1::<f32>()?;
-        let overrides = match intervention {
+        let overrides = match step.intervention {
             None => None,
             Some(iv) => Some(self.overrides(obs, directions, missions, &mem, iv)?),
         };
@@ -83,27 +78,6 @@ impl Acting for super::OnnxAgent {
 
     fn takes_interventions(&self) -> bool {
         self.takes_overrides()
-    }
-
-    fn act_one(
-        &self,
-        obs: Observation,
-        direction: u8,
-        tokens: &[u32],
-        _prepared: Option<&MissionInputs>,
-        memory: &Memory,
-        with_traces: bool,
-        intervention: Option<&Intervention>,
-    ) -> Result<ActOutput, PolicyError> {
-        self.act_batch(
-            &[obs],
-            &[direction],
-            &[tokens],
-            None,
-            memory,
-            with_traces,
-            intervention,
-        )
     }
 }
 
@@ -169,16 +143,7 @@ impl Acting for super::OnnxAgent {
         Err(unbuilt())
     }
 
-    fn act_one(
-        &self,
-        _obs: Observation,
-        _direction: u8,
-        _tokens: &[u32],
-        _prepared: Option<&MissionInputs>,
-        _memory: &Memory,
-        _with_traces: bool,
-        _intervention: Option<&Intervention>,
-    ) -> Result<ActOutput, PolicyError> {
+    fn act_step(&self, _step: &Step<'_>) -> Result<ActOutput, PolicyError> {
         Err(unbuilt())
     }
 
@@ -187,19 +152,6 @@ impl Acting for super::OnnxAgent {
     }
 
     fn prepare_batch(&self, _missions: &[&[u32]]) -> Result<Option<MissionInputs>, PolicyError> {
-        Err(unbuilt())
-    }
-
-    fn act_batch(
-        &self,
-        _obs: &[Observation],
-        _directions: &[u8],
-        _missions: &[&[u32]],
-        _prepared: Option<&MissionInputs>,
-        _memory: &Memory,
-        _with_traces: bool,
-        _intervention: Option<&Intervention>,
-    ) -> Result<ActOutput, PolicyError> {
         Err(unbuilt())
     }
 

@@ -23,7 +23,7 @@ use crate::episode::{ActionMode, choose, episode_rng};
 use crate::metrics::failure::{Relation, relation};
 use crate::metrics::grounding::{pending_targets, related_objects};
 use crate::policy::obs::N_CELLS;
-use crate::policy::{ActOutput, Acting, Intervention, Memory, PolicyError};
+use crate::policy::{ActOutput, Acting, Intervention, Memory, PolicyError, Step};
 
 /// Interventions applied at every step of a closed-loop re-run, in report order: the first
 /// five change `M` (models that take interventions), the last two the observation the policy
@@ -157,7 +157,10 @@ pub fn intervention(
             )?))
         }
         Loop::Steered => {
-            let base = agent.act_one(*obs, world.agent_dir, tokens, None, memory, true, None)?;
+            let base = agent.act_step(&Step {
+                traces: true,
+                ..Step::one(obs, &world.agent_dir, &tokens, memory)
+            })?;
             let targets = pending_targets(world, obs);
             let objects = super::step::candidate_objects(obs, &targets);
             base.traces
@@ -248,15 +251,12 @@ fn rollout(
             &mut occlusion_rng,
         )?;
         let iv = intervention(agent, *how, &world, &obs, &tokens, &memory)?;
-        let out = agent.act_one(
-            seen,
-            direction,
-            &tokens,
-            None,
-            &memory,
-            attention,
-            iv.as_ref(),
-        )?;
+        let mission = tokens.as_slice();
+        let out = agent.act_step(&Step {
+            traces: attention,
+            intervention: iv.as_ref(),
+            ..Step::one(&seen, &direction, &mission, &memory)
+        })?;
         let probs = out.probs.first().cloned().unwrap_or_default();
         let action = choose(&probs, mode, &mut rng);
         let target_cells = pending_targets(&world, &obs);
@@ -312,7 +312,7 @@ fn occluded(
     let objects = related_objects(obs, |_, _| true);
     let cell = match how {
         Loop::OccludeSalient if !objects.is_empty() => {
-            let base = agent.act_one(*obs, direction, tokens, None, memory, false, None)?;
+            let base = agent.act_step(&Step::one(obs, &direction, &tokens, memory))?;
             let probs = base.probs.first().cloned().unwrap_or_default();
             let delta = super::step::occlusion_of(agent, obs, direction, tokens, memory, &probs)?;
             objects
