@@ -417,7 +417,8 @@ impl Run {
     }
 }
 
-/// The checkpoint interval of a run that recorded none (saved before it was kept).
+/// The checkpoint interval by default (`train --save-interval`), and of a run that recorded
+/// none (saved before it was kept).
 pub const DEFAULT_SAVE_INTERVAL: u64 = 10;
 
 /// A new run's trainer: fresh weights for `model` drawn from `seed`, with rows for all of

@@ -40,7 +40,7 @@ pub struct TrainArgs {
     #[arg(long, value_name = "NAME", conflicts_with = "resume")]
     pub init: Option<String>,
     /// Save a checkpoint every this many updates.
-    #[arg(long, default_value_t = 10, allow_negative_numbers = true)]
+    #[arg(long, default_value_t = groundscope::run::DEFAULT_SAVE_INTERVAL, allow_negative_numbers = true)]
     pub save_interval: u64,
     #[command(flatten)]
     pub level: LevelArgs,

@@ -8,6 +8,7 @@ mod flags;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 
+use anyhow::Context as _;
 use clap::ArgMatches;
 use groundscope::metrics::tracking::TrackedEval;
 use groundscope::policy::ModelConfig;
@@ -44,7 +45,7 @@ pub fn run(args: &TrainArgs, matches: Option<&ArgMatches>) -> anyhow::Result<Exi
         ppo.validate()?;
         let levels = level_mix(args)?;
         if ppo.imitate {
-            for what in groundscope::run::check_labels(&levels).context_flag("--imitate")? {
+            for what in groundscope::run::check_labels(&levels).context("--imitate")? {
                 eprintln!(
                     "groundscope: warning: --imitate: the bot labels almost nothing of {what}: its episodes give imitation no labels"
                 );
@@ -87,7 +88,7 @@ pub fn run(args: &TrainArgs, matches: Option<&ArgMatches>) -> anyhow::Result<Exi
                 args.out.display()
             );
         }
-        let (trainer, info) = dir.load().context_flag("--resume")?;
+        let (trainer, info) = dir.load().context("--resume")?;
         flags::check_resume(args, matches, variant, &info, &args.out)?;
         let tracking = flags::tracking(args, matches, info.tracking);
         RunSpec {
@@ -99,19 +100,8 @@ pub fn run(args: &TrainArgs, matches: Option<&ArgMatches>) -> anyhow::Result<Exi
             tracking,
         }
     };
-    let run = Run::start(dir, spec).context_flag(if args.resume { "--resume" } else { "--out" })?;
+    let run = Run::start(dir, spec).context(if args.resume { "--resume" } else { "--out" })?;
     train(run, args)
-}
-
-/// Prefixes an error with the flag it came from, as every refusal of `train` names its flag.
-trait ContextFlag<T> {
-    fn context_flag(self, flag: &str) -> anyhow::Result<T>;
-}
-
-impl<T> ContextFlag<T> for anyhow::Result<T> {
-    fn context_flag(self, flag: &str) -> anyhow::Result<T> {
-        self.map_err(|e| anyhow::anyhow!("{flag}: {e:#}"))
-    }
 }
 
 /// Steps the run until its frames are trained or a signal asks it to stop, showing progress.
