@@ -175,7 +175,7 @@ fn typos_get_did_you_mean() {
     }
 }
 
-/// A refusal on a level the model cannot read names the bundled agent that can.
+/// A refusal on a level the model cannot read names the bundled agents that can.
 #[test]
 fn a_level_the_model_cannot_read_names_the_babyai_agent() {
     let o = gs(&[
@@ -188,4 +188,9 @@ fn a_level_the_model_cannot_read_names_the_babyai_agent() {
         "1",
     ]);
     assert_bad_input(&o, "--checkpoint bundled:babyai");
+    assert!(
+        stderr(&o).contains("bundled:babyai-grounded"),
+        "{}",
+        stderr(&o)
+    );
 }

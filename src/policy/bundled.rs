@@ -1,6 +1,7 @@
 //! The checkpoints shipped in `assets/` and embedded in the binary: the paper's pair, the
-//! default of every command (`bundled:attention` first, then `bundled:baseline`), and
-//! `bundled:babyai`, an attention model that reads BabyAI's whole grammar.
+//! default of every command (`bundled:attention` first, then `bundled:baseline`),
+//! `bundled:babyai`, an attention model that reads BabyAI's whole grammar, and
+//! `bundled:babyai-grounded`, its continuation whose maps were supervised to ground.
 
 use std::path::Path;
 
@@ -11,7 +12,7 @@ use super::error::PolicyError;
 pub const PREFIX: &str = "bundled:";
 
 /// The embedded checkpoints: name, JSON, weights.
-const BUNDLED: [(&str, &str, &[u8]); 3] = [
+const BUNDLED: [(&str, &str, &[u8]); 4] = [
     (
         "attention",
         include_str!("../../assets/attention.json"),
@@ -27,17 +28,32 @@ const BUNDLED: [(&str, &str, &[u8]); 3] = [
         include_str!("../../assets/babyai.json"),
         include_bytes!("../../assets/babyai.safetensors"),
     ),
+    (
+        "babyai-grounded",
+        include_str!("../../assets/babyai-grounded.json"),
+        include_bytes!("../../assets/babyai-grounded.safetensors"),
+    ),
 ];
 
 /// The bundled model for BabyAI's levels: it reads every word of their missions.
 pub const BABYAI: &str = "bundled:babyai";
 
+/// `bundled:babyai` continued with the layout path and supervised maps: the recipe the layout
+/// path study's rule chose (experiments/study_layout_path/).
+pub const BABYAI_GROUNDED: &str = "bundled:babyai-grounded";
+
 /// How a bundled checkpoint was trained, where its metadata (which names one level) would
 /// not say it truly; `None` for any other name.
 pub fn training_note(spec: &str) -> Option<&'static str> {
-    (spec == BABYAI).then_some(
-        "imitation of minigrid's BabyAI bot on sixteen BabyAI levels at once (experiments/babyai_agent/levels.txt)",
-    )
+    match spec {
+        BABYAI => Some(
+            "imitation of minigrid's BabyAI bot on sixteen BabyAI levels at once (experiments/babyai_agent/levels.txt)",
+        ),
+        BABYAI_GROUNDED => Some(
+            "bundled:babyai continued by imitation on its sixteen levels with the layout path (experiments/study_layout_path/)",
+        ),
+        _ => None,
+    }
 }
 
 /// The paper's pair, `bundled:attention` then `bundled:baseline`: what `eval`, `replay` and
@@ -83,9 +99,11 @@ mod tests {
         for n in names() {
             let c = load(&n).unwrap();
             let variant = c.meta.model.variant.name();
-            if n == BABYAI {
+            if n == BABYAI || n == BABYAI_GROUNDED {
                 assert_eq!(variant, "attention");
                 assert_eq!(c.meta.model.vocab_size, crate::env::vocab::VOCAB_SIZE);
+                assert_eq!(c.meta.model.layout_path, n == BABYAI_GROUNDED);
+                assert!(training_note(&n).is_some());
             } else {
                 assert_eq!(format!("{PREFIX}{variant}"), n);
             }
