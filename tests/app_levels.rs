@@ -276,3 +276,52 @@ fn a_long_episode_streams_in_and_opens_at_the_step_asked_for() {
     h.state_mut().go_to_step(5000);
     show_until(&mut h, "step 1727 of 0–1727 · failure");
 }
+
+/// A failed episode names its class and behaviour and offers its decisive step — the step
+/// `eval` gives the same episode — and the button goes there.
+#[test]
+fn a_failed_episode_offers_the_decisive_step_eval_gives_it() {
+    use groundscope::app::session::{Request, run_request};
+    use groundscope::episode::ActionMode;
+    let dir = tempfile::tempdir().unwrap();
+    let level = babyai("BabyAI-GoToLocal-v0");
+    let ckpt = fresh_checkpoint(dir.path(), level);
+    let agent = Agent::load(&ckpt).unwrap();
+    let (seed, shown) = (0..20)
+        .find_map(|seed| {
+            let request = Request {
+                level,
+                seed,
+                mode: ActionMode::Greedy,
+                mission: None,
+            };
+            let shown = run_request(&agent, &request, 0.5).unwrap();
+            (!shown.trace.success()).then_some((seed, shown))
+        })
+        .expect("a fresh model fails some GoToLocal seed");
+    let d = shown.failure.unwrap();
+    let decisive = shown.decisive.unwrap();
+    // eval's sweep finds the same step.
+    let eps = groundscope::metrics::sweep::evaluate_episodes(
+        agent.acting(),
+        &level,
+        &[(0, seed)],
+        0.5,
+        ActionMode::Greedy,
+        &mut |_| {},
+    )
+    .unwrap();
+    let e = &eps[0];
+    let lost = e.failure.unwrap().lost_at;
+    let want =
+        groundscope::metrics::failure::decisive_step(lost, e.expert.first_divergence, e.length);
+    assert_eq!(decisive, want as usize);
+    let mut h = build(&options(&ckpt, Some(level), seed));
+    show_until(&mut h, "step 0 of ");
+    let behaviour = d
+        .behaviour
+        .map_or_else(String::new, |b| format!(" · {}", b.name()));
+    h.get_by_label(&format!("failed: {}{behaviour}", d.class.name()));
+    h.get_by_label(&format!("decisive step {decisive}")).click();
+    show_until(&mut h, &format!("step {decisive} of "));
+}

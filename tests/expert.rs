@@ -171,7 +171,19 @@ fn a_failing_agent_leaves_the_experts_plan_where_the_trace_says() {
         )
         .unwrap();
         let e = &eps[0].expert;
-        assert_eq!(e.first_divergence, first.map(|t| t as u32));
+        // The sweep and the trace agree on the first divergence that costs something, which
+        // is never before the first disagreement.
+        let costly = groundscope::metrics::failure::first_divergence(&trace);
+        assert_eq!(e.first_divergence, costly);
+        if let Some(t) = costly {
+            assert!(t as usize >= first.unwrap());
+            let s = &trace.steps[t as usize];
+            assert!(groundscope::bot::divergence_matters(
+                &s.world,
+                s.action,
+                s.expert_action.unwrap()
+            ));
+        }
         assert!(e.agreement() < 1.0);
         assert_eq!(
             e.steps as usize,
@@ -187,6 +199,46 @@ fn a_failing_agent_leaves_the_experts_plan_where_the_trace_says() {
         checked > 0,
         "no failed episode of the bundled model on GoTo in 20 seeds"
     );
+}
+
+/// A divergence matters only where it costs the bot steps: turning the other way than the bot
+/// at the start of GoToLocal is a tie where both turns reach the target in as many steps, and
+/// costs something where one side is nearer; taking the bot's own action never matters.
+#[test]
+fn a_divergence_matters_only_where_it_costs_the_bot_steps() {
+    use groundscope::bot::{Expert, divergence_matters, solo_length};
+    use groundscope::env::Action;
+    let level = groundscope::env::LevelConfig::babyai(
+        groundscope::env::LevelId::parse("BabyAI-GoToLocal-v0").unwrap(),
+        false,
+    );
+    let (mut ties, mut costly) = (0, 0);
+    for seed in 0..300 {
+        let world = level.generate(seed).unwrap();
+        let advised = Expert::new(&world)
+            .advise(&world, &world.observe())
+            .unwrap();
+        assert!(!divergence_matters(&world, advised, advised));
+        let other = match advised {
+            Action::Left => Action::Right,
+            Action::Right => Action::Left,
+            _ => continue,
+        };
+        // The bot's own steps to success after each turn, counted here step by step.
+        let after = |a: Action| {
+            let mut w = world.clone();
+            w.step(a).unwrap();
+            solo_length(w).filter(|&(_, ok)| ok).map(|(n, _)| n)
+        };
+        let (t, a) = (after(other).unwrap(), after(advised).unwrap());
+        assert_eq!(
+            divergence_matters(&world, other, advised),
+            t > a,
+            "seed {seed}"
+        );
+        if t > a { costly += 1 } else { ties += 1 }
+    }
+    assert!(ties > 0 && costly > 0, "ties {ties}, costly {costly}");
 }
 
 /// The recordings carry the expert: MCAP's `/policy` has its action and plan at every step,
@@ -264,4 +316,56 @@ fn faithfulness_refuses_the_bot() {
     let o = gs(&args);
     assert_bad_input(&o, "bot has no network");
     assert!(!dir.path().join("f").exists());
+}
+
+/// A failing agent's episodes open where they were lost: episodes.csv's `decisive_step` is the
+/// first divergence that mattered, else the last step (GoToLocal has no sequence to get out of
+/// order), and report.md's `view` command opens the worst failures there.
+#[test]
+fn failures_open_at_their_decisive_step() {
+    let dir = tempfile::tempdir().unwrap();
+    let ckpt = dir.path().join("fresh");
+    let o = gs(&[
+        "init",
+        "--level",
+        "BabyAI-GoToLocal-v0",
+        "--out",
+        ckpt.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = dir.path().join("report");
+    let o = gs(&[
+        "eval",
+        "--checkpoint",
+        ckpt.to_str().unwrap(),
+        "--levels",
+        "BabyAI-GoToLocal-v0",
+        "--seeds",
+        "1",
+        "--episodes",
+        "6",
+        "--quiet",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let rows = common::csv_rows(&out.join("episodes.csv"));
+    let md = std::fs::read_to_string(out.join("report.md")).unwrap();
+    let mut failed = 0;
+    for r in &rows {
+        if r["success"] == "1" {
+            assert_eq!(r["decisive_step"], "");
+            continue;
+        }
+        failed += 1;
+        let want = if r["first_divergence"].is_empty() {
+            (r["steps"].parse::<u32>().unwrap() - 1).to_string()
+        } else {
+            r["first_divergence"].clone()
+        };
+        assert_eq!(r["decisive_step"], want, "{r:?}");
+        let view = format!("--seed {} --step {want}", r["level_seed"]);
+        assert!(md.contains(&view), "no `{view}` in report.md");
+    }
+    assert!(failed > 0, "a fresh model failed no GoToLocal episode");
 }

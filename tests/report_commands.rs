@@ -1,5 +1,5 @@
 //! The report's worst episodes name the command that opens each in the debugger, at the step
-//! where it failed.
+//! where it was lost.
 #![allow(clippy::unwrap_used, reason = "tests fail loudly")]
 
 mod common;
@@ -27,15 +27,22 @@ fn failure(kind: &str, length: u32) -> Failure {
         counterfactual_skipped: None,
         level: None,
         done_required: Some(true),
+        decisive_step: None,
     }
 }
 
 #[test]
-fn a_failed_episode_opens_at_its_last_step() {
+fn a_failed_episode_opens_at_its_decisive_step_else_its_last() {
     assert_eq!(
         failure("failed", 256).view_command(),
         "groundscope view --checkpoint bundled:attention --room-size 16 --objects 10 --seed 42 --step 255"
     );
+    // Where the episode was lost is known: it opens there.
+    let lost = Failure {
+        decisive_step: Some(17),
+        ..failure("failed", 256)
+    };
+    assert!(lost.view_command().ends_with("--seed 42 --step 17"));
     // A success listed for its low acc_cmb has no failing step: it opens at the start.
     assert_eq!(
         failure("low_acc_cmb", 12).view_command(),

@@ -8,7 +8,7 @@ use std::collections::VecDeque;
 use std::sync::{Arc, Mutex};
 
 use crate::episode::{EpisodeTrace, StepRecord};
-use crate::metrics::failure::{Diagnosis, Evidence};
+use crate::metrics::failure::{Diagnosis, Evidence, decisive_step, first_divergence};
 use crate::record::StepScene;
 use crate::record::scene::step_grounding;
 
@@ -31,6 +31,9 @@ pub struct Shown {
     /// Why the episode failed, as `eval` classifies it (`None` for a success, and while the
     /// episode runs).
     pub failure: Option<Diagnosis>,
+    /// Where a failed episode was lost ([`decisive_step`]: the act its behaviour names, else
+    /// its first divergence from the bot that matters, else its last step), as `eval` gives it.
+    pub decisive: Option<usize>,
     complete: bool,
     alpha: f64,
     scenes: Arc<Mutex<SceneWindow>>,
@@ -40,9 +43,14 @@ impl Shown {
     /// A complete episode; its scenes are grounded with `alpha`.
     pub fn new(trace: EpisodeTrace, alpha: f64) -> Self {
         let failure = Evidence::from_trace(&trace).diagnose();
+        let length = u32::try_from(trace.steps.len()).unwrap_or(u32::MAX);
+        let decisive = failure
+            .as_ref()
+            .map(|d| decisive_step(d.lost_at, first_divergence(&trace), length) as usize);
         Self {
             trace: Arc::new(trace),
             failure,
+            decisive,
             complete: true,
             alpha,
             scenes: Arc::default(),
@@ -54,6 +62,7 @@ impl Shown {
         Self {
             trace: Arc::new(trace),
             failure: None,
+            decisive: None,
             complete: false,
             alpha,
             scenes: Arc::default(),

@@ -367,6 +367,34 @@ pub fn solo_length(mut world: World) -> Option<(usize, bool)> {
     Some((steps, false))
 }
 
+/// The bot's cost to finish from the world `before` once `action` is taken: 0 where the action
+/// succeeds, the bot's own steps from there where it then succeeds alone, `None` (no finish)
+/// where the episode ends without success or the bot cannot finish.
+fn cost_after(before: &World, action: Action) -> Option<usize> {
+    let mut world = before.clone();
+    let outcome = world.step(action).ok()?;
+    if outcome.terminated || outcome.truncated {
+        return (outcome.reward > 0.0).then_some(0);
+    }
+    solo_length(world).and_then(|(n, ok)| ok.then_some(n))
+}
+
+/// Whether taking `taken` where the bot advised `advised` (in the world `before` the action)
+/// costs anything: the bot alone needs more steps to succeed after `taken` than after
+/// `advised`, or can succeed only after `advised`. A tie — turning left or right to face
+/// what is behind, either way round an obstacle — costs nothing, so it is not where an
+/// episode went wrong; nor is a step from which the bot could not finish either way.
+pub fn divergence_matters(before: &World, taken: Action, advised: Action) -> bool {
+    if taken == advised {
+        return false;
+    }
+    match (cost_after(before, taken), cost_after(before, advised)) {
+        (Some(t), Some(a)) => t > a,
+        (None, Some(_)) => true,
+        (_, None) => false,
+    }
+}
+
 /// `_process_instr`: a clause's subgoals, pushed so that the first to do is on top; a
 /// Before / And does its first part first, an After its second.
 fn process_instr(instr: &crate::env::Instr, clause: &mut usize, stack: &mut Vec<Subgoal>) {

@@ -311,15 +311,33 @@ impl Debugger {
                 {
                     self.cursor.step = i;
                 }
-                // Why it failed: the class `eval` gives the same episode
+                // Where it was lost: the step `eval`'s report opens it at
+                // (docs/evaluation.md#the-decisive-step).
+                if let Some(i) = shown.decisive
+                    && ui
+                        .button(format!("decisive step {i}"))
+                        .on_hover_text(
+                            "where the episode was lost: the act its behaviour names, else \
+                             the first step it left the bot's plan at a cost, else its last",
+                        )
+                        .clicked()
+                {
+                    self.cursor.step = i;
+                }
+                // Why it failed: the class and behaviour `eval` gives the same episode
                 // (docs/evaluation.md#failure-classes).
                 if let Some(d) = &shown.failure {
+                    let behaviour = d
+                        .behaviour
+                        .map_or_else(String::new, |b| format!(" · {}", b.name()));
                     ui.label(
-                        egui::RichText::new(format!("failed: {}", d.class.name()))
+                        egui::RichText::new(format!("failed: {}{behaviour}", d.class.name()))
                             .color(Color32::from_rgb(230, 120, 90)),
                     )
                     .on_hover_text(format!(
-                        "target in view at {} step(s); M on it at {}",
+                        "class {}; behaviour {}; target in view at {} step(s); M on it at {}",
+                        d.class.name(),
+                        d.behaviour.map_or("none", |b| b.name()),
                         d.target_visible_steps,
                         d.m_on_target_steps
                             .map_or_else(|| "– (no M)".to_owned(), |n| n.to_string())

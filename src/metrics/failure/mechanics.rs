@@ -28,6 +28,9 @@ pub struct Mechanics {
     /// The agent put the object to move down beside other objects, none of them one its
     /// PutNext named.
     pub wrong_neighbour: bool,
+    /// The step of the first such act, out of order or beside the wrong object: where the
+    /// episode was lost.
+    pub wrong_step: Option<u32>,
     /// At the last step: the rooms holding the objects the verifier was waiting on.
     pub target_rooms: Vec<Room>,
     /// At the last step: those rooms' doors — id, colour, locked.
@@ -71,7 +74,7 @@ impl Mechanics {
         let front = w.grid.get(w.front_pos());
         if let (Some(o), Action::Pickup | Action::Toggle) = (front, step.action) {
             let clauses = w.instr.clauses();
-            self.wrong_order |= future_clauses(&w.instr).into_iter().any(|c| {
+            let wrong = future_clauses(&w.instr).into_iter().any(|c| {
                 clauses.get(c).is_some_and(|n| {
                     let acts = matches!(
                         (n.instr.task, step.action),
@@ -81,6 +84,8 @@ impl Mechanics {
                     acts && n.targets.obj_set.contains(&o.id)
                 })
             });
+            self.wrong_order |= wrong;
+            self.note_wrong(wrong, w.step_count);
         }
         if let (Some(m), Action::Drop, None) = (w.carrying, step.action, front) {
             let (fx, fy) = w.front_pos();
@@ -91,7 +96,7 @@ impl Mechanics {
                 .map(|o| o.id)
                 .collect();
             let clauses = w.instr.clauses();
-            self.wrong_neighbour |= pending_clauses(&w.instr).into_iter().any(|c| {
+            let wrong = pending_clauses(&w.instr).into_iter().any(|c| {
                 clauses.get(c).is_some_and(|n| {
                     n.instr.task == TaskKind::PutNext
                         && n.targets.obj_set.contains(&m.id)
@@ -99,9 +104,18 @@ impl Mechanics {
                         && !beside.iter().any(|id| n.fixed_targets.obj_set.contains(id))
                 })
             });
+            self.wrong_neighbour |= wrong;
+            self.note_wrong(wrong, w.step_count);
         }
         if step.terminated || step.truncated {
             self.end(w, multi_room);
+        }
+    }
+
+    /// Keeps `step` as [`Self::wrong_step`] if the act there was wrong and none was before.
+    fn note_wrong(&mut self, wrong: bool, step: u32) {
+        if wrong && self.wrong_step.is_none() {
+            self.wrong_step = Some(step);
         }
     }
 
@@ -338,7 +352,7 @@ mod tests {
     fn picking_up_the_later_clauses_object_first_is_the_wrong_order() {
         use crate::env::mission::{Instruction, ObjDesc, TaskKind};
         use crate::env::{Instr, SeqKind};
-        let mut made = 0;
+        let (mut made, mut located) = (0, 0);
         for seed in 0..40 {
             let mut world = LevelConfig::default().generate(seed).unwrap();
             // Stand beside an object, facing it (BabyAI never places one next to the agent).
@@ -372,6 +386,17 @@ mod tests {
             );
             world.set_instruction(tree).unwrap();
             world.done_actions = false;
+            // Looking away and back first: the early pickup, at step 2, is where it was lost
+            // (unless the look away faced OTHER, doing the first clause).
+            if let Some(d) = diagnose(
+                world.clone(),
+                &[Action::Left, Action::Right, Action::Pickup],
+                Action::Left,
+            ) {
+                assert_eq!(d.behaviour, Some(FailureClass::WrongOrder), "seed {seed}");
+                assert_eq!(d.lost_at, Some(2), "seed {seed}");
+                located += 1;
+            }
             let class = classify(world, &[Action::Pickup]);
             if class == Some(FailureClass::TargetNeverVisible) {
                 continue; // the first clause's object never came into view: rule 4 first
@@ -379,6 +404,6 @@ mod tests {
             assert_eq!(class, Some(FailureClass::WrongOrder), "seed {seed}");
             made += 1;
         }
-        assert!(made >= 10, "{made}");
+        assert!(made >= 10 && located >= 10, "{made}, {located}");
     }
 }

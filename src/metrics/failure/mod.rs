@@ -353,6 +353,34 @@ pub struct Diagnosis {
     /// What the agent was doing ([`FailureClass::BEHAVIOURS`]; `None`: none of them).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub behaviour: Option<FailureClass>,
+    /// The step where the episode was lost, where its mechanics show one: the early door of
+    /// `wrong_order`, the drop of `wrong_neighbour` ([`decisive_step`] falls back on the first
+    /// divergence from the bot that matters, then the last step).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lost_at: Option<u32>,
+}
+
+/// The step to open a failed episode at: where its mechanics show it was lost
+/// ([`Diagnosis::lost_at`]), else the first step at which it left the bot's plan at a cost
+/// ([`crate::bot::divergence_matters`]), else its last step (`length − 1`).
+pub fn decisive_step(lost_at: Option<u32>, first_divergence: Option<u32>, length: u32) -> u32 {
+    lost_at
+        .or(first_divergence)
+        .unwrap_or_else(|| length.saturating_sub(1))
+}
+
+/// The first step of `trace` at which the agent left the bot's advice at a cost
+/// ([`crate::bot::divergence_matters`]): what `eval` reports as an episode's `diverge`,
+/// found from a recorded trace.
+pub fn first_divergence(trace: &crate::episode::EpisodeTrace) -> Option<u32> {
+    trace
+        .steps
+        .iter()
+        .find(|s| {
+            s.expert_action
+                .is_some_and(|a| crate::bot::divergence_matters(&s.world, s.action, a))
+        })
+        .map(|s| u32::try_from(s.t).unwrap_or(u32::MAX))
 }
 
 /// The objects of every clause (both of PutNext's descriptions): what is not a distractor.
@@ -522,6 +550,12 @@ impl Evidence {
             target_visible_steps: self.target_visible_steps,
             m_on_target_steps: with_m.then_some(self.m_on_target_steps),
             behaviour,
+            lost_at: self.mechanics.wrong_step.filter(|_| {
+                matches!(
+                    behaviour,
+                    Some(FailureClass::WrongOrder | FailureClass::WrongNeighbour)
+                )
+            }),
         })
     }
 }

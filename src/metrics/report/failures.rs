@@ -57,6 +57,10 @@ pub struct Failure {
     /// Whether the episode ran in the done-action mode (absent in older files: the model's).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub done_required: Option<bool>,
+    /// The step a failed episode opens at ([`crate::metrics::failure::decisive_step`]; absent
+    /// in older files and for successes: the last step, or the first).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub decisive_step: Option<u32>,
 }
 
 impl Failure {
@@ -82,8 +86,9 @@ impl Failure {
 }
 
 impl Failure {
-    /// The `groundscope view` command that opens the episode in the debugger: at its last
-    /// step, where it failed, for a failed episode (the debugger's "failure" step). For a
+    /// The `groundscope view` command that opens the episode in the debugger: at its
+    /// decisive step for a failed episode (where it was lost: [`Self::decisive_step`], else
+    /// its last step, the debugger's "failure" step). For a
     /// Python policy's episode, the Rerun viewer on the recording its replay call writes.
     pub fn view_command(&self) -> String {
         if !self.replay.starts_with("groundscope replay") {
@@ -103,7 +108,8 @@ impl Failure {
             .replay
             .replacen("groundscope replay", "groundscope view", 1);
         if self.kind == "failed" && self.length > 0 {
-            format!("{view} --step {}", self.length - 1)
+            let step = self.decisive_step.unwrap_or(self.length - 1);
+            format!("{view} --step {step}")
         } else {
             view
         }
@@ -143,6 +149,13 @@ pub fn worst_episodes(
                 m_on_target_steps: e.failure.and_then(|d| d.m_on_target_steps),
                 counterfactual: None,
                 counterfactual_skipped: None,
+                decisive_step: e.failure.map(|d| {
+                    crate::metrics::failure::decisive_step(
+                        d.lost_at,
+                        e.expert.first_divergence,
+                        e.length,
+                    )
+                }),
             };
             if !e.success {
                 failed.push(f("failed"));

@@ -18,7 +18,7 @@ use crate::metrics::sweep::{EpisodeSummary, MeanStd};
 use crate::table::{Record, Table};
 
 /// `episodes.csv`'s header.
-pub const EPISODES_CSV_HEADER: &str = "checkpoint,level,eval_seed,episode,level_seed,mission,success,steps,return,failure_class,actions,expert_agreement,first_divergence,bot_steps,path_efficiency,behaviour,done_required";
+pub const EPISODES_CSV_HEADER: &str = "checkpoint,level,eval_seed,episode,level_seed,mission,success,steps,return,failure_class,actions,expert_agreement,first_divergence,bot_steps,path_efficiency,behaviour,done_required,decisive_step";
 
 /// The name `episodes.csv` gives a level: the BabyAI id, or for the paper's level the id its
 /// minigrid class is registered under in the dumps (`groundscope-PaperLocalS8N4-v0`).
@@ -35,7 +35,8 @@ pub fn level_name(level: &LevelConfig) -> String {
 /// `episodes.csv`: one line per episode of every cell, in sweep order (cells as evaluated,
 /// then evaluation seed, then episode): the level, its seed, the mission, the outcome, the
 /// failure class, the actions taken (indices, space-separated), the episode beside the bot,
-/// and the done mode it ran in (`done_required`: 1 where 'done' had to end it).
+/// the done mode it ran in (`done_required`: 1 where 'done' had to end it) and, for a failure,
+/// the step it opens at ([`crate::metrics::failure::decisive_step`]).
 pub fn episodes_csv(cells: &[(String, LevelConfig, Vec<EpisodeSummary>)]) -> String {
     let mut t = Table::new(EPISODES_CSV_HEADER);
     for (checkpoint, level, eps) in cells {
@@ -77,7 +78,15 @@ pub fn episodes_csv(cells: &[(String, LevelConfig, Vec<EpisodeSummary>)]) -> Str
                             .and_then(|d| d.behaviour)
                             .map_or("", FailureClass::name),
                     )
-                    .field(u8::from(level.done_required)),
+                    .field(u8::from(level.done_required))
+                    .field(e.failure.map_or(String::new(), |d| {
+                        crate::metrics::failure::decisive_step(
+                            d.lost_at,
+                            x.first_divergence,
+                            e.length,
+                        )
+                        .to_string()
+                    })),
             );
             index += 1;
         }
@@ -104,7 +113,7 @@ impl Report {
             s,
             "`acc_ng` per word kind; – where the level's missions hold no such word or the model has no maps. \
              Beside minigrid's bot (docs/bot.md): *agree*, the share of steps at which the agent took the bot's \
-             action; *diverge*, the step at which a failed episode first left the bot's plan; *efficiency*, the \
+             action; *diverge*, the step at which a failed episode first left the bot's plan at a cost (a tie such as left or right at the start is passed over); *efficiency*, the \
              bot's steps alone / the agent's on successful episodes; *bot*, the bot's own success from the same starts.\n"
         );
         let names: Vec<String> = kinds

@@ -65,7 +65,8 @@ pub struct EpisodeExpert {
     pub steps: u32,
     /// Of those, the steps at which the agent took it.
     pub agreed: u32,
-    /// The first step at which the agent did not take the bot's action.
+    /// The first step at which the agent did not take the bot's action and it cost something
+    /// ([`crate::bot::divergence_matters`]: a left/right tie is passed over).
     pub first_divergence: Option<u32>,
     /// The bot's own length from the same start, where it succeeded alone.
     pub bot_length: Option<u32>,
@@ -308,7 +309,9 @@ pub fn evaluate_episodes_explored<P: Acting + ?Sized>(
                 let e = &mut r.summary.expert;
                 if a == action {
                     e.agreed += 1;
-                } else if e.first_divergence.is_none() {
+                } else if e.first_divergence.is_none()
+                    && crate::bot::divergence_matters(&r.world, action, a)
+                {
                     e.first_divergence = Some(r.summary.length);
                 }
                 e.steps += 1;

@@ -110,7 +110,7 @@ pub fn performance(eps: &[EpisodeSummary]) -> Performance {
 pub struct ExpertStats {
     /// Share of the steps (where the bot had an action) at which the agent took it.
     pub agreement: MeanStd,
-    /// Failed episodes: the step at which the agent first left the bot's plan.
+    /// Failed episodes: the step at which the agent first left the bot's plan at a cost ([`crate::bot::divergence_matters`]).
     pub first_divergence: MeanStd,
     /// Successful episodes the bot also solves: the bot's steps alone / the agent's steps.
     pub path_efficiency: MeanStd,
