@@ -145,6 +145,7 @@ fn debugger_seed(seed: u64, step: usize, faithfulness: bool) -> Harness<'static,
         step,
         mission: None,
         faithfulness,
+        report: None,
     })
 }
 
@@ -164,6 +165,7 @@ fn debugger_of(
         step,
         mission: None,
         faithfulness,
+        report: None,
     })
 }
 

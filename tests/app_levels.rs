@@ -45,6 +45,7 @@ fn options(checkpoint: &str, level: Option<LevelConfig>, seed: u64) -> StartOpti
         step: 0,
         mission: None,
         faithfulness: false,
+        report: None,
     }
 }
 

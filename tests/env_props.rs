@@ -81,3 +81,40 @@ proptest! {
         }
     }
 }
+
+/// A level's identity has one home: every registered id and the paper's ids round-trip through
+/// `LevelConfig::from_id` and `id()`, in the id's registered mode, and a bad id names itself.
+#[test]
+fn level_ids_round_trip_through_from_id() {
+    use groundscope::env::LevelId;
+    let mut n = 0;
+    for l in LevelId::all() {
+        let c = LevelConfig::from_id(l.id()).unwrap();
+        assert_eq!(c, LevelConfig::babyai(l, false));
+        assert_eq!(c.id(), l.id());
+        n += 1;
+    }
+    assert_eq!(n, 96);
+    for (s, k) in [(8, 4), (16, 10), (5, 1), (12, 7)] {
+        let id = format!("groundscope-PaperLocalS{s}N{k}-v0");
+        let c = LevelConfig::from_id(&id).unwrap();
+        assert_eq!(
+            c,
+            LevelConfig {
+                room_size: s,
+                n_objects: k,
+                ..LevelConfig::default()
+            }
+        );
+        assert_eq!(c.id(), id);
+    }
+    for bad in [
+        "groundscope-PaperLocalS08N4-v0",
+        "groundscope-PaperLocalS8N4",
+        "groundscope-PaperLocalS3N40-v0",
+        "BabyAI-GoToLocl-v0",
+    ] {
+        let e = LevelConfig::from_id(bad).unwrap_err().to_string();
+        assert!(e.contains(bad), "{e}");
+    }
+}

@@ -5,8 +5,7 @@
 
 use groundscope::env::babyai::{self, LevelSpec};
 use groundscope::env::rng::NumpyRng;
-use groundscope::env::snapshot::paper_level;
-use groundscope::env::{Action, EnvError, LevelConfig, LevelId, StepOutcome, World};
+use groundscope::env::{Action, EnvError, LevelConfig, StepOutcome, World};
 use numpy::{PyArray1, PyArray3, PyArrayMethods as _};
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
@@ -29,20 +28,10 @@ pub struct Level {
 impl Level {
     /// The level registered as `id` (with or without the `groundscope/` namespace).
     pub fn parse(id: &str) -> Result<Self, EnvError> {
-        let bare = id.strip_prefix(NAMESPACE).unwrap_or(id);
-        if let Some(config) = paper_level(bare)? {
-            return Ok(Self {
-                spec: config.spec(),
-                config,
-            });
-        }
-        let level = LevelId::parse(bare)?;
-        // minigrid's default: no done action (BABYAI_DONE_ACTIONS unset).
-        let config = LevelConfig::babyai(level, false);
-        Ok(Self {
-            spec: *level.spec(),
-            config,
-        })
+        // minigrid's default: no done action (BABYAI_DONE_ACTIONS unset), as `from_id` gives.
+        let config = LevelConfig::from_id(id.strip_prefix(NAMESPACE).unwrap_or(id))?;
+        let spec = config.babyai.map_or_else(|| config.spec(), |l| *l.spec());
+        Ok(Self { spec, config })
     }
 
     /// [`Self::parse`] for Python: every error is the caller's id (`ValueError`).
@@ -52,7 +41,7 @@ impl Level {
 
     /// The id without the namespace.
     pub fn name(&self) -> String {
-        groundscope::metrics::report::level_name(&self.config)
+        self.config.id()
     }
 }
 

@@ -165,7 +165,7 @@ pub fn evaluate(
     };
     let sample_arg = if sample { ", sample=True" } else { "" };
     let failures = worst_episodes(&all_eps, top_k, &|_, level, seed| {
-        let id = groundscope::metrics::report::level_name(level);
+        let id = level.id();
         format!("groundscope.record(act, \"{id}\", {seed}, \"{id}-seed{seed}.rrd\"{sample_arg})")
     });
     report

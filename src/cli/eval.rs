@@ -295,10 +295,7 @@ fn run_cells(
                     let Some(&i) = order.get(k) else { break };
                     let (name, ckpt, level) = &cells[i];
                     let net = stop.guard(ckpt.acting());
-                    bar.set_message(format!(
-                        "{name} {}",
-                        groundscope::metrics::report::level_name(level)
-                    ));
+                    bar.set_message(format!("{name} {}", level.id()));
                     let mut last = 0u64;
                     // A panic is this cell's error, not a scope that panics after waiting
                     // for every other worker.
@@ -323,7 +320,7 @@ fn run_cells(
                     .map_err(|p| {
                         anyhow::anyhow!(
                             "{name} {}: {}",
-                            groundscope::metrics::report::level_name(level),
+                            level.id(),
                             super::stop::panic_message(p.as_ref())
                         )
                     })

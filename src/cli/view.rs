@@ -15,6 +15,7 @@ use crate::cli::check_extension;
 #[command(
     after_long_help = "KEYS:\n  ← / →  step back / forward    space  play / pause    Home / End  first / last step\n\n\
 EXAMPLES:\n  groundscope\n  groundscope view --seed 7 --compare bundled:baseline\n  \
+groundscope view --report report/   (an eval --out folder: N / P next / previous failure)\n  \
 groundscope view --checkpoint my_agent.onnx --compare bundled:attention\n  \
 xvfb-run -a groundscope view --screenshot shot.png --seed 3 --step 4 --window 1400x900"
 )]
@@ -48,6 +49,16 @@ pub struct ViewArgs {
     /// Open with the faithfulness view (occlusion map, ρ, interventions, probes) shown.
     #[arg(long)]
     pub faithfulness: bool,
+    /// Browse an evaluation (the folder `eval --out` wrote) in the episodes panel: filter and
+    /// sort its episodes, N / P for the next or previous failure, a click to open one at the
+    /// step where it was lost. Opens its first failure; its episodes name their checkpoint,
+    /// level and seed.
+    #[arg(
+        long,
+        value_name = "DIR",
+        conflicts_with_all = ["checkpoint", "mission", "seed", "level", "room_size", "objects", "step", "sample"]
+    )]
+    pub report: Option<PathBuf>,
 }
 
 fn parse_size(s: &str) -> anyhow::Result<[f32; 2]> {
@@ -100,6 +111,9 @@ pub fn window_size(args: &ViewArgs) -> anyhow::Result<[f32; 2]> {
 /// What the debugger opens with: the checkpoint (or the default one for the level), level,
 /// seed and mission, each checked here.
 pub fn start_options(args: &ViewArgs) -> anyhow::Result<StartOptions> {
+    if let Some(dir) = &args.report {
+        return report_options(args, dir);
+    }
     // Load once here so that a bad checkpoint or level is a one-line error, not a window.
     let (checkpoint, agent) = match &args.checkpoint {
         Some(c) => (c.clone(), groundscope::policy::Agent::load(c)?),
@@ -121,6 +135,34 @@ pub fn start_options(args: &ViewArgs) -> anyhow::Result<StartOptions> {
         step: args.step,
         mission: args.episode.mission.clone(),
         faithfulness: args.faithfulness,
+        report: None,
+    })
+}
+
+/// `view --report DIR`: the evaluation read and its first failure (else first episode) opened,
+/// its checkpoint loaded here so that a report that cannot open is a one-line error.
+fn report_options(args: &ViewArgs, dir: &std::path::Path) -> anyhow::Result<StartOptions> {
+    let mut browser = groundscope::metrics::report::browse::Browser::open(dir)?;
+    let first = browser
+        .first()
+        .with_context(|| format!("--report {}: episodes.csv lists no episode", dir.display()))?;
+    let ep = browser.episode(first)?;
+    groundscope::policy::Agent::load(&ep.checkpoint)
+        .with_context(|| format!("--report {}: checkpoint {}", dir.display(), ep.checkpoint))?;
+    if let Some(c) = &args.compare {
+        groundscope::policy::Agent::load(c)?;
+    }
+    browser.selected = Some(first);
+    Ok(StartOptions {
+        checkpoint: ep.checkpoint,
+        compare: args.compare.clone(),
+        level: Some(ep.level),
+        seed: ep.seed,
+        sample: ep.sample,
+        step: ep.step,
+        mission: None,
+        faithfulness: args.faithfulness,
+        report: Some(browser),
     })
 }
 

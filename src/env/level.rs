@@ -74,6 +74,10 @@ pub struct LevelConfig {
     pub babyai: Option<LevelId>,
 }
 
+/// The id prefix of the paper's level as docs/world.md registers it in minigrid:
+/// `groundscope-PaperLocalS{S}N{N}-v0` (go to and pick up, colour optional, the done action).
+pub const PAPER_PREFIX: &str = "groundscope-PaperLocalS";
+
 /// A registered BabyAI level, by its gym id (serialised as the id).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct LevelId(u16);
@@ -234,6 +238,63 @@ impl LevelConfig {
             babyai: Some(id),
             done_required,
             ..Self::default()
+        }
+    }
+
+    /// The level an id names, in its registered mode: a BabyAI id of minigrid 3.2.0 (no
+    /// `done` action), or the paper's `groundscope-PaperLocalS{S}N{N}-v0` (the paper's level
+    /// of that size and count). The one parser of level ids; an unknown id names the closest.
+    pub fn from_id(id: &str) -> Result<Self, EnvError> {
+        match Self::paper_from_id(id) {
+            Some(Ok(config)) => Ok(config),
+            Some(Err(reason)) => Err(EnvError::InvalidConfig {
+                field: "level".into(),
+                reason,
+            }),
+            None => Ok(Self::babyai(LevelId::parse(id)?, false)),
+        }
+    }
+
+    /// The paper's level named by `id`, `None` for ids without [`PAPER_PREFIX`]; a malformed
+    /// or invalid one is `Err` with the reason, for the caller to name its field.
+    pub fn paper_from_id(id: &str) -> Option<Result<Self, String>> {
+        let rest = id.strip_prefix(PAPER_PREFIX)?;
+        let bad = || {
+            format!(
+                "{} is not {PAPER_PREFIX}{{S}}N{{N}}-v0",
+                super::error::shown(id)
+            )
+        };
+        let parsed = rest
+            .strip_suffix("-v0")
+            .and_then(|body| body.split_once('N'))
+            .and_then(|(s, n)| Some((s.parse().ok()?, n.parse().ok()?)));
+        let Some((room_size, n_objects)) = parsed else {
+            return Some(Err(bad()));
+        };
+        let config = Self {
+            room_size,
+            n_objects,
+            ..Self::default()
+        };
+        // The id as registered (no `+8`, no `08`).
+        if config.id() != id {
+            return Some(Err(bad()));
+        }
+        Some(config.validate().map(|()| config).map_err(|e| match e {
+            EnvError::InvalidConfig { field, reason } => {
+                format!("{}: {field}: {reason}", super::error::shown(id))
+            }
+            e => format!("{}: {e}", super::error::shown(id)),
+        }))
+    }
+
+    /// The level's id: its BabyAI id, or the paper's as `groundscope-PaperLocalS{S}N{N}-v0`
+    /// (the id its minigrid class has in the dumps). The done-action mode is not part of it.
+    pub fn id(&self) -> String {
+        match self.babyai {
+            Some(id) => id.id().to_owned(),
+            None => format!("{PAPER_PREFIX}{}N{}-v0", self.room_size, self.n_objects),
         }
     }
 

@@ -59,7 +59,7 @@ impl Parent {
             if known >= ModelConfig::vocab_size_for(level) {
                 continue;
             }
-            let shown = || crate::metrics::report::level_name(level);
+            let shown = || level.id();
             for seed in 0..WORD_CHECK_SEEDS {
                 let world = level
                     .generate(seed)
@@ -105,7 +105,7 @@ pub fn check_labels(levels: &LevelMix) -> anyhow::Result<Vec<String>> {
         if share.share() < LABEL_SHARE_MIN {
             silent.push(format!(
                 "{} ({} of {} steps labelled; the bot gave up on {} of {} episodes)",
-                crate::metrics::report::level_name(&e.level),
+                e.level.id(),
                 share.labelled,
                 share.steps,
                 share.gave_up,

@@ -39,6 +39,11 @@ impl Debugger {
                 self.cursor.step = len.saturating_sub(1);
             }
         });
+        // The report's next / previous failure (`view --report`).
+        let (next, previous) = ctx.input(|i| (i.key_pressed(Key::N), i.key_pressed(Key::P)));
+        if self.report.is_some() && (next || previous) {
+            self.step_report_failure(next);
+        }
     }
 
     pub(super) fn controls(&mut self, ui: &mut egui::Ui) {
@@ -100,6 +105,8 @@ impl Debugger {
                 self.seed += 1;
                 self.run_episode(None);
             }
+            ui.separator();
+            self.report_controls(ui);
         });
         ui.horizontal_wrapped(|ui| {
             ui.label("mission");

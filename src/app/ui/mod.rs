@@ -5,6 +5,7 @@
 //! `impl Debugger` block in a child module, so that they all reach the private state.
 
 mod controls;
+mod episodes;
 mod history;
 mod jobs;
 mod numbers;
@@ -48,6 +49,8 @@ pub struct StartOptions {
     pub mission: Option<String>,
     /// Open with the faithfulness view shown.
     pub faithfulness: bool,
+    /// An evaluation to browse in the episodes panel (`view --report DIR`).
+    pub report: Option<crate::metrics::report::browse::Browser>,
 }
 
 /// Where a headless screenshot goes and where its outcome is reported.
@@ -110,6 +113,14 @@ pub struct Debugger {
     /// one line; `None` folds them on missions longer than BabyAI's local ones (9 words).
     fold_function_words: Option<bool>,
     faithfulness: super::faithful::FaithfulnessView,
+    /// The evaluation browsed in the episodes panel.
+    report: Option<crate::metrics::report::browse::Browser>,
+    /// The top bar's field naming an evaluation's folder.
+    report_text: String,
+    /// Whether the episodes panel is open.
+    show_episodes: bool,
+    /// Whether the panel brings the selected row into view at its next frame.
+    report_scroll: bool,
 }
 
 impl Debugger {
@@ -169,6 +180,13 @@ impl Debugger {
             show_faithfulness: opts.faithfulness,
             fold_function_words: None,
             faithfulness: super::faithful::FaithfulnessView::default(),
+            show_episodes: opts.report.is_some(),
+            report_scroll: opts.report.is_some(),
+            report_text: opts
+                .report
+                .as_ref()
+                .map_or_else(String::new, |b| b.dir.display().to_string()),
+            report: opts.report.clone(),
         };
         me.run_episode(opts.mission.clone());
         me
@@ -179,6 +197,11 @@ impl Debugger {
     pub fn episode_progress(&self) -> Option<(usize, bool)> {
         let shown = self.shown.as_ref()?;
         Some((shown.len(), shown.is_complete() && !self.streaming))
+    }
+
+    /// The level seed of the episode shown, once one is.
+    pub fn shown_seed(&self) -> Option<u64> {
+        self.shown.as_ref().map(|s| s.trace.seed)
     }
 
     /// Moves the cursor to step `k`, or to the last step there is.
@@ -251,6 +274,7 @@ impl Debugger {
         egui::CentralPanel::default().show(ui, |ui| {
             egui::ScrollArea::vertical().show(ui, |ui| self.centre_column(ui));
         });
+        self.episodes_window(&ctx);
         self.maybe_screenshot(&ctx);
     }
 

@@ -12,7 +12,7 @@ mod verify;
 use instr_json::override_targets;
 pub use instr_json::{instr_from_json, instr_to_json};
 
-pub use verify::{MINIGRID_VERSION, Mismatch, paper_level, verify_dump, verify_generation};
+pub use verify::{MINIGRID_VERSION, Mismatch, verify_dump, verify_generation};
 
 use serde::{Deserialize, Serialize};
 

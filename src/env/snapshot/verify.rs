@@ -6,6 +6,7 @@ use super::{
 };
 use crate::env::babyai;
 use crate::env::error::{EnvError, shown};
+use crate::env::level::PAPER_PREFIX;
 use crate::env::world::Action;
 
 /// The minigrid version the port follows; dumps of another version are refused.
@@ -136,40 +137,12 @@ pub fn verify_generation(snap: &Snapshot) -> Result<Option<Mismatch>, EnvError> 
     Ok(None)
 }
 
-/// The id prefix of the paper's level as docs/world.md registers it in minigrid:
-/// `groundscope-PaperLocalS{S}N{N}-v0` (go to and pick up, colour optional).
-pub const PAPER_PREFIX: &str = "groundscope-PaperLocalS";
-
 /// The spec of a paper-level id, `None` for other ids.
 fn paper_spec(id: &str) -> Result<Option<babyai::LevelSpec>, EnvError> {
-    Ok(paper_level(id)?.map(|cfg| cfg.spec()))
-}
-
-/// The paper's level named by `groundscope-PaperLocalS{S}N{N}-v0` (the name episodes.csv
-/// gives it), `None` for ids without that prefix; a malformed one is an error naming it.
-pub fn paper_level(id: &str) -> Result<Option<crate::env::LevelConfig>, EnvError> {
-    let Some(rest) = id.strip_prefix(PAPER_PREFIX) else {
-        return Ok(None);
-    };
-    let bad = || {
-        invalid(
-            "env_id",
-            format!("{} is not {PAPER_PREFIX}{{S}}N{{N}}-v0", shown(id)),
-        )
-    };
-    let body = rest.strip_suffix("-v0").ok_or_else(bad)?;
-    let (s, n) = body.split_once('N').ok_or_else(bad)?;
-    let cfg = crate::env::LevelConfig {
-        room_size: s.parse().map_err(|_| bad())?,
-        n_objects: n.parse().map_err(|_| bad())?,
-        ..crate::env::LevelConfig::default()
-    };
-    // The id as registered (no `+8`, no `08`): the one a mismatch names.
-    if format!("{PAPER_PREFIX}{}N{}-v0", cfg.room_size, cfg.n_objects) != id {
-        return Err(bad());
-    }
-    cfg.validate()?;
-    Ok(Some(cfg))
+    crate::env::LevelConfig::paper_from_id(id)
+        .transpose()
+        .map(|c| c.map(|cfg| cfg.spec()))
+        .map_err(|reason| invalid("env_id", reason))
 }
 
 /// Two instruction trees agree in kind, descriptions, strictness and matched positions (a

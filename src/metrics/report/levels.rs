@@ -20,18 +20,6 @@ use crate::table::{Record, Table};
 /// `episodes.csv`'s header.
 pub const EPISODES_CSV_HEADER: &str = "checkpoint,level,eval_seed,episode,level_seed,mission,success,steps,return,failure_class,actions,expert_agreement,first_divergence,bot_steps,path_efficiency,behaviour,done_required,decisive_step";
 
-/// The name `episodes.csv` gives a level: the BabyAI id, or for the paper's level the id its
-/// minigrid class is registered under in the dumps (`groundscope-PaperLocalS8N4-v0`).
-pub fn level_name(level: &LevelConfig) -> String {
-    match level.babyai {
-        Some(id) => id.id().to_owned(),
-        None => format!(
-            "groundscope-PaperLocalS{}N{}-v0",
-            level.room_size, level.n_objects
-        ),
-    }
-}
-
 /// `episodes.csv`: one line per episode of every cell, in sweep order (cells as evaluated,
 /// then evaluation seed, then episode): the level, its seed, the mission, the outcome, the
 /// failure class, the actions taken (indices, space-separated), the episode beside the bot,
@@ -40,7 +28,7 @@ pub fn level_name(level: &LevelConfig) -> String {
 pub fn episodes_csv(cells: &[(String, LevelConfig, Vec<EpisodeSummary>)]) -> String {
     let mut t = Table::new(EPISODES_CSV_HEADER);
     for (checkpoint, level, eps) in cells {
-        let name = level_name(level);
+        let name = level.id();
         let mut index = 0u64;
         let mut seed = None;
         for e in eps {

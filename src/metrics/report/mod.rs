@@ -2,13 +2,14 @@
 //! list of worst episodes. Everything is written to a temporary directory first and moved into
 //! place only when complete, so a failure leaves no partial report.
 
+pub mod browse;
 mod failures;
 mod levels;
 pub(crate) mod markdown;
 mod plots;
 
 pub use failures::{Failure, worst_episodes};
-pub use levels::{EPISODES_CSV_HEADER, episodes_csv, level_name};
+pub use levels::{EPISODES_CSV_HEADER, episodes_csv};
 
 use std::collections::BTreeMap;
 use std::path::Path;
