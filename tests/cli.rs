@@ -436,8 +436,17 @@ fn replay_records_rerun_and_mcap_and_refuses_bad_destinations() {
 fn eval_exports_each_listed_failure_as_a_recording() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("report");
+    // An untrained model fails every episode, and its maps miss: its episodes are listed both
+    // as failures and for their low acc_cmb, and each is recorded once.
+    let fresh = dir.path().join("fresh");
+    let o = gs(&["init", "--out", fresh.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
     let o = gs(&[
         "eval",
+        "--checkpoint",
+        "bundled:attention",
+        "--checkpoint",
+        fresh.to_str().unwrap(),
         "--sizes",
         "8",
         "--objects",
@@ -447,7 +456,7 @@ fn eval_exports_each_listed_failure_as_a_recording() {
         "--episodes",
         "10",
         "--top-k",
-        "1",
+        "12",
         "--export-failures",
         "--quiet",
         "--out",
@@ -461,19 +470,50 @@ fn eval_exports_each_listed_failure_as_a_recording() {
         .map(|e| e.unwrap().file_name().into_string().unwrap())
         .collect();
     recorded.sort();
-    assert_eq!(recorded.len(), failures.len(), "{recorded:?}");
+    // One recording per episode, under the first kind it is listed for.
+    let mut seen = std::collections::BTreeSet::new();
+    let (mut failed, mut successes) = (0, 0);
     for f in &failures {
+        if !seen.insert((f["checkpoint"].to_string(), f["seed"].to_string())) {
+            continue;
+        }
+        if f["class"].is_null() {
+            successes += 1;
+        } else {
+            failed += 1;
+        }
+        let short: String = f["checkpoint"]
+            .as_str()
+            .unwrap()
+            .trim_start_matches("bundled:")
+            .chars()
+            .map(|c| {
+                if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
+                    c
+                } else {
+                    '_'
+                }
+            })
+            .collect();
         let name = format!(
-            "{}-{}-S8-N4-seed{}.rrd",
+            "{}-{short}-S8-N4-seed{}.rrd",
             f["kind"].as_str().unwrap(),
-            f["checkpoint"]
-                .as_str()
-                .unwrap()
-                .trim_start_matches("bundled:"),
             f["seed"]
         );
         assert!(recorded.contains(&name), "{name} not in {recorded:?}");
     }
+    assert_eq!(recorded.len(), seen.len(), "{recorded:?}");
+    assert!(
+        seen.len() < failures.len(),
+        "no episode was listed twice: {failures:?}"
+    );
+    assert!(
+        stdout(&o).contains(&format!(
+            "recorded {failed} failed episode(s) and {successes} success(es) listed for their low acc_cmb"
+        )),
+        "{}",
+        stdout(&o)
+    );
 }
 
 /// Without `--checkpoint`, `replay` and `eval` open a model by `view`'s rule: the paper's

@@ -248,11 +248,14 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitStatus> {
             );
             return Ok(ExitStatus::Interrupted);
         }
-        let n = n?;
+        let (failed, successes) = n?;
         remove_old_failures(&failures_dir)?;
         std::fs::rename(staging.keep(), &failures_dir)
             .with_context(|| format!("cannot move recordings to {}", failures_dir.display()))?;
-        println!("recorded {n} failures in {}", failures_dir.display());
+        println!(
+            "recorded {failed} failed episode(s) and {successes} success(es) listed for their low acc_cmb, one recording each, in {}",
+            failures_dir.display()
+        );
     } else {
         remove_old_failures(&failures_dir)?;
     }
@@ -459,13 +462,27 @@ fn export_failures(
     mode: ActionMode,
     alpha: f64,
     stop: &Stop,
-) -> anyhow::Result<usize> {
+) -> anyhow::Result<(usize, usize)> {
     use groundscope::record::{RerunTargets, record_rerun};
-    let mut recorded = 0;
+    let (mut failed, mut successes) = (0, 0);
+    // An episode listed twice (a long failure with a low acc_cmb too) is recorded once, under
+    // the first kind it is listed for: `failed` comes first.
+    let mut seen = std::collections::HashSet::new();
     for f in failures {
         let Some((name, ckpt)) = ckpts.iter().find(|(n, _)| *n == f.checkpoint) else {
             continue;
         };
+        let key = (
+            &f.checkpoint,
+            &f.level,
+            f.size,
+            f.objects,
+            f.seed,
+            f.done_required,
+        );
+        if !seen.insert(key) {
+            continue;
+        }
         let spec = EpisodeSpec {
             level: f.level_config(ckpt.level())?,
             seed: f.seed,
@@ -502,7 +519,11 @@ fn export_failures(
             ..RerunTargets::default()
         };
         record_rerun(std::slice::from_ref(&trace), &targets, alpha, None)?;
-        recorded += 1;
+        if trace.success() {
+            successes += 1;
+        } else {
+            failed += 1;
+        }
     }
-    Ok(recorded)
+    Ok((failed, successes))
 }
