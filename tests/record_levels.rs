@@ -1,5 +1,6 @@
 //! Recordings of BabyAI levels carry the instruction tree the debugger shows: `mission/tree`
-//! and the numbered clause targets in Rerun, `/instruction` in MCAP, read back from the files.
+//! and the numbered clause targets in Rerun, `/instruction` in MCAP, read back from the files
+//! — episodes long enough to be written in several blocks of steps.
 #![allow(clippy::unwrap_used, clippy::expect_used, reason = "tests fail loudly")]
 
 mod common;
@@ -11,7 +12,7 @@ use groundscope::env::{DoorState, Instr};
 use groundscope::episode::{ActionMode, EpisodeSpec, EpisodeTrace, run_episode};
 use groundscope::policy::{Checkpoint, ModelConfig, Params, TrainingState, Variant};
 use groundscope::record::scene::clause_marks;
-use groundscope::record::{RerunTargets, record_rerun, write_mcap};
+use groundscope::record::{RerunTargets, SCENE_BLOCK, record_rerun, write_mcap};
 
 /// An episode of an untrained attention model of all of BabyAI's words on `id`, at the first
 /// seed whose world `pick` accepts.
@@ -63,6 +64,13 @@ fn a_rerun_recording_carries_the_instruction_tree_and_the_clause_targets() {
         ..RerunTargets::default()
     };
     record_rerun(std::slice::from_ref(&ep), &targets, 0.5, None).unwrap();
+    // Recorded block by block: a mark logged only where it changed must not be logged
+    // again at a block's first step.
+    assert!(
+        ep.steps.len() > 4 * SCENE_BLOCK,
+        "{} steps: too few to cross blocks",
+        ep.steps.len()
+    );
     let d = decode(&path);
     let trees = changed_trees(&ep);
     let texts = &d.texts["/mission/tree"];
@@ -106,6 +114,7 @@ fn an_mcap_recording_carries_the_tree_and_the_doors_at_every_step() {
     let ep = episode("BabyAI-UnlockLocal-v0", |_| true);
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("doors.mcap");
+    assert!(ep.steps.len() > 4 * SCENE_BLOCK, "{} steps", ep.steps.len());
     write_mcap(std::slice::from_ref(&ep), &path, 0.5, None).unwrap();
     let bytes = std::fs::read(&path).unwrap();
     let mut got = Vec::new();

@@ -76,12 +76,11 @@ pub enum BenchCommand {
         frames: u64,
     },
     /// Recording speed and size: the bundled attention checkpoint's episodes on consecutive
-    /// seeds written as `.rrd` and as MCAP (episodes are run first and not timed).
-    Record {
-        /// Episodes to record.
-        #[arg(long, default_value_t = 50, allow_negative_numbers = true)]
-        episodes: u64,
-    },
+    /// seeds written as `.rrd` and as MCAP (episodes are run first and not timed); with
+    /// `--level`, one long episode (BossLevel seed 3: 1,728 steps) recorded as `replay` does,
+    /// each format in a process of its own: time to write and peak memory against running
+    /// alone.
+    Record(super::bench_record::BenchRecordArgs),
     /// An ONNX graph against a native checkpoint: the evaluation sweep (default: the default
     /// sweep, 10,000 greedy episodes) on each, alternated, one thread; the ratio of their
     /// times and where the graph's time goes (tract's plan, building its inputs and reading
@@ -141,12 +140,7 @@ pub fn run(cmd: &BenchCommand) -> anyhow::Result<ExitStatus> {
         BenchCommand::Levels(args) => super::bench_levels::run(args),
         BenchCommand::Bot(args) => super::bench_bot::run(args),
         BenchCommand::View(args) => super::bench_view::run(args),
-        BenchCommand::Record { episodes } => {
-            if !(1..=10_000).contains(episodes) {
-                anyhow::bail!("--episodes {episodes}: must be in 1..=10000");
-            }
-            bench_record(*episodes)
-        }
+        BenchCommand::Record(args) => super::bench_record::run(args),
     }
 }
 
@@ -444,52 +438,18 @@ fn bench_train(
     Ok(fps)
 }
 
-fn bench_record(episodes: u64) -> anyhow::Result<ExitStatus> {
-    use groundscope::episode::{ActionMode, EpisodeSpec, run_episode};
-    use groundscope::record::{RerunTargets, record_rerun, write_mcap};
-    let (ckpt, name) = crate::cli::policy_cmd::load_checkpoint(None)?;
-    let eps = (0..episodes)
-        .map(|seed| {
-            let spec = EpisodeSpec {
-                level: ckpt.meta.level,
-                seed,
-                mission: None,
-                mode: ActionMode::Greedy,
-            };
-            run_episode(&ckpt, &name, &spec)
-        })
-        .collect::<Result<Vec<_>, _>>()?;
-    let steps: usize = eps.iter().map(|e| e.steps.len()).sum();
-    let dir = tempfile::tempdir()?;
-    for (format, path) in [
-        ("rrd", dir.path().join("b.rrd")),
-        ("mcap", dir.path().join("b.mcap")),
-    ] {
-        let start = Instant::now();
-        if format == "rrd" {
-            let targets = RerunTargets {
-                save: Some(path.clone()),
-                ..RerunTargets::default()
-            };
-            record_rerun(&eps, &targets, 0.5, None)?;
-        } else {
-            write_mcap(&eps, &path, 0.5, None)?;
-        }
-        let secs = start.elapsed().as_secs_f64();
-        let bytes = std::fs::metadata(&path)?.len();
-        let line = serde_json::json!({
-            "bench": "record",
-            "format": format,
-            "steps_per_sec": (steps as f64 / secs).round(),
-            "bytes_per_step": (bytes as f64 / steps as f64).round(),
-            "episodes": episodes,
-            "steps": steps,
-            "bytes": bytes,
-            "elapsed_secs": secs,
-        });
-        println!("{line}");
-    }
-    Ok(ExitStatus::Success)
+/// The process's peak resident memory (`VmHWM`), in bytes; `None` where `/proc` has none.
+pub(super) fn peak_rss_bytes() -> Option<u64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kb: u64 = line
+        .trim_start_matches("VmHWM:")
+        .trim()
+        .trim_end_matches("kB")
+        .trim()
+        .parse()
+        .ok()?;
+    Some(kb * 1024)
 }
 
 #[cfg(test)]

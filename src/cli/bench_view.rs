@@ -176,21 +176,7 @@ fn time_level(args: &BenchViewArgs, level: &str) -> anyhow::Result<serde_json::V
         "frames_until_full": frames,
         "walked_steps": walked,
         "walk_frame_ms": (walk_ms * 10.0).round() / 10.0,
-        "peak_rss_bytes": peak_rss_bytes(),
+        "peak_rss_bytes": super::bench::peak_rss_bytes(),
         "threads": 1,
     }))
-}
-
-/// The process's peak resident memory (`VmHWM`), in bytes; `None` where `/proc` has none.
-fn peak_rss_bytes() -> Option<u64> {
-    let status = std::fs::read_to_string("/proc/self/status").ok()?;
-    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
-    let kb: u64 = line
-        .trim_start_matches("VmHWM:")
-        .trim()
-        .trim_end_matches("kB")
-        .trim()
-        .parse()
-        .ok()?;
-    Some(kb * 1024)
 }

@@ -5,6 +5,7 @@ mod bench_bot;
 mod bench_levels;
 #[cfg(feature = "onnx")]
 mod bench_onnx;
+mod bench_record;
 mod bench_view;
 mod curve;
 mod default_model;

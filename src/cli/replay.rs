@@ -13,7 +13,8 @@ use groundscope::episode::{EpisodeSpec, EpisodeTrace, initial_world, run_from};
 use groundscope::metrics::faithfulness::annotate;
 use groundscope::policy::Agent;
 use groundscope::record::{
-    McapRecorder, RecordError, RerunRecorder, RerunTargets, StopFlag, episode_scenes, word_paths,
+    McapRecorder, RecordError, RerunRecorder, RerunTargets, StopFlag, block_starts, scene_block,
+    word_paths,
 };
 
 use super::flags::EpisodeArgs;
@@ -148,7 +149,7 @@ pub fn replay(args: &ReplayArgs) -> anyhow::Result<ExitStatus> {
     std::thread::scope(|scope| -> anyhow::Result<()> {
         let (tx, rx) = std::sync::mpsc::sync_channel(1);
         let stop_worker = &stop;
-        let (agent, name, alpha, spec) = (&agent, &name, args.alpha, &spec);
+        let (agent, name, spec) = (&agent, &name, &spec);
         let faithful = args.faithfulness.then(|| agent.acting());
         scope.spawn(move || {
             for seed in args.episode.seed..=last {
@@ -162,14 +163,6 @@ pub fn replay(args: &ReplayArgs) -> anyhow::Result<ExitStatus> {
                             annotate(acting, &mut trace)?;
                         }
                         Ok(trace)
-                    })
-                    .map(|trace| {
-                        let scenes = if recording {
-                            episode_scenes(&trace, alpha)
-                        } else {
-                            Vec::new()
-                        };
-                        (trace, scenes)
                     });
                 let failed = item.is_err();
                 if tx.send(item).is_err() || failed {
@@ -178,7 +171,7 @@ pub fn replay(args: &ReplayArgs) -> anyhow::Result<ExitStatus> {
             }
         });
         for item in rx {
-            let (trace, scenes) = item?;
+            let trace = item?;
             // An imported graph is named as its metadata names it, beside its file.
             let who = match &trace.model_name {
                 Some(n) if agent.acting().reads_world() => n.clone(),
@@ -197,15 +190,21 @@ pub fn replay(args: &ReplayArgs) -> anyhow::Result<ExitStatus> {
                 trace.steps.len(),
                 trace.total_reward()
             );
-            if wants_rerun {
-                let r = match &mut rerun {
-                    Some(r) => r,
-                    None => rerun.insert(RerunRecorder::start(&targets, &trace, n, &paths)?),
-                };
-                r.push(&trace, &scenes, Some(&stop))?;
+            if wants_rerun && rerun.is_none() {
+                rerun = Some(RerunRecorder::start(&targets, &trace, n, &paths)?);
             }
-            if let Some(m) = &mut mcap {
-                m.push(&trace, &scenes, Some(&stop))?;
+            // Block by block, each computed once for both formats and dropped once written:
+            // memory stays flat whatever the episode's length.
+            if recording {
+                for first in block_starts(&trace) {
+                    let scenes = scene_block(&trace, first, args.alpha);
+                    if let Some(r) = &mut rerun {
+                        r.push_block(&trace, first, &scenes, Some(&stop))?;
+                    }
+                    if let Some(m) = &mut mcap {
+                        m.push_block(&trace, first, &scenes, Some(&stop))?;
+                    }
+                }
             }
             if args.trace.is_some() {
                 kept = Some(trace);

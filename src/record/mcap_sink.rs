@@ -29,7 +29,10 @@ use base64::Engine as _;
 use image::RgbImage;
 use serde_json::{Value, json};
 
-use super::scene::{StepScene, action_names, episode_scenes, hit_color, trail, world_with_overlay};
+use super::scene::{
+    StepScene, action_names, block_starts, hit_color, scene_block, trail, with_scene_blocks,
+    world_with_overlay,
+};
 use super::{PendingFile, RecordError, StopFlag, io_err, stopped};
 use crate::env::Action;
 use crate::episode::EpisodeTrace;
@@ -290,10 +293,17 @@ fn cause(e: &mcap::McapError) -> String {
     std::error::Error::source(e).map_or_else(|| e.to_string(), ToString::to_string)
 }
 
-/// The messages of episode number `e`, whose first step is recording step `global`.
-fn episode_messages(e: usize, ep: &EpisodeTrace, scenes: &[StepScene], global: u64) -> Msgs {
+/// The messages of steps `first..` of episode number `e` (`scenes` theirs), whose first
+/// step is recording step `global`.
+fn block_messages(
+    e: usize,
+    ep: &EpisodeTrace,
+    first: usize,
+    scenes: &[StepScene],
+    global: u64,
+) -> Msgs {
     let mut msgs = Msgs::default();
-    for (i, (step, scene)) in ep.steps.iter().zip(scenes).enumerate() {
+    for ((i, step), scene) in ep.steps.iter().enumerate().skip(first).zip(scenes) {
         let t = (global + i as u64) * STEP_NS;
         if step.t == 0 {
             msgs.json(
@@ -310,9 +320,9 @@ fn episode_messages(e: usize, ep: &EpisodeTrace, scenes: &[StepScene], global: u
 }
 
 /// Writes `episodes` to `path` as MCAP (zstd chunks, summary and indexes), atomically: the
-/// file appears only when complete. `stop` aborts between episodes and leaves no file.
-/// Messages are built one episode ahead on a second thread while this one compresses and
-/// writes.
+/// file appears only when complete. `stop` aborts between blocks of steps and leaves no file.
+/// Each block's scenes are computed on a second thread while this one builds, compresses and
+/// writes the one before ([`McapRecorder::push_block`]).
 pub fn write_mcap(
     episodes: &[EpisodeTrace],
     path: &Path,
@@ -323,32 +333,15 @@ pub fn write_mcap(
         return Err(RecordError::Empty);
     }
     let mut recorder = McapRecorder::create(path)?;
-    std::thread::scope(|scope| {
-        let (tx, rx) = std::sync::mpsc::sync_channel::<Msgs>(1);
-        scope.spawn(move || {
-            let mut global = 0u64;
-            for (e, ep) in episodes.iter().enumerate() {
-                let msgs = episode_messages(e, ep, &episode_scenes(ep, alpha), global);
-                global += ep.steps.len() as u64;
-                if stopped(stop) || tx.send(msgs).is_err() {
-                    break;
-                }
-            }
-        });
-        for ep in episodes {
-            if stopped(stop) {
-                return Err(RecordError::Interrupted);
-            }
-            let msgs = rx.recv().map_err(|_| RecordError::Interrupted)?;
-            recorder.write(&msgs, ep.steps.len())?;
-        }
-        Ok(())
+    with_scene_blocks(episodes, alpha, |ep, first, scenes| {
+        recorder.push_block(ep, first, scenes, stop)
     })?;
     recorder.finish()
 }
 
-/// An MCAP file being written episode by episode, so that no more than one episode need be
-/// held in memory ([`write_mcap`] for episodes already in memory).
+/// An MCAP file being written episode by episode and block by block of steps
+/// ([`SCENE_BLOCK`](super::scene::SCENE_BLOCK)): no more than one episode's trace and one
+/// block's pictures and messages are held ([`write_mcap`] for episodes already in memory).
 pub struct McapRecorder {
     pending: PendingFile,
     out: Out<BufWriter<std::fs::File>>,
@@ -389,28 +382,41 @@ impl McapRecorder {
         })
     }
 
-    /// Writes one episode with its step scenes ([`episode_scenes`]); fails with
-    /// [`RecordError::Interrupted`] once `stop` is raised.
+    /// Writes one episode, its scenes computed block by block ([`Self::push_block`]).
     pub fn push(
         &mut self,
         ep: &EpisodeTrace,
+        alpha: f64,
+        stop: Option<&StopFlag>,
+    ) -> Result<(), RecordError> {
+        for first in block_starts(ep) {
+            let scenes = scene_block(ep, first, alpha);
+            self.push_block(ep, first, &scenes, stop)?;
+        }
+        Ok(())
+    }
+
+    /// Writes steps `first..` of `ep` with their scenes ([`scene_block`]), blocks of an
+    /// episode in order; fails with [`RecordError::Interrupted`] once `stop` is raised.
+    pub fn push_block(
+        &mut self,
+        ep: &EpisodeTrace,
+        first: usize,
         scenes: &[StepScene],
         stop: Option<&StopFlag>,
     ) -> Result<(), RecordError> {
         if stopped(stop) {
             return Err(RecordError::Interrupted);
         }
-        let msgs = episode_messages(self.pushed, ep, scenes, self.steps);
-        self.write(&msgs, ep.steps.len())
-    }
-
-    fn write(&mut self, msgs: &Msgs, steps: usize) -> Result<(), RecordError> {
+        let msgs = block_messages(self.pushed, ep, first, scenes, self.steps);
         let dest = self.pending.dest();
         for m in &msgs.0 {
             self.out.put(m).map_err(|e| io_err(dest, &cause(&e)))?;
         }
-        self.pushed += 1;
-        self.steps += steps as u64;
+        if first + scenes.len() >= ep.steps.len() {
+            self.pushed += 1;
+            self.steps += ep.steps.len() as u64;
+        }
         Ok(())
     }
 

@@ -16,7 +16,7 @@ use thiserror::Error;
 
 pub use mcap_sink::{McapRecorder, write_mcap};
 pub use rerun_sink::{RecordStats, RerunRecorder, RerunTargets, record_rerun, word_paths};
-pub use scene::{StepScene, episode_scenes, with_scenes};
+pub use scene::{SCENE_BLOCK, StepScene, block_starts, scene_block, with_scene_blocks};
 
 /// The Rerun SDK version recordings are written with (the crate is pinned to it).
 pub const RERUN_SDK_VERSION: &str = "0.36.3";

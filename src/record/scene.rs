@@ -187,34 +187,49 @@ pub fn world_picture(
     img
 }
 
-/// The scenes of every step of an episode (each step grounded on its own instruction, which
-/// a probing edit may have changed).
-pub fn episode_scenes(trace: &EpisodeTrace, alpha: f64) -> Vec<StepScene> {
+/// Steps whose scenes a recording holds at once: a block is computed, written and dropped,
+/// so that a recording's memory stays flat whatever the episode's length (a 22×22 world's
+/// scene weighs about 0.4 MB; a whole 1,728-step BossLevel episode's, 700 MB).
+pub const SCENE_BLOCK: usize = 16;
+
+/// The scenes of `trace`'s steps from `first`, at most [`SCENE_BLOCK`] of them (each step
+/// grounded on its own instruction, which a probing edit may have changed).
+pub fn scene_block(trace: &EpisodeTrace, first: usize, alpha: f64) -> Vec<StepScene> {
     trace
         .steps
         .iter()
+        .skip(first)
+        .take(SCENE_BLOCK)
         .map(|s| StepScene::new(s, alpha))
         .collect()
 }
 
-/// Calls `f` on each episode with its scenes, computing the scenes of the next episode on a
-/// second thread meanwhile; stops at the first error.
-pub fn with_scenes<E>(
+/// The first step of every block of `trace` ([`scene_block`]).
+pub fn block_starts(trace: &EpisodeTrace) -> impl Iterator<Item = usize> {
+    (0..trace.steps.len()).step_by(SCENE_BLOCK)
+}
+
+/// Calls `f(episode, first step, scenes)` on each block of each episode in order, computing
+/// the next block on a second thread meanwhile (two blocks held at most); stops at the first
+/// error.
+pub fn with_scene_blocks<E>(
     episodes: &[EpisodeTrace],
     alpha: f64,
-    mut f: impl FnMut(&EpisodeTrace, &[StepScene]) -> Result<(), E>,
+    mut f: impl FnMut(&EpisodeTrace, usize, &[StepScene]) -> Result<(), E>,
 ) -> Result<(), E> {
     std::thread::scope(|scope| {
         let (tx, rx) = std::sync::mpsc::sync_channel(1);
         scope.spawn(move || {
-            for ep in episodes {
-                if tx.send(episode_scenes(ep, alpha)).is_err() {
-                    break;
+            for (e, ep) in episodes.iter().enumerate() {
+                for first in block_starts(ep) {
+                    if tx.send((e, first, scene_block(ep, first, alpha))).is_err() {
+                        return;
+                    }
                 }
             }
         });
-        for (ep, scenes) in episodes.iter().zip(rx) {
-            f(ep, &scenes)?;
+        for (e, first, scenes) in rx {
+            f(&episodes[e], first, &scenes)?;
         }
         Ok(())
     })

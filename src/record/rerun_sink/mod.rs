@@ -109,6 +109,12 @@ fn check_listening(url: &str, authority: &str) -> Result<(), RecordError> {
     Err(no_viewer(last))
 }
 
+/// Steps logged between two waits for the destinations to take them: the stream's queue
+/// holds this many steps' pictures at most (a 22×22 world's image is 1.5 MB raw); fewer
+/// would cut the recording into more, smaller chunks (16 steps: 25 KB a step on BossLevel
+/// against 14 KB unpaced; 64: see docs/performance.md).
+const FLUSH_STEPS: usize = 64;
+
 /// The application id of every recording (the viewer keys blueprints by it).
 const APP_ID: &str = "groundscope";
 
@@ -148,14 +154,16 @@ pub fn record_rerun(
     let first = episodes.first().ok_or(RecordError::Empty)?;
     let paths = word_paths(episodes.iter().map(EpisodeTrace::words));
     let mut recorder = RerunRecorder::start(targets, first, episodes.len(), &paths)?;
-    super::scene::with_scenes(episodes, alpha, |ep, scenes| {
-        recorder.push(ep, scenes, stop)
+    super::scene::with_scene_blocks(episodes, alpha, |ep, first, scenes| {
+        recorder.push_block(ep, first, scenes, stop)
     })?;
     recorder.finish()
 }
 
-/// A recording being streamed episode by episode, so that no more than one episode need be
-/// held in memory ([`record_rerun`] for episodes already in memory).
+/// A recording being streamed episode by episode and block by block of steps
+/// ([`SCENE_BLOCK`](super::scene::SCENE_BLOCK)), each block flushed to its destinations
+/// before the next: no more than one episode's trace and one block's pictures are held
+/// ([`record_rerun`] for episodes already in memory).
 pub struct RerunRecorder {
     rec: RecordingStream,
     file: Option<(PendingFile, RrdWriter)>,
@@ -163,6 +171,9 @@ pub struct RerunRecorder {
     episodes: usize,
     pushed: usize,
     global: i64,
+    /// The last scene of the block before, while an episode is being pushed (its marks are
+    /// logged as changes from it).
+    prev: Option<StepScene>,
 }
 
 impl RerunRecorder {
@@ -236,15 +247,33 @@ impl RerunRecorder {
             episodes,
             pushed: 0,
             global: 0,
+            prev: None,
         })
     }
 
-    /// Logs one episode with its step scenes
-    /// ([`episode_scenes`](super::scene::episode_scenes)). Fails at once if the file
-    /// has already failed (a full disk), or with [`RecordError::Interrupted`] once `stop`.
+    /// Logs one episode, its scenes computed block by block ([`Self::push_block`]).
     pub fn push(
         &mut self,
         ep: &EpisodeTrace,
+        alpha: f64,
+        stop: Option<&StopFlag>,
+    ) -> Result<(), RecordError> {
+        for first in super::scene::block_starts(ep) {
+            let scenes = super::scene::scene_block(ep, first, alpha);
+            self.push_block(ep, first, &scenes, stop)?;
+        }
+        Ok(())
+    }
+
+    /// Logs steps `first..` of `ep` with their scenes
+    /// ([`scene_block`](super::scene::scene_block)), blocks of an episode in order, and waits
+    /// until the destinations took them, so that the stream's queue holds one block at most.
+    /// Fails at once if the file has already failed (a full disk), or with
+    /// [`RecordError::Interrupted`] once `stop`.
+    pub fn push_block(
+        &mut self,
+        ep: &EpisodeTrace,
+        first: usize,
         scenes: &[StepScene],
         stop: Option<&StopFlag>,
     ) -> Result<(), RecordError> {
@@ -255,7 +284,14 @@ impl RerunRecorder {
         }
         let e = self.pushed;
         let rec = &self.rec;
-        for (k, (step, scene)) in ep.steps.iter().zip(scenes).enumerate() {
+        if first == 0 {
+            self.prev = None;
+        }
+        for (j, scene) in scenes.iter().enumerate() {
+            let k = first + j;
+            let Some(step) = ep.steps.get(k) else {
+                break;
+            };
             if stopped(stop) {
                 return Err(RecordError::Interrupted);
             }
@@ -267,11 +303,23 @@ impl RerunRecorder {
                 rec.log("mission", &rerun::TextDocument::new(ep.mission.as_str()))
                     .map_err(sdk)?;
             }
-            let prev = k.checked_sub(1).and_then(|j| scenes.get(j));
+            let prev = match j.checked_sub(1) {
+                Some(i) => scenes.get(i),
+                None => self.prev.as_ref(),
+            };
             log_step(rec, ep, e, k, scene, prev)?;
             self.global += 1;
         }
-        self.pushed += 1;
+        let end = first + scenes.len();
+        if end.is_multiple_of(FLUSH_STEPS) || end >= ep.steps.len() {
+            // A failed flush (a viewer gone) is reported by `finish`; here it only paces.
+            let _ = rec.flush_blocking();
+        }
+        self.prev = scenes.last().cloned();
+        if end >= ep.steps.len() {
+            self.pushed += 1;
+            self.prev = None;
+        }
         Ok(())
     }
 
