@@ -326,3 +326,54 @@ fn a_failed_episode_offers_the_decisive_step_eval_gives_it() {
     h.get_by_label(&format!("decisive step {decisive}")).click();
     show_until(&mut h, &format!("step {decisive} of "));
 }
+
+/// A 9-word mission's ten maps end inside the window at 1280×900 and 1400×900 (the last map
+/// was cut at the right edge), and no map caption breaks inside a figure.
+#[test]
+fn nine_word_missions_fit_their_maps_in_the_window() {
+    for (id, seed) in [("BabyAI-PutNextLocal-v0", 3), ("BabyAI-OpenTwoDoors-v0", 1)] {
+        for width in [1280.0f32, 1400.0] {
+            let mut opts = options("bundled:babyai", Some(babyai(id)), seed);
+            opts.step = 1;
+            let mut h = egui_kittest::Harness::builder()
+                .with_size([width, 900.0])
+                .with_accessibility_check(false)
+                .build_ui_state(
+                    |ui, d: &mut groundscope::app::Debugger| d.frame(ui),
+                    groundscope::app::Debugger::new(&opts, None),
+                );
+            show_until(&mut h, "step 1 of ");
+            // A label's text is its node's value.
+            let captions: Vec<_> = h.query_all_by_label_contains("w 0").collect();
+            let maps = captions
+                .iter()
+                .filter(|n| {
+                    n.accesskit_node()
+                        .value()
+                        .is_some_and(|l| l.starts_with("w "))
+                })
+                .count();
+            assert_eq!(maps, 9, "{id} at {width}: one caption per word");
+            for n in &captions {
+                let label = n.accesskit_node().value().unwrap_or_default();
+                if !label.starts_with("w ") {
+                    continue;
+                }
+                assert!(
+                    n.rect().max.x <= width,
+                    "{id} at {width}: {label:?} ends at {}",
+                    n.rect().max.x
+                );
+                // "w 0.072\nH 2.46" or "w 0.072 · H 2.46": each figure whole on its line.
+                for line in label.lines() {
+                    assert!(
+                        line.split(" · ").all(|f| f.split(' ').count() == 2),
+                        "{label:?}"
+                    );
+                }
+            }
+            let combined = h.get_by_label("combined M").rect();
+            assert!(combined.height() < 25.0, "'combined M' on one line");
+        }
+    }
+}

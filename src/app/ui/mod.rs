@@ -384,10 +384,35 @@ impl Debugger {
         if let Some(agent) = &agent {
             self.faithfulness.update(agent, &shown, i, self.generation);
         }
-        let n_maps =
-            step.attention.as_ref().map_or(0, |a| a.words.len() + 1) + usize::from(faithful);
+        // The maps shown: the words' (less those folded), M's and Δ's; and the clause numbers
+        // of a sequence between them.
+        let roles = crate::env::roles::word_roles(&step.world.instr);
+        let words = step.attention.as_ref().map_or(0, |a| a.words.len());
+        let with_roles = roles.len() == words && words > 0;
+        let shown_words = if with_roles && self.folds(words) {
+            roles
+                .iter()
+                .filter(|r| r.class != crate::env::roles::WordClass::Other)
+                .count()
+        } else {
+            words
+        };
+        let clauses = if with_roles {
+            roles
+                .iter()
+                .filter_map(|r| r.clause)
+                .max()
+                .map_or(0, |m| m + 1)
+        } else {
+            0
+        };
+        let n_maps = shown_words + usize::from(words > 0) + usize::from(faithful);
         // Maps wrap into rows of at most this many: a long mission's maps stay on screen.
-        let side = numbers::map_side(ui, n_maps.min(numbers::MAPS_PER_ROW));
+        let side = numbers::map_side(
+            ui,
+            n_maps.min(numbers::MAPS_PER_ROW),
+            if clauses > 1 { clauses } else { 0 },
+        );
         if mapless {
             ui.label(
                 "no attention maps: the occlusion saliency below (how much the action distribution changes when a cell becomes floor) stands in for them",

@@ -19,13 +19,29 @@ pub(super) const MAPS_PER_ROW: usize = 9;
 /// words' maps by default.
 const FOLD_ABOVE_WORDS: usize = 9;
 
-/// Side of one map in points, from the width there is for `panels` maps and a colour bar.
-pub(super) fn map_side(ui: &egui::Ui, panels: usize) -> f32 {
+/// Side of one map in points, from the width there is for `panels` maps, a colour bar and
+/// `clauses` clause numbers, so that a row of them ends inside the panel (a 9-word mission's
+/// ten maps at 1280×900 included).
+pub(super) fn map_side(ui: &egui::Ui, panels: usize, clauses: usize) -> f32 {
     let panels = panels.max(1) as f32;
-    // The colour bar with its caption, and the clause numbers of a sequence.
-    let gaps = ui.spacing().item_spacing.x * (panels + 2.0) + 130.0;
-    ((ui.available_width() - gaps) / panels).clamp(70.0, 210.0)
+    // Each map's column is a little wider than the map (its frame), then the colour bar with
+    // its caption, and a number before each clause of a sequence.
+    let per_map = ui.spacing().item_spacing.x + MAP_FRAME;
+    let gaps = per_map * panels + COLOUR_BAR_WIDTH + CLAUSE_NUMBER_WIDTH * clauses as f32;
+    ((ui.available_width() - gaps) / panels).clamp(MIN_MAP_SIDE, 210.0)
 }
+
+/// What a map's column adds to its side (frame and margins), in points.
+const MAP_FRAME: f32 = 10.0;
+
+/// The colour bar and its caption beside `M`, in points.
+const COLOUR_BAR_WIDTH: f32 = 100.0;
+
+/// A clause's number before its words' maps, with its spacing, in points.
+const CLAUSE_NUMBER_WIDTH: f32 = 24.0;
+
+/// The smallest map side: 7 cells of 7 points, still readable.
+const MIN_MAP_SIDE: f32 = 50.0;
 
 impl Debugger {
     /// Whether function words' maps fold on a mission of `words` words.
@@ -58,8 +74,12 @@ impl Debugger {
         ui.horizontal_top(|ui| {
             ui.vertical(|ui| {
                 ui.set_width(side);
-                ui.label(egui::RichText::new("combined M").strong());
-                ui.label("sum of w·A");
+                // Never broken inside a word, however narrow the map.
+                let extend = egui::TextWrapMode::Extend;
+                ui.add(
+                    egui::Label::new(egui::RichText::new("combined M").strong()).wrap_mode(extend),
+                );
+                ui.add(egui::Label::new("sum of w·A").wrap_mode(extend));
                 let hits = scene
                     .hits_of(None)
                     .map(|g| g.hits.as_slice())
@@ -136,7 +156,13 @@ impl Debugger {
             let dimmed = w.weight < NEGLIGIBLE_WEIGHT;
             let title = egui::RichText::new(&w.word).strong();
             ui.label(if dimmed { title.weak() } else { title });
-            ui.label(format!("w {:.3} · H {:.2}", w.weight, w.entropy));
+            // A narrow map puts each figure on its own line: a caption never breaks inside one.
+            let caption = if side >= 110.0 {
+                format!("w {:.3} · H {:.2}", w.weight, w.entropy)
+            } else {
+                format!("w {:.3}\nH {:.2}", w.weight, w.entropy)
+            };
+            ui.add(egui::Label::new(caption).wrap_mode(egui::TextWrapMode::Extend));
             let hits = scene
                 .hits_of(Some(i))
                 .map(|g| g.hits.as_slice())
