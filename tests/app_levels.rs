@@ -233,11 +233,33 @@ fn a_long_missions_maps_fold_their_function_words_and_keep_m_in_view() {
     // The folded words have no map title of their own; a word with a role has one.
     assert!(h.query_all_by_label("the").next().is_none());
     assert!(h.query_all_by_label("door").next().is_some());
+    // The episode plot's legend lists the words shown, and says the rest are folded.
+    let legend = |h: &egui_kittest::Harness<'_, groundscope::app::Debugger>| {
+        h.query_all_by_label_contains("w of ").count()
+    };
+    let words = world
+        .mission
+        .split([' ', ','])
+        .filter(|w| !w.is_empty())
+        .count();
+    let shown = legend(&h);
+    assert!(
+        shown > 0 && shown < words,
+        "{shown} of {words} in the legend"
+    );
+    assert!(h.query_by_label("w of the").is_none());
+    h.get_by_label("(function words folded)");
     h.get_by_label("fold function words").click();
     h.run();
     show_until(&mut h, "word weights w");
     assert!(h.query_by_label_contains("folded (w)").is_none());
     assert!(h.query_all_by_label("the").next().is_some());
+    assert_eq!(legend(&h), words);
+    // Unfolded, M and the box to fold again are still in the window.
+    for label in ["combined M", "fold function words"] {
+        let r = h.get_by_label(label).rect();
+        assert!(r.max.y <= 900.0 && r.min.y >= 0.0, "{label} at {r:?}");
+    }
 }
 
 /// An agent without maps (rl-starter-files' ACModel as ONNX): the overlay offers no `M` and no

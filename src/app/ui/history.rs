@@ -25,15 +25,30 @@ impl Debugger {
         if steps.is_empty() {
             return;
         }
-        let words: Vec<String> = steps
+        let all: Vec<String> = steps
             .first()
             .and_then(|s| s.attention.as_ref())
             .map(|a| a.words.iter().map(|w| w.word.clone()).collect())
             .unwrap_or_default();
+        // The words whose maps are shown: with function words folded, their lines leave the
+        // plot and the legend too (one colour would otherwise stand for several words).
+        let roles = steps
+            .first()
+            .map(|s| crate::env::roles::word_roles(&s.world.instr))
+            .unwrap_or_default();
+        let fold = roles.len() == all.len() && self.folds(all.len());
+        let words: Vec<(usize, &String)> = all
+            .iter()
+            .enumerate()
+            .filter(|&(i, _)| !(fold && roles[i].class == crate::env::roles::WordClass::Other))
+            .collect();
         ui.horizontal_wrapped(|ui| {
             ui.label("over the episode:");
-            for (i, w) in words.iter().enumerate() {
-                ui.colored_label(WORD_COLORS[i % WORD_COLORS.len()], format!("w of {w}"));
+            for (n, (_, w)) in words.iter().enumerate() {
+                ui.colored_label(WORD_COLORS[n % WORD_COLORS.len()], format!("w of {w}"));
+            }
+            if words.len() < all.len() {
+                ui.weak("(function words folded)");
             }
             ui.colored_label(Color32::GRAY, "p of the chosen action");
             ui.colored_label(super::numbers::EXPERT_LEFT, "| left the expert's plan");
@@ -64,7 +79,7 @@ impl Debugger {
             .map(|(k, s)| at(k, s.probs.get(s.action as usize).copied().unwrap_or(0.0)))
             .collect();
         painter.add(egui::Shape::line(chosen, Stroke::new(1.0, Color32::GRAY)));
-        for i in 0..words.len() {
+        for (n, &(i, _)) in words.iter().enumerate() {
             let points: Vec<Pos2> = steps
                 .iter()
                 .enumerate()
@@ -73,7 +88,7 @@ impl Debugger {
                     Some(at(k, w))
                 })
                 .collect();
-            let color = WORD_COLORS[i % WORD_COLORS.len()];
+            let color = WORD_COLORS[n % WORD_COLORS.len()];
             painter.add(egui::Shape::line(points, Stroke::new(1.5, color)));
         }
         // A tick at the bottom of every step where the agent did not take the bot's action.

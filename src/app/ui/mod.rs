@@ -422,15 +422,8 @@ impl Debugger {
                     .occlusion_ui(ui, side, Some(&step.obs), true);
             });
         } else {
-            // The row borrows the debugger mutably (a click selects a map), so Δ's view is
-            // taken out for the while.
-            let taken = std::mem::take(&mut self.faithfulness);
-            self.maps_row(ui, step, scene, side, |ui| {
-                if faithful {
-                    taken.occlusion_ui(ui, side, Some(&step.obs), false);
-                }
-            });
-            self.faithfulness = taken;
+            // The boxes that change the maps come first: with a long mission unfolded into
+            // two rows of maps they stay in the window.
             ui.horizontal(|ui| {
                 ui.checkbox(
                     &mut self.show_faithfulness,
@@ -446,6 +439,15 @@ impl Debugger {
                     self.fold_function_words = Some(fold);
                 }
             });
+            // The row borrows the debugger mutably (a click selects a map), so Δ's view is
+            // taken out for the while.
+            let taken = std::mem::take(&mut self.faithfulness);
+            self.maps_row(ui, step, scene, side, |ui| {
+                if faithful {
+                    taken.occlusion_ui(ui, side, Some(&step.obs), false);
+                }
+            });
+            self.faithfulness = taken;
         }
         if let Some(agent) = agent {
             let combined = step.attention.as_ref().map(|a| &a.combined);

@@ -19,6 +19,9 @@ pub(super) const MAPS_PER_ROW: usize = 9;
 /// words' maps by default.
 const FOLD_ABOVE_WORDS: usize = 9;
 
+/// The height of nine weight bars: what a longer mission's bars scroll within.
+const WEIGHT_BARS_HEIGHT: f32 = 200.0;
+
 /// Side of one map in points, from the width there is for `panels` maps, a colour bar and
 /// `clauses` clause numbers, so that a row of them ends inside the panel (a 9-word mission's
 /// ten maps at 1280×900 included).
@@ -208,7 +211,16 @@ impl Debugger {
         let labels: Vec<String> = shown.iter().map(|&i| att.words[i].word.clone()).collect();
         let values: Vec<f32> = shown.iter().map(|&i| att.words[i].weight).collect();
         let selected = shown.iter().position(|&i| i == self.selected_word);
-        bars(ui, &labels, &values, selected, None);
+        if labels.len() > FOLD_ABOVE_WORDS {
+            // A long mission unfolded: its bars scroll within nine rows' height, so that the
+            // maps under them (M first) stay in the window.
+            egui::ScrollArea::vertical()
+                .id_salt("word weights")
+                .max_height(WEIGHT_BARS_HEIGHT)
+                .show(ui, |ui| bars(ui, &labels, &values, selected, None));
+        } else {
+            bars(ui, &labels, &values, selected, None);
+        }
         ui.add_space(4.0);
         for (kind, row) in accuracy_rows(step, scene) {
             match row {
