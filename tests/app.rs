@@ -542,3 +542,32 @@ fn a_step_past_the_end_is_said_not_clamped_silently() {
         last + 40
     ));
 }
+
+/// A `--window` larger than the screen says so, with a size that fits; one that fits says
+/// nothing.
+#[test]
+fn a_window_larger_than_the_screen_says_so() {
+    for (monitor, warned) in [
+        (egui::vec2(1280.0, 800.0), true),
+        (egui::vec2(1920.0, 1080.0), false),
+    ] {
+        let mut h = debugger(0, false);
+        h.state_mut().asked_window([1400.0, 900.0]);
+        h.input_mut()
+            .viewports
+            .entry(egui::ViewportId::ROOT)
+            .or_default()
+            .monitor_size = Some(monitor);
+        show_until(&mut h, "step 0 of ");
+        h.run();
+        let said = h
+            .query_by_label_contains("--window 1400x900 is larger than the screen (1280x800)")
+            .is_some();
+        assert_eq!(said, warned, "monitor {monitor:?}");
+    }
+    assert!(
+        groundscope::app::window_warning([1400.0, 900.0], egui::vec2(1280.0, 800.0))
+            .unwrap()
+            .contains("pass --window 1280x800 or smaller")
+    );
+}

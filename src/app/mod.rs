@@ -72,10 +72,15 @@ pub fn run(start: &StartOptions, window: &WindowOptions) -> Result<(), AppError>
         ..eframe::NativeOptions::default()
     };
     let start = start.clone();
+    let size = window.size;
     let result = eframe::run_native(
         "groundscope",
         native,
-        Box::new(move |_cc| Ok(Box::new(App(Debugger::new(&start, shot))))),
+        Box::new(move |_cc| {
+            let mut debugger = Debugger::new(&start, shot);
+            debugger.asked_window(size);
+            Ok(Box::new(App(debugger)))
+        }),
     );
     if let Err(e) = result {
         let msg = e.to_string();
@@ -98,6 +103,23 @@ pub fn run(start: &StartOptions, window: &WindowOptions) -> Result<(), AppError>
         };
     }
     Ok(())
+}
+
+/// What to say when the window asked for (`--window W×H`, logical points) is larger than the
+/// screen it opens on (`monitor`, logical points): the window manager shrinks or clips it, so
+/// the layout the size was chosen for is not what shows. `None` when it fits.
+pub fn window_warning(asked: [f32; 2], monitor: egui::Vec2) -> Option<String> {
+    (asked[0] > monitor.x || asked[1] > monitor.y).then(|| {
+        format!(
+            "--window {}x{} is larger than the screen ({}x{}): the window manager shrinks or clips it; pass --window {}x{} or smaller",
+            asked[0].round(),
+            asked[1].round(),
+            monitor.x.round(),
+            monitor.y.round(),
+            asked[0].min(monitor.x).round(),
+            asked[1].min(monitor.y).round()
+        )
+    })
 }
 
 struct App(Debugger);

@@ -121,6 +121,8 @@ pub struct Debugger {
     show_episodes: bool,
     /// Whether the panel brings the selected row into view at its next frame.
     report_scroll: bool,
+    /// The window size asked for, until it has been checked against the screen's.
+    asked_window: Option<[f32; 2]>,
 }
 
 impl Debugger {
@@ -182,6 +184,7 @@ impl Debugger {
             faithfulness: super::faithful::FaithfulnessView::default(),
             show_episodes: opts.report.is_some(),
             report_scroll: opts.report.is_some(),
+            asked_window: None,
             report_text: opts
                 .report
                 .as_ref()
@@ -197,6 +200,28 @@ impl Debugger {
     pub fn episode_progress(&self) -> Option<(usize, bool)> {
         let shown = self.shown.as_ref()?;
         Some((shown.len(), shown.is_complete() && !self.streaming))
+    }
+
+    /// Checks, once the screen's size is known, that a window of `size` (logical points) fits
+    /// on it, and says so in the window and on stderr where it does not
+    /// ([`super::window_warning`]).
+    pub fn asked_window(&mut self, size: [f32; 2]) {
+        self.asked_window = Some(size);
+    }
+
+    /// The check of [`Self::asked_window`], at a frame where the monitor's size is known.
+    fn check_window(&mut self, ctx: &egui::Context) {
+        let Some(asked) = self.asked_window else {
+            return;
+        };
+        let Some(monitor) = ctx.input(|i| i.viewport().monitor_size) else {
+            return;
+        };
+        self.asked_window = None;
+        if let Some(w) = super::window_warning(asked, monitor) {
+            eprintln!("groundscope: {w}");
+            self.info(w);
+        }
     }
 
     /// The level seed of the episode shown, once one is.
@@ -233,6 +258,7 @@ impl Debugger {
     pub fn frame(&mut self, ui: &mut egui::Ui) {
         let ctx = ui.ctx().clone();
         self.poll_jobs(&ctx);
+        self.check_window(&ctx);
         self.keyboard(&ctx);
         let len = self.shown.as_ref().map_or(0, Shown::len);
         let dt = ctx.input(|i| i.stable_dt).min(0.1);
