@@ -5,8 +5,8 @@
 //! Files are written next to their destination under a temporary name and renamed into place
 //! only when complete (footer written), so a failure or Ctrl-C leaves no partial file.
 
-pub mod mcap_sink;
-pub mod rerun_sink;
+pub mod mcap_recorder;
+pub mod rerun_recorder;
 mod rrd_file;
 pub mod scene;
 
@@ -14,8 +14,8 @@ use std::path::{Path, PathBuf};
 
 use thiserror::Error;
 
-pub use mcap_sink::{McapRecorder, write_mcap};
-pub use rerun_sink::{RecordStats, RerunRecorder, RerunTargets, record_rerun, word_paths};
+pub use mcap_recorder::{McapRecorder, write_mcap};
+pub use rerun_recorder::{RecordStats, RerunRecorder, RerunTargets, record_rerun, word_paths};
 pub use scene::{SCENE_BLOCK, StepScene, block_starts, scene_block, with_scene_blocks};
 
 /// The Rerun SDK version recordings are written with (the crate is pinned to it).
