@@ -126,7 +126,7 @@ class GroundscopeVecEnv(VectorEnv):
             if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < low:
                 raise ValueError(f"{name} must be an int >= {low}, got {value!r}")
         self._core = _core.VecEnv(level, int(num_envs), int(num_threads))
-        self.level = _core.Env(level).level
+        self.level = self._core.level
         self.num_envs = int(num_envs)
         self.copy = copy
         self.single_observation_space = observation_space()

@@ -18,7 +18,7 @@ use groundscope::record::{RerunTargets, record_rerun, write_mcap};
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 
-use crate::env::Level;
+use crate::env::parse_level;
 use crate::policy::{MapLayout, PyPolicy};
 
 /// The most episodes one level may run at once (rows are carried as f32 indices).
@@ -106,7 +106,7 @@ pub fn evaluate(
     // Every level is checked before anything runs: no partial report.
     let levels = levels
         .iter()
-        .map(|id| Level::parse_py(id))
+        .map(|id| parse_level(id))
         .collect::<PyResult<Vec<_>>>()?;
     let policy = PyPolicy::new(act, layout)?;
     let opts = EvalOptions {
@@ -122,14 +122,13 @@ pub fn evaluate(
             .collect();
         let missions = plan
             .iter()
-            .map(|&(_, seed)| level.config.generate(seed).map(|w| w.mission))
+            .map(|&(_, seed)| level.generate(seed).map(|w| w.mission))
             .collect::<Result<Vec<_>, _>>()
             .map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
         policy.begin(missions);
-        let explored =
-            evaluate_episodes_explored(&policy, &level.config, &plan, &opts, &mut |_| {})
-                .map_err(|e| run_error(&policy, &e))?;
-        explored_cells.push((level.config, explored));
+        let explored = evaluate_episodes_explored(&policy, level, &plan, &opts, &mut |_| {})
+            .map_err(|e| run_error(&policy, &e))?;
+        explored_cells.push((*level, explored));
         // Ctrl-C in the notebook or terminal stops between levels.
         py.check_signals()?;
     }
@@ -209,10 +208,10 @@ pub fn record(
             )));
         }
     };
-    let level = Level::parse_py(level)?;
+    let level = parse_level(level)?;
     let policy = PyPolicy::new(act, layout)?;
     let spec = EpisodeSpec {
-        level: level.config,
+        level,
         seed,
         mission: None,
         mode: mode(sample),

@@ -11,7 +11,8 @@ use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use rayon::prelude::*;
 
-use crate::env::{EnvCore, IMAGE_BYTES, Level, action, check_seed, py_err};
+use crate::env::{IMAGE_BYTES, action, check_seed, entropy_seed, parse_level, py_err};
+use groundscope::env::gym::MinigridEnv;
 
 /// Envs per task handed to a thread: small enough to balance, large enough that a task is
 /// worth its scheduling (a step is ~1 µs).
@@ -20,7 +21,7 @@ const ENVS_PER_TASK: usize = 8;
 /// The vector env's core; `groundscope.make_vec` wraps it in a gymnasium VectorEnv.
 #[pyclass(module = "groundscope._core")]
 pub struct VecEnv {
-    envs: Vec<EnvCore>,
+    envs: Vec<MinigridEnv>,
     /// Ended on the last step: reset on the next (NEXT_STEP).
     autoreset: Vec<bool>,
     /// `None`: step on the calling thread.
@@ -29,7 +30,7 @@ pub struct VecEnv {
 
 /// What one env did in a step, gathered before the results are written.
 struct Slot<'a> {
-    env: &'a mut EnvCore,
+    env: &'a mut MinigridEnv,
     autoreset: &'a mut bool,
     image: &'a mut [u8],
     direction: &'a mut i64,
@@ -44,7 +45,7 @@ struct Slot<'a> {
 impl Slot<'_> {
     fn run(&mut self) -> Result<(), EnvError> {
         if *self.autoreset {
-            self.env.reset(None)?;
+            self.env.reset(None, entropy_seed)?;
             *self.reward = 0.0;
             *self.terminated = false;
             *self.truncated = false;
@@ -56,7 +57,7 @@ impl Slot<'_> {
             *self.truncated = out.truncated;
         }
         *self.autoreset = *self.terminated || *self.truncated;
-        *self.direction = self.env.write_obs(self.image);
+        *self.direction = i64::from(self.env.write_obs(self.image));
         Ok(())
     }
 }
@@ -119,7 +120,7 @@ impl VecEnv {
                 "num_threads must be at most {MAX_THREADS}, got {num_threads}"
             )));
         }
-        let level = Level::parse_py(id)?;
+        let level = parse_level(id)?;
         let threads = if num_threads == 0 {
             std::thread::available_parallelism().map_or(1, std::num::NonZero::get)
         } else {
@@ -137,7 +138,7 @@ impl VecEnv {
             None
         };
         Ok(Self {
-            envs: vec![EnvCore::new(level); num_envs],
+            envs: vec![MinigridEnv::new(level); num_envs],
             autoreset: vec![false; num_envs],
             pool,
         })
@@ -170,9 +171,12 @@ impl VecEnv {
         let image = image_slice(&mut image, n)?;
         let direction = slices("direction", &mut direction, n)?;
         for i in (0..n).filter(|&i| mask[i]) {
-            self.envs[i].reset(seeds[i]).map_err(|e| py_err(&e))?;
+            self.envs[i]
+                .reset(seeds[i], entropy_seed)
+                .map_err(|e| py_err(&e))?;
             self.autoreset[i] = false;
-            direction[i] = self.envs[i].write_obs(&mut image[i * IMAGE_BYTES..][..IMAGE_BYTES]);
+            direction[i] =
+                i64::from(self.envs[i].write_obs(&mut image[i * IMAGE_BYTES..][..IMAGE_BYTES]));
         }
         Ok(self.envs.iter().map(|e| e.mission().to_owned()).collect())
     }
@@ -254,6 +258,12 @@ impl VecEnv {
             .collect();
         result.map_err(|e| py_err(&e))?;
         Ok(reset)
+    }
+
+    /// The level's id (the paper's as `groundscope-PaperLocalS{S}N{N}-v0`).
+    #[getter]
+    fn level(&self) -> String {
+        self.envs.first().map_or_else(String::new, |e| e.level.id())
     }
 
     /// The number of envs.

@@ -10,6 +10,7 @@ pub mod babyai;
 pub mod edit;
 pub mod error;
 pub mod grid;
+pub mod gym;
 pub mod instr;
 pub mod level;
 pub mod mission;
