@@ -339,7 +339,7 @@ impl Debugger {
                         .map_or_else(String::new, |b| format!(" · {}", b.name()));
                     ui.label(
                         egui::RichText::new(format!("failed: {}{behaviour}", d.class.name()))
-                            .color(Color32::from_rgb(230, 120, 90)),
+                            .color(super::numbers::FAILED),
                     )
                     .on_hover_text(format!(
                         "class {}; behaviour {}; target in view at {} step(s); M on it at {}",

@@ -6,7 +6,7 @@
 use std::path::Path;
 
 use eframe::egui;
-use egui::{Color32, RichText};
+use egui::RichText;
 
 use super::Debugger;
 use crate::app::session::Agent;
@@ -281,7 +281,7 @@ impl Debugger {
                             for col in Column::ALL {
                                 let mut text = RichText::new(col.cell(row));
                                 if col == Column::Outcome && !row.success {
-                                    text = text.color(Color32::from_rgb(230, 120, 90));
+                                    text = text.color(super::numbers::FAILED);
                                 }
                                 let r = ui
                                     .add_sized(

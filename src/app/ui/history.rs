@@ -8,14 +8,15 @@ use super::Debugger;
 use crate::app::session::Shown;
 
 /// Line colours of the words, in mission order (repeating past the end); chosen off the
-/// viridis ramp's dark end so that they read on the dark panel.
-const WORD_COLORS: [Color32; 6] = [
+/// viridis ramp's dark end so that they read on the dark panel, and without orange, which
+/// means a grounding mark "only nearby".
+pub(super) const WORD_COLORS: [Color32; 6] = [
     Color32::from_rgb(86, 180, 233),
-    Color32::from_rgb(230, 159, 0),
+    Color32::from_rgb(170, 140, 255),
     Color32::from_rgb(0, 158, 115),
     Color32::from_rgb(204, 121, 167),
     Color32::from_rgb(240, 228, 66),
-    Color32::from_rgb(213, 94, 0),
+    Color32::from_rgb(0, 114, 178),
 ];
 
 impl Debugger {
@@ -188,6 +189,52 @@ fn axes(painter: &egui::Painter, rect: Rect, last: f32, color: Color32) {
 #[cfg(test)]
 mod tests {
     use super::tick_step;
+
+    /// Whether `c` reads as orange: a saturated, bright hue between 15° and 45°.
+    fn orange([r, g, b]: [u8; 3]) -> bool {
+        let (r, g, b) = (f32::from(r), f32::from(g), f32::from(b));
+        let (max, min) = (r.max(g).max(b), r.min(g).min(b));
+        if max - min < 1.0 || max < 150.0 {
+            return false;
+        }
+        let hue = if max == r {
+            60.0 * ((g - b) / (max - min)).rem_euclid(6.0)
+        } else if max == g {
+            60.0 * ((b - r) / (max - min) + 2.0)
+        } else {
+            60.0 * ((r - g) / (max - min) + 4.0)
+        };
+        (15.0..=45.0).contains(&hue) && (max - min) / max > 0.5
+    }
+
+    /// Orange means one thing: of the debugger's named colours only the grounding mark "only
+    /// nearby" is orange (the highlighted bars, the failure text and the word lines were too).
+    #[test]
+    fn orange_means_one_thing() {
+        use crate::render::palette;
+        let rgb = |c: eframe::egui::Color32| [c.r(), c.g(), c.b()];
+        let ui = super::WORD_COLORS.iter().map(|&c| rgb(c)).chain(
+            [
+                super::super::numbers::HIGHLIGHT,
+                super::super::numbers::FAILED,
+                super::super::numbers::EXPERT_LEFT,
+            ]
+            .map(rgb),
+        );
+        let marks = [
+            palette::GROUNDING_HIT,
+            palette::GROUNDING_MISS,
+            palette::TARGET,
+            palette::TRAIL,
+            palette::CLAUSE_DONE,
+            palette::CLAUSE_LATER,
+        ];
+        for c in ui.chain(marks) {
+            assert!(!orange(c), "{c:?} is orange");
+        }
+        assert!(orange(palette::GROUNDING_NEAR));
+        assert!(orange([255, 150, 40]), "the old highlight");
+    }
 
     #[test]
     fn ticks_are_round_and_few() {

@@ -335,6 +335,14 @@ pub fn step_line(t: usize, shown: &Shown) -> String {
 /// The colour of "left the expert's plan here", in the panel and on the episode plot.
 pub(super) const EXPERT_LEFT: Color32 = Color32::from_rgb(230, 80, 80);
 
+/// A failure, in the timeline's "failed: …" and the episodes panel: red, as a miss is.
+pub(super) const FAILED: Color32 = Color32::from_rgb(230, 80, 80);
+
+/// The chosen action's bar and the selected word's: near white, so that orange means one
+/// thing in the debugger — a grounding mark "only nearby"
+/// ([`crate::render::palette::GROUNDING_NEAR`]).
+pub(super) const HIGHLIGHT: Color32 = Color32::from_rgb(235, 235, 235);
+
 /// Horizontal bars with labels and values; `highlight` is drawn in another colour and
 /// `expert` (minigrid's bot's action) is marked "< expert".
 fn bars(
@@ -354,7 +362,7 @@ fn bars(
             let mut bar = rect;
             bar.set_width(rect.width() * v.clamp(0.0, 1.0));
             let color = if highlight == Some(i) {
-                Color32::from_rgb(255, 150, 40)
+                HIGHLIGHT
             } else {
                 Color32::from_rgb(70, 130, 200)
             };
