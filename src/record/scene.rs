@@ -122,7 +122,7 @@ pub fn attention_layer(world: &World, map: &ViewMap, scale_max: f32) -> RgbaImag
 pub fn attention_rings(world: &World, map: &ViewMap, scale_max: f32) -> Vec<(Pos, Rgb)> {
     map_cells(world, map)
         .into_iter()
-        .filter(|(_, _, m)| *m == CellMark::Ring)
+        .filter(|(_, _, m)| matches!(m, CellMark::Ring | CellMark::Inset))
         .map(|(p, v, _)| (p, colorize(v, 0.0, scale_max)))
         .collect()
 }

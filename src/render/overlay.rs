@@ -14,9 +14,12 @@ use crate::env::{Pos, World, world_from_view};
 pub enum CellMark {
     /// Empty floor: the whole tile is blended with the map's colour.
     Tint,
-    /// An object, wall, door or the agent: only a ring at the tile's edge takes the map's
-    /// colour, the inside keeps its own colours.
+    /// An object, wall or the agent: only a ring at the tile's edge takes the map's colour,
+    /// the inside keeps its own colours.
     Ring,
+    /// A door: its colour is all in its frame (the tile's outer eighth), so the ring sits
+    /// just inside the frame, on the door's dark panel, and the door keeps its colour.
+    Inset,
 }
 
 /// Width in pixels of the ring drawn on occupied cells: an eighth of the tile, at least 1.
@@ -34,10 +37,10 @@ pub fn map_cells(world: &World, map: &ViewMap) -> Vec<(Pos, f32, CellMark)> {
             if !world.grid.contains(pos) {
                 continue;
             }
-            let mark = if world.grid.get(pos).is_none() && pos != world.agent_pos {
-                CellMark::Tint
-            } else {
-                CellMark::Ring
+            let mark = match world.grid.get(pos) {
+                None if pos != world.agent_pos => CellMark::Tint,
+                Some(o) if o.kind == crate::env::ObjectKind::Door => CellMark::Inset,
+                _ => CellMark::Ring,
             };
             out.push((pos, value, mark));
         }
@@ -76,6 +79,13 @@ fn on_edge(dx: u32, dy: u32, tile_size: u32, width: u32) -> bool {
     dx < width || dy < width || dx + width >= tile_size || dy + width >= tile_size
 }
 
+/// Whether offset `(dx, dy)` lies in the band `width` pixels wide just inside a tile's outer
+/// band of the same width (a door's frame).
+fn in_inset(dx: u32, dy: u32, tile_size: u32, width: u32) -> bool {
+    let inner = |d: u32| d >= width && d + width < tile_size;
+    inner(dx) && inner(dy) && on_edge(dx - width, dy - width, tile_size - 2 * width, width)
+}
+
 /// Draws a view map over a world render made with the same `tile_size`: empty floor cells
 /// are blended with the map's viridis colour on `lo..=hi` (weight `alpha`, clamped to
 /// `[0, 1]`); cells holding an object, wall or door, and the agent's own cell, get the
@@ -98,6 +108,9 @@ pub fn overlay_on_world(
             CellMark::Tint => paint_cell(world_img, pos, tile_size, color, alpha, |_, _| true),
             CellMark::Ring => paint_cell(world_img, pos, tile_size, color, 1.0, |dx, dy| {
                 on_edge(dx, dy, tile_size, ring)
+            }),
+            CellMark::Inset => paint_cell(world_img, pos, tile_size, color, 1.0, |dx, dy| {
+                in_inset(dx, dy, tile_size, ring)
             }),
         }
     }
@@ -160,6 +173,7 @@ mod tests {
                             assert_eq!(got.0, yellow, "{pos:?} ring");
                         }
                         CellMark::Ring => assert_eq!(was, got, "{pos:?} inside keeps its colours"),
+                        CellMark::Inset => {}
                     }
                 }
             }
@@ -182,6 +196,50 @@ mod tests {
             marks.contains(&((0, 3), CellMark::Ring)),
             "a wall is ringed"
         );
+    }
+
+    /// A closed door keeps its colour under the map: its frame (the tile's outer band, where
+    /// all its colour is) is left alone and the map's ring sits just inside it.
+    #[test]
+    fn a_door_keeps_its_frame_and_the_ring_sits_inside_it() {
+        let mut world = fixtures::world();
+        let door = (2, 3);
+        let mut d =
+            crate::env::WorldObj::new(crate::env::ObjectKind::Door, crate::env::Color::Red, 90);
+        d.state = crate::env::DoorState::Closed;
+        world.grid.set(door, Some(d));
+        let ts = 16;
+        let plain = render_world(&world, ts, false);
+        let mut img = plain.clone();
+        let map = [[1.0; VIEW_SIZE]; VIEW_SIZE];
+        overlay_on_world(&mut img, &world, &map, ts, 0.6, 0.0, 1.0);
+        let marks: Vec<_> = map_cells(&world, &map)
+            .into_iter()
+            .map(|(p, _, m)| (p, m))
+            .collect();
+        assert!(marks.contains(&(door, CellMark::Inset)), "{marks:?}");
+        let yellow = colorize(1.0, 0.0, 1.0);
+        let ring = ring_px(ts);
+        let (x0, y0) = px_in_image(door, ts);
+        let mut frame_red = 0;
+        for dy in 0..ts {
+            for dx in 0..ts {
+                let (was, got) = (
+                    plain.get_pixel(x0 + dx, y0 + dy),
+                    img.get_pixel(x0 + dx, y0 + dy),
+                );
+                if on_edge(dx, dy, ts, ring) {
+                    assert_eq!(was, got, "the frame at ({dx}, {dy}) is untouched");
+                    let [r, g, b] = got.0.map(i32::from);
+                    frame_red += usize::from(r > g + 60 && r > b + 60);
+                } else if in_inset(dx, dy, ts, ring) {
+                    assert_eq!(got.0, yellow, "the ring at ({dx}, {dy})");
+                } else {
+                    assert_eq!(was, got, "the inside at ({dx}, {dy})");
+                }
+            }
+        }
+        assert!(frame_red > 0, "the door's colour is in its frame");
     }
 
     #[test]
