@@ -30,7 +30,7 @@ use image::RgbImage;
 use serde_json::{Value, json};
 
 use super::scene::{
-    StepScene, action_names, block_starts, hit_color, scene_block, trail, with_scene_blocks,
+    StepScene, action_names, for_each_block, hit_color, trail, with_scene_blocks,
     world_with_overlay,
 };
 use super::{PendingFile, RecordError, StopFlag, io_err, stopped};
@@ -389,11 +389,9 @@ impl McapRecorder {
         alpha: f64,
         stop: Option<&StopFlag>,
     ) -> Result<(), RecordError> {
-        for first in block_starts(ep) {
-            let scenes = scene_block(ep, first, alpha);
-            self.push_block(ep, first, &scenes, stop)?;
-        }
-        Ok(())
+        for_each_block(ep, alpha, |first, scenes| {
+            self.push_block(ep, first, scenes, stop)
+        })
     }
 
     /// Writes steps `first..` of `ep` with their scenes ([`scene_block`]), blocks of an

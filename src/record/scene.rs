@@ -209,6 +209,19 @@ pub fn block_starts(trace: &EpisodeTrace) -> impl Iterator<Item = usize> {
     (0..trace.steps.len()).step_by(SCENE_BLOCK)
 }
 
+/// Calls `f(first step, scenes)` on each block of `trace` in order, computed here one at a
+/// time ([`scene_block`]); stops at the first error.
+pub fn for_each_block<E>(
+    trace: &EpisodeTrace,
+    alpha: f64,
+    mut f: impl FnMut(usize, &[StepScene]) -> Result<(), E>,
+) -> Result<(), E> {
+    for first in block_starts(trace) {
+        f(first, &scene_block(trace, first, alpha))?;
+    }
+    Ok(())
+}
+
 /// Calls `f(episode, first step, scenes)` on each block of each episode in order, computing
 /// the next block on a second thread meanwhile (two blocks held at most); stops at the first
 /// error.

@@ -258,11 +258,9 @@ impl RerunRecorder {
         alpha: f64,
         stop: Option<&StopFlag>,
     ) -> Result<(), RecordError> {
-        for first in super::scene::block_starts(ep) {
-            let scenes = super::scene::scene_block(ep, first, alpha);
-            self.push_block(ep, first, &scenes, stop)?;
-        }
-        Ok(())
+        super::scene::for_each_block(ep, alpha, |first, scenes| {
+            self.push_block(ep, first, scenes, stop)
+        })
     }
 
     /// Logs steps `first..` of `ep` with their scenes
