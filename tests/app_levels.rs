@@ -365,6 +365,10 @@ fn nine_word_missions_fit_their_maps_in_the_window() {
                     groundscope::app::Debugger::new(&opts, None),
                 );
             show_until(&mut h, "step 1 of ");
+            // Panels take their size from the frame before: let the layout settle.
+            for _ in 0..3 {
+                h.step();
+            }
             // A label's text is its node's value.
             let captions: Vec<_> = h.query_all_by_label_contains("w 0").collect();
             let maps = captions
@@ -396,6 +400,21 @@ fn nine_word_missions_fit_their_maps_in_the_window() {
             }
             let combined = h.get_by_label("combined M").rect();
             assert!(combined.height() < 25.0, "'combined M' on one line");
+            // The episode plot in view, whole, above the timeline; the maps above it, whole.
+            let plot = h.get_by_label("episode plot").rect();
+            let timeline = h.get_by_label("next grounding miss").rect();
+            assert!(
+                plot.height() >= 70.0 && plot.max.y <= timeline.min.y,
+                "{id} at {width}: plot {plot:?}, timeline at {}",
+                timeline.min.y
+            );
+            // Under its caption each map is at least 50 points on a side.
+            let lowest = captions.iter().map(|n| n.rect().max.y).fold(0.0, f32::max);
+            assert!(
+                lowest + 50.0 <= plot.min.y,
+                "{id} at {width}: captions end at {lowest}, the plot starts at {}",
+                plot.min.y
+            );
         }
     }
 }

@@ -11,7 +11,7 @@ use groundscope::env::tree::InstructionTree;
 use groundscope::env::{DoorState, Instr};
 use groundscope::episode::{ActionMode, EpisodeSpec, EpisodeTrace, run_episode};
 use groundscope::policy::{Checkpoint, ModelConfig, Params, TrainingState, Variant};
-use groundscope::record::scene::clause_marks;
+use groundscope::record::scene::{ClauseMark, clause_marks};
 use groundscope::record::{RerunTargets, SCENE_BLOCK, record_rerun, write_mcap};
 
 /// An episode of an untrained attention model of all of BabyAI's words on `id`, at the first
@@ -52,6 +52,18 @@ fn changed_trees(ep: &EpisodeTrace) -> Vec<InstructionTree> {
     out
 }
 
+/// The clause marks of each step, one entry each time they change.
+fn changed_marks(ep: &EpisodeTrace) -> Vec<Vec<ClauseMark>> {
+    let mut out: Vec<Vec<ClauseMark>> = Vec::new();
+    for s in &ep.steps {
+        let m = clause_marks(&InstructionTree::of(&s.world), &s.world);
+        if out.last() != Some(&m) {
+            out.push(m);
+        }
+    }
+    out
+}
+
 #[test]
 fn a_rerun_recording_carries_the_instruction_tree_and_the_clause_targets() {
     let ep = episode("BabyAI-GoToSeqS5R2-v0", |w| {
@@ -81,15 +93,32 @@ fn a_rerun_recording_carries_the_instruction_tree_and_the_clause_targets() {
         "the clause waited on in bold: {}",
         texts[0]
     );
-    // The clause targets: numbered by clause, one box per target on the grid.
-    let labels = &d.labels["/world/clauses"];
-    assert_eq!(labels.len(), trees.len());
-    let first: Vec<String> = clause_marks(&trees[0])
-        .into_iter()
-        .map(|m| m.label)
-        .collect();
+    // The clause targets: numbered by clause, one label per target cell on the grid, logged
+    // each time the marks change, written beside the target (not over it) where a cell is
+    // free.
+    let labels = &d.labels["/world/clauses/numbers"];
+    let marks = changed_marks(&ep);
+    assert_eq!(labels.len(), marks.len());
+    let first: Vec<String> = marks[0].iter().map(|m| m.label.clone()).collect();
     assert!(first.len() >= 2, "two clauses' targets: {first:?}");
-    for (row, tree) in labels.iter().zip(&trees) {
+    assert!(
+        marks[0].iter().any(|m| m.label_at != m.pos),
+        "{:?}",
+        marks[0]
+    );
+    assert_eq!(
+        rows(&d, "/world/clauses", "Boxes2D:half_sizes"),
+        marks.len()
+    );
+    for (row, m) in labels.iter().zip(&marks) {
+        let tree = InstructionTree::of(
+            &ep.steps[ep
+                .steps
+                .iter()
+                .position(|s| clause_marks(&InstructionTree::of(&s.world), &s.world) == *m)
+                .unwrap()]
+            .world,
+        );
         let n: usize = tree
             .clauses()
             .map(|c| c.targets.iter().filter(|t| t.pos.is_some()).count())

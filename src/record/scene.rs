@@ -46,6 +46,8 @@ pub struct StepScene {
     pub grounding: Vec<EvaluatedMap>,
     /// The instruction tree: stages, each clause's targets, doors.
     pub tree: InstructionTree,
+    /// The clause numbers on the world picture, each with the cell it is written in.
+    pub clauses: Vec<ClauseMark>,
 }
 
 impl StepScene {
@@ -58,13 +60,15 @@ impl StepScene {
             .attention
             .as_ref()
             .map(|att| attention_layer(&step.world, &att.combined, scale_max));
+        let tree = InstructionTree::of(&step.world);
         Self {
             world,
             view,
             overlay,
             scale_max,
             grounding: step_grounding(step, alpha),
-            tree: InstructionTree::of(&step.world),
+            clauses: clause_marks(&tree, &step.world),
+            tree,
         }
     }
 
@@ -370,12 +374,15 @@ pub struct ClauseMark {
     pub label: String,
     /// The stage whose colour it takes.
     pub stage: Stage,
+    /// The cell the numbers are written in: a free floor cell beside `pos`, so that they
+    /// cover no object, door or wall ([`label_cell`]); `pos` itself where none is free.
+    pub label_at: Pos,
 }
 
-/// The clause marks of a tree's targets on the grid, one per cell, in the order the targets
-/// come; none for a mission of one clause and one description, whose targets the magenta
-/// corners already mark.
-pub fn clause_marks(tree: &InstructionTree) -> Vec<ClauseMark> {
+/// The clause marks of a tree's targets on `world`'s grid, one per cell, in the order the
+/// targets come, each with the cell its numbers are written in ([`label_cell`]); none for a
+/// mission of one clause and one description, whose targets the magenta corners already mark.
+pub fn clause_marks(tree: &InstructionTree, world: &World) -> Vec<ClauseMark> {
     let mut out: Vec<ClauseMark> = Vec::new();
     if !tree.is_compound() {
         return out;
@@ -401,11 +408,30 @@ pub fn clause_marks(tree: &InstructionTree) -> Vec<ClauseMark> {
                     pos,
                     label,
                     stage: node.stage,
+                    label_at: pos,
                 }),
             }
         }
     }
+    let mut taken: Vec<Pos> = out.iter().map(|m| m.pos).collect();
+    for m in &mut out {
+        if let Some(at) = label_cell(world, m.pos, &taken) {
+            m.label_at = at;
+            taken.push(at);
+        }
+    }
     out
+}
+
+/// A cell beside `pos` to write its clause numbers in: empty floor (no object, door or wall,
+/// so the numbers cover nothing the picture shows but, at times, the agent), not in `taken`
+/// (the marked cells and the labels placed so far); below first, where Rerun writes a box's
+/// label, then above, left, right. `None` where no neighbour is free.
+pub fn label_cell(world: &World, pos: Pos, taken: &[Pos]) -> Option<Pos> {
+    [(0, 1), (0, -1), (-1, 0), (1, 0)]
+        .into_iter()
+        .map(|(dx, dy)| (pos.0 + dx, pos.1 + dy))
+        .find(|&p| world.grid.contains(p) && world.grid.get(p).is_none() && !taken.contains(&p))
 }
 
 /// `"forward 0.91"`: an action and its probability.
@@ -468,12 +494,13 @@ mod tests {
     #[test]
     fn a_cell_several_clauses_name_gets_one_mark_with_every_number() {
         // GoToSeq's "go to a door" and "go to the red door" can both match the red door.
-        let (tree, shared) = (0..200)
-            .map(|s| InstructionTree::of(&world("BabyAI-GoToSeqS5R2-v0", s)))
-            .find_map(|t| {
-                let m = clause_marks(&t);
+        let (tree, w, shared) = (0..200)
+            .map(|s| world("BabyAI-GoToSeqS5R2-v0", s))
+            .find_map(|w| {
+                let t = InstructionTree::of(&w);
+                let m = clause_marks(&t, &w);
                 let shared = m.into_iter().find(|m| m.label.contains(' '))?;
-                Some((t, shared))
+                Some((t, w, shared))
             })
             .expect("a cell two clauses name in 200 seeds");
         let names: Vec<Stage> = tree
@@ -485,13 +512,54 @@ mod tests {
         if names.contains(&Stage::Waiting) {
             assert_eq!(shared.stage, Stage::Waiting, "the most pressing stage");
         }
-        let cells: Vec<Pos> = clause_marks(&tree).iter().map(|m| m.pos).collect();
+        let cells: Vec<Pos> = clause_marks(&tree, &w).iter().map(|m| m.pos).collect();
         let mut unique = cells.clone();
         unique.sort_unstable();
         unique.dedup();
         assert_eq!(cells.len(), unique.len(), "one mark per cell");
         // One clause of one description: the magenta corners suffice.
-        assert!(clause_marks(&InstructionTree::of(&world("BabyAI-GoToLocal-v0", 0))).is_empty());
+        let one = world("BabyAI-GoToLocal-v0", 0);
+        assert!(clause_marks(&InstructionTree::of(&one), &one).is_empty());
+    }
+
+    /// Clause numbers do not cover objects: each is written in a free floor cell beside its
+    /// target, no two in one cell and none on a marked cell, wherever such a cell exists.
+    #[test]
+    fn clause_numbers_are_written_beside_their_targets_on_free_floor() {
+        let (mut marks, mut beside) = (0, 0);
+        for level in [
+            "BabyAI-GoToSeqS5R2-v0",
+            "BabyAI-BossLevel-v0",
+            "BabyAI-PutNextLocal-v0",
+        ] {
+            for seed in 0..60 {
+                let w = world(level, seed);
+                let all = clause_marks(&InstructionTree::of(&w), &w);
+                let mut used: Vec<Pos> = all.iter().map(|m| m.pos).collect();
+                for m in &all {
+                    marks += 1;
+                    if m.label_at == m.pos {
+                        // Only where every neighbour is occupied or already used.
+                        assert_eq!(label_cell(&w, m.pos, &used), None, "{level} {seed}");
+                        continue;
+                    }
+                    beside += 1;
+                    let (dx, dy) = (m.label_at.0 - m.pos.0, m.label_at.1 - m.pos.1);
+                    assert_eq!(dx.abs() + dy.abs(), 1, "{level} {seed}: next to its target");
+                    assert!(
+                        w.grid.get(m.label_at).is_none(),
+                        "{level} {seed}: covers an object"
+                    );
+                    assert!(!used.contains(&m.label_at), "{level} {seed}: shares a cell");
+                    used.push(m.label_at);
+                }
+            }
+        }
+        assert!(marks > 100, "{marks} marks");
+        assert!(
+            beside * 10 >= marks * 9,
+            "{beside} of {marks} beside their targets"
+        );
     }
 
     #[test]

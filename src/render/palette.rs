@@ -49,6 +49,13 @@ pub const GROUNDING_MISS: Rgb = [255, 0, 60];
 /// object colour nor on the viridis ramp of the overlay.
 pub const TARGET: Rgb = [255, 0, 255];
 
+/// The chosen action's bar and the selected word's, in the debugger and in Rerun: near white,
+/// so that orange means one thing — a grounding mark "only nearby" ([`GROUNDING_NEAR`]).
+pub const CHOSEN_BAR: Rgb = [235, 235, 235];
+
+/// Every other bar of the action and word-weight charts.
+pub const BAR: Rgb = [70, 130, 200];
+
 /// The dots marking the cells the agent has already stood on.
 pub const TRAIL: Rgb = [230, 230, 230];
 

@@ -59,6 +59,7 @@ impl Debugger {
         let height = height.min(ui.available_height() - 6.0).max(70.0);
         let width = ui.available_width().max(100.0);
         let (outer, resp) = ui.allocate_exact_size(Vec2::new(width, height), Sense::click());
+        resp.widget_info(|| egui::WidgetInfo::labeled(egui::Role::Image, true, "episode plot"));
         // The plot itself, inside margins for the axes' tick labels.
         let rect = Rect::from_min_max(
             outer.min + Vec2::new(AXIS_LEFT, 2.0),
@@ -207,8 +208,9 @@ mod tests {
         (15.0..=45.0).contains(&hue) && (max - min) / max > 0.5
     }
 
-    /// Orange means one thing: of the debugger's named colours only the grounding mark "only
-    /// nearby" is orange (the highlighted bars, the failure text and the word lines were too).
+    /// Orange means one thing: of the debugger's and the Rerun recording's named colours only
+    /// the grounding mark "only nearby" is orange (the highlighted bars, in both, the failure
+    /// text and the word lines were too).
     #[test]
     fn orange_means_one_thing() {
         use crate::render::palette;
@@ -228,6 +230,8 @@ mod tests {
             palette::TRAIL,
             palette::CLAUSE_DONE,
             palette::CLAUSE_LATER,
+            palette::CHOSEN_BAR,
+            palette::BAR,
         ];
         for c in ui.chain(marks) {
             assert!(!orange(c), "{c:?} is orange");

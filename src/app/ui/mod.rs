@@ -298,6 +298,16 @@ impl Debugger {
                 });
         }
         egui::CentralPanel::default().show(ui, |ui| {
+            // The episode plot has the column's foot to itself, so that a long mission's rows
+            // of numbers and maps scroll above it instead of pushing it out of the window.
+            if let Some(shown) = self.shown.clone()
+                && !shown.trace.steps.is_empty()
+            {
+                let height = (ui.available_height() * 0.12).clamp(90.0, 200.0);
+                egui::Panel::bottom("episode plot")
+                    .resizable(false)
+                    .show(ui, |ui| self.history_ui(ui, &shown, height));
+            }
             egui::ScrollArea::vertical().show(ui, |ui| self.centre_column(ui));
         });
         self.episodes_window(&ctx);
@@ -379,37 +389,6 @@ impl Debugger {
         let scene = &*scene;
         Self::policy_header(ui, step, &shown);
         Self::tree_panel(ui, &scene.tree);
-        ui.horizontal_top(|ui| {
-            ui.vertical(|ui| {
-                ui.set_width(330.0);
-                ui.label("action probabilities");
-                Self::policy_bars(ui, step);
-            });
-            ui.vertical(|ui| self.weights_panel(ui, step, scene));
-        });
-        ui.separator();
-        // The bot has neither maps nor a network to probe: its plan (above) is what it
-        // attends to.
-        let is_bot = self
-            .agent
-            .as_ref()
-            .is_some_and(|a| a.policy.acting().reads_world());
-        if is_bot {
-            ui.label(
-                "minigrid's bot acts from the world itself: no attention maps and no network to probe; its plan is shown above",
-            );
-            ui.separator();
-            let height = (ui.available_height() - 40.0).clamp(90.0, 220.0);
-            self.history_ui(ui, &shown, height);
-            return;
-        }
-        // A model without maps gets its occlusion saliency in their place, always.
-        let mapless = step.attention.is_none();
-        let faithful = self.show_faithfulness || mapless;
-        let agent = self.agent.clone().filter(|_| faithful);
-        if let Some(agent) = &agent {
-            self.faithfulness.update(agent, &shown, i, self.generation);
-        }
         // The maps shown: the words' (less those folded), M's and Δ's; and the clause numbers
         // of a sequence between them.
         let roles = crate::env::roles::word_roles(&step.world.instr);
@@ -423,6 +402,46 @@ impl Debugger {
         } else {
             words
         };
+        // The accuracy lines go under the shorter column, so the maps below start high.
+        let under_actions = shown_words > crate::record::scene::action_names().len();
+        ui.horizontal_top(|ui| {
+            ui.vertical(|ui| {
+                ui.set_width(330.0);
+                ui.label("action probabilities");
+                Self::policy_bars(ui, step);
+                if under_actions {
+                    ui.add_space(4.0);
+                    Self::accuracy_lines(ui, step, scene);
+                }
+            });
+            ui.vertical(|ui| {
+                self.weights_panel(ui, step);
+                if !under_actions {
+                    ui.add_space(4.0);
+                    Self::accuracy_lines(ui, step, scene);
+                }
+            });
+        });
+        ui.separator();
+        // The bot has neither maps nor a network to probe: its plan (above) is what it
+        // attends to.
+        let is_bot = self
+            .agent
+            .as_ref()
+            .is_some_and(|a| a.policy.acting().reads_world());
+        if is_bot {
+            ui.label(
+                "minigrid's bot acts from the world itself: no attention maps and no network to probe; its plan is shown above",
+            );
+            return;
+        }
+        // A model without maps gets its occlusion saliency in their place, always.
+        let mapless = step.attention.is_none();
+        let faithful = self.show_faithfulness || mapless;
+        let agent = self.agent.clone().filter(|_| faithful);
+        if let Some(agent) = &agent {
+            self.faithfulness.update(agent, &shown, i, self.generation);
+        }
         let clauses = if with_roles {
             roles
                 .iter()
@@ -483,9 +502,5 @@ impl Debugger {
                     .push(start_attention_probe(&agent, &shown, how, self.alpha));
             }
         }
-        ui.separator();
-        // What is left of the column shows the whole episode, so no half of it stays empty.
-        let height = (ui.available_height() - 40.0).clamp(90.0, 220.0);
-        self.history_ui(ui, &shown, height);
     }
 }

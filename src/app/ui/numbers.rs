@@ -5,12 +5,14 @@
 use eframe::egui;
 use egui::{Color32, Sense, Vec2};
 
+use super::tree::color32;
 use super::{Debugger, Overlay};
 use crate::app::maps::{MapLook, color_bar, heat_map};
 use crate::app::session::Shown;
 use crate::episode::StepRecord;
 use crate::record::StepScene;
 use crate::record::scene::{NEGLIGIBLE_WEIGHT, accuracy_rows, action_names};
+use crate::render::palette;
 
 /// The most maps in one row: more wrap to the next ([`Debugger::maps_row`]).
 pub(super) const MAPS_PER_ROW: usize = 9;
@@ -24,15 +26,22 @@ const WEIGHT_BARS_HEIGHT: f32 = 200.0;
 
 /// Side of one map in points, from the width there is for `panels` maps, a colour bar and
 /// `clauses` clause numbers, so that a row of them ends inside the panel (a 9-word mission's
-/// ten maps at 1280×900 included).
+/// ten maps at 1280×900 included), and from the height left in view under the cursor, so
+/// that a row of them ends above the episode plot.
 pub(super) fn map_side(ui: &egui::Ui, panels: usize, clauses: usize) -> f32 {
     let panels = panels.max(1) as f32;
     // Each map's column is a little wider than the map (its frame), then the colour bar with
     // its caption, and a number before each clause of a sequence.
     let per_map = ui.spacing().item_spacing.x + MAP_FRAME;
     let gaps = per_map * panels + COLOUR_BAR_WIDTH + CLAUSE_NUMBER_WIDTH * clauses as f32;
-    ((ui.available_width() - gaps) / panels).clamp(MIN_MAP_SIDE, 210.0)
+    let by_width = (ui.available_width() - gaps) / panels;
+    let by_height = ui.clip_rect().max.y - ui.cursor().min.y - ABOVE_MAPS;
+    by_width.min(by_height).clamp(MIN_MAP_SIDE, 210.0)
 }
+
+/// What stands between the cursor where [`map_side`] is asked and a map's top: the row of
+/// boxes (faithfulness, fold), a caption of two lines, and margins, in points.
+const ABOVE_MAPS: f32 = 90.0;
 
 /// What a map's column adds to its side (frame and margins), in points.
 const MAP_FRAME: f32 = 10.0;
@@ -190,7 +199,7 @@ impl Debugger {
 
     /// The word weights as named bars, and each kind of grounding accuracy or why it is not
     /// shown at this step.
-    pub(super) fn weights_panel(&self, ui: &mut egui::Ui, step: &StepRecord, scene: &StepScene) {
+    pub(super) fn weights_panel(&self, ui: &mut egui::Ui, step: &StepRecord) {
         let Some(att) = &step.attention else {
             return;
         };
@@ -221,13 +230,17 @@ impl Debugger {
         } else {
             bars(ui, &labels, &values, selected, None);
         }
-        ui.add_space(4.0);
+    }
+
+    /// The step's grounding accuracies, one line per evaluated map, each with its pointing
+    /// game and mass beside chance; a reason where a map is not scored.
+    pub(super) fn accuracy_lines(ui: &mut egui::Ui, step: &StepRecord, scene: &StepScene) {
         for (kind, row) in accuracy_rows(step, scene) {
             match row {
                 Ok(g) => {
                     let a = &g.accuracies;
                     ui.label(format!(
-                        "{}: {} related object(s) · acc {:.2} · ng {:.2} · bs {:.2} · cmb {:.2}",
+                        "{}: {} related · acc {:.2} · ng {:.2} · bs {:.2} · cmb {:.2}",
                         kind.name(),
                         g.hits.len(),
                         a.acc,
@@ -263,30 +276,36 @@ impl Debugger {
     pub(super) fn policy_header(ui: &mut egui::Ui, step: &StepRecord, shown: &Shown) {
         ui.label(egui::RichText::new(&step.world.mission).heading());
         ui.label(step_line(step.t, shown));
-        ui.label(format!(
-            "action {} · value {:.3} · reward {:.3}",
-            step.action.name(),
-            step.value,
-            step.reward
-        ));
-        Self::expert_line(ui, step);
+        // The action and the bot's on one line: a long mission needs the height below.
+        ui.horizontal_wrapped(|ui| {
+            ui.label(format!(
+                "action {} · value {:.3} · reward {:.3}",
+                step.action.name(),
+                step.value,
+                step.reward
+            ));
+            Self::expert_line(ui, step);
+        });
+        Self::plan_line(ui, step);
     }
 
-    /// What minigrid's bot would do here and its plan; a warning where the agent left it.
+    /// What minigrid's bot would do here; a warning where the agent left it.
     pub(super) fn expert_line(ui: &mut egui::Ui, step: &StepRecord) {
         match step.expert_action {
             Some(a) => {
-                ui.horizontal_wrapped(|ui| {
-                    ui.label(format!("expert (minigrid's bot): {}", a.name()));
-                    if a != step.action {
-                        ui.colored_label(EXPERT_LEFT, "· left the expert's plan here");
-                    }
-                });
+                ui.label(format!("expert (minigrid's bot): {}", a.name()));
+                if a != step.action {
+                    ui.colored_label(EXPERT_LEFT, "· left the expert's plan here");
+                }
             }
             None => {
                 ui.label("expert (minigrid's bot): none");
             }
         }
+    }
+
+    /// The bot's plan, its subgoals in order.
+    pub(super) fn plan_line(ui: &mut egui::Ui, step: &StepRecord) {
         // The debugger's font has no arrow: the plan's steps are joined by ">" here.
         let plan = step.expert_plan.replace('→', ">");
         ui.label(format!("plan: {plan}"));
@@ -338,10 +357,8 @@ pub(super) const EXPERT_LEFT: Color32 = Color32::from_rgb(230, 80, 80);
 /// A failure, in the timeline's "failed: …" and the episodes panel: red, as a miss is.
 pub(super) const FAILED: Color32 = Color32::from_rgb(230, 80, 80);
 
-/// The chosen action's bar and the selected word's: near white, so that orange means one
-/// thing in the debugger — a grounding mark "only nearby"
-/// ([`crate::render::palette::GROUNDING_NEAR`]).
-pub(super) const HIGHLIGHT: Color32 = Color32::from_rgb(235, 235, 235);
+/// The chosen action's bar and the selected word's ([`palette::CHOSEN_BAR`]).
+pub(super) const HIGHLIGHT: Color32 = color32(palette::CHOSEN_BAR);
 
 /// Horizontal bars with labels and values; `highlight` is drawn in another colour and
 /// `expert` (minigrid's bot's action) is marked "< expert".
@@ -364,7 +381,7 @@ fn bars(
             let color = if highlight == Some(i) {
                 HIGHLIGHT
             } else {
-                Color32::from_rgb(70, 130, 200)
+                color32(palette::BAR)
             };
             p.rect_filled(bar, 2.0, color);
             if expert == Some(i) {

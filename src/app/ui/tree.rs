@@ -8,10 +8,11 @@ use egui::{Color32, FontId, Painter, Rect, RichText, Stroke, StrokeKind};
 use super::Debugger;
 use crate::env::Pos;
 use crate::env::tree::{InstructionTree, Stage, doors_text, targets_text};
-use crate::record::scene::{clause_marks, stage_color};
+use crate::record::scene::{ClauseMark, stage_color};
 use crate::render::palette::Rgb;
 
-fn color32([r, g, b]: Rgb) -> Color32 {
+/// A palette colour as egui's.
+pub(super) const fn color32([r, g, b]: Rgb) -> Color32 {
     Color32::from_rgb(r, g, b)
 }
 
@@ -54,15 +55,15 @@ impl Debugger {
         }
     }
 
-    /// Frames every clause's targets on the world picture in its stage's colour with the
-    /// clause numbers ([`clause_marks`]), where the mission has more than one clause or
-    /// description.
+    /// Frames every clause's targets on the world picture in its stage's colour, with the
+    /// clause numbers written in a free cell beside each ([`ClauseMark::label_at`]), on the
+    /// side facing the target, where the mission has more than one clause or description.
     pub(super) fn paint_clause_marks(
         painter: &Painter,
-        tree: &InstructionTree,
+        marks: &[ClauseMark],
         cell_rect: impl Fn(Pos) -> Rect,
     ) {
-        for m in clause_marks(tree) {
+        for m in marks {
             let color = color32(stage_color(m.stage));
             let r = cell_rect(m.pos);
             painter.rect_stroke(
@@ -72,9 +73,16 @@ impl Debugger {
                 StrokeKind::Inside,
             );
             let font = FontId::proportional((r.height() * 0.5).clamp(12.0, 18.0));
-            let at = r.left_top() + egui::vec2(2.0, 1.0);
             // A dark backing keeps the numbers legible on any tile.
-            let galley = painter.layout_no_wrap(m.label, font, color);
+            let galley = painter.layout_no_wrap(m.label.clone(), font, color);
+            let at = if m.label_at == m.pos {
+                r.left_top() + egui::vec2(2.0, 1.0)
+            } else {
+                let (dx, dy) = (m.pos.0 - m.label_at.0, m.pos.1 - m.label_at.1);
+                let centre = cell_rect(m.label_at).center()
+                    + egui::vec2(dx as f32, dy as f32) * (r.width() * 0.25);
+                centre - galley.size() / 2.0
+            };
             painter.rect_filled(
                 Rect::from_min_size(at, galley.size()).expand(1.0),
                 2.0,

@@ -11,6 +11,14 @@ use crate::env::edit::Edit;
 use crate::env::view::view_from_world;
 use crate::record::scene::{trail, world_picture};
 
+/// The margin around the world picture, in [`BACKING`]: the outer walls, `MiniGrid`'s grey,
+/// stand out from it where the map does not tint them; on egui's dark panel they would not.
+const MARGIN: f32 = 3.0;
+
+/// The colour of [`MARGIN`]: black, the floor's colour, so the margin reads as the world's
+/// own edge.
+const BACKING: Color32 = Color32::BLACK;
+
 /// How many step pictures stay on the GPU: the steps around the cursor, in both episodes of
 /// compare mode, with every overlay of the last few.
 const TEXTURES_KEPT: usize = 64;
@@ -123,7 +131,10 @@ impl Debugger {
         let (gw, gh) = (step.world.grid.width(), step.world.grid.height());
         let cell = side / gw.max(gh) as f32;
         let size = Vec2::new(cell * gw as f32, cell * gh as f32);
-        let (rect, resp) = ui.allocate_exact_size(size, Sense::click());
+        let (outer, resp) =
+            ui.allocate_exact_size(size + Vec2::splat(2.0 * MARGIN), Sense::click());
+        ui.painter().rect_filled(outer, 0.0, BACKING);
+        let rect = outer.shrink(MARGIN);
         let painter = ui.painter_at(rect);
         painter.image(
             tex.id(),
@@ -143,7 +154,7 @@ impl Debugger {
             )
         };
         if let Some(scene) = shown.scene(step_i) {
-            Self::paint_clause_marks(&painter, &scene.tree, cell_rect);
+            Self::paint_clause_marks(&painter, &scene.clauses, cell_rect);
         }
         if let Some(sel) = self.selected_cell
             && !compared
@@ -155,7 +166,7 @@ impl Debugger {
                 StrokeKind::Inside,
             );
         }
-        if let Some(pos) = resp.hover_pos() {
+        if let Some(pos) = resp.hover_pos().filter(|p| rect.contains(*p)) {
             let p = (
                 ((pos.x - rect.min.x) / cell) as i32,
                 ((pos.y - rect.min.y) / cell) as i32,
@@ -179,5 +190,45 @@ impl Debugger {
                 self.selected_cell = Some(p);
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{BACKING, Color32};
+    use crate::env::Color;
+    use crate::render::palette;
+
+    /// WCAG 2's contrast ratio of two colours (1 to 21).
+    fn contrast(a: Color32, b: Color32) -> f32 {
+        let lum = |c: Color32| {
+            let lin = |v: u8| {
+                let v = f32::from(v) / 255.0;
+                if v <= 0.039_28 {
+                    v / 12.92
+                } else {
+                    ((v + 0.055) / 1.055).powf(2.4)
+                }
+            };
+            0.2126 * lin(c.r()) + 0.7152 * lin(c.g()) + 0.0722 * lin(c.b())
+        };
+        let (x, y) = (lum(a), lum(b));
+        (x.max(y) + 0.05) / (x.min(y) + 0.05)
+    }
+
+    /// Walls stay distinct from what surrounds the picture: an unlit wall (`MiniGrid`'s grey)
+    /// reaches WCAG's 3:1 for graphics against the margin, which it does not against egui's
+    /// dark panel.
+    #[test]
+    fn walls_stand_out_from_the_pictures_margin() {
+        let [r, g, b] = palette::object(Color::Grey);
+        let wall = Color32::from_rgb(r, g, b);
+        let panel = eframe::egui::Visuals::dark().panel_fill;
+        assert!(
+            contrast(wall, BACKING) >= 3.0,
+            "{}",
+            contrast(wall, BACKING)
+        );
+        assert!(contrast(wall, panel) < 3.0, "{}", contrast(wall, panel));
     }
 }

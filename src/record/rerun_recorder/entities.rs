@@ -254,11 +254,12 @@ fn log_world_marks(
             &rerun::TextDocument::from_markdown(tree.markdown()),
         )
         .map_err(sdk)?;
-        rec.log(
-            "world/clauses",
-            &marks::clause_targets(tree, TILE_PX as f32),
-        )
-        .map_err(sdk)?;
+    }
+    // Where the numbers are written moves when an object comes to stand in a label's cell.
+    if prev.is_none_or(|p| p.clauses != scene.clauses) {
+        let (frames, labels) = marks::clause_targets(&scene.clauses, TILE_PX as f32);
+        rec.log("world/clauses", &frames).map_err(sdk)?;
+        rec.log("world/clauses/numbers", &labels).map_err(sdk)?;
     }
     let mut path: Vec<Pos> = Vec::with_capacity(k + 1);
     for s in ep.steps.iter().take(k + 1) {

@@ -8,9 +8,8 @@ use rerun::RecordingStream;
 
 use super::{RecordError, sdk};
 use crate::env::object::ObjectKind;
-use crate::env::tree::InstructionTree;
 use crate::env::{Observation, Pos, VIEW_SIZE};
-use crate::record::scene::{clause_marks, stage_color};
+use crate::record::scene::{ClauseMark, stage_color};
 use crate::render::{decode_view_cell, palette};
 
 /// Length of a full bar (probability or weight 1) in the bars' 2-D space.
@@ -50,7 +49,7 @@ pub struct LabelledBars {
     pub labels: rerun::Points2D,
     /// The rows' full-length tracks.
     pub tracks: rerun::Boxes2D,
-    /// The bars (`highlight` in orange).
+    /// The bars (`highlight` in [`palette::CHOSEN_BAR`], the others [`palette::BAR`]).
     pub bars: rerun::LineStrips2D,
 }
 
@@ -89,9 +88,9 @@ pub fn labelled_bars(rows: &[(String, f32)], full: f32, highlight: Option<usize>
     let colors: Vec<[u8; 3]> = (0..rows.len())
         .map(|i| {
             if highlight == Some(i) {
-                [255, 150, 40]
+                palette::CHOSEN_BAR
             } else {
-                [70, 130, 200]
+                palette::BAR
             }
         })
         .collect();
@@ -202,14 +201,13 @@ pub fn targets(cells: &[Pos]) -> rerun::Boxes2D {
     .with_draw_order(25.0)
 }
 
-/// The clause marks ([`clause_marks`]), framed in their stage's colour (waited on: magenta;
-/// done: grey; later: blue) and labelled with their clause numbers (PutNext's second
-/// description primed: `1'`), in pixels of a world picture of `tile` pixels a cell: the viewer
-/// draws a box's label where the box would be without its entity's transform, so labelled
-/// boxes cannot use the cell units of [`WORLD_MARKS`].
-pub fn clause_targets(tree: &InstructionTree, tile: f32) -> rerun::Boxes2D {
-    let marks = clause_marks(tree);
-    rerun::Boxes2D::from_mins_and_sizes(
+/// The clause marks ([`ClauseMark`]), framed in their stage's colour (waited on: magenta;
+/// done: grey; later: blue), and their clause numbers (PutNext's second description primed:
+/// `1'`) written in the free cell beside each ([`ClauseMark::label_at`]), in pixels of a world
+/// picture of `tile` pixels a cell: the viewer draws a label where its anchor would be without
+/// its entity's transform, so labels cannot use the cell units of [`WORLD_MARKS`].
+pub fn clause_targets(marks: &[ClauseMark], tile: f32) -> (rerun::Boxes2D, rerun::Points2D) {
+    let frames = rerun::Boxes2D::from_mins_and_sizes(
         marks.iter().map(|m| {
             (
                 (m.pos.0 as f32 + 0.05) * tile,
@@ -218,11 +216,24 @@ pub fn clause_targets(tree: &InstructionTree, tile: f32) -> rerun::Boxes2D {
         }),
         vec![(0.9 * tile, 0.9 * tile); marks.len()],
     )
-    .with_labels(marks.iter().map(|m| m.label.clone()))
     .with_colors(marks.iter().map(|m| stage_color(m.stage)))
     .with_radii([0.03 * tile])
+    .with_draw_order(24.0);
+    // Rerun 0.36 writes a point's label centred below it: anchored at the top of the label's
+    // cell (at its middle where the numbers share their target's cell), the text lies inside.
+    let labels = rerun::Points2D::new(marks.iter().map(|m| {
+        let top = if m.label_at == m.pos { 0.5 } else { 0.0 };
+        (
+            (m.label_at.0 as f32 + 0.5) * tile,
+            (m.label_at.1 as f32 + top) * tile,
+        )
+    }))
+    .with_radii([0.0])
+    .with_labels(marks.iter().map(|m| m.label.clone()))
+    .with_colors(marks.iter().map(|m| stage_color(m.stage)))
     .with_show_labels(true)
-    .with_draw_order(24.0)
+    .with_draw_order(24.5);
+    (frames, labels)
 }
 
 /// The agent's path through the centres of the cells it stood on, up to `now`, in cell units.

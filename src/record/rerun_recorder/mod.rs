@@ -8,7 +8,8 @@
 //! | `world/attention/rings` | Boxes2D | `M`'s colour round occupied cells (their contents keep their colours) |
 //! | `world/marks/targets`, `world/marks/trail` | Boxes2D, LineStrips2D | `M`'s targets (the clauses waited on); the agent's path |
 //! | `world/legend` | TextDocument (static) | what the world's marks mean |
-//! | `world/clauses` | Boxes2D | every clause's targets, numbered, framed by stage (waited on, done, later) |
+//! | `world/clauses` | Boxes2D | every clause's targets, framed by stage (waited on, done, later) |
+//! | `world/clauses/numbers` | Points2D | their clause numbers, in a free cell beside each |
 //! | `mission/tree` | TextDocument | the instruction tree: stages, targets and cells, doors and their states |
 //! | `view/image` | Image | the agent's view, agent-up |
 //! | `attention/words/<i>_<word>` | DepthImage (7×7, viridis; grey when w ≈ 0) | word i's map |
