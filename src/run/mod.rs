@@ -3,13 +3,16 @@
 //! curve, and the clean-up after a new run that failed before its first checkpoint.
 //!
 //! Whoever starts runs (the `train` command, a study's runs, a Python `train`) turns its own
-//! inputs into a [`RunSpec`], opens the directory ([`RunDir::open`]), and steps the [`Run`];
+//! inputs into a [`RunSpec`] ([`Run::create`]) or a check of a run's own settings
+//! ([`Run::resume`]), and steps the [`Run`];
 //! what it shows of the progress is its own. The run names its fields in errors; a caller
 //! that took them from flags names the flags.
 //!
 //! ```text
-//! RunDir::open(dir, fresh) ── lock; a fresh run's files are removed if it fails unsaved
-//!   ├─ RunDir::load()           (resume: the newest checkpoint that loads)
+//! Run::create(path, RunSpec) ── RunDir::open(path, fresh) ── lock; a fresh run's files are
+//!                                                            removed if it fails unsaved
+//! Run::resume(path, frames, check) ── RunDir::open ── RunDir::load() (the newest checkpoint
+//!                                     that loads) ── check(RunInfo) → Tracking
 //!   └─ Run::start(RunDir, RunSpec) ── logs written / checked ── Run::update()* ── Run::finish()
 //! ```
 
@@ -93,13 +96,10 @@ impl RunDir {
         run_dir::load_latest(&self.path)
     }
 
-    /// Refuses to start a new run over the one the directory holds.
+    /// Refuses to start a new run over the one the directory holds ([`HeldRun`]).
     fn refuse_held(&self) -> anyhow::Result<()> {
         if run_dir::holds_run(&self.path) {
-            anyhow::bail!(
-                "{} already holds a run; resume it or choose another run directory",
-                self.path.display()
-            );
+            return Err(HeldRun(self.path.clone()).into());
         }
         Ok(())
     }
@@ -162,6 +162,12 @@ fn writable(dir: &Path) -> anyhow::Result<()> {
     drop(probe);
     Ok(())
 }
+
+/// A new run refused because its directory already holds one: a caller that can resume names
+/// how (`train` names `--resume`).
+#[derive(Debug, thiserror::Error)]
+#[error("{} already holds a run; resume it or choose another run directory", .0.display())]
+pub struct HeldRun(pub PathBuf);
 
 /// How a run begins.
 pub enum Start {
@@ -295,6 +301,41 @@ impl Run {
             started: Instant::now(),
             last: None,
         })
+    }
+
+    /// Opens the directory at `path` for a new or warm-started run and starts it ([`Start::New`]
+    /// or [`Start::Init`]): refused where the directory holds a run; what this process made
+    /// there is removed if the run fails before its first checkpoint.
+    pub fn create(path: &Path, spec: RunSpec) -> anyhow::Result<Self> {
+        Self::start(RunDir::open(path, true)?, spec)
+    }
+
+    /// Resumes the run at `path` from its newest checkpoint that loads, to `frames` in all.
+    /// Once the directory is locked and loaded, `check` sees what the run was started with —
+    /// to refuse settings of its caller's that contradict it — and returns the tracking to
+    /// go on with.
+    pub fn resume(
+        path: &Path,
+        frames: u64,
+        check: impl FnOnce(&RunInfo) -> anyhow::Result<Tracking>,
+    ) -> anyhow::Result<Self> {
+        let dir = RunDir::open(path, false)?;
+        let (trainer, info) = dir.load()?;
+        let tracking = check(&info)?;
+        let spec = RunSpec {
+            start: Start::Resume {
+                trainer: Box::new(trainer),
+                info: Box::new(info),
+            },
+            frames,
+            tracking,
+        };
+        Self::start(dir, spec)
+    }
+
+    /// The frames the run trains to, in all.
+    pub fn target_frames(&self) -> u64 {
+        self.frames
     }
 
     /// The trainer (weights, settings, counters).

@@ -5,6 +5,7 @@
 mod args;
 mod flags;
 
+use std::path::Path;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 
@@ -12,7 +13,8 @@ use anyhow::Context as _;
 use clap::ArgMatches;
 use groundscope::metrics::tracking::TrackedEval;
 use groundscope::policy::ModelConfig;
-use groundscope::run::{Run, RunDir, RunSpec, Start};
+use groundscope::policy::ppo::run_dir::{RunInfo, Tracking};
+use groundscope::run::{HeldRun, Run, RunSpec, Start};
 
 use crate::ExitStatus;
 use crate::cli::policy_cmd::parse_variant;
@@ -35,9 +37,12 @@ pub fn run(args: &TrainArgs, matches: Option<&ArgMatches>) -> anyhow::Result<Exi
             "--eval-episodes 0: must be at least 1 (--eval-interval 0 turns the tracked evaluation off)"
         );
     }
-    let spec = if args.resume {
-        // The run's own settings are read once its directory is locked.
-        None
+    let begin = if args.resume {
+        // The run's own settings are checked once its directory is locked and loaded.
+        Begin::Resume(|info: &RunInfo| {
+            flags::check_resume(args, matches, variant, info, &args.out)?;
+            Ok(flags::tracking(args, matches, info.tracking))
+        })
     } else {
         // Everything a new run can get wrong is refused before its directory is made.
         model.validate()?;
@@ -65,47 +70,43 @@ pub fn run(args: &TrainArgs, matches: Option<&ArgMatches>) -> anyhow::Result<Exi
                 seed: args.seed,
             },
         };
-        Some(RunSpec {
+        Begin::Create(RunSpec {
             start,
             frames: args.frames,
             tracking: flags::tracking(args, matches, None),
         })
     };
-    let dir = RunDir::open(&args.out, !args.resume)?;
-    if !args.resume && dir.holds_run() {
-        anyhow::bail!(
-            "{} already holds a run; pass --resume to continue it or choose another --out",
-            args.out.display()
-        );
-    }
-    let spec = if let Some(spec) = spec {
-        spec
-    } else {
-        if !dir.holds_run() {
-            // A run stopped before its first save leaves log rows and no checkpoint.
-            anyhow::bail!(
-                "--resume: {} holds no checkpoint to resume (a run stopped before its first save); start it again without --resume",
-                args.out.display()
-            );
-        }
-        let (trainer, info) = dir.load().context("--resume")?;
-        flags::check_resume(args, matches, variant, &info, &args.out)?;
-        let tracking = flags::tracking(args, matches, info.tracking);
-        RunSpec {
-            start: Start::Resume {
-                trainer: Box::new(trainer),
-                info: Box::new(info),
-            },
-            frames: args.frames,
-            tracking,
-        }
-    };
-    let run = Run::start(dir, spec).context(if args.resume { "--resume" } else { "--out" })?;
-    train(run, args)
+    train(begin, &args.out, args.frames, args.quiet)
 }
 
-/// Steps the run until its frames are trained or a signal asks it to stop, showing progress.
-fn train(mut run: Run, args: &TrainArgs) -> anyhow::Result<ExitStatus> {
+/// How `train` begins its run: a resume, with the check of its flags against the run's own
+/// settings, or a new or warm-started run.
+enum Begin<C> {
+    Resume(C),
+    Create(RunSpec),
+}
+
+/// Begins the run in `out` and steps it until `frames` are trained or a signal asks it to
+/// stop, showing progress (`quiet`: a line every ten updates and the tracked evaluations
+/// instead of a bar).
+fn train(
+    begin: Begin<impl FnOnce(&RunInfo) -> anyhow::Result<Tracking>>,
+    out: &Path,
+    frames: u64,
+    quiet: bool,
+) -> anyhow::Result<ExitStatus> {
+    let mut run = match begin {
+        Begin::Resume(check) => Run::resume(out, frames, check).context("--resume")?,
+        Begin::Create(spec) => {
+            Run::create(out, spec).map_err(|e| match e.downcast::<HeldRun>() {
+                Ok(HeldRun(dir)) => anyhow::anyhow!(
+                    "{} already holds a run; pass --resume to continue it or choose another --out",
+                    dir.display()
+                ),
+                Err(e) => e.context("--out"),
+            })?
+        }
+    };
     let stop = Arc::new(AtomicBool::new(false));
     {
         let stop = Arc::clone(&stop);
@@ -114,10 +115,10 @@ fn train(mut run: Run, args: &TrainArgs) -> anyhow::Result<ExitStatus> {
         // run twice; ignore that case.
         let _ = ctrlc::set_handler(move || stop.store(true, Ordering::SeqCst));
     }
-    let bar = if args.quiet {
+    let bar = if quiet {
         indicatif::ProgressBar::hidden()
     } else {
-        indicatif::ProgressBar::new(args.frames)
+        indicatif::ProgressBar::new(run.target_frames())
     };
     bar.set_style(
         indicatif::ProgressStyle::with_template("{bar:30} {pos}/{len} frames {msg} ETA {eta}")
@@ -141,7 +142,7 @@ fn train(mut run: Run, args: &TrainArgs) -> anyhow::Result<ExitStatus> {
             "{fps:.0} fps, success {:.2}, reward {:.3}",
             log.success_rate, log.mean_reward
         ));
-        if args.quiet && log.update % 10 == 0 {
+        if quiet && log.update % 10 == 0 {
             // The grounding term is shown only where it is trained.
             let ground = if run.trainer().ppo.ground_loss > 0.0 {
                 format!(" ground {:.3}", log.ground_loss)
@@ -153,7 +154,7 @@ fn train(mut run: Run, args: &TrainArgs) -> anyhow::Result<ExitStatus> {
                 log.update, log.frames, log.success_rate, log.mean_reward, log.entropy
             );
         }
-        if args.quiet {
+        if quiet {
             print_evals(&p.evals);
         }
     }
