@@ -70,11 +70,11 @@ pub fn run(args: &TrainArgs, matches: Option<&ArgMatches>) -> anyhow::Result<Exi
                 seed: args.seed,
             },
         };
-        Begin::Create(RunSpec {
+        Begin::Create(Box::new(RunSpec {
             start,
             frames: args.frames,
             tracking: flags::tracking(args, matches, None),
-        })
+        }))
     };
     train(begin, &args.out, args.frames, args.quiet)
 }
@@ -83,7 +83,7 @@ pub fn run(args: &TrainArgs, matches: Option<&ArgMatches>) -> anyhow::Result<Exi
 /// settings, or a new or warm-started run.
 enum Begin<C> {
     Resume(C),
-    Create(RunSpec),
+    Create(Box<RunSpec>),
 }
 
 /// Begins the run in `out` and steps it until `frames` are trained or a signal asks it to
@@ -98,7 +98,7 @@ fn train(
     let mut run = match begin {
         Begin::Resume(check) => Run::resume(out, frames, check).context("--resume")?,
         Begin::Create(spec) => {
-            Run::create(out, spec).map_err(|e| match e.downcast::<HeldRun>() {
+            Run::create(out, *spec).map_err(|e| match e.downcast::<HeldRun>() {
                 Ok(HeldRun(dir)) => anyhow::anyhow!(
                     "{} already holds a run; pass --resume to continue it or choose another --out",
                     dir.display()
