@@ -5,6 +5,7 @@ Rust, and evaluation and recording of any Python policy with groundscope's metri
     env = groundscope.make("BabyAI-GoToLocal-v0")          # a gymnasium.Env
     envs = groundscope.make_vec("BabyAI-GoToLocal-v0", 64)  # a gymnasium VectorEnv
     groundscope.evaluate(act, levels=["BabyAI-GoToLocal-v0"], out="run")
+    groundscope.train("runs/a", "BabyAI-GoToLocal-v0", frames=1_000_000, imitate=True)
 
 The envs are also registered with gymnasium as ``groundscope/BabyAI-…-v0``.
 """
@@ -29,6 +30,7 @@ __all__ = [
     "make",
     "make_vec",
     "record",
+    "train",
 ]
 
 NAMESPACE = "groundscope"
@@ -169,6 +171,46 @@ def record(
         raise ValueError(f"seed must be a non-negative int, got {seed!r}")
     return _core.record(
         act, _bare(level), seed, os.fspath(path), bool(sample), float(alpha), str(name), map_layout
+    )
+
+
+def train(
+    out: str | os.PathLike,
+    levels: str | list[str] | None = None,
+    frames: int = 100_000,
+    *,
+    resume: bool = False,
+    callback=None,
+    **settings,
+) -> dict:
+    """Trains a run in ``out`` as ``groundscope train --out`` does — the same run directory
+    (model, checkpoints, log.csv, eval_log.csv, curve), so that either resumes the other's.
+
+    A new run trains on ``levels`` (a BabyAI id, a paper level's id or a list of them, in equal
+    shares) to ``frames`` frames in all. Settings, each the command's default when left out:
+    ``model`` ("attention" or "baseline"), ``hidden``, ``lr``, ``procs``,
+    ``frames_per_proc``, ``batch_size``, ``imitate`` (clone minigrid's bot instead of PPO),
+    ``ground_loss``, ``seed``, ``init`` (a checkpoint, run directory or bundled name to start
+    from), and the tracking ones ``eval_interval``, ``eval_episodes``, ``save_interval``.
+
+    ``resume=True`` goes on from the run's last checkpoint with its own settings (giving one
+    is a ``ValueError``; the tracking ones may change). ``callback(log)`` gets each update's
+    log (a dict: update, frames, success_rate, mean_reward, entropy, losses, fps); returning
+    ``False`` stops the run, saved. Ctrl-C stops it after the update, saved. Bad input is a
+    ``ValueError`` raised before anything is written. Returns the last update's log with
+    ``checkpoint``, the run directory (what ``init``, ``groundscope eval --checkpoint`` and
+    ``view --checkpoint`` accept).
+    """
+    if isinstance(frames, bool) or not isinstance(frames, int) or frames < 0:
+        raise ValueError(f"frames must be a non-negative int, got {frames!r}")
+    if isinstance(levels, str):
+        levels = _bare(levels)
+    elif levels is not None:
+        levels = [_bare(level) for level in levels]
+    return dict(
+        _core.train(
+            os.fspath(out), levels, frames, resume=bool(resume), callback=callback, **settings
+        )
     )
 
 

@@ -1,6 +1,7 @@
 //! `groundscope._core`: the Rust side of the Python package. Environments seed-exact with
 //! minigrid 3.2.0 ([`env`], [`vec`]); a Python callable as a policy ([`policy`]) evaluated
-//! and recorded with the core's metrics and recorders ([`eval`]); the Python side (python/groundscope/) wraps them in
+//! and recorded with the core's metrics and recorders ([`eval`]); a training run, the core's
+//! [`groundscope::run::Run`] ([`train`]); the Python side (python/groundscope/) wraps them in
 //! gymnasium's `Env` and `VectorEnv` and registers them.
 #![allow(
     clippy::needless_pass_by_value,
@@ -10,6 +11,7 @@
 mod env;
 mod eval;
 mod policy;
+mod train;
 mod vec;
 
 use pyo3::prelude::*;
@@ -22,6 +24,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(env::level_ids, m)?)?;
     m.add_function(wrap_pyfunction!(eval::evaluate, m)?)?;
     m.add_function(wrap_pyfunction!(eval::record, m)?)?;
+    m.add_function(wrap_pyfunction!(train::train, m)?)?;
     m.add(
         "MINIGRID_VERSION",
         groundscope::env::snapshot::MINIGRID_VERSION,

@@ -1,0 +1,122 @@
+"""groundscope.train: the core's training run from Python — a new run, a resume, a warm
+start, a callback that stops it, and bad input refused before anything is written."""
+
+import csv
+import os
+import subprocess
+
+import pytest
+
+import groundscope
+from conftest import find_groundscope_bin
+
+# Small enough for a few seconds on 2 cores: 2 processes × 16 frames an update, batch 16.
+TINY = dict(procs=2, frames_per_proc=16, batch_size=16, hidden=16, eval_interval=0)
+LEVEL = "BabyAI-GoToObjS4-v0"
+
+
+def rows(path):
+    with open(path) as f:
+        return list(csv.DictReader(f))
+
+
+def test_a_new_run_trains_saves_and_resumes_where_it_stopped(tmp_path):
+    out = tmp_path / "run"
+    log = groundscope.train(out, LEVEL, frames=64, seed=3, **TINY)
+    assert log["frames"] == 64 and log["update"] == 2
+    assert 0.0 <= log["success_rate"] <= 1.0
+    assert os.path.isfile(os.path.join(log["checkpoint"], "model.safetensors"))
+    assert [int(r["frames"]) for r in rows(out / "log.csv")] == [32, 64]
+    # The run keeps its own settings on resume: it goes on from frame 64.
+    seen = []
+    log = groundscope.train(out, frames=128, resume=True, callback=seen.append)
+    assert [d["frames"] for d in seen] == [96, 128]
+    assert log["frames"] == 128
+    assert [int(r["frames"]) for r in rows(out / "log.csv")] == [32, 64, 96, 128]
+
+
+def test_resume_and_the_command_line_share_the_run(tmp_path):
+    out = tmp_path / "run"
+    groundscope.train(out, LEVEL, frames=32, seed=3, **TINY)
+    exe = find_groundscope_bin()
+    if exe is None:
+        pytest.fail("no groundscope binary: build it (cargo build --release) or set GROUNDSCOPE_BIN")
+    done = subprocess.run(
+        [exe, "train", "--out", str(out), "--resume", "--frames", "64", "--quiet"],
+        capture_output=True,
+        text=True,
+    )
+    assert done.returncode == 0, done.stderr
+    assert [int(r["frames"]) for r in rows(out / "log.csv")] == [32, 64]
+
+
+def test_a_callback_returning_false_stops_the_run_saved(tmp_path):
+    out = tmp_path / "run"
+    log = groundscope.train(out, LEVEL, frames=320, callback=lambda d: d["update"] < 3, **TINY)
+    assert log["update"] == 3 and log["frames"] == 96
+    # Saved where it stopped: a resume goes on from update 3.
+    log = groundscope.train(out, frames=128, resume=True)
+    assert log["update"] == 4
+
+
+def test_a_callback_that_raises_stops_saved_and_raises(tmp_path):
+    out = tmp_path / "run"
+
+    def boom(d):
+        if d["update"] == 2:
+            raise RuntimeError("stop here")
+
+    with pytest.raises(RuntimeError, match="stop here"):
+        groundscope.train(out, LEVEL, frames=320, **TINY, callback=boom)
+    assert [int(r["frames"]) for r in rows(out / "log.csv")] == [32, 64]
+    assert groundscope.train(out, frames=96, resume=True)["frames"] == 96
+
+
+def test_a_warm_start_from_a_bundled_checkpoint(tmp_path):
+    log = groundscope.train(
+        tmp_path / "child",
+        "BabyAI-GoToLocal-v0",
+        frames=7_370_752 + 32,
+        init="bundled:babyai",
+        imitate=True,
+        procs=2,
+        frames_per_proc=16,
+        batch_size=16,
+        eval_interval=0,
+    )
+    assert log["frames"] == 7_370_752 + 32
+
+
+@pytest.mark.parametrize(
+    "kwargs, what",
+    [
+        (dict(levels="BabyAI-NoSuchLevel-v0"), "NoSuchLevel"),
+        (dict(levels=LEVEL, model="transformer"), "transformer"),
+        (dict(levels=LEVEL, batch_size=7), "batch"),
+        (dict(levels=LEVEL, save_interval=0), "save_interval"),
+        (dict(levels=LEVEL, init="no/such/run"), "init"),
+        (dict(levels=LEVEL, init="bundled:babyai", hidden=16), "hidden"),
+        (dict(), "levels"),
+        (dict(levels=[]), "level"),
+    ],
+)
+def test_bad_input_is_a_value_error_and_writes_nothing(tmp_path, kwargs, what):
+    out = tmp_path / "run"
+    merged = {**dict(procs=2, frames_per_proc=16, batch_size=16, eval_interval=0), **kwargs}
+    with pytest.raises(ValueError, match=what):
+        groundscope.train(out, frames=32, **merged)
+    assert not out.exists()
+
+
+def test_a_held_directory_and_a_resume_with_settings_are_refused(tmp_path):
+    out = tmp_path / "run"
+    groundscope.train(out, LEVEL, frames=32, **TINY)
+    before = sorted(os.listdir(out))
+    with pytest.raises(ValueError, match="resume=True"):
+        groundscope.train(out, LEVEL, frames=64, **TINY)
+    with pytest.raises(ValueError, match="leave out lr"):
+        groundscope.train(out, frames=64, resume=True, lr=0.1)
+    with pytest.raises(ValueError, match="resume"):
+        groundscope.train(tmp_path / "empty", frames=64, resume=True)
+    assert sorted(os.listdir(out)) == before
+    assert [int(r["frames"]) for r in rows(out / "log.csv")] == [32]
