@@ -2,8 +2,9 @@
 """Merges the chunked held-out evaluations of run.sh into one table over the 96 BabyAI ids.
 
 Usage: collect.py OUT_DIR... > table.md   (each OUT_DIR an `eval --out` directory)
-Writes a markdown table (one row per level: success mean ± std over the seeds, per checkpoint)
-and a summary of the counts the issue names (levels >= 0.90, > 0, KeyCorridor family).
+Writes a markdown table (one row per level: success mean ± std over the seeds, per checkpoint),
+a summary of the counts the issue names (levels >= 0.90, > 0, KeyCorridor family), and each
+checkpoint's grounding per word class over the levels where the class is scored.
 """
 import csv
 import sys
@@ -46,5 +47,39 @@ def main(dirs):
         )
 
 
+CLASSES = ["object", "color", "door", "location", "combined"]
+
+
+def grounding(dirs):
+    """Per checkpoint and class, the mean over the levels where the class is scored of acc,
+    the pointing game and relevance mass, with a uniform map's pointing (chance) beside it."""
+    by = defaultdict(lambda: defaultdict(lambda: defaultdict(list)))
+    for d in dirs:
+        with open(f"{d}/accuracy.csv") as f:
+            for r in csv.DictReader(f):
+                if r["word"] not in CLASSES or not r["pointing_mean"]:
+                    continue
+                if int(r["evaluated_steps"] or 0) == 0:
+                    continue
+                for k in ["acc_mean", "pointing_mean", "mass_mean", "chance_pointing"]:
+                    by[r["checkpoint"]][r["word"]][k].append(float(r[k]))
+    print()
+    print("| checkpoint | " + " | ".join(f"{c}: acc / pointing (chance) / mass [levels]" for c in CLASSES) + " |")
+    print("|---|" + "---|" * len(CLASSES))
+    mean = lambda v: sum(v) / len(v) if v else float("nan")
+    for c in ORDER:
+        if c not in by:
+            continue
+        cells = []
+        for k in CLASSES:
+            f = by[c][k]
+            cells.append(
+                f"{mean(f['acc_mean']):.2f} / {mean(f['pointing_mean']):.2f} ({mean(f['chance_pointing']):.2f}) "
+                f"/ {mean(f['mass_mean']):.2f} [{len(f['acc_mean'])}]"
+            )
+        print(f"| {c} | " + " | ".join(cells) + " |")
+
+
 if __name__ == "__main__":
     main(sys.argv[1:])
+    grounding(sys.argv[1:])
