@@ -96,19 +96,7 @@ pub fn blend(base: &mut RgbImage, overlay: &RgbImage, alpha: f32) -> Result<(), 
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// Relative luminance of an sRGB colour (Rec. 709 weights on linear light).
-    fn luminance(c: Rgb) -> f64 {
-        let lin = |v: u8| {
-            let v = f64::from(v) / 255.0;
-            if v <= 0.040_45 {
-                v / 12.92
-            } else {
-                ((v + 0.055) / 1.055).powf(2.4)
-            }
-        };
-        0.2126 * lin(c[0]) + 0.7152 * lin(c[1]) + 0.0722 * lin(c[2])
-    }
+    use crate::render::palette::luminance;
 
     fn close(a: Rgb, b: Rgb, tol: u8) -> bool {
         a.iter().zip(b).all(|(x, y)| x.abs_diff(y) <= tol)

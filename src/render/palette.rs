@@ -71,6 +71,25 @@ pub const LOCKED_DOOR_SHADE: f64 = 0.45;
 /// Shade of a floor tile relative to its colour.
 pub const FLOOR_SHADE: f64 = 0.5;
 
+/// Relative luminance of an sRGB colour (Rec. 709 weights on linear light), 0 to 1.
+pub fn luminance(c: Rgb) -> f64 {
+    let lin = |v: u8| {
+        let v = f64::from(v) / 255.0;
+        if v <= 0.040_45 {
+            v / 12.92
+        } else {
+            ((v + 0.055) / 1.055).powf(2.4)
+        }
+    };
+    0.2126 * lin(c[0]) + 0.7152 * lin(c[1]) + 0.0722 * lin(c[2])
+}
+
+/// WCAG 2's contrast ratio of two colours, 1 to 21 (3 is its floor for graphics).
+pub fn contrast(a: Rgb, b: Rgb) -> f64 {
+    let (x, y) = (luminance(a), luminance(b));
+    (x.max(y) + 0.05) / (x.min(y) + 0.05)
+}
+
 /// `MiniGrid`'s RGB of an object colour (`COLORS`).
 #[inline]
 pub fn object(color: Color) -> Rgb {

@@ -88,10 +88,7 @@ impl RunDir {
     pub fn load(&self) -> anyhow::Result<(Trainer, RunInfo)> {
         if !run_dir::holds_run(&self.path) {
             // A run stopped before its first save leaves log rows and no checkpoint.
-            anyhow::bail!(
-                "{} holds no checkpoint to resume (a run stopped before its first save); start it again as a new run",
-                self.path.display()
-            );
+            return Err(NothingToResume(self.path.clone()).into());
         }
         run_dir::load_latest(&self.path)
     }
@@ -168,6 +165,15 @@ fn writable(dir: &Path) -> anyhow::Result<()> {
 #[derive(Debug, thiserror::Error)]
 #[error("{} already holds a run; resume it or choose another run directory", .0.display())]
 pub struct HeldRun(pub PathBuf);
+
+/// A resume refused because the directory holds no checkpoint (a run stopped before its
+/// first save): a caller names how to start it anew (`train`: without `--resume`).
+#[derive(Debug, thiserror::Error)]
+#[error(
+    "{} holds no checkpoint to resume (a run stopped before its first save); start it again as a new run",
+    .0.display()
+)]
+pub struct NothingToResume(pub PathBuf);
 
 /// How a run begins.
 pub enum Start {

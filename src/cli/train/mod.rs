@@ -14,7 +14,7 @@ use clap::ArgMatches;
 use groundscope::metrics::tracking::TrackedEval;
 use groundscope::policy::ModelConfig;
 use groundscope::policy::ppo::run_dir::{RunInfo, Tracking};
-use groundscope::run::{HeldRun, Run, RunSpec, Start};
+use groundscope::run::{HeldRun, NothingToResume, Run, RunSpec, Start};
 
 use crate::ExitStatus;
 use crate::cli::policy_cmd::parse_variant;
@@ -96,7 +96,15 @@ fn train(
     quiet: bool,
 ) -> anyhow::Result<ExitStatus> {
     let mut run = match begin {
-        Begin::Resume(check) => Run::resume(out, frames, check).context("--resume")?,
+        Begin::Resume(check) => Run::resume(out, frames, check).map_err(|e| {
+            match e.downcast::<NothingToResume>() {
+                Ok(NothingToResume(dir)) => anyhow::anyhow!(
+                    "--resume: {} holds no checkpoint to resume (a run stopped before its first save); start it again without --resume",
+                    dir.display()
+                ),
+                Err(e) => e.context("--resume"),
+            }
+        })?,
         Begin::Create(spec) => {
             Run::create(out, *spec).map_err(|e| match e.downcast::<HeldRun>() {
                 Ok(HeldRun(dir)) => anyhow::anyhow!(
