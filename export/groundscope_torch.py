@@ -111,6 +111,10 @@ def model_config(meta: dict) -> dict:
         # Issue #64's unattended layout path (src/policy/config/mod.rs, layout_path): not mirrored
         # here unless that recipe is chosen.
         raise ValueError("model.layout_path = true is not supported by this export")
+    if cfg.get("filter_norm"):
+        # Issue #64's rescaled filter (src/policy/config/mod.rs, filter_norm): not mirrored here
+        # unless that recipe is chosen.
+        raise ValueError("model.filter_norm = true is not supported by this export")
     if cfg["colour_codes"] not in ("all", "objects", "walls-objects"):
         raise ValueError(
             f"model.colour_codes = {cfg['colour_codes']!r} must be all, objects or walls-objects"

@@ -32,6 +32,7 @@ fn tiny(variant: Variant) -> ModelConfig {
         null_key: false,
         key_context: false,
         layout_path: false,
+        filter_norm: false,
         vocab_size: groundscope::env::vocab::VOCAB_SIZE,
         word_dim: 4,
         key_dim: 4,
@@ -139,8 +140,15 @@ fn gradients_reach_every_parameter_and_match_finite_differences() {
         search_query: true,
         ..tiny(Variant::Attention)
     };
+    // The filter rescaled to `Õ`'s norm (issue #64), with the layout path after it.
+    let filter_norm = ModelConfig {
+        filter_norm: true,
+        layout_path: true,
+        ..tiny(Variant::Attention)
+    };
     for cfg in [
         cell_values,
+        filter_norm,
         layout_path,
         key_context,
         null_key,
@@ -165,6 +173,7 @@ fn gradients_reach_every_parameter_and_match_finite_differences() {
             cfg.null_key,
             cfg.key_context,
             cfg.layout_path,
+            cfg.filter_norm,
         );
         let params = Params::init(&cfg, 3).unwrap();
         let net = Net::new(cfg, params.tracked()).unwrap();

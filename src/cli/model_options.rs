@@ -64,6 +64,12 @@ pub struct ModelOptions {
     /// parent is). Departs from the paper. Attention model only.
     #[arg(long)]
     pub layout_path: bool,
+    /// Keep the LSTM's input at the view's scale as M sharpens: the filter's features
+    /// rescaled per frame to the norm of the features they filter, F' = F·‖Õ‖/‖F‖ (a uniform
+    /// M changes nothing). No weights, so --init may add it. Departs from the paper.
+    /// Attention model without --search-query only.
+    #[arg(long)]
+    pub filter_norm: bool,
 }
 
 /// Parses `--key-kernel`: `shared` or a kernel side (checked by [`ModelConfig::validate`]).
@@ -95,13 +101,14 @@ impl ModelOptions {
             null_key: self.null_key,
             key_context: self.key_context,
             layout_path: self.layout_path,
+            filter_norm: self.filter_norm,
             ..cfg
         })
     }
 
     /// Each option as `(clap id, the value given, the value in cfg)`, for comparing a command
     /// line with a checkpoint.
-    pub fn against(&self, cfg: &ModelConfig) -> [(&'static str, String, String); 10] {
+    pub fn against(&self, cfg: &ModelConfig) -> [(&'static str, String, String); 11] {
         [
             (
                 "conv_kernel",
@@ -153,6 +160,11 @@ impl ModelOptions {
                 "layout_path",
                 self.layout_path.to_string(),
                 cfg.layout_path.to_string(),
+            ),
+            (
+                "filter_norm",
+                self.filter_norm.to_string(),
+                cfg.filter_norm.to_string(),
             ),
         ]
     }

@@ -47,6 +47,13 @@ impl Parent {
         Ok(())
     }
 
+    /// Sets the parent's [`crate::policy::ModelConfig::filter_norm`]: it has no weights, so
+    /// the run starts from the parent's with its filter's output rescaled (the same output
+    /// where the parent's maps are uniform).
+    pub fn add_filter_norm(&mut self) {
+        self.checkpoint.meta.model.filter_norm = true;
+    }
+
     /// Refuses `levels` whose missions use a word past the parent's vocabulary, naming one
     /// (found in the first [`WORD_CHECK_SEEDS`] missions of each level): such a run would
     /// otherwise fail at the first mission that uses it, updates later, and its resume at

@@ -72,7 +72,8 @@ pub(super) fn check_resume(
 
 /// `--init NAME`: the parent, refusing a checkpoint of the other model or a `--hidden` or
 /// model option (`--conv-kernel`, …) that differs from its own, except `--layout-path`, which
-/// grows a parent without one ([`Parent::grow_layout_path`]), and levels with words it lacks.
+/// grows a parent without one ([`Parent::grow_layout_path`]), and `--filter-norm`, which has no
+/// weights ([`Parent::add_filter_norm`]); and levels with words it lacks.
 pub(super) fn parent(
     name: &str,
     variant: groundscope::policy::Variant,
@@ -87,6 +88,10 @@ pub(super) fn parent(
         parent
             .grow_layout_path(args.seed)
             .with_context(|| format!("--init {name} --layout-path"))?;
+    }
+    if args.model_options.filter_norm {
+        // It has no weights: the parent's, with its filter's output rescaled.
+        parent.add_filter_norm();
     }
     let model = &parent.checkpoint.meta.model;
     if model.variant != variant {

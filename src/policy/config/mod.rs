@@ -263,6 +263,15 @@ pub struct ModelConfig {
     /// only; written only when set.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub layout_path: bool,
+    /// Keep the LSTM's input at the view's scale however sharp `M` is (issue #64): the
+    /// filter's features rescaled per frame to the norm of the features they filter,
+    /// `F' = F · ‖Õ‖ / ‖F‖` (norms over the 49·K entries). A uniform `M` leaves `F` as it was
+    /// (`F = Õ` at the default factor 49); a map on one cell no longer passes that cell's
+    /// features at up to 49 times the scale the LSTM read under flat maps. Attention without
+    /// the search query only; no weights, so `train --init` may add it. Written only when
+    /// set.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub filter_norm: bool,
     /// How many entries of groundscope's vocabulary the word embedding has rows for, padding
     /// included: [`PAPER_VOCAB_SIZE`] (the paper's 25 words; what a model trained on the paper's
     /// level has, and every checkpoint made before BabyAI's whole grammar was added) or
@@ -302,6 +311,7 @@ impl ModelConfig {
             null_key: false,
             key_context: false,
             layout_path: false,
+            filter_norm: false,
             vocab_size: PAPER_VOCAB_SIZE,
             word_dim: 32,
             key_dim: 32,
@@ -423,6 +433,12 @@ impl ModelConfig {
             return Err(super::PolicyError::Input(
                 "model setting layout_path is for the attention model only (the baseline's \
                  LSTM already reads the whole view)"
+                    .into(),
+            ));
+        }
+        if self.filter_norm && (!self.has_attention() || self.search_query) {
+            return Err(super::PolicyError::Input(
+                "model setting filter_norm is for the attention model without search_query only"
                     .into(),
             ));
         }

@@ -234,7 +234,7 @@ impl Net {
                     att.null.as_ref(),
                     intervention,
                 )?;
-                let f = out.f.reshape((b, n * k))?;
+                let f = self.normalised(out.f.reshape((b, n * k))?, o)?;
                 let (x, search) = if self.cfg.search_query {
                     let qs = search_query(att)?
                         .unsqueeze(0)?
@@ -271,6 +271,37 @@ impl Net {
     /// With [`ModelConfig::key_context`] `Q̂` is 2K wide and is not padded: the scores read
     /// both halves.
     pub fn visual_features(
+        &self,
+        o: &Tensor,
+        o_key: Option<&Tensor>,
+        keyed: Option<(&Tensor, &Tensor)>,
+    ) -> Result<Tensor, PolicyError> {
+        let x = self.filter_features(o, o_key, keyed)?;
+        if keyed.is_some() && self.cfg.has_attention() {
+            self.normalised(x, o)
+        } else {
+            Ok(x)
+        }
+    }
+
+    /// `F` per frame, (B, 49·K), rescaled to `Õ`'s norm, `F · ‖Õ‖ / ‖F‖`, with
+    /// [`ModelConfig::filter_norm`]; `F` itself otherwise. `o` is `Õ`, (B, 49, K).
+    fn normalised(&self, f: Tensor, o: &Tensor) -> Result<Tensor, PolicyError> {
+        // Keeps an all-zero view (every feature dead after the ReLU) at zero, not NaN.
+        const EPS: f64 = 1e-12;
+        if !self.cfg.filter_norm {
+            return Ok(f);
+        }
+        let b = f.dim(0)?;
+        let norm = |t: &Tensor| -> candle_core::Result<Tensor> {
+            (t.sqr()?.sum_keepdim(1)? + EPS)?.sqrt()
+        };
+        let ratio = (norm(&o.reshape((b, ()))?)? / norm(&f)?)?;
+        Ok(f.broadcast_mul(&ratio)?)
+    }
+
+    /// [`Self::visual_features`] before [`Self::normalised`].
+    fn filter_features(
         &self,
         o: &Tensor,
         o_key: Option<&Tensor>,
