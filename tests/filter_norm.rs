@@ -177,20 +177,12 @@ fn the_option_is_named_kept_and_refused_like_the_others() {
     let meta = |dir: &std::path::Path| -> serde_json::Value {
         serde_json::from_str(&std::fs::read_to_string(dir.join("model.json")).unwrap()).unwrap()
     };
-    // The baseline has no filter; the search query's second filter is not rescaled.
+    // The baseline has no filter.
     let baseline: Vec<&str> = common::small_run(run_s, "64", &["--filter-norm"])
         .into_iter()
         .map(|a| if a == "attention" { "baseline" } else { a })
         .collect();
     assert_bad_input(&gs(&baseline), "filter_norm");
-    assert_bad_input(
-        &gs(&common::small_run(
-            run_s,
-            "64",
-            &["--filter-norm", "--search-query"],
-        )),
-        "filter_norm",
-    );
     assert!(!run.exists(), "a refused run leaves nothing");
     let train = |args: Vec<&str>| {
         let o = gs(&args);
@@ -222,4 +214,64 @@ fn the_option_is_named_kept_and_refused_like_the_others() {
         &["--init", run_s],
     ));
     assert_eq!(meta(&child)["model"]["filter_norm"], true);
+    // A warm start may grow the search query beside it.
+    let search = dir.path().join("search");
+    train(common::small_run(
+        search.to_str().unwrap(),
+        "256",
+        &["--init", plain_s, "--search-query", "--filter-norm"],
+    ));
+    assert_eq!(meta(&search)["model"]["search_query"], true);
+    assert_eq!(meta(&search)["model"]["filter_norm"], true);
+}
+
+#[test]
+fn a_parent_grown_with_the_search_query_acts_exactly_as_before() {
+    let parent = groundscope::policy::bundled::load("bundled:babyai").unwrap();
+    let cfg = parent.meta.model;
+    let (lp_cfg, lp) = parent.params.with_layout_path(&cfg, 3).unwrap();
+    let (grown_cfg, grown) = lp.with_search_query(&lp_cfg, 4).unwrap();
+    assert!(grown_cfg.search_query && grown_cfg.layout_path);
+    assert_eq!(
+        grown.count(),
+        lp.count() + cfg.key_dim + 4 * cfg.lstm_hidden * 49 * cfg.conv_channels
+    );
+    let (obs, tokens) = first_views(&babyai("BabyAI-UnlockLocal-v0"), 8);
+    let missions: Vec<&[u32]> = tokens.iter().map(Vec::as_slice).collect();
+    let tb = TokenBatch::new(&missions).unwrap();
+    let codes = CellCodes::new(&obs);
+    let mem = Memory::zeros(obs.len(), cfg.lstm_hidden).unwrap();
+    let out = |cfg: ModelConfig, p: &Params| -> (Vec<f32>, Tensor) {
+        let net = Net::new(cfg, p.detached()).unwrap();
+        let (logits, _, _, vis) = net
+            .step(&codes, &net.mission_inputs(&tb).unwrap(), &mem)
+            .unwrap();
+        (logits.flatten_all().unwrap().to_vec1().unwrap(), vis.x)
+    };
+    let before = out(lp_cfg, &lp).0;
+    let after = out(grown_cfg, &grown).0;
+    for (a, b) in before.iter().zip(&after) {
+        assert!((a - b).abs() < 1e-5, "{a} vs {b}");
+    }
+    // With the option, each of the two filtered copies keeps the view's norm.
+    let normed = ModelConfig {
+        filter_norm: true,
+        ..grown_cfg
+    };
+    let x = out(normed, &grown).1;
+    let filter = 49 * cfg.conv_channels;
+    let o = Net::new(normed, grown.detached())
+        .unwrap()
+        .cells(&codes)
+        .unwrap();
+    let o_norms = row_norms(&o);
+    for start in [0, filter] {
+        let part = x.narrow(1, start, filter).unwrap();
+        for (got, want) in row_norms(&part).iter().zip(&o_norms) {
+            assert!(
+                (got - want).abs() <= 1e-3 * want.max(1.0),
+                "{got} vs {want}"
+            );
+        }
+    }
 }

@@ -140,9 +140,10 @@ fn gradients_reach_every_parameter_and_match_finite_differences() {
         search_query: true,
         ..tiny(Variant::Attention)
     };
-    // The filter rescaled to `Õ`'s norm (issue #64), with the layout path after it.
+    // The filter rescaled to `Õ`'s norm (issue #64), the search's copy too, the layout after.
     let filter_norm = ModelConfig {
         filter_norm: true,
+        search_query: true,
         layout_path: true,
         ..tiny(Variant::Attention)
     };

@@ -209,12 +209,46 @@ impl Params {
             layout_path: true,
             ..*cfg
         };
+        // The layout's columns come last.
+        self.grown(cfg, grown, "layout.", cfg.lstm_input_size(), seed)
+    }
+
+    /// [`Self::with_layout_path`] for the [`ModelConfig::search_query`]: the search query
+    /// drawn from `seed`, and zero columns of the LSTM's input weights for the search's
+    /// filtered features, which follow `F`'s (before a layout path's), so the grown network
+    /// acts exactly as the parent until training moves them.
+    pub fn with_search_query(
+        &self,
+        cfg: &ModelConfig,
+        seed: u64,
+    ) -> Result<(ModelConfig, Self), PolicyError> {
+        if cfg.search_query {
+            return Ok((*cfg, self.clone()));
+        }
+        let grown = ModelConfig {
+            search_query: true,
+            ..*cfg
+        };
+        let filter = 49 * cfg.conv_channels;
+        self.grown(cfg, grown, "attention.search.", filter, seed)
+    }
+
+    /// `self` grown from `cfg` into `grown`: the parameters whose names start with `prefix`
+    /// drawn from `seed`, and `grown`'s new LSTM input columns inserted as zeros at `at`.
+    fn grown(
+        &self,
+        cfg: &ModelConfig,
+        grown: ModelConfig,
+        prefix: &str,
+        at: usize,
+        seed: u64,
+    ) -> Result<(ModelConfig, Self), PolicyError> {
         grown.validate()?;
         let mut rng = Pcg64Mcg::seed_from_u64(seed);
         let mut vars = self.vars.clone();
         for s in param_specs(&grown)
             .into_iter()
-            .filter(|s| s.name.starts_with("layout."))
+            .filter(|s| s.name.starts_with(prefix))
         {
             let t = Tensor::from_vec(draw(&s, &mut rng), s.shape.as_slice(), &Device::Cpu)?;
             vars.insert(s.name, Var::from_tensor(&t)?);
@@ -224,10 +258,17 @@ impl Params {
             .get(LSTM_W_IH)
             .ok_or_else(|| PolicyError::Input(format!("missing parameter {LSTM_W_IH}")))?
             .as_tensor();
-        let rows = w_ih.dim(0)?;
+        let (rows, cols) = w_ih.dims2()?;
         let extra = grown.lstm_input_size() - cfg.lstm_input_size();
         let zeros = Tensor::zeros((rows, extra), DType::F32, &Device::Cpu)?;
-        let wide = Tensor::cat(&[w_ih, &zeros], 1)?;
+        let wide = Tensor::cat(
+            &[
+                &w_ih.narrow(1, 0, at)?,
+                &zeros,
+                &w_ih.narrow(1, at, cols - at)?,
+            ],
+            1,
+        )?;
         vars.insert(LSTM_W_IH.to_owned(), Var::from_tensor(&wide)?);
         Ok((grown, Self { vars }))
     }

@@ -47,11 +47,28 @@ impl Parent {
         Ok(())
     }
 
+    /// [`Self::grow_layout_path`] for the [`crate::policy::ModelConfig::search_query`]
+    /// ([`crate::policy::Params::with_search_query`]): the run starts with the parent's
+    /// behaviour.
+    pub fn grow_search_query(&mut self, seed: u64) -> anyhow::Result<()> {
+        let ckpt = &mut self.checkpoint;
+        let (model, params) = ckpt.params.with_search_query(&ckpt.meta.model, seed)?;
+        ckpt.meta.model = model;
+        ckpt.params = params;
+        Ok(())
+    }
+
     /// Sets the parent's [`crate::policy::ModelConfig::filter_norm`]: it has no weights, so
     /// the run starts from the parent's with its filter's output rescaled (the same output
     /// where the parent's maps are uniform).
-    pub fn add_filter_norm(&mut self) {
-        self.checkpoint.meta.model.filter_norm = true;
+    pub fn add_filter_norm(&mut self) -> anyhow::Result<()> {
+        let model = crate::policy::ModelConfig {
+            filter_norm: true,
+            ..self.checkpoint.meta.model
+        };
+        model.validate()?;
+        self.checkpoint.meta.model = model;
+        Ok(())
     }
 
     /// Refuses `levels` whose missions use a word past the parent's vocabulary, naming one

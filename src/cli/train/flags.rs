@@ -71,9 +71,10 @@ pub(super) fn check_resume(
 }
 
 /// `--init NAME`: the parent, refusing a checkpoint of the other model or a `--hidden` or
-/// model option (`--conv-kernel`, …) that differs from its own, except `--layout-path`, which
-/// grows a parent without one ([`Parent::grow_layout_path`]), and `--filter-norm`, which has no
-/// weights ([`Parent::add_filter_norm`]); and levels with words it lacks.
+/// model option (`--conv-kernel`, …) that differs from its own, except `--layout-path` and
+/// `--search-query`, which grow a parent without them ([`Parent::grow_layout_path`],
+/// [`Parent::grow_search_query`]), and `--filter-norm`, which has no weights
+/// ([`Parent::add_filter_norm`]); and levels with words it lacks.
 pub(super) fn parent(
     name: &str,
     variant: groundscope::policy::Variant,
@@ -89,9 +90,17 @@ pub(super) fn parent(
             .grow_layout_path(args.seed)
             .with_context(|| format!("--init {name} --layout-path"))?;
     }
+    if args.model_options.search_query {
+        // Grown as the layout path is: zero columns, the parent's behaviour at the start.
+        parent
+            .grow_search_query(args.seed.wrapping_add(1))
+            .with_context(|| format!("--init {name} --search-query"))?;
+    }
     if args.model_options.filter_norm {
         // It has no weights: the parent's, with its filter's output rescaled.
-        parent.add_filter_norm();
+        parent
+            .add_filter_norm()
+            .with_context(|| format!("--init {name} --filter-norm"))?;
     }
     let model = &parent.checkpoint.meta.model;
     if model.variant != variant {

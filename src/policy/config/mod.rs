@@ -267,9 +267,9 @@ pub struct ModelConfig {
     /// filter's features rescaled per frame to the norm of the features they filter,
     /// `F' = F · ‖Õ‖ / ‖F‖` (norms over the 49·K entries). A uniform `M` leaves `F` as it was
     /// (`F = Õ` at the default factor 49); a map on one cell no longer passes that cell's
-    /// features at up to 49 times the scale the LSTM read under flat maps. Attention without
-    /// the search query only; no weights, so `train --init` may add it. Written only when
-    /// set.
+    /// features at up to 49 times the scale the LSTM read under flat maps. With the search
+    /// query its filtered copy is rescaled the same way, on its own. Attention only; no
+    /// weights, so `train --init` may add it. Written only when set.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub filter_norm: bool,
     /// How many entries of groundscope's vocabulary the word embedding has rows for, padding
@@ -436,9 +436,10 @@ impl ModelConfig {
                     .into(),
             ));
         }
-        if self.filter_norm && (!self.has_attention() || self.search_query) {
+        if self.filter_norm && !self.has_attention() {
             return Err(super::PolicyError::Input(
-                "model setting filter_norm is for the attention model without search_query only"
+                "model setting filter_norm is for the attention model only (the baseline has no \
+                 filter)"
                     .into(),
             ));
         }

@@ -242,7 +242,8 @@ impl Net {
                         .contiguous()?;
                     let s_map = super::attention::attention_maps(&qs, &kc)?.squeeze(1)?;
                     let fs = super::attention::filter_features(o, &s_map, self.cfg.filter_scale)?;
-                    (Tensor::cat(&[f, fs.reshape((b, n * k))?], 1)?, Some(s_map))
+                    let fs = self.normalised(fs.reshape((b, n * k))?, o)?;
+                    (Tensor::cat(&[f, fs], 1)?, Some(s_map))
                 } else {
                     (f, None)
                 };
@@ -277,11 +278,19 @@ impl Net {
         keyed: Option<(&Tensor, &Tensor)>,
     ) -> Result<Tensor, PolicyError> {
         let x = self.filter_features(o, o_key, keyed)?;
-        if keyed.is_some() && self.cfg.has_attention() {
-            self.normalised(x, o)
-        } else {
-            Ok(x)
+        if keyed.is_none() || !self.cfg.has_attention() || !self.cfg.filter_norm {
+            return Ok(x);
         }
+        if !self.cfg.search_query {
+            return self.normalised(x, o);
+        }
+        // `[F | F_S]`: each copy rescaled on its own.
+        let half = x.dim(1)? / 2;
+        let (f, fs) = (x.narrow(1, 0, half)?, x.narrow(1, half, half)?);
+        Ok(Tensor::cat(
+            &[self.normalised(f, o)?, self.normalised(fs, o)?],
+            1,
+        )?)
     }
 
     /// `F` per frame, (B, 49·K), rescaled to `Õ`'s norm, `F · ‖Õ‖ / ‖F‖`, with
