@@ -66,8 +66,8 @@ pub struct ModelOptions {
     pub layout_path: bool,
     /// Keep the LSTM's input at the view's scale as M sharpens: the filter's features
     /// rescaled per frame to the norm of the features they filter, F' = F·‖Õ‖/‖F‖ (a uniform
-    /// M changes nothing). No weights, so --init may add it. Departs from the paper.
-    /// Attention model without --search-query only.
+    /// M changes nothing; with --search-query each filtered copy on its own). No weights, so
+    /// --init may add it. Departs from the paper. Attention model only.
     #[arg(long)]
     pub filter_norm: bool,
 }

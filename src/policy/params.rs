@@ -229,8 +229,13 @@ impl Params {
             search_query: true,
             ..*cfg
         };
-        let filter = 49 * cfg.conv_channels;
-        self.grown(cfg, grown, "attention.search.", filter, seed)
+        self.grown(
+            cfg,
+            grown,
+            "attention.search.",
+            cfg.filter_input_size(),
+            seed,
+        )
     }
 
     /// `self` grown from `cfg` into `grown`: the parameters whose names start with `prefix`

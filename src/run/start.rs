@@ -40,19 +40,29 @@ impl Parent {
     /// new weights drawn from `seed` and its LSTM's new columns zero, so the run starts with
     /// the parent's behaviour ([`crate::policy::Params::with_layout_path`]).
     pub fn grow_layout_path(&mut self, seed: u64) -> anyhow::Result<()> {
-        let ckpt = &mut self.checkpoint;
-        let (model, params) = ckpt.params.with_layout_path(&ckpt.meta.model, seed)?;
-        ckpt.meta.model = model;
-        ckpt.params = params;
-        Ok(())
+        self.grow(|p, cfg| p.with_layout_path(cfg, seed))
     }
 
     /// [`Self::grow_layout_path`] for the [`crate::policy::ModelConfig::search_query`]
     /// ([`crate::policy::Params::with_search_query`]): the run starts with the parent's
     /// behaviour.
     pub fn grow_search_query(&mut self, seed: u64) -> anyhow::Result<()> {
+        self.grow(|p, cfg| p.with_search_query(cfg, seed))
+    }
+
+    /// Replaces the parent's config and weights by what `grow` makes of them.
+    fn grow(
+        &mut self,
+        grow: impl FnOnce(
+            &crate::policy::Params,
+            &crate::policy::ModelConfig,
+        ) -> Result<
+            (crate::policy::ModelConfig, crate::policy::Params),
+            crate::policy::PolicyError,
+        >,
+    ) -> anyhow::Result<()> {
         let ckpt = &mut self.checkpoint;
-        let (model, params) = ckpt.params.with_search_query(&ckpt.meta.model, seed)?;
+        let (model, params) = grow(&ckpt.params, &ckpt.meta.model)?;
         ckpt.meta.model = model;
         ckpt.params = params;
         Ok(())

@@ -234,7 +234,7 @@ impl Net {
                     att.null.as_ref(),
                     intervention,
                 )?;
-                let f = self.normalised(out.f.reshape((b, n * k))?, o)?;
+                let f = out.f.reshape((b, n * k))?;
                 let (x, search) = if self.cfg.search_query {
                     let qs = search_query(att)?
                         .unsqueeze(0)?
@@ -242,13 +242,12 @@ impl Net {
                         .contiguous()?;
                     let s_map = super::attention::attention_maps(&qs, &kc)?.squeeze(1)?;
                     let fs = super::attention::filter_features(o, &s_map, self.cfg.filter_scale)?;
-                    let fs = self.normalised(fs.reshape((b, n * k))?, o)?;
-                    (Tensor::cat(&[f, fs], 1)?, Some(s_map))
+                    (Tensor::cat(&[f, fs.reshape((b, n * k))?], 1)?, Some(s_map))
                 } else {
                     (f, None)
                 };
                 Ok(Visual {
-                    x,
+                    x: self.normalised(x, o)?,
                     attention: Some(out),
                     search,
                 })
@@ -278,35 +277,34 @@ impl Net {
         keyed: Option<(&Tensor, &Tensor)>,
     ) -> Result<Tensor, PolicyError> {
         let x = self.filter_features(o, o_key, keyed)?;
-        if keyed.is_none() || !self.cfg.has_attention() || !self.cfg.filter_norm {
-            return Ok(x);
+        match keyed {
+            Some(_) if self.cfg.has_attention() => self.normalised(x, o),
+            _ => Ok(x),
         }
-        if !self.cfg.search_query {
-            return self.normalised(x, o);
-        }
-        // `[F | F_S]`: each copy rescaled on its own.
-        let half = x.dim(1)? / 2;
-        let (f, fs) = (x.narrow(1, 0, half)?, x.narrow(1, half, half)?);
-        Ok(Tensor::cat(
-            &[self.normalised(f, o)?, self.normalised(fs, o)?],
-            1,
-        )?)
     }
 
-    /// `F` per frame, (B, 49·K), rescaled to `Õ`'s norm, `F · ‖Õ‖ / ‖F‖`, with
-    /// [`ModelConfig::filter_norm`]; `F` itself otherwise. `o` is `Õ`, (B, 49, K).
-    fn normalised(&self, f: Tensor, o: &Tensor) -> Result<Tensor, PolicyError> {
+    /// The filter's output per frame, (B, [`ModelConfig::filter_input_size`]), each 49·K copy
+    /// (`F`, and `F_S` with the search query) rescaled to `Õ`'s norm, `F · ‖Õ‖ / ‖F‖`, with
+    /// [`ModelConfig::filter_norm`]; `x` itself otherwise. `o` is `Õ`, (B, 49, K).
+    fn normalised(&self, x: Tensor, o: &Tensor) -> Result<Tensor, PolicyError> {
         // Keeps an all-zero view (every feature dead after the ReLU) at zero, not NaN.
         const EPS: f64 = 1e-12;
         if !self.cfg.filter_norm {
-            return Ok(f);
+            return Ok(x);
         }
-        let b = f.dim(0)?;
+        let b = x.dim(0)?;
         let norm = |t: &Tensor| -> candle_core::Result<Tensor> {
             (t.sqr()?.sum_keepdim(1)? + EPS)?.sqrt()
         };
-        let ratio = (norm(&o.reshape((b, ()))?)? / norm(&f)?)?;
-        Ok(f.broadcast_mul(&ratio)?)
+        let o_norm = norm(&o.reshape((b, ()))?)?;
+        let width = N_CELLS * self.cfg.conv_channels;
+        let copies = (0..x.dim(1)? / width)
+            .map(|i| {
+                let f = x.narrow(1, i * width, width)?;
+                f.broadcast_mul(&(&o_norm / norm(&f)?)?)
+            })
+            .collect::<candle_core::Result<Vec<_>>>()?;
+        Ok(Tensor::cat(&copies, 1)?)
     }
 
     /// [`Self::visual_features`] before [`Self::normalised`].
