@@ -7,6 +7,7 @@ mod common;
 use std::path::Path;
 
 use common::debugger::{build, show_until};
+use common::worlds::babyai;
 use egui_kittest::kittest::{NodeT as _, Queryable as _};
 use groundscope::app::StartOptions;
 use groundscope::app::session::Agent;
@@ -15,10 +16,6 @@ use groundscope::env::tree::{InstructionTree, Stage, doors_text, targets_text};
 use groundscope::env::{DoorState, Instr};
 use groundscope::policy::{Checkpoint, ModelConfig, Params, TrainingState, Variant};
 use groundscope::record::scene::TILE_PX;
-
-fn babyai(id: &str) -> LevelConfig {
-    LevelConfig::babyai(LevelId::parse(id).unwrap(), false)
-}
 
 /// An untrained attention model of all of BabyAI's words, saved as `DIR/fresh`: what
 /// `train --level` starts from, enough to open any level's missions.

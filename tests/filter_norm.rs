@@ -10,28 +10,12 @@
 mod common;
 
 use candle_core::{DType, Device, Tensor};
+use common::worlds::{babyai, first_views};
 use common::{assert_bad_input, gs, stderr};
-use groundscope::env::view::Observation;
-use groundscope::env::{LevelConfig, LevelId, World};
 use groundscope::policy::attention::Intervention;
 use groundscope::policy::obs::{CellCodes, TokenBatch};
 use groundscope::policy::ppo::{PpoConfig, Trainer};
 use groundscope::policy::{Memory, ModelConfig, Net, Params, Variant};
-
-fn babyai(id: &str) -> LevelConfig {
-    LevelConfig::babyai(LevelId::parse(id).unwrap(), false)
-}
-
-/// The first views and missions of `count` episodes of `level`.
-fn first_views(level: &LevelConfig, count: u64) -> (Vec<Observation>, Vec<Vec<u32>>) {
-    let worlds: Vec<World> = (0..count).map(|s| level.generate(s).unwrap()).collect();
-    let obs = worlds.iter().map(World::observe).collect();
-    let tokens = worlds
-        .iter()
-        .map(|w| groundscope::env::vocab::tokenize(&w.mission).unwrap())
-        .collect();
-    (obs, tokens)
-}
 
 /// Each row's Euclidean norm of a (B, …) tensor.
 fn row_norms(t: &Tensor) -> Vec<f32> {

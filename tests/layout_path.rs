@@ -10,23 +10,12 @@
 mod common;
 
 use candle_core::Tensor;
+use common::worlds::{babyai, first_views};
 use common::{assert_bad_input, gs, stderr};
 use groundscope::env::view::Observation;
-use groundscope::env::{LevelConfig, LevelId, World};
 use groundscope::policy::obs::{CellCodes, TokenBatch};
 use groundscope::policy::ppo::{PpoConfig, Trainer};
 use groundscope::policy::{Memory, ModelConfig, Net, Params, Variant};
-
-/// The first views and missions of `count` episodes of `level`.
-fn first_views(level: &LevelConfig, count: u64) -> (Vec<Observation>, Vec<Vec<u32>>) {
-    let worlds: Vec<World> = (0..count).map(|s| level.generate(s).unwrap()).collect();
-    let obs = worlds.iter().map(World::observe).collect();
-    let tokens = worlds
-        .iter()
-        .map(|w| groundscope::env::vocab::tokenize(&w.mission).unwrap())
-        .collect();
-    (obs, tokens)
-}
 
 /// Logits and values of one step from zero memory for `views`.
 fn step(net: &Net, cfg: &ModelConfig, obs: &[Observation], tokens: &[Vec<u32>]) -> Vec<f32> {
@@ -40,10 +29,6 @@ fn step(net: &Net, cfg: &ModelConfig, obs: &[Observation], tokens: &[Vec<u32>]) 
     let mut out: Vec<f32> = logits.flatten_all().unwrap().to_vec1().unwrap();
     out.extend(values.to_vec1::<f32>().unwrap());
     out
-}
-
-fn babyai(id: &str) -> LevelConfig {
-    LevelConfig::babyai(LevelId::parse(id).unwrap(), false)
 }
 
 #[test]

@@ -10,6 +10,7 @@
 pub mod debugger;
 pub mod rrd;
 pub mod tensors;
+pub mod worlds;
 
 use std::io::BufRead as _;
 use std::path::{Path, PathBuf};
