@@ -10,7 +10,7 @@ import csv
 import sys
 from collections import defaultdict
 
-ORDER = ["bundled:babyai-grounded", "bundled:babyai", "bot"]
+ORDER = ["bundled:babyai-grounded2", "bundled:babyai-grounded", "bundled:babyai", "bot"]
 
 
 def main(dirs):

@@ -29,7 +29,7 @@ use crate::ExitStatus;
 )]
 pub struct EvalArgs {
     /// Checkpoints to evaluate (repeatable): NAME, a run directory (its model),
-    /// bundled:attention / bundled:baseline / bundled:babyai, an ONNX graph FILE.onnx or
+    /// bundled:attention / bundled:baseline / bundled:babyai[-grounded[2]], an ONNX graph FILE.onnx or
     /// `bot` (minigrid's BabyAI bot) [default: both bundled ones].
     #[arg(long, value_name = "NAME")]
     pub checkpoint: Vec<String>,

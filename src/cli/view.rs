@@ -21,7 +21,7 @@ xvfb-run -a groundscope view --screenshot shot.png --seed 3 --step 4 --window 14
 )]
 pub struct ViewArgs {
     /// Checkpoint: NAME (NAME.json + NAME.safetensors), a run directory (its model),
-    /// bundled:attention / bundled:baseline / bundled:babyai, an ONNX graph FILE.onnx
+    /// bundled:attention / bundled:baseline / bundled:babyai[-grounded[2]], an ONNX graph FILE.onnx
     /// (docs/onnx.md) or `bot` (minigrid's BabyAI bot) [default: bundled:attention, or bundled:babyai on a level whose mission
     /// it cannot read].
     #[arg(long, value_name = "NAME")]

@@ -1,7 +1,9 @@
 //! The checkpoints shipped in `assets/` and embedded in the binary: the paper's pair, the
 //! default of every command (`bundled:attention` first, then `bundled:baseline`),
 //! `bundled:babyai`, an attention model that reads BabyAI's whole grammar, and
-//! `bundled:babyai-grounded`, its continuation whose maps were supervised to ground.
+//! `bundled:babyai-grounded`, its continuation whose maps were supervised to ground, and
+//! `bundled:babyai-grounded2`, a later continuation whose maps ground further (every class but
+//! location words at the targets) at the same success.
 
 use std::path::Path;
 
@@ -12,7 +14,7 @@ use super::error::PolicyError;
 pub const PREFIX: &str = "bundled:";
 
 /// The embedded checkpoints: name, JSON, weights.
-const BUNDLED: [(&str, &str, &[u8]); 4] = [
+const BUNDLED: [(&str, &str, &[u8]); 5] = [
     (
         "attention",
         include_str!("../../assets/attention.json"),
@@ -33,6 +35,11 @@ const BUNDLED: [(&str, &str, &[u8]); 4] = [
         include_str!("../../assets/babyai-grounded.json"),
         include_bytes!("../../assets/babyai-grounded.safetensors"),
     ),
+    (
+        "babyai-grounded2",
+        include_str!("../../assets/babyai-grounded2.json"),
+        include_bytes!("../../assets/babyai-grounded2.safetensors"),
+    ),
 ];
 
 /// The bundled model for BabyAI's levels: it reads every word of their missions.
@@ -41,6 +48,11 @@ pub const BABYAI: &str = "bundled:babyai";
 /// `bundled:babyai` continued with the layout path and supervised maps: the recipe the layout
 /// path study's rule chose (experiments/study_layout_path/).
 pub const BABYAI_GROUNDED: &str = "bundled:babyai-grounded";
+
+/// `bundled:babyai` continued with the layout path, the filter at the view's scale and
+/// supervised maps for 2M frames: the recipe the filter norm study's rule chose
+/// (experiments/study_filter_norm/), the most grounded at the success floor.
+pub const BABYAI_GROUNDED2: &str = "bundled:babyai-grounded2";
 
 /// How a bundled checkpoint was trained, where its metadata (which names one level) would
 /// not say it truly; `None` for any other name.
@@ -51,6 +63,9 @@ pub fn training_note(spec: &str) -> Option<&'static str> {
         ),
         BABYAI_GROUNDED => Some(
             "bundled:babyai continued by imitation on its sixteen levels with the layout path (experiments/study_layout_path/)",
+        ),
+        BABYAI_GROUNDED2 => Some(
+            "bundled:babyai continued by imitation on its sixteen levels with the layout path and the filter norm (experiments/study_filter_norm/)",
         ),
         _ => None,
     }
@@ -99,10 +114,11 @@ mod tests {
         for n in names() {
             let c = load(&n).unwrap();
             let variant = c.meta.model.variant.name();
-            if n == BABYAI || n == BABYAI_GROUNDED {
+            if [BABYAI, BABYAI_GROUNDED, BABYAI_GROUNDED2].contains(&n.as_str()) {
                 assert_eq!(variant, "attention");
                 assert_eq!(c.meta.model.vocab_size, crate::env::vocab::VOCAB_SIZE);
-                assert_eq!(c.meta.model.layout_path, n == BABYAI_GROUNDED);
+                assert_eq!(c.meta.model.layout_path, n != BABYAI);
+                assert_eq!(c.meta.model.filter_norm, n == BABYAI_GROUNDED2);
                 assert!(training_note(&n).is_some());
             } else {
                 assert_eq!(format!("{PREFIX}{variant}"), n);
