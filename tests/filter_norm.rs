@@ -10,6 +10,7 @@
 mod common;
 
 use candle_core::{DType, Device, Tensor};
+use common::evals::Eval;
 use common::worlds::{babyai, first_views};
 use common::{assert_bad_input, gs, stderr};
 use groundscope::policy::attention::Intervention;
@@ -266,37 +267,13 @@ fn a_parent_grown_with_the_search_query_acts_exactly_as_before() {
 /// GoToLocal's targets (0.95 held out). Validation seeds, as the study chose it on.
 #[test]
 fn the_second_grounded_agent_grounds_m_and_doors_where_the_first_does_not() {
-    let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("report");
     let (first, second) = ("bundled:babyai-grounded", "bundled:babyai-grounded2");
-    let o = gs(&[
-        "eval",
-        "--checkpoint",
-        first,
-        "--checkpoint",
-        second,
-        "--levels",
+    let eval = Eval::validation(
+        &[first, second],
         "BabyAI-GoToLocal-v0,BabyAI-GoToDoor-v0,BabyAI-PickupLoc-v0",
-        "--first-seed",
-        "1400",
-        "--seeds",
-        "1",
-        "--episodes",
-        "20",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", stderr(&o));
-    let rows = common::csv_rows(&out.join("accuracy.csv"));
-    let value = |ckpt: &str, level: &str, word: &str, column: &str| -> f64 {
-        let row = rows
-            .iter()
-            .find(|r| r["checkpoint"] == ckpt && r["level"] == level && r["word"] == word)
-            .unwrap_or_else(|| panic!("no {word} row for {ckpt} on {level}"));
-        row[column].parse().unwrap()
-    };
+    );
     for level in ["BabyAI-GoToLocal-v0", "BabyAI-PickupLoc-v0"] {
-        let m = |c| value(c, level, "combined", "acc_mean");
+        let m = |c| eval.accuracy(c, level, "combined", "acc_mean");
         assert!(
             m(second) >= 0.6 && m(second) > m(first) + 0.4,
             "{level}: M acc {} against {}",
@@ -304,26 +281,20 @@ fn the_second_grounded_agent_grounds_m_and_doors_where_the_first_does_not() {
             m(first)
         );
     }
-    let door = |c| value(c, "BabyAI-GoToDoor-v0", "door", "acc_mean");
+    let door = |c| eval.accuracy(c, "BabyAI-GoToDoor-v0", "door", "acc_mean");
     assert!(
         door(second) >= 0.8 && door(second) > door(first) + 0.2,
         "door acc {} against {}",
         door(second),
         door(first)
     );
-    let location = |c| value(c, "BabyAI-PickupLoc-v0", "location", "pointing_mean");
+    let location = |c| eval.accuracy(c, "BabyAI-PickupLoc-v0", "location", "pointing_mean");
     assert!(
         location(second) > location(first) + 0.1,
         "location pointing {} against {}",
         location(second),
         location(first)
     );
-    let perf = common::csv_rows(&out.join("performance.csv"));
-    let success: f64 = perf
-        .iter()
-        .find(|r| r["checkpoint"] == second && r["level"] == "BabyAI-GoToLocal-v0")
-        .unwrap()["success_mean"]
-        .parse()
-        .unwrap();
+    let success = eval.success(second, "BabyAI-GoToLocal-v0");
     assert!(success >= 0.85, "GoToLocal success {success}");
 }

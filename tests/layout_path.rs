@@ -10,6 +10,7 @@
 mod common;
 
 use candle_core::Tensor;
+use common::evals::Eval;
 use common::worlds::{babyai, first_views};
 use common::{assert_bad_input, gs, stderr};
 use groundscope::env::view::Observation;
@@ -206,55 +207,23 @@ fn the_option_is_named_kept_and_refused_like_the_others() {
 /// against 0.13), and it still reaches most of GoToLocal's targets (0.97 held out).
 #[test]
 fn the_bundled_grounded_agent_grounds_objects_and_doors_where_its_parent_does_not() {
-    let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("report");
-    let o = gs(&[
-        "eval",
-        "--checkpoint",
-        "bundled:babyai",
-        "--checkpoint",
-        "bundled:babyai-grounded",
-        "--levels",
-        "BabyAI-GoToLocal-v0,BabyAI-GoToDoor-v0",
-        "--first-seed",
-        "1400",
-        "--seeds",
-        "1",
-        "--episodes",
-        "20",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", stderr(&o));
-    let rows = common::csv_rows(&out.join("accuracy.csv"));
-    let value = |ckpt: &str, level: &str, word: &str, column: &str| -> f64 {
-        let row = rows
-            .iter()
-            .find(|r| r["checkpoint"] == ckpt && r["level"] == level && r["word"] == word)
-            .unwrap_or_else(|| panic!("no {word} row for {ckpt} on {level}"));
-        row[column].parse().unwrap()
-    };
     let (local, door) = ("BabyAI-GoToLocal-v0", "BabyAI-GoToDoor-v0");
     let (parent, grounded) = ("bundled:babyai", "bundled:babyai-grounded");
-    let acc = |c| value(c, local, "object", "acc_mean");
+    let eval = Eval::validation(&[parent, grounded], &format!("{local},{door}"));
+    let acc = |c| eval.accuracy(c, local, "object", "acc_mean");
     assert!(
         acc(grounded) >= 0.6 && acc(grounded) > acc(parent) + 0.3,
         "object acc {} against {}",
         acc(grounded),
         acc(parent)
     );
-    let pointing = |c| value(c, door, "door", "pointing_mean");
+    let pointing = |c| eval.accuracy(c, door, "door", "pointing_mean");
     assert!(
         pointing(grounded) >= 0.8 && pointing(grounded) > pointing(parent) + 0.4,
         "door pointing {} against {}",
         pointing(grounded),
         pointing(parent)
     );
-    let perf = common::csv_rows(&out.join("performance.csv"));
-    let success = perf
-        .iter()
-        .find(|r| r["checkpoint"] == grounded && r["level"] == local)
-        .unwrap();
-    let success: f64 = success["success_mean"].parse().unwrap();
+    let success = eval.success(grounded, local);
     assert!(success >= 0.75, "GoToLocal success {success}");
 }

@@ -8,6 +8,7 @@
 #![allow(dead_code, reason = "each test binary uses a subset of the helpers")]
 
 pub mod debugger;
+pub mod evals;
 pub mod rrd;
 pub mod tensors;
 pub mod worlds;
