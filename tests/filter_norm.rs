@@ -262,15 +262,16 @@ fn a_parent_grown_with_the_search_query_acts_exactly_as_before() {
 }
 
 /// `bundled:babyai-grounded2`, the filter norm study's choice, grounds `M` and the door word
-/// where `bundled:babyai-grounded` does not (held out: `M` `acc` 0.70 against 0.17, door 0.95
-/// against 0.44), its location word points at its referent more often, and it still reaches
-/// GoToLocal's targets (0.95 held out). Validation seeds, as the study chose it on.
+/// where `bundled:babyai-grounded` does not (held out: `M` `acc` 0.72 against 0.17, door 0.96
+/// against 0.44), its location word finds its door on OpenDoorLoc (0.86 against 0.05; on
+/// PickupLoc no map of one word can single out its referent, docs/results.md), and it still
+/// reaches GoToLocal's targets (0.97 held out). Validation seeds, as the study chose it on.
 #[test]
 fn the_second_grounded_agent_grounds_m_and_doors_where_the_first_does_not() {
     let (first, second) = ("bundled:babyai-grounded", "bundled:babyai-grounded2");
     let eval = Eval::validation(
         &[first, second],
-        "BabyAI-GoToLocal-v0,BabyAI-GoToDoor-v0,BabyAI-PickupLoc-v0",
+        "BabyAI-GoToLocal-v0,BabyAI-GoToDoor-v0,BabyAI-PickupLoc-v0,BabyAI-OpenDoorLoc-v0",
     );
     for level in ["BabyAI-GoToLocal-v0", "BabyAI-PickupLoc-v0"] {
         let m = |c| eval.accuracy(c, level, "combined", "acc_mean");
@@ -288,10 +289,10 @@ fn the_second_grounded_agent_grounds_m_and_doors_where_the_first_does_not() {
         door(second),
         door(first)
     );
-    let location = |c| eval.accuracy(c, "BabyAI-PickupLoc-v0", "location", "pointing_mean");
+    let location = |c| eval.accuracy(c, "BabyAI-OpenDoorLoc-v0", "location", "acc_mean");
     assert!(
-        location(second) > location(first) + 0.1,
-        "location pointing {} against {}",
+        location(second) >= 0.6 && location(second) > location(first) + 0.4,
+        "location acc {} against {}",
         location(second),
         location(first)
     );

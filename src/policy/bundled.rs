@@ -50,7 +50,7 @@ pub const BABYAI: &str = "bundled:babyai";
 pub const BABYAI_GROUNDED: &str = "bundled:babyai-grounded";
 
 /// `bundled:babyai` continued with the layout path, the filter at the view's scale and
-/// supervised maps for 2M frames: the recipe the filter norm study's rule chose
+/// supervised maps for 3M frames: the recipe the filter norm study's rule chose
 /// (experiments/study_filter_norm/), the most grounded at the success floor.
 pub const BABYAI_GROUNDED2: &str = "bundled:babyai-grounded2";
 
