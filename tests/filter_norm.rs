@@ -273,28 +273,16 @@ fn the_second_grounded_agent_grounds_m_and_doors_where_the_first_does_not() {
         &[first, second],
         "BabyAI-GoToLocal-v0,BabyAI-GoToDoor-v0,BabyAI-PickupLoc-v0,BabyAI-OpenDoorLoc-v0",
     );
+    let pair = (second, first);
     for level in ["BabyAI-GoToLocal-v0", "BabyAI-PickupLoc-v0"] {
-        let m = |c| eval.accuracy(c, level, "combined", "acc_mean");
-        assert!(
-            m(second) >= 0.6 && m(second) > m(first) + 0.4,
-            "{level}: M acc {} against {}",
-            m(second),
-            m(first)
-        );
+        eval.assert_gain(pair, (level, "combined", "acc_mean"), 0.6, 0.4);
     }
-    let door = |c| eval.accuracy(c, "BabyAI-GoToDoor-v0", "door", "acc_mean");
-    assert!(
-        door(second) >= 0.8 && door(second) > door(first) + 0.2,
-        "door acc {} against {}",
-        door(second),
-        door(first)
-    );
-    let location = |c| eval.accuracy(c, "BabyAI-OpenDoorLoc-v0", "location", "acc_mean");
-    assert!(
-        location(second) >= 0.6 && location(second) > location(first) + 0.4,
-        "location acc {} against {}",
-        location(second),
-        location(first)
+    eval.assert_gain(pair, ("BabyAI-GoToDoor-v0", "door", "acc_mean"), 0.8, 0.2);
+    eval.assert_gain(
+        pair,
+        ("BabyAI-OpenDoorLoc-v0", "location", "acc_mean"),
+        0.6,
+        0.4,
     );
     let success = eval.success(second, "BabyAI-GoToLocal-v0");
     assert!(success >= 0.85, "GoToLocal success {success}");

@@ -210,20 +210,9 @@ fn the_bundled_grounded_agent_grounds_objects_and_doors_where_its_parent_does_no
     let (local, door) = ("BabyAI-GoToLocal-v0", "BabyAI-GoToDoor-v0");
     let (parent, grounded) = ("bundled:babyai", "bundled:babyai-grounded");
     let eval = Eval::validation(&[parent, grounded], &format!("{local},{door}"));
-    let acc = |c| eval.accuracy(c, local, "object", "acc_mean");
-    assert!(
-        acc(grounded) >= 0.6 && acc(grounded) > acc(parent) + 0.3,
-        "object acc {} against {}",
-        acc(grounded),
-        acc(parent)
-    );
-    let pointing = |c| eval.accuracy(c, door, "door", "pointing_mean");
-    assert!(
-        pointing(grounded) >= 0.8 && pointing(grounded) > pointing(parent) + 0.4,
-        "door pointing {} against {}",
-        pointing(grounded),
-        pointing(parent)
-    );
+    let pair = (grounded, parent);
+    eval.assert_gain(pair, (local, "object", "acc_mean"), 0.6, 0.3);
+    eval.assert_gain(pair, (door, "door", "pointing_mean"), 0.8, 0.4);
     let success = eval.success(grounded, local);
     assert!(success >= 0.75, "GoToLocal success {success}");
 }
