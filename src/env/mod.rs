@@ -1,6 +1,6 @@
 //! The world: a faithful port of MiniGrid 3.2.0 / BabyAI: every registered BabyAI level
-//! ([`babyai`]), generated bit for bit from numpy's stream ([`rng`]), and the paper's levels
-//! as BabyAI's GoToLocal. Pure: no I/O, no ML, nothing else of the crate.
+//! ([`babyai`]) and MiniGrid environment ([`minigrid`]), generated bit for bit from numpy's
+//! stream ([`rng`]), and the paper's levels as BabyAI's GoToLocal. Pure: no I/O, no ML, nothing else of the crate.
 //!
 //! Conventions (MiniGrid's): arrays are x-major (`grid[x][y]`, `image[vx][vy]`), `y` grows
 //! downward, directions are 0 = right, 1 = down, 2 = left, 3 = up. The agent sees a 7×7 view
@@ -13,6 +13,7 @@ pub mod grid;
 pub mod gym;
 pub mod instr;
 pub mod level;
+pub mod minigrid;
 pub mod mission;
 pub mod object;
 pub mod rng;

@@ -74,8 +74,11 @@ pub enum Call {
     Uniform(f64, f64, f64),
 }
 
-/// numpy's `Generator(PCG64(SeedSequence(seed)))`, with the two methods level generation uses.
-#[derive(Clone, Debug, PartialEq)]
+/// numpy's `Generator(PCG64(SeedSequence(seed)))`, with the methods level generation uses.
+/// Serialises its stream's position (state, increment, buffered half, draw count), not the log:
+/// a MiniGrid world whose obstacles draw at every step carries it.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(from = "RngState", into = "RngState")]
 pub struct NumpyRng {
     state: u128,
     inc: u128,
@@ -83,6 +86,41 @@ pub struct NumpyRng {
     buffered: Option<u32>,
     draws: u64,
     log: Option<Vec<Call>>,
+}
+
+/// [`NumpyRng`]'s position as four 64-bit halves (JSON numbers hold no 128-bit integer).
+#[derive(Clone, serde::Serialize, serde::Deserialize)]
+struct RngState {
+    state: [u64; 2],
+    inc: [u64; 2],
+    buffered: Option<u32>,
+    draws: u64,
+}
+
+impl From<NumpyRng> for RngState {
+    fn from(r: NumpyRng) -> Self {
+        let halves = |v: u128| [(v >> 64) as u64, v as u64];
+        Self {
+            state: halves(r.state),
+            inc: halves(r.inc),
+            buffered: r.buffered,
+            draws: r.draws,
+        }
+    }
+}
+
+impl From<RngState> for NumpyRng {
+    fn from(s: RngState) -> Self {
+        let join = |[hi, lo]: [u64; 2]| (u128::from(hi) << 64) | u128::from(lo);
+        Self {
+            state: join(s.state),
+            // PCG's increment is odd by construction; an even one read from a file is made so.
+            inc: join(s.inc) | 1,
+            buffered: s.buffered,
+            draws: s.draws,
+            log: None,
+        }
+    }
 }
 
 impl NumpyRng {
@@ -234,6 +272,44 @@ impl NumpyRng {
         self.integers(low as i64, high as i64) as usize
     }
 
+    /// numpy's `random_interval(max)`: a value in `0..=max` by masking 32-bit draws (64-bit
+    /// ones above 2³² − 1) to the smallest covering power of two and rejecting what exceeds.
+    pub fn random_interval(&mut self, max: u64) -> u64 {
+        if max == 0 {
+            return 0;
+        }
+        let mut mask = max;
+        for shift in [1, 2, 4, 8, 16, 32] {
+            mask |= mask >> shift;
+        }
+        if max <= u64::from(u32::MAX) {
+            loop {
+                let v = u64::from(self.next_u32()) & mask;
+                if v <= max {
+                    return v;
+                }
+            }
+        }
+        loop {
+            let v = self.next_u64() & mask;
+            if v <= max {
+                return v;
+            }
+        }
+    }
+
+    /// `Generator.shuffle(list)` of a Python list: Fisher–Yates from the end, each swap with
+    /// `random_interval(i)` (not Lemire's `integers`).
+    pub fn shuffle<T>(&mut self, items: &mut [T]) {
+        if items.len() > 1 {
+            self.draws += 1;
+        }
+        for i in (1..items.len()).rev() {
+            let j = self.random_interval(i as u64) as usize;
+            items.swap(i, j);
+        }
+    }
+
     /// `uniform(a, b)`: `a + (b − a) · ((next64 >> 11) · 2⁻⁵³)`.
     pub fn uniform(&mut self, a: f64, b: f64) -> f64 {
         self.draws += 1;
@@ -249,6 +325,31 @@ impl NumpyRng {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// numpy 2.x: `g = Generator(PCG64(SeedSequence(5))); x = list(range(10)); g.shuffle(x)`,
+    /// then `g.integers(0, 100)`, a shuffle of `[0, 1, 2]` and `g.integers(0, 1000)`.
+    #[test]
+    fn shuffle_of_a_list_matches_numpy() {
+        let mut rng = NumpyRng::new(5);
+        let mut x: Vec<u32> = (0..10).collect();
+        rng.shuffle(&mut x);
+        assert_eq!(x, [7, 6, 1, 3, 2, 4, 0, 9, 5, 8]);
+        assert_eq!(rng.integers(0, 100), 40);
+        let mut y = [0, 1, 2];
+        rng.shuffle(&mut y);
+        assert_eq!(y, [0, 1, 2]);
+        assert_eq!(rng.integers(0, 1000), 1);
+    }
+
+    #[test]
+    fn the_stream_position_round_trips_through_json() {
+        let mut rng = NumpyRng::new(9);
+        rng.next_u32();
+        let back: NumpyRng = serde_json::from_str(&serde_json::to_string(&rng).unwrap()).unwrap();
+        assert_eq!(back, rng);
+        let (mut a, mut b) = (rng, back);
+        assert_eq!(a.integers(0, 1 << 40), b.integers(0, 1 << 40));
+    }
 
     /// numpy 2.4: `PCG64(SeedSequence(0)).state` and its first three `random_raw()`.
     #[test]

@@ -165,8 +165,20 @@ pub fn observe(
     agent_dir: u8,
     carrying: Option<WorldObj>,
 ) -> Observation {
+    observe_seeing(grid, agent_pos, agent_dir, carrying, false)
+}
+
+/// [`observe`] with MiniGrid's `see_through_walls`: when set (Empty, Fetch, GoToDoor,
+/// Dynamic-Obstacles, …), no visibility sweep, every cell of the slice is shown.
+pub fn observe_seeing(
+    grid: &Grid,
+    agent_pos: Pos,
+    agent_dir: u8,
+    carrying: Option<WorldObj>,
+    see_through_walls: bool,
+) -> Observation {
     let Some((codes, at_agent)) = grid.view_codes(agent_pos) else {
-        return observe_slice(grid, agent_pos, agent_dir, carrying);
+        return observe_slice(grid, agent_pos, agent_dir, carrying, see_through_walls);
     };
     let (dx, dy) = DIR_TO_VEC[usize::from(agent_dir & 3)];
     let ahead = grid.view_stride((dx, dy));
@@ -187,7 +199,7 @@ pub fn observe(
         }
         row_start -= ahead;
     }
-    finish_observation(image, transparent, carrying)
+    finish_observation(image, transparent, carrying, see_through_walls)
 }
 
 /// [`observe`] the obvious way, for an agent outside the grid (snapshots are checked, but the
@@ -197,6 +209,7 @@ fn observe_slice(
     agent_pos: Pos,
     agent_dir: u8,
     carrying: Option<WorldObj>,
+    see_through_walls: bool,
 ) -> Observation {
     let cells = view_cells(grid, agent_pos, agent_dir);
     let mut image = [[[0u8; 3]; VIEW_SIZE]; VIEW_SIZE];
@@ -207,7 +220,7 @@ fn observe_slice(
             image[vx][vy] = encode_cell(cell);
         }
     }
-    finish_observation(image, transparent, carrying)
+    finish_observation(image, transparent, carrying, see_through_walls)
 }
 
 /// Blanks the cells the sweep hides and puts the carried object at the agent's cell.
@@ -216,12 +229,15 @@ fn finish_observation(
     mut image: [[[u8; 3]; VIEW_SIZE]; VIEW_SIZE],
     transparent: [u8; VIEW_SIZE],
     carrying: Option<WorldObj>,
+    see_through_walls: bool,
 ) -> Observation {
-    let visible = visibility_rows(transparent);
-    for (vx, col) in image.iter_mut().enumerate() {
-        for (vy, code) in col.iter_mut().enumerate() {
-            if visible[vy] >> vx & 1 == 0 {
-                *code = [0; 3];
+    if !see_through_walls {
+        let visible = visibility_rows(transparent);
+        for (vx, col) in image.iter_mut().enumerate() {
+            for (vy, code) in col.iter_mut().enumerate() {
+                if visible[vy] >> vx & 1 == 0 {
+                    *code = [0; 3];
+                }
             }
         }
     }

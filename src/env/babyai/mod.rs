@@ -17,7 +17,7 @@ pub mod registry;
 pub mod roomgrid;
 pub mod unlock;
 
-pub use registry::{Family, LevelSpec, closest_ids, level_ids, spec};
+pub use registry::{Family, LevelSpec, all_ids, closest_ids, level_ids, spec};
 
 use std::cell::OnceCell;
 
@@ -197,11 +197,20 @@ pub fn generate_continuing(
     seed: u64,
     done_actions: bool,
 ) -> Result<World, EnvError> {
+    if let Family::MiniGrid(class) = &spec.family {
+        return super::minigrid::generate(class, rng, minigrid_horizon(spec, class), seed);
+    }
     let mut g = Gen::with_rng(spec.rooms, rng.clone());
     let out = generate_from(spec, &mut g, seed, done_actions);
     // Even a failed generation has drawn (minigrid's stream would have moved on too).
     *rng = g.rng;
     out
+}
+
+/// A MiniGrid level's horizon: its spec's (a class given `max_steps`), else the class's.
+fn minigrid_horizon(spec: &LevelSpec, class: &super::minigrid::Class) -> u32 {
+    spec.max_steps
+        .unwrap_or_else(|| class.default_max_steps())
 }
 
 fn generate_with(
@@ -210,6 +219,15 @@ fn generate_with(
     done_actions: bool,
     log: bool,
 ) -> Result<(World, Vec<Call>), EnvError> {
+    if let Family::MiniGrid(class) = &spec.family {
+        // MiniGrid's own ids have no done-action mode: `done` is whatever their step makes it.
+        let mut rng = NumpyRng::new(seed);
+        if log {
+            rng.record();
+        }
+        let world = super::minigrid::generate(class, &mut rng, minigrid_horizon(spec, class), seed)?;
+        return Ok((world, rng.take_log()));
+    }
     let mut g = Gen::new(spec.rooms, seed);
     if log {
         g.rng.record();

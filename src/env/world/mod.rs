@@ -10,7 +10,8 @@ use super::grid::{DIR_TO_VEC, Grid, Pos, Rooms};
 use super::instr::{Instr, Status, Verify};
 use super::mission::{Instruction, ObjDesc};
 use super::object::{DoorState, ObjectId, ObjectKind, WorldObj};
-use super::view::{Observation, observe};
+use super::minigrid::Rules;
+use super::view::{Observation, observe_seeing};
 
 /// MiniGrid's seven actions (`minigrid/core/actions.py`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
@@ -123,6 +124,14 @@ pub struct World {
     /// on this cell (minigrid lifts it after the first observation).
     #[serde(default)]
     pub reset_floor: Option<Pos>,
+    /// MiniGrid's `see_through_walls` (Empty, Fetch, GoToDoor, …): the view shows every cell
+    /// of its slice, with no visibility sweep. BabyAI's levels never set it.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub see_through_walls: bool,
+    /// A MiniGrid environment's own step rules (its `step` override); `None` on BabyAI's
+    /// levels, where the instruction's verifier decides.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rules: Option<Rules>,
     ended: bool,
 }
 
@@ -229,6 +238,51 @@ impl World {
             next_id,
             moved: Vec::new(),
             reset_floor: None,
+            see_through_walls: false,
+            rules: None,
+            ended: false,
+        })
+    }
+
+    /// A MiniGrid environment's world at step 0: its own `mission` and step `rules`, and an
+    /// instruction that describes what the mission names (for the analyses; it decides
+    /// nothing), resolved at the agent's pose. Its descriptions may match nothing (Playground).
+    #[expect(clippy::too_many_arguments, reason = "mirrors what _gen_grid leaves")]
+    pub(crate) fn minigrid(
+        grid: Grid,
+        rooms: Rooms,
+        (agent_pos, agent_dir): (Pos, u8),
+        mut instr: Instr,
+        mission: String,
+        max_steps: u32,
+        next_id: u32,
+        (rules, see_through_walls): (Rules, bool),
+    ) -> Result<Self, EnvError> {
+        check_pose(&grid, agent_pos, agent_dir)?;
+        instr.reset(&grid, rooms, agent_pos, agent_dir);
+        if max_steps == 0 {
+            return Err(EnvError::InvalidState {
+                field: "max_steps".into(),
+                reason: "must be at least 1".into(),
+            });
+        }
+        Ok(Self {
+            grid,
+            rooms,
+            agent_pos,
+            agent_dir,
+            carrying: None,
+            box_contents: Vec::new(),
+            step_count: 0,
+            max_steps,
+            instr,
+            mission,
+            done_actions: false,
+            next_id,
+            moved: Vec::new(),
+            reset_floor: None,
+            see_through_walls,
+            rules: Some(rules),
             ended: false,
         })
     }
@@ -278,7 +332,9 @@ impl World {
                 format!("{} is past max_steps {}", self.step_count, self.max_steps),
             );
         }
-        if let Some(clause) = self.instr.unmatched() {
+        if let Some(clause) = self.instr.unmatched()
+            && self.rules.is_none()
+        {
             return bad(
                 "instr",
                 format!("no target object for \"{}\"", clause.surface(1)),
@@ -333,9 +389,15 @@ impl World {
             // minigrid's reset observed the carried object still on the floor.
             let mut grid = self.grid.clone();
             grid.set(floor, self.carrying);
-            return observe(&grid, self.agent_pos, self.agent_dir, None);
+            return observe_seeing(&grid, self.agent_pos, self.agent_dir, None, false);
         }
-        observe(&self.grid, self.agent_pos, self.agent_dir, self.carrying)
+        observe_seeing(
+            &self.grid,
+            self.agent_pos,
+            self.agent_dir,
+            self.carrying,
+            self.see_through_walls,
+        )
     }
 
     fn set_moved(&mut self, id: ObjectId, pos: Pos) {
@@ -347,7 +409,7 @@ impl World {
 
     /// `1 − 0.9·(t / max_steps)`, in MiniGrid's operation order.
     #[inline]
-    fn success_reward(&self) -> f64 {
+    pub(crate) fn success_reward(&self) -> f64 {
         1.0 - 0.9 * (f64::from(self.step_count) / f64::from(self.max_steps))
     }
 
@@ -358,6 +420,41 @@ impl World {
                 step_count: self.step_count,
             });
         }
+        if let Some(mut rules) = self.rules.take() {
+            let out = rules.step(self, action);
+            self.rules = Some(rules);
+            self.ended = out.terminated || out.truncated;
+            return Ok(out);
+        }
+        let StepOutcome {
+            mut reward,
+            mut terminated,
+            truncated,
+        } = self.base_step(action);
+        if action == Action::Drop {
+            self.instr.refresh_positions(&self.grid);
+        }
+        match self.verify(action) {
+            Some(true) => {
+                terminated = true;
+                reward = self.success_reward();
+            }
+            Some(false) => {
+                terminated = true;
+                reward = 0.0;
+            }
+            None => {}
+        }
+        self.ended = terminated || truncated;
+        Ok(StepOutcome {
+            reward,
+            terminated,
+            truncated,
+        })
+    }
+
+    /// `MiniGridEnv.step`: the action's effect, the goal's reward and lava's end, truncation.
+    pub(crate) fn base_step(&mut self, action: Action) -> StepOutcome {
         self.step_count += 1;
         let mut reward = 0.0;
         let mut terminated = false;
@@ -432,27 +529,11 @@ impl World {
             }
             Action::Done => {}
         }
-        let truncated = self.step_count >= self.max_steps;
-        if action == Action::Drop {
-            self.instr.refresh_positions(&self.grid);
-        }
-        match self.verify(action) {
-            Some(true) => {
-                terminated = true;
-                reward = self.success_reward();
-            }
-            Some(false) => {
-                terminated = true;
-                reward = 0.0;
-            }
-            None => {}
-        }
-        self.ended = terminated || truncated;
-        Ok(StepOutcome {
+        StepOutcome {
             reward,
             terminated,
-            truncated,
-        })
+            truncated: self.step_count >= self.max_steps,
+        }
     }
 
     /// `RoomGridLevel.step`'s verification: `Some(true)` success, `Some(false)` failure.

@@ -95,6 +95,8 @@ pub enum Family {
     BlockedUnlockPickup,
     UnlockToUnlock,
     LevelGen(Params),
+    /// One of MiniGrid's own environments ([`crate::env::minigrid`]), not a BabyAI level.
+    MiniGrid(crate::env::minigrid::Class),
 }
 
 impl Family {
@@ -148,6 +150,8 @@ impl Family {
             Self::BlockedUnlockPickup => unlock::blocked_unlock_pickup(g),
             Self::UnlockToUnlock => unlock::unlock_to_unlock(g),
             Self::LevelGen(p) => levelgen::gen_mission(g, &p),
+            // `generate` hands these to `minigrid::generate` before any attempt.
+            Self::MiniGrid(_) => Err(Retry::Endless("a MiniGrid class has no gen_mission")),
         }
     }
 }
@@ -165,22 +169,30 @@ pub struct LevelSpec {
     pub family: Family,
 }
 
-/// The level registered as `id`.
+/// The BabyAI level registered as `id` (MiniGrid's ids: [`crate::env::LevelId::parse`]).
 pub fn spec(id: &str) -> Option<&'static LevelSpec> {
     LEVELS.iter().find(|l| l.id == id)
 }
 
-/// Every registered id.
+/// Every registered BabyAI id.
 pub fn level_ids() -> impl Iterator<Item = &'static str> {
     LEVELS.iter().map(|l| l.id)
 }
 
-/// The registered ids closest to `id` (by edit distance, case-insensitive), at most three.
+/// Every registered id of both families: BabyAI's 96, then MiniGrid's 76.
+pub fn all_ids() -> impl Iterator<Item = &'static str> {
+    LEVELS
+        .iter()
+        .chain(crate::env::minigrid::registry::LEVELS)
+        .map(|l| l.id)
+}
+
+/// The registered ids of both families closest to `id` (by edit distance, case-insensitive), at most three.
 /// Only the first 80 characters of `id` count (longer than any id: the answer is the same,
 /// and a hostile 100,000-character id costs no more than a short one).
 pub fn closest_ids(id: &str) -> Vec<&'static str> {
     let want: String = id.chars().take(80).collect::<String>().to_ascii_lowercase();
-    let mut scored: Vec<(usize, &'static str)> = level_ids()
+    let mut scored: Vec<(usize, &'static str)> = all_ids()
         .map(|l| (edit_distance(&want, &l.to_ascii_lowercase()), l))
         .collect();
     scored.sort_unstable();
@@ -285,6 +297,7 @@ impl LevelSpec {
                 m("locked", "locked door, key", "pickup")
             }
             Family::UnlockToUnlock => m("locked", "two locked doors, keys", "pickup"),
+            Family::MiniGrid(c) => minigrid_mechanics(&c),
             Family::LevelGen(p) => {
                 let locks = if p.locked_room_prob > 0.0 {
                     "locked room (maybe), key"
@@ -301,5 +314,42 @@ impl LevelSpec {
                 m("closed", locks, instructions)
             }
         }
+    }
+}
+
+/// What a MiniGrid environment contains, for `env list`.
+fn minigrid_mechanics(c: &crate::env::minigrid::Class) -> Mechanics {
+    use crate::env::minigrid::Class as C;
+    let m = |doors, locks, instructions| Mechanics {
+        doors,
+        locks,
+        instructions,
+    };
+    match c {
+        C::Empty { .. } | C::FourRooms { .. } => m("-", "-", "goal"),
+        C::DoorKey { .. } => m("locked", "locked door, key", "goal"),
+        C::LavaGap { .. } | C::Crossing { lava: true, .. } | C::DistShift { .. } => {
+            m("-", "-", "goal, lava")
+        }
+        C::Crossing { lava: false, .. } => m("-", "-", "goal, wall openings"),
+        C::DynamicObstacles { .. } => m("-", "-", "goal, moving obstacles (3 actions)"),
+        C::Fetch { .. } => m("-", "-", "pickup (any pickup ends)"),
+        C::GoToObject { .. } => m("-", "-", "goto (done beside it)"),
+        C::GoToDoor { .. } => m("closed", "-", "goto door (done beside it)"),
+        C::PutNear { .. } => m("-", "-", "put near (any drop ends)"),
+        C::RedBlueDoors { .. } => m("closed", "-", "open, then"),
+        C::LockedRoom { .. } => m("closed", "locked room, key", "goal"),
+        C::Memory { .. } => m("-", "-", "go to the matching object"),
+        C::MultiRoom { .. } => m("closed", "-", "goal"),
+        C::Playground => m("closed", "-", "none (no reward)"),
+        C::KeyCorridor { .. } => m("closed, corridor", "locked room, key", "pickup"),
+        C::Unlock => m("locked", "locked door, key", "open"),
+        C::UnlockPickup => m("locked", "locked door, key", "pickup"),
+        C::BlockedUnlockPickup => m("locked", "locked door, key, blocking ball", "pickup"),
+        C::ObstructedMaze1 { .. } | C::ObstructedMazeFull { .. } => m(
+            "closed and locked",
+            "locked doors, keys in boxes, blocking balls",
+            "pickup",
+        ),
     }
 }

@@ -263,6 +263,20 @@ impl Gen {
         reject_next_to: bool,
         max_tries: u32,
     ) -> Result<Pos, Retry> {
+        let agent = self.agent_pos;
+        let next_to = |(x, y): Pos| (agent.0 - x).abs() + (agent.1 - y).abs() < 2;
+        self.place_obj_with(obj, top, size, |p| reject_next_to && next_to(p), max_tries)
+    }
+
+    /// `place_obj` with any `reject_fn` (MiniGrid's PutNear rejects cells beside its objects).
+    pub fn place_obj_with(
+        &mut self,
+        obj: Option<WorldObj>,
+        top: Pos,
+        size: (i32, i32),
+        reject: impl Fn(Pos) -> bool,
+        max_tries: u32,
+    ) -> Result<Pos, Retry> {
         let top = (top.0.max(0), top.1.max(0));
         let (w, h) = (self.grid.width() as i32, self.grid.height() as i32);
         let mut tries = 0u32;
@@ -274,10 +288,7 @@ impl Gen {
             let x = self.rand_int(top.0, (top.0 + size.0).min(w));
             let y = self.rand_int(top.1, (top.1 + size.1).min(h));
             let pos = (x, y);
-            if self.grid.get(pos).is_some() || pos == self.agent_pos {
-                continue;
-            }
-            if reject_next_to && (self.agent_pos.0 - x).abs() + (self.agent_pos.1 - y).abs() < 2 {
+            if self.grid.get(pos).is_some() || pos == self.agent_pos || reject(pos) {
                 continue;
             }
             self.grid.set(pos, obj);
