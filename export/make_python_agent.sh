@@ -2,7 +2,7 @@
 # The Python-trained agent of docs/onnx.md ("Your agent on your level"), end to end:
 # train an rl-starter-files ACModel in PyTorch on a BabyAI level, export it, evaluate it with
 # groundscope, replay the same episodes in minigrid with onnxruntime, and keep the graph and
-# the Python episodes as fixtures (tests/onnx_python.rs holds groundscope's episodes equal to
+# the Python episodes as fixtures (tests/it/env/levels.rs holds groundscope's episodes equal to
 # them). Run from anywhere:
 #
 #   PYTHON=/path/to/venv/bin/python export/make_python_agent.sh [--retrain]

@@ -3,7 +3,7 @@
 //! features `Õ` (B, 49, K), the filtered features `F` (B, 49, K) — the scores
 //! `S = Q̂ Õᵀ = Q Kcᵀ / √d_k`, eqs. 4–7 and the filter of [`crate::policy::attention`] in one CPU op
 //! with a hand-written backward. The cells' keys `Kc` are never formed. The composite version
-//! in `attention.rs` stays the definition (and computes the traces); `tests/fused.rs`
+//! in `attention.rs` stays the definition (and computes the traces); `tests/it/policy/fused.rs`
 //! compares.
 //!
 //! With the model's null key ([`attention_filter_null`]) each word's `Q̂` row carries one more

@@ -4,7 +4,7 @@
 //! work and built 35 KB of patches per frame; here each output cell adds the ≤ 27 weight
 //! columns its codes select (3 for a 1×1 kernel). The backward scatters into the same columns
 //! (the input is a constant and needs no gradient). [`crate::policy::model::Net::cells_reference`]
-//! keeps the dense version; `tests/fused.rs` compares.
+//! keeps the dense version; `tests/it/policy/fused.rs` compares.
 
 use candle_core::{CpuStorage, CustomOp2, Layout, Result, Shape, Tensor};
 

@@ -4,7 +4,7 @@
 //! the first were 7–10% of a one-thread training run. Here the forward runs the words on the
 //! host with the same operations in the same order as the composite
 //! [`crate::policy::model::Net::encode_text_reference`] (so the same bits, which
-//! `tests/fused.rs` checks), and a hand-written backward through the words returns the
+//! `tests/it/policy/fused.rs` checks), and a hand-written backward through the words returns the
 //! gradients of the projected inputs, `W_hh` and `b_hh` at once.
 
 use std::sync::Arc;

@@ -1,8 +1,8 @@
 //! The performance kernels of the network: fused ops with hand-written backward passes, where
 //! candle's per-op overhead dominates this model's small tensors (issue #16), and their SIMD
 //! dispatch ([`simd`]). Each op has a composite reference built from candle ops in
-//! [`super::model`] or [`super::attention`]; `tests/fused.rs` compares outputs and gradients.
-//! The helpers every kernel shares live here, so the kernels import only this module.
+//! [`super::model`] or [`super::attention`]; `tests/it/policy/fused.rs` compares outputs and
+//! gradients. The helpers every kernel shares live here, so the kernels import only this module.
 
 pub mod act;
 pub mod attention;
@@ -96,7 +96,7 @@ pub(super) fn gate_activations(g: &[f32], h: usize, k: usize) -> (f32, f32, f32,
 
 /// `x · Wᵀ` for a 2-D `x`, by `wt` (`Wᵀ` contiguous, where the caller keeps one) from two rows
 /// on: for the [`TRANSPOSED`](crate::policy::model::TRANSPOSED) matrices gemm gives the same bits with either layout
-/// (`tests/policy.rs` checks every row count to 64 and larger ones, and acting and rollout
+/// (`tests/it/policy/net.rs` checks every row count to 64 and larger ones, and acting and rollout
 /// steps bit for bit), while one row takes gemm's matrix-vector path, which rounds differently
 /// with the two layouts, so it stays strided.
 pub(crate) fn times_transposed(

@@ -5,7 +5,7 @@
 //! forward runs the steps on the host (the recurrent product through candle's matmul) and a
 //! hand-written backward through time returns the gradients of the projected inputs, `W_hh`
 //! and the initial memory at once. [`crate::policy::model::Net::lstm_cell_reference`] stepped in a
-//! loop is the reference; `tests/fused.rs` compares.
+//! loop is the reference; `tests/it/policy/fused.rs` compares.
 
 use std::sync::Arc;
 

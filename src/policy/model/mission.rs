@@ -62,7 +62,7 @@ impl Net {
     }
 
     /// [`Self::encode_text`] word by word in candle ops: the reference the fused op is
-    /// checked against (`tests/fused.rs`).
+    /// checked against (`tests/it/policy/fused.rs`).
     pub fn encode_text_reference(
         &self,
         tb: &TokenBatch,

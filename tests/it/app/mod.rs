@@ -1,0 +1,7 @@
+//! The debugger: its panels through egui's test harness and a real frame under Xvfb
+//! (`ui`), any BabyAI level in it (`levels`), and an evaluation's report browsed in it
+//! (`view_report`).
+
+mod levels;
+mod ui;
+mod view_report;

@@ -1,0 +1,189 @@
+//! `view --report DIR` (issue #66): an evaluation's episodes browsed in the debugger — read
+//! back, filtered, sorted, stepped failure to failure and opened where each was lost — and the
+//! bad reports refused in one line.
+
+use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
+
+use crate::common::debugger::{build, show_until};
+use crate::common::{self, assert_bad_input, gs, stderr};
+use eframe::egui;
+use egui_kittest::kittest::Queryable as _;
+use groundscope::app::StartOptions;
+use groundscope::metrics::report::browse::{Browser, Column, Divergence, Outcome};
+
+/// An evaluation of an untrained model (which fails) and `bundled:babyai` (which mostly
+/// succeeds) on two levels, 4 episodes each: made once, shared by the tests.
+fn report() -> &'static Path {
+    static DIR: OnceLock<(tempfile::TempDir, PathBuf)> = OnceLock::new();
+    &DIR.get_or_init(|| {
+        let dir = tempfile::tempdir().unwrap();
+        let ckpt = dir.path().join("fresh");
+        let o = gs(&[
+            "init",
+            "--level",
+            "BabyAI-GoToLocal-v0",
+            "--out",
+            ckpt.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let out = dir.path().join("report");
+        let o = gs(&[
+            "eval",
+            "--checkpoint",
+            ckpt.to_str().unwrap(),
+            "--checkpoint",
+            "bundled:babyai",
+            "--levels",
+            "BabyAI-GoToLocal-v0,BabyAI-GoToDoor-v0",
+            "--seeds",
+            "1",
+            "--episodes",
+            "4",
+            "--quiet",
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        (dir, out)
+    })
+    .1
+}
+
+#[test]
+fn a_report_reads_back_filters_sorts_and_steps_failure_to_failure() {
+    let mut b = Browser::open(report()).unwrap();
+    assert_eq!(b.rows.len(), 16);
+    assert!(!b.sample);
+    assert_eq!(
+        b.values(Column::Level),
+        ["BabyAI-GoToDoor-v0", "BabyAI-GoToLocal-v0"]
+    );
+    let failures = b.rows.iter().filter(|r| !r.success).count();
+    assert!(failures > 0 && failures < 16, "{failures} failures");
+    // Failures only, longest first.
+    b.filter.outcome = Outcome::Failures;
+    b.refresh();
+    assert_eq!(b.shown().len(), failures);
+    b.sort_by(Column::Steps);
+    b.sort_by(Column::Steps);
+    let steps: Vec<u32> = b.shown().iter().map(|&i| b.rows[i].steps).collect();
+    assert!(steps.windows(2).all(|w| w[0] >= w[1]), "{steps:?}");
+    // N walks the failures in the order listed and wraps round; P walks back.
+    let order = b.shown().to_vec();
+    let walked: Vec<usize> = (0..=order.len())
+        .map(|_| b.step_failure(true).unwrap())
+        .collect();
+    assert_eq!(walked[..order.len()], order[..]);
+    assert_eq!(walked[order.len()], order[0]);
+    if order.len() > 1 {
+        assert_eq!(b.step_failure(false), Some(order[order.len() - 1]));
+    }
+    // One level, never diverged: each filter narrows what the last one let through.
+    b.filter = groundscope::metrics::report::browse::Filter {
+        level: Some("BabyAI-GoToDoor-v0".into()),
+        divergence: Divergence::Never,
+        ..Default::default()
+    };
+    b.refresh();
+    assert!(b.shown().iter().all(|&i| {
+        let r = &b.rows[i];
+        r.level == "BabyAI-GoToDoor-v0" && r.first_divergence.is_none()
+    }));
+    // A failure opens with its checkpoint, level, seed and the step where it was lost.
+    let f = b.rows.iter().position(|r| !r.success).unwrap();
+    let ep = b.episode(f).unwrap();
+    let row = &b.rows[f];
+    assert_eq!(ep.seed, row.level_seed);
+    assert_eq!(ep.level.id(), row.level);
+    assert!(!ep.level.done_required);
+    assert_eq!(ep.step as u32, row.decisive_step.unwrap());
+    assert!(groundscope::policy::Agent::load(&ep.checkpoint).is_ok());
+}
+
+/// The debugger opens the report at its first failure, lists its episodes, and N opens the
+/// next failure at the step where it was lost.
+#[test]
+fn the_debugger_browses_a_report_and_opens_the_next_failure() {
+    let mut b = Browser::open(report()).unwrap();
+    let first = b.first().unwrap();
+    let ep = b.episode(first).unwrap();
+    b.selected = Some(first);
+    let failed: Vec<usize> = (0..b.rows.len()).filter(|&i| !b.rows[i].success).collect();
+    let mut h = build(&StartOptions {
+        checkpoint: ep.checkpoint.clone(),
+        compare: None,
+        level: Some(ep.level),
+        seed: ep.seed,
+        sample: false,
+        step: ep.step,
+        mission: None,
+        faithfulness: false,
+        report: Some(b.clone()),
+    });
+    show_until(&mut h, &format!("step {} of ", ep.step));
+    h.get_by_label_contains("16 of 16 episodes listed");
+    assert!(failed.len() >= 2, "{} failures", failed.len());
+    h.key_press(egui::Key::N);
+    let next = b.step_failure(true).unwrap();
+    let want = b.episode(next).unwrap();
+    assert_eq!(next, failed[1]);
+    show_until(&mut h, &format!("step {} of ", want.step));
+    wait_for_seed(&mut h, want.seed);
+}
+
+/// The top bar's "report…" opens a report (an empty field is an error naming the file it
+/// looked for); the episodes panel then lists it.
+#[test]
+fn the_report_button_opens_an_evaluation() {
+    let mut h = build(&StartOptions {
+        checkpoint: "bundled:babyai".into(),
+        compare: None,
+        level: None,
+        seed: 0,
+        sample: false,
+        step: 0,
+        mission: None,
+        faithfulness: false,
+        report: None,
+    });
+    show_until(&mut h, "step 0 of ");
+    assert!(h.query_by_label("episodes").is_none());
+    h.get_by_label("report…").click();
+    show_until(&mut h, "episodes.csv");
+    h.state_mut().open_report(report());
+    show_until(&mut h, "16 of 16 episodes listed");
+    h.get_by_label("episodes");
+}
+
+/// Runs frames until the debugger shows seed `seed`'s episode.
+fn wait_for_seed(h: &mut egui_kittest::Harness<'_, groundscope::app::Debugger>, seed: u64) {
+    common::wait_until(&format!("seed {seed} shown"), || {
+        h.step();
+        h.state().shown_seed() == Some(seed)
+    });
+}
+
+#[test]
+fn a_report_that_cannot_open_is_one_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = gs(&["view", "--report", dir.path().to_str().unwrap()]);
+    assert_bad_input(&o, "episodes.csv");
+    // A level no version wrote, named by line and column.
+    let bad = dir.path().join("bad");
+    std::fs::create_dir(&bad).unwrap();
+    let text = std::fs::read_to_string(report().join("episodes.csv")).unwrap();
+    let broken = text.replacen("BabyAI-GoToLocal-v0", "BabyAI-GoToLocl-v0", 1);
+    std::fs::write(bad.join("episodes.csv"), broken).unwrap();
+    let o = gs(&["view", "--report", bad.to_str().unwrap()]);
+    assert_bad_input(&o, "column level");
+    // An episode names itself: --report does not take another episode's flags.
+    let o = gs(&[
+        "view",
+        "--report",
+        report().to_str().unwrap(),
+        "--seed",
+        "3",
+    ]);
+    assert_bad_input(&o, "--seed");
+}

@@ -1,0 +1,8 @@
+//! Training: PPO (`ppo`), `train` on the command line (`cli`) and on several levels
+//! (`levels`), the run as a core object (`run`), and crash consistency (`crash`).
+
+mod cli;
+mod crash;
+mod levels;
+mod ppo;
+mod run;
