@@ -48,7 +48,7 @@ MINIGRID_VERSION: str = _core.MINIGRID_VERSION
 
 
 def level_ids() -> list[str]:
-    """Every registered BabyAI id of minigrid 3.2.0, in registration order."""
+    """Every id of minigrid 3.2.0 groundscope builds: BabyAI's 96, then MiniGrid's 76."""
     return list(_core.level_ids())
 
 
@@ -76,14 +76,24 @@ def make(id: str, **kwargs) -> gym.Env:
     """The env of level ``id`` as ``gymnasium.make(id)`` makes minigrid's: the same
     observations, rewards, terminations and truncations for the same seeds.
 
-    ``id`` is a BabyAI id (``BabyAI-GoToLocal-v0``, with or without the ``groundscope/``
-    namespace) or the paper's level ``groundscope-PaperLocalS{S}N{N}-v0``. An unknown id is a
+    ``id`` is a BabyAI or MiniGrid id (``BabyAI-GoToLocal-v0``, ``MiniGrid-DoorKey-5x5-v0``,
+    with or without the ``groundscope/`` namespace), the paper's level
+    ``groundscope-PaperLocalS{S}N{N}-v0``, or a MiniGrid class with its keyword arguments
+    (``"MultiRoomEnv(minNumRooms=7, maxNumRooms=7)"``): then the env equals minigrid's class
+    built with those arguments, unwrapped as that class is. An unknown id is a
     ``ValueError`` naming the closest ones.
     """
     level = _bare(id)
     # Checked here so that a bad id is one line naming it, not gymnasium's registry error.
     _core.Env(level)
+    if _is_class(level):
+        return GroundscopeEnv(level, **kwargs)
     return gym.make(_register(level), **kwargs)
+
+
+def _is_class(level: str) -> bool:
+    """A class spelt with its arguments (gymnasium's registry cannot hold such a name)."""
+    return "(" in level
 
 
 def make_vec(
@@ -96,7 +106,8 @@ def make_vec(
     calling thread. ``copy=False`` returns the preallocated arrays, overwritten by the next
     step."""
     level = _bare(id)
-    _register(level)
+    if not _is_class(level):
+        _register(level)
     return GroundscopeVecEnv(level, num_envs, num_threads=num_threads, copy=copy)
 
 

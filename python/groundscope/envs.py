@@ -37,7 +37,7 @@ def observation_space() -> spaces.Dict:
 
 
 class GroundscopeEnv(gym.Env):
-    """One BabyAI env, seed-exact with minigrid 3.2.0 (use ``groundscope.make``)."""
+    """One BabyAI or MiniGrid env, seed-exact with minigrid 3.2.0 (use ``groundscope.make``)."""
 
     metadata = {"render_modes": []}
 
@@ -47,7 +47,8 @@ class GroundscopeEnv(gym.Env):
         self._core = _core.Env(level)
         self.level = self._core.level
         self.observation_space = observation_space()
-        self.action_space = spaces.Discrete(7)
+        # minigrid's: 7 actions, 3 on Dynamic-Obstacles (left, right, forward).
+        self.action_space = spaces.Discrete(self._core.num_actions)
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
         image, direction, mission = self._core.reset(seed)
@@ -130,7 +131,7 @@ class GroundscopeVecEnv(VectorEnv):
         self.num_envs = int(num_envs)
         self.copy = copy
         self.single_observation_space = observation_space()
-        self.single_action_space = spaces.Discrete(7)
+        self.single_action_space = spaces.Discrete(self._core.num_actions)
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         n = self.num_envs

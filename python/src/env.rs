@@ -62,6 +62,15 @@ pub fn entropy_seed() -> u64 {
     rand::random()
 }
 
+/// The action an env of `num_actions` actions takes for `a`: Dynamic-Obstacles (3 actions)
+/// acts `left` for any action at or past 3, as its `step` does; else [`action`].
+pub fn env_action(a: i64, num_actions: usize, what: &str) -> PyResult<Action> {
+    if num_actions < Action::COUNT && a >= num_actions as i64 {
+        return Ok(Action::Left);
+    }
+    action(a, what)
+}
+
 /// The action at index `a`, or a `ValueError` naming it.
 pub fn action(a: i64, what: &str) -> PyResult<Action> {
     usize::try_from(a)
@@ -122,7 +131,7 @@ impl Env {
         py: Python<'py>,
         action: i64,
     ) -> PyResult<(Bound<'py, PyArray3<u8>>, i64, String, f64, bool, bool)> {
-        let a = self::action(action, "action")?;
+        let a = env_action(action, self.core.num_actions(), "action")?;
         let out = match self.core.step(a) {
             Ok(o) => o,
             Err(EnvError::EpisodeEnded { .. }) => {
@@ -149,6 +158,12 @@ impl Env {
         self.core.level.id()
     }
 
+    /// The size of the action space (3 on Dynamic-Obstacles, else 7).
+    #[getter]
+    fn num_actions(&self) -> usize {
+        self.core.num_actions()
+    }
+
     /// The current episode's horizon (`max_steps`, which depends on the mission in BabyAI).
     #[getter]
     fn max_steps(&self) -> Option<u32> {
@@ -168,8 +183,9 @@ impl Env {
     }
 }
 
-/// Every registered BabyAI id of minigrid 3.2.0, in registration order.
+/// Every registered id of minigrid 3.2.0 that groundscope builds: BabyAI's 96, then
+/// MiniGrid's 76.
 #[pyfunction]
 pub fn level_ids() -> Vec<&'static str> {
-    babyai::level_ids().collect()
+    babyai::all_ids().collect()
 }

@@ -11,7 +11,7 @@ use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use rayon::prelude::*;
 
-use crate::env::{IMAGE_BYTES, action, check_seed, entropy_seed, parse_level, py_err};
+use crate::env::{IMAGE_BYTES, check_seed, entropy_seed, env_action, parse_level, py_err};
 use groundscope::env::gym::MinigridEnv;
 
 /// Envs per task handed to a thread: small enough to balance, large enough that a task is
@@ -202,11 +202,12 @@ impl VecEnv {
             ));
         }
         // Every action is checked before any env moves: a bad one changes nothing.
+        let num_actions = self.envs[0].num_actions();
         let acts = actions
             .as_array()
             .iter()
             .enumerate()
-            .map(|(i, &a)| action(a, &format!("actions[{i}]")))
+            .map(|(i, &a)| env_action(a, num_actions, &format!("actions[{i}]")))
             .collect::<PyResult<Vec<_>>>()?;
         let image = image_slice(&mut image, n)?;
         let direction = slices("direction", &mut direction, n)?;
@@ -261,6 +262,12 @@ impl VecEnv {
     }
 
     /// The level's id (the paper's as `groundscope-PaperLocalS{S}N{N}-v0`).
+    /// The size of each env's action space (3 on Dynamic-Obstacles, else 7).
+    #[getter]
+    fn num_actions(&self) -> usize {
+        self.envs.first().map_or(7, MinigridEnv::num_actions)
+    }
+
     #[getter]
     fn level(&self) -> String {
         self.envs.first().map_or_else(String::new, |e| e.level.id())

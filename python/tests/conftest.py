@@ -15,6 +15,10 @@ import groundscope  # noqa: E402
 
 # Every registered BabyAI id, as minigrid registers them (and as groundscope ports them).
 BABYAI_IDS = sorted(k for k in gym.registry if k.startswith("BabyAI-"))
+# MiniGrid's own ids but the 6 WFC ones, which minigrid's wheel cannot build.
+MINIGRID_IDS = sorted(
+    k for k in gym.registry if k.startswith("MiniGrid-") and not k.startswith("MiniGrid-WFC-")
+)
 
 
 @pytest.fixture(scope="session", autouse=True)

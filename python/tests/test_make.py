@@ -7,21 +7,23 @@ import numpy as np
 import pytest
 
 import groundscope
-from conftest import BABYAI_IDS, assert_obs_equal
+from conftest import BABYAI_IDS, MINIGRID_IDS, assert_obs_equal
 
 SEEDS = (0, 7)
 STEPS = 100
 
 
-def test_every_babyai_id_is_ported():
-    assert sorted(groundscope.level_ids()) == BABYAI_IDS
+def test_every_babyai_and_minigrid_id_is_ported():
+    assert sorted(groundscope.level_ids()) == sorted(BABYAI_IDS + MINIGRID_IDS)
     assert len(BABYAI_IDS) == 96
+    assert len(MINIGRID_IDS) == 76
 
 
-@pytest.mark.parametrize("env_id", BABYAI_IDS)
+@pytest.mark.parametrize("env_id", BABYAI_IDS + MINIGRID_IDS)
 def test_make_equals_minigrid(env_id):
     ref = gym.make(env_id)
     ours = groundscope.make(env_id)
+    assert ours.action_space == ref.action_space, env_id
     rng = np.random.default_rng(zlib.crc32(env_id.encode()))
     resets = 0
     for seed in SEEDS:
@@ -146,3 +148,44 @@ def test_the_package_ships_its_version_and_types():
     files = importlib.resources.files("groundscope")
     assert files.joinpath("py.typed").is_file()
     assert files.joinpath("_core.pyi").is_file()
+
+
+@pytest.mark.parametrize(
+    "cls, kwargs",
+    [
+        ("MultiRoomEnv", dict(minNumRooms=7, maxNumRooms=7, maxRoomSize=8)),
+        ("MultiRoomEnv", dict(minNumRooms=12, maxNumRooms=12, maxRoomSize=10)),
+        ("CrossingEnv", dict(size=13, num_crossings=4, obstacle_type="wall")),
+        ("KeyCorridorEnv", dict(room_size=4, num_rows=4)),
+        ("DoorKeyEnv", dict(size=12)),
+        ("EmptyEnv", dict(size=10, agent_start_pos=None)),
+        ("DynamicObstaclesEnv", dict(size=10, n_obstacles=6)),
+        ("FetchEnv", dict(size=7, numObjs=4)),
+        ("PutNearEnv", dict(size=7, numObjs=3)),
+        ("ObstructedMaze_Full", dict(agent_room=(2, 1), num_quarters=3, num_rooms_visited=15)),
+    ],
+)
+def test_a_class_with_arguments_equals_minigrids_class(cls, kwargs):
+    import minigrid.envs
+
+    # Python's own reprs but strings bare: (2, 1), None, wall.
+    spelling = f"{cls}(" + ", ".join(f"{k}={v}" for k, v in kwargs.items()) + ")"
+    ref = getattr(minigrid.envs, cls)(**kwargs)
+    ours = groundscope.make(spelling)
+    assert ours.action_space == ref.action_space
+    rng = np.random.default_rng(5)
+    for seed in (0, 1, 2):
+        o_ref, _ = ref.reset(seed=seed)
+        o, _ = ours.reset(seed=seed)
+        assert_obs_equal(o, o_ref, f"{spelling} reset(seed={seed})")
+        assert ours.unwrapped.max_steps == ref.unwrapped.max_steps
+        for t in range(60):
+            a = int(rng.integers(0, 7))
+            o_ref, r_ref, te_ref, tr_ref, _ = ref.step(a)
+            o, r, te, tr, _ = ours.step(a)
+            assert_obs_equal(o, o_ref, f"{spelling} seed {seed} step {t}")
+            assert (r, te, tr) == (r_ref, te_ref, tr_ref)
+            if te or tr:
+                break
+    vec = groundscope.make_vec(spelling, 2)
+    assert vec.single_action_space == ref.action_space

@@ -10,7 +10,7 @@ import pytest
 from gymnasium.vector import AutoresetMode
 
 import groundscope
-from conftest import BABYAI_IDS, assert_batch_equal
+from conftest import BABYAI_IDS, MINIGRID_IDS, assert_batch_equal
 
 NUM_ENVS = 4
 STEPS = 80
@@ -19,7 +19,7 @@ STEPS = 80
 _autoresets = []
 
 
-@pytest.mark.parametrize("env_id", BABYAI_IDS)
+@pytest.mark.parametrize("env_id", BABYAI_IDS + MINIGRID_IDS)
 def test_make_vec_equals_sync_vector_env(env_id):
     ref = gym.make_vec(env_id, NUM_ENVS, vectorization_mode="sync")
     ours = groundscope.make_vec(env_id, NUM_ENVS, num_threads=2)
@@ -55,7 +55,7 @@ def test_make_vec_equals_sync_vector_env(env_id):
 
 
 def test_the_comparison_crossed_autoresets():
-    if len(_autoresets) < len(BABYAI_IDS):
+    if len(_autoresets) < len(BABYAI_IDS) + len(MINIGRID_IDS):
         pytest.skip("needs the whole comparison above")
     assert sum(_autoresets) >= 50, _autoresets
 

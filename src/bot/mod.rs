@@ -264,6 +264,10 @@ impl Bot {
     }
 }
 
+/// The expert's plan on MiniGrid's own environments, where BabyAI's bot has no instruction to
+/// plan.
+pub const NO_EXPERT: &str = "none: BabyAI's bot plans BabyAI instructions only";
+
 /// The bot beside an episode: told every action taken (its own suggestions or anyone
 /// else's, as minigrid's bot is in `gen_minigrid_fixtures.py`), it gives at each step the
 /// action it would take and its plan.
@@ -285,11 +289,18 @@ impl Expert {
     /// The action it would take in `world`, the state before the next action, whose
     /// observation is `obs`; `None` once it has given up.
     pub fn advise(&mut self, world: &World, obs: &Observation) -> Option<Action> {
+        if world.rules.is_some() {
+            // MiniGrid's own environments: no BabyAI instruction to plan, no expert.
+            return None;
+        }
         self.bot.replan_seeing(world, obs, self.taken.take())
     }
 
     /// Its plan after the last [`Self::advise`], top first, or why it gave up.
     pub fn plan(&self, world: &World) -> String {
+        if world.rules.is_some() {
+            return NO_EXPERT.to_owned();
+        }
         self.bot.plan_text(world)
     }
 

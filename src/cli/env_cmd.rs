@@ -42,9 +42,10 @@ pub struct LevelArgs {
     /// Always name the colour in missions.
     #[arg(long)]
     pub always_color: bool,
-    /// A BabyAI level by its gym id (e.g. BabyAI-GoToObjMaze-v0), generated exactly as
-    /// minigrid 3.2.0 generates it; `--room-size`, `--objects` and `--tasks` describe the
-    /// paper's level only. `groundscope env list` lists the ids.
+    /// A level by its gym id (BabyAI-GoToObjMaze-v0, MiniGrid-DoorKey-5x5-v0) or a MiniGrid
+    /// class with its arguments ("MultiRoomEnv(minNumRooms=7, maxNumRooms=7)"), generated
+    /// exactly as minigrid 3.2.0 generates it; `--room-size`, `--objects` and `--tasks`
+    /// describe the paper's level only. `groundscope env list` lists the ids.
     #[arg(
         long,
         value_name = "ID",
@@ -95,8 +96,9 @@ pub enum EnvCommand {
         #[arg(long, value_name = "FILE")]
         snapshot: Option<PathBuf>,
     },
-    /// List every BabyAI level id with its rooms and mechanics; with `--checkpoint`, whether
-    /// that checkpoint can read each level's missions.
+    /// List every level id (BabyAI's 96 and MiniGrid's 76) with its family, rooms, actions,
+    /// mechanics and mission words; with `--checkpoint`, whether that checkpoint can read
+    /// each level's missions.
     #[command(
         after_long_help = "EXAMPLES:\n  groundscope env list\n  groundscope env list --checkpoint bundled:attention\n  groundscope env show --level BabyAI-KeyCorridorS3R3-v0 --seed 1"
     )]
@@ -110,7 +112,7 @@ pub enum EnvCommand {
     /// Replay dumps of the Python reference and compare every step.
     ///
     /// Each FILE is a dump_minigrid.py JSON episode (`.json`, or `.json.gz`). A dump of a
-    /// BabyAI level is first regenerated from its `env_id` and `seed` and its initial state
+    /// BabyAI level or MiniGrid environment is first regenerated from its `env_id` and `seed` and its initial state
     /// compared (grid, agent pose, carried object, box contents, mission, instruction tree with
     /// matched positions); then its actions are replayed and every observation, reward,
     /// terminated/truncated flag, agent pose, carried object, changed grid and box contents is
@@ -229,25 +231,80 @@ fn reads_level(
     }
 }
 
+/// Seeds whose missions give a BabyAI level's words in `env list` (MiniGrid's classes list
+/// their words themselves).
+const WORD_SEEDS: u64 = 20;
+
+/// The words `spec`'s missions use: a MiniGrid class's whole vocabulary, or the words of a
+/// BabyAI level's missions over seeds 0..WORD_SEEDS.
+fn mission_words(spec: &groundscope::env::babyai::registry::LevelSpec) -> String {
+    if let groundscope::env::babyai::Family::MiniGrid(class) = spec.family {
+        let words = class.mission_words();
+        return if words.is_empty() {
+            "(empty mission)".into()
+        } else {
+            words.join(" ")
+        };
+    }
+    let mut words: Vec<String> = Vec::new();
+    for seed in 0..WORD_SEEDS {
+        if let Ok(w) = groundscope::env::babyai::generate(spec, seed, false) {
+            for word in w.mission.split([' ', ',']).filter(|t| !t.is_empty()) {
+                if !words.iter().any(|x| x == word) {
+                    words.push(word.to_owned());
+                }
+            }
+        }
+    }
+    words.join(" ")
+}
+
 fn list(agent: Option<&groundscope::policy::Agent>) {
-    let levels = groundscope::env::babyai::registry::LEVELS;
     let reads_header = if agent.is_some() { "  reads" } else { "" };
     println!(
-        "{:<36} {:>5} {:>6} {:>9}  {:<18} {:<26} {:<30}{reads_header}",
-        "id", "rooms", "room", "grid", "doors", "locks", "instructions"
+        "{:<18} {:<40} {:>5} {:>6} {:>9} {:>7}  {:<18} {:<30} {:<36}{reads_header}  words",
+        "family", "id", "rooms", "room", "grid", "actions", "doors", "locks", "instructions"
     );
     let mut readable = 0;
-    for l in levels {
+    let mut n = 0;
+    for level in LevelId::all() {
+        let l = level.spec();
+        n += 1;
         let m = l.mechanics();
-        let (grid, rooms) = l.rooms.layout_names();
+        let (grid, rooms, family, actions) = match level.minigrid() {
+            Some(c) => {
+                let (w, h) = c.grid_size();
+                let r = c.rooms();
+                (
+                    format!("{w}×{h}"),
+                    format!("{}×{}", r.num_cols, r.num_rows),
+                    format!("MiniGrid {}", c.family()),
+                    c.num_actions(),
+                )
+            }
+            None => {
+                let (grid, rooms) = l.rooms.layout_names();
+                (
+                    grid,
+                    rooms,
+                    "BabyAI".to_owned(),
+                    groundscope::env::Action::COUNT,
+                )
+            }
+        };
         let reads = agent.map_or_else(String::new, |a| {
             let r = reads_level(a, l);
             readable += usize::from(r.starts_with("all"));
             format!("  {r}")
         });
         println!(
-            "{:<36} {:>5} {:>6} {:>9}  {:<18} {:<26} {:<30}{reads}",
-            l.id, rooms, l.rooms.room_size, grid, m.doors, m.locks, m.instructions
+            "{family:<18} {:<40} {rooms:>5} {:>6} {grid:>9} {actions:>7}  {:<18} {:<30} {:<36}{reads}  {}",
+            l.id,
+            l.rooms.room_size,
+            m.doors,
+            m.locks,
+            m.instructions,
+            mission_words(l)
         );
     }
     if agent.is_some() {
@@ -255,7 +312,13 @@ fn list(agent: Option<&groundscope::policy::Agent>) {
             "the checkpoint reads every mission of {readable} of them (seeds 0..{READ_SEEDS})"
         );
     }
-    println!("{} levels (minigrid 3.2.0)", levels.len());
+    println!(
+        "{n} levels of minigrid 3.2.0: {} BabyAI, {} MiniGrid (its 6 MiniGrid-WFC-* ids do not \
+         build from minigrid's wheel; a class with arguments is spelt \
+         MultiRoomEnv(minNumRooms=7, maxNumRooms=7), docs/world.md)",
+        LevelId::babyai_all().count(),
+        LevelId::minigrid_all().count()
+    );
 }
 
 fn verify(files: &[PathBuf]) -> ExitStatus {

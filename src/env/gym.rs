@@ -8,6 +8,7 @@
 use super::babyai::{self, LevelSpec};
 use super::error::EnvError;
 use super::level::LevelConfig;
+use super::minigrid::Rules;
 use super::rng::NumpyRng;
 use super::world::{Action, StepOutcome, World};
 
@@ -48,6 +49,12 @@ impl MinigridEnv {
         if let Some(s) = seed {
             self.rng = Some(NumpyRng::new(s));
             self.seed = s;
+        } else if let Some(w) = &self.world
+            && let Some(Rules::DynamicObstacles { rng, .. }) = &w.rules
+        {
+            // Dynamic-Obstacles' balls drew from the env's stream at every step: the next
+            // level continues from where the last step left it.
+            self.rng = Some(rng.clone());
         }
         if self.rng.is_none() {
             self.seed = fresh();
@@ -93,6 +100,14 @@ impl MinigridEnv {
             dst.copy_from_slice(src);
         }
         w.agent_dir
+    }
+
+    /// The size of the action space: 3 on Dynamic-Obstacles (left, right, forward), else 7.
+    pub fn num_actions(&self) -> usize {
+        match self.spec.family {
+            babyai::Family::MiniGrid(c) => c.num_actions(),
+            _ => Action::COUNT,
+        }
     }
 
     /// The mission text of the current episode ("" before the first reset).

@@ -142,12 +142,16 @@ impl LevelId {
             id = format!("{}, max_steps={m})", id.strip_suffix(')').unwrap_or(&id));
             id = id.replacen("(, ", "(", 1);
         }
-        let mut classes = CLASSES.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        let mut classes = CLASSES
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
         if let Some(i) = classes.iter().position(|s| s.id == id) {
             return Ok(Self((registered_len() + i) as u16));
         }
         if classes.len() >= MAX_CLASSES {
-            return Err(format!("more than {MAX_CLASSES} distinct classes named in one process"));
+            return Err(format!(
+                "more than {MAX_CLASSES} distinct classes named in one process"
+            ));
         }
         let spec = LevelSpec {
             id: Box::leak(id.into_boxed_str()),
@@ -185,9 +189,14 @@ impl LevelId {
         if i < registered_len() {
             return &minigrid[i - babyai.len()];
         }
-        let classes = CLASSES.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        let classes = CLASSES
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
         // Ids are only made by `intern`, which pushed this one.
-        classes.get(i - registered_len()).copied().unwrap_or(&minigrid[0])
+        classes
+            .get(i - registered_len())
+            .copied()
+            .unwrap_or(&minigrid[0])
     }
 
     /// The MiniGrid class, for one of MiniGrid's environments; `None` for BabyAI's levels.
@@ -267,7 +276,17 @@ pub const MAX_ROOM_SIZE: usize = 64;
 impl LevelConfig {
     /// Checks the config, naming the field at fault.
     pub fn validate(&self) -> Result<(), EnvError> {
-        if self.babyai.is_some() {
+        if let Some(id) = self.babyai {
+            if self.done_required && id.minigrid().is_some() {
+                return Err(EnvError::InvalidConfig {
+                    field: "done".into(),
+                    reason: format!(
+                        "{} is one of MiniGrid's own environments, which have no done-action \
+                         mode (BabyAI's): `done` is what its own step makes it",
+                        id.id()
+                    ),
+                });
+            }
             return Ok(());
         }
         let bad = |field: &str, reason: String| {

@@ -4,8 +4,9 @@
 //! are portable. Id 0 is padding; ids 1..=25 cover every GoTo / Pickup mission BabyAI's local
 //! levels produce, location phrases and "object" included (the paper's vocabulary, all a
 //! checkpoint trained on the paper's level knows); ids 26..=32 add the rest of BabyAI's
-//! grammar — Open, PutNext, doors and the sequences — appended so that every earlier id keeps
-//! its meaning.
+//! grammar — Open, PutNext, doors and the sequences — and ids 33..=53 the words of MiniGrid's
+//! own missions ("get to the green goal square", "avoid the lava", "put … near …", …), each
+//! block appended so that every earlier id keeps its meaning.
 
 use super::error::EnvError;
 
@@ -13,10 +14,12 @@ use super::error::EnvError;
 pub const PAD: u32 = 0;
 
 /// The vocabulary, index = token id; index 0 is the padding token `<pad>`.
-pub const VOCABULARY: [&str; 33] = [
+pub const VOCABULARY: [&str; 54] = [
     "<pad>", "a", "the", "go", "to", "pick", "up", "ball", "box", "key", "object", "red", "green",
     "blue", "purple", "yellow", "grey", "in", "front", "of", "you", "behind", "on", "your", "left",
-    "right", "open", "door", "put", "next", "then", "after", "and",
+    "right", "open", "door", "put", "next", "then", "after", "and", "get", "goal", "square", "use",
+    "reach", "avoid", "lava", "find", "opening", "fetch", "must", "near", "from", "room", "unlock",
+    "matching", "at", "end", "hallway", "traverse", "rooms",
 ];
 
 /// How many entries of [`VOCABULARY`] (padding included) the paper's level uses: the
@@ -24,7 +27,12 @@ pub const VOCABULARY: [&str; 33] = [
 /// whole grammar was added.
 pub const PAPER_VOCAB_SIZE: usize = 26;
 
-/// Vocabulary size including padding (the embedding table's rows).
+/// How many entries BabyAI's whole grammar uses: the vocabulary of a checkpoint trained on
+/// BabyAI's levels (and of every one made before MiniGrid's words were added).
+pub const BABYAI_VOCAB_SIZE: usize = 33;
+
+/// Vocabulary size including padding (the embedding table's rows of a model trained on
+/// MiniGrid's own environments).
 pub const VOCAB_SIZE: usize = VOCABULARY.len();
 
 /// The id of `word`, if it is in the vocabulary (padding excluded).

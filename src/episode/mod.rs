@@ -267,7 +267,7 @@ fn run_fresh<P: Acting + ?Sized>(
     world: World,
     hooks: Hooks<'_>,
 ) -> Result<EpisodeTrace, PolicyError> {
-    let tokens = crate::policy::acting::mission_tokens(net, &world.mission, || {
+    let tokens = crate::policy::acting::world_tokens(net, &world, || {
         format!("{} seed {}", spec.level, spec.seed)
     })?;
     let memory = net.zero_memory()?;

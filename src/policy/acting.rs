@@ -38,6 +38,23 @@ pub fn mission_tokens<P: Acting + ?Sized>(
     Ok(tokens)
 }
 
+/// [`mission_tokens`] of the mission `world` starts with, after refusing minigrid's bot on one
+/// of MiniGrid's own environments (it plans BabyAI instructions only).
+pub fn world_tokens<P: Acting + ?Sized>(
+    policy: &P,
+    world: &crate::env::World,
+    level: impl Fn() -> String,
+) -> Result<Vec<u32>, PolicyError> {
+    if policy.reads_world() && world.rules.is_some() {
+        return Err(PolicyError::Input(format!(
+            "--checkpoint bot on {}: BabyAI's bot plans BabyAI instructions only, and this is \
+             one of MiniGrid's own environments (its mission is not a BabyAI instruction)",
+            level()
+        )));
+    }
+    mission_tokens(policy, &world.mission, level)
+}
+
 /// Refuses a mission with a word the policy does not know (a native model's untrained or
 /// missing embedding row, a word an imported graph's vocabulary lacks), naming the word, the
 /// mission and `level`.

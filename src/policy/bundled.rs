@@ -116,7 +116,10 @@ mod tests {
             let variant = c.meta.model.variant.name();
             if [BABYAI, BABYAI_GROUNDED, BABYAI_GROUNDED2].contains(&n.as_str()) {
                 assert_eq!(variant, "attention");
-                assert_eq!(c.meta.model.vocab_size, crate::env::vocab::VOCAB_SIZE);
+                assert_eq!(
+                    c.meta.model.vocab_size,
+                    crate::env::vocab::BABYAI_VOCAB_SIZE
+                );
                 assert_eq!(c.meta.model.layout_path, n != BABYAI);
                 assert_eq!(c.meta.model.filter_norm, n == BABYAI_GROUNDED2);
                 assert!(training_note(&n).is_some());

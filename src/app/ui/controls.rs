@@ -243,7 +243,7 @@ impl Debugger {
             return;
         };
         let reads = |a: &Agent| {
-            crate::policy::acting::mission_tokens(a.policy.acting(), &world.mission, || {
+            crate::policy::acting::world_tokens(a.policy.acting(), &world, || {
                 self.level.to_string()
             })
         };

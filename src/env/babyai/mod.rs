@@ -209,8 +209,7 @@ pub fn generate_continuing(
 
 /// A MiniGrid level's horizon: its spec's (a class given `max_steps`), else the class's.
 fn minigrid_horizon(spec: &LevelSpec, class: &super::minigrid::Class) -> u32 {
-    spec.max_steps
-        .unwrap_or_else(|| class.default_max_steps())
+    spec.max_steps.unwrap_or_else(|| class.default_max_steps())
 }
 
 fn generate_with(
@@ -225,7 +224,8 @@ fn generate_with(
         if log {
             rng.record();
         }
-        let world = super::minigrid::generate(class, &mut rng, minigrid_horizon(spec, class), seed)?;
+        let world =
+            super::minigrid::generate(class, &mut rng, minigrid_horizon(spec, class), seed)?;
         return Ok((world, rng.take_log()));
     }
     let mut g = Gen::new(spec.rooms, seed);

@@ -22,7 +22,12 @@ struct Room {
 
 /// `MultiRoomEnv._gen_grid`: the longest chain of rooms found (at least the drawn number),
 /// each entered by a door of a colour other than the previous door's.
-pub fn multi_room(g: &mut Gen, min_rooms: i32, max_rooms: i32, max_size: i32) -> Result<Made, Retry> {
+pub fn multi_room(
+    g: &mut Gen,
+    min_rooms: i32,
+    max_rooms: i32,
+    max_size: i32,
+) -> Result<Made, Retry> {
     let (w, h) = (g.grid.width() as i32, g.grid.height() as i32);
     let num_rooms = g.rand_int(min_rooms, max_rooms + 1) as usize;
     let mut rooms: Vec<Room> = Vec::new();
@@ -129,7 +134,15 @@ fn place_room(
             2 => (tx, ty + g.rand_int(1, sy - 1)),
             _ => (tx + g.rand_int(1, sx - 1), ty),
         };
-        if place_room(g, (w, h), num_left - 1, rooms, (min_sz, max_sz), next_entry, exit) {
+        if place_room(
+            g,
+            (w, h),
+            num_left - 1,
+            rooms,
+            (min_sz, max_sz),
+            next_entry,
+            exit,
+        ) {
             break;
         }
     }

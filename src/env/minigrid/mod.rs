@@ -21,8 +21,8 @@ pub mod single;
 pub mod spelling;
 
 pub use registry::{Class, WFC_IDS, parse_class};
-pub use spelling::looks_like_class;
 pub use rules::Rules;
+pub use spelling::looks_like_class;
 
 use super::babyai::roomgrid::{Gen, Retry};
 use super::error::EnvError;
@@ -269,7 +269,9 @@ impl Class {
                 blocked,
                 num_quarters,
                 ..
-            } => rooms::obstructed_full(&mut g, v1, agent_room, (key_in_box, blocked), num_quarters),
+            } => {
+                rooms::obstructed_full(&mut g, v1, agent_room, (key_in_box, blocked), num_quarters)
+            }
         }?;
         // `reset` asserts the agent stands on an empty or overlappable cell.
         if g.grid.get(g.agent_pos).is_some_and(|o| !o.can_overlap()) {

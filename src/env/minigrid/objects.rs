@@ -34,7 +34,13 @@ pub fn fetch(g: &mut Gen, num_objs: usize) -> Result<Made, Retry> {
     }
     g.place_agent_in(None, None)?;
     let target = objs[g.rng.below(0, objs.len())];
-    let syntax = ["get a", "go get a", "fetch a", "go fetch a", "you must fetch a"];
+    let syntax = [
+        "get a",
+        "go get a",
+        "fetch a",
+        "go fetch a",
+        "you must fetch a",
+    ];
     let phrase = syntax[g.rng.below(0, 5)];
     Ok(Made {
         mission: format!("{phrase} {} {}", target.color, target.kind),

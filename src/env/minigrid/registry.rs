@@ -231,9 +231,9 @@ impl Class {
             Self::DoorKey { size } => 10 * sq(size),
             Self::FourRooms { .. } | Self::Playground => 100,
             Self::DistShift { width, height, .. } => 4 * (width * height) as u32,
-            Self::Fetch { size, .. } | Self::GoToObject { size, .. } | Self::Memory { size, .. } => {
-                5 * sq(size)
-            }
+            Self::Fetch { size, .. }
+            | Self::GoToObject { size, .. }
+            | Self::Memory { size, .. } => 5 * sq(size),
             Self::PutNear { size, .. } => 5 * size as u32,
             Self::RedBlueDoors { size } => 20 * sq(size),
             Self::LockedRoom { size } => 10 * size as u32,
@@ -305,9 +305,10 @@ impl Class {
             Self::Memory { .. } => fixed("go to the matching object at end of hallway"),
             Self::MultiRoom { .. } => fixed("traverse the rooms to get goal"),
             Self::Playground => Vec::new(),
-            Self::KeyCorridor { obj, .. } => {
-                with(fixed("pick up the"), &COLORS).into_iter().chain([obj.name()]).collect()
-            }
+            Self::KeyCorridor { obj, .. } => with(fixed("pick up the"), &COLORS)
+                .into_iter()
+                .chain([obj.name()])
+                .collect(),
             Self::Unlock => fixed("open the door"),
             Self::UnlockPickup | Self::BlockedUnlockPickup => {
                 with(fixed("pick up the box"), &COLORS)
@@ -409,7 +410,10 @@ const fn dist_shift(strip2_row: i32) -> Class {
 
 /// The 76 ids, sorted, with the classes and arguments minigrid registers them with.
 pub const LEVELS: &[LevelSpec] = &[
-    lvl("MiniGrid-BlockedUnlockPickup-v0", Class::BlockedUnlockPickup),
+    lvl(
+        "MiniGrid-BlockedUnlockPickup-v0",
+        Class::BlockedUnlockPickup,
+    ),
     lvl("MiniGrid-DistShift1-v0", dist_shift(2)),
     lvl("MiniGrid-DistShift2-v0", dist_shift(5)),
     lvl("MiniGrid-DoorKey-16x16-v0", Class::DoorKey { size: 16 }),
@@ -420,17 +424,41 @@ pub const LEVELS: &[LevelSpec] = &[
     lvl("MiniGrid-Dynamic-Obstacles-5x5-v0", dynamic(5, 2, false)),
     lvl("MiniGrid-Dynamic-Obstacles-6x6-v0", dynamic(6, 3, false)),
     lvl("MiniGrid-Dynamic-Obstacles-8x8-v0", dynamic(8, 4, false)),
-    lvl("MiniGrid-Dynamic-Obstacles-Random-5x5-v0", dynamic(5, 2, true)),
-    lvl("MiniGrid-Dynamic-Obstacles-Random-6x6-v0", dynamic(6, 3, true)),
+    lvl(
+        "MiniGrid-Dynamic-Obstacles-Random-5x5-v0",
+        dynamic(5, 2, true),
+    ),
+    lvl(
+        "MiniGrid-Dynamic-Obstacles-Random-6x6-v0",
+        dynamic(6, 3, true),
+    ),
     lvl("MiniGrid-Empty-16x16-v0", empty(16, false)),
     lvl("MiniGrid-Empty-5x5-v0", empty(5, false)),
     lvl("MiniGrid-Empty-6x6-v0", empty(6, false)),
     lvl("MiniGrid-Empty-8x8-v0", empty(8, false)),
     lvl("MiniGrid-Empty-Random-5x5-v0", empty(5, true)),
     lvl("MiniGrid-Empty-Random-6x6-v0", empty(6, true)),
-    lvl("MiniGrid-Fetch-5x5-N2-v0", Class::Fetch { size: 5, num_objs: 2 }),
-    lvl("MiniGrid-Fetch-6x6-N2-v0", Class::Fetch { size: 6, num_objs: 2 }),
-    lvl("MiniGrid-Fetch-8x8-N3-v0", Class::Fetch { size: 8, num_objs: 3 }),
+    lvl(
+        "MiniGrid-Fetch-5x5-N2-v0",
+        Class::Fetch {
+            size: 5,
+            num_objs: 2,
+        },
+    ),
+    lvl(
+        "MiniGrid-Fetch-6x6-N2-v0",
+        Class::Fetch {
+            size: 6,
+            num_objs: 2,
+        },
+    ),
+    lvl(
+        "MiniGrid-Fetch-8x8-N3-v0",
+        Class::Fetch {
+            size: 8,
+            num_objs: 3,
+        },
+    ),
     lvl(
         "MiniGrid-FourRooms-v0",
         Class::FourRooms {
@@ -441,8 +469,20 @@ pub const LEVELS: &[LevelSpec] = &[
     lvl("MiniGrid-GoToDoor-5x5-v0", Class::GoToDoor { size: 5 }),
     lvl("MiniGrid-GoToDoor-6x6-v0", Class::GoToDoor { size: 6 }),
     lvl("MiniGrid-GoToDoor-8x8-v0", Class::GoToDoor { size: 8 }),
-    lvl("MiniGrid-GoToObject-6x6-N2-v0", Class::GoToObject { size: 6, num_objs: 2 }),
-    lvl("MiniGrid-GoToObject-8x8-N2-v0", Class::GoToObject { size: 8, num_objs: 2 }),
+    lvl(
+        "MiniGrid-GoToObject-6x6-N2-v0",
+        Class::GoToObject {
+            size: 6,
+            num_objs: 2,
+        },
+    ),
+    lvl(
+        "MiniGrid-GoToObject-8x8-N2-v0",
+        Class::GoToObject {
+            size: 8,
+            num_objs: 2,
+        },
+    ),
     lvl("MiniGrid-KeyCorridorS3R1-v0", kc(3, 1)),
     lvl("MiniGrid-KeyCorridorS3R2-v0", kc(3, 2)),
     lvl("MiniGrid-KeyCorridorS3R3-v0", kc(3, 3)),
@@ -453,16 +493,70 @@ pub const LEVELS: &[LevelSpec] = &[
     lvl("MiniGrid-LavaCrossingS9N1-v0", crossing(9, 1, true)),
     lvl("MiniGrid-LavaCrossingS9N2-v0", crossing(9, 2, true)),
     lvl("MiniGrid-LavaCrossingS9N3-v0", crossing(9, 3, true)),
-    lvl("MiniGrid-LavaGapS5-v0", Class::LavaGap { size: 5, lava: true }),
-    lvl("MiniGrid-LavaGapS6-v0", Class::LavaGap { size: 6, lava: true }),
-    lvl("MiniGrid-LavaGapS7-v0", Class::LavaGap { size: 7, lava: true }),
+    lvl(
+        "MiniGrid-LavaGapS5-v0",
+        Class::LavaGap {
+            size: 5,
+            lava: true,
+        },
+    ),
+    lvl(
+        "MiniGrid-LavaGapS6-v0",
+        Class::LavaGap {
+            size: 6,
+            lava: true,
+        },
+    ),
+    lvl(
+        "MiniGrid-LavaGapS7-v0",
+        Class::LavaGap {
+            size: 7,
+            lava: true,
+        },
+    ),
     lvl("MiniGrid-LockedRoom-v0", Class::LockedRoom { size: 19 }),
-    lvl("MiniGrid-MemoryS11-v0", Class::Memory { size: 11, random_length: false }),
-    lvl("MiniGrid-MemoryS13-v0", Class::Memory { size: 13, random_length: false }),
-    lvl("MiniGrid-MemoryS13Random-v0", Class::Memory { size: 13, random_length: true }),
-    lvl("MiniGrid-MemoryS17Random-v0", Class::Memory { size: 17, random_length: true }),
-    lvl("MiniGrid-MemoryS7-v0", Class::Memory { size: 7, random_length: false }),
-    lvl("MiniGrid-MemoryS9-v0", Class::Memory { size: 9, random_length: false }),
+    lvl(
+        "MiniGrid-MemoryS11-v0",
+        Class::Memory {
+            size: 11,
+            random_length: false,
+        },
+    ),
+    lvl(
+        "MiniGrid-MemoryS13-v0",
+        Class::Memory {
+            size: 13,
+            random_length: false,
+        },
+    ),
+    lvl(
+        "MiniGrid-MemoryS13Random-v0",
+        Class::Memory {
+            size: 13,
+            random_length: true,
+        },
+    ),
+    lvl(
+        "MiniGrid-MemoryS17Random-v0",
+        Class::Memory {
+            size: 17,
+            random_length: true,
+        },
+    ),
+    lvl(
+        "MiniGrid-MemoryS7-v0",
+        Class::Memory {
+            size: 7,
+            random_length: false,
+        },
+    ),
+    lvl(
+        "MiniGrid-MemoryS9-v0",
+        Class::Memory {
+            size: 9,
+            random_length: false,
+        },
+    ),
     lvl("MiniGrid-MultiRoom-N2-S4-v0", multi(2, 2, 4)),
     // The -v0 id kept for compatibility builds 6 rooms (minigrid issue #471).
     lvl("MiniGrid-MultiRoom-N4-S5-v0", multi(6, 6, 5)),
@@ -471,21 +565,69 @@ pub const LEVELS: &[LevelSpec] = &[
     lvl("MiniGrid-ObstructedMaze-1Dl-v0", om1(false, false)),
     lvl("MiniGrid-ObstructedMaze-1Dlh-v0", om1(true, false)),
     lvl("MiniGrid-ObstructedMaze-1Dlhb-v0", om1(true, true)),
-    lvl("MiniGrid-ObstructedMaze-1Q-v0", om(false, (1, 1), true, true, 1, 5)),
-    lvl("MiniGrid-ObstructedMaze-1Q-v1", om(true, (1, 1), true, true, 1, 5)),
-    lvl("MiniGrid-ObstructedMaze-2Dl-v0", om(false, (2, 1), false, false, 1, 4)),
-    lvl("MiniGrid-ObstructedMaze-2Dlh-v0", om(false, (2, 1), true, false, 1, 4)),
-    lvl("MiniGrid-ObstructedMaze-2Dlhb-v0", om(false, (2, 1), true, true, 1, 4)),
-    lvl("MiniGrid-ObstructedMaze-2Dlhb-v1", om(true, (2, 1), true, true, 1, 4)),
-    lvl("MiniGrid-ObstructedMaze-2Q-v0", om(false, (2, 1), true, true, 2, 11)),
-    lvl("MiniGrid-ObstructedMaze-2Q-v1", om(true, (2, 1), true, true, 2, 11)),
-    lvl("MiniGrid-ObstructedMaze-Full-v0", om(false, (1, 1), true, true, 4, 25)),
-    lvl("MiniGrid-ObstructedMaze-Full-v1", om(true, (1, 1), true, true, 4, 25)),
+    lvl(
+        "MiniGrid-ObstructedMaze-1Q-v0",
+        om(false, (1, 1), true, true, 1, 5),
+    ),
+    lvl(
+        "MiniGrid-ObstructedMaze-1Q-v1",
+        om(true, (1, 1), true, true, 1, 5),
+    ),
+    lvl(
+        "MiniGrid-ObstructedMaze-2Dl-v0",
+        om(false, (2, 1), false, false, 1, 4),
+    ),
+    lvl(
+        "MiniGrid-ObstructedMaze-2Dlh-v0",
+        om(false, (2, 1), true, false, 1, 4),
+    ),
+    lvl(
+        "MiniGrid-ObstructedMaze-2Dlhb-v0",
+        om(false, (2, 1), true, true, 1, 4),
+    ),
+    lvl(
+        "MiniGrid-ObstructedMaze-2Dlhb-v1",
+        om(true, (2, 1), true, true, 1, 4),
+    ),
+    lvl(
+        "MiniGrid-ObstructedMaze-2Q-v0",
+        om(false, (2, 1), true, true, 2, 11),
+    ),
+    lvl(
+        "MiniGrid-ObstructedMaze-2Q-v1",
+        om(true, (2, 1), true, true, 2, 11),
+    ),
+    lvl(
+        "MiniGrid-ObstructedMaze-Full-v0",
+        om(false, (1, 1), true, true, 4, 25),
+    ),
+    lvl(
+        "MiniGrid-ObstructedMaze-Full-v1",
+        om(true, (1, 1), true, true, 4, 25),
+    ),
     lvl("MiniGrid-Playground-v0", Class::Playground),
-    lvl("MiniGrid-PutNear-6x6-N2-v0", Class::PutNear { size: 6, num_objs: 2 }),
-    lvl("MiniGrid-PutNear-8x8-N3-v0", Class::PutNear { size: 8, num_objs: 3 }),
-    lvl("MiniGrid-RedBlueDoors-6x6-v0", Class::RedBlueDoors { size: 6 }),
-    lvl("MiniGrid-RedBlueDoors-8x8-v0", Class::RedBlueDoors { size: 8 }),
+    lvl(
+        "MiniGrid-PutNear-6x6-N2-v0",
+        Class::PutNear {
+            size: 6,
+            num_objs: 2,
+        },
+    ),
+    lvl(
+        "MiniGrid-PutNear-8x8-N3-v0",
+        Class::PutNear {
+            size: 8,
+            num_objs: 3,
+        },
+    ),
+    lvl(
+        "MiniGrid-RedBlueDoors-6x6-v0",
+        Class::RedBlueDoors { size: 6 },
+    ),
+    lvl(
+        "MiniGrid-RedBlueDoors-8x8-v0",
+        Class::RedBlueDoors { size: 8 },
+    ),
     lvl("MiniGrid-SimpleCrossingS11N5-v0", crossing(11, 5, false)),
     lvl("MiniGrid-SimpleCrossingS9N1-v0", crossing(9, 1, false)),
     lvl("MiniGrid-SimpleCrossingS9N2-v0", crossing(9, 2, false)),

@@ -240,10 +240,7 @@ fn move_ball(world: &mut World, rng: &mut NumpyRng, id: ObjectId, old: Pos) -> O
     let ball = world.grid.get(old).filter(|o| o.id == id)?;
     let top = ((old.0 - 1).max(0), (old.1 - 1).max(0));
     let (w, h) = (world.grid.width() as i64, world.grid.height() as i64);
-    let (x_hi, y_hi) = (
-        (i64::from(top.0) + 3).min(w),
-        (i64::from(top.1) + 3).min(h),
-    );
+    let (x_hi, y_hi) = ((i64::from(top.0) + 3).min(w), (i64::from(top.1) + 3).min(h));
     for _ in 0..=100 {
         let x = rng.integers(i64::from(top.0), x_hi) as i32;
         let y = rng.integers(i64::from(top.1), y_hi) as i32;

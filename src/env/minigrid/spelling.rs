@@ -44,7 +44,13 @@ const CLASSES: &[(&str, &[&str])] = &[
     ("LavaGapEnv", &["size", "obstacle_type"]),
     (
         "DistShiftEnv",
-        &["width", "height", "agent_start_pos", "agent_start_dir", "strip2_row"],
+        &[
+            "width",
+            "height",
+            "agent_start_pos",
+            "agent_start_dir",
+            "strip2_row",
+        ],
     ),
     ("CrossingEnv", &["size", "num_crossings", "obstacle_type"]),
     (
@@ -60,7 +66,13 @@ const CLASSES: &[(&str, &[&str])] = &[
     ("MemoryEnv", &["size", "random_length"]),
     (
         "MultiRoomEnv",
-        &["minNumRooms", "maxNumRooms", "maxRoomSize", "width", "height"],
+        &[
+            "minNumRooms",
+            "maxNumRooms",
+            "maxRoomSize",
+            "width",
+            "height",
+        ],
     ),
     ("PlaygroundEnv", &[]),
     ("KeyCorridorEnv", &["num_rows", "obj_type", "room_size"]),
@@ -70,11 +82,23 @@ const CLASSES: &[(&str, &[&str])] = &[
     ("ObstructedMaze_1Dlhb", &["key_in_box", "blocked"]),
     (
         "ObstructedMaze_Full",
-        &["agent_room", "key_in_box", "blocked", "num_quarters", "num_rooms_visited"],
+        &[
+            "agent_room",
+            "key_in_box",
+            "blocked",
+            "num_quarters",
+            "num_rooms_visited",
+        ],
     ),
     (
         "ObstructedMaze_Full_V1",
-        &["agent_room", "key_in_box", "blocked", "num_quarters", "num_rooms_visited"],
+        &[
+            "agent_room",
+            "key_in_box",
+            "blocked",
+            "num_quarters",
+            "num_rooms_visited",
+        ],
     ),
 ];
 
@@ -172,7 +196,9 @@ impl Args<'_> {
         match self.take(key) {
             None => Ok(default),
             Some(Value::None) => Ok(None),
-            Some(Value::Tuple(t)) if t.len() == 2 && t.iter().all(|v| (0..MAX_SIDE).contains(v)) => {
+            Some(Value::Tuple(t))
+                if t.len() == 2 && t.iter().all(|v| (0..MAX_SIDE).contains(v)) =>
+            {
                 Ok(Some((t[0] as i32, t[1] as i32)))
             }
             Some(v) => Err(self.bad(key, &v, "must be None or a pair (x, y) of cells")),
@@ -196,7 +222,8 @@ impl Args<'_> {
 }
 
 fn build(name: &str, a: &mut Args<'_>) -> Result<Class, String> {
-    let side = |a: &mut Args<'_>, key: &str, default: i64, lo: i64| a.int(key, default, lo, MAX_SIDE);
+    let side =
+        |a: &mut Args<'_>, key: &str, default: i64, lo: i64| a.int(key, default, lo, MAX_SIDE);
     Ok(match name {
         "EmptyEnv" => Class::Empty {
             size: side(a, "size", 8, 3)?,
@@ -269,7 +296,9 @@ fn build(name: &str, a: &mut Args<'_>) -> Result<Class, String> {
         },
         "MultiRoomEnv" => {
             let need = |a: &mut Args<'_>, key: &str| match a.take(key) {
-                None => Err(format!("MultiRoomEnv: {key} is required (minigrid has no default)")),
+                None => Err(format!(
+                    "MultiRoomEnv: {key} is required (minigrid has no default)"
+                )),
                 Some(v) => a.count(key, &v, 1, 64).map(|n| n as i32),
             };
             let min_rooms = need(a, "minNumRooms")?;
@@ -289,7 +318,9 @@ fn build(name: &str, a: &mut Args<'_>) -> Result<Class, String> {
                 None => ObjectKind::Ball,
                 Some(Value::Word(w)) => match ObjectKind::from_name(&w) {
                     Some(k) if ObjectKind::PICKABLE.contains(&k) => k,
-                    _ => return Err(a.bad("obj_type", &Value::Word(w), "must be key, ball or box")),
+                    _ => {
+                        return Err(a.bad("obj_type", &Value::Word(w), "must be key, ball or box"));
+                    }
                 },
                 Some(v) => return Err(a.bad("obj_type", &v, "must be key, ball or box")),
             };
@@ -310,7 +341,9 @@ fn build(name: &str, a: &mut Args<'_>) -> Result<Class, String> {
             let v1 = name == "ObstructedMaze_Full_V1";
             let room = a.pair("agent_room", Some((1, 1)))?.unwrap_or((1, 1));
             if room.0 > 2 || room.1 > 2 {
-                return Err(format!("{name}: agent_room={room:?}: must be a room of the 3 × 3"));
+                return Err(format!(
+                    "{name}: agent_room={room:?}: must be a room of the 3 × 3"
+                ));
             }
             Class::ObstructedMazeFull {
                 v1,
@@ -328,9 +361,9 @@ fn build(name: &str, a: &mut Args<'_>) -> Result<Class, String> {
 fn check(class: &Class) -> Result<(), String> {
     let name = class.class_name();
     match *class {
-        Class::Crossing { size, .. } | Class::Memory { size, .. } if size % 2 == 0 => {
-            Err(format!("{name}: size={size}: must be odd (minigrid asserts it)"))
-        }
+        Class::Crossing { size, .. } | Class::Memory { size, .. } if size % 2 == 0 => Err(format!(
+            "{name}: size={size}: must be odd (minigrid asserts it)"
+        )),
         Class::MultiRoom {
             min_rooms,
             max_rooms,
@@ -346,7 +379,9 @@ fn check(class: &Class) -> Result<(), String> {
                 (size - 2) * (size - 2) / 2
             ))
         }
-        Class::PutNear { size, num_objs } if num_objs as i32 > ((size - 1) / 2) * ((size - 1) / 2) => {
+        Class::PutNear { size, num_objs }
+            if num_objs as i32 > ((size - 1) / 2) * ((size - 1) / 2) =>
+        {
             Err(format!(
                 "PutNearEnv: numObjs={num_objs} objects, none beside another, do not fit a room of size {size}"
             ))
@@ -402,8 +437,11 @@ fn value(v: &str) -> Result<Value, String> {
         "None" => Value::None,
         _ if v.starts_with('(') && v.ends_with(')') => {
             let body = &v[1..v.len() - 1];
-            let items: Result<Vec<i64>, String> =
-                body.split(',').filter(|s| !s.trim().is_empty()).map(int).collect();
+            let items: Result<Vec<i64>, String> = body
+                .split(',')
+                .filter(|s| !s.trim().is_empty())
+                .map(int)
+                .collect();
             Value::Tuple(items?)
         }
         _ if v.starts_with(['-', '+']) || v.starts_with(|c: char| c.is_ascii_digit()) => {
@@ -422,7 +460,8 @@ fn value(v: &str) -> Result<Value, String> {
 impl Class {
     /// The canonical spelling: the class and every argument, in Python's order.
     pub fn spelling(&self) -> String {
-        let p = |p: Option<Pos>| p.map_or_else(|| "None".to_owned(), |(x, y)| format!("({x}, {y})"));
+        let p =
+            |p: Option<Pos>| p.map_or_else(|| "None".to_owned(), |(x, y)| format!("({x}, {y})"));
         let start = |s: Option<(Pos, u8)>| {
             format!(
                 "agent_start_pos={}, agent_start_dir={}",
@@ -438,10 +477,15 @@ impl Class {
             | Class::GoToDoor { size }
             | Class::RedBlueDoors { size }
             | Class::LockedRoom { size } => format!("size={size}"),
-            Class::FourRooms { agent_pos, goal_pos } => {
+            Class::FourRooms {
+                agent_pos,
+                goal_pos,
+            } => {
                 format!("agent_pos={}, goal_pos={}", p(agent_pos), p(goal_pos))
             }
-            Class::LavaGap { size, lava } => format!("size={size}, obstacle_type={}", obstacle(lava)),
+            Class::LavaGap { size, lava } => {
+                format!("size={size}, obstacle_type={}", obstacle(lava))
+            }
             Class::DistShift {
                 width,
                 height,
@@ -463,7 +507,10 @@ impl Class {
                 size,
                 agent_start,
                 n_obstacles,
-            } => format!("size={size}, {}, n_obstacles={n_obstacles}", start(agent_start)),
+            } => format!(
+                "size={size}, {}, n_obstacles={n_obstacles}",
+                start(agent_start)
+            ),
             Class::Fetch { size, num_objs }
             | Class::GoToObject { size, num_objs }
             | Class::PutNear { size, num_objs } => format!("size={size}, numObjs={num_objs}"),
@@ -480,9 +527,10 @@ impl Class {
             } => format!(
                 "minNumRooms={min_rooms}, maxNumRooms={max_rooms}, maxRoomSize={max_room_size}, width={width}, height={height}"
             ),
-            Class::Playground | Class::Unlock | Class::UnlockPickup | Class::BlockedUnlockPickup => {
-                String::new()
-            }
+            Class::Playground
+            | Class::Unlock
+            | Class::UnlockPickup
+            | Class::BlockedUnlockPickup => String::new(),
             Class::KeyCorridor {
                 num_rows,
                 obj,
@@ -535,8 +583,9 @@ mod tests {
         assert!(err("DoorKeyEnv(size=1000)").contains("size"));
         assert!(err("NotAnEnv(size=5)").contains("NotAnEnv"));
         assert!(err("FetchEnv(size=5, numObjs=True)").contains("numObjs"));
-        let (c, m) = parse_class("MultiRoomEnv(minNumRooms=7, maxNumRooms=7, maxRoomSize=8, max_steps=99)")
-            .unwrap();
+        let (c, m) =
+            parse_class("MultiRoomEnv(minNumRooms=7, maxNumRooms=7, maxRoomSize=8, max_steps=99)")
+                .unwrap();
         assert_eq!(m, Some(99));
         assert_eq!(
             c.spelling(),

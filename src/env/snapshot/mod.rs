@@ -180,8 +180,10 @@ pub struct Snapshot {
     pub max_steps: i64,
     /// Mission text.
     pub mission: String,
-    /// The instruction.
-    pub instr: InstrJson,
+    /// The instruction; `null` for MiniGrid's own environments (their state beyond the grid,
+    /// their step rules, comes from `env_id` and `seed`).
+    #[serde(default)]
+    pub instr: Option<InstrJson>,
     /// Free-text note on the layout.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub layout_note: Option<String>,
@@ -384,8 +386,14 @@ impl Snapshot {
                 format!("{v} is not supported (only 7)"),
             ));
         }
+        let Some(instr) = &self.instr else {
+            return self.minigrid_world();
+        };
         if self.see_through_walls == Some(true) {
-            return Err(invalid("see_through_walls", "true is not supported"));
+            return Err(invalid(
+                "see_through_walls",
+                "true is only supported on MiniGrid's own environments (instr null)",
+            ));
         }
         let grid = decode_grid(&self.grid, self.width, self.height, "grid")?;
         let mut next_id = grid.objects().count() as u32;
@@ -421,13 +429,13 @@ impl Snapshot {
             box_contents.push((bx.id, obj));
         }
         let rooms = self.rooms();
-        let tree = instr_from_json(&self.instr, "instr")?;
+        let tree = instr_from_json(instr, "instr")?;
         let max_steps = u32::try_from(self.max_steps)
             .map_err(|_| invalid("max_steps", format!("{} is out of range", self.max_steps)))?;
         // A PutNext "Carrying" dump at reset: the carried object's match position is empty.
         // The verifier was reset with the object still there: put it back for the reset and
         // lift it again after.
-        let floor = match (&self.instr.moved, carrying) {
+        let floor = match (&instr.moved, carrying) {
             (Some(m), Some(_)) if self.step_count == 0 => m
                 .match_positions
                 .iter()
@@ -456,7 +464,7 @@ impl Snapshot {
             world.reset_floor = Some(p);
         }
         world.box_contents = box_contents;
-        override_targets(&mut world, &self.instr)?;
+        override_targets(&mut world, instr)?;
         world.mission = world.instr.surface();
         world.step_count = u32::try_from(self.step_count)
             .ok()
@@ -480,6 +488,50 @@ impl Snapshot {
     }
 
     /// The rooms of the dump: `room_size` splits the grid when it tiles it, else one room.
+    /// A MiniGrid environment's snapshot (`instr` null): regenerated from `env_id` and
+    /// `seed`, which must give the snapshot's grid and pose (a reset; its step rules live in
+    /// no dump field).
+    fn minigrid_world(&self) -> Result<World, EnvError> {
+        let id = self.env_id.as_deref().ok_or_else(|| {
+            invalid(
+                "instr",
+                "null needs env_id and seed: a MiniGrid dump is regenerated from them",
+            )
+        })?;
+        let level = crate::env::LevelId::parse(id).map_err(|e| match e {
+            EnvError::InvalidConfig { reason, .. } => invalid("env_id", reason),
+            e => e,
+        })?;
+        if level.minigrid().is_none() {
+            return Err(invalid(
+                "instr",
+                format!("null: {id} is a BabyAI level, whose dumps carry their instruction"),
+            ));
+        }
+        let seed = self
+            .seed
+            .ok_or_else(|| invalid("seed", "a MiniGrid dump needs its seed to be regenerated"))?;
+        if self.step_count != 0 {
+            return Err(invalid(
+                "step_count",
+                "a MiniGrid dump is regenerated at reset: only step_count 0 can be read",
+            ));
+        }
+        let world = crate::env::LevelConfig::babyai(level, false).generate(seed)?;
+        let fresh = Self::from_world(&world, self.env_id.clone(), Some(seed));
+        if fresh.grid != self.grid
+            || fresh.agent_pos != self.agent_pos
+            || fresh.agent_dir != self.agent_dir
+        {
+            return Err(invalid(
+                "grid",
+                format!("{id} seed {seed} generates another grid or pose than this dump holds"),
+            ));
+        }
+        Ok(world)
+    }
+
+    /// The rooms the snapshot's size and `room_size` describe.
     pub fn rooms(&self) -> Rooms {
         let (w, h) = (self.width, self.height);
         match self.room_size {
@@ -517,11 +569,11 @@ impl Snapshot {
             height: world.grid.height() as i64,
             room_size: Some(i64::from(world.rooms.room_size)),
             agent_view_size: Some(7),
-            see_through_walls: Some(false),
+            see_through_walls: Some(world.see_through_walls),
             done_actions: world.done_actions,
             max_steps: i64::from(world.max_steps),
             mission: world.mission.clone(),
-            instr: instr_to_json(&world.instr),
+            instr: world.rules.is_none().then(|| instr_to_json(&world.instr)),
             layout_note: None,
             grid,
             box_contents: box_contents_json(world),

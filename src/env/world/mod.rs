@@ -8,9 +8,9 @@ use serde::{Deserialize, Serialize};
 use super::error::EnvError;
 use super::grid::{DIR_TO_VEC, Grid, Pos, Rooms};
 use super::instr::{Instr, Status, Verify};
+use super::minigrid::Rules;
 use super::mission::{Instruction, ObjDesc};
 use super::object::{DoorState, ObjectId, ObjectKind, WorldObj};
-use super::minigrid::Rules;
 use super::view::{Observation, observe_seeing};
 
 /// MiniGrid's seven actions (`minigrid/core/actions.py`).
@@ -355,6 +355,14 @@ impl World {
     /// Replaces the instruction (a mission override at step 0): targets are re-resolved at
     /// the current pose and the verifier restarts. Errors if a description matches nothing.
     pub fn set_instruction(&mut self, instr: impl Into<Instr>) -> Result<(), EnvError> {
+        if self.rules.is_some() {
+            return Err(EnvError::InvalidMission {
+                mission: instr.into().surface(),
+                reason: "a MiniGrid environment's mission is its own (its step decides, not a \
+                         BabyAI instruction): a mission override edits BabyAI levels only"
+                    .into(),
+            });
+        }
         let mut instr = instr.into();
         instr.reset(&self.grid, self.rooms, self.agent_pos, self.agent_dir);
         if let Some(clause) = instr.unmatched() {

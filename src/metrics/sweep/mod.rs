@@ -197,7 +197,7 @@ pub fn evaluate_episodes_explored<P: Acting + ?Sized>(
                 Err(crate::env::EnvError::GenerationHangs { .. }) => continue,
                 w => w.map_err(PolicyError::from)?,
             };
-            let tokens = crate::policy::acting::mission_tokens(net, &world.mission, || {
+            let tokens = crate::policy::acting::world_tokens(net, &world, || {
                 format!("{level} seed {level_seed}")
             })?;
             running.push(Running {

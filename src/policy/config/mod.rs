@@ -1,6 +1,6 @@
 //! The serialisable model configuration: every size of the network.
 
-use crate::env::vocab::{PAPER_VOCAB_SIZE, VOCAB_SIZE};
+use crate::env::vocab::{BABYAI_VOCAB_SIZE, PAPER_VOCAB_SIZE, VOCAB_SIZE};
 use serde::{Deserialize, Serialize};
 
 /// Which network: the paper's text-visual attention policy or its no-attention baseline.
@@ -275,7 +275,8 @@ pub struct ModelConfig {
     /// How many entries of groundscope's vocabulary the word embedding has rows for, padding
     /// included: [`PAPER_VOCAB_SIZE`] (the paper's 25 words; what a model trained on the paper's
     /// level has, and every checkpoint made before BabyAI's whole grammar was added) or
-    /// [`VOCAB_SIZE`] (all of BabyAI's words: a model trained on a BabyAI level). A mission
+    /// [`BABYAI_VOCAB_SIZE`] (all of BabyAI's words: a model trained on a BabyAI level) or
+    /// [`VOCAB_SIZE`] (MiniGrid's words too: a model trained on its environments). A mission
     /// word past the rows is refused by name, never embedded with an untrained row. Written
     /// only when not the paper's.
     #[serde(
@@ -356,12 +357,13 @@ impl ModelConfig {
     }
 
     /// The vocabulary a model trained on `level` needs: the paper's words on the paper's
-    /// level, all of BabyAI's on a registered BabyAI level.
+    /// level, all of BabyAI's on a registered BabyAI level, MiniGrid's too on one of its
+    /// environments.
     pub fn vocab_size_for(level: &crate::env::level::LevelConfig) -> usize {
-        if level.babyai.is_some() {
-            VOCAB_SIZE
-        } else {
-            PAPER_VOCAB_SIZE
+        match level.babyai {
+            Some(id) if id.minigrid().is_some() => VOCAB_SIZE,
+            Some(_) => BABYAI_VOCAB_SIZE,
+            None => PAPER_VOCAB_SIZE,
         }
     }
 
@@ -448,10 +450,10 @@ impl ModelConfig {
                 "model setting attend_words is for the attention model only".into(),
             ));
         }
-        if ![PAPER_VOCAB_SIZE, VOCAB_SIZE].contains(&self.vocab_size) {
+        if ![PAPER_VOCAB_SIZE, BABYAI_VOCAB_SIZE, VOCAB_SIZE].contains(&self.vocab_size) {
             return Err(super::PolicyError::Input(format!(
-                "model setting vocab_size = {} must be {PAPER_VOCAB_SIZE} (the paper's words) or \
-                 {VOCAB_SIZE} (BabyAI's)",
+                "model setting vocab_size = {} must be {PAPER_VOCAB_SIZE} (the paper's words), \
+                 {BABYAI_VOCAB_SIZE} (BabyAI's) or {VOCAB_SIZE} (MiniGrid's too)",
                 self.vocab_size
             )));
         }

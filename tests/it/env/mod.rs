@@ -7,4 +7,5 @@ mod done_mode;
 mod fixtures;
 mod gym;
 mod levels;
+mod minigrid;
 mod props;

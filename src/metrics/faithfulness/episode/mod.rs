@@ -495,7 +495,7 @@ pub fn analyse_episode(
     parts: Parts,
 ) -> Result<EpisodeResult, PolicyError> {
     let world = level.generate(level_seed)?;
-    let tokens = crate::policy::acting::mission_tokens(agent, &world.mission, || {
+    let tokens = crate::policy::acting::world_tokens(agent, &world, || {
         format!("{level} seed {level_seed}")
     })?;
     let mut rng = Pcg64Mcg::seed_from_u64(level_seed ^ 0xFA17_4F11);
