@@ -39,7 +39,9 @@ pub fn for_episode(episode: &EpisodeArgs, command: &str) -> anyhow::Result<(Stri
     let first = bundled::names()[0].clone();
     let agent = Agent::load(&first)?;
     let level = episode.level(agent.level())?;
-    if episode.mission.is_none() && !reads(&agent, &level, episode.seed) {
+    // No bundled model reads MiniGrid's own missions: its refusal says how to make one.
+    let minigrid = level.babyai.is_some_and(|id| id.minigrid().is_some());
+    if episode.mission.is_none() && !minigrid && !reads(&agent, &level, episode.seed) {
         eprintln!("{}", switch_note(command, &level));
         return Ok((bundled::BABYAI.to_owned(), Agent::load(bundled::BABYAI)?));
     }

@@ -203,6 +203,9 @@ fn reads_level(
     let Ok(id) = LevelId::parse(spec.id) else {
         return "?".into();
     };
+    if agent.acting().reads_world() && id.minigrid().is_some() {
+        return "none (BabyAI's bot plans BabyAI instructions only)".into();
+    }
     let cfg = LevelConfig::babyai(id, false);
     let (mut ok, mut tried, mut first_unknown) = (0u64, 0u64, None);
     for seed in 0..READ_SEEDS {
@@ -262,8 +265,17 @@ fn mission_words(spec: &groundscope::env::babyai::registry::LevelSpec) -> String
 fn list(agent: Option<&groundscope::policy::Agent>) {
     let reads_header = if agent.is_some() { "  reads" } else { "" };
     println!(
-        "{:<18} {:<40} {:>5} {:>6} {:>9} {:>7}  {:<18} {:<30} {:<36}{reads_header}  words",
-        "family", "id", "rooms", "room", "grid", "actions", "doors", "locks", "instructions"
+        "{:<40} {:<8} {:<19} {:>5} {:>6} {:>9} {:>7}  {:<18} {:<30} {:<36}  words{reads_header}",
+        "id",
+        "suite",
+        "family",
+        "rooms",
+        "room",
+        "grid",
+        "actions",
+        "doors",
+        "locks",
+        "instructions"
     );
     let mut readable = 0;
     let mut n = 0;
@@ -271,23 +283,32 @@ fn list(agent: Option<&groundscope::policy::Agent>) {
         let l = level.spec();
         n += 1;
         let m = l.mechanics();
-        let (grid, rooms, family, actions) = match level.minigrid() {
+        let (grid, rooms, suite, family, actions) = match level.minigrid() {
             Some(c) => {
                 let (w, h) = c.grid_size();
                 let r = c.rooms();
                 (
                     format!("{w}×{h}"),
                     format!("{}×{}", r.num_cols, r.num_rows),
-                    format!("MiniGrid {}", c.family()),
+                    "MiniGrid",
+                    c.family().to_owned(),
                     c.num_actions(),
                 )
             }
             None => {
                 let (grid, rooms) = l.rooms.layout_names();
+                // The family's class name (its variant, arguments left out).
+                let family = format!("{:?}", l.family);
+                let family = family
+                    .split([' ', '(', '{'])
+                    .next()
+                    .unwrap_or("")
+                    .to_owned();
                 (
                     grid,
                     rooms,
-                    "BabyAI".to_owned(),
+                    "BabyAI",
+                    family,
                     groundscope::env::Action::COUNT,
                 )
             }
@@ -298,7 +319,7 @@ fn list(agent: Option<&groundscope::policy::Agent>) {
             format!("  {r}")
         });
         println!(
-            "{family:<18} {:<40} {rooms:>5} {:>6} {grid:>9} {actions:>7}  {:<18} {:<30} {:<36}{reads}  {}",
+            "{:<40} {suite:<8} {family:<19} {rooms:>5} {:>6} {grid:>9} {actions:>7}  {:<18} {:<30} {:<36}  {}{reads}",
             l.id,
             l.rooms.room_size,
             m.doors,

@@ -52,6 +52,13 @@ pub fn world_tokens<P: Acting + ?Sized>(
             level()
         )));
     }
+    if !policy.reads_world() && crate::env::vocab::split_words(&world.mission).is_empty() {
+        return Err(PolicyError::Input(format!(
+            "the mission of {} is empty (MiniGrid's Playground has none): a policy reads a \
+             mission of at least one word",
+            level()
+        )));
+    }
     mission_tokens(policy, &world.mission, level)
 }
 
@@ -72,6 +79,14 @@ pub fn check_known_words<P: Acting + ?Sized>(
         format!(
             "is not in the graph's vocabulary (metadata groundscope.vocabulary; it knows {})",
             known_word_list(policy).join(", ")
+        )
+    } else if t as usize >= crate::env::vocab::BABYAI_VOCAB_SIZE {
+        format!(
+            "is one of MiniGrid's own missions' words, and this model knows {} words only \
+             (BabyAI's at most); `groundscope init --level ID` makes a model with rows for all \
+             {}, `groundscope train --level ID` trains one",
+            known - 1,
+            crate::env::vocab::VOCAB_SIZE - 1
         )
     } else {
         format!(
