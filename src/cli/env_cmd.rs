@@ -283,35 +283,32 @@ fn list(agent: Option<&groundscope::policy::Agent>) {
         let l = level.spec();
         n += 1;
         let m = l.mechanics();
-        let (grid, rooms, suite, family, actions) = match level.minigrid() {
-            Some(c) => {
-                let (w, h) = c.grid_size();
-                let r = c.rooms();
-                (
-                    format!("{w}×{h}"),
-                    format!("{}×{}", r.num_cols, r.num_rows),
-                    "MiniGrid",
-                    c.family().to_owned(),
-                    c.num_actions(),
-                )
-            }
-            None => {
-                let (grid, rooms) = l.rooms.layout_names();
-                // The family's class name (its variant, arguments left out).
-                let family = format!("{:?}", l.family);
-                let family = family
-                    .split([' ', '(', '{'])
-                    .next()
-                    .unwrap_or("")
-                    .to_owned();
-                (
-                    grid,
-                    rooms,
-                    "BabyAI",
-                    family,
-                    groundscope::env::Action::COUNT,
-                )
-            }
+        let (grid, rooms, suite, family, actions) = if let Some(c) = level.minigrid() {
+            let (w, h) = c.grid_size();
+            let r = c.rooms();
+            (
+                format!("{w}×{h}"),
+                format!("{}×{}", r.num_cols, r.num_rows),
+                "MiniGrid",
+                c.family().to_owned(),
+                c.num_actions(),
+            )
+        } else {
+            let (grid, rooms) = l.rooms.layout_names();
+            // The family's class name (its variant, arguments left out).
+            let family = format!("{:?}", l.family);
+            let family = family
+                .split([' ', '(', '{'])
+                .next()
+                .unwrap_or("")
+                .to_owned();
+            (
+                grid,
+                rooms,
+                "BabyAI",
+                family,
+                groundscope::env::Action::COUNT,
+            )
         };
         let reads = agent.map_or_else(String::new, |a| {
             let r = reads_level(a, l);

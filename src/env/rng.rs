@@ -282,7 +282,7 @@ impl NumpyRng {
         for shift in [1, 2, 4, 8, 16, 32] {
             mask |= mask >> shift;
         }
-        if max <= u64::from(u32::MAX) {
+        if u32::try_from(max).is_ok() {
             loop {
                 let v = u64::from(self.next_u32()) & mask;
                 if v <= max {

@@ -210,8 +210,10 @@ impl Class {
                 room_size,
                 ..
             } => rooms(room_size, num_rows, 3),
-            Self::Unlock | Self::UnlockPickup | Self::BlockedUnlockPickup => rooms(6, 1, 2),
-            Self::ObstructedMaze1 { .. } => rooms(6, 1, 2),
+            Self::Unlock
+            | Self::UnlockPickup
+            | Self::BlockedUnlockPickup
+            | Self::ObstructedMaze1 { .. } => rooms(6, 1, 2),
             Self::ObstructedMazeFull { .. } => rooms(6, 3, 3),
             _ => {
                 let (w, h) = self.grid_size();
@@ -239,9 +241,9 @@ impl Class {
             Self::LockedRoom { size } => 10 * size as u32,
             Self::MultiRoom { max_rooms, .. } => 20 * max_rooms as u32,
             Self::KeyCorridor { room_size, .. } => 30 * sq(room_size),
-            Self::Unlock | Self::UnlockPickup => 8 * 36,
+            // ObstructedMaze_1Dlhb: 4 · num_rooms_visited (2) · 36, UnlockEnv's 8 · 36.
+            Self::Unlock | Self::UnlockPickup | Self::ObstructedMaze1 { .. } => 8 * 36,
             Self::BlockedUnlockPickup => 16 * 36,
-            Self::ObstructedMaze1 { .. } => 4 * 2 * 36,
             Self::ObstructedMazeFull {
                 num_rooms_visited, ..
             } => 4 * num_rooms_visited as u32 * 36,
@@ -377,10 +379,6 @@ const fn om1(key_in_box: bool, blocked: bool) -> Class {
     }
 }
 
-#[expect(
-    clippy::fn_params_excessive_bools,
-    reason = "ObstructedMaze_Full's own arguments"
-)]
 const fn om(
     v1: bool,
     agent_room: (i32, i32),

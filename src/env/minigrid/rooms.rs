@@ -130,10 +130,6 @@ pub fn obstructed_1(g: &mut Gen, key_in_box: bool, blocked: bool) -> Result<Made
 /// `ObstructedMaze_Full_V1._gen_grid`: per quarter an open door of the middle room and two
 /// locked doors of the side room — v0 places each door's key right after it, v1 both doors
 /// and then both keys — then the blue ball in a random corner room.
-#[expect(
-    clippy::fn_params_excessive_bools,
-    reason = "ObstructedMaze_Full's own arguments"
-)]
 pub fn obstructed_full(
     g: &mut Gen,
     v1: bool,
