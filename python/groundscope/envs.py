@@ -31,7 +31,8 @@ def observation_space() -> spaces.Dict:
         {
             "direction": spaces.Discrete(4),
             "image": spaces.Box(0, 255, (7, 7, 3), np.uint8),
-            "mission": spaces.Text(_MISSION_MAX_LENGTH, charset=_MISSION_CHARSET),
+            # min_length 0: MiniGrid's Playground has an empty mission.
+            "mission": spaces.Text(_MISSION_MAX_LENGTH, min_length=0, charset=_MISSION_CHARSET),
         }
     )
 
