@@ -129,8 +129,12 @@ impl Report {
                         .unwrap_or_else(|| "–".into())
                 })
                 .collect();
-            let expert: Vec<String> = c.expert.as_ref().map_or_else(
-                || vec!["–".to_string(); 4],
+            // MiniGrid's own environments have no BabyAI instruction for the bot to plan.
+            let minigrid = c.level.as_deref().is_some_and(|id| {
+                crate::env::LevelId::parse(id).is_ok_and(|l| l.minigrid().is_some())
+            });
+            let expert: Vec<String> = c.expert.as_ref().filter(|_| !minigrid).map_or_else(
+                || vec![if minigrid { "none" } else { "–" }.to_string(); 4],
                 |x| {
                     [
                         &x.agreement,
