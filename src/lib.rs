@@ -1,8 +1,20 @@
 //! groundscope: a transparency viewer and debugger for language-conditioned RL agents whose
-//! policy grounds each mission word in what it sees (text-visual attention, PPO, BabyAI).
+//! policy grounds each mission word in what it sees (text-visual attention, PPO, BabyAI and
+//! MiniGrid).
 //!
-//! Data flows one way: [`env`] (the world) → `policy` (actions and attention traces) →
-//! episode traces → consumers (metrics, recordings, the debugger).
+//! Data flows one way: [`env`] (the world) → [`policy`] (actions and attention traces) →
+//! [`episode`] traces → consumers ([`metrics`], [`record`], the debugger `app`). The map:
+//!
+//! - [`env`]: BabyAI's 96 levels and MiniGrid's 76 environments, bit for bit with minigrid
+//!   3.2.0; pure, no I/O, no ML.
+//! - [`bot`]: minigrid's BabyAI bot, a planner with privileged state beside the world.
+//! - [`policy`]: the attention model and its baseline (candle), imported ONNX agents, PPO.
+//! - [`run`]: a training run's life — its directory, lock, resume rule and logs.
+//! - [`study`]: seeds × recipes × levels planned into runs, for this machine, Slurm or Ray.
+//! - [`episode`]: a checkpoint run on an episode, the trace every consumer reads.
+//! - [`metrics`]: grounding, faithfulness, failure classes, sweeps and reports.
+//! - [`render`], [`record`]: images of the world and maps; Rerun and MCAP recordings.
+//! - `app` (feature `app`): the interactive debugger.
 //!
 //! Coordinates follow MiniGrid: arrays are x-major (`grid[x][y]`, `image[vx][vy]`), `y` grows
 //! downward; in the agent's 7×7 view the agent sits at `(3, 6)` facing up. Displays show the

@@ -21,7 +21,18 @@ def episodes(out):
         return list(csv.DictReader(f))
 
 
-@pytest.mark.parametrize("level", [LEVEL, "BabyAI-PickupLoc-v0", "BabyAI-OpenDoor-v0"])
+@pytest.mark.parametrize(
+    "level",
+    [
+        LEVEL,
+        "BabyAI-PickupLoc-v0",
+        "BabyAI-OpenDoor-v0",
+        "MiniGrid-DoorKey-5x5-v0",
+        "MiniGrid-Dynamic-Obstacles-6x6-v0",
+        "MiniGrid-Fetch-5x5-N2-v0",
+        "MiniGrid-LavaGapS5-v0",
+    ],
+)
 def test_episodes_replay_in_minigrid(tmp_path, level):
     out = tmp_path / "run"
     report = groundscope.evaluate(reactive, [level], seeds=2, episodes=8, out=out, first_seed=3)
@@ -207,6 +218,14 @@ def test_record_writes_rerun_and_mcap_with_word_maps(tmp_path):
     assert with_maps.read_bytes()[:8] == b"\x89MCAP0\r\n"
     assert b"/attention/words/" in with_maps.read_bytes()
     assert b"/attention/words/" not in without.read_bytes()
+
+
+def test_record_takes_minigrid_ids_and_classes(tmp_path):
+    for level in ("MiniGrid-Dynamic-Obstacles-5x5-v0", "MultiRoomEnv(minNumRooms=2, maxNumRooms=2)"):
+        rrd = tmp_path / "mg.rrd"
+        success, steps, reward = groundscope.record(reactive, level, 1, rrd)
+        assert rrd.read_bytes()[:4] == b"RRF2"
+        assert steps >= 1
 
 
 def test_record_refuses_bad_paths_and_levels(tmp_path):

@@ -13,6 +13,7 @@ pub mod grid;
 pub mod gym;
 pub mod instr;
 pub mod level;
+pub mod level_id;
 pub mod minigrid;
 pub mod mission;
 pub mod object;

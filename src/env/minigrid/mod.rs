@@ -12,6 +12,7 @@
 //! and [`rooms`] (the RoomGrid ones: KeyCorridor, Unlock, UnlockPickup, BlockedUnlockPickup,
 //! ObstructedMaze). [`registry`] lists the 76 ids and parses the class spelling.
 
+pub mod ids;
 pub mod layouts;
 pub mod objects;
 pub mod registry;
