@@ -176,7 +176,8 @@ pub fn replay(args: &ReplayArgs) -> anyhow::Result<ExitStatus> {
             let who = match &trace.model_name {
                 Some(n) if agent.acting().reads_world() => n.clone(),
                 Some(n) => format!("{n}, {}", variant.name()),
-                None => variant.name().to_owned(),
+                // The checkpoint in full: "attention on …" read as bundled:attention.
+                None => format!("{} ({})", trace.checkpoint, variant.name()),
             };
             println!(
                 "{who} on {level} seed {}: \"{}\" → {} in {} steps, reward {:.3}",

@@ -371,8 +371,9 @@ impl Debugger {
         self.edit_panel(ui);
     }
 
-    /// The step's numbers side by side, the row of maps (with Δ beside `M` when the
-    /// faithfulness view is on), and the faithfulness summary with its probes.
+    /// The mission and the step, then the maps (with Δ beside `M` when the faithfulness view
+    /// is on) so that they keep the space at every window size, then the step's numbers side
+    /// by side, the instruction tree and the faithfulness summary with its probes.
     fn centre_column(&mut self, ui: &mut egui::Ui) {
         let Some(shown) = self.shown.clone() else {
             ui.label(if self.busy() {
@@ -388,7 +389,8 @@ impl Debugger {
         };
         let scene = &*scene;
         Self::policy_header(ui, step, &shown);
-        Self::tree_panel(ui, &scene.tree);
+        // The maps come first, under the mission: the tree, the doors and the numbers give
+        // way to them, below, at any window size (the column scrolls).
         // The maps shown: the words' (less those folded), M's and Δ's; and the clause numbers
         // of a sequence between them.
         let roles = crate::env::roles::word_roles(&step.world.instr);
@@ -402,27 +404,28 @@ impl Debugger {
         } else {
             words
         };
-        // The accuracy lines go under the shorter column, so the maps below start high.
+        // The accuracy lines go under the shorter column.
         let under_actions = shown_words > crate::record::scene::action_names().len();
-        ui.horizontal_top(|ui| {
-            ui.vertical(|ui| {
-                ui.set_width(330.0);
-                ui.label("action probabilities");
-                Self::policy_bars(ui, step);
-                if under_actions {
-                    ui.add_space(4.0);
-                    Self::accuracy_lines(ui, step, scene);
-                }
+        let numbers = |d: &mut Self, ui: &mut egui::Ui| {
+            ui.horizontal_top(|ui| {
+                ui.vertical(|ui| {
+                    ui.set_width(330.0);
+                    ui.label("action probabilities");
+                    Self::policy_bars(ui, step);
+                    if under_actions {
+                        ui.add_space(4.0);
+                        Self::accuracy_lines(ui, step, scene);
+                    }
+                });
+                ui.vertical(|ui| {
+                    d.weights_panel(ui, step);
+                    if !under_actions {
+                        ui.add_space(4.0);
+                        Self::accuracy_lines(ui, step, scene);
+                    }
+                });
             });
-            ui.vertical(|ui| {
-                self.weights_panel(ui, step);
-                if !under_actions {
-                    ui.add_space(4.0);
-                    Self::accuracy_lines(ui, step, scene);
-                }
-            });
-        });
-        ui.separator();
+        };
         // The bot has neither maps nor a network to probe: its plan (above) is what it
         // attends to.
         let is_bot = self
@@ -433,6 +436,9 @@ impl Debugger {
             ui.label(
                 "minigrid's bot acts from the world itself: no attention maps and no network to probe; its plan is shown above",
             );
+            ui.separator();
+            numbers(self, ui);
+            Self::tree_panel(ui, &scene.tree);
             return;
         }
         // A model without maps gets its occlusion saliency in their place, always.
@@ -494,6 +500,9 @@ impl Debugger {
             });
             self.faithfulness = taken;
         }
+        ui.separator();
+        numbers(self, ui);
+        Self::tree_panel(ui, &scene.tree);
         if let Some(agent) = agent {
             let combined = step.attention.as_ref().map(|a| &a.combined);
             let asked = self.faithfulness.summary_ui(ui, &agent, &shown, combined);

@@ -52,8 +52,9 @@ const COLOUR_BAR_WIDTH: f32 = 100.0;
 /// A clause's number before its words' maps, with its spacing, in points.
 const CLAUSE_NUMBER_WIDTH: f32 = 24.0;
 
-/// The smallest map side: 7 cells of 7 points, still readable.
-const MIN_MAP_SIDE: f32 = 50.0;
+/// The smallest map side: 7 cells of about 13 points, readable at a glance; a row that cannot
+/// hold its maps at this side wraps instead of shrinking them further.
+pub(super) const MIN_MAP_SIDE: f32 = 90.0;
 
 impl Debugger {
     /// Whether function words' maps fold on a mission of `words` words.
@@ -104,7 +105,10 @@ impl Debugger {
                     obs: Some(&step.obs),
                     hits,
                 };
-                if heat_map(ui, &att.combined, &look).clicked() {
+                let r = heat_map(ui, &att.combined, &look);
+                // Named, so that a test (or a screen reader) finds where each map was drawn.
+                r.widget_info(|| egui::WidgetInfo::labeled(egui::Role::Image, true, "map of M"));
+                if r.clicked() {
                     self.overlay = Overlay::Combined;
                 }
             });
@@ -163,7 +167,13 @@ impl Debugger {
     ) {
         let Some(att) = &step.attention else { return };
         let w = &att.words[i];
-        ui.vertical(|ui| {
+        // Asked for at its full size, so that a wrapping row moves a map that does not fit to
+        // the next line instead of cutting it at the panel's edge.
+        let size = egui::vec2(
+            side,
+            side + 3.0 * ui.text_style_height(&egui::TextStyle::Body),
+        );
+        ui.allocate_ui_with_layout(size, egui::Layout::top_down(egui::Align::Min), |ui| {
             ui.set_width(side);
             let dimmed = w.weight < NEGLIGIBLE_WEIGHT;
             let title = egui::RichText::new(&w.word).strong();
@@ -187,7 +197,11 @@ impl Debugger {
                 obs: Some(&step.obs),
                 hits,
             };
-            if heat_map(ui, &w.map, &look).clicked() {
+            let r = heat_map(ui, &w.map, &look);
+            r.widget_info(|| {
+                egui::WidgetInfo::labeled(egui::Role::Image, true, format!("map of {}", w.word))
+            });
+            if r.clicked() {
                 self.selected_word = i;
                 self.overlay = Overlay::Word;
             }
