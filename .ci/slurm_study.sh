@@ -91,7 +91,8 @@ paper = { train = [], eval = ["--sizes", "5", "--objects", "1"] }
 SPEC
 "$gs" study plan "$work/study.toml" --out "$work/study" >/dev/null
 grep -q -- "--array=0-2" "$work/study/slurm.sbatch"
-mkdir -p "$work/study/slurm-logs"
+# The plan makes slurm-logs/ (the script's --output directory): nothing is made by hand here.
+[ -d "$work/study/slurm-logs" ] || { echo "study plan did not make slurm-logs/"; exit 1; }
 $SUDO env SLURM_CONF="$SLURM_CONF" sbatch --wait "$work/study/slurm.sbatch" >/dev/null
 for s in 1 2 3; do
   [ -f "$work/study/runs/tiny-paper-s$s/study-done.json" ] || {

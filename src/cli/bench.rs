@@ -69,8 +69,8 @@ pub enum BenchCommand {
     /// of each, their ratio and each run's peak memory.
     Study {
         /// Concurrent runs [default: one per core].
-        #[arg(long)]
-        runs: Option<usize>,
+        #[arg(long, allow_negative_numbers = true)]
+        runs: Option<i64>,
         /// Frames each run trains (whole updates of 2,048 frames).
         #[arg(long, default_value_t = 20_480, allow_negative_numbers = true)]
         frames: u64,
@@ -118,9 +118,10 @@ pub fn run(cmd: &BenchCommand) -> anyhow::Result<ExitStatus> {
         } => bench_train_counts(model, *frames, threads),
         BenchCommand::Study { runs, frames } => super::study_run::bench_study(
             *frames,
-            runs.unwrap_or_else(|| {
-                std::thread::available_parallelism().map_or(1, std::num::NonZero::get)
-            }),
+            match runs {
+                Some(n) => super::study_run::count("--runs", *n)?,
+                None => std::thread::available_parallelism().map_or(1, std::num::NonZero::get),
+            },
         ),
         BenchCommand::Policy {
             model,

@@ -7,7 +7,7 @@ use std::time::Instant;
 
 use clap::{Args, ValueEnum};
 use groundscope::metrics::faithfulness::report::{
-    CheckpointFaithfulness, FaithfulnessReport, SCHEMA_VERSION, steps_csv,
+    CheckpointFaithfulness, FaithfulnessReport, REPORT_FILE, SCHEMA_VERSION, steps_csv,
 };
 use groundscope::metrics::faithfulness::{self, EpisodeResult, Parts, figures, summarise};
 use groundscope::metrics::sweep::eval_level_seed;
@@ -167,7 +167,7 @@ pub fn run(args: &FaithfulnessArgs) -> anyhow::Result<ExitStatus> {
         checkpoints: entries,
     };
     staging.write(
-        "faithfulness.json",
+        REPORT_FILE,
         serde_json::to_string_pretty(&report)?.as_bytes(),
     )?;
     staging.write("faithfulness.md", report.markdown().as_bytes())?;

@@ -10,8 +10,8 @@ use clap::{Parser, Subcommand};
 use groundscope::files::{read_regular_to_string, write_output};
 use groundscope::study::collect::collect;
 use groundscope::study::{
-    DONE_FILE, FAILED_FILE, LOCK_FILE, LOG_FILE, Manifest, PlannedRun, RunState, StudySpec,
-    check_replan,
+    DONE_FILE, FAILED_FILE, LOCK_FILE, LOG_FILE, Manifest, PlannedRun, RunState, SLURM_LOGS,
+    StudySpec, check_replan, one_line,
 };
 
 use crate::ExitStatus;
@@ -68,6 +68,15 @@ pub fn run(cmd: &StudyCommand) -> anyhow::Result<ExitStatus> {
     }
 }
 
+/// The files a plan writes, in the order they are moved into place (the manifest last).
+const PLAN_FILES: [&str; 5] = [
+    "study.toml",
+    "commands.txt",
+    "slurm.sbatch",
+    "ray_driver.py",
+    "manifest.json",
+];
+
 fn plan(spec_path: &Path, out: &Path) -> anyhow::Result<ExitStatus> {
     let text = read_regular_to_string(spec_path)
         .with_context(|| format!("reading {}", spec_path.display()))?;
@@ -76,13 +85,11 @@ fn plan(spec_path: &Path, out: &Path) -> anyhow::Result<ExitStatus> {
         anyhow::bail!("--out {}: not a directory", out.display());
     }
     let existing = out.join("manifest.json").exists();
-    let created = !out.exists();
-    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
-    let result = plan_into(&spec, &text, spec_path, out, existing);
-    if result.is_err() && created {
-        let _ = std::fs::remove_dir(out);
-    }
-    result
+    // Every file is written into a hidden directory of --out and moved into place only when
+    // all are: a failed plan leaves the study as it was (and no --out it created).
+    let staged =
+        groundscope::files::StagedDir::new(out).map_err(|e| anyhow::anyhow!("--out {e}"))?;
+    plan_into(&spec, &text, spec_path, out, existing, staged)
 }
 
 fn plan_into(
@@ -91,6 +98,7 @@ fn plan_into(
     spec_path: &Path,
     out: &Path,
     existing: bool,
+    staged: groundscope::files::StagedDir,
 ) -> anyhow::Result<ExitStatus> {
     let study = std::fs::canonicalize(out).with_context(|| format!("{}", out.display()))?;
     let name = study
@@ -107,17 +115,39 @@ fn plan_into(
         let old = Manifest::read(&study)?;
         check_replan(&old, &manifest)?;
     }
+    // Each file lands where a regular file (or nothing) is: a directory in the way is refused
+    // before any file moves.
+    for file in PLAN_FILES {
+        let path = study.join(file);
+        if path.is_dir() {
+            anyhow::bail!("{}: is a directory", path.display());
+        }
+    }
+    let logs = study.join(SLURM_LOGS);
+    if logs.exists() && !logs.is_dir() {
+        anyhow::bail!(
+            "{}: not a directory (slurm.sbatch writes its logs there)",
+            logs.display()
+        );
+    }
     let json = serde_json::to_string_pretty(&manifest)? + "\n";
     for (file, bytes) in [
         ("study.toml", text.to_owned()),
-        ("manifest.json", json),
         ("commands.txt", manifest.commands(&study)),
         ("slurm.sbatch", manifest.sbatch(&study)),
         ("ray_driver.py", Manifest::ray_driver(&study)),
+        ("manifest.json", json),
     ] {
-        let path = study.join(file);
-        write_output(&path, bytes.as_bytes()).with_context(|| format!("{}", path.display()))?;
+        staged.write(file, bytes.as_bytes())?;
     }
+    std::fs::create_dir_all(&logs).with_context(|| format!("creating {}", logs.display()))?;
+    // Every file is complete: each is renamed into place, the manifest last.
+    for file in PLAN_FILES {
+        let dest = study.join(file);
+        std::fs::rename(staged.path(file), &dest).with_context(|| format!("{}", dest.display()))?;
+    }
+    // Nothing is left to move: this flushes the directory and removes the staging one.
+    staged.commit()?;
     let recipes = spec.recipes.len();
     let levels = spec.levels.len();
     println!(
@@ -142,6 +172,7 @@ fn check_steps(spec: &Path, m: &Manifest) -> anyhow::Result<()> {
                 .chain(std::iter::once(cmd))
                 .chain(args.iter().map(String::as_str));
             if let Err(e) = super::Cli::try_parse_from(argv) {
+                // clap's message quotes the flag or value as the spec gave it: escaped and cut.
                 let first = e.to_string();
                 let first = first
                     .lines()
@@ -149,10 +180,11 @@ fn check_steps(spec: &Path, m: &Manifest) -> anyhow::Result<()> {
                     .unwrap_or_default()
                     .trim_start_matches("error: ");
                 anyhow::bail!(
-                    "{}: recipe {}, level set {}: {cmd}: {first}",
+                    "{}: recipe {}, level set {}: {cmd}: {}",
                     spec.display(),
                     run.recipe,
-                    run.levels
+                    run.levels,
+                    one_line(first)
                 );
             }
         }
@@ -184,6 +216,9 @@ fn lock_run(dir: &Path) -> anyhow::Result<Option<RunLock>> {
 fn exec(study: &Path, name: &str) -> anyhow::Result<ExitStatus> {
     let manifest = Manifest::read(study)?;
     let run = manifest.run(name)?;
+    // A hand-edited run is refused before anything of it runs: a name that is not a plain
+    // name would put its directory outside runs/, edited steps would run unchecked.
+    run.check(&study.join("manifest.json"))?;
     let dir = run.dir(study);
     std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
     let Some(_lock) = lock_run(&dir)? else {
@@ -301,6 +336,15 @@ fn run_step(
 
 fn collect_cmd(study: &Path, out: Option<&Path>) -> anyhow::Result<ExitStatus> {
     let manifest = Manifest::read(study)?;
+    // Names that are not plain would read (and draw) files outside runs/.
+    let path = study.join("manifest.json");
+    if let Some(bad) = manifest
+        .runs
+        .iter()
+        .find(|r| !groundscope::study::is_plain_name(&r.name))
+    {
+        bad.check(&path)?;
+    }
     let collected = collect(study, &manifest)?;
     let out = out.map_or_else(|| study.join("report"), Path::to_path_buf);
     let staged = groundscope::files::StagedDir::new(&out)

@@ -2,6 +2,7 @@
 //! at a time, with one progress line; and `groundscope bench study`, the aggregate training
 //! speed of 1 and N concurrent runs.
 
+use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
@@ -19,8 +20,8 @@ pub struct RunArgs {
     /// The study directory (`study plan --out`).
     pub study: PathBuf,
     /// Runs at a time [default: the cores divided by a run's training threads].
-    #[arg(long, value_name = "N")]
-    pub jobs: Option<usize>,
+    #[arg(long, value_name = "N", allow_negative_numbers = true)]
+    pub jobs: Option<i64>,
     /// No progress line; one line per run as it ends.
     #[arg(long)]
     pub quiet: bool,
@@ -33,7 +34,16 @@ const POLL: Duration = Duration::from_millis(200);
 struct Running {
     run: PlannedRun,
     child: Child,
+    /// What the exec printed (its standard output and error), in an unnamed temporary file:
+    /// shown when the run fails, and never a pipe left unread (a full one would stop the exec).
+    output: std::fs::File,
 }
+
+/// The most of a failed exec's output the runner reads back (its end).
+const OUTPUT_TAIL_BYTES: u64 = 64 * 1024;
+
+/// Lines of a failed run's output (and of its `study.log`) the runner shows.
+const TAIL_LINES: usize = 5;
 
 /// Counts for the progress line.
 #[derive(Default)]
@@ -48,15 +58,24 @@ pub(super) fn cores() -> usize {
     std::thread::available_parallelism().map_or(1, std::num::NonZero::get)
 }
 
+/// A count flag's value: at least 1, or the flag's own one-line refusal (`--jobs -1: must be
+/// at least 1`).
+pub(super) fn count(flag: &str, n: i64) -> anyhow::Result<usize> {
+    if n < 1 {
+        anyhow::bail!("{flag} {n}: must be at least 1");
+    }
+    usize::try_from(n).map_err(|_| anyhow::anyhow!("{flag} {n}: too large"))
+}
+
 pub(super) fn run(args: &RunArgs) -> anyhow::Result<ExitStatus> {
     let study = &args.study;
+    let jobs = args.jobs.map(|n| count("--jobs", n)).transpose()?;
     let manifest = Manifest::read(study)?;
+    // A hand-edited run (a name outside runs/, steps that do not hash to their hash) is
+    // refused before any run starts.
+    manifest.check_runs(&study.join("manifest.json"))?;
     let threads = manifest.runs.iter().map(|r| r.threads).max().unwrap_or(1);
-    let jobs = match args.jobs {
-        Some(0) => anyhow::bail!("--jobs 0: must be at least 1"),
-        Some(n) => n,
-        None => (cores() / threads).max(1),
-    };
+    let jobs = jobs.unwrap_or_else(|| (cores() / threads).max(1));
     let mut tally = Tally::default();
     let mut queue: std::collections::VecDeque<PlannedRun> = manifest
         .runs
@@ -85,16 +104,17 @@ pub(super) fn run(args: &RunArgs) -> anyhow::Result<ExitStatus> {
     loop {
         while running.len() < jobs && !stop.requested() {
             let Some(run) = queue.pop_front() else { break };
+            let output = tempfile::tempfile().context("creating a temporary file")?;
             let child = Command::new(&exe)
                 .args(["study", "exec"])
                 .arg(study)
                 .arg(&run.name)
                 .stdin(Stdio::null())
-                .stdout(Stdio::piped())
-                .stderr(Stdio::piped())
+                .stdout(output.try_clone()?)
+                .stderr(output.try_clone()?)
                 .spawn()
                 .with_context(|| format!("starting run {}", run.name))?;
-            running.push(Running { run, child });
+            running.push(Running { run, child, output });
         }
         if running.is_empty() {
             break;
@@ -103,8 +123,8 @@ pub(super) fn run(args: &RunArgs) -> anyhow::Result<ExitStatus> {
         let mut i = 0;
         while i < running.len() {
             if let Some(status) = running[i].child.try_wait()? {
-                let r = running.swap_remove(i);
-                ended(study, &r, status, &mut tally, &bar);
+                let mut r = running.swap_remove(i);
+                ended(study, &mut r, status, stop.requested(), &mut tally, &bar);
             } else {
                 i += 1;
             }
@@ -158,12 +178,16 @@ pub(super) fn run(args: &RunArgs) -> anyhow::Result<ExitStatus> {
     }
 }
 
-/// Counts a run that ended and says so above the progress line; a failed run's last log lines
-/// are shown.
+/// Counts a run that ended and says so above the progress line. A run whose exec ended
+/// with a non-zero status is a failed run (its last lines are shown: the exec's error, and
+/// the end of its `study.log` where a step failed), except one that this runner stopped
+/// (`stopping`: it sent the stop, and the run ended interrupted, 130, or by a signal), which
+/// resumes on the next run.
 fn ended(
     study: &Path,
-    r: &Running,
+    r: &mut Running,
     status: std::process::ExitStatus,
+    stopping: bool,
     tally: &mut Tally,
     bar: &indicatif::ProgressBar,
 ) {
@@ -176,22 +200,64 @@ fn ended(
         // Its lock was held: another runner (or engine) has it.
         tally.elsewhere += 1;
         say(bar, format!("{name}: running elsewhere; left alone"));
-    } else if status.code() == Some(130) || !dir.join(FAILED_FILE).is_file() {
+    } else if stopping && matches!(status.code(), Some(130) | None) {
         say(bar, format!("{name}: stopped; it resumes on the next run"));
     } else {
         tally.failed.push(name.clone());
-        let log = std::fs::read_to_string(dir.join(LOG_FILE)).unwrap_or_default();
-        let tail: Vec<&str> = log.lines().rev().take(5).collect();
-        say(
-            bar,
-            format!(
-                "{name}: failed ({}); the end of {}:\n  {}",
-                std::fs::read_to_string(dir.join(FAILED_FILE)).unwrap_or_default(),
-                dir.join(LOG_FILE).display(),
-                tail.into_iter().rev().collect::<Vec<_>>().join("\n  ")
-            ),
-        );
+        let how = status
+            .code()
+            .map_or_else(|| "killed by a signal".to_owned(), |c| format!("exit {c}"));
+        let mut text = format!("{name}: failed ({how})");
+        let output = output_of(&mut r.output);
+        for line in tail(&output, TAIL_LINES) {
+            text.push_str("\n  ");
+            text.push_str(line);
+        }
+        let failed = dir.join(FAILED_FILE);
+        if failed.is_file() {
+            let log_path = dir.join(LOG_FILE);
+            let _ = write!(
+                text,
+                "\n  {} ({}); the end of {}:",
+                failed.display(),
+                std::fs::read_to_string(&failed).unwrap_or_default().trim(),
+                log_path.display()
+            );
+            let log = std::fs::read_to_string(&log_path).unwrap_or_default();
+            for line in tail(&log, TAIL_LINES) {
+                text.push_str("\n    ");
+                text.push_str(line);
+            }
+        }
+        say(bar, text);
     }
+}
+
+/// The end of what an exec printed (at most its last [`OUTPUT_TAIL_BYTES`]); empty where it
+/// cannot be read back.
+fn output_of(file: &mut std::fs::File) -> String {
+    use std::io::{Read as _, Seek as _, SeekFrom};
+    let len = file.metadata().map_or(0, |m| m.len());
+    let mut bytes = Vec::new();
+    if file
+        .seek(SeekFrom::Start(len.saturating_sub(OUTPUT_TAIL_BYTES)))
+        .is_ok()
+    {
+        let _ = file.read_to_end(&mut bytes);
+    }
+    String::from_utf8_lossy(&bytes).into_owned()
+}
+
+/// The last `n` non-empty lines of `text`, in order.
+fn tail(text: &str, n: usize) -> Vec<&str> {
+    let mut lines: Vec<&str> = text
+        .lines()
+        .rev()
+        .filter(|l| !l.trim().is_empty())
+        .take(n)
+        .collect();
+    lines.reverse();
+    lines
 }
 
 /// A line above the progress line, or on its own where there is none (`--quiet`).
@@ -233,8 +299,11 @@ fn peak_rss_mib(pid: u32) -> f64 {
 /// study's runs), first one alone and then all at once, each `frames` long: the aggregate
 /// frames/s of each, their ratio, and each run's peak memory. Prints JSON lines.
 pub(super) fn bench_study(frames: u64, runs: usize) -> anyhow::Result<ExitStatus> {
-    if runs == 0 || frames == 0 {
-        anyhow::bail!("--runs and --frames must be at least 1");
+    if runs == 0 {
+        anyhow::bail!("--runs 0: must be at least 1");
+    }
+    if frames == 0 {
+        anyhow::bail!("--frames 0: must be at least 1");
     }
     let tmp = tempfile::tempdir().context("creating a temporary directory")?;
     let exe = std::env::current_exe().context("finding this binary")?;

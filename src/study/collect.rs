@@ -8,7 +8,8 @@ use std::path::Path;
 
 use serde::Serialize;
 
-use super::{DONE_FILE, Manifest, RunState, StudyError};
+use super::{DONE_FILE, Manifest, RunState, StudyError, one_line};
+use crate::metrics::faithfulness::report::{FaithfulnessFigures, REPORT_FILE};
 use crate::metrics::grounding::WordKind;
 use crate::metrics::report::Report;
 use crate::metrics::sweep::MeanStd;
@@ -108,7 +109,7 @@ fn run_figures(run: &Path) -> Result<RunFigures, StudyError> {
             .map_err(|e| StudyError(format!("{}: {e} (the run has {DONE_FILE})", p.display())))
     };
     let report: Report = serde_json::from_str(&read(&path)?)
-        .map_err(|e| StudyError(format!("{}: {e}", path.display())))?;
+        .map_err(|e| StudyError(format!("{}: {}", path.display(), one_line(&e.to_string()))))?;
     let mut out = RunFigures::new();
     for c in &report.cells {
         let level = c
@@ -143,21 +144,32 @@ fn run_figures(run: &Path) -> Result<RunFigures, StudyError> {
             }
         }
     }
-    let faith = run.join("faithfulness").join("report.json");
+    // The file `faithfulness --out runs/NAME/faithfulness` writes, read through the report's
+    // own types: a renamed field is a compile error or a refused file, never a silent gap.
+    let faith = run.join("faithfulness").join(REPORT_FILE);
     if faith.is_file() {
-        let v: serde_json::Value = serde_json::from_str(&read(&faith)?)
-            .map_err(|e| StudyError(format!("{}: {e}", faith.display())))?;
-        for c in v["checkpoints"].as_array().into_iter().flatten() {
-            let level = c["level"].as_str().unwrap_or_default().to_owned();
+        let report: FaithfulnessFigures = serde_json::from_str(&read(&faith)?).map_err(|e| {
+            StudyError(format!("{}: {}", faith.display(), one_line(&e.to_string())))
+        })?;
+        for c in &report.checkpoints {
+            // The faithfulness report names a level `S8N4 goto` or `ID (done-action mode)`:
+            // its first word is the name the evaluation's rows have.
+            let level = c
+                .level
+                .split_whitespace()
+                .next()
+                .unwrap_or_default()
+                .to_owned();
             let f = out.entry(level).or_default();
-            for (name, r) in c["closed_loop"].as_object().into_iter().flatten() {
-                if let Some(x) = r["success"]["mean"].as_f64() {
+            for (name, l) in &c.closed_loop {
+                if let Some(x) = l.success.mean {
                     f.insert(format!("faith_{name}_success"), x);
                 }
             }
-            if let Some(x) = c["localisation"][WordKind::Combined.name()]["pointing_game"]["value"]
-                ["mean"]
-                .as_f64()
+            if let Some(x) = c
+                .localisation
+                .get(&WordKind::Combined)
+                .and_then(|l| l.pointing_game.value.mean)
             {
                 f.insert("faith_m_pointing".into(), x);
             }

@@ -7,7 +7,8 @@
 //! - `manifest.json`: every run's name, recipe, level set, seed and the arguments of its steps
 //!   (`train`, then `eval`, then optionally `faithfulness`), each with a hash of its spec;
 //! - `commands.txt`: one `groundscope study exec STUDY NAME` line per run, in manifest order;
-//! - `slurm.sbatch`: an array job that runs line `$SLURM_ARRAY_TASK_ID`;
+//! - `slurm.sbatch`: an array job that runs line `$SLURM_ARRAY_TASK_ID`, logging into
+//!   `slurm-logs/` (which the plan makes);
 //! - `ray_driver.py`: the same lines as Ray tasks;
 //! - `runs/NAME/`: the run's training directory, with `eval/` and `faithfulness/` reports,
 //!   `study.log` (what its steps printed) and `study-done.json` once every step has ended.
@@ -36,11 +37,55 @@ pub const FAILED_FILE: &str = "study-failed.json";
 pub const LOCK_FILE: &str = ".study-lock";
 /// What a run's steps printed, appended attempt after attempt.
 pub const LOG_FILE: &str = "study.log";
+/// The directory of `slurm.sbatch`'s logs in the study, which the plan makes (Slurm fails a
+/// task whose `--output` directory does not exist).
+pub const SLURM_LOGS: &str = "slurm-logs";
 
 /// An error in a study's spec or files, naming the file and the field.
 #[derive(Debug, thiserror::Error)]
 #[error("{0}")]
 pub struct StudyError(pub String);
+
+/// Text from a spec or a manifest (a recipe's name, a flag, a value) as a study's error quotes
+/// it: quoted, control characters escaped, cut after 80 characters.
+pub fn shown(text: &str) -> String {
+    crate::env::error::shown(text)
+}
+
+/// The most bytes of another library's message that a study's error quotes.
+const MESSAGE_MAX: usize = 300;
+
+/// Another library's message (TOML's, clap's, serde's), which may quote the user's text, as
+/// part of a study's one-line error: its whitespace joined into single spaces, control
+/// characters escaped, cut after [`MESSAGE_MAX`] bytes (saying how long it was).
+pub fn one_line(text: &str) -> String {
+    let joined = text.split_whitespace().collect::<Vec<_>>().join(" ");
+    let mut out = String::new();
+    for c in joined.chars() {
+        if out.len() >= MESSAGE_MAX {
+            let _ = write!(out, "… ({} characters)", joined.chars().count());
+            return out;
+        }
+        if c.is_control() {
+            out.extend(c.escape_debug());
+        } else {
+            out.push(c);
+        }
+    }
+    out
+}
+
+/// Whether `name` is a plain run name, as a plan makes them: letters, digits, `_`, `.` and
+/// `-`, one path component (not `.` or `..`), short enough to name a directory.
+pub fn is_plain_name(name: &str) -> bool {
+    !name.is_empty()
+        && name.len() <= 255
+        && name != "."
+        && name != ".."
+        && name
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '.' || c == '-')
+}
 
 /// One run of a study: a recipe on a level set from a seed.
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -71,6 +116,27 @@ impl PlannedRun {
     /// The run's directory inside study `dir`.
     pub fn dir(&self, study: &Path) -> PathBuf {
         study.join("runs").join(&self.name)
+    }
+
+    /// Checks a run read from `manifest` (a path, named in the error) before anything of it
+    /// runs: its name is a plain name (so its directory is inside `runs/`), and its steps hash
+    /// to its recorded `hash` (a hand-edited step is refused, not run unchecked).
+    pub fn check(&self, manifest: &Path) -> Result<(), StudyError> {
+        if !is_plain_name(&self.name) {
+            return Err(StudyError(format!(
+                "{}: run name {} is not a plain name (letters, digits, '_', '.' and '-', as a plan writes them): the manifest was edited; plan the study again (groundscope study plan SPEC --out STUDY)",
+                manifest.display(),
+                shown(&self.name)
+            )));
+        }
+        if run_hash(&self.name, &self.steps()) != self.hash {
+            return Err(StudyError(format!(
+                "{}: run {}: its steps do not hash to its recorded hash (the manifest was edited); plan the study again (groundscope study plan SPEC --out STUDY)",
+                manifest.display(),
+                self.name
+            )));
+        }
+        Ok(())
     }
 
     /// Its steps in order: `(command, arguments)`.
@@ -112,26 +178,44 @@ impl Manifest {
             ))
         })?;
         let m: Self = serde_json::from_str(&text)
-            .map_err(|e| StudyError(format!("{}: {e}", path.display())))?;
+            .map_err(|e| StudyError(format!("{}: {}", path.display(), one_line(&e.to_string()))))?;
         if m.format != MANIFEST_FORMAT {
             return Err(StudyError(format!(
-                "{}: format {:?} is not {MANIFEST_FORMAT:?}",
+                "{}: format {} is not {MANIFEST_FORMAT:?}",
                 path.display(),
-                m.format
+                shown(&m.format)
             )));
         }
         Ok(m)
+    }
+
+    /// Checks every run ([`PlannedRun::check`]) and that no two share a name (a directory),
+    /// for a runner that is about to run them: `manifest` names the file in the error.
+    pub fn check_runs(&self, manifest: &Path) -> Result<(), StudyError> {
+        let mut seen = std::collections::BTreeSet::new();
+        for run in &self.runs {
+            run.check(manifest)?;
+            if !seen.insert(run.name.as_str()) {
+                return Err(StudyError(format!(
+                    "{}: run {} is listed twice: the manifest was edited; plan the study again (groundscope study plan SPEC --out STUDY)",
+                    manifest.display(),
+                    run.name
+                )));
+            }
+        }
+        Ok(())
     }
 
     /// The run called `name`.
     pub fn run(&self, name: &str) -> Result<&PlannedRun, StudyError> {
         self.runs.iter().find(|r| r.name == name).ok_or_else(|| {
             StudyError(format!(
-                "the study {} has no run {name:?} (its runs: {})",
-                self.name,
+                "the study {} has no run {} (its runs: {})",
+                shown(&self.name),
+                shown(name),
                 self.runs
                     .iter()
-                    .map(|r| r.name.as_str())
+                    .map(|r| shown(&r.name))
                     .take(6)
                     .collect::<Vec<_>>()
                     .join(", ")
@@ -162,11 +246,12 @@ impl Manifest {
              #SBATCH --job-name=gs-{name}\n\
              #SBATCH --array=0-{last}\n\
              #SBATCH --cpus-per-task={cpus}\n\
-             #SBATCH --output={dir}/slurm-logs/%A_%a.txt\n\
+             #SBATCH --output={dir}/{logs}/%A_%a.txt\n\
              set -euo pipefail\n\
              line=$(sed -n \"$((SLURM_ARRAY_TASK_ID + 1))p\" {dir}/commands.txt)\n\
              exec bash -c \"$line\"\n",
             name = self.name,
+            logs = SLURM_LOGS,
         )
     }
 

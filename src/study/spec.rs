@@ -21,7 +21,11 @@ use std::path::Path;
 
 use serde::Deserialize;
 
-use super::{MANIFEST_FORMAT, Manifest, PlannedRun, StudyError, run_hash};
+use super::{MANIFEST_FORMAT, Manifest, PlannedRun, StudyError, one_line, run_hash, shown};
+
+/// The longest name of a recipe or a level set: a run's directory, `RECIPE-LEVELS-sSEED`,
+/// stays within the 255 bytes a file name may have.
+const NAME_MAX: usize = 100;
 
 /// `study.toml`.
 #[derive(Clone, Debug, PartialEq, Deserialize)]
@@ -108,7 +112,7 @@ impl StudySpec {
     /// Parses `study.toml`'s text; an error names `file` and the field.
     pub fn parse(text: &str, file: &Path) -> Result<Self, StudyError> {
         let spec: Self = toml::from_str(text)
-            .map_err(|e| StudyError(format!("{}: {}", file.display(), one_line(&e.to_string()))))?;
+            .map_err(|e| StudyError(format!("{}: {}", file.display(), toml_error(&e, text))))?;
         spec.check(file)?;
         Ok(spec)
     }
@@ -134,7 +138,14 @@ impl StudySpec {
                     .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '.')
             {
                 return bad(format!(
-                    "name {name:?}: recipes and level sets are named with letters, digits, '_' and '.' (they name run directories, joined by '-')"
+                    "name {}: recipes and level sets are named with letters, digits, '_' and '.' (they name run directories, joined by '-')",
+                    shown(name)
+                ));
+            }
+            if name.len() > NAME_MAX {
+                return bad(format!(
+                    "name {}: recipes and level sets are named in at most {NAME_MAX} characters (they name run directories)",
+                    shown(name)
                 ));
             }
         }
@@ -229,6 +240,19 @@ impl StudySpec {
     }
 }
 
+/// TOML's error as one line: the line it is on and TOML's message, not the line itself (which
+/// may be a whole file long), escaped and cut ([`one_line`]).
+fn toml_error(e: &toml::de::Error, text: &str) -> String {
+    match e.span() {
+        Some(span) => {
+            let before = text.get(..span.start).unwrap_or(text);
+            let line = before.matches('\n').count() + 1;
+            format!("line {line}: {}", one_line(e.message()))
+        }
+        None => one_line(&e.to_string()),
+    }
+}
+
 /// `--threads N` (or `--update-threads`) of a training's flags; 1 without.
 fn threads_of(train: &[String]) -> usize {
     train
@@ -238,10 +262,6 @@ fn threads_of(train: &[String]) -> usize {
         .and_then(|v| v.parse().ok())
         .unwrap_or(1)
         .max(1)
-}
-
-fn one_line(s: &str) -> String {
-    s.split_whitespace().collect::<Vec<_>>().join(" ")
 }
 
 #[cfg(test)]

@@ -33,5 +33,6 @@ mod record;
 mod reliability;
 mod report;
 mod study;
+mod study_reliability;
 mod train;
 mod vendor;

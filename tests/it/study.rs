@@ -7,7 +7,7 @@ use std::path::Path;
 
 /// A study of tiny runs: `seeds` × two recipes (one of which fails when `broken`) on the
 /// paper's smallest level.
-fn spec(seeds: &str, broken: bool) -> String {
+pub(crate) fn spec(seeds: &str, broken: bool) -> String {
     format!(
         r#"seeds = {seeds}
 frames = 128
@@ -26,7 +26,8 @@ small = {{ train = [], eval = ["--sizes", "5", "--objects", "1"] }}
     )
 }
 
-fn plan(dir: &Path, text: &str) -> std::process::Output {
+/// `study plan DIR/study.toml --out DIR/study`, the spec being `text`.
+pub(crate) fn plan(dir: &Path, text: &str) -> std::process::Output {
     let spec = dir.join("study.toml");
     std::fs::write(&spec, text).unwrap();
     gs(&[
@@ -38,7 +39,8 @@ fn plan(dir: &Path, text: &str) -> std::process::Output {
     ])
 }
 
-fn read(p: &Path) -> String {
+/// A file's text, failing naming it.
+pub(crate) fn read(p: &Path) -> String {
     std::fs::read_to_string(p).unwrap_or_else(|e| panic!("{}: {e}", p.display()))
 }
 

@@ -8,7 +8,7 @@ pub use text::steps_csv;
 
 use std::collections::BTreeMap;
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use super::episode::{CLOSED_LOOP, COUNTERFACTUALS, Counterfactual, EpisodeResult, Rollout};
 use super::step::{CURVE_POINTS, Curves, INTERVENTIONS, StepResult};
@@ -18,17 +18,21 @@ use crate::metrics::sweep::MeanStd;
 /// Version of `faithfulness.json`.
 pub const SCHEMA_VERSION: u32 = 1;
 
+/// The report's file in `faithfulness --out DIR`.
+pub const REPORT_FILE: &str = "faithfulness.json";
+
 /// Bins of the rank-correlation histogram over [−1, 1].
 pub const RHO_BINS: usize = 20;
 
 /// A measure beside its control.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Paired {
     /// The measure.
     pub value: MeanStd,
     /// Its control or chance level.
     pub control: MeanStd,
-    /// What the control is.
+    /// What the control is (not read back from a file: empty there).
+    #[serde(skip_deserializing)]
     pub control_is: &'static str,
 }
 
@@ -77,7 +81,7 @@ pub struct InterventionEffect {
 }
 
 /// A closed-loop re-run.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct ClosedLoop {
     /// Success rate.
     pub success: MeanStd,
@@ -102,7 +106,7 @@ pub struct CounterfactualEffect {
 }
 
 /// Localisation of one word kind's map.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct LocalisationStats {
     /// argmax of the map on a related object; chance: a uniform map.
     pub pointing_game: Paired,
@@ -166,6 +170,58 @@ pub struct FaithfulnessReport {
     pub seconds: f64,
     /// One entry per checkpoint.
     pub checkpoints: Vec<CheckpointFaithfulness>,
+}
+
+/// What `study collect` reads back of a `faithfulness.json`: each checkpoint's level, closed
+/// loops and localisation, in the report's own types under its own field names. [`Self::of`]
+/// builds it from a [`FaithfulnessReport`], so that a field renamed there fails to compile
+/// here, and this module's tests read a written report back through it.
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+pub struct FaithfulnessFigures {
+    /// [`FaithfulnessReport::checkpoints`].
+    pub checkpoints: Vec<CheckpointFigures>,
+}
+
+/// One checkpoint of [`FaithfulnessFigures`].
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+pub struct CheckpointFigures {
+    /// [`CheckpointFaithfulness::level`].
+    pub level: String,
+    /// [`CheckpointFaithfulness::closed_loop`].
+    pub closed_loop: BTreeMap<String, ClosedLoop>,
+    /// [`CheckpointFaithfulness::localisation`].
+    pub localisation: BTreeMap<WordKind, LocalisationStats>,
+}
+
+impl FaithfulnessFigures {
+    /// The figures of `report` as its file reads back (a [`Paired`]'s `control_is` is not
+    /// read back).
+    pub fn of(report: &FaithfulnessReport) -> Self {
+        let checkpoints = report
+            .checkpoints
+            .iter()
+            .map(|c| CheckpointFigures {
+                level: c.level.clone(),
+                closed_loop: c
+                    .closed_loop
+                    .iter()
+                    .map(|(name, l)| ((*name).to_owned(), l.clone()))
+                    .collect(),
+                localisation: c
+                    .localisation
+                    .iter()
+                    .map(|(kind, l)| {
+                        let mut l = l.clone();
+                        l.pointing_game.control_is = "";
+                        l.relevance_mass.control_is = "";
+                        l.rank_accuracy.control_is = "";
+                        (*kind, l)
+                    })
+                    .collect(),
+            })
+            .collect();
+        Self { checkpoints }
+    }
 }
 
 #[expect(
@@ -463,5 +519,62 @@ pub fn summarise(checkpoint: &str, variant: &str, eps: &[EpisodeResult]) -> Chec
         counterfactuals,
         localisation,
         rho_histogram,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `faithfulness.json` as the command writes it reads back as the figures `study collect`
+    /// takes from it.
+    #[test]
+    fn a_written_report_reads_back_as_its_figures() {
+        let mut c = summarise("bundled:attention", "attention", &[]);
+        c.level = "S8N4 goto".into();
+        let m = |x: f64| MeanStd {
+            mean: Some(x),
+            std: Some(0.0),
+        };
+        c.closed_loop.insert(
+            CLOSED_LOOP[0],
+            ClosedLoop {
+                success: m(0.75),
+                distractor: m(0.125),
+                episodes: 8,
+            },
+        );
+        let paired = |x: f64| Paired {
+            value: m(x),
+            control: m(0.25),
+            control_is: "a uniform map",
+        };
+        c.localisation.insert(
+            WordKind::Combined,
+            LocalisationStats {
+                pointing_game: paired(0.5),
+                relevance_mass: paired(0.375),
+                rank_accuracy: paired(0.625),
+            },
+        );
+        let report = FaithfulnessReport {
+            schema_version: SCHEMA_VERSION,
+            level: c.level.clone(),
+            seeds: 1,
+            first_seed: 0,
+            episodes_per_seed: 8,
+            actions: "greedy",
+            seconds: 1.0,
+            checkpoints: vec![c],
+        };
+        let json = serde_json::to_string_pretty(&report).unwrap();
+        let read: FaithfulnessFigures = serde_json::from_str(&json).unwrap();
+        assert_eq!(read, FaithfulnessFigures::of(&report));
+        let c = &read.checkpoints[0];
+        assert_eq!(c.closed_loop["none"].success.mean, Some(0.75));
+        assert_eq!(
+            c.localisation[&WordKind::Combined].pointing_game.value.mean,
+            Some(0.5)
+        );
     }
 }
