@@ -71,9 +71,11 @@ fn a_plan_makes_the_slurm_log_directory_and_a_replan_keeps_it() {
 #[test]
 fn collect_reads_the_faithfulness_report_the_command_writes() {
     let dir = tempfile::tempdir().unwrap();
-    let text = spec("[1]", false).replace(
+    // The top-level `eval` only: the level set's inline table has one too.
+    let text = spec("[1]", false).replacen(
         "eval = [",
         "faithfulness = [\"--seeds\", \"1\", \"--episodes\", \"2\"]\neval = [",
+        1,
     );
     let o = plan(dir.path(), &text);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
