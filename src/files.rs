@@ -147,6 +147,41 @@ fn resolve(path: &Path) -> std::io::Result<PathBuf> {
     }
 }
 
+/// The file an output path names, for telling two outputs of one command apart before either
+/// is written: a path that exists by its canonical form (symlinks followed), a new one by its
+/// directory's canonical form and its name (a dangling symlink by its target's). A path whose
+/// directory does not exist is returned as given: writing it fails anyway.
+pub fn output_identity(path: &Path) -> PathBuf {
+    if let Ok(p) = std::fs::canonicalize(path) {
+        return p;
+    }
+    let path = match std::fs::read_link(path) {
+        Ok(target) => parent_dir(path).join(target),
+        Err(_) => path.to_path_buf(),
+    };
+    match (std::fs::canonicalize(parent_dir(&path)), path.file_name()) {
+        (Ok(dir), Some(name)) => dir.join(name),
+        _ => path,
+    }
+}
+
+/// The first two of `outputs` (each a flag and its path) that name the same file
+/// ([`output_identity`]), as their flags and paths. `/dev/null` may take any number.
+pub fn same_output<'a>(
+    outputs: &[(&'a str, &'a Path)],
+) -> Option<((&'a str, &'a Path), (&'a str, &'a Path))> {
+    let ids: Vec<PathBuf> = outputs.iter().map(|(_, p)| output_identity(p)).collect();
+    for (i, a) in ids.iter().enumerate() {
+        if a == Path::new("/dev/null") {
+            continue;
+        }
+        if let Some(j) = ids.iter().skip(i + 1).position(|b| b == a) {
+            return Some((*outputs.get(i)?, *outputs.get(i + 1 + j)?));
+        }
+    }
+    None
+}
+
 /// The directory a path lives in (`.` for a bare file name).
 pub fn parent_dir(path: &Path) -> &Path {
     match path.parent() {
@@ -442,6 +477,30 @@ mod tests {
                 .file_type()
                 .is_char_device()
         );
+    }
+
+    #[test]
+    fn two_spellings_of_one_output_are_the_same_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let a = dir.path().join("d.rrd");
+        let b = dir.path().join(".").join("d.rrd");
+        let c = dir.path().join("e.rrd");
+        assert!(same_output(&[("--save", a.as_path()), ("--trace", c.as_path())]).is_none());
+        let (x, y) = same_output(&[
+            ("--save", a.as_path()),
+            ("--mcap", c.as_path()),
+            ("--trace", b.as_path()),
+        ])
+        .unwrap();
+        assert_eq!((x.0, y.0), ("--save", "--trace"));
+        // A link and the file it names, whether or not the file exists yet.
+        let link = dir.path().join("link.json");
+        std::os::unix::fs::symlink(&c, &link).unwrap();
+        assert!(same_output(&[("--save", c.as_path()), ("--trace", link.as_path())]).is_some());
+        std::fs::write(&c, b"x").unwrap();
+        assert!(same_output(&[("--save", c.as_path()), ("--trace", link.as_path())]).is_some());
+        let null = Path::new("/dev/null");
+        assert!(same_output(&[("--save", null), ("--trace", null)]).is_none());
     }
 
     use std::os::unix::fs::FileTypeExt as _;

@@ -111,6 +111,13 @@ def make_vec(
     return GroundscopeVecEnv(level, num_envs, num_threads=num_threads, copy=copy)
 
 
+def _check_count(name: str, value) -> None:
+    """A seed or count: a non-negative int below 2**64, else a ``ValueError`` naming it (the
+    Rust side's conversion would raise an ``OverflowError`` naming nothing)."""
+    if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value < 2**64:
+        raise ValueError(f"{name} must be a non-negative int below 2**64, got {value!r}")
+
+
 def evaluate(
     act,
     levels,
@@ -145,8 +152,7 @@ def evaluate(
     if isinstance(levels, str):
         levels = [levels]
     for k, v in (("seeds", seeds), ("episodes", episodes), ("first_seed", first_seed), ("top_k", top_k)):
-        if isinstance(v, bool) or not isinstance(v, int) or v < 0:
-            raise ValueError(f"{k} must be a non-negative int, got {v!r}")
+        _check_count(k, v)
     report = _core.evaluate(
         act,
         [_bare(level) for level in levels],
@@ -178,8 +184,7 @@ def record(
     seed ``seed`` and writes what ``groundscope replay`` writes: a Rerun recording (``.rrd``)
     or MCAP (``.mcap``), word maps included when ``act`` returns them. Returns
     ``(success, steps, reward)``."""
-    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
-        raise ValueError(f"seed must be a non-negative int, got {seed!r}")
+    _check_count("seed", seed)
     return _core.record(
         act, _bare(level), seed, os.fspath(path), bool(sample), float(alpha), str(name), map_layout
     )
@@ -210,10 +215,16 @@ def train(
     ``False`` stops the run, saved. Ctrl-C stops it after the update, saved. Bad input is a
     ``ValueError`` raised before anything is written. Returns the last update's log with
     ``checkpoint``, the run directory (what ``init``, ``groundscope eval --checkpoint`` and
-    ``view --checkpoint`` accept).
+    ``view --checkpoint`` accept); a resume with nothing left to do returns the run's last
+    logged update so.
     """
-    if isinstance(frames, bool) or not isinstance(frames, int) or frames < 0:
-        raise ValueError(f"frames must be a non-negative int, got {frames!r}")
+    _check_count("frames", frames)
+    # Refused before anything is written: a callback that is not one used to fail only after
+    # the first update, with that update trained and saved.
+    if callback is not None and not callable(callback):
+        raise ValueError(
+            f"callback must be callable (it is called with each update's log) or None, got {callback!r}"
+        )
     if isinstance(levels, str):
         levels = _bare(levels)
     elif levels is not None:

@@ -193,6 +193,15 @@ class GroundscopeVecEnv(VectorEnv):
         a = np.asarray(actions)
         if a.shape != (self.num_envs,):
             raise ValueError(f"actions must have shape ({self.num_envs},), got {a.shape}")
+        # An int past 64 bits (numpy holds it as an object) or a uint64 past int64 is named as
+        # any bad action, not wrapped round nor an OverflowError.
+        if a.dtype == np.uint64 and a.size and int(a.max()) >= 2**63:
+            i = int(a.argmax())
+            raise ValueError(f"actions[{i}] must be an action 0-6, got {int(a[i])}")
+        if a.dtype == object:
+            for i, v in enumerate(a.tolist()):
+                if isinstance(v, int) and not isinstance(v, bool) and not -(2**63) <= v < 2**63:
+                    raise ValueError(f"actions[{i}] must be an action 0-6, got {v}")
         if a.dtype.kind not in "iu":
             raise ValueError(f"actions must be integers 0-6, got dtype {a.dtype}")
         a = np.ascontiguousarray(a, dtype=np.int64)

@@ -56,6 +56,68 @@ pub fn check_seed(seed: &Bound<'_, PyAny>, what: &str) -> PyResult<Option<u64>> 
     })
 }
 
+/// `value`'s repr, for an error message.
+fn shown(value: &Bound<'_, PyAny>) -> String {
+    value.repr().map_or_else(|_| "?".into(), |r| r.to_string())
+}
+
+/// A Python int argument as an `i128`, or a `ValueError` naming it (`what`) and what it must
+/// be (`want`): a bool, a float, a str or an int past 128 bits is refused here, where PyO3's
+/// conversion into a Rust integer raises an `OverflowError` or `TypeError` that names no
+/// argument.
+fn int_value(value: &Bound<'_, PyAny>, what: &str, want: &str) -> PyResult<i128> {
+    if value.is_instance_of::<pyo3::types::PyBool>() {
+        return Err(PyValueError::new_err(format!(
+            "{what} must be {want}, not a bool"
+        )));
+    }
+    value
+        .extract::<i128>()
+        .map_err(|_| PyValueError::new_err(format!("{what} must be {want}, got {}", shown(value))))
+}
+
+/// A non-negative int argument below 2**64 (a seed, a count), or a `ValueError` naming it.
+pub fn u64_arg(value: &Bound<'_, PyAny>, what: &str) -> PyResult<u64> {
+    let want = "a non-negative int below 2**64";
+    let v = int_value(value, what, want)?;
+    u64::try_from(v).map_err(|_| PyValueError::new_err(format!("{what} must be {want}, got {v}")))
+}
+
+/// [`u64_arg`] as a `usize` (a size, a count of items).
+pub fn usize_arg(value: &Bound<'_, PyAny>, what: &str) -> PyResult<usize> {
+    let v = u64_arg(value, what)?;
+    usize::try_from(v).map_err(|_| {
+        PyValueError::new_err(format!(
+            "{what} must be a non-negative int below 2**64, got {v}"
+        ))
+    })
+}
+
+/// [`u64_arg`] of an optional argument: `None` (left out) stays `None`.
+pub fn opt_u64_arg(value: Option<&Bound<'_, PyAny>>, what: &str) -> PyResult<Option<u64>> {
+    value.map(|v| u64_arg(v, what)).transpose()
+}
+
+/// [`usize_arg`] of an optional argument: `None` (left out) stays `None`.
+pub fn opt_usize_arg(value: Option<&Bound<'_, PyAny>>, what: &str) -> PyResult<Option<usize>> {
+    value.map(|v| usize_arg(v, what)).transpose()
+}
+
+/// The action a Python int names in an env of `num_actions` actions ([`env_action`]), an
+/// int of any size: one past 64 bits is a `ValueError` naming it as any other bad action (on
+/// Dynamic-Obstacles, whose `step` acts `left` at or past 3, it is `left`, as there).
+pub fn py_env_action(a: &Bound<'_, PyAny>, num_actions: usize, what: &str) -> PyResult<Action> {
+    let bad = |v: String| PyValueError::new_err(format!("{what} must be an action 0-6, got {v}"));
+    let Ok(value) = a.extract::<i128>() else {
+        return Err(bad(shown(a)));
+    };
+    match i64::try_from(value) {
+        Ok(v) => env_action(v, num_actions, what),
+        Err(_) if value > 0 && num_actions < Action::COUNT => Ok(Action::Left),
+        Err(_) => Err(bad(value.to_string())),
+    }
+}
+
 /// A seed for an env reset without one before it was ever seeded (gymnasium then seeds from
 /// the OS's entropy).
 pub fn entropy_seed() -> u64 {
@@ -129,9 +191,9 @@ impl Env {
     fn step<'py>(
         &mut self,
         py: Python<'py>,
-        action: i64,
+        action: Bound<'py, PyAny>,
     ) -> PyResult<(Bound<'py, PyArray3<u8>>, i64, String, f64, bool, bool)> {
-        let a = env_action(action, self.core.num_actions(), "action")?;
+        let a = py_env_action(&action, self.core.num_actions(), "action")?;
         let out = match self.core.step(a) {
             Ok(o) => o,
             Err(EnvError::EpisodeEnded { .. }) => {

@@ -18,7 +18,7 @@ use groundscope::record::{RerunTargets, record_rerun, write_mcap};
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 
-use crate::env::parse_level;
+use crate::env::{opt_u64_arg, opt_usize_arg, parse_level, u64_arg};
 use crate::policy::{MapLayout, PyPolicy};
 
 /// The most episodes one level may run at once (rows are carried as f32 indices).
@@ -54,7 +54,7 @@ fn check_alpha(alpha: f64) -> PyResult<()> {
 /// first_seed + seeds` of every level (level seeds `s·10⁶ + e`, as `groundscope eval`) and
 /// writes the report to `out`. Returns report.json's content.
 #[pyfunction]
-#[pyo3(signature = (act, levels, seeds=5, episodes=100, out=PathBuf::from("run"), first_seed=0, sample=false, alpha=0.5, name="python".to_owned(), map_layout="image", top_k=10))]
+#[pyo3(signature = (act, levels, seeds=None, episodes=None, out=PathBuf::from("run"), first_seed=None, sample=false, alpha=0.5, name="python".to_owned(), map_layout="image", top_k=None))]
 #[expect(
     clippy::too_many_arguments,
     reason = "the keyword arguments of the Python function"
@@ -63,16 +63,22 @@ pub fn evaluate(
     py: Python<'_>,
     act: Bound<'_, PyAny>,
     levels: Vec<String>,
-    seeds: u64,
-    episodes: u64,
+    seeds: Option<Bound<'_, PyAny>>,
+    episodes: Option<Bound<'_, PyAny>>,
     out: PathBuf,
-    first_seed: u64,
+    first_seed: Option<Bound<'_, PyAny>>,
     sample: bool,
     alpha: f64,
     name: String,
     map_layout: &str,
-    top_k: usize,
+    top_k: Option<Bound<'_, PyAny>>,
 ) -> PyResult<String> {
+    // Each int named when it is out of range (PyO3's own conversion raised an OverflowError
+    // naming none); left out, the signature's defaults of `groundscope.evaluate`.
+    let seeds = opt_u64_arg(seeds.as_ref(), "seeds")?.unwrap_or(5);
+    let episodes = opt_u64_arg(episodes.as_ref(), "episodes")?.unwrap_or(100);
+    let first_seed = opt_u64_arg(first_seed.as_ref(), "first_seed")?.unwrap_or(0);
+    let top_k = opt_usize_arg(top_k.as_ref(), "top_k")?.unwrap_or(10);
     let layout = MapLayout::parse(map_layout)?;
     check_alpha(alpha)?;
     if levels.is_empty() {
@@ -158,6 +164,7 @@ pub fn evaluate(
             model_name: None,
             training: None,
             ground_loss: None,
+            python: true,
         }],
         cells,
         elapsed_secs: start.elapsed().as_secs_f64(),
@@ -185,13 +192,14 @@ pub fn evaluate(
 pub fn record(
     act: Bound<'_, PyAny>,
     level: &str,
-    seed: u64,
+    seed: Bound<'_, PyAny>,
     path: PathBuf,
     sample: bool,
     alpha: f64,
     name: String,
     map_layout: &str,
 ) -> PyResult<(bool, usize, f64)> {
+    let seed = u64_arg(&seed, "seed")?;
     let layout = MapLayout::parse(map_layout)?;
     check_alpha(alpha)?;
     let ext = path

@@ -3,7 +3,7 @@
 //! checkpoints and the clean-up after a failed start are the core's. A run made here resumes
 //! with `groundscope train --resume` and the other way round.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use groundscope::policy::ppo::run_dir::{RunInfo, Tracking};
 use groundscope::policy::ppo::{LevelMix, MixEntry, PpoConfig, UpdateLog};
@@ -13,7 +13,7 @@ use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-use crate::env::parse_level;
+use crate::env::{opt_u64_arg, opt_usize_arg, parse_level};
 
 /// `train`'s tracked evaluation when not asked otherwise: as the command's.
 const EVAL_INTERVAL: u64 = 50;
@@ -128,6 +128,60 @@ fn level_mix(levels: &Bound<'_, PyAny>) -> PyResult<LevelMix> {
     LevelMix::new(entries).map_err(|e| PyValueError::new_err(e.to_string()))
 }
 
+/// The last row of the run's `log.csv` as an update's log, `None` where the log has no row
+/// (a run that never trained). The grounding term is not logged: 0 for a run without
+/// `ground_loss`, as its updates return it, else NaN.
+fn last_logged(dir: &Path, supervised: bool) -> PyResult<Option<UpdateLog>> {
+    let path = dir.join("log.csv");
+    let text = groundscope::files::read_regular_to_string(&path)
+        .map_err(|e| PyRuntimeError::new_err(format!("{}: {e}", path.display())))?;
+    let mut lines = text.lines().filter(|l| !l.trim().is_empty());
+    let (Some(header), Some(row)) = (lines.next(), lines.next_back()) else {
+        return Ok(None);
+    };
+    let names: Vec<&str> = header.split(',').collect();
+    let cells: Vec<&str> = row.split(',').collect();
+    let cell = |name: &str| {
+        names
+            .iter()
+            .position(|n| *n == name)
+            .and_then(|i| cells.get(i).copied())
+            .map(str::trim)
+            .ok_or_else(|| {
+                PyRuntimeError::new_err(format!("{}: its last row has no {name}", path.display()))
+            })
+    };
+    let bad = |name: &str, v: &str| {
+        PyRuntimeError::new_err(format!(
+            "{}: its last row's {name} {v:?} is not a number",
+            path.display()
+        ))
+    };
+    let count = |name: &str| -> PyResult<u64> {
+        let v = cell(name)?;
+        v.parse().map_err(|_| bad(name, v))
+    };
+    let number = |name: &str| -> PyResult<f64> {
+        match cell(name)? {
+            "" => Ok(f64::NAN),
+            v => v.parse().map_err(|_| bad(name, v)),
+        }
+    };
+    Ok(Some(UpdateLog {
+        update: count("update")?,
+        frames: count("frames")?,
+        episodes: count("episodes")?,
+        success_rate: number("success_rate")?,
+        mean_reward: number("mean_reward")?,
+        mean_length: number("mean_length")?,
+        policy_loss: number("policy_loss")?,
+        value_loss: number("value_loss")?,
+        entropy: number("entropy")?,
+        grad_norm: number("grad_norm")?,
+        ground_loss: if supervised { f64::NAN } else { 0.0 },
+    }))
+}
+
 /// One update's log as a dict, with the frames per second since this call began.
 fn log_dict<'py>(py: Python<'py>, log: &UpdateLog, fps: f64) -> PyResult<Bound<'py, PyDict>> {
     let d = PyDict::new(py);
@@ -152,7 +206,7 @@ fn log_dict<'py>(py: Python<'py>, log: &UpdateLog, fps: f64) -> PyResult<Bound<'
 /// the current update, saved, and raises `KeyboardInterrupt`. Returns the last update's log
 /// with `checkpoint`, the run directory (what `--checkpoint` and `init` accept).
 #[pyfunction]
-#[pyo3(signature = (out, levels=None, frames=100_000, *, resume=false, model=None, hidden=None, lr=None, procs=None, frames_per_proc=None, batch_size=None, imitate=None, ground_loss=None, seed=None, init=None, eval_interval=None, eval_episodes=None, save_interval=None, callback=None))]
+#[pyo3(signature = (out, levels=None, frames=None, *, resume=false, model=None, hidden=None, lr=None, procs=None, frames_per_proc=None, batch_size=None, imitate=None, ground_loss=None, seed=None, init=None, eval_interval=None, eval_episodes=None, save_interval=None, callback=None))]
 #[expect(
     clippy::too_many_arguments,
     reason = "the keyword arguments of the Python function"
@@ -161,33 +215,47 @@ pub fn train<'py>(
     py: Python<'py>,
     out: PathBuf,
     levels: Option<Bound<'py, PyAny>>,
-    frames: u64,
+    frames: Option<Bound<'py, PyAny>>,
     resume: bool,
     model: Option<String>,
-    hidden: Option<usize>,
+    hidden: Option<Bound<'py, PyAny>>,
     lr: Option<f64>,
-    procs: Option<usize>,
-    frames_per_proc: Option<usize>,
-    batch_size: Option<usize>,
+    procs: Option<Bound<'py, PyAny>>,
+    frames_per_proc: Option<Bound<'py, PyAny>>,
+    batch_size: Option<Bound<'py, PyAny>>,
     imitate: Option<bool>,
     ground_loss: Option<f64>,
-    seed: Option<u64>,
+    seed: Option<Bound<'py, PyAny>>,
     init: Option<String>,
-    eval_interval: Option<u64>,
-    eval_episodes: Option<u64>,
-    save_interval: Option<u64>,
+    eval_interval: Option<Bound<'py, PyAny>>,
+    eval_episodes: Option<Bound<'py, PyAny>>,
+    save_interval: Option<Bound<'py, PyAny>>,
     callback: Option<Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyDict>> {
+    // Every int is checked here, naming its argument (PyO3's own conversion raised an
+    // OverflowError naming none), and the callback before anything is written.
+    let frames = opt_u64_arg(frames.as_ref(), "frames")?.unwrap_or(100_000);
+    let eval_interval = opt_u64_arg(eval_interval.as_ref(), "eval_interval")?;
+    let eval_episodes = opt_u64_arg(eval_episodes.as_ref(), "eval_episodes")?;
+    let save_interval = opt_u64_arg(save_interval.as_ref(), "save_interval")?;
+    if let Some(f) = &callback
+        && !f.is_callable()
+    {
+        return Err(PyValueError::new_err(format!(
+            "callback must be callable (called with each update's log) or None, got {}",
+            f.repr().map_or_else(|_| "?".into(), |r| r.to_string())
+        )));
+    }
     let settings = Settings {
         model,
-        hidden,
+        hidden: opt_usize_arg(hidden.as_ref(), "hidden")?,
         lr,
-        procs,
-        frames_per_proc,
-        batch_size,
+        procs: opt_usize_arg(procs.as_ref(), "procs")?,
+        frames_per_proc: opt_usize_arg(frames_per_proc.as_ref(), "frames_per_proc")?,
+        batch_size: opt_usize_arg(batch_size.as_ref(), "batch_size")?,
         imitate,
         ground_loss,
-        seed,
+        seed: opt_u64_arg(seed.as_ref(), "seed")?,
         init,
     };
     if save_interval == Some(0) {
@@ -276,6 +344,7 @@ pub fn train<'py>(
         }
     }
     let dir = run.dir().to_path_buf();
+    let supervised = run.trainer().ppo.ground_loss > 0.0;
     // Saved before any exception is raised: a stop loses no update.
     let finished = run
         .finish()
@@ -286,7 +355,12 @@ pub fn train<'py>(
     let d = match (finished, last) {
         (Some(log), Some((_, fps))) => log_dict(py, &log, fps)?,
         (Some(log), None) => log_dict(py, &log, 0.0)?,
-        (None, _) => PyDict::new(py),
+        // Nothing left to do (a resume past its frames): the last update the run logged,
+        // with no frames per second of this call.
+        (None, _) => match last_logged(&dir, supervised)? {
+            Some(log) => log_dict(py, &log, 0.0)?,
+            None => PyDict::new(py),
+        },
     };
     d.set_item("checkpoint", dir)?;
     Ok(d)

@@ -11,7 +11,10 @@ use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use rayon::prelude::*;
 
-use crate::env::{IMAGE_BYTES, check_seed, entropy_seed, env_action, parse_level, py_err};
+use crate::env::{
+    IMAGE_BYTES, check_seed, entropy_seed, env_action, opt_usize_arg, parse_level, py_err,
+    usize_arg,
+};
 use groundscope::env::gym::MinigridEnv;
 
 /// Envs per task handed to a thread: small enough to balance, large enough that a task is
@@ -103,8 +106,14 @@ impl VecEnv {
     /// `num_envs` envs of level `id`, stepped on `num_threads` threads (0: one per core;
     /// 1: the calling thread).
     #[new]
-    #[pyo3(signature = (id, num_envs, num_threads=0))]
-    fn new(id: &str, num_envs: usize, num_threads: usize) -> PyResult<Self> {
+    #[pyo3(signature = (id, num_envs, num_threads=None))]
+    fn new(
+        id: &str,
+        num_envs: Bound<'_, PyAny>,
+        num_threads: Option<Bound<'_, PyAny>>,
+    ) -> PyResult<Self> {
+        let num_envs = usize_arg(&num_envs, "num_envs")?;
+        let num_threads = opt_usize_arg(num_threads.as_ref(), "num_threads")?.unwrap_or(0);
         if num_envs == 0 {
             return Err(PyValueError::new_err("num_envs must be at least 1, got 0"));
         }

@@ -191,6 +191,11 @@ def test_bad_outputs_are_one_line_value_errors(tmp_path, output, word):
         ({"episodes": 10**6}, "episodes"),
         ({"first_seed": 2147}, "first_seed"),
         ({"map_layout": "xy"}, "map_layout"),
+        # Past 64 bits: named, where they used to be OverflowErrors naming nothing.
+        ({"first_seed": 2**64}, "first_seed"),
+        ({"seeds": 2**64}, "seeds"),
+        ({"episodes": 2**70}, "episodes"),
+        ({"top_k": 2**64}, "top_k"),
     ],
 )
 def test_bad_arguments_are_refused_before_running(tmp_path, kwargs, word):
@@ -199,6 +204,26 @@ def test_bad_arguments_are_refused_before_running(tmp_path, kwargs, word):
     with pytest.raises(ValueError, match=word):
         groundscope.evaluate(lambda o, f: called.append(1), **args)
     assert not called and not (tmp_path / "r").exists()
+
+
+@pytest.mark.parametrize(
+    "kwargs, word",
+    [
+        ({"first_seed": 2**64}, "first_seed"),
+        ({"seeds": -1}, "seeds"),
+        ({"episodes": 2**64}, "episodes"),
+        ({"top_k": -1}, "top_k"),
+    ],
+)
+def test_the_rust_functions_name_out_of_range_ints(tmp_path, kwargs, word):
+    called = []
+    args = {"seeds": 1, "episodes": 2, "out": os.fspath(tmp_path / "r")} | kwargs
+    with pytest.raises(ValueError, match=word):
+        groundscope._core.evaluate(lambda o, f: called.append(1), [LEVEL], **args)
+    assert not called and not (tmp_path / "r").exists()
+    with pytest.raises(ValueError, match="seed"):
+        groundscope._core.record(reactive, LEVEL, 2**64, os.fspath(tmp_path / "ep.rrd"))
+    assert list(tmp_path.iterdir()) == []
 
 
 def test_record_writes_rerun_and_mcap_with_word_maps(tmp_path):
@@ -235,7 +260,33 @@ def test_record_refuses_bad_paths_and_levels(tmp_path):
         groundscope.record(reactive, "BabyAI-GoToLocl-v0", 0, tmp_path / "ep.rrd")
     with pytest.raises(ValueError, match="seed"):
         groundscope.record(reactive, LEVEL, -1, tmp_path / "ep.rrd")
+    with pytest.raises(ValueError, match="seed"):
+        groundscope.record(reactive, LEVEL, 2**64, tmp_path / "ep.rrd")
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("name", ["bot", "python", "bundled:attention"])
+def test_a_python_policys_report_is_not_reopened_as_a_checkpoint(tmp_path, name):
+    """`view --report` on a Python policy's report: one line saying its episodes cannot be
+    re-run (it used to fail on "python.json: No such file or directory", and a policy named
+    "bot" opened minigrid's bot instead)."""
+    import subprocess
+
+    from conftest import find_groundscope_bin
+
+    out = tmp_path / "run"
+    report = groundscope.evaluate(reactive, [LEVEL], seeds=1, episodes=2, out=out, name=name)
+    assert report["checkpoints"][0]["python"] is True
+    exe = find_groundscope_bin()
+    if exe is None:
+        pytest.fail("no groundscope binary: build it (cargo build --release) or set GROUNDSCOPE_BIN")
+    env = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY")}
+    done = subprocess.run(
+        [exe, "view", "--report", str(out)], capture_output=True, text=True, env=env, timeout=120
+    )
+    assert done.returncode == 2, done.stderr
+    assert len(done.stderr.strip().splitlines()) == 1, done.stderr
+    assert "Python policy" in done.stderr and "groundscope.record" in done.stderr, done.stderr
 
 
 def test_every_babyai_level_evaluates_with_word_maps(tmp_path):

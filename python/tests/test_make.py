@@ -127,6 +127,27 @@ def test_bad_inputs_raise_without_changing_the_env():
     assert_obs_equal(env.step(2)[0], ref.step(2)[0], "after bad actions")
 
 
+def test_actions_past_64_bits_are_value_errors_naming_the_action():
+    env = groundscope.make("BabyAI-GoToLocal-v0").unwrapped
+    env.reset(seed=0)
+    # They used to be OverflowErrors ("int too big to convert") naming nothing.
+    for bad in (2**70, -(2**70), 2**63, 2**200):
+        with pytest.raises(ValueError, match="action"):
+            env.step(bad)
+        with pytest.raises(ValueError, match="action"):
+            env._core.step(bad)
+    # The refused steps did not move the agent.
+    ref = groundscope.make("BabyAI-GoToLocal-v0")
+    ref.reset(seed=0)
+    assert_obs_equal(env.step(2)[0], ref.step(2)[0], "after refused actions")
+    # Dynamic-Obstacles acts `left` for any action at or past 3, as its step does, any size.
+    dyn = groundscope.make("MiniGrid-Dynamic-Obstacles-5x5-v0").unwrapped
+    dyn.reset(seed=1)
+    dyn.step(2**70)
+    with pytest.raises(ValueError, match="action"):
+        dyn.step(-(2**70))
+
+
 def test_step_after_the_end_asks_for_reset():
     env = groundscope.make("BabyAI-GoToRedBallGrey-v0")
     env.reset(seed=0)

@@ -129,6 +129,14 @@ def test_bad_inputs_are_one_line_errors_and_change_nothing():
         envs.step(np.array([2, 2]))
     with pytest.raises(ValueError, match="integers"):
         envs.step(np.array([2.0, 2.0, 2.0]))
+    # Past 64 bits (numpy keeps them as objects) or past int64: named, not an OverflowError
+    # nor wrapped round to another action.
+    with pytest.raises(ValueError, match=r"actions\[1\]"):
+        envs.step([2, 2**70, 2])
+    with pytest.raises(ValueError, match=r"actions\[0\]"):
+        envs.step([-(2**70), 2, 2])
+    with pytest.raises(ValueError, match=r"actions\[2\]"):
+        envs.step(np.array([2, 2, 2**63], np.uint64))
     # None of the refused steps moved an env.
     o, *_ = envs.step(np.array([2, 2, 2]))
     o_ref, *_ = ref.step(np.array([2, 2, 2]))
@@ -141,6 +149,11 @@ def test_sizes_past_memory_and_thread_bounds_are_refused_not_aborted():
         groundscope.make_vec("BabyAI-GoToLocal-v0", 10**12)
     with pytest.raises(ValueError, match="num_threads must be at most"):
         groundscope.make_vec("BabyAI-GoToLocal-v0", 4, num_threads=20000)
+    # Past 64 bits: a ValueError naming the argument, not an OverflowError.
+    with pytest.raises(ValueError, match="num_envs"):
+        groundscope.make_vec("BabyAI-GoToLocal-v0", 2**64)
+    with pytest.raises(ValueError, match="num_threads"):
+        groundscope.make_vec("BabyAI-GoToLocal-v0", 4, num_threads=2**64)
     envs = groundscope.make_vec("BabyAI-GoToLocal-v0", 4, num_threads=64)
     envs.reset(seed=0)
     envs.step(np.zeros(4, np.int64))

@@ -120,3 +120,64 @@ def test_a_held_directory_and_a_resume_with_settings_are_refused(tmp_path):
         groundscope.train(tmp_path / "empty", frames=64, resume=True)
     assert sorted(os.listdir(out)) == before
     assert [int(r["frames"]) for r in rows(out / "log.csv")] == [32]
+
+
+@pytest.mark.parametrize(
+    "kwargs, what",
+    [
+        (dict(hidden=-1), "hidden"),
+        (dict(seed=-1), "seed"),
+        (dict(seed=2**64), "seed"),
+        (dict(procs=-2), "procs"),
+        (dict(batch_size=2**70), "batch_size"),
+        (dict(save_interval=-1), "save_interval"),
+        (dict(frames=2**64), "frames"),
+    ],
+)
+def test_out_of_range_ints_are_value_errors_naming_them(tmp_path, kwargs, what):
+    out = tmp_path / "run"
+    args = {**TINY, "frames": 32, **kwargs}
+    # They used to be OverflowErrors naming no argument ("can't convert negative int to
+    # unsigned"), from the wrapper and from the Rust function alike.
+    with pytest.raises(ValueError, match=what):
+        groundscope.train(out, LEVEL, **args)
+    frames = args.pop("frames")
+    with pytest.raises(ValueError, match=what):
+        groundscope._core.train(os.fspath(out), LEVEL, frames, **args)
+    assert not out.exists()
+
+
+def test_a_callback_that_cannot_be_called_is_refused_before_anything_is_written(tmp_path):
+    out = tmp_path / "run"
+    # It used to train and save an update, then raise TypeError ("'int' object is not
+    # callable").
+    with pytest.raises(ValueError, match="callback"):
+        groundscope.train(out, LEVEL, frames=32, callback=5, **TINY)
+    assert not out.exists()
+    with pytest.raises(ValueError, match="callback"):
+        groundscope._core.train(os.fspath(out), LEVEL, 32, callback="log", **TINY)
+    assert not out.exists()
+    # Nor on resume: the run stays as it was.
+    groundscope.train(out, LEVEL, frames=32, **TINY)
+    before = (out / "log.csv").read_text()
+    with pytest.raises(ValueError, match="callback"):
+        groundscope.train(out, frames=64, resume=True, callback=[])
+    assert (out / "log.csv").read_text() == before
+
+
+def test_a_resume_with_nothing_to_do_returns_the_last_log(tmp_path):
+    out = tmp_path / "run"
+    trained = groundscope.train(out, LEVEL, frames=64, seed=3, **TINY)
+    again = groundscope.train(out, frames=32, resume=True)
+    # The same keys as a call that trains (it used to return {'checkpoint'} alone), and the
+    # values of the run's last logged update.
+    assert set(again) == set(trained)
+    assert again["checkpoint"] == trained["checkpoint"]
+    last = rows(out / "log.csv")[-1]
+    assert (again["update"], again["frames"]) == (2, 64) == (int(last["update"]), int(last["frames"]))
+    assert again["episodes"] == int(last["episodes"])
+    for key in ("mean_reward", "mean_length", "entropy", "policy_loss", "value_loss"):
+        assert again[key] == pytest.approx(float(last[key]), nan_ok=True), key
+        assert again[key] == pytest.approx(trained[key], abs=0.01, nan_ok=True), key
+    assert again["ground_loss"] == 0.0 and again["fps"] == 0.0
+    assert [int(r["frames"]) for r in rows(out / "log.csv")] == [32, 64]

@@ -163,6 +163,14 @@ fn show(
     tile: u32,
     snapshot: Option<PathBuf>,
 ) -> anyhow::Result<ExitStatus> {
+    let outputs: Vec<(&str, &std::path::Path)> = [
+        ("--png", png.as_deref()),
+        ("--snapshot", snapshot.as_deref()),
+    ]
+    .into_iter()
+    .filter_map(|(flag, path)| path.map(|p| (flag, p)))
+    .collect();
+    crate::cli::check_distinct_outputs(&outputs)?;
     let cfg = level.config()?;
     let world = cfg.generate(seed)?;
     let env_id = cfg

@@ -77,6 +77,13 @@ fn check(args: &EvalArgs) -> anyhow::Result<()> {
         anyhow::bail!("--alpha {:?} is outside [0, 1]", args.alpha);
     }
     args.sweep.check()?;
+    let failures_dir = args.out.join("failures");
+    if args.export_failures && failures_dir.exists() && !failures_dir.is_dir() {
+        anyhow::bail!(
+            "--export-failures: {} is not a directory (the recordings go there)",
+            failures_dir.display()
+        );
+    }
     for (flag, v) in [
         ("--min-success", args.min_success),
         ("--min-acc-ng", args.min_acc_ng),
@@ -194,6 +201,7 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitStatus> {
                 model_name: c.acting().model_name(),
                 training: groundscope::policy::bundled::training_note(n).map(str::to_owned),
                 ground_loss: c.ground_loss(),
+                python: false,
             })
             .collect(),
         cells: report_cells,
@@ -227,31 +235,38 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitStatus> {
             "{skipped} failed episode(s) could not be re-run without distractors; report.md says why on each row"
         );
     }
-    report.write(&args.out, &failures, &episodes_csv(&all_eps))?;
     let failures_dir = args.out.join("failures");
-    if args.export_failures {
-        // Recorded into a hidden directory, then put in place of the earlier run's: the
-        // directory ends up holding this run's recordings only.
-        let staging = tempfile::Builder::new()
-            .prefix(".groundscope-failures-")
-            .tempdir_in(&args.out)
+    // The recordings are made first, into a hidden directory of --out, and put in place with
+    // the report once both are complete: a recording that fails (or Ctrl-C) leaves --out as
+    // it was, the earlier report and its recordings included.
+    let recorded = if args.export_failures {
+        let staged = groundscope::files::StagedDir::new(&args.out)
+            .map_err(|e| anyhow::anyhow!("--out {e}"))?;
+        let dir = staged.path("failures");
+        std::fs::create_dir(&dir)
             .with_context(|| format!("cannot create a directory in {}", args.out.display()))?;
-        let n = export_failures(&failures, &ckpts, staging.path(), mode, args.alpha, &stop);
+        let n = export_failures(
+            &failures,
+            &ckpts,
+            &dir,
+            &failures_dir,
+            mode,
+            args.alpha,
+            &stop,
+        );
         if stop.requested() {
-            // The report is in place; recordings of an earlier run beside it would not
-            // match it.
-            drop(staging);
-            remove_old_failures(&failures_dir)?;
-            eprintln!(
-                "groundscope: interrupted while recording failures: {} holds this run's report and no failures/ recordings",
-                args.out.display()
-            );
+            drop(staged);
+            Stop::report(&args.out);
             return Ok(ExitStatus::Interrupted);
         }
-        let (failed, successes) = n?;
-        remove_old_failures(&failures_dir)?;
-        std::fs::rename(staging.keep(), &failures_dir)
-            .with_context(|| format!("cannot move recordings to {}", failures_dir.display()))?;
+        Some((staged, n?))
+    } else {
+        None
+    };
+    report.write(&args.out, &failures, &episodes_csv(&all_eps))?;
+    if let Some((staged, (failed, successes))) = recorded {
+        put_failures_in_place(&staged.path("failures"), &failures_dir)?;
+        staged.commit().map_err(|e| anyhow::anyhow!("--out {e}"))?;
         println!(
             "recorded {failed} failed episode(s) and {successes} success(es) listed for their low acc_cmb, one recording each, in {}",
             failures_dir.display()
@@ -434,8 +449,23 @@ fn add_counterfactuals(
     Ok(skipped)
 }
 
-/// Replays every failure (the same level, seed and action mode as in the sweep) and records
-/// it as `DIR/<kind>-<checkpoint>-S<size>-N<objects>-seed<seed>.rrd`.
+/// Puts this run's recordings (the directory `staged`) in place of an earlier run's at `dir`:
+/// the earlier `*.rrd` removed, then the directory renamed into place, or, where `dir` keeps
+/// files of the user's own, each recording moved in beside them.
+fn put_failures_in_place(staged: &std::path::Path, dir: &std::path::Path) -> anyhow::Result<()> {
+    remove_old_failures(dir)?;
+    let moved =
+        |e: std::io::Error| anyhow::anyhow!("cannot move recordings to {}: {e}", dir.display());
+    if !dir.exists() {
+        return std::fs::rename(staged, dir).map_err(moved);
+    }
+    for entry in std::fs::read_dir(staged).map_err(moved)? {
+        let entry = entry.map_err(moved)?;
+        std::fs::rename(entry.path(), dir.join(entry.file_name())).map_err(moved)?;
+    }
+    Ok(())
+}
+
 /// Removes an earlier run's `failures/` recordings (`*.rrd`), and the directory when nothing
 /// else is in it.
 fn remove_old_failures(dir: &std::path::Path) -> anyhow::Result<()> {
@@ -455,15 +485,19 @@ fn remove_old_failures(dir: &std::path::Path) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// Replays every failure (the same level, seed and action mode as in the sweep) and records
+/// it as `DIR/<kind>-<checkpoint>-S<size>-N<objects>-seed<seed>.rrd`; an error names the
+/// recording in `shown`, the directory where it is going.
 fn export_failures(
     failures: &[groundscope::metrics::report::Failure],
     ckpts: &[(String, Agent)],
     dir: &std::path::Path,
+    shown: &std::path::Path,
     mode: ActionMode,
     alpha: f64,
     stop: &Stop,
 ) -> anyhow::Result<(usize, usize)> {
-    use groundscope::record::{RerunTargets, record_rerun};
+    use groundscope::record::{RecordError, RerunTargets, record_rerun};
     let (mut failed, mut successes) = (0, 0);
     // An episode listed twice (a long failure with a low acc_cmb too) is recorded once, under
     // the first kind it is listed for: `failed` comes first.
@@ -513,12 +547,17 @@ fn export_failures(
             .level
             .clone()
             .unwrap_or_else(|| format!("S{}-N{}", f.size, f.objects));
-        let path = dir.join(format!("{}-{short}-{on}-seed{}.rrd", f.kind, f.seed));
+        let file = format!("{}-{short}-{on}-seed{}.rrd", f.kind, f.seed);
         let targets = RerunTargets {
-            save: Some(path),
+            save: Some(dir.join(&file)),
             ..RerunTargets::default()
         };
-        record_rerun(std::slice::from_ref(&trace), &targets, alpha, None)?;
+        record_rerun(std::slice::from_ref(&trace), &targets, alpha, None).map_err(|e| match e {
+            RecordError::Io { reason, .. } => {
+                anyhow::anyhow!("cannot write {}: {reason}", shown.join(&file).display())
+            }
+            e => e.into(),
+        })?;
         if trace.success() {
             successes += 1;
         } else {

@@ -131,3 +131,17 @@ pub(crate) fn check_extension(path: &std::path::Path, ext: &str, flag: &str) -> 
         )
     }
 }
+
+/// Fails when two of a command's outputs (each its flag and path; those not given left out)
+/// name the same file, naming both flags: one would overwrite the other, and the command
+/// would say it wrote both.
+pub(crate) fn check_distinct_outputs(outputs: &[(&str, &std::path::Path)]) -> anyhow::Result<()> {
+    match groundscope::files::same_output(outputs) {
+        Some(((a, pa), (b, pb))) => anyhow::bail!(
+            "{a} {} and {b} {} name the same file: give each output its own path",
+            pa.display(),
+            pb.display()
+        ),
+        None => Ok(()),
+    }
+}

@@ -13,13 +13,13 @@ use groundscope::episode::{EpisodeSpec, EpisodeTrace, initial_world, run_from};
 use groundscope::metrics::faithfulness::annotate;
 use groundscope::policy::Agent;
 use groundscope::record::{
-    McapRecorder, RecordError, RerunRecorder, RerunTargets, StopFlag, block_starts, scene_block,
-    word_paths,
+    McapRecorder, PendingFile, RecordError, RerunRecorder, RerunTargets, StopFlag, block_starts,
+    scene_block, word_paths,
 };
 
 use super::flags::EpisodeArgs;
 use crate::ExitStatus;
-use crate::cli::check_extension;
+use crate::cli::{check_distinct_outputs, check_extension};
 
 /// The default `--connect` URL: a viewer on this machine.
 const DEFAULT_VIEWER_URL: &str = "rerun+http://127.0.0.1:9876/proxy";
@@ -74,6 +74,20 @@ pub struct ReplayArgs {
     pub alpha: f64,
 }
 
+/// Refuses two outputs that name one file (`--save d.rrd --trace ./d.rrd`), before anything
+/// is run or written: one would replace the other, and both would be said to be written.
+fn check_outputs(args: &ReplayArgs) -> anyhow::Result<()> {
+    let outputs: Vec<(&str, &std::path::Path)> = [
+        ("--trace", args.trace.as_deref()),
+        ("--save", args.save.as_deref()),
+        ("--mcap", args.mcap.as_deref()),
+    ]
+    .into_iter()
+    .filter_map(|(flag, path)| path.map(|p| (flag, p)))
+    .collect();
+    check_distinct_outputs(&outputs)
+}
+
 /// Runs `replay`. Episodes are streamed: each is run, printed and recorded while the next
 /// one runs, so memory does not grow with `--episodes`.
 pub fn replay(args: &ReplayArgs) -> anyhow::Result<ExitStatus> {
@@ -92,6 +106,7 @@ pub fn replay(args: &ReplayArgs) -> anyhow::Result<ExitStatus> {
     if let Some(p) = &args.mcap {
         check_extension(p, "mcap", "--mcap")?;
     }
+    check_outputs(args)?;
     let stop: StopFlag = Arc::new(AtomicBool::new(false));
     {
         let s = stop.clone();
@@ -136,6 +151,7 @@ pub fn replay(args: &ReplayArgs) -> anyhow::Result<ExitStatus> {
         paths = word_paths(words);
     }
     // Destinations that can be checked before any work are checked now.
+    let trace_file = args.trace.as_deref().map(PendingFile::new).transpose()?;
     let mut mcap = args.mcap.as_deref().map(McapRecorder::create).transpose()?;
     let mut rerun: Option<RerunRecorder> = None;
     let targets = RerunTargets {
@@ -216,13 +232,31 @@ pub fn replay(args: &ReplayArgs) -> anyhow::Result<ExitStatus> {
     if stop.load(Ordering::Relaxed) {
         return Err(RecordError::Interrupted.into());
     }
-    // All outputs or none: a later output that fails removes the ones this run wrote.
-    let mut written = Written(Vec::new());
+    // All outputs or none: each is finished under a temporary name beside its destination,
+    // and they are renamed into place only once every one is complete. A failure before that
+    // removes the temporary files alone: a file the user already had keeps its bytes.
+    let mut pending: Vec<PendingFile> = Vec::new();
+    let mut rerun_done = None;
     if let Some(r) = rerun {
-        let stats = r.finish()?;
-        let secs = t0.elapsed().as_secs_f64();
+        let (stats, file) = r.finish_pending()?;
+        rerun_done = Some((stats, t0.elapsed().as_secs_f64()));
+        pending.extend(file);
+    }
+    let mut mcap_stats = None;
+    if let Some(m) = mcap {
+        let (stats, file) = m.finish_pending()?;
+        mcap_stats = Some(stats);
+        pending.push(file);
+    }
+    if let (Some(file), Some(trace)) = (trace_file, &kept) {
+        file.write_all(trace.to_json().as_bytes())?;
+        pending.push(file);
+    }
+    for file in pending {
+        file.commit()?;
+    }
+    if let Some((stats, secs)) = rerun_done {
         if let Some(p) = &args.save {
-            written.0.push(p.clone());
             let bytes = std::fs::metadata(p).map_or(0, |m| m.len());
             println!(
                 "wrote {} ({} episodes, {} steps, {bytes} bytes = {:.1} KB/step, {:.0} steps/s with the policy)",
@@ -237,9 +271,7 @@ pub fn replay(args: &ReplayArgs) -> anyhow::Result<ExitStatus> {
             println!("streamed {} steps to the Rerun viewer", stats.steps);
         }
     }
-    if let (Some(m), Some(path)) = (mcap, &args.mcap) {
-        let stats = m.finish()?;
-        written.0.push(path.clone());
+    if let (Some(stats), Some(path)) = (mcap_stats, &args.mcap) {
         let bytes = std::fs::metadata(path).map_or(0, |m| m.len());
         println!(
             "wrote {} ({} steps on {} topics, {bytes} bytes = {:.1} KB/step)",
@@ -249,23 +281,8 @@ pub fn replay(args: &ReplayArgs) -> anyhow::Result<ExitStatus> {
             bytes as f64 / 1000.0 / stats.steps.max(1) as f64,
         );
     }
-    if let (Some(path), Some(trace)) = (&args.trace, &kept) {
-        trace.save_json(path)?;
+    if let (Some(path), Some(_)) = (&args.trace, &kept) {
         println!("wrote {}", path.display());
     }
-    written.0.clear();
     Ok(ExitStatus::Success)
-}
-
-/// Files written by this run, removed again if it ends with an error before clearing them.
-struct Written(Vec<PathBuf>);
-
-impl Drop for Written {
-    fn drop(&mut self) {
-        for p in &self.0 {
-            if std::fs::metadata(p).is_ok_and(|m| m.is_file()) {
-                let _ = std::fs::remove_file(p);
-            }
-        }
-    }
 }

@@ -420,7 +420,17 @@ impl McapRecorder {
 
     /// Writes the summary and indexes and puts the file in place (fsync + rename, or a copy
     /// into a device or FIFO).
-    pub fn finish(mut self) -> Result<McapStats, RecordError> {
+    pub fn finish(self) -> Result<McapStats, RecordError> {
+        let (stats, file) = self.finish_pending()?;
+        file.commit()?;
+        Ok(stats)
+    }
+
+    /// [`Self::finish`] but for the rename: the finished file is handed back under its
+    /// temporary name (a device or FIFO has had its copy), for a caller that puts several
+    /// outputs in place together once every one is complete ([`PendingFile::commit`];
+    /// dropped, it removes itself).
+    pub fn finish_pending(mut self) -> Result<(McapStats, PendingFile), RecordError> {
         let dest = self.pending.dest().to_path_buf();
         let err = |e: &dyn std::fmt::Display| io_err(&dest, e);
         self.out.w.finish().map_err(|e| err(&cause(&e)))?;
@@ -439,10 +449,10 @@ impl McapRecorder {
                 .map_err(|e| err(&e))?;
             std::io::copy(&mut file, &mut target).map_err(|e| err(&e))?;
         }
-        self.pending.commit()?;
-        Ok(McapStats {
+        let stats = McapStats {
             steps: self.steps as usize,
             ..self.out.stats
-        })
+        };
+        Ok((stats, self.pending))
     }
 }

@@ -104,6 +104,20 @@ impl PendingFile {
         &self.dest
     }
 
+    /// Writes `bytes` as the whole file: into the temporary file, or into the special file
+    /// itself. Named by the destination when it fails.
+    pub fn write_all(&self, bytes: &[u8]) -> Result<(), RecordError> {
+        use std::io::Write as _;
+        let mut f = std::fs::OpenOptions::new()
+            .write(true)
+            .truncate(!self.in_place())
+            .open(self.path())
+            .map_err(|e| io_err(&self.dest, &e))?;
+        f.write_all(bytes)
+            .and_then(|()| f.flush())
+            .map_err(|e| io_err(&self.dest, &e))
+    }
+
     /// Flushes the finished file to disk and renames it into place.
     pub fn commit(mut self) -> Result<(), RecordError> {
         if let Some(tmp) = self.tmp.take() {

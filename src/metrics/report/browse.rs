@@ -237,6 +237,10 @@ pub struct Browser {
     pub sort: Option<(Column, bool)>,
     /// The episode open now (an index into `rows`).
     pub selected: Option<usize>,
+    /// The checkpoints `report.json` lists as Python policies (`groundscope.evaluate`): their
+    /// episodes cannot be re-run, so [`Self::episode`] refuses them, and their names are never
+    /// resolved as checkpoints (a policy named `bot` is not minigrid's bot).
+    pub python: BTreeSet<String>,
     shown: Vec<usize>,
 }
 
@@ -293,6 +297,7 @@ impl Browser {
         Ok(Self {
             dir: dir.to_path_buf(),
             sample: Self::sampled(dir)?,
+            python: Self::python_policies(dir),
             rows,
             filter: Filter::default(),
             sort: None,
@@ -323,6 +328,40 @@ impl Browser {
                 reason: format!("{other:?} is not greedy or sampled"),
             }),
         }
+    }
+
+    /// The names of the checkpoints `dir/report.json` lists as Python policies: marked
+    /// `python`, or — in a report written before that field — with a `null` level and a
+    /// kind other than `bot` (`eval` records the level of every checkpoint it loads but the
+    /// bot's), or named `bot` with another kind. None without a readable report.json (its
+    /// errors are [`Self::sampled`]'s).
+    fn python_policies(dir: &Path) -> BTreeSet<String> {
+        let Ok(text) = crate::files::read_regular_to_string(&dir.join("report.json")) else {
+            return BTreeSet::new();
+        };
+        let Ok(json) = serde_json::from_str::<serde_json::Value>(&text) else {
+            return BTreeSet::new();
+        };
+        let is_python = |c: &serde_json::Value| {
+            let variant = c.get("variant").and_then(serde_json::Value::as_str);
+            let name = c.get("name").and_then(serde_json::Value::as_str);
+            match c.get("python").and_then(serde_json::Value::as_bool) {
+                Some(python) => python,
+                None => {
+                    variant != Some("bot")
+                        && (c.get("level").is_some_and(serde_json::Value::is_null)
+                            || name == Some("bot"))
+                }
+            }
+        };
+        json.get("checkpoints")
+            .and_then(serde_json::Value::as_array)
+            .into_iter()
+            .flatten()
+            .filter(|c| is_python(c))
+            .filter_map(|c| c.get("name").and_then(serde_json::Value::as_str))
+            .map(str::to_owned)
+            .collect()
     }
 
     fn row(
@@ -457,6 +496,15 @@ impl Browser {
         let row = self.rows.get(i).ok_or_else(|| {
             MetricsError::Invalid(format!("no episode {i} in {}", self.dir.display()))
         })?;
+        if self.python.contains(&row.checkpoint) {
+            return Err(MetricsError::Invalid(format!(
+                "{}: {:?} is a Python policy (groundscope.evaluate), not a checkpoint: its episodes cannot be re-run here; record one from Python with groundscope.record(act, \"{}\", {}, \"episode.rrd\") and open it with rerun",
+                self.dir.display(),
+                row.checkpoint,
+                row.level,
+                row.level_seed
+            )));
+        }
         let level = LevelConfig {
             done_required: row.done_required,
             ..LevelConfig::from_id(&row.level).map_err(|e| MetricsError::Invalid(e.to_string()))?

@@ -324,6 +324,17 @@ impl RerunRecorder {
 
     /// Flushes every destination and finishes the file (footer, fsync, rename into place).
     pub fn finish(self) -> Result<RecordStats, RecordError> {
+        let (stats, file) = self.finish_pending()?;
+        if let Some(p) = file {
+            p.commit()?;
+        }
+        Ok(stats)
+    }
+
+    /// [`Self::finish`] but for the rename: the finished `.rrd`, if there is one, is handed
+    /// back under its temporary name, for a caller that puts several outputs in place together
+    /// once every one is complete ([`PendingFile::commit`]; dropped, it removes itself).
+    pub fn finish_pending(self) -> Result<(RecordStats, Option<PendingFile>), RecordError> {
         let flushed = self.rec.flush_blocking();
         // The last handle: dropping it closes the streams.
         drop(self.rec);
@@ -345,13 +356,11 @@ impl RerunRecorder {
             },
             None => sdk(e),
         })?;
-        if let Some(p) = pending {
-            p.commit()?;
-        }
-        Ok(RecordStats {
+        let stats = RecordStats {
             episodes: self.pushed,
             steps: self.global as usize,
-        })
+        };
+        Ok((stats, pending))
     }
 }
 

@@ -564,3 +564,18 @@ fn a_window_larger_than_the_screen_says_so() {
             .contains("pass --window 1280x800 or smaller")
     );
 }
+
+/// `view --seed 9007199254740993`: the top bar's seed field shows the seed as given (egui's
+/// DragValue held it as an f64 and showed …992), and the episode shown is that seed's.
+#[test]
+fn the_seed_field_is_exact_above_two_to_the_53() {
+    let seed = 9_007_199_254_740_993;
+    let mut h = debugger_seed(seed, 0, false);
+    show_until(&mut h, "step 0 of ");
+    assert!(
+        h.query_all_by_value("9007199254740993").next().is_some(),
+        "no field shows the seed as given"
+    );
+    assert!(h.query_all_by_value("9007199254740992").next().is_none());
+    assert_eq!(h.state().shown_seed(), Some(seed));
+}
