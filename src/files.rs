@@ -165,11 +165,12 @@ pub fn output_identity(path: &Path) -> PathBuf {
     }
 }
 
-/// The first two of `outputs` (each a flag and its path) that name the same file
-/// ([`output_identity`]), as their flags and paths. `/dev/null` may take any number.
-pub fn same_output<'a>(
-    outputs: &[(&'a str, &'a Path)],
-) -> Option<((&'a str, &'a Path), (&'a str, &'a Path))> {
+/// An output as a command names it: its flag and its path.
+pub type NamedOutput<'a> = (&'a str, &'a Path);
+
+/// The first two of `outputs` that name the same file ([`output_identity`]). `/dev/null` may
+/// take any number.
+pub fn same_output<'a>(outputs: &[NamedOutput<'a>]) -> Option<(NamedOutput<'a>, NamedOutput<'a>)> {
     let ids: Vec<PathBuf> = outputs.iter().map(|(_, p)| output_identity(p)).collect();
     for (i, a) in ids.iter().enumerate() {
         if a == Path::new("/dev/null") {
