@@ -1,7 +1,9 @@
 //! The debugger: its panels through egui's test harness and a real frame under Xvfb
-//! (`ui`), any BabyAI level in it (`levels`), and an evaluation's report browsed in it
+//! (`ui`), the maps in view at every window size (`layout`), any BabyAI level in it
+//! (`levels`), and an evaluation's report browsed in it
 //! (`view_report`).
 
+mod layout;
 mod levels;
 mod ui;
 mod view_report;

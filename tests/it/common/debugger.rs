@@ -6,8 +6,13 @@ use groundscope::app::{Debugger, StartOptions};
 
 /// The debugger at the default window size, 1400×900.
 pub fn build(opts: &StartOptions) -> Harness<'static, Debugger> {
+    build_sized(opts, [1400.0, 900.0])
+}
+
+/// The debugger in a window of `size` points.
+pub fn build_sized(opts: &StartOptions, size: [f32; 2]) -> Harness<'static, Debugger> {
     Harness::builder()
-        .with_size([1400.0, 900.0])
+        .with_size(size)
         // The harness would also fail on the inputs without an accessible name (the
         // controls' combo boxes, drag values and text fields): not what these tests are about.
         .with_accessibility_check(false)

@@ -1,0 +1,62 @@
+//! The maps in view at every window size from 1280×800 up: on BossLevel (seeds 0 and 3, the
+//! step a report names), PickupLoc, GoToSeqS5R2 and PutNextLocal, `M` and every word map
+//! unfolded are whole, at least 90 points a side, inside the window and above the episode
+//! plot.
+
+use crate::common::debugger::{build_sized, show_until};
+use egui_kittest::kittest::{NodeT as _, Queryable as _};
+use groundscope::app::StartOptions;
+use groundscope::env::level::{LevelConfig, LevelId};
+
+fn options(id: &str, seed: u64, step: usize) -> StartOptions {
+    StartOptions {
+        checkpoint: "bundled:babyai-grounded2".to_owned(),
+        compare: None,
+        level: Some(LevelConfig::babyai(LevelId::parse(id).unwrap(), false)),
+        seed,
+        sample: false,
+        step,
+        mission: None,
+        faithfulness: false,
+        report: None,
+    }
+}
+
+#[test]
+fn every_map_is_whole_and_readable_at_every_window_size() {
+    let cases = [
+        // The report's worst BossLevel episode opens at its decisive step.
+        ("BabyAI-BossLevel-v0", 0, 56),
+        ("BabyAI-BossLevel-v0", 3, 0),
+        ("BabyAI-PickupLoc-v0", 1, 2),
+        ("BabyAI-GoToSeqS5R2-v0", 1, 3),
+        ("BabyAI-PutNextLocal-v0", 1, 1),
+    ];
+    let mut failures = Vec::new();
+    for size in [[1280.0, 800.0], [1400.0, 900.0], [1920.0, 1080.0]] {
+        for (id, seed, step) in cases {
+            let mut h = build_sized(&options(id, seed, step), size);
+            show_until(&mut h, "step ");
+            h.run();
+            let plot_top = h
+                .query_by_label_contains("over the episode")
+                .map_or(size[1], |n| n.rect().min.y);
+            let maps: Vec<_> = h
+                .query_all_by_label_contains("map of ")
+                .map(|n| (n.accesskit_node().label().unwrap_or_default(), n.rect()))
+                .collect();
+            let at = format!("{id} seed {seed} step {step} at {}×{}", size[0], size[1]);
+            if !maps.iter().any(|(l, _)| l == "map of M") || maps.len() < 3 {
+                failures.push(format!("{at}: maps drawn: {maps:?}"));
+                continue;
+            }
+            for (label, r) in &maps {
+                let whole = r.min.x >= 0.0 && r.min.y >= 0.0 && r.max.x <= size[0];
+                if !whole || r.max.y > plot_top || r.width() < 90.0 || r.height() < 90.0 {
+                    failures.push(format!("{at}: {label} at {r:?} (plot from y {plot_top})"));
+                }
+            }
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
