@@ -23,6 +23,12 @@ pub enum WordClass {
     Door,
     /// The word that says where: "front", "behind", "left", "right".
     Location,
+    /// "goal" (MiniGrid's goal cells).
+    Goal,
+    /// "lava" (MiniGrid's lava cells).
+    Lava,
+    /// "opening" (the gap of a MiniGrid wall river).
+    Opening,
     /// Verbs, articles and the words joining clauses: shown, never scored.
     Other,
 }
@@ -58,6 +64,16 @@ impl WordRole {
             desc: None,
         }
     }
+}
+
+/// The role of every word of `world`'s mission: its instruction's ([`word_roles`]) on BabyAI's
+/// levels, the mission's own words on MiniGrid's environments, whose missions are not BabyAI
+/// instructions ([`crate::env::minigrid::words::mission_roles`]).
+pub fn roles_of(world: &crate::env::World) -> Vec<WordRole> {
+    if world.rules.is_some() {
+        return crate::env::minigrid::words::mission_roles(&world.mission);
+    }
+    word_roles(&world.instr)
 }
 
 /// The role of every word of `instr`'s mission, in reading order.

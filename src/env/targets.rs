@@ -76,16 +76,25 @@ pub enum WordKind {
     Door,
     /// A location word: front, behind, left, right (BabyAI's `Loc` levels).
     Location,
+    /// "goal" (MiniGrid's goal cells).
+    Goal,
+    /// "lava" (MiniGrid's lava cells).
+    Lava,
+    /// "opening" (the gaps of MiniGrid's wall rivers).
+    Opening,
 }
 
 impl WordKind {
     /// All kinds, in report order.
-    pub const ALL: [Self; 5] = [
+    pub const ALL: [Self; 8] = [
         Self::Object,
         Self::Color,
         Self::Combined,
         Self::Door,
         Self::Location,
+        Self::Goal,
+        Self::Lava,
+        Self::Opening,
     ];
 
     /// Lowercase name.
@@ -96,6 +105,9 @@ impl WordKind {
             Self::Combined => "combined",
             Self::Door => "door",
             Self::Location => "location",
+            Self::Goal => "goal",
+            Self::Lava => "lava",
+            Self::Opening => "opening",
         }
     }
 }
@@ -105,6 +117,9 @@ impl WordKind {
 /// themselves are left out; so is every word when the mission's words do not follow the
 /// instruction tree (a mission typed by hand that the tree does not read back).
 pub fn word_targets(world: &World, obs: &Observation, n_words: usize) -> Vec<WordTargets> {
+    if world.rules.is_some() {
+        return super::minigrid::words::word_targets(world, obs, n_words);
+    }
     let roles = word_roles(&world.instr);
     if roles.len() != n_words {
         return Vec::new();
@@ -148,7 +163,7 @@ pub fn word_targets(world: &World, obs: &Observation, n_words: usize) -> Vec<Wor
                 WordKind::Location,
                 visible_cells_of(world, obs, &matched.obj_set),
             ),
-            WordClass::Other => continue,
+            WordClass::Other | WordClass::Goal | WordClass::Lava | WordClass::Opening => continue,
         };
         let region = match (role.class, desc.loc, matched.pose) {
             (WordClass::Location, Some(loc), Some(start)) => {

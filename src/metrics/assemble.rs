@@ -33,6 +33,9 @@ pub fn cell_from_episodes(
         words: by_word(&eps),
         door: Some(grounding(&eps, WordKind::Door)).filter(|g| g.evaluated_steps > 0),
         location: Some(grounding(&eps, WordKind::Location)).filter(|g| g.evaluated_steps > 0),
+        goal: Some(grounding(&eps, WordKind::Goal)).filter(|g| g.evaluated_steps > 0),
+        lava: Some(grounding(&eps, WordKind::Lava)).filter(|g| g.evaluated_steps > 0),
+        opening: Some(grounding(&eps, WordKind::Opening)).filter(|g| g.evaluated_steps > 0),
     });
     let classes = class_counts(
         eps.iter().filter_map(|e| e.failure.as_ref()),

@@ -52,13 +52,6 @@ pub fn world_tokens<P: Acting + ?Sized>(
             level()
         )));
     }
-    if !policy.reads_world() && crate::env::vocab::split_words(&world.mission).is_empty() {
-        return Err(PolicyError::Input(format!(
-            "the mission of {} is empty (MiniGrid's Playground has none): a policy reads a \
-             mission of at least one word",
-            level()
-        )));
-    }
     mission_tokens(policy, &world.mission, level)
 }
 

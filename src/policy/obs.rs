@@ -215,7 +215,11 @@ impl TokenBatch {
         let mut rows = Vec::with_capacity(missions.len());
         for m in missions {
             if m.is_empty() {
-                return Err(PolicyError::Input("a mission has no words".into()));
+                return Err(PolicyError::Input(
+                    "a mission has no words (MiniGrid's Playground has an empty one): a model \
+                     reads a mission of at least one word"
+                        .into(),
+                ));
             }
             let next = distinct.len();
             let row = *ids.entry(m).or_insert_with(|| {

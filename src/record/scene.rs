@@ -5,7 +5,7 @@
 use image::{RgbImage, RgbaImage};
 
 use crate::env::Pos;
-use crate::env::roles::{DescPart, WordClass, word_roles};
+use crate::env::roles::{DescPart, WordClass};
 use crate::env::tree::{InstructionTree, Stage, pending_target_cells};
 use crate::env::view::ViewCell;
 use crate::env::world::{Action, World};
@@ -308,6 +308,9 @@ pub fn no_accuracy_reason(kind: WordKind, world: &World) -> String {
         WordKind::Location => {
             "location: none of the objects its description matched is in view".to_owned()
         }
+        WordKind::Goal => "goal: no goal in view, nothing to score".to_owned(),
+        WordKind::Lava => "lava: no lava in view, nothing to score".to_owned(),
+        WordKind::Opening => "opening: no opening in view, nothing to score".to_owned(),
     }
 }
 
@@ -328,18 +331,25 @@ pub fn stage_color(stage: Stage) -> Rgb {
     }
 }
 
-/// The word kinds a display accounts for at a step of `world` (scores or says why not): object,
-/// colour and `M` always, as on the paper's level; door and location only where the mission
-/// has such a word.
+/// The word kinds a display accounts for at a step of `world` (scores or says why not): `M`
+/// always; colour always on BabyAI's levels, as on the paper's ("names no colour" where the
+/// mission has none); every other kind only where the mission has such a word (no object
+/// line on "go to the red door", whose door word is scored as a door).
 pub fn shown_kinds(world: &World) -> Vec<WordKind> {
-    let roles = word_roles(&world.instr);
+    let roles = crate::env::roles::roles_of(world);
     let has = |class| roles.iter().any(|r| r.class == class);
+    let minigrid = world.rules.is_some();
     WordKind::ALL
         .into_iter()
         .filter(|k| match k {
+            WordKind::Object => has(WordClass::Object),
+            WordKind::Color => !minigrid || has(WordClass::Color),
             WordKind::Door => has(WordClass::Door),
             WordKind::Location => has(WordClass::Location),
-            WordKind::Object | WordKind::Color | WordKind::Combined => true,
+            WordKind::Goal => has(WordClass::Goal),
+            WordKind::Lava => has(WordClass::Lava),
+            WordKind::Opening => has(WordClass::Opening),
+            WordKind::Combined => true,
         })
         .collect()
 }

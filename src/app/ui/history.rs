@@ -35,7 +35,7 @@ impl Debugger {
         // plot and the legend too (one colour would otherwise stand for several words).
         let roles = steps
             .first()
-            .map(|s| crate::env::roles::word_roles(&s.world.instr))
+            .map(|s| crate::env::roles::roles_of(&s.world))
             .unwrap_or_default();
         let fold = roles.len() == all.len() && self.folds(all.len());
         let words: Vec<(usize, &String)> = all

@@ -393,7 +393,7 @@ impl Debugger {
         // way to them, below, at any window size (the column scrolls).
         // The maps shown: the words' (less those folded), M's and Δ's; and the clause numbers
         // of a sequence between them.
-        let roles = crate::env::roles::word_roles(&step.world.instr);
+        let roles = crate::env::roles::roles_of(&step.world);
         let words = step.attention.as_ref().map_or(0, |a| a.words.len());
         let with_roles = roles.len() == words && words > 0;
         let shown_words = if with_roles && self.folds(words) {

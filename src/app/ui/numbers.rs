@@ -77,7 +77,7 @@ impl Debugger {
         let Some(att) = &step.attention else {
             return;
         };
-        let roles = crate::env::roles::word_roles(&step.world.instr);
+        let roles = crate::env::roles::roles_of(&step.world);
         let roles = (roles.len() == att.words.len()).then_some(roles);
         let clauses = roles
             .as_ref()
@@ -218,7 +218,7 @@ impl Debugger {
             return;
         };
         // Folded function words leave the bars too (their weights stand in the maps' fold).
-        let roles = crate::env::roles::word_roles(&step.world.instr);
+        let roles = crate::env::roles::roles_of(&step.world);
         let shown: Vec<usize> = (0..att.words.len())
             .filter(|&i| {
                 !(roles.len() == att.words.len()

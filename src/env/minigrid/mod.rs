@@ -20,6 +20,7 @@ pub mod rooms;
 pub mod rules;
 pub mod single;
 pub mod spelling;
+pub mod words;
 
 pub use registry::{Class, WFC_IDS, parse_class};
 pub use rules::Rules;

@@ -140,9 +140,16 @@ impl Report {
                 WordKind::Location,
                 "Location-word maps (BabyAI's Loc levels)",
             ),
+            (WordKind::Goal, "\"goal\" maps (MiniGrid's goal cells)"),
+            (WordKind::Lava, "\"lava\" maps (MiniGrid's lava cells)"),
+            (WordKind::Opening, "\"opening\" maps (MiniGrid's wall gaps)"),
         ] {
             let has = |c: &super::Cell| c.accuracy.as_ref().and_then(|a| a.of(kind)).is_some();
-            if !self.cells.iter().any(has) && matches!(kind, WordKind::Door | WordKind::Location) {
+            let optional = !matches!(
+                kind,
+                WordKind::Object | WordKind::Color | WordKind::Combined
+            );
+            if !self.cells.iter().any(has) && optional {
                 continue;
             }
             let _ = writeln!(s, "\n## {title}\n");

@@ -48,6 +48,15 @@ pub struct CellAccuracy {
     /// Location words (levels with location phrases only).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub location: Option<GroundingStats>,
+    /// "goal" (MiniGrid's goal missions only).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub goal: Option<GroundingStats>,
+    /// "lava" (MiniGrid's lava missions only).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lava: Option<GroundingStats>,
+    /// "opening" (MiniGrid's SimpleCrossing and wall LavaGap only).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub opening: Option<GroundingStats>,
 }
 
 impl CellAccuracy {
@@ -59,6 +68,9 @@ impl CellAccuracy {
             WordKind::Combined => Some(&self.combined),
             WordKind::Door => self.door.as_ref(),
             WordKind::Location => self.location.as_ref(),
+            WordKind::Goal => self.goal.as_ref(),
+            WordKind::Lava => self.lava.as_ref(),
+            WordKind::Opening => self.opening.as_ref(),
         }
     }
 
