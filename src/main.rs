@@ -24,8 +24,9 @@ pub enum ExitStatus {
     /// 2: bad input that the command has already reported, one line per file (`env verify`
     /// checks every file it is given before it ends).
     BadInput,
-    /// 130: stopped by Ctrl-C (or SIGTERM, SIGHUP) before its outputs were written; the
-    /// command has said what it kept.
+    /// 130: stopped by Ctrl-C (or SIGTERM, SIGHUP) before it finished: before its outputs
+    /// were written, or (`train`) saved short of its `--frames`, or (`study exec`, `study
+    /// run`) with a run left to resume; the command has said what it kept.
     Interrupted,
 }
 

@@ -69,6 +69,22 @@ pub struct EvalArgs {
 
 /// Refuses a sweep that cannot run, before anything is loaded or written.
 fn check(args: &EvalArgs) -> anyhow::Result<()> {
+    validate(args)?;
+    let failures_dir = args.out.join("failures");
+    if args.export_failures && failures_dir.exists() && !failures_dir.is_dir() {
+        anyhow::bail!(
+            "--export-failures: {} is not a directory (the recordings go there)",
+            failures_dir.display()
+        );
+    }
+    Ok(())
+}
+
+/// Refuses flags that no evaluation can run with, reading no file: the workers, α, the
+/// thresholds and the sweep (its counts and seeds, its `--levels` ids, its rooms). `eval`
+/// checks them first, and `study plan` checks each run's evaluation with them, so that a
+/// value every run refuses is one line at plan time, not a failure after each training.
+pub fn validate(args: &EvalArgs) -> anyhow::Result<()> {
     // One rule with `faithfulness --jobs`: zero workers is a mistake, not "as many as cores".
     if args.jobs == Some(0) {
         anyhow::bail!("--jobs 0: give at least one worker");
@@ -77,13 +93,7 @@ fn check(args: &EvalArgs) -> anyhow::Result<()> {
         anyhow::bail!("--alpha {:?} is outside [0, 1]", args.alpha);
     }
     args.sweep.check()?;
-    let failures_dir = args.out.join("failures");
-    if args.export_failures && failures_dir.exists() && !failures_dir.is_dir() {
-        anyhow::bail!(
-            "--export-failures: {} is not a directory (the recordings go there)",
-            failures_dir.display()
-        );
-    }
+    args.sweep.check_levels()?;
     for (flag, v) in [
         ("--min-success", args.min_success),
         ("--min-acc-ng", args.min_acc_ng),

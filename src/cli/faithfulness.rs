@@ -62,12 +62,21 @@ pub struct FaithfulnessArgs {
     pub quiet: bool,
 }
 
-/// Runs `faithfulness`.
-pub fn run(args: &FaithfulnessArgs) -> anyhow::Result<ExitStatus> {
+/// Refuses flags that no faithfulness run can run with, reading no file: the sweep (its
+/// counts and seeds, its `--levels` ids, its rooms) and the workers. `faithfulness` checks
+/// them first, and `study plan` checks each run's faithfulness step with them.
+pub fn validate(args: &FaithfulnessArgs) -> anyhow::Result<()> {
     args.sweep.check()?;
+    args.sweep.check_levels()?;
     if args.jobs == Some(0) {
         anyhow::bail!("--jobs 0: give at least one worker");
     }
+    Ok(())
+}
+
+/// Runs `faithfulness`.
+pub fn run(args: &FaithfulnessArgs) -> anyhow::Result<ExitStatus> {
+    validate(args)?;
     let stop = Stop::install();
     let specs = if args.checkpoint.is_empty() {
         vec![bundled::names()[0].clone()]

@@ -135,6 +135,14 @@ impl SweepArgs {
         Ok(())
     }
 
+    /// Refuses levels no model can be swept on, before any checkpoint is loaded: an unknown
+    /// or repeated `--levels` id, or a room of `--sizes` × `--objects` that cannot hold its
+    /// objects (checked on the paper's level, as a model of the paper's level is swept).
+    pub fn check_levels(&self) -> anyhow::Result<()> {
+        self.levels(LevelConfig::default())?;
+        Ok(())
+    }
+
     /// The evaluation seeds, `--first-seed` .. `--first-seed + --seeds`.
     pub fn seed_range(&self) -> Range<u64> {
         self.first_seed..self.first_seed + self.seeds

@@ -33,7 +33,7 @@ use crate::ExitStatus;
 #[command(
     name = "groundscope",
     version,
-    after_long_help = "EXIT STATUS:\n  0  done\n  1  ran, but a check failed (a replay mismatch, a metric below its threshold)\n  2  error or bad input (one line on stderr naming the file, field or word)\n  130  eval or faithfulness stopped by Ctrl-C: nothing written, one line on stderr"
+    after_long_help = "EXIT STATUS:\n  0  done\n  1  ran, but a check failed (a replay mismatch, a metric below its threshold)\n  2  error or bad input (one line on stderr naming the file, field or word)\n  130  stopped by Ctrl-C (SIGTERM, SIGHUP) before it finished, one line on stderr: eval and faithfulness write nothing; train saves, and its run is not finished until a --resume reaches --frames; study exec and study run leave the run to resume"
 )]
 pub struct Cli {
     /// What to do; without a subcommand, `view` opens the debugger.

@@ -101,14 +101,16 @@ fn plan_into(
     staged: groundscope::files::StagedDir,
 ) -> anyhow::Result<ExitStatus> {
     let study = std::fs::canonicalize(out).with_context(|| format!("{}", out.display()))?;
+    // Both paths go into every file of the plan: one that a file cannot carry (a newline, a
+    // path Slurm misreads) is refused before anything is written.
+    groundscope::study::study_path(&study)?;
     let name = study
         .file_name()
         .map_or_else(|| "study".to_owned(), |n| n.to_string_lossy().into_owned());
-    let binary = std::env::current_exe()
+    let exe = std::env::current_exe()
         .and_then(std::fs::canonicalize)
-        .context("finding this binary's path")?
-        .display()
-        .to_string();
+        .context("finding this binary's path")?;
+    let binary = groundscope::study::carried(&exe, "this binary's path")?.to_owned();
     let manifest = spec.plan(&name, &binary);
     check_steps(spec_path, &manifest)?;
     if existing {
@@ -163,28 +165,38 @@ fn plan_into(
     Ok(ExitStatus::Success)
 }
 
-/// Every step of every run parses as the command it names: a typo in a recipe is refused at
-/// plan time, naming the recipe, not hours later on a cluster.
+/// Every step of every run parses as the command it names, and passes the checks that command
+/// makes of its flags before it runs ([`super::train::validate`], [`super::eval::validate`],
+/// [`super::faithfulness::validate`]): a typo in a recipe, an unknown level id or a value
+/// every run refuses (`--epochs 0`, `--alpha 1.5`, `--jobs 0`) is refused at plan time,
+/// naming the recipe, the level set and the flag, not hours later on a cluster.
 fn check_steps(spec: &Path, m: &Manifest) -> anyhow::Result<()> {
     for run in &m.runs {
         for (cmd, args) in run.steps() {
             let argv = std::iter::once("groundscope")
                 .chain(std::iter::once(cmd))
                 .chain(args.iter().map(String::as_str));
-            if let Err(e) = super::Cli::try_parse_from(argv) {
+            let refused = match super::Cli::try_parse_from(argv) {
                 // clap's message quotes the flag or value as the spec gave it: escaped and cut.
-                let first = e.to_string();
-                let first = first
-                    .lines()
-                    .next()
-                    .unwrap_or_default()
-                    .trim_start_matches("error: ");
+                Err(e) => Some(
+                    e.to_string()
+                        .lines()
+                        .next()
+                        .unwrap_or_default()
+                        .trim_start_matches("error: ")
+                        .to_owned(),
+                ),
+                Ok(cli) => checked(cli.command.as_ref())
+                    .err()
+                    .map(|e| format!("{e:#}")),
+            };
+            if let Some(why) = refused {
                 anyhow::bail!(
                     "{}: recipe {}, level set {}: {cmd}: {}",
                     spec.display(),
                     run.recipe,
                     run.levels,
-                    one_line(first)
+                    one_line(&why)
                 );
             }
         }
@@ -192,24 +204,87 @@ fn check_steps(spec: &Path, m: &Manifest) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// A held run lock (released when dropped or when the process dies).
-struct RunLock(#[expect(dead_code, reason = "held for its lock")] std::fs::File);
+/// A parsed step checked as its command checks its flags before it runs (reading no file).
+fn checked(command: Option<&super::Command>) -> anyhow::Result<()> {
+    match command {
+        Some(super::Command::Train(a)) => super::train::validate(a),
+        Some(super::Command::Eval(a)) => super::eval::validate(a),
+        Some(super::Command::Faithfulness(a)) => super::faithfulness::validate(a),
+        _ => Ok(()),
+    }
+}
 
-/// Locks `dir`'s run for this process; `None` when another process holds it.
-fn lock_run(dir: &Path) -> anyhow::Result<Option<RunLock>> {
-    let path = dir.join(LOCK_FILE);
-    let file = std::fs::OpenOptions::new()
-        .create(true)
-        .truncate(false)
-        .write(true)
-        .open(&path)
-        .with_context(|| format!("opening {}", path.display()))?;
-    match file.try_lock() {
-        Ok(()) => Ok(Some(RunLock(file))),
-        Err(std::fs::TryLockError::WouldBlock) => Ok(None),
-        Err(std::fs::TryLockError::Error(e)) => {
-            Err(e).with_context(|| format!("locking {}", path.display()))
+/// A run's lock, held: `runs/NAME/.study-lock`, locked with the system's `flock`, which
+/// belongs to the open file and is released only when every descriptor of it is closed.
+///
+/// An exec holds it from before its first step until after its last, and hands it on to every
+/// step it starts: each step's standard input is a duplicate of the locked descriptor (the
+/// steps read nothing from it). So the run stays locked for as long as any process of the
+/// exec runs — an exec killed with SIGKILL during its evaluation leaves that evaluation
+/// running, orphaned, and holding the lock — and a second exec of the run meanwhile finds it
+/// held and leaves the run alone, instead of starting a second evaluation beside the first
+/// (or a training beside a training). This keeps `train`, `eval` and `faithfulness` ordinary
+/// child processes (their output goes to `study.log`, a stop is passed on as to any process);
+/// `train`'s own lock (`.train-lock`) still guards its run directory against a `train`
+/// started by hand. The file says who holds the lock: `exec PID`, and `, STEP PID` while a
+/// step runs.
+struct RunLock(std::fs::File);
+
+impl RunLock {
+    /// Locks `dir`'s run for this process; `None` when another process holds it.
+    fn take(dir: &Path) -> anyhow::Result<Option<Self>> {
+        let path = dir.join(LOCK_FILE);
+        let file = std::fs::OpenOptions::new()
+            .create(true)
+            .truncate(false)
+            .read(true)
+            .write(true)
+            .open(&path)
+            .with_context(|| format!("opening {}", path.display()))?;
+        match file.try_lock() {
+            Ok(()) => {
+                let lock = Self(file);
+                lock.note(None);
+                Ok(Some(lock))
+            }
+            Err(std::fs::TryLockError::WouldBlock) => Ok(None),
+            Err(std::fs::TryLockError::Error(e)) => {
+                Err(e).with_context(|| format!("locking {}", path.display()))
+            }
         }
+    }
+
+    /// Who holds `dir`'s run lock, as its file says (`exec PID, STEP PID`), for a message.
+    fn holder(dir: &Path) -> String {
+        let text = std::fs::read_to_string(dir.join(LOCK_FILE)).unwrap_or_default();
+        let text = one_line(text.trim());
+        if text.is_empty() {
+            "another process".to_owned()
+        } else {
+            text
+        }
+    }
+
+    /// Writes who holds the lock into its file: this exec, and `step` (its command and pid)
+    /// while one runs. Only a message reads it: a write that fails is left unsaid.
+    fn note(&self, step: Option<(&str, u32)>) {
+        use std::io::{Seek as _, Write as _};
+        let me = std::process::id();
+        let text = match step {
+            Some((cmd, pid)) => format!("exec {me}, {cmd} {pid}"),
+            None => format!("exec {me}"),
+        };
+        let mut file = &self.0;
+        if file.set_len(0).is_ok() && file.seek(std::io::SeekFrom::Start(0)).is_ok() {
+            let _ = file.write_all(text.as_bytes());
+        }
+    }
+
+    /// The standard input of a step: the locked file itself (a duplicate of its descriptor),
+    /// so that the step holds the lock for as long as it runs, even past this process.
+    fn for_step(&self) -> anyhow::Result<std::process::Stdio> {
+        let file = self.0.try_clone().context("duplicating the run's lock")?;
+        Ok(std::process::Stdio::from(file))
     }
 }
 
@@ -221,8 +296,11 @@ fn exec(study: &Path, name: &str) -> anyhow::Result<ExitStatus> {
     run.check(&study.join("manifest.json"))?;
     let dir = run.dir(study);
     std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
-    let Some(_lock) = lock_run(&dir)? else {
-        println!("{name}: running elsewhere (its lock is held); left alone");
+    let Some(lock) = RunLock::take(&dir)? else {
+        println!(
+            "{name}: running elsewhere (its lock is held by {}); left alone",
+            RunLock::holder(&dir)
+        );
         return Ok(ExitStatus::Success);
     };
     if dir.join(DONE_FILE).is_file() {
@@ -230,7 +308,7 @@ fn exec(study: &Path, name: &str) -> anyhow::Result<ExitStatus> {
         return Ok(ExitStatus::Success);
     }
     if let Some(pid) = training_elsewhere(&dir) {
-        // An executor killed alone leaves its training running on: that one goes on.
+        // A training started by hand (`train --out runs/NAME`) holds the run directory.
         println!("{name}: its training (pid {pid}) is still running; left alone");
         return Ok(ExitStatus::Success);
     }
@@ -239,28 +317,53 @@ fn exec(study: &Path, name: &str) -> anyhow::Result<ExitStatus> {
     let start = std::time::Instant::now();
     for (cmd, args) in run.steps() {
         let args = step_args(study, run, cmd, args);
-        let status = run_step(study, &dir, cmd, &args, &stop)?;
-        if stop.requested() {
-            eprintln!("{name}: interrupted during {cmd}; run the line again to resume it");
-            return Ok(ExitStatus::Interrupted);
-        }
-        if !status.success() {
-            let code = status
-                .code()
-                .map_or_else(|| "a signal".to_owned(), |c| c.to_string());
-            let failed = serde_json::json!({"step": cmd, "exit": code});
-            write_output(&dir.join(FAILED_FILE), failed.to_string().as_bytes())?;
-            eprintln!(
-                "{name}: {cmd} failed (exit {code}); its output: {}",
-                dir.join(LOG_FILE).display()
-            );
-            return Ok(ExitStatus::CheckFailed);
+        let status = run_step(study, &dir, cmd, &args, &stop, &lock)?;
+        if let Some(end) = step_ended(name, &dir, cmd, status, &stop)? {
+            return Ok(end);
         }
     }
     let done = serde_json::json!({"seconds": start.elapsed().as_secs_f64()});
     write_output(&dir.join(DONE_FILE), done.to_string().as_bytes())?;
     println!("{name}: done in {:.0} s", start.elapsed().as_secs_f64());
     Ok(ExitStatus::Success)
+}
+
+/// What the end of step `cmd` of run `name` (in `dir`) means: `None`, go on to the next step;
+/// else how the exec ends. A stop asked of the exec, or a step that ended with 130 — stopped
+/// by a signal sent to it alone: a training saved before its `--frames`, an evaluation that
+/// wrote nothing — is a stopped run: neither done nor failed, it resumes on the next attempt
+/// (exit 130, and no evaluation of a part-trained model). Any other failure is a failed run
+/// (`study-failed.json`, exit 1).
+fn step_ended(
+    name: &str,
+    dir: &Path,
+    cmd: &str,
+    status: std::process::ExitStatus,
+    stop: &Stop,
+) -> anyhow::Result<Option<ExitStatus>> {
+    if stop.requested() {
+        eprintln!("{name}: interrupted during {cmd}; run the line again to resume it");
+        return Ok(Some(ExitStatus::Interrupted));
+    }
+    if status.code() == Some(130) {
+        eprintln!(
+            "{name}: {cmd} was stopped by a signal before it ended (exit 130): the run is not done; run the line again to resume it"
+        );
+        return Ok(Some(ExitStatus::Interrupted));
+    }
+    if status.success() {
+        return Ok(None);
+    }
+    let code = status
+        .code()
+        .map_or_else(|| "a signal".to_owned(), |c| c.to_string());
+    let failed = serde_json::json!({"step": cmd, "exit": code});
+    write_output(&dir.join(FAILED_FILE), failed.to_string().as_bytes())?;
+    eprintln!(
+        "{name}: {cmd} failed (exit {code}); its output: {}",
+        dir.join(LOG_FILE).display()
+    );
+    Ok(Some(ExitStatus::CheckFailed))
 }
 
 /// The pid of a training that holds the run directory's lock, if one does.
@@ -291,15 +394,17 @@ fn step_args(study: &Path, run: &PlannedRun, cmd: &str, args: &[String]) -> Vec<
     args
 }
 
-/// Runs `groundscope CMD ARGS` in the study directory, its output appended to the run's log.
-/// A stop asked of this process (SIGINT, SIGTERM, SIGHUP: a runner's or an engine's) is passed
-/// on to the step, so that a training saves at its next update and ends.
+/// Runs `groundscope CMD ARGS` in the study directory, its output appended to the
+/// run's log and the run's lock handed on to it ([`RunLock::for_step`]). A stop asked of this
+/// process (SIGINT, SIGTERM, SIGHUP: a runner's or an engine's) is passed on to the step, so
+/// that a training saves at its next update and ends.
 fn run_step(
     study: &Path,
     dir: &Path,
     cmd: &str,
     args: &[String],
     stop: &Stop,
+    lock: &RunLock,
 ) -> anyhow::Result<std::process::ExitStatus> {
     use std::io::Write as _;
     let log_path = dir.join(LOG_FILE);
@@ -314,15 +419,16 @@ fn run_step(
         .arg(cmd)
         .args(args)
         .current_dir(study)
-        .stdin(std::process::Stdio::null())
+        .stdin(lock.for_step()?)
         .stdout(log.try_clone()?)
         .stderr(log.try_clone()?)
         .spawn()
         .with_context(|| format!("starting groundscope {cmd}"))?;
+    lock.note(Some((cmd, child.id())));
     let mut passed_on = false;
-    loop {
+    let status = loop {
         if let Some(status) = child.try_wait()? {
-            return Ok(status);
+            break status;
         }
         if stop.requested() && !passed_on {
             let _ = Command::new("kill")
@@ -331,7 +437,9 @@ fn run_step(
             passed_on = true;
         }
         std::thread::sleep(std::time::Duration::from_millis(50));
-    }
+    };
+    lock.note(None);
+    Ok(status)
 }
 
 fn collect_cmd(study: &Path, out: Option<&Path>) -> anyhow::Result<ExitStatus> {

@@ -50,6 +50,9 @@ const TAIL_LINES: usize = 5;
 struct Tally {
     done: usize,
     failed: Vec<String>,
+    /// Runs stopped by a signal that this runner did not send (to the exec or its step
+    /// alone): neither done nor failed, they resume on the next run.
+    stopped: Vec<String>,
     elsewhere: usize,
 }
 
@@ -159,30 +162,48 @@ pub(super) fn run(args: &RunArgs) -> anyhow::Result<ExitStatus> {
         );
         return Ok(ExitStatus::Interrupted);
     }
+    Ok(summary(&manifest.name, total, &tally, study))
+}
+
+/// The runner's last lines and exit status: 1 where a run failed (named), else 130 where a
+/// run was stopped by a signal it did not send (named: they resume on the next run), else 0.
+fn summary(name: &str, total: usize, tally: &Tally, study: &Path) -> ExitStatus {
+    let mut also = String::new();
+    if !tally.stopped.is_empty() {
+        let _ = write!(also, ", {} stopped", tally.stopped.len());
+    }
+    if tally.elsewhere > 0 {
+        let _ = write!(also, ", {} running elsewhere", tally.elsewhere);
+    }
     println!(
-        "study {}: {} of {total} runs done, {} failed{}",
-        manifest.name,
+        "study {name}: {} of {total} runs done, {} failed{also}",
         tally.done,
         tally.failed.len(),
-        if tally.elsewhere > 0 {
-            format!(", {} running elsewhere", tally.elsewhere)
-        } else {
-            String::new()
-        }
     );
-    if tally.failed.is_empty() {
-        Ok(ExitStatus::Success)
-    } else {
-        eprintln!("failed runs: {}", tally.failed.join(", "));
-        Ok(ExitStatus::CheckFailed)
+    if !tally.stopped.is_empty() {
+        eprintln!(
+            "stopped runs (by a signal sent to them alone; not finished): {}; run `groundscope study run {}` again to resume them",
+            tally.stopped.join(", "),
+            study.display()
+        );
     }
+    if tally.failed.is_empty() {
+        return if tally.stopped.is_empty() {
+            ExitStatus::Success
+        } else {
+            ExitStatus::Interrupted
+        };
+    }
+    eprintln!("failed runs: {}", tally.failed.join(", "));
+    ExitStatus::CheckFailed
 }
 
 /// Counts a run that ended and says so above the progress line. A run whose exec ended
 /// with a non-zero status is a failed run (its last lines are shown: the exec's error, and
-/// the end of its `study.log` where a step failed), except one that this runner stopped
-/// (`stopping`: it sent the stop, and the run ended interrupted, 130, or by a signal), which
-/// resumes on the next run.
+/// the end of its `study.log` where a step failed), except a stopped one, which resumes on
+/// the next run: one that this runner stopped (`stopping`: it sent the stop, and the run
+/// ended interrupted, 130, or by a signal), or whose exec ended 130 all the same (a signal
+/// sent to the exec or its step alone stopped it before it finished).
 fn ended(
     study: &Path,
     r: &mut Running,
@@ -202,6 +223,14 @@ fn ended(
         say(bar, format!("{name}: running elsewhere; left alone"));
     } else if stopping && matches!(status.code(), Some(130) | None) {
         say(bar, format!("{name}: stopped; it resumes on the next run"));
+    } else if status.code() == Some(130) {
+        tally.stopped.push(name.clone());
+        say(
+            bar,
+            format!(
+                "{name}: stopped by a signal before it finished (exit 130); it resumes on the next run"
+            ),
+        );
     } else {
         tally.failed.push(name.clone());
         let how = status

@@ -34,5 +34,6 @@ mod reliability;
 mod report;
 mod study;
 mod study_reliability;
+mod study_reliability2;
 mod train;
 mod vendor;

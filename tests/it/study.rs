@@ -5,8 +5,9 @@ use crate::common::{self, assert_bad_input, gs, stderr, stdout};
 
 use std::path::Path;
 
-/// A study of tiny runs: `seeds` × two recipes (one of which fails when `broken`) on the
-/// paper's smallest level.
+/// A study of tiny runs: `seeds` × two recipes on the paper's smallest level. When `broken`,
+/// the training of one (`other`) fails when it starts: its `--init` names no checkpoint, which
+/// only the training reads (a plan refuses the values every run refuses, `--hidden 0`).
 pub(crate) fn spec(seeds: &str, broken: bool) -> String {
     format!(
         r#"seeds = {seeds}
@@ -16,13 +17,17 @@ eval = ["--seeds", "1", "--episodes", "4"]
 [recipes]
 tiny = ["--procs", "4", "--frames-per-proc", "16", "--batch-size", "32", "--hidden", "16",
         "--eval-interval", "0", "--size", "5", "--objects", "1", "--tasks", "goto", "--no-done"]
-other = ["--procs", "4", "--frames-per-proc", "16", "--batch-size", "32", "--hidden", "{}",
-         "--eval-interval", "0", "--size", "5", "--objects", "1", "--tasks", "goto", "--no-done"]
+other = ["--procs", "4", "--frames-per-proc", "16", "--batch-size", "32", "--hidden", "8",
+         "--eval-interval", "0", "--size", "5", "--objects", "1", "--tasks", "goto", "--no-done"{}]
 
 [levels]
 small = {{ train = [], eval = ["--sizes", "5", "--objects", "1"] }}
 "#,
-        if broken { "0" } else { "8" }
+        if broken {
+            ", \"--init\", \"no-such-parent\""
+        } else {
+            ""
+        }
     )
 }
 
@@ -127,7 +132,8 @@ fn a_study_runs_here_resumes_never_runs_a_task_twice_and_collects() {
     };
     let (a, b) = (spawn(), spawn());
     let (a, b) = (a.wait_with_output().unwrap(), b.wait_with_output().unwrap());
-    // The broken recipe (`--hidden 0`) fails: reported with its log; the others go on.
+    // The broken recipe (`--init` of no checkpoint) fails: reported with its log; the others
+    // go on.
     for o in [&a, &b] {
         assert!(matches!(o.status.code(), Some(0 | 1)), "{}", stderr(o));
     }
@@ -212,13 +218,16 @@ fn a_killed_run_resumes_from_its_checkpoint() {
                 .any(|e| e.file_name().to_string_lossy().starts_with("update-"))
         })
     });
-    // The executor killed alone: its training runs on, and the line run again leaves it be.
+    // The executor killed alone: its training runs on, holding the run's lock, and the line
+    // run again leaves it be, naming it.
     let _ = child.kill();
     let _ = child.wait();
     let o = gs(&["study", "exec", s, "tiny-small-s1"]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     assert!(
-        stdout(&o).contains("is still running; left alone"),
+        stdout(&o).contains("running elsewhere (its lock is held by exec ")
+            && stdout(&o).contains(", train ")
+            && stdout(&o).contains("left alone"),
         "{}",
         stdout(&o)
     );

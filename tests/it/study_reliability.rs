@@ -139,8 +139,8 @@ fn a_run_whose_exec_fails_is_a_failed_run_named_with_its_error() {
         "{}",
         stderr(&o)
     );
-    // A training refused when it starts (`--hidden 0`): the run is named with the end of its
-    // study.log; the other run's exec fails too (its directory is taken).
+    // A training refused when it starts (`--init` of no checkpoint): the run is named with the
+    // end of its study.log; the other run's exec fails too (its directory is taken).
     let dir = tempfile::tempdir().unwrap();
     let o = plan(dir.path(), &spec("[1]", true));
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));

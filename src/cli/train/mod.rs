@@ -12,8 +12,9 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use anyhow::Context as _;
 use clap::ArgMatches;
 use groundscope::metrics::tracking::TrackedEval;
-use groundscope::policy::ModelConfig;
 use groundscope::policy::ppo::run_dir::{RunInfo, Tracking};
+use groundscope::policy::ppo::{LevelMix, PpoConfig, UpdateLog};
+use groundscope::policy::{ModelConfig, Variant};
 use groundscope::run::{HeldRun, NothingToResume, Run, RunSpec, Start};
 
 use crate::ExitStatus;
@@ -23,20 +24,7 @@ use args::{level_mix, ppo_config};
 
 /// Runs `train`.
 pub fn run(args: &TrainArgs, matches: Option<&ArgMatches>) -> anyhow::Result<ExitStatus> {
-    let variant = parse_variant(&args.model)?;
-    let model = args.model_options.apply(ModelConfig {
-        lstm_hidden: args.hidden,
-        gru_hidden: args.hidden,
-        ..ModelConfig::new(variant)
-    })?;
-    if args.save_interval == 0 {
-        anyhow::bail!("--save-interval 0: must be at least 1 update");
-    }
-    if args.eval_interval > 0 && args.eval_episodes == 0 {
-        anyhow::bail!(
-            "--eval-episodes 0: must be at least 1 (--eval-interval 0 turns the tracked evaluation off)"
-        );
-    }
+    let (variant, model) = model_of(args)?;
     let begin = if args.resume {
         // The run's own settings are checked once its directory is locked and loaded.
         Begin::Resume(|info: &RunInfo| {
@@ -45,10 +33,7 @@ pub fn run(args: &TrainArgs, matches: Option<&ArgMatches>) -> anyhow::Result<Exi
         })
     } else {
         // Everything a new run can get wrong is refused before its directory is made.
-        model.validate()?;
-        let ppo = ppo_config(args, model.word_temperature.0)?;
-        ppo.validate()?;
-        let levels = level_mix(args)?;
+        let (ppo, levels) = new_run(args, &model)?;
         if ppo.imitate {
             for what in groundscope::run::check_labels(&levels).context("--imitate")? {
                 eprintln!(
@@ -77,6 +62,48 @@ pub fn run(args: &TrainArgs, matches: Option<&ArgMatches>) -> anyhow::Result<Exi
         }))
     };
     train(begin, &args.out, args.frames, args.quiet)
+}
+
+/// Refuses the flags that `train` itself refuses before it touches its run directory — the
+/// model, the intervals and, for a new run, the network's options, the PPO settings and the
+/// levels (an unknown id included) — with the same messages, reading no file: what `study
+/// plan` checks of each run's training, so that a value every run refuses is one line at plan
+/// time, not a failure once the study runs. (A `--init` parent and `--imitate`'s labels are
+/// read from files and checked when the training starts.)
+pub fn validate(args: &TrainArgs) -> anyhow::Result<()> {
+    let (_, model) = model_of(args)?;
+    if !args.resume {
+        new_run(args, &model)?;
+    }
+    Ok(())
+}
+
+/// The model the flags ask for, and the interval flags checked (every run, resumed or not).
+fn model_of(args: &TrainArgs) -> anyhow::Result<(Variant, ModelConfig)> {
+    let variant = parse_variant(&args.model)?;
+    let model = args.model_options.apply(ModelConfig {
+        lstm_hidden: args.hidden,
+        gru_hidden: args.hidden,
+        ..ModelConfig::new(variant)
+    })?;
+    if args.save_interval == 0 {
+        anyhow::bail!("--save-interval 0: must be at least 1 update");
+    }
+    if args.eval_interval > 0 && args.eval_episodes == 0 {
+        anyhow::bail!(
+            "--eval-episodes 0: must be at least 1 (--eval-interval 0 turns the tracked evaluation off)"
+        );
+    }
+    Ok((variant, model))
+}
+
+/// A new run's network options, PPO settings and levels, each checked.
+fn new_run(args: &TrainArgs, model: &ModelConfig) -> anyhow::Result<(PpoConfig, LevelMix)> {
+    model.validate()?;
+    let ppo = ppo_config(args, model.word_temperature.0)?;
+    ppo.validate()?;
+    let levels = level_mix(args)?;
+    Ok((ppo, levels))
 }
 
 /// How `train` begins its run: a resume, with the check of its flags against the run's own
@@ -167,21 +194,54 @@ fn train(
         }
     }
     let dir = run.dir().to_path_buf();
-    let (frames, updates) = (run.trainer().state.frames, run.trainer().state.updates);
+    let counts = Counts {
+        frames: run.trainer().state.frames,
+        updates: run.trainer().state.updates,
+        target: run.target_frames(),
+    };
     let last = run.finish()?;
     bar.finish_and_clear();
-    let why = if stop.load(Ordering::SeqCst) {
+    Ok(say_end(&dir, last.as_ref(), counts))
+}
+
+/// Where a run's training ended: its frames and updates, and the frames it trains to.
+#[derive(Clone, Copy)]
+struct Counts {
+    frames: u64,
+    updates: u64,
+    target: u64,
+}
+
+/// The line that says how the run in `dir` ended (`last`: its last update's log), and the
+/// exit status. A run that a signal stopped before its `--frames` is a stopped run, not a
+/// finished one: it is saved like any other (the checkpoint first), then ends with 130
+/// (docs/training.md#what-a-stopped-run-is), so that whoever runs it — a study's exec, a
+/// script — resumes it instead of taking the part-trained model as the final one.
+fn say_end(dir: &Path, last: Option<&UpdateLog>, counts: Counts) -> ExitStatus {
+    let Counts {
+        frames,
+        updates,
+        target,
+    } = counts;
+    let stopped = frames < target;
+    let why = if stopped {
         "interrupted; saved"
     } else {
         "done"
     };
     println!(
         "{why}: {frames} frames, {updates} updates, last success {:.3}, reward {:.3}; checkpoint {}",
-        last.as_ref().map_or(f64::NAN, |l| l.success_rate),
-        last.as_ref().map_or(f64::NAN, |l| l.mean_reward),
+        last.map_or(f64::NAN, |l| l.success_rate),
+        last.map_or(f64::NAN, |l| l.mean_reward),
         dir.join("model").display()
     );
-    Ok(ExitStatus::Success)
+    if stopped {
+        eprintln!(
+            "groundscope: interrupted at frame {frames} of {target}, saved: not finished (exit 130); go on with --resume"
+        );
+        return ExitStatus::Interrupted;
+    }
+    ExitStatus::Success
 }
 
 /// The tracked evaluation's rows as `--quiet` prints them.
