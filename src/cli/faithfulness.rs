@@ -30,6 +30,9 @@ pub enum Part {
     Counterfactuals,
 }
 
+/// The help of `faithfulness --episodes`: per seed, and the total a run adds up to.
+pub const EPISODES_HELP: &str = "Episodes per evaluation seed: each checkpoint and level runs --seeds × --episodes episodes (the defaults, 5 × 100 = 500; `--seeds 1 --episodes N` runs N). faithfulness.md states the total";
+
 /// `groundscope faithfulness`.
 #[derive(Debug, Args)]
 #[command(after_long_help = "EXAMPLES:\n  \
@@ -39,7 +42,10 @@ pub enum Part {
     groundscope faithfulness --checkpoint my_agent.onnx --out faith-onnx",
     // One cell by default: the paper's training level.
     mut_arg("sizes", |a| a.default_value("8")),
-    mut_arg("objects", |a| a.default_value("4")))]
+    mut_arg("objects", |a| a.default_value("4")),
+    // Episodes are per evaluation seed: say what a run adds up to (`--episodes 10` with the
+    // default 5 seeds runs 50 episodes per checkpoint and level, and faithfulness.md says so).
+    mut_arg("episodes", |a| a.help(EPISODES_HELP).long_help(EPISODES_HELP)))]
 pub struct FaithfulnessArgs {
     /// Checkpoints (repeatable): NAME, a run directory (its model), bundled:NAME or an ONNX
     /// graph FILE.onnx (docs/onnx.md) [default: bundled:attention]; not `bot`, which has no
@@ -183,16 +189,15 @@ pub fn run(args: &FaithfulnessArgs) -> anyhow::Result<ExitStatus> {
     let rows: Vec<(String, &[EpisodeResult])> =
         all.iter().map(|(n, e)| (n.clone(), e.as_slice())).collect();
     staging.write("faithfulness_steps.csv", steps_csv(&rows).as_bytes())?;
+    // The figures faithfulness.md links, each drawn once.
     for (i, c) in report.checkpoints.iter().enumerate() {
-        let suffix = if report.checkpoints.len() == 1 {
-            String::new()
-        } else {
-            format!("_{i}")
-        };
-        figures::deletion_curves(c, &staging.path(&format!("deletion{suffix}.png")))?;
-        if c.variant == "attention" {
-            figures::rho_distribution(c, &staging.path(&format!("rank_correlation{suffix}.png")))?;
-            figures::effects(c, &staging.path(&format!("effects{suffix}.png")))?;
+        for (stem, _, file) in report.figure_files(i) {
+            let path = staging.path(&file);
+            match stem {
+                "deletion" => figures::deletion_curves(c, &path)?,
+                "rank_correlation" => figures::rho_distribution(c, &path)?,
+                _ => figures::effects(c, &path)?,
+            }
         }
     }
     // A reused directory keeps no figure of an earlier run's other checkpoints (`*_1.png`).

@@ -61,15 +61,21 @@ impl Report {
         let _ = writeln!(
             s,
             "Share of related objects whose cell at each offset (as the agent sees it) passes τ; \
-             `on` is `acc`, `forward` is `acc_bs`. Mean over seeds; `around.csv` has the std.\n"
+             `on` is `acc`, `forward` is `acc_bs`. Mean over seeds; `around.csv` has the std. \
+             Every offset of a row is read on the same evaluated steps, counted in the last column.\n"
         );
         let _ = writeln!(
             s,
-            "{} word | {} |",
+            "{} word | {} | evaluated steps |",
             self.key_header(),
             AROUND_NAMES.join(" | ")
         );
-        let _ = writeln!(s, "{}---|{}", self.key_rule(), "---|".repeat(AROUND.len()));
+        let _ = writeln!(
+            s,
+            "{}---|{}---|",
+            self.key_rule(),
+            "---|".repeat(AROUND.len())
+        );
         for (c, kind, g) in self.around_rows() {
             let cols: Vec<String> = g
                 .around
@@ -78,10 +84,11 @@ impl Report {
                 .collect();
             let _ = writeln!(
                 s,
-                "{} {} | {} |",
+                "{} {} | {} | {} |",
                 self.cell_key(c),
                 kind.name(),
-                cols.join(" | ")
+                cols.join(" | "),
+                g.evaluated_steps
             );
         }
     }

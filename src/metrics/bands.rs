@@ -250,11 +250,11 @@ pub fn band_panels(
 }
 
 /// One row of the legend strip, in pixels.
-const LEGEND_ROW: u32 = 24;
+pub(crate) const LEGEND_ROW: u32 = 24;
 /// The sample line of an entry, the space between it and its label, and between entries.
-const LEGEND_LINE: u32 = 26;
-const LEGEND_PAD: u32 = 6;
-const LEGEND_GAP: u32 = 28;
+pub(crate) const LEGEND_LINE: u32 = 26;
+pub(crate) const LEGEND_PAD: u32 = 6;
+pub(crate) const LEGEND_GAP: u32 = 28;
 
 /// The legend's entries: every label that has a line in some panel, once, in the order first
 /// drawn, with its panel colour (bands are coloured by their place in the panel's list).
@@ -274,7 +274,7 @@ fn legend_entries(panels: &[(String, Vec<Band>)]) -> Vec<(String, RGBColor)> {
 /// Where each legend entry goes, given its label's width in pixels: `(x, row)`, entries left
 /// to right in rows no wider than `width` (an entry wider than a row gets a row of its own),
 /// each row centred.
-fn legend_layout(label_widths: &[u32], width: u32) -> Vec<(u32, u32)> {
+pub(crate) fn legend_layout(label_widths: &[u32], width: u32) -> Vec<(u32, u32)> {
     let entry = |tw: u32| LEGEND_LINE + LEGEND_PAD + tw;
     let usable = width.saturating_sub(2 * LEGEND_GAP);
     // Rows as ranges of entries, with their widths.

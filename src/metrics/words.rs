@@ -108,6 +108,33 @@ pub fn far_below(word_acc: f64, class_acc: Option<f64>) -> bool {
     class_acc.is_some_and(|c| word_acc < 0.5 * c)
 }
 
+/// The fewest evaluated steps behind a figure that `report.md` reads anything into: a word
+/// under half its class is flagged ⚠ only over this many ([`flagged`]), and the summary calls
+/// a word class grounded or not only over this many. A value from one step (a mission whose
+/// object was in view once) is a coin, not a finding.
+pub const MIN_EVALUATED_STEPS: u64 = 20;
+
+/// Whether `report.md` flags a word: its `acc` under half its class's ([`far_below`]) over
+/// at least [`MIN_EVALUATED_STEPS`] evaluated steps.
+pub fn flagged(word_acc: f64, class_acc: Option<f64>, evaluated_steps: u64) -> bool {
+    evaluated_steps >= MIN_EVALUATED_STEPS && far_below(word_acc, class_acc)
+}
+
+/// A count of evaluated steps as the tables write it: `1 step`, `109 steps`.
+pub fn steps_label(evaluated_steps: u64) -> String {
+    let unit = if evaluated_steps == 1 {
+        "step"
+    } else {
+        "steps"
+    };
+    format!("{evaluated_steps} {unit}")
+}
+
+/// A table's value with the evaluated steps behind it: `0.000 (1 step)`, `0.948 (109 steps)`.
+pub fn with_steps(value: f64, evaluated_steps: u64) -> String {
+    format!("{value:.3} ({})", steps_label(evaluated_steps))
+}
+
 impl Report {
     /// `words.csv`: one line per attention cell and word named in it.
     pub fn words_csv(&self) -> String {
@@ -158,9 +185,11 @@ impl Report {
         );
         let _ = writeln!(
             s,
-            "`acc` of each word's map over the episodes whose mission names it (mean over seeds; \
-             `words.csv` has `acc_ng`, the std and the counts). **⚠** marks a word far below \
-             its class (under half the class's `acc`): the class mean hides it.\n"
+            "`acc` of each word's map over the episodes whose mission names it (mean over seeds), \
+             with the evaluated steps behind it in brackets (`words.csv` has `acc_ng`, the std \
+             and the episodes). **⚠** marks a word far below its class (under half the class's \
+             `acc`) over at least {MIN_EVALUATED_STEPS} evaluated steps: the class mean hides it. \
+             A word seen on fewer steps is not flagged, whatever its value.\n"
         );
         let _ = writeln!(s, "{} {} |", self.key_header(), words.join(" | "));
         let _ = writeln!(s, "{}{}", self.key_rule(), "---|".repeat(words.len()));
@@ -173,9 +202,12 @@ impl Report {
                         return "–".into();
                     };
                     let class = a.of(x.kind).and_then(|g| g.acc.mean);
+                    let steps = x.stats.evaluated_steps;
                     match x.stats.acc.mean {
-                        Some(v) if far_below(v, class) => format!("**{v:.3} ⚠**"),
-                        Some(v) => format!("{v:.3}"),
+                        Some(v) if flagged(v, class, steps) => {
+                            format!("**{} ⚠**", with_steps(v, steps))
+                        }
+                        Some(v) => with_steps(v, steps),
                         None => "–".into(),
                     }
                 })
@@ -302,5 +334,81 @@ mod tests {
         assert!(far_below(0.010, Some(0.80)));
         assert!(!far_below(0.45, Some(0.80)));
         assert!(!far_below(0.0, None));
+    }
+
+    /// A word seen on one step (GoToSeqS5R2's "blue" at 0.000 beside a colour class of 0.85)
+    /// is no finding: it is shown with its count and not flagged; over enough steps it is.
+    #[test]
+    fn a_word_seen_on_too_few_steps_is_not_flagged() {
+        assert!(!flagged(0.0, Some(0.85), 1));
+        assert!(!flagged(0.0, Some(0.85), MIN_EVALUATED_STEPS - 1));
+        assert!(flagged(0.0, Some(0.85), MIN_EVALUATED_STEPS));
+        assert!(!flagged(0.6, Some(0.85), 1000));
+        assert_eq!(with_steps(0.0, 1), "0.000 (1 step)");
+        assert_eq!(with_steps(0.9482, 109), "0.948 (109 steps)");
+    }
+
+    /// The words table of `report.md`: every value with its count, ⚠ only over enough steps.
+    #[test]
+    fn the_words_table_shows_counts_and_flags_only_well_measured_words() {
+        use crate::metrics::report::{Cell, CellAccuracy, Report, SCHEMA_VERSION};
+        use crate::metrics::sweep::{MeanStd, Performance};
+        let m = |v: f64| MeanStd {
+            mean: Some(v),
+            std: Some(0.0),
+        };
+        let stats = |acc: f64, steps: u64| GroundingStats {
+            acc: m(acc),
+            evaluated_steps: steps,
+            ..grounding(&[], WordKind::Color)
+        };
+        let word = |kind: WordKind, word: &str, acc: f64, steps: u64| WordStats {
+            kind,
+            word: word.into(),
+            episodes: 1,
+            stats: stats(acc, steps),
+        };
+        let accuracy = CellAccuracy {
+            object: stats(1.0, 100),
+            color: stats(0.85, 100),
+            combined: stats(0.6, 100),
+            words: vec![
+                word(WordKind::Object, "key", 1.0, 40),
+                word(WordKind::Color, "red", 0.0, 25),
+                word(WordKind::Color, "blue", 0.0, 1),
+                word(WordKind::Color, "grey", 0.8, 30),
+            ],
+            door: None,
+            location: None,
+        };
+        let perf = Performance {
+            reward: m(1.0),
+            success: m(1.0),
+            length: m(5.0),
+            reward_given_success: m(1.0),
+        };
+        let report = Report {
+            schema_version: SCHEMA_VERSION,
+            groundscope_version: String::new(),
+            alpha: 0.5,
+            mode: "greedy".into(),
+            seeds: 1,
+            first_seed: 0,
+            episodes_per_seed: 4,
+            saliency: false,
+            checkpoints: Vec::new(),
+            cells: vec![Cell::new("ck", "attention", 8, 4, 4, &perf, Some(accuracy))],
+            elapsed_secs: 0.0,
+        };
+        let mut s = String::new();
+        report.words_table(&mut s);
+        let row = s
+            .lines()
+            .find(|l| l.starts_with("| ck |"))
+            .unwrap_or_else(|| panic!("{s}"));
+        assert_eq!(
+            row,
+            "| ck | 8 | 4 | 1.000 (40 steps) | – | – | **0.000 (25 steps) ⚠** | – | 0.000 (1 step) | – | – | 0.800 (30 steps) |"
+        );
     }
 }

@@ -28,6 +28,17 @@ pub const FIG_EXPLORATION: &str = "fig_exploration.png";
 /// The figure with `M`'s entropy while a target is hidden / visible (attention reports only).
 pub const FIG_EXPLORATION_MAPS: &str = "fig_exploration_maps.png";
 
+/// The value axis of an exploration figure drawn as a row of bars per level: what its bars
+/// measure, and that their spread is over episodes. [`FIG_EXPLORATION_MAPS`] plots a
+/// normalised entropy, not a share.
+pub(crate) fn value_axis(figure: &str) -> &'static str {
+    if figure == FIG_EXPLORATION_MAPS {
+        "H(M) / ln 49 (normalised entropy; mean over episodes; line: ± std over episodes)"
+    } else {
+        "share of the floor ever seen (mean over failed episodes; line: ± std over them)"
+    }
+}
+
 /// The map columns of one CSV row: the steps, then each measure hidden and visible. A set
 /// without maps (a baseline's, or no episode) leaves all 18 fields empty: its steps were not
 /// split, which is not zero.
@@ -116,6 +127,10 @@ fn maps_table(report: &Report, with: &[&Cell], s: &mut String) {
             mean3(&m.visible.w_entropy)
         );
     }
+    let _ = writeln!(
+        s,
+        "\n![H(M) / ln 49 while no target is visible (hidden) and while one is]({FIG_EXPLORATION_MAPS})"
+    );
 }
 
 impl Report {
@@ -226,6 +241,10 @@ impl Report {
                 let _ = writeln!(s, "| {size} | {objects} | {} |", cols.join(" | "));
             }
         }
+        let _ = writeln!(
+            s,
+            "\n![Failed episodes: share of the floor ever seen]({FIG_EXPLORATION})"
+        );
         maps_table(self, &with, s);
     }
 
@@ -248,23 +267,19 @@ impl Report {
                 .map_or(c.checkpoint.clone(), |(_, l)| l.clone())
         };
         // A sweep over BabyAI levels plots a row per level; the paper's, size × objects.
-        let figure = |path: &Path,
+        let figure = |name: &str,
                       title: &str,
                       series: &dyn Fn(&Cell) -> Vec<(String, MeanStd)>|
          -> Result<(), MetricsError> {
+            let path = dir.join(name);
             if self.has_levels() {
-                self.levels_bars(
-                    path,
-                    title,
-                    "share (mean over episodes; line: ± std)",
-                    series,
-                )
+                self.levels_bars(&path, title, value_axis(name), series)
             } else {
-                self.figure(path, title, series)
+                self.figure(&path, title, series)
             }
         };
         figure(
-            &dir.join(FIG_EXPLORATION),
+            FIG_EXPLORATION,
             "Failed episodes: share of the floor ever seen",
             &|c| {
                 c.exploration
@@ -280,7 +295,7 @@ impl Report {
             .any(|c| c.exploration.as_ref().is_some_and(|x| x.all.maps.is_some()));
         if any_maps {
             figure(
-                &dir.join(FIG_EXPLORATION_MAPS),
+                FIG_EXPLORATION_MAPS,
                 "H(M) / ln 49 while no target is visible (hidden) and while one is",
                 &|c| {
                     let Some(m) = c.exploration.as_ref().and_then(|x| x.all.maps.as_ref()) else {
@@ -296,5 +311,24 @@ impl Report {
             written.push(FIG_EXPLORATION_MAPS);
         }
         Ok(written)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The maps figure plots `H(M) / ln 49`, and its axis says so: not a "share".
+    #[test]
+    fn each_exploration_figure_names_what_it_plots() {
+        let maps = value_axis(FIG_EXPLORATION_MAPS);
+        assert!(
+            maps.starts_with("H(M) / ln 49 (normalised entropy"),
+            "{maps}"
+        );
+        assert!(!maps.contains("share"), "{maps}");
+        let seen = value_axis(FIG_EXPLORATION);
+        assert!(seen.starts_with("share of the floor ever seen"), "{seen}");
+        assert!(seen.contains("± std over"), "{seen}");
     }
 }

@@ -116,8 +116,14 @@ impl Failure {
     }
 }
 
-/// Picks the K worst episodes of each kind: failures (lowest reward, then longest) and the
-/// lowest acc_cmb of `M` on visible targets.
+/// The episode `acc_cmb` of `M` under which an episode is listed for it (`low_acc_cmb`): `M`
+/// passed τ on its target at fewer than half the steps a target was in view. An episode at or
+/// above it is not among the worst, however few episodes are under it (GoToDoor's ten
+/// successes at 1.000 were once its "worst").
+pub const LOW_ACC_CMB: f64 = 0.5;
+
+/// Picks the K worst episodes of each kind: failures (longest first) and, among the episodes
+/// whose acc_cmb of `M` on visible targets is under [`LOW_ACC_CMB`], the lowest.
 pub fn worst_episodes(
     all: &[(String, LevelConfig, Vec<EpisodeSummary>)],
     k: usize,
@@ -160,7 +166,7 @@ pub fn worst_episodes(
             if !e.success {
                 failed.push(f("failed"));
             }
-            if acc_cmb.is_some() {
+            if acc_cmb.is_some_and(|a| a < LOW_ACC_CMB) {
                 low.push(f("low_acc_cmb"));
             }
         }
@@ -256,9 +262,45 @@ mod tests {
         let some = vec![(
             "m".to_owned(),
             level,
-            vec![episode(0, 0.0), episode(1, 0.5), episode(2, 0.0)],
+            vec![episode(0, 0.0), episode(1, 0.25), episode(2, 0.0)],
         )];
         let listed = worst_episodes(&some, 3, &replay);
         assert_eq!(listed.iter().map(|f| f.seed).collect::<Vec<_>>(), [0, 2, 1]);
+    }
+
+    /// Only episodes under the threshold are "worst": perfect ones never, however few
+    /// episodes fall under it; failures are listed whatever their acc_cmb.
+    #[test]
+    fn only_episodes_under_the_threshold_are_listed_for_their_acc_cmb() {
+        let level = LevelConfig::default();
+        let replay = |_: &str, _: &LevelConfig, s: u64| format!("groundscope replay --seed {s}");
+        let perfect = vec![(
+            "m".to_owned(),
+            level,
+            (0..10).map(|s| episode(s, 1.0)).collect(),
+        )];
+        assert!(worst_episodes(&perfect, 10, &replay).is_empty());
+        let mut failed = episode(7, 1.0);
+        failed.success = false;
+        let mixed = vec![(
+            "m".to_owned(),
+            level,
+            vec![
+                episode(0, 1.0),
+                episode(1, LOW_ACC_CMB),
+                episode(2, 0.4),
+                episode(3, 0.9),
+                failed,
+            ],
+        )];
+        let listed = worst_episodes(&mixed, 10, &replay);
+        let seen: Vec<(&str, u64)> = listed.iter().map(|f| (f.kind.as_str(), f.seed)).collect();
+        assert_eq!(seen, [("failed", 7), ("low_acc_cmb", 2)]);
+        assert!(
+            listed
+                .iter()
+                .filter(|f| f.kind == "low_acc_cmb")
+                .all(|f| f.acc_cmb.is_some_and(|a| a < LOW_ACC_CMB))
+        );
     }
 }

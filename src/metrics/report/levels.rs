@@ -6,16 +6,17 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
-use plotters::prelude::*;
-
 use super::{Cell, Report};
 use crate::env::level::LevelConfig;
 use crate::metrics::error::MetricsError;
 use crate::metrics::failure::FailureClass;
-use crate::metrics::figures::{save_rgb, series_color};
 use crate::metrics::grounding::WordKind;
-use crate::metrics::sweep::{EpisodeSummary, MeanStd};
+use crate::metrics::sweep::EpisodeSummary;
+use crate::metrics::words::steps_label;
 use crate::table::{Record, Table};
+
+/// The per-level success figure (`eval --levels`).
+pub const LEVELS_SUCCESS: &str = "levels_success.png";
 
 /// `episodes.csv`'s header.
 pub const EPISODES_CSV_HEADER: &str = "checkpoint,level,eval_seed,episode,level_seed,mission,success,steps,return,failure_class,actions,expert_agreement,first_divergence,bot_steps,path_efficiency,behaviour,done_required,decisive_step";
@@ -99,7 +100,7 @@ impl Report {
         let _ = writeln!(s, "\n## Per level\n");
         let _ = writeln!(
             s,
-            "`acc_ng` per word kind; – where the level's missions hold no such word or the model has no maps. \
+            "`acc_ng` per word kind, with the evaluated steps behind it; – where the level's missions hold no such word or the model has no maps. \
              Beside minigrid's bot (docs/bot.md): *agree*, the share of steps at which the agent took the bot's \
              action; *diverge*, the step at which a failed episode first left the bot's plan at a cost (a tie such as left or right at the start is passed over); *efficiency*, the \
              bot's steps alone / the agent's on successful episodes; *bot*, the bot's own success from the same starts.\n"
@@ -125,7 +126,15 @@ impl Report {
                     c.accuracy
                         .as_ref()
                         .and_then(|a| a.of(k))
-                        .and_then(|g| g.acc_ng.mean.map(|_| self.over_seeds(&g.acc_ng)))
+                        .and_then(|g| {
+                            g.acc_ng.mean.map(|_| {
+                                format!(
+                                    "{} ({})",
+                                    self.over_seeds(&g.acc_ng),
+                                    steps_label(g.evaluated_steps)
+                                )
+                            })
+                        })
                         .unwrap_or_else(|| "–".into())
                 })
                 .collect();
@@ -160,123 +169,40 @@ impl Report {
                 expert.join(" | ")
             );
         }
+        let _ = writeln!(s, "\n![Success rate per level]({LEVELS_SUCCESS})");
         s
     }
 
-    /// `levels_success.png`: the success rate (± std over seeds) of every checkpoint on every
-    /// level of the sweep, one row of bars per level.
+    /// `levels_success.png`: the success rate of every checkpoint on every level of the
+    /// sweep, one row of bars per level (± std over seeds where there are several seeds).
     pub(super) fn levels_figure(&self, path: &Path) -> Result<(), MetricsError> {
         self.levels_bars(
             path,
             "Success rate per level",
-            "success rate (mean over seeds; line: ± std)",
+            success_axis(self.seeds),
             &|c| vec![(c.checkpoint.clone(), c.success)],
         )
     }
+}
 
-    /// A figure of one row of bars per level of the sweep, one bar per series `series` gives
-    /// a cell (a value in [0, 1], mean ± std over seeds): the level-keyed form of the
-    /// report's figures, whose paper form plots room size against object count.
-    pub(crate) fn levels_bars(
-        &self,
-        path: &Path,
-        title: &str,
-        x_desc: &str,
-        series: &dyn Fn(&Cell) -> Vec<(String, MeanStd)>,
-    ) -> Result<(), MetricsError> {
-        crate::metrics::figures::register_font();
-        let err = |e: &dyn std::fmt::Display| MetricsError::Io {
-            path: path.to_path_buf(),
-            reason: e.to_string(),
-        };
-        let mut levels: Vec<String> = Vec::new();
-        let mut ckpts: Vec<String> = Vec::new();
-        for c in self.level_cells() {
-            if !levels.contains(&c.label()) {
-                levels.push(c.label());
-            }
-            for (name, _) in series(c) {
-                if !ckpts.contains(&name) {
-                    ckpts.push(name);
-                }
-            }
-        }
-        let row = 14 * ckpts.len().max(1) as u32 + 10;
-        let (w, h) = (900u32, 110 + row * levels.len().max(1) as u32);
-        let mut buf = vec![0u8; (w * h * 3) as usize];
-        {
-            let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
-            root.fill(&WHITE).map_err(|e| err(&e))?;
-            let n = levels.len() as f64;
-            let mut chart = ChartBuilder::on(&root)
-                .caption(title, ("sans-serif", 22))
-                .margin(12)
-                .x_label_area_size(40)
-                .y_label_area_size(300)
-                .build_cartesian_2d(0.0..1.0f64, 0.0..n)
-                .map_err(|e| err(&e))?;
-            let label_of = |y: &f64| {
-                let i = (n - y - 0.5).round();
-                if (n - y - 0.5 - i).abs() < 1e-6 && i >= 0.0 {
-                    levels.get(i as usize).cloned().unwrap_or_default()
-                } else {
-                    String::new()
-                }
-            };
-            chart
-                .configure_mesh()
-                .x_desc(x_desc)
-                .y_labels(levels.len() * 2 + 1)
-                .y_label_formatter(&label_of)
-                .label_style(("sans-serif", 13))
-                .disable_y_mesh()
-                .draw()
-                .map_err(|e| err(&e))?;
-            let k = ckpts.len().max(1) as f64;
-            for (j, ckpt) in ckpts.iter().enumerate() {
-                let color = series_color(j);
-                let bars: Vec<(f64, f64, f64)> = self
-                    .level_cells()
-                    .flat_map(|c| series(c).into_iter().map(move |(name, m)| (c, name, m)))
-                    .filter(|(_, name, _)| name == ckpt)
-                    .filter_map(|(c, _, m)| {
-                        let i = levels.iter().position(|l| *l == c.label())? as f64;
-                        let top = n - i - 0.1 - 0.8 * j as f64 / k;
-                        Some((top, m.mean?.clamp(0.0, 1.0), m.std.unwrap_or(0.0)))
-                    })
-                    .collect();
-                let h = 0.8 / k;
-                chart
-                    .draw_series(bars.iter().map(|&(top, m, _)| {
-                        Rectangle::new([(0.0, top - h), (m, top)], color.filled())
-                    }))
-                    .map_err(|e| err(&e))?
-                    .label(ckpt.clone())
-                    .legend(move |(x, y)| {
-                        Rectangle::new([(x, y - 5), (x + 14, y + 5)], color.filled())
-                    });
-                chart
-                    .draw_series(bars.iter().filter(|b| b.2 > 0.0).map(|&(top, m, s)| {
-                        PathElement::new(
-                            vec![
-                                ((m - s).max(0.0), top - h / 2.0),
-                                ((m + s).min(1.0), top - h / 2.0),
-                            ],
-                            BLACK.stroke_width(1),
-                        )
-                    }))
-                    .map_err(|e| err(&e))?;
-            }
-            chart
-                .configure_series_labels()
-                .position(SeriesLabelPosition::LowerRight)
-                .background_style(WHITE.mix(0.9))
-                .border_style(BLACK)
-                .label_font(("sans-serif", 13))
-                .draw()
-                .map_err(|e| err(&e))?;
-            root.present().map_err(|e| err(&e))?;
-        }
-        save_rgb(&buf, w, h, path)
+/// The value axis of `levels_success.png`: a spread over seeds is named only where there are
+/// seeds to spread over (one seed's std is 0 by definition, and no line is drawn).
+pub(crate) fn success_axis(seeds: u64) -> &'static str {
+    if seeds >= 2 {
+        "success rate (mean over seeds; line: ± std over seeds)"
+    } else {
+        "success rate (one seed: its mean)"
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_success_axis_names_a_spread_only_over_several_seeds() {
+        assert!(!success_axis(1).contains('±'), "{}", success_axis(1));
+        assert!(success_axis(2).contains("± std over seeds"));
+        assert!(success_axis(5).contains("± std over seeds"));
     }
 }

@@ -2,7 +2,9 @@
 
 use std::fmt::Write as _;
 
-use super::{Cell, Failure, Report};
+use super::{
+    Cell, FIG6_REWARD, FIG6_SUCCESS, FIG7_OBJECT, FIG8_COLOR, Failure, LOW_ACC_CMB, Report,
+};
 use crate::metrics::failure::FailureClass;
 use crate::metrics::grounding::WordKind;
 use crate::metrics::sweep::MeanStd;
@@ -61,10 +63,52 @@ impl Report {
         self.key_cells(&c.checkpoint, c.level.as_deref(), c.size, c.objects)
     }
 
-    /// `report.md`: the tables.
+    /// `report.md`: the summary, then the tables, each figure linked under the table it
+    /// shows.
     pub fn markdown(&self, failures: &[Failure]) -> String {
         let mut s = String::new();
+        let figs = self.figure_names();
         let _ = writeln!(s, "# groundscope evaluation\n");
+        self.summary(&mut s);
+        let _ = writeln!(s, "\n## What ran\n");
+        self.setup(&mut s);
+        let _ = writeln!(s, "\n## Task performance (paper Fig. 6)\n");
+        let _ = writeln!(
+            s,
+            "{} reward | success | length | reward given success |",
+            self.key_header()
+        );
+        let _ = writeln!(s, "{}---|---|---|---|", self.key_rule());
+        for c in &self.cells {
+            let _ = writeln!(
+                s,
+                "{} {} | {} | {} | {} |",
+                self.cell_key(c),
+                self.over_seeds(&c.reward),
+                self.over_seeds(&c.success),
+                self.over_seeds(&c.length),
+                self.over_seeds(&c.reward_given_success)
+            );
+        }
+        if figs.contains(&FIG6_REWARD) {
+            let _ = writeln!(
+                s,
+                "\n![Mean reward (Fig. 6)]({FIG6_REWARD})\n![Success rate (Fig. 6)]({FIG6_SUCCESS})"
+            );
+        }
+        self.grounding_tables(&mut s, &figs);
+        self.grounding_levels_table(&mut s);
+        self.around_table(&mut s);
+        self.words_table(&mut s);
+        s.push_str(&self.levels_markdown());
+        self.failure_table(&mut s);
+        self.exploration_tables(&mut s);
+        self.worst_table(&mut s, failures);
+        s
+    }
+
+    /// What ran: α, the action mode, seeds and episodes, the sweep's time, each checkpoint.
+    fn setup(&self, s: &mut String) {
         let _ = writeln!(
             s,
             "α = {}, {} actions, {} (from {}) × {} episodes per cell; {}. Sweep took {:.1} s.\n",
@@ -110,24 +154,11 @@ impl Report {
             };
             let _ = writeln!(s, "- `{}`: {line}", c.name);
         }
-        let _ = writeln!(s, "\n## Task performance (paper Fig. 6)\n");
-        let _ = writeln!(
-            s,
-            "{} reward | success | length | reward given success |",
-            self.key_header()
-        );
-        let _ = writeln!(s, "{}---|---|---|---|", self.key_rule());
-        for c in &self.cells {
-            let _ = writeln!(
-                s,
-                "{} {} | {} | {} | {} |",
-                self.cell_key(c),
-                self.over_seeds(&c.reward),
-                self.over_seeds(&c.success),
-                self.over_seeds(&c.length),
-                self.over_seeds(&c.reward_given_success)
-            );
-        }
+    }
+
+    /// The grounding tables, one per word kind (door and location only where some cell's
+    /// missions hold such words), the paper's Figs. 7 and 8 under theirs.
+    fn grounding_tables(&self, s: &mut String, figs: &[&str]) {
         for (kind, title) in [
             (WordKind::Object, "Object-word maps (paper Fig. 7)"),
             (WordKind::Color, "Colour-word maps (paper Fig. 8)"),
@@ -184,34 +215,62 @@ impl Report {
                     g.episodes_without
                 );
             }
-            if kind == WordKind::Location {
-                let _ = writeln!(
-                    s,
-                    "\nRegion (the map's mass in the half-plane the word names, fixed at reset by the start pose): {}",
-                    self.cells
-                        .iter()
-                        .filter_map(|c| {
-                            let g = c.accuracy.as_ref()?.of(kind)?;
-                            Some(format!(
-                                "{} {} (chance {})",
-                                c.level.as_deref().unwrap_or(&c.checkpoint),
-                                self.over_seeds(&g.region),
-                                g.region_chance
-                                    .mean
-                                    .map_or_else(|| "–".into(), |v| format!("{v:.3}"))
-                            ))
-                        })
-                        .collect::<Vec<_>>()
-                        .join("; ")
-                );
+            match kind {
+                WordKind::Object if figs.contains(&FIG7_OBJECT) => {
+                    let _ = writeln!(s, "\n![Object-word map accuracy (Fig. 7)]({FIG7_OBJECT})");
+                }
+                WordKind::Color if figs.contains(&FIG8_COLOR) => {
+                    let _ = writeln!(s, "\n![Colour-word map accuracy (Fig. 8)]({FIG8_COLOR})");
+                }
+                WordKind::Location => self.region_line(s),
+                _ => {}
             }
         }
-        self.around_table(&mut s);
-        self.words_table(&mut s);
-        s.push_str(&self.levels_markdown());
-        self.failure_table(&mut s);
-        self.exploration_tables(&mut s);
+    }
+
+    /// The line under the location table: each cell's region score beside its chance.
+    fn region_line(&self, s: &mut String) {
+        let kind = WordKind::Location;
+        let _ = writeln!(
+            s,
+            "\nRegion (the map's mass in the half-plane the word names, fixed at reset by the start pose): {}",
+            self.cells
+                .iter()
+                .filter_map(|c| {
+                    let g = c.accuracy.as_ref()?.of(kind)?;
+                    Some(format!(
+                        "{} {} (chance {})",
+                        c.level.as_deref().unwrap_or(&c.checkpoint),
+                        self.over_seeds(&g.region),
+                        g.region_chance
+                            .mean
+                            .map_or_else(|| "–".into(), |v| format!("{v:.3}"))
+                    ))
+                })
+                .collect::<Vec<_>>()
+                .join("; ")
+        );
+    }
+
+    /// The worst episodes: how they were chosen, then one row each with what replays it and
+    /// opens it in the debugger.
+    fn worst_table(&self, s: &mut String, failures: &[Failure]) {
         let _ = writeln!(s, "\n## Worst episodes\n");
+        let _ = writeln!(
+            s,
+            "`failed`: the `--top-k` longest failed episodes of each BabyAI level (the paper's cells \
+             together). `low_acc_cmb`: the episodes whose `acc_cmb` of `M` on its visible targets is \
+             under {LOW_ACC_CMB}, lowest first, at most `--top-k` per level, and none for a level \
+             whose lowest are all 0 (a ranking of zeros chooses nothing). An episode at or above \
+             {LOW_ACC_CMB} is not listed for its `acc_cmb`, so a success with a perfect `M` never is.\n"
+        );
+        if failures.is_empty() {
+            let _ = writeln!(
+                s,
+                "None: no episode failed, and none had an `acc_cmb` under {LOW_ACC_CMB}."
+            );
+            return;
+        }
         let skipped = failures
             .iter()
             .filter(|f| f.counterfactual_skipped.is_some())
@@ -257,7 +316,6 @@ impl Report {
                 f.view_command()
             );
         }
-        s
     }
 
     /// A mean ± std over this report's evaluation seeds as its tables show it: the mean alone

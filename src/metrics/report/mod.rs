@@ -2,14 +2,19 @@
 //! list of worst episodes. Everything is written to a temporary directory first and moved into
 //! place only when complete, so a failure leaves no partial report.
 
+mod bars;
 pub mod browse;
 mod failures;
+mod level_grounding;
 mod levels;
 pub(crate) mod markdown;
 mod plots;
+mod summary;
 
-pub use failures::{Failure, worst_episodes};
-pub use levels::{EPISODES_CSV_HEADER, episodes_csv};
+pub use failures::{Failure, LOW_ACC_CMB, worst_episodes};
+pub use level_grounding::FIG_GROUNDING_LEVELS;
+pub use levels::{EPISODES_CSV_HEADER, LEVELS_SUCCESS, episodes_csv};
+pub use summary::{GROUNDS_ABOVE_CHANCE, MAX_LINES as SUMMARY_MAX_LINES};
 
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -29,6 +34,15 @@ type Point = (f64, f64, f64);
 
 /// Version of the `report.json` schema.
 pub const SCHEMA_VERSION: u32 = 1;
+
+/// The paper's Fig. 6: mean reward, then success rate (the paper's level's cells).
+pub const FIG6_REWARD: &str = "fig6_reward.png";
+/// The paper's Fig. 6, success rate.
+pub const FIG6_SUCCESS: &str = "fig6_success.png";
+/// The paper's Fig. 7: the object word's four accuracies.
+pub const FIG7_OBJECT: &str = "fig7_object_accuracy.png";
+/// The paper's Fig. 8: the colour word's four accuracies.
+pub const FIG8_COLOR: &str = "fig8_color_accuracy.png";
 
 /// Accuracies of an attention checkpoint in one cell.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -372,6 +386,38 @@ impl Report {
         t.finish()
     }
 
+    /// The figures [`Report::write`] draws for this report, in no particular order; `report.md`
+    /// links each under the table it shows.
+    pub fn figure_names(&self) -> Vec<&'static str> {
+        // The paper's figures plot the paper's level over room sizes and object counts; BabyAI
+        // levels get their own figures.
+        let paper = |c: &Cell| c.level.is_none();
+        let mut figs = Vec::new();
+        if self.has_levels() {
+            figs.push(LEVELS_SUCCESS);
+        }
+        if self.has_grounding_levels() {
+            figs.push(FIG_GROUNDING_LEVELS);
+        }
+        if self.cells.iter().any(paper) {
+            figs.extend([FIG6_REWARD, FIG6_SUCCESS]);
+        }
+        if self.cells.iter().any(|c| paper(c) && c.accuracy.is_some()) {
+            figs.extend([FIG7_OBJECT, FIG8_COLOR]);
+        }
+        if self.cells.iter().any(|c| c.exploration.is_some()) {
+            figs.push(super::exploration::FIG_EXPLORATION);
+        }
+        if self
+            .cells
+            .iter()
+            .any(|c| c.exploration.as_ref().is_some_and(|x| x.all.maps.is_some()))
+        {
+            figs.push(super::exploration::FIG_EXPLORATION_MAPS);
+        }
+        figs
+    }
+
     /// Writes every file into `dir` (created if needed) through a [`crate::files::StagedDir`]:
     /// all of them appear together, or none. `episodes` is `episodes.csv` ([`episodes_csv`]).
     pub fn write(
@@ -406,81 +452,43 @@ impl Report {
         for (name, text) in &files {
             staged.write(name, text.as_bytes()).map_err(staged_err)?;
         }
-        // The paper's figures plot the paper's level over room sizes and object counts; BabyAI
-        // levels get their own figure.
+        let figs = self.figure_names();
         let paper = |c: &Cell| c.level.is_none();
-        let mut figs = Vec::new();
-        if self.has_levels() {
-            figs.push("levels_success.png");
-            self.levels_figure(&staged.path("levels_success.png"))?;
+        if figs.contains(&LEVELS_SUCCESS) {
+            self.levels_figure(&staged.path(LEVELS_SUCCESS))?;
         }
-        if self.cells.iter().any(paper) {
-            figs.extend(["fig6_reward.png", "fig6_success.png"]);
+        if figs.contains(&FIG_GROUNDING_LEVELS) {
+            self.grounding_levels_figure(&staged.path(FIG_GROUNDING_LEVELS))?;
+        }
+        if figs.contains(&FIG6_REWARD) {
             self.figure_of(
-                &staged.path("fig6_reward.png"),
+                &staged.path(FIG6_REWARD),
                 "Mean reward (Fig. 6)",
                 &paper,
                 &|c| vec![(c.checkpoint.clone(), c.reward)],
             )?;
             self.figure_of(
-                &staged.path("fig6_success.png"),
+                &staged.path(FIG6_SUCCESS),
                 "Success rate (Fig. 6)",
                 &paper,
                 &|c| vec![(c.checkpoint.clone(), c.success)],
             )?;
         }
-        if self.cells.iter().any(|c| paper(c) && c.accuracy.is_some()) {
-            figs.extend(["fig7_object_accuracy.png", "fig8_color_accuracy.png"]);
-            for (name, kind, title) in [
-                (
-                    "fig7_object_accuracy.png",
-                    WordKind::Object,
-                    "Object-word map accuracy (Fig. 7)",
-                ),
-                (
-                    "fig8_color_accuracy.png",
-                    WordKind::Color,
-                    "Colour-word map accuracy (Fig. 8)",
-                ),
-            ] {
-                self.figure_of(&staged.path(name), title, &paper, &|c| {
-                    let Some(a) = &c.accuracy else {
-                        return Vec::new();
-                    };
-                    let g = if kind == WordKind::Object {
-                        &a.object
-                    } else {
-                        &a.color
-                    };
-                    let prefix = if self
-                        .checkpoints
-                        .iter()
-                        .filter(|k| k.variant == "attention")
-                        .count()
-                        > 1
-                    {
-                        format!("{} ", c.checkpoint)
-                    } else {
-                        String::new()
-                    };
-                    vec![
-                        (format!("{prefix}acc"), g.acc),
-                        (format!("{prefix}acc_ng"), g.acc_ng),
-                        (format!("{prefix}acc_bs"), g.acc_bs),
-                        (format!("{prefix}acc_cmb"), g.acc_cmb),
-                    ]
-                })?;
-            }
+        if figs.contains(&FIG7_OBJECT) {
+            self.accuracy_figures(&staged, &paper)?;
         }
-        figs.extend(self.exploration_figures(staged.dir())?);
+        // The exploration figures are drawn on the conditions `figure_names` names them on.
+        let drawn = self.exploration_figures(staged.dir())?;
+        debug_assert!(drawn.iter().all(|f| figs.contains(f)), "{drawn:?}");
         // A directory reused from an evaluation with attention checkpoints must not keep
         // that run's accuracy figures beside this run's report.
         for stale in [
-            "fig6_reward.png",
-            "fig6_success.png",
-            "levels_success.png",
-            "fig7_object_accuracy.png",
-            "fig8_color_accuracy.png",
+            FIG6_REWARD,
+            FIG6_SUCCESS,
+            LEVELS_SUCCESS,
+            FIG_GROUNDING_LEVELS,
+            FIG7_OBJECT,
+            FIG8_COLOR,
             super::exploration::FIG_EXPLORATION,
             super::exploration::FIG_EXPLORATION_MAPS,
         ] {
@@ -497,11 +505,63 @@ impl Report {
         staged
             .commit_owned(|n| {
                 names.contains(&n)
-                    || n == "levels_success.png"
+                    || n == LEVELS_SUCCESS
                     || (n.starts_with("fig")
                         && Path::new(n).extension().is_some_and(|e| e == "png"))
             })
             .map_err(staged_err)?;
+        Ok(())
+    }
+}
+
+impl Report {
+    /// The paper's Figs. 7 and 8 (the object and colour words' four accuracies) of the cells
+    /// `paper` accepts, into `staged`.
+    fn accuracy_figures(
+        &self,
+        staged: &crate::files::StagedDir,
+        paper: &dyn Fn(&Cell) -> bool,
+    ) -> Result<(), MetricsError> {
+        for (name, kind, title) in [
+            (
+                FIG7_OBJECT,
+                WordKind::Object,
+                "Object-word map accuracy (Fig. 7)",
+            ),
+            (
+                FIG8_COLOR,
+                WordKind::Color,
+                "Colour-word map accuracy (Fig. 8)",
+            ),
+        ] {
+            self.figure_of(&staged.path(name), title, paper, &|c| {
+                let Some(a) = &c.accuracy else {
+                    return Vec::new();
+                };
+                let g = if kind == WordKind::Object {
+                    &a.object
+                } else {
+                    &a.color
+                };
+                let prefix = if self
+                    .checkpoints
+                    .iter()
+                    .filter(|k| k.variant == "attention")
+                    .count()
+                    > 1
+                {
+                    format!("{} ", c.checkpoint)
+                } else {
+                    String::new()
+                };
+                vec![
+                    (format!("{prefix}acc"), g.acc),
+                    (format!("{prefix}acc_ng"), g.acc_ng),
+                    (format!("{prefix}acc_bs"), g.acc_bs),
+                    (format!("{prefix}acc_cmb"), g.acc_cmb),
+                ]
+            })?;
+        }
         Ok(())
     }
 }

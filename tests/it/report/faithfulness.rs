@@ -207,6 +207,31 @@ fn the_command_writes_a_complete_report_with_controls() {
         csv.lines().count() - 1,
         c["analysed_steps"].as_u64().unwrap() as usize
     );
+    // faithfulness.md opens with its verdict in a sentence, from its own closed loops.
+    let md = std::fs::read_to_string(out.join("faithfulness.md")).unwrap();
+    let verdict = md.lines().nth(2).unwrap();
+    assert!(verdict.starts_with("**Verdict** (`"), "{md}");
+    let none = &c["closed_loop"]["none"]["success"]["mean"];
+    let unmodified = format!("(unmodified {:.3})", none.as_f64().unwrap());
+    assert!(
+        (verdict.contains("`M` is causal here:")
+            || verdict.contains("`M` is not shown to be causal here:"))
+            && verdict.contains(&unmodified),
+        "{verdict}"
+    );
+    // `--episodes` is per seed: the report says what they add up to (2 × 3 = 6 above), and
+    // so does the help.
+    assert!(
+        md.contains("2 seeds × 3 episodes per seed = 6 episodes per checkpoint and level"),
+        "{md}"
+    );
+    let help = gs(&["faithfulness", "--help"]);
+    let help = String::from_utf8_lossy(&help.stdout);
+    assert!(help.contains("--seeds × --episodes episodes"), "{help}");
+    // Every figure written is linked in faithfulness.md.
+    for f in names.iter().filter(|n| n.ends_with(".png")) {
+        assert!(md.contains(&format!("]({f})")), "{f} not linked:\n{md}");
+    }
 }
 
 #[test]

@@ -1,9 +1,11 @@
 //! What evaluations write: faithfulness (`faithfulness`), exploration coverage
-//! (`exploration`), CSV quoting (`csv_files`), the worst episodes' commands (`commands`), and
-//! the curves drawn from run logs (`curve`).
+//! (`exploration`), CSV quoting (`csv_files`), the worst episodes' commands (`commands`), the
+//! curves drawn from run logs (`curve`), and the summary and figure links of `report.md`
+//! (`summary`).
 
 mod commands;
 mod csv_files;
 mod curve;
 mod exploration;
 mod faithfulness;
+mod summary;

@@ -3,8 +3,9 @@
 //! value is paired with its control.
 
 mod text;
+pub mod verdict;
 
-pub use text::steps_csv;
+pub use text::{FIGURES, steps_csv};
 
 use std::collections::BTreeMap;
 

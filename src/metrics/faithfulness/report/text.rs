@@ -15,14 +15,73 @@ fn row(out: &mut String, what: &str, p: &Paired) {
     );
 }
 
+/// A checkpoint's figures: the file's stem and what it shows. `deletion` is drawn for every
+/// model, the other two for models with maps.
+pub const FIGURES: [(&str, &str); 3] = [
+    ("deletion", "Deletion and insertion curves"),
+    (
+        "rank_correlation",
+        "Per-step Spearman ρ(M, Δ) beside a permuted M",
+    ),
+    (
+        "effects",
+        "Success under each closed loop and counterfactual beside the unmodified episodes",
+    ),
+];
+
 impl FaithfulnessReport {
-    /// The report as Markdown: one table per checkpoint, every measure beside its control.
+    /// The figures drawn for checkpoint `i`: `(stem, what it shows, file)`, the file
+    /// `STEM.png`, or `STEM_i.png` when the report has several checkpoints; `deletion` for
+    /// every model, `rank_correlation` and `effects` for one with maps ([`FIGURES`]).
+    pub fn figure_files(&self, i: usize) -> Vec<(&'static str, &'static str, String)> {
+        let Some(c) = self.checkpoints.get(i) else {
+            return Vec::new();
+        };
+        let suffix = if self.checkpoints.len() == 1 {
+            String::new()
+        } else {
+            format!("_{i}")
+        };
+        FIGURES
+            .iter()
+            .filter(|(stem, _)| *stem == "deletion" || c.variant == "attention")
+            .map(|&(stem, what)| (stem, what, format!("{stem}{suffix}.png")))
+            .collect()
+    }
+
+    /// What ran, in a line: the levels, seeds × episodes per seed and their product (the
+    /// episodes behind each checkpoint and level), the actions.
+    fn run_line(&self) -> String {
+        let seeds = if self.seeds == 1 {
+            "1 seed".to_owned()
+        } else {
+            format!("{} seeds", self.seeds)
+        };
+        format!(
+            "Level {}, {seeds} × {} episodes per seed = {} episodes per checkpoint and level, {} actions; mean ± std over seeds. {:.1} s.",
+            self.level,
+            self.episodes_per_seed,
+            self.seeds * self.episodes_per_seed,
+            self.actions,
+            self.seconds
+        )
+    }
+
+    /// The report as Markdown: the verdict on each checkpoint in a sentence, what ran, then
+    /// one table per checkpoint, every measure beside its control, its figures under it.
     pub fn markdown(&self) -> String {
-        let mut out = format!(
-            "# Faithfulness\n\nLevel {}, {} seeds × {} episodes, {} actions; mean ± std over seeds. {:.1} s.\n",
-            self.level, self.seeds, self.episodes_per_seed, self.actions, self.seconds
-        );
+        let mut out = "# Faithfulness\n\n".to_owned();
         for c in &self.checkpoints {
+            let _ = writeln!(
+                out,
+                "**Verdict** (`{}`, {}): {}\n",
+                c.checkpoint,
+                c.level,
+                super::verdict::sentence(c)
+            );
+        }
+        let _ = writeln!(out, "{}", self.run_line());
+        for (i, c) in self.checkpoints.iter().enumerate() {
             let _ = write!(
                 out,
                 "\n## {} ({}, {})\n\n{} episodes, {} analysed steps, success {}.\n\n| measure | value | control |\n|---|---|---|\n",
@@ -114,6 +173,10 @@ impl FaithfulnessReport {
                     &format!("{k} map: relevance rank accuracy"),
                     &l.rank_accuracy,
                 );
+            }
+            out.push('\n');
+            for (_, what, file) in self.figure_files(i) {
+                let _ = writeln!(out, "![{what}]({file})");
             }
         }
         out
