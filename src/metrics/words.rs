@@ -380,6 +380,9 @@ mod tests {
             ],
             door: None,
             location: None,
+            goal: None,
+            lava: None,
+            opening: None,
         };
         let perf = Performance {
             reward: m(1.0),

@@ -224,7 +224,11 @@ mod tests {
             let Some(Rules::Memory { success, .. }) = &w.rules else {
                 panic!()
             };
-            let start = w.grid.get((1, w.grid.height() as i32 / 2 - 1)).unwrap().kind;
+            let start = w
+                .grid
+                .get((1, w.grid.height() as i32 / 2 - 1))
+                .unwrap()
+                .kind;
             let end = [(success.0, success.1 - 1), (success.0, success.1 + 1)]
                 .into_iter()
                 .find_map(|p| w.grid.get(p))

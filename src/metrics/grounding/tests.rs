@@ -188,11 +188,15 @@ fn each_word_is_scored_on_what_it_names_on_every_instruction_kind() {
         "BabyAI-PutNextLocal-v0",
         "BabyAI-SynthSeq-v0",
         "BabyAI-OpenDoorLoc-v0",
+        // MiniGrid's own words: goal, lava, opening, and colours of goals and rooms.
+        "MiniGrid-LavaGapS5-v0",
+        "MiniGrid-SimpleCrossingS9N1-v0",
+        "MiniGrid-DoorKey-5x5-v0",
+        "MiniGrid-PutNear-6x6-N2-v0",
+        "MiniGrid-LockedRoom-v0",
     ] {
-        let level = LevelConfig {
-            babyai: Some(LevelId::parse(id).unwrap()),
-            ..LevelConfig::default()
-        };
+        // BabyAI's in the paper's done-action mode as before; MiniGrid's have none.
+        let level = LevelConfig::babyai(LevelId::parse(id).unwrap(), id.starts_with("BabyAI-"));
         for seed in 0..40 {
             let mut world = level.generate(seed).unwrap();
             for step in 0..6 {
@@ -218,6 +222,9 @@ fn each_word_is_scored_on_what_it_names_on_every_instruction_kind() {
                                 assert_eq!(Some(color.name()), word, "{id} {seed}");
                             }
                             WordKind::Door => assert_eq!(kind, ObjectKind::Door),
+                            WordKind::Goal => assert_eq!(kind, ObjectKind::Goal),
+                            WordKind::Lava => assert_eq!(kind, ObjectKind::Lava),
+                            WordKind::Opening => assert_eq!(kind, ObjectKind::Empty),
                             _ => {}
                         }
                     }

@@ -70,6 +70,9 @@ fn kind_phrase(kind: WordKind) -> &'static str {
         WordKind::Combined => "`M` on the targets",
         WordKind::Door => "\"door\"",
         WordKind::Location => "location words",
+        WordKind::Goal => "\"goal\"",
+        WordKind::Lava => "\"lava\"",
+        WordKind::Opening => "\"opening\"",
     }
 }
 
@@ -87,7 +90,7 @@ fn range(values: &[f64]) -> String {
 
 /// The [`range`] of a figure `f` reads off each of `stats` (those it has).
 fn range_of(stats: &[&GroundingStats], f: &dyn Fn(&GroundingStats) -> Option<f64>) -> String {
-    range(&stats.iter().filter_map(|g| f(*g)).collect::<Vec<f64>>())
+    range(&stats.iter().filter_map(|g| f(g)).collect::<Vec<f64>>())
 }
 
 impl Report {
@@ -376,6 +379,9 @@ mod tests {
             words: Vec::new(),
             door: Some(stats(0.08, 0.04, 0.05, 200)),
             location: Some(stats(0.0, 0.03, 0.0, 1)),
+            goal: None,
+            lava: None,
+            opening: None,
         };
         Cell::new("ck", "attention", 8, 0, episodes, &perf, Some(accuracy))
             .with_level(Some(level.to_owned()))

@@ -192,6 +192,19 @@ pub fn for_each_fixture(set: &str, check: impl Fn(&Path) -> Result<(), String>) 
 }
 
 /// A training run small enough to take milliseconds an update (S5N1, go to, 2 × 8 frames,
+/// A one-seed sweep whose episodes include failures and poorly grounded ones (the bundled
+/// attention model on S16N10, 12 episodes: 2 fail), so that `--export-failures` records some.
+pub const FAILING_SWEEP: [&str; 8] = [
+    "--sizes",
+    "16",
+    "--objects",
+    "10",
+    "--seeds",
+    "1",
+    "--episodes",
+    "12",
+];
+
 /// hidden 8): flag and value pairs.
 pub const TINY_RUN: [&str; 14] = [
     "--size",

@@ -304,8 +304,10 @@ fn a_reused_output_directory_keeps_no_earlier_outputs() {
         "3",
         "--quiet",
     ];
+    // A sweep with failures to record (the 8×8 room's episodes all succeed, and only episodes
+    // that failed or ground poorly are exported).
     let mut first = vec!["eval", "--out", o, "--export-failures", "--top-k", "2"];
-    first.extend(small);
+    first.extend(crate::common::FAILING_SWEEP);
     assert_eq!(gs(&first).status.code(), Some(0));
     assert!(out.join("fig7_object_accuracy.png").exists());
     assert!(std::fs::read_dir(out.join("failures")).unwrap().count() > 0);

@@ -110,7 +110,7 @@ fn a_failing_export_keeps_the_earlier_report_and_recordings() {
         "2",
         "--quiet",
     ];
-    first.extend(SMALL_SWEEP);
+    first.extend(crate::common::FAILING_SWEEP);
     let r = gs(&first);
     assert_eq!(r.status.code(), Some(0), "{}", stderr(&r));
     let before = tree(&out);
@@ -130,13 +130,13 @@ fn a_failing_export_keeps_the_earlier_report_and_recordings() {
         .args(["--checkpoint", "bundled:attention", "--quiet"])
         .args([
             "--sizes",
-            "8",
+            "16",
             "--objects",
-            "4",
+            "10",
             "--seeds",
             "1",
             "--episodes",
-            "3",
+            "10",
         ])
         .env("RAYON_NUM_THREADS", "1")
         .output()

@@ -229,7 +229,11 @@ fn the_command_writes_a_complete_report_with_controls() {
     let help = String::from_utf8_lossy(&help.stdout);
     assert!(help.contains("--seeds × --episodes episodes"), "{help}");
     // Every figure written is linked in faithfulness.md.
-    for f in names.iter().filter(|n| n.ends_with(".png")) {
+    for f in names.iter().filter(|n| {
+        std::path::Path::new(n)
+            .extension()
+            .is_some_and(|e| e == "png")
+    }) {
         assert!(md.contains(&format!("]({f})")), "{f} not linked:\n{md}");
     }
 }

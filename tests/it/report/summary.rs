@@ -36,7 +36,7 @@ fn figures(dir: &Path) -> Vec<String> {
     let mut names: Vec<String> = std::fs::read_dir(dir)
         .unwrap()
         .map(|e| e.unwrap().file_name().into_string().unwrap())
-        .filter(|n| n.ends_with(".png"))
+        .filter(|n| Path::new(n).extension().is_some_and(|e| e == "png"))
         .collect();
     names.sort();
     names
