@@ -42,78 +42,80 @@ pub struct TrainArgs {
     /// Save a checkpoint every this many updates.
     #[arg(long, default_value_t = groundscope::run::DEFAULT_SAVE_INTERVAL, allow_negative_numbers = true)]
     pub save_interval: u64,
-    #[command(flatten)]
+    #[command(flatten, next_help_heading = "Level")]
     pub level: LevelArgs,
     /// Train on several registered levels at once: ids separated by commas, each optionally
     /// weighted `ID:WEIGHT` (default 1), e.g. BabyAI-GoToLocal-v0:2,BabyAI-PickupLoc-v0. Each
     /// episode's level is drawn by its seed; `--done` applies to all; the tracked evaluation
     /// runs on every level and writes their mean too.
     #[arg(
+        help_heading = "Level",
         long,
         value_name = "IDS",
         conflicts_with_all = ["level", "size", "objects", "tasks", "always_color", "no_done"]
     )]
     pub levels: Option<String>,
     /// Environments stepped together.
-    #[arg(long, default_value_t = PpoConfig::default().procs, allow_negative_numbers = true)]
+    #[arg(help_heading = "PPO", long, default_value_t = PpoConfig::default().procs, allow_negative_numbers = true)]
     pub procs: usize,
     /// Frames per environment per update.
-    #[arg(long, default_value_t = PpoConfig::default().frames_per_proc, allow_negative_numbers = true)]
+    #[arg(help_heading = "PPO", long, default_value_t = PpoConfig::default().frames_per_proc, allow_negative_numbers = true)]
     pub frames_per_proc: usize,
     /// PPO epochs per update.
-    #[arg(long, default_value_t = PpoConfig::default().epochs, allow_negative_numbers = true)]
+    #[arg(help_heading = "PPO", long, default_value_t = PpoConfig::default().epochs, allow_negative_numbers = true)]
     pub epochs: usize,
     /// Frames per minibatch.
-    #[arg(long, default_value_t = PpoConfig::default().batch_size, allow_negative_numbers = true)]
+    #[arg(help_heading = "PPO", long, default_value_t = PpoConfig::default().batch_size, allow_negative_numbers = true)]
     pub batch_size: usize,
     /// BPTT chunk length.
-    #[arg(long, default_value_t = PpoConfig::default().recurrence, allow_negative_numbers = true)]
+    #[arg(help_heading = "PPO", long, default_value_t = PpoConfig::default().recurrence, allow_negative_numbers = true)]
     pub recurrence: usize,
     /// Adam learning rate.
-    #[arg(long, default_value_t = PpoConfig::default().lr, allow_negative_numbers = true)]
+    #[arg(help_heading = "PPO", long, default_value_t = PpoConfig::default().lr, allow_negative_numbers = true)]
     pub lr: f64,
     /// Adam epsilon.
-    #[arg(long, default_value_t = PpoConfig::default().adam_eps, allow_negative_numbers = true)]
+    #[arg(help_heading = "PPO", long, default_value_t = PpoConfig::default().adam_eps, allow_negative_numbers = true)]
     pub adam_eps: f64,
     /// Discount factor.
-    #[arg(long, default_value_t = PpoConfig::default().discount, allow_negative_numbers = true)]
+    #[arg(help_heading = "PPO", long, default_value_t = PpoConfig::default().discount, allow_negative_numbers = true)]
     pub discount: f64,
     /// GAE lambda.
-    #[arg(long, default_value_t = PpoConfig::default().gae_lambda, allow_negative_numbers = true)]
+    #[arg(help_heading = "PPO", long, default_value_t = PpoConfig::default().gae_lambda, allow_negative_numbers = true)]
     pub gae_lambda: f64,
     /// Entropy bonus coefficient.
-    #[arg(long, default_value_t = PpoConfig::default().entropy_coef, allow_negative_numbers = true)]
+    #[arg(help_heading = "PPO", long, default_value_t = PpoConfig::default().entropy_coef, allow_negative_numbers = true)]
     pub entropy_coef: f64,
     /// Value loss coefficient.
-    #[arg(long, default_value_t = PpoConfig::default().value_loss_coef, allow_negative_numbers = true)]
+    #[arg(help_heading = "PPO", long, default_value_t = PpoConfig::default().value_loss_coef, allow_negative_numbers = true)]
     pub value_loss_coef: f64,
     /// Gradient-norm clip.
-    #[arg(long, default_value_t = PpoConfig::default().max_grad_norm, allow_negative_numbers = true)]
+    #[arg(help_heading = "PPO", long, default_value_t = PpoConfig::default().max_grad_norm, allow_negative_numbers = true)]
     pub max_grad_norm: f64,
     /// PPO clip epsilon.
-    #[arg(long, default_value_t = PpoConfig::default().clip_eps, allow_negative_numbers = true)]
+    #[arg(help_heading = "PPO", long, default_value_t = PpoConfig::default().clip_eps, allow_negative_numbers = true)]
     pub clip_eps: f64,
     /// Threads for the whole update: the rollout's environments and forward passes, each
     /// minibatch's forward and backward pass and the optimizer step are split over them
     /// (results depend on the count, never on timing). `--update-threads` is the old name.
-    #[arg(long, alias = "update-threads", default_value_t = PpoConfig::default().threads, allow_negative_numbers = true)]
+    #[arg(help_heading = "PPO", long, alias = "update-threads", default_value_t = PpoConfig::default().threads, allow_negative_numbers = true)]
     pub threads: usize,
     /// Multiply rewards by this for GAE and the value loss (BabyAI: 20); logs stay unscaled.
-    #[arg(long, default_value_t = PpoConfig::default().reward_scale, allow_negative_numbers = true)]
+    #[arg(help_heading = "PPO", long, default_value_t = PpoConfig::default().reward_scale, allow_negative_numbers = true)]
     pub reward_scale: f64,
     /// Normalise each rollout's advantages to mean 0, standard deviation 1.
-    #[arg(long)]
+    #[arg(help_heading = "PPO", long)]
     pub normalize_advantages: bool,
     /// Imitation learning: behavioural cloning of minigrid's BabyAI bot on demonstrations made
     /// on the fly (the bot's actions are taken; the policy loss is their cross-entropy), with
     /// the entropy bonus and value loss as PPO's; the rest of the run (rollouts, recurrence,
     /// logs, checkpoints, `--resume`) as a PPO run's. Then PPO from its weights: `--init RUN`.
-    #[arg(long)]
+    #[arg(help_heading = "Imitation", long)]
     pub imitate: bool,
     /// With --imitate: the share of steps (0 to 1) that take the policy's own sampled action
     /// while the bot's advice stays the label (DAgger's mixture: the bot replans from where
     /// the agent went, so the policy learns to recover from its mistakes); 0 is pure cloning.
     #[arg(
+        help_heading = "Imitation",
         long,
         value_name = "P",
         default_value_t = 0.0,
@@ -125,6 +127,7 @@ pub struct TrainArgs {
     /// the objects it names in view, and of M's mass on the objects the clauses waited on
     /// matched, added to the loss times λ. Attention models only; named in the checkpoint.
     #[arg(
+        help_heading = "Maps",
         long,
         value_name = "LAMBDA",
         default_value_t = 0.0,
@@ -133,28 +136,53 @@ pub struct TrainArgs {
     pub ground_loss: f64,
     /// Anneal the word temperature from --word-temperature (the model's, with --init) to 1,
     /// the paper's, linearly between START and END frames: START:END, e.g. 6000000:9000000.
-    #[arg(long, value_name = "START:END", allow_hyphen_values = true)]
+    #[arg(
+        help_heading = "Maps",
+        long,
+        value_name = "START:END",
+        allow_hyphen_values = true
+    )]
     pub word_temperature_anneal: Option<String>,
     /// From this many frames on, stop training the parameters that compute the word maps
     /// (word embeddings, encoder, query and key projections); the LSTM, the mission GRU, actor
     /// and critic keep learning. Attention models only.
-    #[arg(long, value_name = "FRAMES", allow_negative_numbers = true)]
+    #[arg(
+        help_heading = "Maps",
+        long,
+        value_name = "FRAMES",
+        allow_negative_numbers = true
+    )]
     pub freeze_attention_at: Option<u64>,
     /// Evaluate greedily on the held-out validation levels every this many updates and append
     /// the result to eval_log.csv (0: never).
-    #[arg(long, default_value_t = 50, allow_negative_numbers = true)]
+    #[arg(
+        help_heading = "Tracked evaluation",
+        long,
+        default_value_t = 50,
+        allow_negative_numbers = true
+    )]
     pub eval_interval: u64,
     /// Held-out validation episodes per evaluation (level seeds 2^31 + e, never trained on and
     /// not among `eval`'s test seeds).
-    #[arg(long, default_value_t = 200, allow_negative_numbers = true)]
+    #[arg(
+        help_heading = "Tracked evaluation",
+        long,
+        default_value_t = 200,
+        allow_negative_numbers = true
+    )]
     pub eval_episodes: u64,
     /// Hidden size of the LSTM and GRU (smaller trains faster; the paper's default is 128).
-    #[arg(long, default_value_t = 128, allow_negative_numbers = true)]
+    #[arg(
+        help_heading = "Model",
+        long,
+        default_value_t = 128,
+        allow_negative_numbers = true
+    )]
     pub hidden: usize,
-    #[command(flatten)]
+    #[command(flatten, next_help_heading = "Model")]
     pub model_options: ModelOptions,
     /// Hide the progress bar (log lines only).
-    #[arg(long)]
+    #[arg(help_heading = "Output", long)]
     pub quiet: bool,
 }
 

@@ -567,3 +567,34 @@ fn without_a_checkpoint_every_command_opens_a_model_that_reads_the_level() {
         "{md}"
     );
 }
+
+/// `train --help` groups its flags under headings, and `eval --help` shows `--levels`.
+#[test]
+fn help_groups_trains_flags_and_shows_a_levels_sweep() {
+    let out = stdout(&gs(&["train", "--help"]));
+    let mut at = 0;
+    for heading in [
+        "Level:",
+        "PPO:",
+        "Imitation:",
+        "Maps:",
+        "Tracked evaluation:",
+        "Model:",
+    ] {
+        let i = out
+            .find(&format!("\n{heading}\n"))
+            .unwrap_or_else(|| panic!("{heading}: {out}"));
+        assert!(i > at, "{heading} out of order");
+        at = i;
+    }
+    let ppo = &out[out.find("\nPPO:\n").unwrap()..out.find("\nImitation:\n").unwrap()];
+    assert!(
+        ppo.contains("--entropy-coef") && !ppo.contains("--ground-loss"),
+        "{ppo}"
+    );
+    let eval = stdout(&gs(&["eval", "--help"]));
+    assert!(
+        eval.contains("groundscope eval --checkpoint bundled:babyai --levels "),
+        "{eval}"
+    );
+}
