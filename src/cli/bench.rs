@@ -23,7 +23,8 @@ pub enum BenchCommand {
         /// Resets (level generations) to time on their own.
         #[arg(long, default_value_t = 20_000, allow_negative_numbers = true)]
         resets: u64,
-        /// A BabyAI level by its gym id (default: the paper's level), in its registered mode.
+        /// A level by its gym id, BabyAI's or MiniGrid's, or a MiniGrid class with its
+        /// arguments (default: the paper's level), in its registered mode.
         #[arg(long, value_name = "ID")]
         level: Option<String>,
         /// `--done` / `--no-done`, as every command that runs a level takes them.

@@ -193,8 +193,9 @@ pub struct EpisodeArgs {
     /// Number of objects; defaults to the checkpoint's level.
     #[arg(long, value_name = "N", allow_negative_numbers = true)]
     pub objects: Option<usize>,
-    /// A BabyAI level by its gym id (`groundscope env list`), instead of the paper's, as
-    /// minigrid registers it (no `done` action; `--done` for the done-action mode).
+    /// A level by its gym id (`groundscope env list`: BabyAI's or MiniGrid's), or a MiniGrid
+    /// class with its arguments, instead of the paper's, as minigrid registers it (no `done`
+    /// action; `--done` for BabyAI's done-action mode).
     #[arg(
         long,
         visible_alias = "levels",
