@@ -28,6 +28,17 @@ pub fn visible_objects(
     obs: &Observation,
     pred: impl Fn(ObjectKind, Color) -> bool,
 ) -> Vec<ViewCell> {
+    visible_cells_where(obs, |k, c| {
+        (k.can_pickup() || k == ObjectKind::Door) && pred(k, c)
+    })
+}
+
+/// The view cells (not the agent's own) whose encoding names a kind and colour satisfying
+/// `pred`, in view order; unseen cells encode no kind a predicate asks for.
+pub fn visible_cells_where(
+    obs: &Observation,
+    pred: impl Fn(ObjectKind, Color) -> bool,
+) -> Vec<ViewCell> {
     let mut out = Vec::new();
     for vy in 0..VIEW_SIZE {
         for vx in 0..VIEW_SIZE {
@@ -39,7 +50,7 @@ pub fn visible_objects(
             else {
                 continue;
             };
-            if (kind.can_pickup() || kind == ObjectKind::Door) && pred(kind, color) {
+            if pred(kind, color) {
                 out.push((vx, vy));
             }
         }
@@ -204,11 +215,24 @@ pub fn pending_targets(world: &World, obs: &Observation) -> Vec<ViewCell> {
 /// The view cells of the objects `ids` that are on the grid and visible (not the agent's own
 /// cell), in view order (row by row from the far row).
 pub fn visible_cells_of(world: &World, obs: &Observation, ids: &[ObjectId]) -> Vec<ViewCell> {
-    let mut cells: Vec<ViewCell> = world
+    let cells = world
         .grid
         .objects()
         .filter(|(_, o)| ids.contains(&o.id))
-        .filter_map(|(p, _)| view_from_world(world.agent_pos, world.agent_dir, p))
+        .map(|(p, _)| p);
+    visible_world_cells(world, obs, cells)
+}
+
+/// World cells as the visible view cells they are (not the agent's own), in view order (row by
+/// row from the far row), each once.
+pub fn visible_world_cells(
+    world: &World,
+    obs: &Observation,
+    cells: impl IntoIterator<Item = super::Pos>,
+) -> Vec<ViewCell> {
+    let mut cells: Vec<ViewCell> = cells
+        .into_iter()
+        .filter_map(|p| view_from_world(world.agent_pos, world.agent_dir, p))
         .filter(|&c| c != AGENT_IN_VIEW && obs.visible(c))
         .collect();
     cells.sort_by_key(|&(vx, vy)| (vy, vx));

@@ -351,7 +351,7 @@ mod tests {
     /// The words table of `report.md`: every value with its count, ⚠ only over enough steps.
     #[test]
     fn the_words_table_shows_counts_and_flags_only_well_measured_words() {
-        use crate::metrics::report::{Cell, CellAccuracy, Report, SCHEMA_VERSION};
+        use crate::metrics::report::{Cell, CellAccuracy, Report};
         use crate::metrics::sweep::{MeanStd, Performance};
         let m = |v: f64| MeanStd {
             mean: Some(v),
@@ -390,19 +390,10 @@ mod tests {
             length: m(5.0),
             reward_given_success: m(1.0),
         };
-        let report = Report {
-            schema_version: SCHEMA_VERSION,
-            groundscope_version: String::new(),
-            alpha: 0.5,
-            mode: "greedy".into(),
-            seeds: 1,
-            first_seed: 0,
-            episodes_per_seed: 4,
-            saliency: false,
-            checkpoints: Vec::new(),
-            cells: vec![Cell::new("ck", "attention", 8, 4, 4, &perf, Some(accuracy))],
-            elapsed_secs: 0.0,
-        };
+        let report = Report::of_cells(
+            vec![Cell::new("ck", "attention", 8, 4, 4, &perf, Some(accuracy))],
+            4,
+        );
         let mut s = String::new();
         report.words_table(&mut s);
         let row = s

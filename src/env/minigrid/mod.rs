@@ -176,11 +176,8 @@ pub fn generate(
     let see_through = class.see_through_walls();
     let rooms = g.rooms;
     let box_contents = std::mem::take(&mut g.box_contents);
-    let mut rules = made.rules;
-    if let Rules::DynamicObstacles { rng: own, .. } = &mut rules {
-        // The balls draw from the env's own stream at every step.
-        own.clone_from(&g.rng);
-    }
+    // Dynamic-Obstacles' rules took the stream where its `_gen_grid` ended (the last draws).
+    let rules = made.rules;
     let mut world = World::minigrid(
         std::mem::replace(&mut g.grid, Grid::empty()),
         rooms,

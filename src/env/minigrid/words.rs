@@ -17,8 +17,10 @@ use super::Rules;
 use crate::env::grid::Pos;
 use crate::env::object::{Color, ObjectKind};
 use crate::env::roles::{DescPart, WordClass, WordRole};
-use crate::env::targets::{WordKind, WordTargets, visible_objects};
-use crate::env::view::{AGENT_IN_VIEW, Observation, ViewCell, view_from_world};
+use crate::env::targets::{
+    WordKind, WordTargets, visible_cells_where, visible_objects, visible_world_cells,
+};
+use crate::env::view::{Observation, ViewCell};
 use crate::env::vocab::split_words;
 use crate::env::world::World;
 
@@ -81,7 +83,10 @@ pub fn word_targets(world: &World, obs: &Observation, n_words: usize) -> Vec<Wor
             }
             WordClass::Goal => (WordKind::Goal, cells_of_kind(obs, ObjectKind::Goal)),
             WordClass::Lava => (WordKind::Lava, cells_of_kind(obs, ObjectKind::Lava)),
-            WordClass::Opening => (WordKind::Opening, in_view(world, obs, openings(world))),
+            WordClass::Opening => (
+                WordKind::Opening,
+                visible_world_cells(world, obs, openings(world)),
+            ),
             WordClass::Location | WordClass::Other => continue,
         };
         out.push(WordTargets {
@@ -96,44 +101,14 @@ pub fn word_targets(world: &World, obs: &Observation, n_words: usize) -> Vec<Wor
 
 /// The visible cells (not the agent's own) whose encoding is `kind`.
 fn cells_of_kind(obs: &Observation, kind: ObjectKind) -> Vec<ViewCell> {
-    view_cells(obs, |k, _| k == kind)
+    visible_cells_where(obs, |k, _| k == kind)
 }
 
 /// Visible keys, balls, boxes, doors and goals of colour `c`.
 fn coloured(obs: &Observation, c: Color) -> Vec<ViewCell> {
-    view_cells(obs, |k, col| {
+    visible_cells_where(obs, |k, col| {
         col == c && (k.can_pickup() || matches!(k, ObjectKind::Door | ObjectKind::Goal))
     })
-}
-
-/// The view cells, far row first, whose visible encoding satisfies `pred`.
-fn view_cells(obs: &Observation, pred: impl Fn(ObjectKind, Color) -> bool) -> Vec<ViewCell> {
-    let mut out = Vec::new();
-    for vy in 0..crate::env::view::VIEW_SIZE {
-        for vx in 0..crate::env::view::VIEW_SIZE {
-            if (vx, vy) == AGENT_IN_VIEW || !obs.visible((vx, vy)) {
-                continue;
-            }
-            let [t, c, _] = obs.image[vx][vy];
-            if let (Some(k), Some(col)) = (ObjectKind::from_index(t), Color::from_index(c))
-                && pred(k, col)
-            {
-                out.push((vx, vy));
-            }
-        }
-    }
-    out
-}
-
-/// World cells as visible view cells (not the agent's own), far row first.
-fn in_view(world: &World, obs: &Observation, cells: Vec<Pos>) -> Vec<ViewCell> {
-    let mut out: Vec<ViewCell> = cells
-        .into_iter()
-        .filter_map(|p| view_from_world(world.agent_pos, world.agent_dir, p))
-        .filter(|&c| c != AGENT_IN_VIEW && obs.visible(c))
-        .collect();
-    out.sort_by_key(|&(vx, vy)| (vy, vx));
-    out
 }
 
 /// The gaps of the wall (or lava) rivers: an interior row or column all obstacle but one cell,
@@ -172,9 +147,8 @@ fn matching_end(world: &World, obs: &Observation) -> Vec<ViewCell> {
     let beside = [(success.0, success.1 - 1), (success.0, success.1 + 1)];
     let cells = beside
         .into_iter()
-        .filter(|&p| world.grid.get(p).is_some_and(|o| o.kind.can_pickup()))
-        .collect();
-    in_view(world, obs, cells)
+        .filter(|&p| world.grid.get(p).is_some_and(|o| o.kind.can_pickup()));
+    visible_world_cells(world, obs, cells)
 }
 
 #[cfg(test)]

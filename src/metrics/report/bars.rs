@@ -233,7 +233,6 @@ impl Report {
 
 #[cfg(test)]
 mod tests {
-    use super::super::SCHEMA_VERSION;
     use super::*;
     use crate::metrics::sweep::Performance;
 
@@ -255,19 +254,10 @@ mod tests {
         let cell = |id: &str| {
             Cell::new("ck", "baseline", 8, 0, 4, &perf, None).with_level(Some(id.to_owned()))
         };
-        let report = Report {
-            schema_version: SCHEMA_VERSION,
-            groundscope_version: String::new(),
-            alpha: 0.5,
-            mode: "greedy".into(),
-            seeds: 1,
-            first_seed: 0,
-            episodes_per_seed: 4,
-            saliency: false,
-            checkpoints: Vec::new(),
-            cells: vec![cell("BabyAI-GoToLocal-v0"), cell("BabyAI-PickupLoc-v0")],
-            elapsed_secs: 0.0,
-        };
+        let report = Report::of_cells(
+            vec![cell("BabyAI-GoToLocal-v0"), cell("BabyAI-PickupLoc-v0")],
+            4,
+        );
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("bars.png");
         report

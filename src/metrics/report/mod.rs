@@ -296,6 +296,26 @@ pub struct Report {
     pub elapsed_secs: f64,
 }
 
+#[cfg(test)]
+impl Report {
+    /// A one-seed greedy report of `cells`, `episodes_per_seed` episodes each, for unit tests.
+    pub(crate) fn of_cells(cells: Vec<Cell>, episodes_per_seed: u64) -> Self {
+        Self {
+            schema_version: SCHEMA_VERSION,
+            groundscope_version: String::new(),
+            alpha: 0.5,
+            mode: "greedy".into(),
+            seeds: 1,
+            first_seed: 0,
+            episodes_per_seed,
+            saliency: false,
+            checkpoints: Vec::new(),
+            cells,
+            elapsed_secs: 0.0,
+        }
+    }
+}
+
 impl Report {
     /// Whether some cell is on a registered BabyAI level (`eval --levels`): `size` and
     /// `objects` do not tell two such levels apart, so the tables and CSVs that name cells by

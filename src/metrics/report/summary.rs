@@ -342,7 +342,7 @@ impl Report {
 
 #[cfg(test)]
 mod tests {
-    use super::super::{CellAccuracy, SCHEMA_VERSION};
+    use super::super::CellAccuracy;
     use super::*;
     use crate::metrics::sweep::{MeanStd, Performance, grounding};
 
@@ -389,19 +389,7 @@ mod tests {
     }
 
     fn report(cells: Vec<Cell>) -> Report {
-        Report {
-            schema_version: SCHEMA_VERSION,
-            groundscope_version: String::new(),
-            alpha: 0.5,
-            mode: "greedy".into(),
-            seeds: 1,
-            first_seed: 0,
-            episodes_per_seed: 20,
-            saliency: false,
-            checkpoints: Vec::new(),
-            cells,
-            elapsed_secs: 0.0,
-        }
+        Report::of_cells(cells, 20)
     }
 
     #[test]
