@@ -9,7 +9,10 @@
 //!   3.2.0; pure, no I/O, no ML.
 //! - [`bot`]: minigrid's BabyAI bot, a planner with privileged state beside the world.
 //! - [`policy`]: the attention model and its baseline (candle), imported ONNX agents, PPO.
-//! - [`run`]: a training run's life — its directory, lock, resume rule and logs.
+//! - [`run`]: a training run's one front door — its spec and the one list of its defaults,
+//!   its directory and lock, crash-safe checkpoints, the resume rule (what differs from the
+//!   run's own settings), logs and typed errors; `train`, a study's runs and Python's `train`
+//!   start runs through it.
 //! - [`study`]: seeds × recipes × levels planned into runs, for this machine, Slurm or Ray.
 //! - [`episode`]: a checkpoint run on an episode, the trace every consumer reads.
 //! - [`metrics`]: grounding, faithfulness, failure classes, sweeps and reports.

@@ -193,7 +193,7 @@ def record(
 def train(
     out: str | os.PathLike,
     levels: str | list[str] | None = None,
-    frames: int = 100_000,
+    frames: int | None = None,
     *,
     resume: bool = False,
     callback=None,
@@ -203,22 +203,30 @@ def train(
     (model, checkpoints, log.csv, eval_log.csv, curve), so that either resumes the other's.
 
     A new run trains on ``levels`` (a BabyAI id, a paper level's id or a list of them, in equal
-    shares) to ``frames`` frames in all. Settings, each the command's default when left out:
-    ``model`` ("attention" or "baseline"), ``hidden``, ``lr``, ``procs``,
-    ``frames_per_proc``, ``batch_size``, ``imitate`` (clone minigrid's bot instead of PPO),
-    ``ground_loss``, ``seed``, ``init`` (a checkpoint, run directory or bundled name to start
-    from), and the tracking ones ``eval_interval``, ``eval_episodes``, ``save_interval``.
+    shares) to ``frames`` frames in all. The settings are ``groundscope train``'s flags in
+    snake case (``--frames-per-proc``: ``frames_per_proc``), each a run's default when left out
+    or ``None`` (the command's defaults, kept in one place by the core — ``frames`` included):
+    ``model`` ("attention" or "baseline"), ``hidden``, ``seed``, ``init`` (a checkpoint, run
+    directory or bundled name to start from); PPO's ``procs``, ``frames_per_proc``,
+    ``epochs``, ``batch_size``, ``recurrence``, ``lr``, ``adam_eps``, ``discount``,
+    ``gae_lambda``, ``entropy_coef``, ``value_loss_coef``, ``max_grad_norm``, ``clip_eps``,
+    ``threads``, ``reward_scale``, ``normalize_advantages``; ``imitate`` (clone minigrid's bot
+    instead of PPO) and ``imitate_policy_share``; the maps' ``ground_loss``,
+    ``word_temperature_anneal`` ("START:END") and ``freeze_attention_at``; and the tracking
+    ones ``eval_interval``, ``eval_episodes``, ``save_interval``.
 
-    ``resume=True`` goes on from the run's last checkpoint with its own settings (giving one
-    is a ``ValueError``; the tracking ones may change). ``callback(log)`` gets each update's
+    ``resume=True`` goes on from the run's last checkpoint with its own settings: one given
+    with another value than the run's is a ``ValueError`` naming it (the tracking ones may
+    change; ``init`` starts a new run and is refused). ``callback(log)`` gets each update's
     log (a dict: update, frames, success_rate, mean_reward, entropy, losses, fps); returning
     ``False`` stops the run, saved. Ctrl-C stops it after the update, saved. Bad input is a
-    ``ValueError`` raised before anything is written. Returns the last update's log with
-    ``checkpoint``, the run directory (what ``init``, ``groundscope eval --checkpoint`` and
-    ``view --checkpoint`` accept); a resume with nothing left to do returns the run's last
-    logged update so.
+    ``ValueError`` raised before anything is written (imitation on levels the bot labels
+    nothing of included). Returns the last update's log with ``checkpoint``, the run
+    directory (what ``init``, ``groundscope eval --checkpoint`` and ``view --checkpoint``
+    accept); a resume with nothing left to do returns the run's last logged update so.
     """
-    _check_count("frames", frames)
+    if frames is not None:
+        _check_count("frames", frames)
     # Refused before anything is written: a callback that is not one used to fail only after
     # the first update, with that update trained and saved.
     if callback is not None and not callable(callback):

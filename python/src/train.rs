@@ -5,105 +5,313 @@
 
 use std::path::{Path, PathBuf};
 
-use groundscope::policy::ppo::run_dir::{RunInfo, Tracking};
-use groundscope::policy::ppo::{LevelMix, MixEntry, PpoConfig, UpdateLog};
-use groundscope::policy::{ModelConfig, Variant};
-use groundscope::run::{DEFAULT_SAVE_INTERVAL, HeldRun, Parent, Run, RunSpec, Start};
-use pyo3::exceptions::{PyRuntimeError, PyValueError};
+use groundscope::policy::ppo::{LevelMix, MixEntry, PpoConfig, TemperatureAnneal, UpdateLog};
+use groundscope::policy::{ModelConfig, Variant, WordTemperature};
+use groundscope::run::{Parent, Run, RunError, RunInfo, RunSpec, Start, Tracking};
+use pyo3::exceptions::{PyRuntimeError, PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-use crate::env::{opt_u64_arg, opt_usize_arg, parse_level};
+use crate::env::{opt_u64_arg, parse_level, u64_arg, usize_arg};
 
-/// `train`'s tracked evaluation when not asked otherwise: as the command's.
-const EVAL_INTERVAL: u64 = 50;
-const EVAL_EPISODES: u64 = 200;
+/// The keyword arguments `train` takes besides `out`, `levels`, `frames`, `resume` and
+/// `callback`: the command's flags in snake case (`--frames-per-proc`: `frames_per_proc`).
+const KEYWORDS: [&str; 28] = [
+    "model",
+    "hidden",
+    "seed",
+    "init",
+    "procs",
+    "frames_per_proc",
+    "epochs",
+    "batch_size",
+    "recurrence",
+    "lr",
+    "adam_eps",
+    "discount",
+    "gae_lambda",
+    "entropy_coef",
+    "value_loss_coef",
+    "max_grad_norm",
+    "clip_eps",
+    "threads",
+    "reward_scale",
+    "normalize_advantages",
+    "imitate",
+    "imitate_policy_share",
+    "ground_loss",
+    "word_temperature_anneal",
+    "freeze_attention_at",
+    "eval_interval",
+    "eval_episodes",
+    "save_interval",
+];
 
-/// The settings of a new run a caller may give; on `resume=True` none may be (the run keeps
-/// its own), so each is `None` unless given.
+/// The settings of a call: each keyword left out (or `None`) takes a run's default
+/// ([`RunSpec::default`]); `given` names the ones given, in the call's order.
 struct Settings {
-    model: Option<String>,
-    hidden: Option<usize>,
-    lr: Option<f64>,
-    procs: Option<usize>,
-    frames_per_proc: Option<usize>,
-    batch_size: Option<usize>,
-    imitate: Option<bool>,
-    ground_loss: Option<f64>,
-    seed: Option<u64>,
+    model: String,
+    hidden: usize,
+    seed: u64,
     init: Option<String>,
+    ppo: PpoConfig,
+    anneal: Option<String>,
+    eval_interval: Option<u64>,
+    eval_episodes: Option<u64>,
+    save_interval: Option<u64>,
+    given: Vec<&'static str>,
 }
 
 impl Settings {
-    /// The names of the settings given, in the signature's order.
-    fn given(&self) -> Vec<&'static str> {
-        [
-            ("model", self.model.is_some()),
-            ("hidden", self.hidden.is_some()),
-            ("lr", self.lr.is_some()),
-            ("procs", self.procs.is_some()),
-            ("frames_per_proc", self.frames_per_proc.is_some()),
-            ("batch_size", self.batch_size.is_some()),
-            ("imitate", self.imitate.is_some()),
-            ("ground_loss", self.ground_loss.is_some()),
-            ("seed", self.seed.is_some()),
-            ("init", self.init.is_some()),
-        ]
-        .into_iter()
-        .filter_map(|(name, given)| given.then_some(name))
-        .collect()
+    /// The settings of the keyword arguments `kwargs`, each checked as it is read (an int out
+    /// of range, a number that is not one: a `ValueError` naming it; an unknown keyword: a
+    /// `TypeError`, as Python's own).
+    fn of(kwargs: Option<&Bound<'_, PyDict>>) -> PyResult<Self> {
+        let d = RunSpec::default();
+        let mut s = Self {
+            model: d.start.model().variant.name().to_owned(),
+            hidden: d.start.model().lstm_hidden,
+            seed: d.start.seed(),
+            init: None,
+            ppo: *d.start.ppo(),
+            anneal: None,
+            eval_interval: None,
+            eval_episodes: None,
+            save_interval: None,
+            given: Vec::new(),
+        };
+        let Some(kwargs) = kwargs else {
+            return Ok(s);
+        };
+        for (key, value) in kwargs.iter() {
+            let key: String = key.extract()?;
+            let Some(&name) = KEYWORDS.iter().find(|k| **k == key) else {
+                return Err(PyTypeError::new_err(format!(
+                    "train() got an unexpected keyword argument '{key}'"
+                )));
+            };
+            if value.is_none() {
+                continue;
+            }
+            s.set(name, &value)?;
+            s.given.push(name);
+        }
+        Ok(s)
     }
 
-    /// A new or warm-started run's start on `levels`, refused (naming the argument) before its
-    /// directory is made.
-    fn start(self, levels: LevelMix) -> PyResult<Start> {
-        let bad = |e: &dyn std::fmt::Display| PyValueError::new_err(e.to_string());
-        let name = self.model.as_deref().unwrap_or("attention");
-        let variant = Variant::parse(name).ok_or_else(|| {
-            PyValueError::new_err(format!("model {name:?} is not attention or baseline"))
-        })?;
-        let ppo = PpoConfig {
-            lr: self.lr.unwrap_or(PpoConfig::default().lr),
-            procs: self.procs.unwrap_or(PpoConfig::default().procs),
-            frames_per_proc: self
-                .frames_per_proc
-                .unwrap_or(PpoConfig::default().frames_per_proc),
-            batch_size: self.batch_size.unwrap_or(PpoConfig::default().batch_size),
-            imitate: self.imitate.unwrap_or(false),
-            ground_loss: self.ground_loss.unwrap_or(0.0),
-            ..PpoConfig::default()
-        };
-        ppo.validate().map_err(|e| bad(&e))?;
-        let seed = self.seed.unwrap_or(1);
-        if let Some(parent) = self.init {
-            if self.model.is_some() || self.hidden.is_some() {
-                return Err(PyValueError::new_err(
-                    "init: a warm start keeps its parent's network; leave out model and hidden",
-                ));
+    /// Sets the setting `name` to `v`.
+    fn set(&mut self, name: &'static str, v: &Bound<'_, PyAny>) -> PyResult<()> {
+        let p = &mut self.ppo;
+        match name {
+            "model" => self.model = text(v, name)?,
+            "init" => self.init = Some(text(v, name)?),
+            "word_temperature_anneal" => self.anneal = Some(text(v, name)?),
+            "hidden" => self.hidden = usize_arg(v, name)?,
+            "seed" => self.seed = u64_arg(v, name)?,
+            "eval_interval" => self.eval_interval = Some(u64_arg(v, name)?),
+            "eval_episodes" => self.eval_episodes = Some(u64_arg(v, name)?),
+            "save_interval" => self.save_interval = Some(u64_arg(v, name)?),
+            "freeze_attention_at" => p.freeze_attention_at = Some(u64_arg(v, name)?),
+            "procs" => p.procs = usize_arg(v, name)?,
+            "frames_per_proc" => p.frames_per_proc = usize_arg(v, name)?,
+            "epochs" => p.epochs = usize_arg(v, name)?,
+            "batch_size" => p.batch_size = usize_arg(v, name)?,
+            "recurrence" => p.recurrence = usize_arg(v, name)?,
+            "threads" => p.threads = usize_arg(v, name)?,
+            "lr" => p.lr = number(v, name)?,
+            "adam_eps" => p.adam_eps = number(v, name)?,
+            "discount" => p.discount = number(v, name)?,
+            "gae_lambda" => p.gae_lambda = number(v, name)?,
+            "entropy_coef" => p.entropy_coef = number(v, name)?,
+            "value_loss_coef" => p.value_loss_coef = number(v, name)?,
+            "max_grad_norm" => p.max_grad_norm = number(v, name)?,
+            "clip_eps" => p.clip_eps = number(v, name)?,
+            "reward_scale" => p.reward_scale = number(v, name)?,
+            "imitate_policy_share" => p.imitate_policy_share = number(v, name)?,
+            "ground_loss" => p.ground_loss = number(v, name)?,
+            "normalize_advantages" => p.normalize_advantages = flag(v, name)?,
+            "imitate" => p.imitate = flag(v, name)?,
+            _ => {
+                return Err(PyTypeError::new_err(format!(
+                    "train() got an unexpected keyword argument '{name}'"
+                )));
             }
-            let p = Parent::load(&parent).map_err(|e| bad(&format!("init {parent}: {e:#}")))?;
-            p.check_words(&levels)
-                .map_err(|e| bad(&format!("init {parent}: {e:#}")))?;
-            return Ok(Start::Init {
-                parent: Box::new(p),
-                levels,
-                ppo,
-                seed,
-            });
         }
-        let hidden = self.hidden.unwrap_or(128);
-        let model = ModelConfig {
-            lstm_hidden: hidden,
-            gru_hidden: hidden,
+        Ok(())
+    }
+
+    /// Whether keyword `name` was given.
+    fn gave(&self, name: &str) -> bool {
+        self.given.iter().any(|g| *g == name)
+    }
+
+    /// The network `model` and `hidden` name (a new run's).
+    fn model(&self) -> PyResult<ModelConfig> {
+        let variant = Variant::parse(&self.model).ok_or_else(|| {
+            PyValueError::new_err(format!(
+                "model {:?} is not attention or baseline",
+                self.model
+            ))
+        })?;
+        Ok(ModelConfig {
+            lstm_hidden: self.hidden,
+            gru_hidden: self.hidden,
             ..ModelConfig::new(variant)
-        };
-        model.validate().map_err(|e| bad(&e))?;
-        Ok(Start::New {
-            model,
-            levels,
-            ppo,
-            seed,
         })
+    }
+
+    /// The PPO settings, a `word_temperature_anneal` schedule starting at `from` (the model's
+    /// word temperature).
+    fn ppo(&self, from: f32) -> PyResult<PpoConfig> {
+        let mut ppo = self.ppo;
+        if let Some(s) = &self.anneal {
+            ppo.temperature_anneal = Some(
+                TemperatureAnneal::parse(s, from, WordTemperature::PAPER.0)
+                    .map_err(|e| PyValueError::new_err(format!("word_temperature_anneal: {e}")))?,
+            );
+        }
+        Ok(ppo)
+    }
+
+    /// The tracking: the keywords given, the run's own (`saved`, on resume) for those left
+    /// out, and the defaults for what neither says.
+    fn tracking(&self, saved: Option<Tracking>) -> Tracking {
+        let d = RunSpec::default().tracking;
+        let saved = saved.unwrap_or(d);
+        Tracking {
+            eval_interval: self.eval_interval.unwrap_or(saved.eval_interval),
+            eval_episodes: self.eval_episodes.unwrap_or(saved.eval_episodes),
+            save_interval: self
+                .save_interval
+                .or(saved.save_interval)
+                .or(d.save_interval),
+        }
+    }
+
+    /// A new or warm-started run's start on `levels` (a parent that cannot be loaded refused
+    /// naming `init`; the rest is checked by the run before its directory is made).
+    fn start(&self, levels: LevelMix) -> PyResult<Start> {
+        let model = self.model()?;
+        let Some(name) = &self.init else {
+            return Ok(Start::New {
+                ppo: self.ppo(model.word_temperature.0)?,
+                model,
+                levels,
+                seed: self.seed,
+            });
+        };
+        if self.gave("model") || self.gave("hidden") {
+            return Err(PyValueError::new_err(
+                "init: a warm start keeps its parent's network; leave out model and hidden",
+            ));
+        }
+        let parent = Parent::load(name).map_err(|e| match e {
+            e @ (RunError::BotParent | RunError::Invalid { .. }) => refusal(e, false),
+            e => PyValueError::new_err(format!("init {name}: {e}")),
+        })?;
+        Ok(Start::Init {
+            ppo: self.ppo(parent.checkpoint.meta.model.word_temperature.0)?,
+            parent: Box::new(parent),
+            levels,
+            seed: self.seed,
+        })
+    }
+
+    /// `resume=True`: refuses a keyword given with a value other than the run's (`info`; the
+    /// levels when `levels` is given), naming it; the others keep the run's values.
+    fn check_resume(&self, info: &RunInfo, levels: Option<LevelMix>, dir: &Path) -> PyResult<()> {
+        let levels_given = levels.is_some();
+        let spec = RunSpec {
+            start: Start::New {
+                model: self.model()?,
+                levels: levels.unwrap_or_else(|| info.levels.clone()),
+                ppo: self.ppo(info.model.word_temperature.0)?,
+                seed: self.seed,
+            },
+            ..RunSpec::default()
+        };
+        for d in info.differences(&spec) {
+            let Some(kw) = keyword(d.field) else {
+                continue;
+            };
+            if self.gave(kw) || (kw == "levels" && levels_given) {
+                return Err(PyValueError::new_err(format!(
+                    "resume=True: the run in {} was started with {kw}={}, not {kw}={}; leave out {kw} to keep the run's value",
+                    dir.display(),
+                    d.stored,
+                    d.given
+                )));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// A str keyword argument.
+fn text(v: &Bound<'_, PyAny>, name: &str) -> PyResult<String> {
+    v.extract()
+        .map_err(|_| PyValueError::new_err(format!("{name} must be a str, got {}", repr(v))))
+}
+
+/// A number keyword argument (an int or a float).
+fn number(v: &Bound<'_, PyAny>, name: &str) -> PyResult<f64> {
+    v.extract()
+        .map_err(|_| PyValueError::new_err(format!("{name} must be a number, got {}", repr(v))))
+}
+
+/// A bool keyword argument.
+fn flag(v: &Bound<'_, PyAny>, name: &str) -> PyResult<bool> {
+    v.extract().map_err(|_| {
+        PyValueError::new_err(format!("{name} must be True or False, got {}", repr(v)))
+    })
+}
+
+/// `v` as Python shows it.
+fn repr(v: &Bound<'_, PyAny>) -> String {
+    v.repr().map_or_else(|_| "?".into(), |r| r.to_string())
+}
+
+/// The keyword argument that gives a run's setting `field` ([`RunInfo::differences`]'s and
+/// [`RunError::Invalid`]'s names), where `train` takes one; the network's and PPO's own
+/// checks (`model`, `ppo`) name their setting in their reason.
+fn keyword(field: &'static str) -> Option<&'static str> {
+    match field {
+        "variant" => Some("model"),
+        "temperature_anneal" => Some("word_temperature_anneal"),
+        "levels" | "room_size" | "n_objects" | "tasks" | "done_required" | "color_optional" => {
+            Some("levels")
+        }
+        "model" | "ppo" => None,
+        field => KEYWORDS.iter().copied().find(|k| *k == field),
+    }
+}
+
+/// The run's error as `train` raises it: bad input (the caller's settings, a directory that
+/// holds a run, a log that does not match a resumed run's checkpoint) is a `ValueError` naming
+/// its keyword argument; on a resume every error is (`resume`), as a new run's other errors
+/// are `RuntimeError`s.
+fn refusal(e: RunError, resume: bool) -> PyErr {
+    match e {
+        RunError::Occupied(dir) => PyValueError::new_err(format!(
+            "out: {} already holds a run; pass resume=True to continue it or choose another out",
+            dir.display()
+        )),
+        RunError::NothingToResume(dir) => PyValueError::new_err(format!(
+            "resume: {} holds no checkpoint to resume (a run stopped before its first save); start it again without resume=True",
+            dir.display()
+        )),
+        RunError::BadLog { what, .. } => PyValueError::new_err(format!(
+            "resume: {what}; restore it, or start a new run from this one's weights with init"
+        )),
+        RunError::BotParent => PyValueError::new_err(
+            "init bot: the bot is a planner with no network weights to start from; to learn from it, pass imitate=True",
+        ),
+        RunError::Invalid { field, reason } => match keyword(field) {
+            Some(kw) => PyValueError::new_err(format!("{kw}: {reason}")),
+            None => PyValueError::new_err(reason),
+        },
+        e if resume => PyValueError::new_err(format!("resume: {e}")),
+        e => PyRuntimeError::new_err(e.to_string()),
     }
 }
 
@@ -199,129 +407,82 @@ fn log_dict<'py>(py: Python<'py>, log: &UpdateLog, fps: f64) -> PyResult<Bound<'
     Ok(d)
 }
 
-/// Trains a run in `out` to `frames` frames in all: a new run on `levels` (or, with `init`, a
-/// warm start from a checkpoint or bundled name), or with `resume=True` the run `out` holds,
-/// from its last checkpoint, with its own settings. `callback(log)` is called after every
-/// update with its log; returning `False` stops the run there (saved). Ctrl-C stops it after
-/// the current update, saved, and raises `KeyboardInterrupt`. Returns the last update's log
-/// with `checkpoint`, the run directory (what `--checkpoint` and `init` accept).
+/// Trains a run in `out` to `frames` frames in all (by default a run's, [`RunSpec::default`]):
+/// a new run on `levels` (or, with `init`, a warm start from a checkpoint or bundled name), or
+/// with `resume=True` the run `out` holds, from its last checkpoint, with its own settings (a
+/// keyword given with another value is refused naming it). The settings are the keyword
+/// arguments of [`KEYWORDS`], `train`'s flags in snake case, each a run's default when left
+/// out. `callback(log)` is called after every update with its log; returning `False` stops
+/// the run there (saved). Ctrl-C stops it after the current update, saved, and raises
+/// `KeyboardInterrupt`. Returns the last update's log with `checkpoint`, the run directory
+/// (what `--checkpoint` and `init` accept).
 #[pyfunction]
-#[pyo3(signature = (out, levels=None, frames=None, *, resume=false, model=None, hidden=None, lr=None, procs=None, frames_per_proc=None, batch_size=None, imitate=None, ground_loss=None, seed=None, init=None, eval_interval=None, eval_episodes=None, save_interval=None, callback=None))]
-#[expect(
-    clippy::too_many_arguments,
-    reason = "the keyword arguments of the Python function"
-)]
+#[pyo3(signature = (out, levels=None, frames=None, *, resume=false, callback=None, **settings))]
 pub fn train<'py>(
     py: Python<'py>,
     out: PathBuf,
     levels: Option<Bound<'py, PyAny>>,
     frames: Option<Bound<'py, PyAny>>,
     resume: bool,
-    model: Option<String>,
-    hidden: Option<Bound<'py, PyAny>>,
-    lr: Option<f64>,
-    procs: Option<Bound<'py, PyAny>>,
-    frames_per_proc: Option<Bound<'py, PyAny>>,
-    batch_size: Option<Bound<'py, PyAny>>,
-    imitate: Option<bool>,
-    ground_loss: Option<f64>,
-    seed: Option<Bound<'py, PyAny>>,
-    init: Option<String>,
-    eval_interval: Option<Bound<'py, PyAny>>,
-    eval_episodes: Option<Bound<'py, PyAny>>,
-    save_interval: Option<Bound<'py, PyAny>>,
     callback: Option<Bound<'py, PyAny>>,
+    settings: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     // Every int is checked here, naming its argument (PyO3's own conversion raised an
     // OverflowError naming none), and the callback before anything is written.
-    let frames = opt_u64_arg(frames.as_ref(), "frames")?.unwrap_or(100_000);
-    let eval_interval = opt_u64_arg(eval_interval.as_ref(), "eval_interval")?;
-    let eval_episodes = opt_u64_arg(eval_episodes.as_ref(), "eval_episodes")?;
-    let save_interval = opt_u64_arg(save_interval.as_ref(), "save_interval")?;
+    let frames = opt_u64_arg(frames.as_ref(), "frames")?.unwrap_or(RunSpec::default().frames);
+    let settings = Settings::of(settings)?;
     if let Some(f) = &callback
         && !f.is_callable()
     {
         return Err(PyValueError::new_err(format!(
             "callback must be callable (called with each update's log) or None, got {}",
-            f.repr().map_or_else(|_| "?".into(), |r| r.to_string())
+            repr(f)
         )));
     }
-    let settings = Settings {
-        model,
-        hidden: opt_usize_arg(hidden.as_ref(), "hidden")?,
-        lr,
-        procs: opt_usize_arg(procs.as_ref(), "procs")?,
-        frames_per_proc: opt_usize_arg(frames_per_proc.as_ref(), "frames_per_proc")?,
-        batch_size: opt_usize_arg(batch_size.as_ref(), "batch_size")?,
-        imitate,
-        ground_loss,
-        seed: opt_u64_arg(seed.as_ref(), "seed")?,
-        init,
-    };
-    if save_interval == Some(0) {
-        return Err(PyValueError::new_err(
-            "save_interval 0: must be at least 1 update",
-        ));
-    }
-    if eval_episodes == Some(0) {
-        return Err(PyValueError::new_err(
-            "eval_episodes 0: must be at least 1 (eval_interval=0 turns the tracked evaluation off)",
-        ));
-    }
-    let given = Tracking {
-        eval_interval: eval_interval.unwrap_or(EVAL_INTERVAL),
-        eval_episodes: eval_episodes.unwrap_or(EVAL_EPISODES),
-        save_interval: Some(save_interval.unwrap_or(DEFAULT_SAVE_INTERVAL)),
-    };
-    let runtime = |e: anyhow::Error| match e.downcast::<HeldRun>() {
-        Ok(HeldRun(dir)) => PyValueError::new_err(format!(
-            "out: {} already holds a run; pass resume=True to continue it or choose another out",
-            dir.display()
-        )),
-        Err(e) => PyRuntimeError::new_err(format!("{e:#}")),
-    };
+    let levels = levels.as_ref().map(level_mix).transpose()?;
     let mut run = if resume {
-        let mut refused: Vec<&str> = settings.given();
-        if levels.is_some() {
-            refused.insert(0, "levels");
+        if settings.gave("init") {
+            return Err(PyValueError::new_err(
+                "resume=True: init starts a new run from a checkpoint's weights; leave out init",
+            ));
         }
-        if !refused.is_empty() {
-            return Err(PyValueError::new_err(format!(
-                "resume=True: the run keeps its own settings; leave out {}",
-                refused.join(", ")
-            )));
+        let resumable = Run::resume(&out).map_err(|e| refusal(e, true))?;
+        for n in resumable.notices() {
+            eprintln!("groundscope: {n}");
         }
+        let info = resumable.info();
+        settings.check_resume(info, levels, &out)?;
         // Tracking left out takes the run's own.
-        let check = |info: &RunInfo| {
-            let saved = info.tracking.unwrap_or(given);
-            Ok(Tracking {
-                eval_interval: eval_interval.unwrap_or(saved.eval_interval),
-                eval_episodes: eval_episodes.unwrap_or(saved.eval_episodes),
-                save_interval: save_interval
-                    .or(saved.save_interval)
-                    .or(given.save_interval),
-            })
-        };
-        Run::resume(&out, frames, check)
-            .map_err(|e| PyValueError::new_err(format!("resume: {e:#}")))?
+        let tracking = settings.tracking(info.tracking);
+        resumable
+            .start(frames, tracking)
+            .map_err(|e| refusal(e, true))?
     } else {
         let levels = levels.ok_or_else(|| {
             PyValueError::new_err("levels: a new run needs the levels it trains on")
         })?;
-        let start = settings.start(level_mix(&levels)?)?;
         let spec = RunSpec {
-            start,
+            start: settings.start(levels)?,
             frames,
-            tracking: given,
+            tracking: settings.tracking(None),
         };
-        Run::create(&out, spec).map_err(runtime)?
+        // The run checks the whole of it (imitation's labels included) before it makes its
+        // directory.
+        let run = Run::create(&out, spec).map_err(|e| refusal(e, false))?;
+        for what in run.unlabelled() {
+            eprintln!(
+                "groundscope: warning: imitate: the bot labels almost nothing of {what}: its episodes give imitation no labels"
+            );
+        }
+        run
     };
+    run.on_notice(|n| eprintln!("groundscope: {n}"));
     let mut last: Option<(UpdateLog, f64)> = None;
     let mut interrupted = None;
     while !run.done() {
         let p = run
             .update()
-            .map_err(|e| PyRuntimeError::new_err(format!("{e:#}")))?;
+            .map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
         let stop = match &callback {
             Some(f) => {
                 let r = f.call1((log_dict(py, &p.log, p.fps)?,));
@@ -348,7 +509,7 @@ pub fn train<'py>(
     // Saved before any exception is raised: a stop loses no update.
     let finished = run
         .finish()
-        .map_err(|e| PyRuntimeError::new_err(format!("{e:#}")))?;
+        .map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
     if let Some(e) = interrupted {
         return Err(e);
     }

@@ -181,3 +181,35 @@ def test_a_resume_with_nothing_to_do_returns_the_last_log(tmp_path):
         assert again[key] == pytest.approx(trained[key], abs=0.01, nan_ok=True), key
     assert again["ground_loss"] == 0.0 and again["fps"] == 0.0
     assert [int(r["frames"]) for r in rows(out / "log.csv")] == [32, 64]
+
+
+def test_imitation_on_a_level_the_bot_cannot_label_is_refused_naming_it(tmp_path):
+    out = tmp_path / "run"
+    # The bot gives up at once on KeyInBox (its key is hidden in a box): the run would learn
+    # from no labelled frame. It used to train on nothing without a word, as the command
+    # line does not.
+    with pytest.raises(ValueError, match="BabyAI-KeyInBox-v0"):
+        groundscope.train(out, "BabyAI-KeyInBox-v0", frames=32, imitate=True, **TINY)
+    assert not out.exists()
+
+
+def test_a_resume_names_the_keyword_it_was_given_otherwise_and_takes_the_runs_own(tmp_path):
+    out = tmp_path / "run"
+    groundscope.train(out, LEVEL, frames=32, seed=3, **TINY)
+    before = (out / "log.csv").read_text()
+    for kwargs, keyword in [
+        (dict(hidden=32), "hidden"),
+        (dict(entropy_coef=0.5), "entropy_coef"),
+        (dict(seed=4), "seed"),
+        (dict(model="baseline"), "model"),
+        (dict(levels="BabyAI-GoToLocal-v0"), "levels"),
+    ]:
+        with pytest.raises(ValueError, match=f"leave out {keyword} "):
+            groundscope.train(out, frames=64, resume=True, **kwargs)
+        assert (out / "log.csv").read_text() == before, kwargs
+    # The run's own values may be given again; the tracking ones may change.
+    log = groundscope.train(out, LEVEL, frames=64, resume=True, seed=3, **TINY)
+    assert log["frames"] == 64
+    # A keyword the command has no flag for is Python's TypeError.
+    with pytest.raises(TypeError, match="no_such_setting"):
+        groundscope.train(out, frames=96, resume=True, no_such_setting=1)

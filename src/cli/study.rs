@@ -368,7 +368,7 @@ fn step_ended(
 
 /// The pid of a training that holds the run directory's lock, if one does.
 fn training_elsewhere(dir: &Path) -> Option<String> {
-    let path = dir.join(groundscope::policy::ppo::run_dir::RUN_LOCK);
+    let path = dir.join(groundscope::run::RUN_LOCK);
     let file = std::fs::OpenOptions::new().read(true).open(&path).ok()?;
     match file.try_lock() {
         Ok(()) => None,
@@ -385,7 +385,7 @@ fn training_elsewhere(dir: &Path) -> Option<String> {
 /// `--init`, which a resume refuses: the run's weights are its own by then).
 fn step_args(study: &Path, run: &PlannedRun, cmd: &str, args: &[String]) -> Vec<String> {
     let mut args = args.to_vec();
-    if cmd == "train" && groundscope::policy::ppo::run_dir::holds_run(&run.dir(study)) {
+    if cmd == "train" && groundscope::run::holds_run(&run.dir(study)) {
         if let Some(i) = args.iter().position(|a| a == "--init") {
             args.drain(i..(i + 2).min(args.len()));
         }

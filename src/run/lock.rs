@@ -2,9 +2,8 @@
 
 use std::path::Path;
 
-use anyhow::Context as _;
-
-pub(super) use crate::policy::ppo::run_dir::RUN_LOCK;
+use super::RunError;
+use super::dir::RUN_LOCK;
 
 /// A held lock on a run directory ([`lock_run`]).
 pub(super) struct RunLock {
@@ -19,7 +18,7 @@ pub(super) struct RunLock {
 /// The lock is the system's (`flock`): a crashed or killed training releases it. A lock
 /// taken on a file that was removed meanwhile (by a failed new run, which removes its lock
 /// file while holding it) locks nothing, so it is taken again on the file now there.
-pub(super) fn lock_run(dir: &Path) -> anyhow::Result<RunLock> {
+pub(super) fn lock_run(dir: &Path) -> Result<RunLock, RunError> {
     use std::io::Write as _;
     let path = dir.join(RUN_LOCK);
     loop {
@@ -29,8 +28,9 @@ pub(super) fn lock_run(dir: &Path) -> anyhow::Result<RunLock> {
                 if !same_file(&file, &path) {
                     continue;
                 }
-                file.set_len(0)?;
-                write!(file, "{}", std::process::id())?;
+                file.set_len(0)
+                    .and_then(|()| write!(file, "{}", std::process::id()))
+                    .map_err(RunError::io(format!("writing {}", path.display())))?;
                 return Ok(RunLock {
                     _file: file,
                     created,
@@ -38,22 +38,20 @@ pub(super) fn lock_run(dir: &Path) -> anyhow::Result<RunLock> {
             }
             Err(std::fs::TryLockError::WouldBlock) => {
                 let holder = std::fs::read_to_string(&path).unwrap_or_default();
-                anyhow::bail!(
-                    "{}: another training (pid {}) is writing this run directory; wait for it \
-                     to end or choose another run directory",
-                    dir.display(),
-                    holder.trim()
-                )
+                return Err(RunError::Held {
+                    dir: dir.to_path_buf(),
+                    pid: holder.trim().to_owned(),
+                });
             }
             Err(std::fs::TryLockError::Error(e)) => {
-                return Err(e).with_context(|| format!("locking {}", path.display()));
+                return Err(RunError::io(format!("locking {}", path.display()))(e));
             }
         }
     }
 }
 
 /// Opens (or makes) the lock file at `path`, saying whether this call made it.
-fn open_lock_file(path: &Path) -> anyhow::Result<(std::fs::File, bool)> {
+fn open_lock_file(path: &Path) -> Result<(std::fs::File, bool), RunError> {
     let open = |create_new: bool| {
         std::fs::OpenOptions::new()
             .create_new(create_new)
@@ -67,9 +65,9 @@ fn open_lock_file(path: &Path) -> anyhow::Result<(std::fs::File, bool)> {
             Ok(file) => Ok((file, false)),
             // Removed between the two opens: make it again.
             Err(e) if e.kind() == std::io::ErrorKind::NotFound => open_lock_file(path),
-            Err(e) => Err(e).with_context(|| format!("opening {}", path.display())),
+            Err(e) => Err(RunError::io(format!("opening {}", path.display()))(e)),
         },
-        Err(e) => Err(e).with_context(|| format!("opening {}", path.display())),
+        Err(e) => Err(RunError::io(format!("opening {}", path.display()))(e)),
     }
 }
 

@@ -4,8 +4,9 @@
 
 use std::path::Path;
 
-use crate::metrics::tracking::EVAL_LOG_HEADER_V1;
-use crate::policy::ppo::UpdateLog;
+use super::{RunDir, RunError};
+use crate::metrics::tracking::{EVAL_LOG_HEADER, EVAL_LOG_HEADER_V1};
+use crate::policy::ppo::{Trainer, UpdateLog};
 
 /// `log.csv`'s header.
 pub const LOG_HEADER: &str = "update,frames,fps,episodes,success_rate,mean_reward,mean_length,policy_loss,value_loss,entropy,grad_norm,elapsed_secs";
@@ -28,9 +29,32 @@ pub(super) fn update_row(log: &UpdateLog, fps: f64, elapsed: f64) -> String {
     crate::table::line(&row)
 }
 
+/// A new run's two logs in `dir`: their headers, and a warm start's `parent`'s rows up to its
+/// update, so its log and learning curve start at frame 0.
+pub(super) fn write_fresh(
+    dir: &mut RunDir,
+    parent: Option<&str>,
+    trainer: &Trainer,
+) -> Result<(), RunError> {
+    let u = trainer.state.updates;
+    let rows = |file: &str, header: &str| {
+        parent.map_or_else(String::new, |name| parent_rows(name, file, header, u))
+    };
+    let (log, evals) = (
+        rows("log.csv", LOG_HEADER),
+        rows("eval_log.csv", EVAL_LOG_HEADER),
+    );
+    let path = dir.path().to_path_buf();
+    dir.write_log(&path.join("log.csv"), &format!("{LOG_HEADER}\n{log}"))?;
+    dir.write_log(
+        &path.join("eval_log.csv"),
+        &format!("{EVAL_LOG_HEADER}\n{evals}"),
+    )
+}
+
 /// The rows of the log `file` beside checkpoint `name` up to `updates`, so a warm-started
 /// run's log and learning curve start at frame 0. Empty when there is no such log.
-pub(super) fn parent_rows(name: &str, file: &str, header: &str, updates: u64) -> String {
+fn parent_rows(name: &str, file: &str, header: &str, updates: u64) -> String {
     if name.starts_with(crate::policy::bundled::PREFIX) {
         return String::new();
     }
@@ -50,11 +74,7 @@ fn rows_upto(path: &Path, header: &str, updates: u64) -> String {
     // An eval_log.csv written before it named the level gains an empty `level` field.
     let pad = match lines.next() {
         Some(h) if h == header => "",
-        Some(h)
-            if h == EVAL_LOG_HEADER_V1 && header == crate::metrics::tracking::EVAL_LOG_HEADER =>
-        {
-            ","
-        }
+        Some(h) if h == EVAL_LOG_HEADER_V1 && header == EVAL_LOG_HEADER => ",",
         _ => return String::new(),
     };
     let mut rows = String::new();
@@ -75,31 +95,34 @@ fn rows_upto(path: &Path, header: &str, updates: u64) -> String {
 /// not match the checkpoint: missing, not a regular file (a FIFO would block the read), not a
 /// training log, a row that is not one (garbage, a line cut short inside the file), or — for
 /// `log.csv` (`every_update`) — updates that do not run one by one up to the checkpoint's (a
-/// deleted row, a short log). The last line alone may be cut short: a crash while it was
-/// being appended leaves it so, and its update is one the checkpoint does not hold (a run
-/// killed between checkpoints has logged updates the resume does again).
+/// deleted row, a short log): [`RunError::BadLog`]. The last line alone may be cut short: a
+/// crash while it was being appended leaves it so, and its update is one the checkpoint does
+/// not hold (a run killed between checkpoints has logged updates the resume does again).
 pub(super) fn resumed_rows(
     path: &Path,
     header: &str,
     updates: u64,
     every_update: bool,
-) -> anyhow::Result<String> {
+) -> Result<String, RunError> {
     let shown = path.display();
-    let fix = "restore it, or start a new run from this one's weights with --init";
-    let text = crate::files::read_regular_to_string(path)
-        .map_err(|e| anyhow::anyhow!("{shown}: {e}; {fix}"))?;
+    let bad = |what: String| RunError::BadLog {
+        path: path.to_path_buf(),
+        what,
+    };
+    let text =
+        crate::files::read_regular_to_string(path).map_err(|e| bad(format!("{shown}: {e}")))?;
     let mut lines: Vec<&str> = text.split('\n').collect();
     // What follows the last newline: empty, or a row cut short by a crash.
     lines.pop();
     let mut lines = lines.into_iter().enumerate();
     let pad = match lines.next() {
         Some((_, h)) if h == header => "",
-        Some((_, h))
-            if h == EVAL_LOG_HEADER_V1 && header == crate::metrics::tracking::EVAL_LOG_HEADER =>
-        {
-            ","
+        Some((_, h)) if h == EVAL_LOG_HEADER_V1 && header == EVAL_LOG_HEADER => ",",
+        _ => {
+            return Err(bad(format!(
+                "{shown} is not a training log (its header is not {header:?})"
+            )));
         }
-        _ => anyhow::bail!("{shown} is not a training log (its header is not {header:?}); {fix}"),
     };
     let fields = header.split(',').count() - pad.len();
     let mut rows = String::new();
@@ -111,7 +134,7 @@ pub(super) fn resumed_rows(
             .and_then(|u| u.parse::<u64>().ok())
             .filter(|_| line.split(',').count() == fields);
         let Some(update) = update else {
-            anyhow::bail!("{shown} line {}: not a row of the log; {fix}", i + 1);
+            return Err(bad(format!("{shown} line {}: not a row of the log", i + 1)));
         };
         if update > updates {
             break;
@@ -122,11 +145,11 @@ pub(super) fn resumed_rows(
             Some(l) => update >= l,
         };
         if !in_order {
-            anyhow::bail!(
-                "{shown} line {}: update {update} follows update {}; the log does not match the checkpoint; {fix}",
+            return Err(bad(format!(
+                "{shown} line {}: update {update} follows update {}; the log does not match the checkpoint",
                 i + 1,
                 last.unwrap_or(0)
-            );
+            )));
         }
         last = Some(update);
         rows.push_str(line);
@@ -134,10 +157,10 @@ pub(super) fn resumed_rows(
         rows.push('\n');
     }
     if every_update && updates > 0 && last != Some(updates) {
-        anyhow::bail!(
-            "{shown} ends at update {}, and the checkpoint is at update {updates}; the log does not match it; {fix}",
+        return Err(bad(format!(
+            "{shown} ends at update {}, and the checkpoint is at update {updates}; the log does not match it",
             last.unwrap_or(0)
-        );
+        )));
     }
     Ok(rows)
 }

@@ -2,224 +2,49 @@
 //! parent or a resume, its two logs, the tracked evaluation, its checkpoints and learning
 //! curve, and the clean-up after a new run that failed before its first checkpoint.
 //!
-//! Whoever starts runs (the `train` command, a study's runs, a Python `train`) turns its own
-//! inputs into a [`RunSpec`] ([`Run::create`]) or a check of a run's own settings
-//! ([`Run::resume`]), and steps the [`Run`];
-//! what it shows of the progress is its own. The run names its fields in errors; a caller
-//! that took them from flags names the flags.
+//! Whoever starts runs (the `train` command, a study's runs, the Python `train`) turns its own
+//! inputs into a [`RunSpec`] — whose [`Default`] is the one list of a run's defaults — and
+//! steps the [`Run`]; what it shows of the progress is its own. The run prints nothing: its
+//! errors ([`RunError`]) and the differences of a resume ([`RunInfo::differences`]) name the
+//! settings by the run's own names, its [`Notice`]s go to the caller, and a front end names
+//! its flags or keyword arguments.
 //!
 //! ```text
-//! Run::create(path, RunSpec) ── RunDir::open(path, fresh) ── lock; a fresh run's files are
-//!                                                            removed if it fails unsaved
-//! Run::resume(path, frames, check) ── RunDir::open ── RunDir::load() (the newest checkpoint
-//!                                     that loads) ── check(RunInfo) → Tracking
+//! Run::create(path, RunSpec) ── RunSpec::check() (nothing touched yet) ── RunDir::open(path,
+//!                               fresh): lock; a fresh run's files are removed if it fails unsaved
+//! Run::resume(path) ── RunDir::open ── the newest checkpoint that loads → Resumable
+//!   info().differences(&RunSpec) (the caller refuses what its user gave) ── start(frames, Tracking)
 //!   └─ Run::start(RunDir, RunSpec) ── logs written / checked ── Run::update()* ── Run::finish()
 //! ```
+//!
+//! Files: `dir` ([`RunDir`]: the directory, its lock and clean-up), `checkpoints` (the
+//! crash-safe generations), `spec` ([`RunSpec`], [`Start`], [`Tracking`]), `info`
+//! ([`RunInfo`], [`Difference`]), `start` (a parent, the labels imitation needs), `logs`,
+//! `error` ([`RunError`], [`Notice`]).
 
+mod checkpoints;
+mod dir;
+mod error;
+mod info;
 mod lock;
 mod logs;
+mod spec;
 mod start;
 
 use std::io::Write as _;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::time::Instant;
 
-use anyhow::Context as _;
-
 use crate::metrics::tracking::{EVAL_LOG_HEADER, TrackedEval};
-use crate::policy::checkpoint::write_atomic;
-use crate::policy::ppo::run_dir::{self, RunInfo, Tracking};
 use crate::policy::ppo::{LevelMix, PpoConfig, Trainer, UpdateLog};
 use crate::policy::{ModelConfig, Net, Params, TrainingState};
 
+pub use dir::{RUN_LOCK, RunDir, holds_run};
+pub use error::{Notice, RunError};
+pub use info::{Difference, RunInfo};
 pub use logs::LOG_HEADER;
+pub use spec::{DEFAULT_SAVE_INTERVAL, RunSpec, Start, Tracking};
 pub use start::{Parent, check_labels};
-
-/// A run directory locked by this process for one training.
-///
-/// A fresh run's directory (`fresh`) that is dropped before the run has saved a checkpoint —
-/// a failed start, an error before the first save, a panic — loses what this process made in
-/// it: the logs it wrote (never one it found there), its `checkpoints/` folder if it made it,
-/// its lock file, and the directory itself if it made it. A resumed run's directory is never
-/// cleaned.
-pub struct RunDir {
-    path: PathBuf,
-    fresh: bool,
-    created: bool,
-    had_checkpoints: bool,
-    wrote: Vec<PathBuf>,
-    lock: Option<lock::RunLock>,
-}
-
-impl RunDir {
-    /// Makes `path` if need be and locks it: a second training of the same directory is
-    /// refused naming its process. `fresh` is a new run (refused where the directory holds
-    /// one, when it starts); otherwise a resume.
-    pub fn open(path: &Path, fresh: bool) -> anyhow::Result<Self> {
-        let created = !path.exists();
-        let had_checkpoints = path.join("checkpoints").exists();
-        std::fs::create_dir_all(path).with_context(|| format!("creating {}", path.display()))?;
-        let mut dir = Self {
-            path: path.to_path_buf(),
-            fresh,
-            created,
-            had_checkpoints,
-            wrote: Vec::new(),
-            lock: None,
-        };
-        // Held until the run ends (the system releases it if the process dies). A training
-        // refused here touches nothing: the directory and its files are the holder's.
-        dir.lock = Some(writable(path).and_then(|()| lock::lock_run(path))?);
-        Ok(dir)
-    }
-
-    /// The directory.
-    pub fn path(&self) -> &Path {
-        &self.path
-    }
-
-    /// Whether the directory holds a run's checkpoint (what a resume needs).
-    pub fn holds_run(&self) -> bool {
-        run_dir::holds_run(&self.path)
-    }
-
-    /// A resume's state: the newest checkpoint of the run that loads completely, and what the
-    /// run was started with, for the caller to check its own settings against.
-    pub fn load(&self) -> anyhow::Result<(Trainer, RunInfo)> {
-        if !run_dir::holds_run(&self.path) {
-            // A run stopped before its first save leaves log rows and no checkpoint.
-            return Err(NothingToResume(self.path.clone()).into());
-        }
-        run_dir::load_latest(&self.path)
-    }
-
-    /// Refuses to start a new run over the one the directory holds ([`HeldRun`]).
-    fn refuse_held(&self) -> anyhow::Result<()> {
-        if run_dir::holds_run(&self.path) {
-            return Err(HeldRun(self.path.clone()).into());
-        }
-        Ok(())
-    }
-
-    /// A new run's two logs: their headers, and a warm start's parent's rows up to its
-    /// update, so its log and learning curve start at frame 0.
-    fn write_fresh_logs(&mut self, parent: Option<&str>, trainer: &Trainer) -> anyhow::Result<()> {
-        let u = trainer.state.updates;
-        let rows = |file: &str, header: &str| {
-            parent.map_or_else(String::new, |name| logs::parent_rows(name, file, header, u))
-        };
-        let (log, evals) = (
-            rows("log.csv", LOG_HEADER),
-            rows("eval_log.csv", EVAL_LOG_HEADER),
-        );
-        self.write_log(&self.path.join("log.csv"), &format!("{LOG_HEADER}\n{log}"))?;
-        self.write_log(
-            &self.path.join("eval_log.csv"),
-            &format!("{EVAL_LOG_HEADER}\n{evals}"),
-        )
-    }
-
-    /// Writes `text` as the log at `path`, remembering it as this process's own.
-    fn write_log(&mut self, path: &Path, text: &str) -> anyhow::Result<()> {
-        if self.fresh {
-            self.wrote.push(path.to_path_buf());
-        }
-        write_atomic(path, text.as_bytes())?;
-        Ok(())
-    }
-}
-
-impl Drop for RunDir {
-    fn drop(&mut self) {
-        if !self.fresh || run_dir::holds_run(&self.path) {
-            return;
-        }
-        for f in &self.wrote {
-            let _ = std::fs::remove_file(f);
-        }
-        if !self.had_checkpoints {
-            let _ = std::fs::remove_dir(self.path.join("checkpoints"));
-        }
-        if let Some(lock) = self.lock.take() {
-            if lock.created {
-                let _ = std::fs::remove_file(self.path.join(lock::RUN_LOCK));
-            }
-            drop(lock);
-        }
-        if self.created {
-            let _ = std::fs::remove_dir(&self.path);
-        }
-    }
-}
-
-/// Refuses a directory this process cannot write into.
-fn writable(dir: &Path) -> anyhow::Result<()> {
-    let probe = tempfile::NamedTempFile::new_in(dir)
-        .with_context(|| format!("{} is not writable", dir.display()))?;
-    drop(probe);
-    Ok(())
-}
-
-/// A new run refused because its directory already holds one: a caller that can resume names
-/// how (`train` names `--resume`).
-#[derive(Debug, thiserror::Error)]
-#[error("{} already holds a run; resume it or choose another run directory", .0.display())]
-pub struct HeldRun(pub PathBuf);
-
-/// A resume refused because the directory holds no checkpoint (a run stopped before its
-/// first save): a caller names how to start it anew (`train`: without `--resume`).
-#[derive(Debug, thiserror::Error)]
-#[error(
-    "{} holds no checkpoint to resume (a run stopped before its first save); start it again as a new run",
-    .0.display()
-)]
-pub struct NothingToResume(pub PathBuf);
-
-/// How a run begins.
-pub enum Start {
-    /// New weights for `model`, drawn from `seed`. A model for a BabyAI level gets rows for
-    /// all of BabyAI's words.
-    New {
-        /// The network.
-        model: ModelConfig,
-        /// The levels trained on.
-        levels: LevelMix,
-        /// The PPO (or imitation) settings.
-        ppo: PpoConfig,
-        /// The seed of the weights and of the run's streams.
-        seed: u64,
-    },
-    /// A parent's weights, with fresh Adam moments and streams; the frame and update counts
-    /// continue the parent's, and so do its logs' rows where they sit beside it.
-    Init {
-        /// The parent ([`Parent::load`]).
-        parent: Box<Parent>,
-        /// The levels trained on.
-        levels: LevelMix,
-        /// The PPO settings.
-        ppo: PpoConfig,
-        /// The seed of the run's streams.
-        seed: u64,
-    },
-    /// The run in the directory, exactly where its checkpoint left it ([`RunDir::load`]).
-    Resume {
-        /// Its trainer.
-        trainer: Box<Trainer>,
-        /// What it was started with.
-        info: Box<RunInfo>,
-    },
-}
-
-/// What a run does from its start.
-pub struct RunSpec {
-    /// How it begins.
-    pub start: Start,
-    /// Train until this many frames in total (a resumed or warm-started run counts its
-    /// earlier frames).
-    pub frames: u64,
-    /// The tracked evaluation and the checkpoint interval.
-    pub tracking: Tracking,
-}
 
 /// One update's outcome, for the caller to show.
 pub struct Progress {
@@ -230,6 +55,9 @@ pub struct Progress {
     /// The tracked evaluation's rows, where this update ran it.
     pub evals: Vec<TrackedEval>,
 }
+
+/// Where a run's notices go ([`Run::on_notice`]).
+type NoticeSink = Box<dyn FnMut(&Notice)>;
 
 /// A training run in its locked directory ([`RunDir`]).
 pub struct Run {
@@ -245,13 +73,16 @@ pub struct Run {
     started: Instant,
     frames_at_start: u64,
     last: Option<UpdateLog>,
+    /// The levels the bot labels too little of, for a warning ([`Self::unlabelled`]).
+    unlabelled: Vec<String>,
+    notices: Option<NoticeSink>,
 }
 
 impl Run {
     /// Starts the run of `spec` in `dir`: a new or warm-started run writes its logs (with the
     /// parent's rows), refusing a directory that holds a run; a resumed one keeps the rows
     /// its checkpoint holds, refusing logs that do not match it.
-    pub fn start(mut dir: RunDir, spec: RunSpec) -> anyhow::Result<Self> {
+    pub fn start(mut dir: RunDir, spec: RunSpec) -> Result<Self, RunError> {
         let log_path = dir.path.join("log.csv");
         let eval_path = dir.path.join("eval_log.csv");
         let (trainer, seed, kept) = match spec.start {
@@ -272,7 +103,7 @@ impl Run {
             } => {
                 dir.refuse_held()?;
                 let trainer = new_trainer(model, levels, ppo, seed)?;
-                dir.write_fresh_logs(None, &trainer)?;
+                logs::write_fresh(&mut dir, None, &trainer)?;
                 (trainer, seed, None)
             }
             Start::Init {
@@ -284,7 +115,7 @@ impl Run {
                 dir.refuse_held()?;
                 let name = parent.name.clone();
                 let trainer = warm_trainer(*parent, levels, ppo, seed)?;
-                dir.write_fresh_logs(Some(&name), &trainer)?;
+                logs::write_fresh(&mut dir, Some(&name), &trainer)?;
                 (trainer, seed, None)
             }
         };
@@ -292,7 +123,7 @@ impl Run {
             std::fs::OpenOptions::new()
                 .append(true)
                 .open(path)
-                .with_context(|| format!("opening {}", path.display()))
+                .map_err(RunError::io(format!("opening {}", path.display())))
         };
         Ok(Self {
             log_file: open_append(&log_path)?,
@@ -306,37 +137,48 @@ impl Run {
             kept,
             started: Instant::now(),
             last: None,
+            unlabelled: Vec::new(),
+            notices: None,
         })
     }
 
-    /// Opens the directory at `path` for a new or warm-started run and starts it ([`Start::New`]
-    /// or [`Start::Init`]): refused where the directory holds a run; what this process made
-    /// there is removed if the run fails before its first checkpoint.
-    pub fn create(path: &Path, spec: RunSpec) -> anyhow::Result<Self> {
-        Self::start(RunDir::open(path, true)?, spec)
+    /// Checks the whole of `spec` ([`RunSpec::check`], before anything is touched), then
+    /// opens the directory at `path` for a new or warm-started run and starts it
+    /// ([`Start::New`] or [`Start::Init`]): refused where the directory holds a run
+    /// ([`RunError::Occupied`]); what this process made there is removed if the run fails
+    /// before its first checkpoint.
+    pub fn create(path: &Path, spec: RunSpec) -> Result<Self, RunError> {
+        let unlabelled = spec.check()?;
+        let mut run = Self::start(RunDir::open(path, true)?, spec)?;
+        run.unlabelled = unlabelled;
+        Ok(run)
     }
 
-    /// Resumes the run at `path` from its newest checkpoint that loads, to `frames` in all.
-    /// Once the directory is locked and loaded, `check` sees what the run was started with —
-    /// to refuse settings of its caller's that contradict it — and returns the tracking to
-    /// go on with.
-    pub fn resume(
-        path: &Path,
-        frames: u64,
-        check: impl FnOnce(&RunInfo) -> anyhow::Result<Tracking>,
-    ) -> anyhow::Result<Self> {
+    /// Locks the run at `path` and loads its newest checkpoint that loads
+    /// ([`RunError::NothingToResume`] where it holds none), for the caller to compare its
+    /// settings with the run's ([`Resumable::info`]) before it goes on
+    /// ([`Resumable::start`]).
+    pub fn resume(path: &Path) -> Result<Resumable, RunError> {
         let dir = RunDir::open(path, false)?;
-        let (trainer, info) = dir.load()?;
-        let tracking = check(&info)?;
-        let spec = RunSpec {
-            start: Start::Resume {
-                trainer: Box::new(trainer),
-                info: Box::new(info),
-            },
-            frames,
-            tracking,
-        };
-        Self::start(dir, spec)
+        let (trainer, info, skipped) = dir.load_noting()?;
+        Ok(Resumable {
+            dir,
+            trainer,
+            info,
+            notices: skipped.into_iter().collect(),
+        })
+    }
+
+    /// Sends the run's [`Notice`]s from now on to `sink` (without one they are dropped).
+    pub fn on_notice(&mut self, sink: impl FnMut(&Notice) + 'static) {
+        self.notices = Some(Box::new(sink));
+    }
+
+    /// The levels of an imitation run that the bot labels under 1% of the steps of, each
+    /// with its share ([`check_labels`]): refused where it is every level, and worth a
+    /// warning where others are labelled. Empty for any other run.
+    pub fn unlabelled(&self) -> &[String] {
+        &self.unlabelled
     }
 
     /// The frames the run trains to, in all.
@@ -361,19 +203,23 @@ impl Run {
 
     /// One update: its row in `log.csv`, the tracked evaluation where it falls due, and a
     /// checkpoint every save interval.
-    pub fn update(&mut self) -> anyhow::Result<Progress> {
+    pub fn update(&mut self) -> Result<Progress, RunError> {
         let log = self.trainer.update()?;
         let elapsed = self.started.elapsed().as_secs_f64();
         let fps = (self.trainer.state.frames - self.frames_at_start) as f64 / elapsed.max(1e-9);
         self.log_file
-            .write_all(logs::update_row(&log, fps, elapsed).as_bytes())?;
+            .write_all(logs::update_row(&log, fps, elapsed).as_bytes())
+            .map_err(RunError::io(format!(
+                "writing {}",
+                self.dir.path.join("log.csv").display()
+            )))?;
         let t = self.tracking;
         let evals = if t.eval_interval > 0 && log.update % t.eval_interval == 0 {
             self.tracked_eval(&log)?
         } else {
             Vec::new()
         };
-        if log.update % t.save_interval.unwrap_or(DEFAULT_SAVE_INTERVAL) == 0 {
+        if log.update % t.save_every() == 0 {
             self.save(self.training_state(Some(&log)))?;
         }
         self.last = Some(log.clone());
@@ -382,16 +228,16 @@ impl Run {
 
     /// Ends the run: a last checkpoint (a resumed run with nothing left to do keeps its
     /// checkpoint as it is). Returns the last update's log, if any ran.
-    pub fn finish(self) -> anyhow::Result<Option<UpdateLog>> {
+    pub fn finish(mut self) -> Result<Option<UpdateLog>, RunError> {
         if self.last.is_some() || self.kept.is_none() {
             self.save(self.training_state(self.last.as_ref()))?;
         }
-        Ok(self.last)
+        Ok(self.last.take())
     }
 
     /// The tracked held-out evaluation of one update: a row per level, and for a mix a row
     /// of their mean, appended to `eval_log.csv` in one write.
-    fn tracked_eval(&mut self, log: &UpdateLog) -> anyhow::Result<Vec<TrackedEval>> {
+    fn tracked_eval(&mut self, log: &UpdateLog) -> Result<Vec<TrackedEval>, RunError> {
         let net = Net::new(self.trainer.model, self.trainer.params.detached())?;
         let mut rows = Vec::new();
         for e in self.trainer.levels.entries() {
@@ -410,7 +256,12 @@ impl Run {
             .iter()
             .map(|r| crate::table::line(&r.record()))
             .collect();
-        self.eval_file.write_all(text.as_bytes())?;
+        self.eval_file
+            .write_all(text.as_bytes())
+            .map_err(RunError::io(format!(
+                "writing {}",
+                self.dir.path.join("eval_log.csv").display()
+            )))?;
         Ok(rows)
     }
 
@@ -438,14 +289,14 @@ impl Run {
         }
     }
 
-    /// Saves a generation and redraws the run's learning curve (a figure: its failure is
-    /// reported on stderr, not fatal, since the checkpoint is already safe).
-    fn save(&self, training: TrainingState) -> anyhow::Result<()> {
+    /// Saves a generation and redraws the run's learning curve (a figure: its failure is a
+    /// [`Notice::Curve`], not fatal, since the checkpoint is already safe).
+    fn save(&mut self, training: TrainingState) -> Result<(), RunError> {
         let dir = &self.dir.path;
-        run_dir::save(&self.trainer, dir, training, self.tracking)?;
-        let drawn = crate::metrics::figures::read_training_log(&dir.join("log.csv"))
-            .map_err(anyhow::Error::from)
-            .and_then(|points| {
+        checkpoints::save(&self.trainer, dir, training, self.tracking)?;
+        let figure = dir.join("curve.png");
+        let drawn =
+            crate::metrics::figures::read_training_log(&dir.join("log.csv")).and_then(|points| {
                 let curve = crate::metrics::figures::Curve {
                     label: self.trainer.model.variant.name().to_owned(),
                     points,
@@ -453,20 +304,66 @@ impl Run {
                 crate::metrics::figures::learning_curve(
                     &[curve],
                     "Mean reward during training",
-                    &dir.join("curve.png"),
+                    &figure,
                 )
-                .map_err(anyhow::Error::from)
             });
         if let Err(e) = drawn {
-            eprintln!("groundscope: {}: {e:#}", dir.join("curve.png").display());
+            self.notice(&Notice::Curve {
+                path: figure,
+                reason: e.to_string(),
+            });
         }
         Ok(())
     }
+
+    /// Hands `notice` to the caller's sink, if it set one.
+    fn notice(&mut self, notice: &Notice) {
+        if let Some(sink) = &mut self.notices {
+            sink(notice);
+        }
+    }
 }
 
-/// The checkpoint interval by default (`train --save-interval`), and of a run that recorded
-/// none (saved before it was kept).
-pub const DEFAULT_SAVE_INTERVAL: u64 = 10;
+/// A run locked and loaded for a resume ([`Run::resume`]): what it was started with, for the
+/// caller to compare with its own settings, before it goes on.
+pub struct Resumable {
+    dir: RunDir,
+    trainer: Trainer,
+    info: RunInfo,
+    notices: Vec<Notice>,
+}
+
+impl Resumable {
+    /// What the run was started with ([`RunInfo::differences`] compares a caller's settings).
+    pub fn info(&self) -> &RunInfo {
+        &self.info
+    }
+
+    /// What the load has to say: a newer generation that does not load, skipped.
+    pub fn notices(&self) -> &[Notice] {
+        &self.notices
+    }
+
+    /// The directory.
+    pub fn dir(&self) -> &Path {
+        self.dir.path()
+    }
+
+    /// Goes on from the checkpoint to `frames` in all with `tracking` (checked first), the
+    /// logs checked against the checkpoint before either is rewritten.
+    pub fn start(self, frames: u64, tracking: Tracking) -> Result<Run, RunError> {
+        tracking.check()?;
+        let spec = RunSpec {
+            start: Start::Resume {
+                trainer: Box::new(self.trainer),
+                info: Box::new(self.info),
+            },
+            frames,
+            tracking,
+        };
+        Run::start(self.dir, spec)
+    }
+}
 
 /// A new run's trainer: fresh weights for `model` drawn from `seed`, with rows for all of
 /// BabyAI's words where a level is BabyAI's.
@@ -475,7 +372,7 @@ fn new_trainer(
     levels: LevelMix,
     ppo: PpoConfig,
     seed: u64,
-) -> anyhow::Result<Trainer> {
+) -> Result<Trainer, RunError> {
     let vocab_size = levels
         .entries()
         .iter()
@@ -496,7 +393,7 @@ fn warm_trainer(
     levels: LevelMix,
     ppo: PpoConfig,
     seed: u64,
-) -> anyhow::Result<Trainer> {
+) -> Result<Trainer, RunError> {
     let ckpt = parent.checkpoint;
     // A schedule starts from the temperature the parent was trained at.
     let mut ppo = ppo;

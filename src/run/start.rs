@@ -1,12 +1,11 @@
 //! What a run starts from, checked before it writes anything: a parent's weights for a warm
 //! start, the words its levels need, and the bot's labels for imitation.
 
-use anyhow::Context as _;
-
+use super::RunError;
 use crate::policy::Checkpoint;
 use crate::policy::ppo::LevelMix;
 
-/// Trained weights a new run starts from (`train --init`), loaded and checked.
+/// Trained weights a new run starts from (a warm start), loaded and checked.
 pub struct Parent {
     /// The name it was given (a checkpoint, a run directory or `bundled:NAME`).
     pub name: String,
@@ -15,20 +14,18 @@ pub struct Parent {
 }
 
 impl Parent {
-    /// Loads `name`, refusing what has no network weights to start from (the bot, an ONNX
-    /// graph).
-    pub fn load(name: &str) -> anyhow::Result<Self> {
+    /// Loads `name`, refusing what has no network weights to start from: the bot
+    /// ([`RunError::BotParent`]), an ONNX graph (`init` [`RunError::Invalid`]).
+    pub fn load(name: &str) -> Result<Self, RunError> {
         if name == crate::policy::acting::BOT {
-            anyhow::bail!(
-                "the bot is a planner with no network weights to start from; to learn from it, \
-                 train with --imitate"
-            );
+            return Err(RunError::BotParent);
         }
         if crate::policy::onnx::is_onnx(std::path::Path::new(name)) {
-            anyhow::bail!(
+            return Err(RunError::invalid(
+                "init",
                 "an ONNX graph cannot seed training (it carries no trainable weights for \
-                 groundscope's network); give a groundscope checkpoint NAME or run directory"
-            );
+                 groundscope's network); give a groundscope checkpoint NAME or run directory",
+            ));
         }
         Ok(Self {
             name: name.to_owned(),
@@ -39,14 +36,14 @@ impl Parent {
     /// Gives the parent a [`crate::policy::ModelConfig::layout_path`] if it has none, the
     /// new weights drawn from `seed` and its LSTM's new columns zero, so the run starts with
     /// the parent's behaviour ([`crate::policy::Params::with_layout_path`]).
-    pub fn grow_layout_path(&mut self, seed: u64) -> anyhow::Result<()> {
+    pub fn grow_layout_path(&mut self, seed: u64) -> Result<(), RunError> {
         self.grow(|p, cfg| p.with_layout_path(cfg, seed))
     }
 
     /// [`Self::grow_layout_path`] for the [`crate::policy::ModelConfig::search_query`]
     /// ([`crate::policy::Params::with_search_query`]): the run starts with the parent's
     /// behaviour.
-    pub fn grow_search_query(&mut self, seed: u64) -> anyhow::Result<()> {
+    pub fn grow_search_query(&mut self, seed: u64) -> Result<(), RunError> {
         self.grow(|p, cfg| p.with_search_query(cfg, seed))
     }
 
@@ -60,7 +57,7 @@ impl Parent {
             (crate::policy::ModelConfig, crate::policy::Params),
             crate::policy::PolicyError,
         >,
-    ) -> anyhow::Result<()> {
+    ) -> Result<(), RunError> {
         let ckpt = &mut self.checkpoint;
         let (model, params) = grow(&ckpt.params, &ckpt.meta.model)?;
         ckpt.meta.model = model;
@@ -71,7 +68,7 @@ impl Parent {
     /// Sets the parent's [`crate::policy::ModelConfig::filter_norm`]: it has no weights, so
     /// the run starts from the parent's with its filter's output rescaled (the same output
     /// where the parent's maps are uniform).
-    pub fn add_filter_norm(&mut self) -> anyhow::Result<()> {
+    pub fn add_filter_norm(&mut self) -> Result<(), RunError> {
         let model = crate::policy::ModelConfig {
             filter_norm: true,
             ..self.checkpoint.meta.model
@@ -82,10 +79,10 @@ impl Parent {
     }
 
     /// Refuses `levels` whose missions use a word past the parent's vocabulary, naming one
-    /// (found in the first [`WORD_CHECK_SEEDS`] missions of each level): such a run would
-    /// otherwise fail at the first mission that uses it, updates later, and its resume at
-    /// once.
-    pub fn check_words(&self, levels: &LevelMix) -> anyhow::Result<()> {
+    /// (found in the first [`WORD_CHECK_SEEDS`] missions of each level) as an `init`
+    /// [`RunError::Invalid`]: such a run would otherwise fail at the first mission that uses
+    /// it, updates later, and its resume at once.
+    pub fn check_words(&self, levels: &LevelMix) -> Result<(), RunError> {
         use crate::policy::ModelConfig;
         let known = self.checkpoint.meta.model.vocab_size;
         for entry in levels.entries() {
@@ -95,19 +92,23 @@ impl Parent {
             }
             let shown = || level.id();
             for seed in 0..WORD_CHECK_SEEDS {
-                let world = level
-                    .generate(seed)
-                    .with_context(|| format!("level {} seed {seed}", shown()))?;
-                let tokens = crate::env::vocab::tokenize_on_level(&world.mission, shown)?;
+                let world = level.generate(seed).map_err(|e| {
+                    RunError::invalid("levels", format!("level {} seed {seed}: {e}", shown()))
+                })?;
+                let tokens = crate::env::vocab::tokenize_on_level(&world.mission, shown)
+                    .map_err(|e| RunError::invalid("levels", e))?;
                 if let Some(&t) = tokens.iter().find(|&&t| t as usize >= known) {
-                    anyhow::bail!(
-                        "the model knows the paper's {} words, and level {} uses {:?} (mission \
-                         {:?}); warm-start from a model trained on a BabyAI level",
-                        known - 1,
-                        shown(),
-                        crate::env::vocab::word(t).unwrap_or("?"),
-                        world.mission
-                    );
+                    return Err(RunError::invalid(
+                        "init",
+                        format!(
+                            "the model knows the paper's {} words, and level {} uses {:?} \
+                             (mission {:?}); warm-start from a model trained on a BabyAI level",
+                            known - 1,
+                            shown(),
+                            crate::env::vocab::word(t).unwrap_or("?"),
+                            world.mission
+                        ),
+                    ));
                 }
             }
         }
@@ -128,14 +129,15 @@ const LABEL_SHARE_MIN: f64 = 0.01;
 /// Imitation learns only from the steps the bot advises. The bot is run alone on each level's
 /// first training episodes: a run where every level is labelled under [`LABEL_SHARE_MIN`] of
 /// its steps (the bot gives up at once or nearly, as on KeyInBox) is refused rather than
-/// trained on nothing; otherwise returns the levels so labelled, each with its share, for a
-/// warning.
-pub fn check_labels(levels: &LevelMix) -> anyhow::Result<Vec<String>> {
+/// trained on nothing (an `imitate` [`RunError::Invalid`] naming the levels); otherwise
+/// returns the levels so labelled, each with its share, for a warning.
+pub fn check_labels(levels: &LevelMix) -> Result<Vec<String>, RunError> {
     use crate::policy::ppo::TRAIN_SEED_OFFSET;
     let seeds = TRAIN_SEED_OFFSET..TRAIN_SEED_OFFSET + LABEL_CHECK_EPISODES;
     let mut silent = Vec::new();
     for e in levels.entries() {
-        let share = crate::bot::label_share(&e.level, seeds.clone())?;
+        let share = crate::bot::label_share(&e.level, seeds.clone())
+            .map_err(|err| RunError::invalid("imitate", err))?;
         if share.share() < LABEL_SHARE_MIN {
             silent.push(format!(
                 "{} ({} of {} steps labelled; the bot gave up on {} of {} episodes)",
@@ -148,10 +150,13 @@ pub fn check_labels(levels: &LevelMix) -> anyhow::Result<Vec<String>> {
         }
     }
     if silent.len() == levels.entries().len() {
-        anyhow::bail!(
-            "the bot labels almost nothing of {}: imitation would learn from no labelled frame",
-            silent.join("; ")
-        );
+        return Err(RunError::invalid(
+            "imitate",
+            format!(
+                "the bot labels almost nothing of {}: imitation would learn from no labelled frame",
+                silent.join("; ")
+            ),
+        ));
     }
     Ok(silent)
 }

@@ -5,11 +5,12 @@ use std::path::PathBuf;
 use clap::Args;
 use groundscope::policy::WordTemperature;
 use groundscope::policy::ppo::{LevelMix, PpoConfig, TemperatureAnneal};
+use groundscope::run::RunSpec;
 
 use crate::cli::env_cmd::LevelArgs;
 use crate::cli::model_options::ModelOptions;
 
-/// `groundscope train`.
+/// `groundscope train`. Every default is a run's ([`RunSpec::default`]).
 #[derive(Debug, Args)]
 #[expect(
     clippy::struct_excessive_bools,
@@ -20,16 +21,16 @@ use crate::cli::model_options::ModelOptions;
 )]
 pub struct TrainArgs {
     /// attention or baseline.
-    #[arg(long, value_name = "MODEL", default_value = "attention")]
+    #[arg(long, value_name = "MODEL", default_value_t = default_model())]
     pub model: String,
     /// Run directory: model.{safetensors,json}, log.csv, resume state.
     #[arg(long, value_name = "DIR")]
     pub out: PathBuf,
     /// Train until this many frames in total (a resumed run counts its earlier frames).
-    #[arg(long, default_value_t = 5_000_000, allow_negative_numbers = true)]
+    #[arg(long, default_value_t = RunSpec::default().frames, allow_negative_numbers = true)]
     pub frames: u64,
     /// Seed of the initial weights and of the sampling / shuffling streams.
-    #[arg(long, default_value_t = 1, allow_negative_numbers = true)]
+    #[arg(long, default_value_t = RunSpec::default().start.seed(), allow_negative_numbers = true)]
     pub seed: u64,
     /// Continue the run in --out exactly where it stopped (weights, Adam, RNGs, environments).
     #[arg(long)]
@@ -40,7 +41,7 @@ pub struct TrainArgs {
     #[arg(long, value_name = "NAME", conflicts_with = "resume")]
     pub init: Option<String>,
     /// Save a checkpoint every this many updates.
-    #[arg(long, default_value_t = groundscope::run::DEFAULT_SAVE_INTERVAL, allow_negative_numbers = true)]
+    #[arg(long, default_value_t = RunSpec::default().tracking.save_every(), allow_negative_numbers = true)]
     pub save_interval: u64,
     #[command(flatten, next_help_heading = "Level")]
     pub level: LevelArgs,
@@ -56,51 +57,51 @@ pub struct TrainArgs {
     )]
     pub levels: Option<String>,
     /// Environments stepped together.
-    #[arg(help_heading = "PPO", long, default_value_t = PpoConfig::default().procs, allow_negative_numbers = true)]
+    #[arg(help_heading = "PPO", long, default_value_t = ppo_default().procs, allow_negative_numbers = true)]
     pub procs: usize,
     /// Frames per environment per update.
-    #[arg(help_heading = "PPO", long, default_value_t = PpoConfig::default().frames_per_proc, allow_negative_numbers = true)]
+    #[arg(help_heading = "PPO", long, default_value_t = ppo_default().frames_per_proc, allow_negative_numbers = true)]
     pub frames_per_proc: usize,
     /// PPO epochs per update.
-    #[arg(help_heading = "PPO", long, default_value_t = PpoConfig::default().epochs, allow_negative_numbers = true)]
+    #[arg(help_heading = "PPO", long, default_value_t = ppo_default().epochs, allow_negative_numbers = true)]
     pub epochs: usize,
     /// Frames per minibatch.
-    #[arg(help_heading = "PPO", long, default_value_t = PpoConfig::default().batch_size, allow_negative_numbers = true)]
+    #[arg(help_heading = "PPO", long, default_value_t = ppo_default().batch_size, allow_negative_numbers = true)]
     pub batch_size: usize,
     /// BPTT chunk length.
-    #[arg(help_heading = "PPO", long, default_value_t = PpoConfig::default().recurrence, allow_negative_numbers = true)]
+    #[arg(help_heading = "PPO", long, default_value_t = ppo_default().recurrence, allow_negative_numbers = true)]
     pub recurrence: usize,
     /// Adam learning rate.
-    #[arg(help_heading = "PPO", long, default_value_t = PpoConfig::default().lr, allow_negative_numbers = true)]
+    #[arg(help_heading = "PPO", long, default_value_t = ppo_default().lr, allow_negative_numbers = true)]
     pub lr: f64,
     /// Adam epsilon.
-    #[arg(help_heading = "PPO", long, default_value_t = PpoConfig::default().adam_eps, allow_negative_numbers = true)]
+    #[arg(help_heading = "PPO", long, default_value_t = ppo_default().adam_eps, allow_negative_numbers = true)]
     pub adam_eps: f64,
     /// Discount factor.
-    #[arg(help_heading = "PPO", long, default_value_t = PpoConfig::default().discount, allow_negative_numbers = true)]
+    #[arg(help_heading = "PPO", long, default_value_t = ppo_default().discount, allow_negative_numbers = true)]
     pub discount: f64,
     /// GAE lambda.
-    #[arg(help_heading = "PPO", long, default_value_t = PpoConfig::default().gae_lambda, allow_negative_numbers = true)]
+    #[arg(help_heading = "PPO", long, default_value_t = ppo_default().gae_lambda, allow_negative_numbers = true)]
     pub gae_lambda: f64,
     /// Entropy bonus coefficient.
-    #[arg(help_heading = "PPO", long, default_value_t = PpoConfig::default().entropy_coef, allow_negative_numbers = true)]
+    #[arg(help_heading = "PPO", long, default_value_t = ppo_default().entropy_coef, allow_negative_numbers = true)]
     pub entropy_coef: f64,
     /// Value loss coefficient.
-    #[arg(help_heading = "PPO", long, default_value_t = PpoConfig::default().value_loss_coef, allow_negative_numbers = true)]
+    #[arg(help_heading = "PPO", long, default_value_t = ppo_default().value_loss_coef, allow_negative_numbers = true)]
     pub value_loss_coef: f64,
     /// Gradient-norm clip.
-    #[arg(help_heading = "PPO", long, default_value_t = PpoConfig::default().max_grad_norm, allow_negative_numbers = true)]
+    #[arg(help_heading = "PPO", long, default_value_t = ppo_default().max_grad_norm, allow_negative_numbers = true)]
     pub max_grad_norm: f64,
     /// PPO clip epsilon.
-    #[arg(help_heading = "PPO", long, default_value_t = PpoConfig::default().clip_eps, allow_negative_numbers = true)]
+    #[arg(help_heading = "PPO", long, default_value_t = ppo_default().clip_eps, allow_negative_numbers = true)]
     pub clip_eps: f64,
     /// Threads for the whole update: the rollout's environments and forward passes, each
     /// minibatch's forward and backward pass and the optimizer step are split over them
     /// (results depend on the count, never on timing). `--update-threads` is the old name.
-    #[arg(help_heading = "PPO", long, alias = "update-threads", default_value_t = PpoConfig::default().threads, allow_negative_numbers = true)]
+    #[arg(help_heading = "PPO", long, alias = "update-threads", default_value_t = ppo_default().threads, allow_negative_numbers = true)]
     pub threads: usize,
     /// Multiply rewards by this for GAE and the value loss (BabyAI: 20); logs stay unscaled.
-    #[arg(help_heading = "PPO", long, default_value_t = PpoConfig::default().reward_scale, allow_negative_numbers = true)]
+    #[arg(help_heading = "PPO", long, default_value_t = ppo_default().reward_scale, allow_negative_numbers = true)]
     pub reward_scale: f64,
     /// Normalise each rollout's advantages to mean 0, standard deviation 1.
     #[arg(help_heading = "PPO", long)]
@@ -118,7 +119,7 @@ pub struct TrainArgs {
         help_heading = "Imitation",
         long,
         value_name = "P",
-        default_value_t = 0.0,
+        default_value_t = ppo_default().imitate_policy_share,
         allow_negative_numbers = true
     )]
     pub imitate_policy_share: f64,
@@ -130,7 +131,7 @@ pub struct TrainArgs {
         help_heading = "Maps",
         long,
         value_name = "LAMBDA",
-        default_value_t = 0.0,
+        default_value_t = ppo_default().ground_loss,
         allow_negative_numbers = true
     )]
     pub ground_loss: f64,
@@ -158,7 +159,7 @@ pub struct TrainArgs {
     #[arg(
         help_heading = "Tracked evaluation",
         long,
-        default_value_t = 50,
+        default_value_t = RunSpec::default().tracking.eval_interval,
         allow_negative_numbers = true
     )]
     pub eval_interval: u64,
@@ -167,7 +168,7 @@ pub struct TrainArgs {
     #[arg(
         help_heading = "Tracked evaluation",
         long,
-        default_value_t = 200,
+        default_value_t = RunSpec::default().tracking.eval_episodes,
         allow_negative_numbers = true
     )]
     pub eval_episodes: u64,
@@ -175,7 +176,7 @@ pub struct TrainArgs {
     #[arg(
         help_heading = "Model",
         long,
-        default_value_t = 128,
+        default_value_t = RunSpec::default().start.model().lstm_hidden,
         allow_negative_numbers = true
     )]
     pub hidden: usize,
@@ -184,6 +185,16 @@ pub struct TrainArgs {
     /// Hide the progress bar (log lines only).
     #[arg(help_heading = "Output", long)]
     pub quiet: bool,
+}
+
+/// A run's PPO settings by default (the PPO flags' defaults).
+fn ppo_default() -> PpoConfig {
+    *RunSpec::default().start.ppo()
+}
+
+/// A run's model by default (`--model`'s default).
+fn default_model() -> String {
+    RunSpec::default().start.model().variant.name().to_owned()
 }
 
 /// The run's PPO settings from the command line; `from` is the temperature an annealing

@@ -1,15 +1,17 @@
-//! `train`'s flags against what a run already fixed: on `--resume` the run's own settings
-//! (a flag left out takes the run's value, one given with another value is refused naming
-//! it), with `--init` the parent's network, and the tracking flags a run keeps.
+//! `train`'s flags against what a run already fixed, and the run's own setting names turned
+//! into flags: on `--resume` the run's differences from the flags given ([`RunInfo::differences`]:
+//! a flag left out takes the run's value, one given with another value is refused naming it),
+//! with `--init` the parent's network, the tracking flags a run keeps, and the run's errors.
 
 use std::path::Path;
 
 use anyhow::Context as _;
 use clap::ArgMatches;
 use clap::parser::ValueSource;
-use groundscope::policy::ppo::PpoConfig;
-use groundscope::policy::ppo::run_dir::{RunInfo, Tracking};
-use groundscope::run::Parent;
+use groundscope::env::{LevelConfig, TaskSet};
+use groundscope::policy::ModelConfig;
+use groundscope::policy::ppo::LevelMix;
+use groundscope::run::{Parent, RunError, RunInfo, RunSpec, Start, Tracking};
 
 use super::args::{TrainArgs, level_mix, ppo_config};
 
@@ -43,46 +45,180 @@ pub(super) fn tracking(
     }
 }
 
-/// `--resume`: refuses flags that contradict the run in `dir` (`info`, what it was started
-/// with).
-pub(super) fn check_resume(
+/// `--resume`: what the flags say of the run in `info` — the network as `model` (the flags'),
+/// the levels as the level flags describe them (the run's own where none is given), the PPO
+/// settings and the seed as given or by default — to compare with the run's
+/// ([`check_resume`]), and the tracking to go on with.
+pub(super) fn resume_spec(
     args: &TrainArgs,
     matches: Option<&ArgMatches>,
-    variant: groundscope::policy::Variant,
+    model: ModelConfig,
     info: &RunInfo,
+) -> anyhow::Result<RunSpec> {
+    Ok(RunSpec {
+        start: Start::New {
+            model,
+            levels: resume_levels(args, matches, info)?,
+            ppo: ppo_config(args, info.model.word_temperature.0)?,
+            seed: args.seed,
+        },
+        frames: args.frames,
+        tracking: tracking(args, matches, info.tracking),
+    })
+}
+
+/// The levels the level flags describe on `--resume`: `--levels` or `--level` as a new run
+/// reads them; the paper's level as `--size`, `--objects`, `--tasks` and the mode flags
+/// describe it (not checked: a value the run does not have is refused as a difference); the
+/// run's own where no level flag is given.
+fn resume_levels(
+    args: &TrainArgs,
+    matches: Option<&ArgMatches>,
+    info: &RunInfo,
+) -> anyhow::Result<LevelMix> {
+    if args.levels.is_some() || args.level.level.is_some() {
+        return level_mix(args);
+    }
+    let paper_flags = [
+        "size",
+        "objects",
+        "tasks",
+        "no_done",
+        "done",
+        "always_color",
+    ];
+    if !paper_flags.iter().any(|id| given(matches, id)) {
+        return Ok(info.levels.clone());
+    }
+    let a = &args.level;
+    Ok(LevelConfig {
+        room_size: a.size,
+        n_objects: a.objects,
+        tasks: TaskSet::parse(&a.tasks)?,
+        done_required: !a.no_done,
+        color_optional: !a.always_color,
+        babyai: None,
+    }
+    .into())
+}
+
+/// `--resume`: refuses a flag given with a value other than the run's in `dir` (`info`, what
+/// it was started with; `spec`, what the flags say); the mode flags (`--done`, `--no-done`,
+/// `--always-color`) must say what the run does.
+pub(super) fn check_resume(
+    matches: Option<&ArgMatches>,
+    info: &RunInfo,
+    spec: &RunSpec,
     dir: &Path,
 ) -> anyhow::Result<()> {
-    if info.variant != variant && given(matches, "model") {
-        anyhow::bail!(
-            "--resume: {} holds a {} model, not {}",
-            dir.display(),
-            info.variant.name(),
-            variant.name()
-        );
+    for d in info.differences(spec) {
+        let Some(id) = flag_ids(d.field).into_iter().find(|id| given(matches, id)) else {
+            continue;
+        };
+        let flag = id.replace('_', "-");
+        let (stored, now) = (&d.stored, &d.given);
+        match d.field {
+            "variant" => anyhow::bail!(
+                "--resume: {} holds a {stored} model, not {now}",
+                dir.display()
+            ),
+            "done_required" | "color_optional" => {
+                let mode = match (d.field, stored.as_str()) {
+                    ("done_required", "true") => "in the done-action mode",
+                    ("done_required", _) => "without the done action",
+                    _ => "without --always-color",
+                };
+                anyhow::bail!(
+                    "--resume: the run in {} was started {mode}, not with --{flag}; leave the flag out to keep the run's mode",
+                    dir.display()
+                );
+            }
+            _ => anyhow::bail!(
+                "--resume: the run in {} was started with --{flag} {stored}, not {now}; leave the flag out to keep the run's value",
+                dir.display()
+            ),
+        }
     }
-    let saved = Fixed {
-        ppo: info.ppo,
-        levels: info.levels.clone(),
-        hidden: info.hidden,
-        model: info.model,
-        seed: info.seed,
-    };
-    saved.check_given(args, matches, "--resume", dir)
+    Ok(())
+}
+
+/// The flags (clap ids) that give a run's setting `field` ([`RunInfo::differences`]'s names),
+/// the one shown in a message being the one given.
+fn flag_ids(field: &'static str) -> Vec<&'static str> {
+    match field {
+        "variant" => vec!["model"],
+        "levels" => vec!["levels", "level"],
+        "room_size" => vec!["size"],
+        "n_objects" => vec!["objects"],
+        "temperature_anneal" => vec!["word_temperature_anneal"],
+        "done_required" => vec!["no_done", "done"],
+        "color_optional" => vec!["always_color"],
+        other => vec![other],
+    }
+}
+
+/// The flag that gives a run's setting `field`, as a message shows it (`--hidden`); the
+/// network's and PPO's own checks (`model`, `ppo`) name their flags in their reason.
+fn flag(field: &'static str) -> Option<String> {
+    match field {
+        "model" | "ppo" => None,
+        field => flag_ids(field)
+            .first()
+            .map(|id| format!("--{}", id.replace('_', "-"))),
+    }
+}
+
+/// The run's error as `train` says it: its settings named by their flags, how to go on by
+/// the command's (`--resume`, `--init`, `--out`); `how` is the flag the run's directory came
+/// with (`--out` for a new run, `--resume`), `init` the `--init` parent's name.
+pub(super) fn refusal(e: RunError, how: &str, init: Option<&str>) -> anyhow::Error {
+    match e {
+        RunError::Occupied(dir) => anyhow::anyhow!(
+            "{} already holds a run; pass --resume to continue it or choose another --out",
+            dir.display()
+        ),
+        RunError::NothingToResume(dir) => anyhow::anyhow!(
+            "--resume: {} holds no checkpoint to resume (a run stopped before its first save); start it again without --resume",
+            dir.display()
+        ),
+        RunError::BadLog { what, .. } => anyhow::anyhow!(
+            "{how}: {what}; restore it, or start a new run from this one's weights with --init"
+        ),
+        RunError::BotParent => anyhow::anyhow!(
+            "--init {}: the bot is a planner with no network weights to start from; to learn from it, train with --imitate",
+            init.unwrap_or(groundscope::policy::acting::BOT)
+        ),
+        RunError::Invalid {
+            field: "init",
+            reason,
+        } => match init {
+            Some(name) => anyhow::anyhow!("--init {name}: {reason}"),
+            None => anyhow::anyhow!("--init: {reason}"),
+        },
+        RunError::Invalid { field, reason } => match flag(field) {
+            Some(flag) => anyhow::anyhow!("{flag}: {reason}"),
+            None => anyhow::anyhow!("{reason}"),
+        },
+        e => anyhow::Error::from(e).context(how.to_owned()),
+    }
 }
 
 /// `--init NAME`: the parent, refusing a checkpoint of the other model or a `--hidden` or
 /// model option (`--conv-kernel`, …) that differs from its own, except `--layout-path` and
 /// `--search-query`, which grow a parent without them ([`Parent::grow_layout_path`],
 /// [`Parent::grow_search_query`]), and `--filter-norm`, which has no weights
-/// ([`Parent::add_filter_norm`]); and levels with words it lacks.
+/// ([`Parent::add_filter_norm`]). (Levels with words it lacks are refused by the run, before
+/// it touches its directory.)
 pub(super) fn parent(
     name: &str,
     variant: groundscope::policy::Variant,
-    levels: &groundscope::policy::ppo::LevelMix,
     args: &TrainArgs,
     matches: Option<&ArgMatches>,
 ) -> anyhow::Result<Parent> {
-    let mut parent = Parent::load(name).with_context(|| format!("--init {name}"))?;
+    let mut parent = Parent::load(name).map_err(|e| match e {
+        e @ (RunError::BotParent | RunError::Invalid { .. }) => refusal(e, "--init", Some(name)),
+        e => anyhow::Error::from(e).context(format!("--init {name}")),
+    })?;
     if args.model_options.layout_path {
         // The one option a warm start may add: its weights start at zero, so the run begins
         // with its parent's behaviour.
@@ -123,175 +259,10 @@ pub(super) fn parent(
             anyhow::bail!("--init: {name} was trained with --{flag} {theirs}, not --{flag} {now}");
         }
     }
-    parent
-        .check_words(levels)
-        .with_context(|| format!("--init {name}"))?;
     Ok(parent)
 }
 
 /// Whether flag `id` was given on the command line rather than left at its default.
 fn given(matches: Option<&ArgMatches>, id: &str) -> bool {
     matches.is_some_and(|m| m.value_source(id) == Some(ValueSource::CommandLine))
-}
-
-/// What a run fixes at its start. On `--resume` a flag left out takes the run's value, and a
-/// flag given with another value is an error rather than silently ignored.
-struct Fixed {
-    ppo: PpoConfig,
-    levels: groundscope::policy::ppo::LevelMix,
-    hidden: usize,
-    model: groundscope::policy::ModelConfig,
-    seed: u64,
-}
-
-impl Fixed {
-    fn check_given(
-        &self,
-        args: &TrainArgs,
-        matches: Option<&ArgMatches>,
-        how: &str,
-        dir: &Path,
-    ) -> anyhow::Result<()> {
-        let (now, run) = (ppo_config(args, self.model.word_temperature.0)?, &self.ppo);
-        let a = &args.level;
-        let l = &self.levels.first();
-        // The levels as given, or as the run has them where the flag is left out.
-        let levels_now = if args.levels.is_some() || args.level.level.is_some() {
-            level_mix(args)?.to_string()
-        } else {
-            self.levels.to_string()
-        };
-        let schedule = |p: &PpoConfig| {
-            p.temperature_anneal
-                .map_or_else(String::new, |a| format!("{}:{}", a.start, a.end))
-        };
-        let freeze = |p: &PpoConfig| {
-            p.freeze_attention_at
-                .map_or_else(String::new, |f| f.to_string())
-        };
-        let pairs: [(&str, String, String); 28] = [
-            (
-                "ground_loss",
-                now.ground_loss.to_string(),
-                run.ground_loss.to_string(),
-            ),
-            (
-                "imitate_policy_share",
-                now.imitate_policy_share.to_string(),
-                run.imitate_policy_share.to_string(),
-            ),
-            ("levels", levels_now.clone(), self.levels.to_string()),
-            ("level", levels_now, self.levels.to_string()),
-            ("imitate", now.imitate.to_string(), run.imitate.to_string()),
-            ("word_temperature_anneal", schedule(&now), schedule(run)),
-            ("freeze_attention_at", freeze(&now), freeze(run)),
-            (
-                "reward_scale",
-                now.reward_scale.to_string(),
-                run.reward_scale.to_string(),
-            ),
-            (
-                "normalize_advantages",
-                now.normalize_advantages.to_string(),
-                run.normalize_advantages.to_string(),
-            ),
-            ("procs", now.procs.to_string(), run.procs.to_string()),
-            (
-                "frames_per_proc",
-                now.frames_per_proc.to_string(),
-                run.frames_per_proc.to_string(),
-            ),
-            ("epochs", now.epochs.to_string(), run.epochs.to_string()),
-            (
-                "batch_size",
-                now.batch_size.to_string(),
-                run.batch_size.to_string(),
-            ),
-            (
-                "recurrence",
-                now.recurrence.to_string(),
-                run.recurrence.to_string(),
-            ),
-            ("lr", now.lr.to_string(), run.lr.to_string()),
-            (
-                "adam_eps",
-                now.adam_eps.to_string(),
-                run.adam_eps.to_string(),
-            ),
-            (
-                "discount",
-                now.discount.to_string(),
-                run.discount.to_string(),
-            ),
-            (
-                "gae_lambda",
-                now.gae_lambda.to_string(),
-                run.gae_lambda.to_string(),
-            ),
-            (
-                "entropy_coef",
-                now.entropy_coef.to_string(),
-                run.entropy_coef.to_string(),
-            ),
-            (
-                "value_loss_coef",
-                now.value_loss_coef.to_string(),
-                run.value_loss_coef.to_string(),
-            ),
-            (
-                "max_grad_norm",
-                now.max_grad_norm.to_string(),
-                run.max_grad_norm.to_string(),
-            ),
-            (
-                "clip_eps",
-                now.clip_eps.to_string(),
-                run.clip_eps.to_string(),
-            ),
-            ("threads", now.threads.to_string(), run.threads.to_string()),
-            ("hidden", args.hidden.to_string(), self.hidden.to_string()),
-            ("seed", args.seed.to_string(), self.seed.to_string()),
-            ("size", a.size.to_string(), l.room_size.to_string()),
-            ("objects", a.objects.to_string(), l.n_objects.to_string()),
-            (
-                "tasks",
-                task_name(&a.tasks),
-                format!("{:?}", l.tasks).to_lowercase(),
-            ),
-        ];
-        for (id, now, run) in pairs
-            .into_iter()
-            .chain(args.model_options.against(&self.model))
-        {
-            if given(matches, id) && now != run {
-                anyhow::bail!(
-                    "{how}: the run in {} was started with --{} {run}, not {now}; leave the flag out to keep the run's value",
-                    dir.display(),
-                    id.replace('_', "-")
-                );
-            }
-        }
-        // One rule for the mode flags: a flag that says what the run already does is
-        // accepted, one that contradicts it is refused (never silently ignored).
-        for (id, on, mode) in [
-            ("no_done", !l.done_required, "in the done-action mode"),
-            ("done", l.done_required, "without the done action"),
-            ("always_color", !l.color_optional, "without --always-color"),
-        ] {
-            if given(matches, id) && !on {
-                anyhow::bail!(
-                    "{how}: the run in {} was started {mode}, not with --{}; leave the flag out to keep the run's mode",
-                    dir.display(),
-                    id.replace('_', "-")
-                );
-            }
-        }
-        Ok(())
-    }
-}
-
-/// `--tasks` as the run files spell it, so `both` and its aliases compare equal.
-fn task_name(given: &str) -> String {
-    groundscope::env::TaskSet::parse(given)
-        .map_or_else(|_| given.to_owned(), |t| format!("{t:?}").to_lowercase())
 }

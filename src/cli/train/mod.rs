@@ -9,13 +9,11 @@ use std::path::Path;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 
-use anyhow::Context as _;
 use clap::ArgMatches;
 use groundscope::metrics::tracking::TrackedEval;
-use groundscope::policy::ppo::run_dir::{RunInfo, Tracking};
 use groundscope::policy::ppo::{LevelMix, PpoConfig, UpdateLog};
 use groundscope::policy::{ModelConfig, Variant};
-use groundscope::run::{HeldRun, NothingToResume, Run, RunSpec, Start};
+use groundscope::run::{Run, RunSpec, Start};
 
 use crate::ExitStatus;
 use crate::cli::policy_cmd::parse_variant;
@@ -25,25 +23,25 @@ use args::{level_mix, ppo_config};
 /// Runs `train`.
 pub fn run(args: &TrainArgs, matches: Option<&ArgMatches>) -> anyhow::Result<ExitStatus> {
     let (variant, model) = model_of(args)?;
-    let begin = if args.resume {
-        // The run's own settings are checked once its directory is locked and loaded.
-        Begin::Resume(|info: &RunInfo| {
-            flags::check_resume(args, matches, variant, info, &args.out)?;
-            Ok(flags::tracking(args, matches, info.tracking))
-        })
-    } else {
-        // Everything a new run can get wrong is refused before its directory is made.
-        let (ppo, levels) = new_run(args, &model)?;
-        if ppo.imitate {
-            for what in groundscope::run::check_labels(&levels).context("--imitate")? {
-                eprintln!(
-                    "groundscope: warning: --imitate: the bot labels almost nothing of {what}: its episodes give imitation no labels"
-                );
-            }
+    let mut run = if args.resume {
+        let resumable = Run::resume(&args.out).map_err(|e| flags::refusal(e, "--resume", None))?;
+        for n in resumable.notices() {
+            eprintln!("groundscope: {n}");
         }
+        // The run's own settings are checked once its directory is locked and loaded.
+        let given = flags::resume_spec(args, matches, model, resumable.info())?;
+        flags::check_resume(matches, resumable.info(), &given, &args.out)?;
+        resumable
+            .start(given.frames, given.tracking)
+            .map_err(|e| flags::refusal(e, "--resume", None))?
+    } else {
+        // What the flags can get wrong is refused here, with the flags' own messages; the
+        // run checks the rest (the parent's words, imitation's labels) before it makes its
+        // directory.
+        let (ppo, levels) = new_run(args, &model)?;
         let start = match &args.init {
             Some(name) => Start::Init {
-                parent: Box::new(flags::parent(name, variant, &levels, args, matches)?),
+                parent: Box::new(flags::parent(name, variant, args, matches)?),
                 levels,
                 ppo,
                 seed: args.seed,
@@ -55,13 +53,22 @@ pub fn run(args: &TrainArgs, matches: Option<&ArgMatches>) -> anyhow::Result<Exi
                 seed: args.seed,
             },
         };
-        Begin::Create(Box::new(RunSpec {
+        let spec = RunSpec {
             start,
             frames: args.frames,
             tracking: flags::tracking(args, matches, None),
-        }))
+        };
+        let run = Run::create(&args.out, spec)
+            .map_err(|e| flags::refusal(e, "--out", args.init.as_deref()))?;
+        for what in run.unlabelled() {
+            eprintln!(
+                "groundscope: warning: --imitate: the bot labels almost nothing of {what}: its episodes give imitation no labels"
+            );
+        }
+        run
     };
-    train(begin, &args.out, args.frames, args.quiet)
+    run.on_notice(|n| eprintln!("groundscope: {n}"));
+    train(run, args.quiet)
 }
 
 /// Refuses the flags that `train` itself refuses before it touches its run directory — the
@@ -106,42 +113,9 @@ fn new_run(args: &TrainArgs, model: &ModelConfig) -> anyhow::Result<(PpoConfig, 
     Ok((ppo, levels))
 }
 
-/// How `train` begins its run: a resume, with the check of its flags against the run's own
-/// settings, or a new or warm-started run.
-enum Begin<C> {
-    Resume(C),
-    Create(Box<RunSpec>),
-}
-
-/// Begins the run in `out` and steps it until `frames` are trained or a signal asks it to
-/// stop, showing progress (`quiet`: a line every ten updates and the tracked evaluations
-/// instead of a bar).
-fn train(
-    begin: Begin<impl FnOnce(&RunInfo) -> anyhow::Result<Tracking>>,
-    out: &Path,
-    frames: u64,
-    quiet: bool,
-) -> anyhow::Result<ExitStatus> {
-    let mut run = match begin {
-        Begin::Resume(check) => Run::resume(out, frames, check).map_err(|e| {
-            match e.downcast::<NothingToResume>() {
-                Ok(NothingToResume(dir)) => anyhow::anyhow!(
-                    "--resume: {} holds no checkpoint to resume (a run stopped before its first save); start it again without --resume",
-                    dir.display()
-                ),
-                Err(e) => e.context("--resume"),
-            }
-        })?,
-        Begin::Create(spec) => {
-            Run::create(out, *spec).map_err(|e| match e.downcast::<HeldRun>() {
-                Ok(HeldRun(dir)) => anyhow::anyhow!(
-                    "{} already holds a run; pass --resume to continue it or choose another --out",
-                    dir.display()
-                ),
-                Err(e) => e.context("--out"),
-            })?
-        }
-    };
+/// Steps `run` until it has trained its frames or a signal asks it to stop, showing progress
+/// (`quiet`: a line every ten updates and the tracked evaluations instead of a bar).
+fn train(mut run: Run, quiet: bool) -> anyhow::Result<ExitStatus> {
     let stop = Arc::new(AtomicBool::new(false));
     {
         let stop = Arc::clone(&stop);

@@ -19,7 +19,6 @@ mod loss;
 mod missions;
 mod mix;
 mod rollout;
-pub mod run_dir;
 mod state;
 mod update;
 mod workers;

@@ -1,8 +1,10 @@
 //! Training: PPO (`ppo`), `train` on the command line (`cli`) and on several levels
-//! (`levels`), the run as a core object (`run`), and crash consistency (`crash`).
+//! (`levels`), the run as a core object (`run`), its spec, refusals and a resume's
+//! differences (`spec`), and crash consistency (`crash`).
 
 mod cli;
 mod crash;
 mod levels;
 mod ppo;
 mod run;
+mod spec;

@@ -4,9 +4,8 @@
 
 use groundscope::env::LevelConfig;
 use groundscope::policy::ppo::PpoConfig;
-use groundscope::policy::ppo::run_dir::Tracking;
 use groundscope::policy::{ModelConfig, Variant};
-use groundscope::run::{Run, RunDir, RunSpec, Start};
+use groundscope::run::{Run, RunDir, RunSpec, Start, Tracking};
 
 fn small() -> (ModelConfig, LevelConfig, PpoConfig) {
     let model = ModelConfig {

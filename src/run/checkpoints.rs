@@ -1,28 +1,29 @@
-//! A training run's directory and its crash-safe checkpoints.
+//! A run's crash-safe checkpoints.
 //!
 //! Each save writes one *generation*, `RUN/checkpoints/update-NNNNNNNN/` (the model pair,
 //! Adam's moments, the run state and the resume settings), under a temporary name; every file
 //! is flushed to disk and the directory is renamed into place in one step, so a generation
 //! exists complete or not at all. The newest generation is then published as `RUN/model`
 //! (itself replaced atomically, see `Checkpoint::save`) for other commands to read, and all but
-//! the two newest generations are removed. `--resume` takes the newest generation that loads
-//! and checks, and says so on stderr when it had to skip a newer one. Runs written before
+//! the two newest generations are removed. A resume takes the newest generation that loads
+//! and checks, with a [`Notice::Skipped`] when it had to skip a newer one. Runs written before
 //! generations existed (the files directly in `RUN/`) still resume.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use super::{PpoConfig, Trainer};
+use super::dir::RUN_LOCK;
+use super::{Notice, RunError, RunInfo, Tracking};
 use crate::policy::checkpoint::{checkpoint_paths, write_atomic};
+use crate::policy::ppo::{LevelMix, PpoConfig, Trainer};
 use crate::policy::{Checkpoint, TrainingState};
-use anyhow::Context as _;
 use candle_core::{Device, Tensor};
 use serde::{Deserialize, Serialize};
 
 /// Generations kept: the newest, and the one before it in case the newest is damaged later.
 const KEEP_GENERATIONS: usize = 2;
 
-/// `resume.json`: what `--resume` needs besides the weights and the optimizer tensors.
+/// `resume.json`: what a resume needs besides the weights and the optimizer tensors.
 #[derive(Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ResumeFile {
@@ -40,31 +41,7 @@ pub struct ResumeFile {
     /// The levels of a run on several (`train --levels`); a run on one level names it in its
     /// checkpoint alone.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub levels: Option<super::LevelMix>,
-}
-
-/// The run directory's lock file: a training holds an exclusive lock on it (the system's
-/// `flock`), and its pid in it; its modification time is when the training took it.
-pub const RUN_LOCK: &str = ".train-lock";
-
-/// How often, and on how many held-out episodes, a run evaluates itself (`eval_log.csv`).
-/// Kept with the run so a `--resume` that leaves the flags out goes on tracking the same way.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Tracking {
-    /// `--eval-interval`: updates between evaluations (0: never).
-    pub eval_interval: u64,
-    /// `--eval-episodes`: episodes per evaluation.
-    pub eval_episodes: u64,
-    /// `--save-interval`: updates between checkpoints (absent in runs saved before it was
-    /// kept: a resume then takes the flag's value).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub save_interval: Option<u64>,
-}
-
-/// Whether `dir` already holds a run (either layout).
-pub fn holds_run(dir: &Path) -> bool {
-    dir.join("resume.json").exists() || !generations(dir).is_empty()
+    pub levels: Option<LevelMix>,
 }
 
 fn checkpoints_dir(run: &Path) -> PathBuf {
@@ -72,7 +49,7 @@ fn checkpoints_dir(run: &Path) -> PathBuf {
 }
 
 /// The generation directories of `run`, oldest first.
-fn generations(run: &Path) -> Vec<(u64, PathBuf)> {
+pub(super) fn generations(run: &Path) -> Vec<(u64, PathBuf)> {
     let Ok(entries) = std::fs::read_dir(checkpoints_dir(run)) else {
         return Vec::new();
     };
@@ -89,15 +66,16 @@ fn generations(run: &Path) -> Vec<(u64, PathBuf)> {
 }
 
 /// Saves the trainer as a new generation of `run` and publishes it as `RUN/model`.
-pub fn save(
+pub(super) fn save(
     trainer: &Trainer,
     run: &Path,
     training: TrainingState,
     tracking: Tracking,
-) -> anyhow::Result<()> {
+) -> Result<(), RunError> {
     let seed = training.seed;
     let parent = checkpoints_dir(run);
-    std::fs::create_dir_all(&parent).with_context(|| format!("creating {}", parent.display()))?;
+    std::fs::create_dir_all(&parent)
+        .map_err(RunError::io(format!("creating {}", parent.display())))?;
     // Generations being saved are this training's alone (the run lock keeps a second one
     // out); in the run directory itself, only temporary files left before this training took
     // its lock are stale: another command's output in progress there (an `eval --out` of the
@@ -110,7 +88,10 @@ pub fn save(
     let tmp = tempfile::Builder::new()
         .prefix(".saving-")
         .tempdir_in(&parent)
-        .with_context(|| format!("saving a checkpoint in {}", parent.display()))?;
+        .map_err(RunError::io(format!(
+            "saving a checkpoint in {}",
+            parent.display()
+        )))?;
     let mut ckpt = Checkpoint::new(
         trainer.model,
         trainer.level(),
@@ -121,11 +102,13 @@ pub fn save(
     let (opt_path, _) = checkpoint_paths(&tmp.path().join("optimizer"));
     let opt: std::collections::HashMap<String, Tensor> =
         trainer.optimizer_tensors()?.into_iter().collect();
-    candle_core::safetensors::save(&opt, &opt_path)
-        .with_context(|| format!("writing {}", opt_path.display()))?;
+    candle_core::safetensors::save(&opt, &opt_path).map_err(|e| RunError::Damaged {
+        path: opt_path.clone(),
+        reason: format!("cannot be written: {e}"),
+    })?;
     std::fs::File::open(&opt_path)
         .and_then(|f| f.sync_all())
-        .with_context(|| format!("writing {}", opt_path.display()))?;
+        .map_err(RunError::io(format!("writing {}", opt_path.display())))?;
     // RNG states are u128s, which serde_json::Value cannot hold: the run state gets a file.
     write_atomic(
         &tmp.path().join("run_state.json"),
@@ -139,22 +122,26 @@ pub fn save(
         tracking: Some(tracking),
         levels: trainer.levels.is_mix().then(|| trainer.levels.clone()),
     };
-    write_atomic(
-        &tmp.path().join("resume.json"),
-        serde_json::to_string(&resume)?.as_bytes(),
-    )?;
-    crate::files::sync_dir(tmp.path())?;
+    let json = serde_json::to_string(&resume).map_err(|e| RunError::Damaged {
+        path: tmp.path().join("resume.json"),
+        reason: format!("cannot be written: {e}"),
+    })?;
+    write_atomic(&tmp.path().join("resume.json"), json.as_bytes())?;
+    crate::files::sync_dir(tmp.path())
+        .map_err(RunError::io(format!("saving {}", tmp.path().display())))?;
     let dest = parent.join(format!("update-{:08}", trainer.state.updates));
     if dest.exists() {
         // The same update saved again (a run resumed from this generation): the new copy wins.
-        std::fs::remove_dir_all(&dest).with_context(|| format!("replacing {}", dest.display()))?;
+        std::fs::remove_dir_all(&dest)
+            .map_err(RunError::io(format!("replacing {}", dest.display())))?;
     }
     let kept = tmp.keep();
     if let Err(e) = std::fs::rename(&kept, &dest) {
         let _ = std::fs::remove_dir_all(&kept);
-        return Err(e).with_context(|| format!("saving {}", dest.display()));
+        return Err(RunError::io(format!("saving {}", dest.display()))(e));
     }
-    crate::files::sync_dir(&parent)?;
+    crate::files::sync_dir(&parent)
+        .map_err(RunError::io(format!("saving {}", parent.display())))?;
     ckpt.save(&run.join("model"))?;
     let gens = generations(run);
     for (_, old) in gens
@@ -204,47 +191,52 @@ fn remove_stale(dir: &Path, prefix: &str, before: Option<std::time::SystemTime>)
 }
 
 /// What a generation holds, read and checked.
-pub struct Saved {
+struct Saved {
     /// The model.
-    pub ckpt: Checkpoint,
+    ckpt: Checkpoint,
     /// The resume settings.
-    pub resume: ResumeFile,
+    resume: ResumeFile,
     /// The run state, as JSON for `Trainer::restore_state`.
-    pub state: String,
+    state: String,
     /// Adam's moments.
-    pub optimizer: BTreeMap<String, Tensor>,
+    optimizer: BTreeMap<String, Tensor>,
     /// Where it was read from.
-    pub from: PathBuf,
+    from: PathBuf,
 }
 
 /// Reads the generation (or legacy run directory) `dir`, checking that its parts agree.
-fn read_saved(dir: &Path) -> anyhow::Result<Saved> {
+fn read_saved(dir: &Path) -> Result<Saved, RunError> {
     let ckpt = Checkpoint::load(&dir.join("model"))?;
     let resume_path = dir.join("resume.json");
     let text = crate::files::read_regular_to_string(&resume_path)
-        .with_context(|| format!("reading {}", resume_path.display()))?;
-    let resume: ResumeFile = serde_json::from_str(&text)
-        .with_context(|| format!("reading {}", resume_path.display()))?;
+        .map_err(RunError::io(format!("reading {}", resume_path.display())))?;
+    let damaged = |reason: String| RunError::Damaged {
+        path: resume_path.clone(),
+        reason,
+    };
+    let resume: ResumeFile = serde_json::from_str(&text).map_err(|e| damaged(e.to_string()))?;
     resume
         .ppo
         .validate()
-        .with_context(|| format!("{}: ppo", resume_path.display()))?;
+        .map_err(|e| damaged(format!("ppo: {e}")))?;
     if resume.updates != ckpt.meta.training.updates {
-        anyhow::bail!(
-            "{}: updates {} but {} is at update {}",
-            resume_path.display(),
+        return Err(damaged(format!(
+            "updates {} but {} is at update {}",
             resume.updates,
             dir.join("model.json").display(),
             ckpt.meta.training.updates
-        );
+        )));
     }
     let state_path = dir.join("run_state.json");
     let state = crate::files::read_regular_to_string(&state_path)
-        .with_context(|| format!("reading {}", state_path.display()))?;
+        .map_err(RunError::io(format!("reading {}", state_path.display())))?;
     let (opt_path, _) = checkpoint_paths(&dir.join("optimizer"));
     let optimizer: BTreeMap<String, Tensor> =
         candle_core::safetensors::load(&opt_path, &Device::Cpu)
-            .with_context(|| format!("reading {}", opt_path.display()))?
+            .map_err(|e| RunError::Damaged {
+                path: opt_path.clone(),
+                reason: e.to_string(),
+            })?
             .into_iter()
             .collect();
     Ok(Saved {
@@ -257,7 +249,7 @@ fn read_saved(dir: &Path) -> anyhow::Result<Saved> {
 }
 
 /// Builds the trainer of a saved run, checking the run state against the model.
-pub fn restore(saved: Saved) -> anyhow::Result<Trainer> {
+fn restore(saved: Saved) -> Result<Trainer, RunError> {
     let state_path = saved.from.join("run_state.json");
     let (opt_path, _) = checkpoint_paths(&saved.from.join("optimizer"));
     let ckpt = saved.ckpt;
@@ -267,13 +259,15 @@ pub fn restore(saved: Saved) -> anyhow::Result<Trainer> {
         .clone()
         .unwrap_or_else(|| ckpt.meta.level.into());
     if levels.first() != ckpt.meta.level {
-        anyhow::bail!(
-            "{}: the run's first level is {}, but {} names {}",
-            saved.from.join("resume.json").display(),
-            levels.first(),
-            saved.from.join("model.json").display(),
-            ckpt.meta.level
-        );
+        return Err(RunError::Damaged {
+            path: saved.from.join("resume.json"),
+            reason: format!(
+                "the run's first level is {}, but {} names {}",
+                levels.first(),
+                saved.from.join("model.json").display(),
+                ckpt.meta.level
+            ),
+        });
     }
     let mut trainer = Trainer::new(
         ckpt.meta.model,
@@ -284,27 +278,32 @@ pub fn restore(saved: Saved) -> anyhow::Result<Trainer> {
     )?;
     trainer
         .restore_state(&saved.state)
-        .with_context(|| format!("reading {}", state_path.display()))?;
+        .map_err(|e| RunError::Damaged {
+            path: state_path.clone(),
+            reason: e.to_string(),
+        })?;
     let t = &ckpt.meta.training;
     if trainer.state.updates != t.updates || trainer.state.frames != t.frames {
-        anyhow::bail!(
-            "{}: at update {} / frame {} but the model is at update {} / frame {}",
-            state_path.display(),
-            trainer.state.updates,
-            trainer.state.frames,
-            t.updates,
-            t.frames
-        );
+        return Err(RunError::Damaged {
+            path: state_path,
+            reason: format!(
+                "at update {} / frame {} but the model is at update {} / frame {}",
+                trainer.state.updates, trainer.state.frames, t.updates, t.frames
+            ),
+        });
     }
     trainer
         .restore_optimizer(&saved.optimizer, saved.resume.adam_step)
-        .with_context(|| format!("reading {}", opt_path.display()))?;
+        .map_err(|e| RunError::Damaged {
+            path: opt_path,
+            reason: e.to_string(),
+        })?;
     Ok(trainer)
 }
 
-/// The newest saved state of `run` that loads completely, as a trainer and its seed; a newer
-/// generation that does not load is reported on stderr and skipped.
-pub fn load_latest(run: &Path) -> anyhow::Result<(Trainer, RunInfo)> {
+/// The newest saved state of `run` that loads completely, as a trainer and what the run was
+/// started with; a newer generation that does not load is skipped, with a notice saying so.
+pub(super) fn load_latest(run: &Path) -> Result<(Trainer, RunInfo, Option<Notice>), RunError> {
     let mut candidates: Vec<PathBuf> = generations(run).into_iter().rev().map(|g| g.1).collect();
     if candidates.is_empty() {
         candidates.push(run.to_path_buf());
@@ -328,14 +327,12 @@ pub fn load_latest(run: &Path) -> anyhow::Result<(Trainer, RunInfo)> {
             };
             restore(saved).map(|t| (t, info))
         }) {
-            Ok(found) => {
-                if let Some(e) = &first_error {
-                    eprintln!(
-                        "groundscope: resuming from {} (a newer checkpoint does not load: {e:#})",
-                        dir.display()
-                    );
-                }
-                return Ok(found);
+            Ok((trainer, info)) => {
+                let skipped = first_error.map(|e| Notice::Skipped {
+                    from: dir.clone(),
+                    reason: e.to_string(),
+                });
+                return Ok((trainer, info, skipped));
             }
             Err(e) => {
                 if first_error.is_none() {
@@ -344,27 +341,9 @@ pub fn load_latest(run: &Path) -> anyhow::Result<(Trainer, RunInfo)> {
             }
         }
     }
-    Err(first_error
-        .unwrap_or_else(|| anyhow::anyhow!("no checkpoint"))
-        .context(format!("resuming from {}", run.display())))
-}
-
-/// What a resumed run was started with.
-pub struct RunInfo {
-    /// Its seed.
-    pub seed: u64,
-    /// Its PPO settings.
-    pub ppo: PpoConfig,
-    /// Its levels.
-    pub levels: super::LevelMix,
-    /// Its hidden size.
-    pub hidden: usize,
-    /// Its network (sizes and model options).
-    pub model: crate::policy::ModelConfig,
-    /// Its model variant.
-    pub variant: crate::policy::Variant,
-    /// Its progress.
-    pub training: TrainingState,
-    /// Its tracking settings, where the run recorded them.
-    pub tracking: Option<Tracking>,
+    // The newest generation's error names its file.
+    Err(first_error.unwrap_or_else(|| RunError::Damaged {
+        path: run.to_path_buf(),
+        reason: "no checkpoint".to_owned(),
+    }))
 }
