@@ -10,7 +10,7 @@ use groundscope::env::level::{LevelConfig, LevelId};
 
 fn options(id: &str, seed: u64, step: usize) -> StartOptions {
     StartOptions {
-        checkpoint: "bundled:babyai-grounded2".to_owned(),
+        checkpoint: "bundled:babyai".to_owned(),
         compare: None,
         level: Some(LevelConfig::babyai(LevelId::parse(id).unwrap(), false)),
         seed,

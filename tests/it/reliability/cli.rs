@@ -180,8 +180,9 @@ fn a_level_the_model_cannot_read_names_the_babyai_agent() {
         "1",
     ]);
     assert_bad_input(&o, "--checkpoint bundled:babyai");
+    // One BabyAI agent is bundled; the names it replaced are not offered.
     assert!(
-        stderr(&o).contains("bundled:babyai-grounded"),
+        !stderr(&o).contains("bundled:babyai-grounded"),
         "{}",
         stderr(&o)
     );
