@@ -267,7 +267,10 @@ fn the_bundled_babyai_agent_grounds_m_doors_and_locations() {
     );
     let at_least = |level: &str, word: &str, column: &str, floor: f64| {
         let value = eval.accuracy(agent, level, word, column);
-        assert!(value >= floor, "{word} {column} on {level}: {value} < {floor}");
+        assert!(
+            value >= floor,
+            "{word} {column} on {level}: {value} < {floor}"
+        );
     };
     for level in ["BabyAI-GoToLocal-v0", "BabyAI-PickupLoc-v0"] {
         at_least(level, "combined", "acc_mean", 0.6);

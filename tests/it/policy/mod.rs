@@ -13,7 +13,10 @@ mod word_maps;
 /// A parent of BabyAI's grammar without the layout path or the filter norm, for the tests that
 /// grow one: `bundled:babyai`'s shape with both options off, freshly initialised (the bundled
 /// agent has both since 2026-12-02, and growing a model is exact whatever its weights).
-pub fn plain_babyai_parent() -> (groundscope::policy::ModelConfig, groundscope::policy::Params) {
+pub fn plain_babyai_parent() -> (
+    groundscope::policy::ModelConfig,
+    groundscope::policy::Params,
+) {
     let bundled = groundscope::policy::bundled::load(groundscope::policy::bundled::BABYAI).unwrap();
     let cfg = groundscope::policy::ModelConfig {
         layout_path: false,
