@@ -8,7 +8,9 @@ use tract_onnx::prelude::*;
 
 use super::bounds::Bounds;
 use super::contract::{self, MapLayout, Meta};
-use super::load::{Inputs, bad, build, check_inputs, check_outputs, one_line, operators, props};
+use super::load::{
+    Inputs, bad, build, check_inputs, check_outputs, one_line, operators, props, what_it_reads,
+};
 use super::mission_cache::MissionCache;
 use super::{MapOutputs, OnnxStep};
 use crate::env::view::{Observation, VIEW_SIZE};
@@ -133,20 +135,24 @@ impl OnnxAgent {
         let stem = path
             .file_stem()
             .map_or_else(|| "onnx".into(), |s| s.to_string_lossy().into_owned());
-        let meta = contract::meta(&props(path, &proto)?, &stem).map_err(|e| bad(path, e))?;
-        // The message, not the error's own "invalid input:" prefix a second time.
-        let tokens = contract::token_map(&meta.vocabulary, meta.level.babyai.is_none()).map_err(
-            |e| match e {
-                PolicyError::Input(m) => bad(path, m),
-                e => e,
-            },
-        )?;
         let graph = proto
             .graph
             .as_ref()
             .ok_or_else(|| bad(path, "the model has no graph"))?;
-        let inputs = check_inputs(path, graph, meta.memory_size)?;
-        let optional = check_outputs(path, graph, meta.memory_size)?;
+        // Which of mission and memory it takes decides which metadata keys it needs.
+        let reads = what_it_reads(path, graph)?;
+        let meta = contract::meta(&props(path, &proto)?, &stem, reads).map_err(|e| bad(path, e))?;
+        // A graph of the paper's level must know every word its missions use, checked here;
+        // one of a registered level only the words its missions hold, checked as they come;
+        // one that reads no mission none.
+        let paper_words = reads.mission && meta.level.babyai.is_none();
+        // The message, not the error's own "invalid input:" prefix a second time.
+        let tokens = contract::token_map(&meta.vocabulary, paper_words).map_err(|e| match e {
+            PolicyError::Input(m) => bad(path, m),
+            e => e,
+        })?;
+        let inputs = check_inputs(path, graph, meta.memory_size, reads)?;
+        let optional = check_outputs(path, graph, meta.memory_size, reads)?;
         if inputs.overrides && !(optional[0] && optional[2]) {
             return Err(bad(
                 path,
@@ -216,6 +222,16 @@ impl OnnxAgent {
             .iter()
             .map(|&t| self.tokens.get(t as usize).copied().flatten().unwrap_or(-1))
             .collect()
+    }
+
+    /// Whether the graph takes the mission (a model without text reads none).
+    pub fn reads_mission(&self) -> bool {
+        self.inputs.reads.mission
+    }
+
+    /// Whether the graph has memory (`memory` in, `memory_out` out; M = 0 without).
+    pub fn has_memory(&self) -> bool {
+        self.inputs.reads.memory
     }
 
     /// Whether the graph outputs per-word maps.
@@ -312,11 +328,19 @@ impl OnnxAgent {
             memory: vec![0.0; b * m],
             maps: self.has_maps().then(|| vec![MapOutputs::default(); b]),
         };
-        let mut lengths: Vec<usize> = missions.iter().map(|t| t.len()).collect();
+        // A graph that reads no mission runs every row at once.
+        let key = |r: usize| {
+            if self.reads_mission() {
+                missions[r].len()
+            } else {
+                0
+            }
+        };
+        let mut lengths: Vec<usize> = (0..b).map(key).collect();
         lengths.sort_unstable();
         lengths.dedup();
         for len in lengths {
-            let rows: Vec<usize> = (0..b).filter(|&r| missions[r].len() == len).collect();
+            let rows: Vec<usize> = (0..b).filter(|&r| key(r) == len).collect();
             let group = Group {
                 rows: &rows,
                 obs,
@@ -340,8 +364,15 @@ impl OnnxAgent {
             overrides,
         } = *g;
         let (n, m) = (rows.len(), self.meta.memory_size);
-        let len = missions[rows[0]].len();
-        self.bounds.check(&self.path, n, len)?;
+        let reads = self.inputs.reads;
+        // A graph that reads no mission has no L: its sizes are checked at L = 1.
+        let len = if reads.mission {
+            missions[rows[0]].len()
+        } else {
+            0
+        };
+        self.bounds
+            .check(&self.path, n, if reads.mission { len } else { 1 })?;
         let mut image = Vec::with_capacity(n * N_CELLS * 3);
         for &r in rows {
             for col in &obs[r].image {
@@ -362,7 +393,8 @@ impl OnnxAgent {
                 .map_err(|e| PolicyError::Input(e.to_string()))?
         };
         let mut ids = Vec::with_capacity(n * len);
-        for &r in rows {
+        let mission_rows: &[usize] = if reads.mission { rows } else { &[] };
+        for &r in mission_rows {
             for &t in missions[r] {
                 let id = self
                     .tokens
@@ -401,17 +433,23 @@ impl OnnxAgent {
             }
             None => TVec::new(),
         };
-        let mission = tract_ndarray::Array::from_shape_vec([n, len], ids)
-            .map(Tensor::from)
-            .map_err(|e| PolicyError::Input(e.to_string()))?;
-        let mem: Vec<f32> = rows
-            .iter()
-            .flat_map(|&r| memory[r * m..(r + 1) * m].iter().copied())
-            .collect();
-        let mem = tract_ndarray::Array::from_shape_vec([n, m], mem)
-            .map(Tensor::from)
-            .map_err(|e| PolicyError::Input(e.to_string()))?;
-        let mut inputs: TVec<TValue> = tvec![image.into(), mission.into(), mem.into()];
+        let mut inputs: TVec<TValue> = tvec![image.into()];
+        if reads.mission {
+            let mission = tract_ndarray::Array::from_shape_vec([n, len], ids)
+                .map(Tensor::from)
+                .map_err(|e| PolicyError::Input(e.to_string()))?;
+            inputs.push(mission.into());
+        }
+        if reads.memory {
+            let mem: Vec<f32> = rows
+                .iter()
+                .flat_map(|&r| memory[r * m..(r + 1) * m].iter().copied())
+                .collect();
+            let mem = tract_ndarray::Array::from_shape_vec([n, m], mem)
+                .map(Tensor::from)
+                .map_err(|e| PolicyError::Input(e.to_string()))?;
+            inputs.push(mem.into());
+        }
         if self.inputs.direction {
             let d: Vec<i64> = rows.iter().map(|&r| i64::from(directions[r])).collect();
             inputs.push(Tensor::from(tract_ndarray::Array::from_vec(d)).into());
@@ -487,8 +525,13 @@ impl OnnxAgent {
         };
         let logits = get(0, "logits", ACTIONS)?;
         let values = get(1, "value", 1)?;
-        let new_mem = get(2, "memory_out", m)?;
-        let mut next = 3;
+        // Without memory, M = 0: no memory_out, an empty memory per row.
+        let new_mem = if reads.memory {
+            get(2, "memory_out", m)?
+        } else {
+            Vec::new()
+        };
+        let mut next = if reads.memory { 3 } else { 2 };
         let mut take = |present: bool, name: &str, per_row: usize| {
             if !present {
                 return Ok(None);
