@@ -10,7 +10,7 @@ use crate::env::tree::{InstructionTree, Stage, pending_target_cells};
 use crate::env::view::ViewCell;
 use crate::env::world::{Action, World};
 use crate::episode::{EpisodeTrace, StepRecord};
-use crate::metrics::grounding::{EvaluatedMap, ObjectHit, WordKind, ground_step};
+use crate::metrics::grounding::{EvaluatedMap, ObjectHit, ground_step};
 use crate::policy::ViewMap;
 use crate::render::overlay::{CellMark, map_cells};
 use crate::render::palette::{self, GROUNDING_HIT, GROUNDING_MISS, GROUNDING_NEAR, Rgb};
@@ -365,6 +365,7 @@ pub fn action_names() -> [&'static str; Action::COUNT] {
 mod tests {
     use super::*;
     use crate::env::level::{LevelConfig, babyai_world as world};
+    use crate::metrics::grounding::WordKind;
 
     #[test]
     fn a_cell_several_clauses_name_gets_one_mark_with_every_number() {

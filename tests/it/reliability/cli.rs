@@ -187,3 +187,37 @@ fn a_level_the_model_cannot_read_names_the_babyai_agent() {
         stderr(&o)
     );
 }
+
+/// The name the BabyAI agent had until 2026-12-02 opens it and says so once; the removed
+/// checkpoint's name is refused naming what replaced it.
+#[test]
+fn old_bundled_names_say_what_they_open_now() {
+    let o = gs(&[
+        "replay",
+        "--checkpoint",
+        "bundled:babyai-grounded2",
+        "--level",
+        "BabyAI-GoToLocal-v0",
+        "--seed",
+        "1",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let err = stderr(&o);
+    assert_eq!(
+        err.matches("note: bundled:babyai-grounded2: it is bundled:babyai now")
+            .count(),
+        1,
+        "{err}"
+    );
+    let o = gs(&[
+        "replay",
+        "--checkpoint",
+        "bundled:babyai-grounded",
+        "--level",
+        "BabyAI-GoToLocal-v0",
+    ]);
+    assert_bad_input(
+        &o,
+        "bundled:babyai-grounded: it is no longer bundled; bundled:babyai",
+    );
+}
