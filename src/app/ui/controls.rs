@@ -399,21 +399,23 @@ impl Debugger {
                     && ui
                         .button(format!("decisive step {i}"))
                         .on_hover_text(
-                            "where the episode was lost: the act its behaviour names, else \
-                             the first step it left the bot's plan at a cost, else its last",
+                            "where the episode was lost: the act its MiniGrid class or its \
+                             behaviour names, else the first step it left the bot's plan at a \
+                             cost, else its last",
                         )
                         .clicked()
                 {
                     self.cursor.step = i;
                 }
                 // Why it failed: the class and behaviour `eval` gives the same episode
-                // (docs/evaluation.md#failure-classes).
+                // (docs/evaluation.md#failure-classes); a MiniGrid class in its own terms
+                // ("stepped into lava").
                 if let Some(d) = &shown.failure {
                     let behaviour = d
                         .behaviour
                         .map_or_else(String::new, |b| format!(" · {}", b.name()));
                     ui.label(
-                        egui::RichText::new(format!("failed: {}{behaviour}", d.class.name()))
+                        egui::RichText::new(format!("failed: {}{behaviour}", d.class.shown()))
                             .color(super::numbers::FAILED),
                     )
                     .on_hover_text(format!(
