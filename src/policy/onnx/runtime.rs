@@ -354,6 +354,38 @@ impl OnnxAgent {
         Ok(out)
     }
 
+    /// The graph's token ids of `rows`' missions, each `len` long, row after row; a word
+    /// outside the graph's vocabulary is refused by name.
+    fn mission_ids(
+        &self,
+        rows: &[usize],
+        missions: &[&[u32]],
+        len: usize,
+    ) -> Result<Vec<i64>, PolicyError> {
+        let mut ids = Vec::with_capacity(rows.len() * len);
+        for &r in rows {
+            for &t in missions[r] {
+                let id = self
+                    .tokens
+                    .get(t as usize)
+                    .copied()
+                    .flatten()
+                    .ok_or_else(|| {
+                        bad(
+                            &self.path,
+                            format!(
+                                "the mission word \"{}\" is not in the graph's vocabulary \
+                                 (metadata groundscope.vocabulary)",
+                                vocab::word(t).unwrap_or("?")
+                            ),
+                        )
+                    })?;
+                ids.push(id);
+            }
+        }
+        Ok(ids)
+    }
+
     fn run_group(&self, g: &Group<'_>, out: &mut OnnxStep) -> Result<(), PolicyError> {
         let Group {
             rows,
@@ -392,28 +424,11 @@ impl OnnxAgent {
                 .map(Tensor::from)
                 .map_err(|e| PolicyError::Input(e.to_string()))?
         };
-        let mut ids = Vec::with_capacity(n * len);
-        let mission_rows: &[usize] = if reads.mission { rows } else { &[] };
-        for &r in mission_rows {
-            for &t in missions[r] {
-                let id = self
-                    .tokens
-                    .get(t as usize)
-                    .copied()
-                    .flatten()
-                    .ok_or_else(|| {
-                        bad(
-                            &self.path,
-                            format!(
-                                "the mission word \"{}\" is not in the graph's vocabulary \
-                                 (metadata groundscope.vocabulary)",
-                                vocab::word(t).unwrap_or("?")
-                            ),
-                        )
-                    })?;
-                ids.push(id);
-            }
-        }
+        let ids = if reads.mission {
+            self.mission_ids(rows, missions, len)?
+        } else {
+            Vec::new()
+        };
         let cached = match &self.missions {
             Some(cache) => {
                 let ran = std::time::Instant::now();
