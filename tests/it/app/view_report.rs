@@ -8,7 +8,7 @@ use std::sync::OnceLock;
 use crate::common::debugger::{build, show_until};
 use crate::common::{self, assert_bad_input, gs, stderr};
 use eframe::egui;
-use egui_kittest::kittest::{NodeT as _, Queryable as _};
+use egui_kittest::kittest::Queryable as _;
 use groundscope::app::Launch;
 use groundscope::app::episodes::{Browser, Column, Divergence, Outcome};
 
