@@ -6,16 +6,19 @@
 mod acting;
 #[cfg(feature = "onnx")]
 pub mod bounds;
+mod clock;
 pub mod contract;
 #[cfg(feature = "onnx")]
 mod load;
 #[cfg(feature = "onnx")]
+mod maps;
 mod mission_cache;
 #[cfg(feature = "onnx")]
 mod runtime;
 
 #[cfg(feature = "onnx")]
-pub use runtime::{OnnxAgent, StepTimes};
+pub use clock::StepTimes;
+pub use runtime::OnnxAgent;
 
 use crate::policy::trace::ViewMap;
 

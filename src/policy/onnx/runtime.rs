@@ -7,17 +7,18 @@ use std::sync::Arc;
 use tract_onnx::prelude::*;
 
 use super::bounds::Bounds;
-use super::contract::{self, MapLayout, Meta};
+use super::clock::{Clock, StepTimes};
+use super::contract::{self, Meta};
 use super::load::{
     Inputs, bad, build, check_inputs, check_outputs, one_line, operators, props, what_it_reads,
 };
+use super::maps::{graph_map, view_map};
 use super::mission_cache::MissionCache;
 use super::{MapOutputs, OnnxStep};
 use crate::env::view::{Observation, VIEW_SIZE};
 use crate::env::vocab;
 use crate::panics::panic_line;
 use crate::policy::error::PolicyError;
-use crate::policy::trace::ViewMap;
 
 const N_CELLS: usize = VIEW_SIZE * VIEW_SIZE;
 const ACTIONS: usize = crate::env::world::Action::COUNT;
@@ -38,54 +39,6 @@ pub struct OnnxAgent {
     optional: [bool; 3],
     tokens: Vec<Option<i64>>,
     clock: Clock,
-}
-
-/// Where an agent's step time went, summed over its life (for `bench onnx`).
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct StepTimes {
-    /// Calls of [`OnnxAgent::step`].
-    pub steps: u64,
-    /// Graph runs (one per mission length in a step).
-    pub runs: u64,
-    /// Runs of the mission encoder cut from the graph (docs/onnx.md#speed): one per step
-    /// that meets missions not seen before; 0 for a graph that is not cut.
-    pub encoder_runs: u64,
-    /// Seconds inside tract's plans (the step graph and the mission encoder).
-    pub graph_secs: f64,
-    /// Seconds in [`OnnxAgent::step`] in all: the graph, plus building its inputs and reading
-    /// its outputs.
-    pub step_secs: f64,
-}
-
-impl StepTimes {
-    /// What was spent since `before` (an earlier reading of the same agent).
-    #[must_use]
-    pub fn since(&self, before: &Self) -> Self {
-        Self {
-            steps: self.steps - before.steps,
-            runs: self.runs - before.runs,
-            encoder_runs: self.encoder_runs - before.encoder_runs,
-            graph_secs: self.graph_secs - before.graph_secs,
-            step_secs: self.step_secs - before.step_secs,
-        }
-    }
-}
-
-/// Nanosecond counters behind [`StepTimes`] (atomics: sweeps step one agent from threads).
-#[derive(Debug, Default)]
-struct Clock {
-    steps: std::sync::atomic::AtomicU64,
-    runs: std::sync::atomic::AtomicU64,
-    encoder_runs: std::sync::atomic::AtomicU64,
-    graph_ns: std::sync::atomic::AtomicU64,
-    step_ns: std::sync::atomic::AtomicU64,
-}
-
-impl Clock {
-    fn add(counter: &std::sync::atomic::AtomicU64, since: std::time::Instant) {
-        let ns = u64::try_from(since.elapsed().as_nanos()).unwrap_or(u64::MAX);
-        counter.fetch_add(ns, std::sync::atomic::Ordering::Relaxed);
-    }
 }
 
 impl std::fmt::Debug for OnnxAgent {
@@ -608,28 +561,4 @@ struct Group<'a> {
     missions: &'a [&'a [u32]],
     memory: &'a [f32],
     overrides: Option<&'a [f32]>,
-}
-
-/// 49 agent-up values (`j = vy·7 + vx`) → the graph's layout, into `out`.
-fn graph_map(v: &[f32], layout: MapLayout, out: &mut [f32]) {
-    for (j, x) in v.iter().enumerate().take(N_CELLS) {
-        let (vy, vx) = (j / VIEW_SIZE, j % VIEW_SIZE);
-        match layout {
-            MapLayout::Image => out[vx * VIEW_SIZE + vy] = *x,
-            MapLayout::AgentUp => out[j] = *x,
-        }
-    }
-}
-
-/// 49 values in the graph's layout → an agent-up map (`map[vy][vx]`).
-fn view_map(v: &[f32], layout: MapLayout) -> ViewMap {
-    let mut map = [[0.0; VIEW_SIZE]; VIEW_SIZE];
-    for (j, x) in v.iter().enumerate().take(N_CELLS) {
-        let (a, b) = (j / VIEW_SIZE, j % VIEW_SIZE);
-        match layout {
-            MapLayout::Image => map[b][a] = *x,
-            MapLayout::AgentUp => map[a][b] = *x,
-        }
-    }
-    map
 }
