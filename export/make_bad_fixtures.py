@@ -10,7 +10,8 @@ logits, the value and the new memory — and one defect per file:
 
 ==========================  ===================================================================
 ``minimal.onnx``            none: the control, a valid graph every command accepts
-``bad_missing_input.onnx``  no ``mission`` input (the text part left out)
+``bad_missing_input.onnx``  no ``memory`` input, but a ``memory_out`` output (computed from the
+                            view and the mission): memory is both or neither
 ``bad_missing_output.onnx`` no ``logits`` output (it is called ``action_logits``)
 ``bad_shape.onnx``          ``logits`` of 5 actions, (B, 5)
 ``bad_dtype.onnx``          ``memory`` declared int64 (cast to float inside)
@@ -68,6 +69,7 @@ VOCABULARY = oc.GROUNDSCOPE_VOCABULARY
 def tiny(
     *,
     mission: bool = True,
+    memory_in: bool = True,
     logits_name: str = "logits",
     actions: int = 7,
     memory_int: bool = False,
@@ -86,7 +88,7 @@ def tiny(
 ) -> onnx.ModelProto:
     """The tiny policy with the chosen defect (``label``: the metadata name, else ``name``)."""
     rng = np.random.default_rng(0)
-    feat = 1 + (EMB if mission else 0) + MEMORY
+    feat = 1 + (EMB if mission else 0) + (MEMORY if memory_in else 0)
 
     def init(n: str, shape: tuple[int, ...]) -> onnx.TensorProto:
         return numpy_helper.from_array((0.3 * rng.standard_normal(shape)).astype(np.float32), n)
@@ -112,7 +114,8 @@ def tiny(
         inputs.append(
             helper.make_tensor_value_info("mission", TensorProto.INT64, [batch, words]))
     mem_type = TensorProto.INT64 if memory_int else TensorProto.FLOAT
-    inputs.append(helper.make_tensor_value_info("memory", mem_type, [batch, MEMORY]))
+    if memory_in:
+        inputs.append(helper.make_tensor_value_info("memory", mem_type, [batch, MEMORY]))
 
     nodes = [
         # View: mean of all codes, (B, 1).
@@ -174,7 +177,8 @@ def tiny(
             reduce_mean("words_e", "text", [1], 0),
         ]
         parts.append("text")
-    parts.append(mem)
+    if memory_in:
+        parts.append(mem)
     nodes.append(helper.make_node("Concat", parts, ["z"], axis=1))
     if opset >= 19:
         nodes.append(helper.make_node("Gemm", ["z", "w_logits", "b_logits"], [logits_name]))
@@ -257,7 +261,7 @@ def tiny(
 
 FIXTURES = {
     "minimal": {},
-    "bad_missing_input": {"mission": False},
+    "bad_missing_input": {"memory_in": False},
     "bad_missing_output": {"logits_name": "action_logits"},
     "bad_shape": {"actions": 5},
     "bad_dtype": {"memory_int": True},

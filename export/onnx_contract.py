@@ -23,11 +23,19 @@ else:
 CONTRACT = "1"
 OPSET = 17
 PREFIX = "groundscope."
-# Inputs the contract names (``direction`` is optional) and the outputs it requires / shows.
+# Inputs the contract names and the outputs it requires / shows. Only ``image`` is required:
+# ``mission`` where the model reads one (a model without text reads none), ``memory`` in and
+# ``memory_out`` out where it has memory (both or neither); ``direction`` and the override
+# pair where the model takes them.
 INPUTS = ("image", "direction", "mission", "memory", "combined_override", "override_weight")
-REQUIRED_INPUTS = ("image", "mission", "memory")
-REQUIRED_OUTPUTS = ("logits", "value", "memory_out")
+REQUIRED_INPUTS = ("image",)
+STATE_INPUTS = ("mission", "memory")
+REQUIRED_OUTPUTS = ("logits", "value")
+MEMORY_OUTPUT = "memory_out"
 OPTIONAL_OUTPUTS = ("word_maps", "word_weights", "combined_map")
+# The level fields of the paper's own levels; a level naming a registered id in ``babyai``
+# (BabyAI's or MiniGrid's) may leave them out.
+PAPER_LEVEL_FIELDS = ("room_size", "n_objects", "tasks", "done_required", "color_optional")
 # Which axes of each named tensor are dynamic: B ("batch") everywhere, L ("words") on the
 # mission and the per-word outputs.
 DYNAMIC_AXES = {
@@ -74,23 +82,46 @@ MISSIONS = [
 ]
 
 
+def level_arg(text: str) -> dict:
+    """A ``--level`` argument: a JSON level, or a registered id alone (BabyAI's or MiniGrid's,
+    ``MiniGrid-DoorKey-5x5-v0``), which is ``{"babyai": ID}``."""
+    text = text.strip()
+    if text.startswith("{"):
+        return json.loads(text)
+    return {"babyai": text}
+
+
+def paper_level(level: dict) -> bool:
+    """Whether ``level`` is the paper's (no registered id), whose missions use every word of
+    ``MISSION_WORDS``."""
+    return not level.get("babyai")
+
+
 def metadata(
-    vocabulary: list[str],
+    vocabulary: list[str] | None,
     memory_size: int,
     level: dict,
     map_layout: str = "image",
     name: str | None = None,
 ) -> dict[str, str]:
-    """The contract's ``metadata_props`` (keys with the ``groundscope.`` prefix)."""
+    """The contract's ``metadata_props`` (keys with the ``groundscope.`` prefix).
+    ``vocabulary`` may be ``None`` for a graph that reads no mission (the key is then left
+    out); ``memory_size`` is 0 for a graph without memory."""
     if map_layout not in ("image", "agent-up"):
         raise ValueError(f"map_layout {map_layout!r} must be image or agent-up")
+    if paper_level(level):
+        missing = [f for f in PAPER_LEVEL_FIELDS if f not in level]
+        if missing:
+            raise ValueError(f"level {level}: the paper's level needs {missing} "
+                             "(or name a registered id in 'babyai')")
     props = {
         "contract": CONTRACT,
-        "vocabulary": json.dumps(vocabulary),
         "memory_size": str(int(memory_size)),
         "level": json.dumps(level),
         "map_layout": map_layout,
     }
+    if vocabulary is not None:
+        props = {"contract": CONTRACT, "vocabulary": json.dumps(vocabulary), **props}
     if name is not None:
         props["name"] = name
     return {PREFIX + k: v for k, v in props.items()}
@@ -175,6 +206,10 @@ def random_feeds(
     """Random but valid contract inputs: views, missions of ``words`` words drawn from the
     mission words, small random memory."""
     ids = [vocabulary.index(w) for w in MISSION_WORDS if w in vocabulary]
+    if not ids:
+        # A vocabulary of none of the paper's words (or none at all: a graph that reads no
+        # mission): any of its own ids, else 0.
+        ids = list(range(1, len(vocabulary))) or [0]
     return {
         "image": random_images(rng, batch).astype(image_dtype),
         "direction": rng.integers(0, 4, size=batch).astype(np.int64),
@@ -243,6 +278,33 @@ def module_inputs(module: torch.nn.Module, feeds: dict) -> list[str]:
     if unknown:
         raise TypeError(f"forward parameters {unknown} are not contract inputs {INPUTS}")
     return params
+
+
+def check_graph(model: onnx.ModelProto) -> list[str]:
+    """What the graph lacks of the contract or gets wrong in its names (empty when none):
+    ``image``, ``logits`` and ``value`` are required; ``memory`` and ``memory_out`` come
+    together or not at all; an input the contract does not name is refused, as groundscope
+    refuses it; a graph without ``mission`` has no per-word outputs."""
+    init = {t.name for t in model.graph.initializer}
+    inputs = {i.name for i in model.graph.input if i.name not in init}
+    outputs = {o.name for o in model.graph.output}
+    problems = [f"no input {n!r}" for n in REQUIRED_INPUTS if n not in inputs]
+    problems += [f"no output {n!r}" for n in REQUIRED_OUTPUTS if n not in outputs]
+    problems += [f"input {n!r} is not in the contract" for n in sorted(inputs - set(INPUTS))]
+    if "memory" in inputs and MEMORY_OUTPUT not in outputs:
+        problems.append("input 'memory' but no output 'memory_out' (memory is both or neither)")
+    if MEMORY_OUTPUT in outputs and "memory" not in inputs:
+        problems.append("output 'memory_out' but no input 'memory' (memory is both or neither)")
+    if "mission" not in inputs and outputs & {"word_maps", "word_weights"}:
+        problems.append("per-word outputs but no input 'mission'")
+    return problems
+
+
+def reads(model: onnx.ModelProto) -> tuple[bool, bool]:
+    """Whether the graph takes ``mission`` and ``memory``."""
+    init = {t.name for t in model.graph.initializer}
+    inputs = {i.name for i in model.graph.input if i.name not in init}
+    return "mission" in inputs, "memory" in inputs
 
 
 def describe(path: str | Path) -> str:

@@ -1,16 +1,21 @@
 #!/usr/bin/env python3
-"""Train an rl-starter-files / torch-ac ``ACModel`` (memory and text on) with PPO on a BabyAI
-level, in PyTorch, and save it as rl-starter-files saves it (``status.pt``: ``model_state``,
-``vocab``, ``num_frames``), ready for ``export_acmodel.py --status``.
+"""Train an rl-starter-files / torch-ac ``ACModel`` with PPO on a registered level (BabyAI's
+or MiniGrid's), in PyTorch, and save it as rl-starter-files saves it (``status.pt``:
+``model_state``, ``vocab``, ``num_frames``), ready for ``export_acmodel.py --status``.
 
     python export/train_acmodel.py --env BabyAI-GoToRedBallGrey-v0 --frames 400000 \\
         --out storage/GoToRedBallGrey
+    python export/train_acmodel.py --env MiniGrid-DoorKey-5x5-v0 --no-mem --no-text \\
+        --frames 100000 --out storage/DoorKey
 
 This is the agent of docs/onnx.md's "your agent on your level": trained entirely outside
-groundscope, by the recipe rl-starter-files' ``scripts/train.py --algo ppo --mem --text``
-uses (16 environments × 128 frames, recurrence 4, 4 epochs of 256-frame minibatches, Adam
-1e-3, γ 0.99, λ 0.95, clip 0.2, entropy 0.01, value 0.5, gradient norm 0.5), written out here
-in one file so that it runs with torch, gymnasium and minigrid alone. The model class is
+groundscope, by the recipe rl-starter-files' ``scripts/train.py --algo ppo`` uses (16
+environments × 128 frames, 4 epochs of 256-frame minibatches, Adam 1e-3, γ 0.99, λ 0.95,
+clip 0.2, entropy 0.01, value 0.5, gradient norm 0.5; with memory, recurrence 4 as
+rl-starter-files' ``--recurrence 4``, without it 1), written out here in one file so that it
+runs with torch, gymnasium and minigrid alone. Memory (``--mem``, an ``LSTMCell``) and text
+(``--text``, a GRU over the mission) are on by default here; ``--no-mem --no-text`` is
+rl-starter-files' default model, the image alone. The model class is
 ``export_acmodel.ACModel`` (rl-starter-files' own, reproduced there). Missions are tokenised as
 rl-starter-files does — ``re.findall("([a-z]+)", mission.lower())``, ids in first-seen order
 from 1 (0 pads) — and the vocabulary is saved with the weights.
@@ -72,6 +77,13 @@ def main() -> int:
     ap.add_argument("--procs", type=int, default=16)
     ap.add_argument("--frames-per-proc", type=int, default=128)
     ap.add_argument("--threads", type=int, default=1)
+    ap.add_argument("--mem", action=argparse.BooleanOptionalAction, default=True,
+                    help="an LSTMCell memory (default on)")
+    ap.add_argument("--text", action=argparse.BooleanOptionalAction, default=True,
+                    help="a GRU over the mission (default on)")
+    ap.add_argument("--recurrence", type=int,
+                    help="frames backpropagated through the memory (default 4 with memory, 1 "
+                    "without)")
     ap.add_argument("--out", required=True, help="directory for status.pt and log.csv")
     args = ap.parse_args()
 
@@ -85,10 +97,14 @@ def main() -> int:
     obss = [env.reset(seed=args.seed + 10000 * i)[0] for i, env in enumerate(envs)]
     vocab = Vocabulary(100)
     model = ACModel(
-        {"image": (7, 7, 3), "text": 100}, envs[0].action_space, use_memory=True, use_text=True
+        {"image": (7, 7, 3), "text": 100}, envs[0].action_space, use_memory=args.mem,
+        use_text=args.text,
     )
     opt = torch.optim.Adam(model.parameters(), 1e-3, eps=1e-8)
-    P, T, R = args.procs, args.frames_per_proc, 4
+    P, T = args.procs, args.frames_per_proc
+    R = args.recurrence or (4 if args.mem else 1)
+    if R > 1 and not args.mem:
+        raise SystemExit("error: --recurrence > 1 needs a memory (--mem)")
     gamma, lam, clip, ent_c, val_c, max_norm, epochs, batch = 0.99, 0.95, 0.2, 0.01, 0.5, 0.5, 4, 256
 
     memory = torch.zeros(P, model.memory_size)

@@ -2,9 +2,13 @@
 //! writes or reads (reports, `log.csv`, `eval_log.csv`, `validate`, the faithfulness steps):
 //! a field holding a comma, a quote or a newline — a checkpoint path, say — is quoted, so
 //! columns never shift. Numbers are formatted by the callers, so the bytes of ordinary rows
-//! are what they always were.
+//! are what they always were. A file with a row type of its own (`episodes.csv`) writes and
+//! reads it through serde ([`Table::serialize`], [`deserialize`]).
 
 use std::fmt::Display;
+
+use serde::Serialize;
+use serde::de::DeserializeOwned;
 
 use crate::stats::MeanStd;
 
@@ -53,7 +57,9 @@ impl Table {
     /// A table whose header is `columns` (comma-separated names).
     pub fn new(columns: &str) -> Self {
         let mut t = Self {
+            // The header is `columns`, written here: a serialized row never writes its own.
             w: csv::WriterBuilder::new()
+                .has_headers(false)
                 .flexible(true)
                 .terminator(csv::Terminator::Any(b'\n'))
                 .from_writer(Vec::new()),
@@ -66,6 +72,13 @@ impl Table {
     pub fn push(&mut self, r: &Record) {
         // Writing to a Vec cannot fail.
         let _ = self.w.write_record(&r.0);
+    }
+
+    /// Appends one record serialized from `row`, a struct whose fields are the columns in the
+    /// header's order (strings and integers as they display, `None` as an empty field).
+    pub fn serialize(&mut self, row: &impl Serialize) {
+        // Writing plain fields to a Vec cannot fail.
+        let _ = self.w.serialize(row);
     }
 
     /// The text.
@@ -103,6 +116,55 @@ pub fn read(text: &str) -> Result<(Vec<String>, Vec<Vec<String>>), String> {
         rows.push(rec.iter().map(str::to_owned).collect());
     }
     Ok((header, rows))
+}
+
+/// Why one record did not read as its row type ([`deserialize`]).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct FieldError {
+    /// The column at fault, where the CSV reader knows it (it does when a field does not
+    /// parse as its type; a row type's own message names no column).
+    pub column: Option<String>,
+    /// That column's text in the record.
+    pub value: Option<String>,
+    /// Whether the text failed to parse as the column's type (a number, say), rather than
+    /// being refused by the row type itself.
+    pub unparsed: bool,
+    /// What went wrong, as the reader or the row type says it.
+    pub reason: String,
+}
+
+/// Reads one record, `cells` under `header` (as [`read`] gives them), as a `T` whose fields
+/// are named by the columns; columns `T` does not name are skipped.
+pub fn deserialize<T: DeserializeOwned>(
+    header: &[String],
+    cells: &[String],
+) -> Result<T, FieldError> {
+    let header = csv::StringRecord::from(header);
+    let record = csv::StringRecord::from(cells);
+    record
+        .deserialize::<T>(Some(&header))
+        .map_err(|e| match e.kind() {
+            csv::ErrorKind::Deserialize { err, .. } => {
+                let at = err.field().and_then(|f| usize::try_from(f).ok());
+                FieldError {
+                    column: at.and_then(|i| header.get(i)).map(str::to_owned),
+                    value: at.and_then(|i| record.get(i)).map(str::to_owned),
+                    unparsed: matches!(
+                        err.kind(),
+                        csv::DeserializeErrorKind::ParseBool(_)
+                            | csv::DeserializeErrorKind::ParseInt(_)
+                            | csv::DeserializeErrorKind::ParseFloat(_)
+                    ),
+                    reason: err.kind().to_string(),
+                }
+            }
+            _ => FieldError {
+                column: None,
+                value: None,
+                unparsed: false,
+                reason: e.to_string(),
+            },
+        })
 }
 
 #[cfg(test)]

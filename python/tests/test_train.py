@@ -76,7 +76,7 @@ def test_a_warm_start_from_a_bundled_checkpoint(tmp_path):
     log = groundscope.train(
         tmp_path / "child",
         "BabyAI-GoToLocal-v0",
-        frames=7_370_752 + 32,
+        frames=10_442_752 + 32,
         init="bundled:babyai",
         imitate=True,
         procs=2,
@@ -84,7 +84,7 @@ def test_a_warm_start_from_a_bundled_checkpoint(tmp_path):
         batch_size=16,
         eval_interval=0,
     )
-    assert log["frames"] == 7_370_752 + 32
+    assert log["frames"] == 10_442_752 + 32
 
 
 @pytest.mark.parametrize(

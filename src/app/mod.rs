@@ -1,14 +1,25 @@
 //! The interactive debugger (eframe/egui): step through an episode, see every word's map, the
 //! combined map and the policy's numbers on one step cursor, probe the agent by editing the
-//! world or the mission, compare two checkpoints, and export.
+//! world or the mission, compare two checkpoints, browse an evaluation's episodes, and export.
 //!
-//! [`session`] holds the model and the background jobs; [`ui`] draws it.
+//! In egui's `View` shape: a [`session::Session`] holds the state — the agents, the one
+//! episode asked for ([`EpisodeRequest`]), the cursor, the selection, the evaluation browsed
+//! and the background jobs — and each panel of [`ui`] is a struct whose
+//! `ui(&mut self, ui, session)` draws it and changes the session. [`episodes`] is the
+//! episodes panel's model; the other modules hold what the panels draw with (pictures, maps,
+//! numbers, the instruction tree, the seed field, screenshots).
 
+pub mod episodes;
 pub mod faithful;
 pub mod gif;
 mod maps;
+mod numbers;
+mod pictures;
+mod screenshot;
+mod seed;
 pub mod session;
 pub mod shown;
+mod tree;
 pub mod ui;
 
 use std::path::PathBuf;
@@ -17,7 +28,35 @@ use std::sync::{Arc, Mutex};
 use eframe::egui;
 use thiserror::Error;
 
-pub use ui::{Debugger, ScreenshotTarget, StartOptions};
+pub use crate::episode::EpisodeRequest;
+pub use screenshot::ScreenshotTarget;
+pub use ui::Debugger;
+
+/// What the debugger opens with (`view`'s flags): the episode, a checkpoint to run beside it,
+/// whether the faithfulness view shows, and an evaluation to browse.
+#[derive(Clone, Debug)]
+pub struct Launch {
+    /// The episode to open: its checkpoint, level, seed, mode, step and mission.
+    pub request: EpisodeRequest,
+    /// A second checkpoint for compare mode.
+    pub compare: Option<String>,
+    /// Open with the faithfulness view shown.
+    pub faithfulness: bool,
+    /// An evaluation to browse in the episodes panel (`view --report DIR`).
+    pub report: Option<episodes::Browser>,
+}
+
+impl Launch {
+    /// The debugger on `request` alone: no compare mode, no faithfulness view, no report.
+    pub fn new(request: EpisodeRequest) -> Self {
+        Self {
+            request,
+            compare: None,
+            faithfulness: false,
+            report: None,
+        }
+    }
+}
 
 /// Why the debugger could not run.
 #[derive(Debug, Error)]
@@ -60,7 +99,7 @@ pub fn display_available() -> Result<(), AppError> {
 
 /// Opens the debugger and blocks until its window closes (or, with a screenshot path, until
 /// the picture is written).
-pub fn run(start: &StartOptions, window: &WindowOptions) -> Result<(), AppError> {
+pub fn run(launch: &Launch, window: &WindowOptions) -> Result<(), AppError> {
     display_available()?;
     let outcome: Arc<Mutex<Option<Result<(), String>>>> = Arc::new(Mutex::new(None));
     let shot = window.screenshot.clone().map(|p| (p, outcome.clone()));
@@ -71,13 +110,13 @@ pub fn run(start: &StartOptions, window: &WindowOptions) -> Result<(), AppError>
         renderer: eframe::Renderer::Glow,
         ..eframe::NativeOptions::default()
     };
-    let start = start.clone();
+    let launch = launch.clone();
     let size = window.size;
     let result = eframe::run_native(
         "groundscope",
         native,
         Box::new(move |_cc| {
-            let mut debugger = Debugger::new(&start, shot);
+            let mut debugger = Debugger::new(&launch, shot);
             debugger.asked_window(size);
             Ok(Box::new(App(debugger)))
         }),

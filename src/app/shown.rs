@@ -31,8 +31,9 @@ pub struct Shown {
     /// Why the episode failed, as `eval` classifies it (`None` for a success, and while the
     /// episode runs).
     pub failure: Option<Diagnosis>,
-    /// Where a failed episode was lost ([`decisive_step`]: the act its behaviour names, else
-    /// its first divergence from the bot that matters, else its last step), as `eval` gives it.
+    /// Where a failed episode was lost ([`decisive_step`]: the act its MiniGrid class or
+    /// behaviour names, else its first divergence from the bot that matters, else its last
+    /// step), as `eval` gives it.
     pub decisive: Option<usize>,
     complete: bool,
     alpha: f64,

@@ -169,7 +169,7 @@ fn time_level(args: &BenchViewArgs, level: &str) -> anyhow::Result<serde_json::V
         "bench": "view",
         "level": level,
         "seed": args.seed,
-        "checkpoint": start.checkpoint,
+        "checkpoint": start.request.checkpoint,
         "steps": steps,
         "time_to_first_frame_s": first.map(round),
         "time_to_full_episode_s": round(full),

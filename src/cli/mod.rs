@@ -101,6 +101,7 @@ pub enum Command {
 
 /// Runs the parsed command.
 pub fn run(cli: Cli, matches: &clap::ArgMatches) -> anyhow::Result<ExitStatus> {
+    say_renamed_checkpoints();
     match cli.command.unwrap_or_else(|| Command::View(Box::default())) {
         Command::View(args) => view::run(&args),
         Command::Env(cmd) => env_cmd::run(cmd),
@@ -117,6 +118,24 @@ pub fn run(cli: Cli, matches: &clap::ArgMatches) -> anyhow::Result<ExitStatus> {
         Command::Init(args) => policy_cmd::init(&args),
         Command::Replay(args) => replay::replay(&args),
         Command::Study(cmd) => study::run(&cmd),
+    }
+}
+
+/// Says what an old bundled name on the command line opens now (`bundled:babyai-grounded2` is
+/// `bundled:babyai`), once per name; a removed one is refused where it is loaded.
+fn say_renamed_checkpoints() {
+    use groundscope::policy::bundled::{Alias, alias};
+    let mut said = Vec::new();
+    for arg in std::env::args().skip(1) {
+        let value = arg.split_once('=').map_or(arg.as_str(), |(_, v)| v);
+        for spec in value.split(',') {
+            if let Some(renamed @ Alias::Renamed { .. }) = alias(spec)
+                && !said.contains(&spec.to_owned())
+            {
+                eprintln!("note: {spec}: {renamed}");
+                said.push(spec.to_owned());
+            }
+        }
     }
 }
 

@@ -4,7 +4,8 @@ use std::path::PathBuf;
 
 use anyhow::Context as _;
 use clap::Args;
-use groundscope::app::{self, StartOptions, WindowOptions};
+use groundscope::app::episodes::Browser;
+use groundscope::app::{self, EpisodeRequest, Launch, WindowOptions};
 
 use super::flags::EpisodeArgs;
 use crate::ExitStatus;
@@ -84,9 +85,9 @@ pub fn run(args: &ViewArgs) -> anyhow::Result<ExitStatus> {
     if let Some(p) = &args.screenshot {
         check_extension(p, "png", "--screenshot")?;
     }
-    let start = start_options(args)?;
+    let launch = start_options(args)?;
     app::run(
-        &start,
+        &launch,
         &WindowOptions {
             size,
             screenshot: args.screenshot.clone(),
@@ -110,7 +111,7 @@ pub fn window_size(args: &ViewArgs) -> anyhow::Result<[f32; 2]> {
 
 /// What the debugger opens with: the checkpoint (or the default one for the level), level,
 /// seed and mission, each checked here.
-pub fn start_options(args: &ViewArgs) -> anyhow::Result<StartOptions> {
+pub fn start_options(args: &ViewArgs) -> anyhow::Result<Launch> {
     if let Some(dir) = &args.report {
         return report_options(args, dir);
     }
@@ -126,14 +127,16 @@ pub fn start_options(args: &ViewArgs) -> anyhow::Result<StartOptions> {
     if let Some(m) = &args.episode.mission {
         groundscope::env::parse_mission(m)?;
     }
-    Ok(StartOptions {
-        checkpoint,
+    Ok(Launch {
+        request: EpisodeRequest {
+            checkpoint,
+            level,
+            seed: args.episode.seed,
+            mode: args.episode.mode(),
+            step: args.step,
+            mission: args.episode.mission.clone(),
+        },
         compare: args.compare.clone(),
-        level: Some(level),
-        seed: args.episode.seed,
-        sample: args.episode.sample,
-        step: args.step,
-        mission: args.episode.mission.clone(),
         faithfulness: args.faithfulness,
         report: None,
     })
@@ -141,8 +144,8 @@ pub fn start_options(args: &ViewArgs) -> anyhow::Result<StartOptions> {
 
 /// `view --report DIR`: the evaluation read and its first failure (else first episode) opened,
 /// its checkpoint loaded here so that a report that cannot open is a one-line error.
-fn report_options(args: &ViewArgs, dir: &std::path::Path) -> anyhow::Result<StartOptions> {
-    let mut browser = groundscope::metrics::report::browse::Browser::open(dir)?;
+fn report_options(args: &ViewArgs, dir: &std::path::Path) -> anyhow::Result<Launch> {
+    let mut browser = Browser::open(dir)?;
     let first = browser
         .first()
         .with_context(|| format!("--report {}: episodes.csv lists no episode", dir.display()))?;
@@ -153,14 +156,9 @@ fn report_options(args: &ViewArgs, dir: &std::path::Path) -> anyhow::Result<Star
         groundscope::policy::Agent::load(c)?;
     }
     browser.selected = Some(first);
-    Ok(StartOptions {
-        checkpoint: ep.checkpoint,
+    Ok(Launch {
+        request: ep,
         compare: args.compare.clone(),
-        level: Some(ep.level),
-        seed: ep.seed,
-        sample: ep.sample,
-        step: ep.step,
-        mission: None,
         faithfulness: args.faithfulness,
         report: Some(browser),
     })

@@ -2,6 +2,9 @@
 //! recordings, the debugger). A trace is never recomputed elsewhere.
 
 mod json;
+mod request;
+
+pub use request::EpisodeRequest;
 
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;

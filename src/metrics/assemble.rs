@@ -3,7 +3,7 @@
 //! test, another tool) assembles a cell the same way.
 
 use super::exploration::{EpisodeExploration, cell_exploration};
-use super::failure::{behaviour_counts, class_counts};
+use super::failure::{behaviour_counts, class_counts, classes_of};
 use super::grounding::WordKind;
 use super::report::{Cell, CellAccuracy, size_and_objects};
 use super::sweep::{EpisodeSummary, expert_stats, grounding, performance};
@@ -37,11 +37,17 @@ pub fn cell_from_episodes(
         lava: Some(grounding(&eps, WordKind::Lava)).filter(|g| g.evaluated_steps > 0),
         opening: Some(grounding(&eps, WordKind::Opening)).filter(|g| g.evaluated_steps > 0),
     });
-    let classes = class_counts(
+    let mut classes = class_counts(
         eps.iter().filter_map(|e| e.failure.as_ref()),
         attention || saliency,
         level.babyai.is_some(),
     );
+    // A MiniGrid environment's own classes, zeros included, where its rules can give them.
+    if let Some(class) = level.babyai.and_then(crate::env::LevelId::minigrid) {
+        for k in classes_of(&class) {
+            classes.entry(k).or_insert(0);
+        }
+    }
     let (size, objects) = size_and_objects(level);
     let cell = Cell::new(
         checkpoint,

@@ -84,8 +84,7 @@ pub fn check_known_words<P: Acting + ?Sized>(
     } else {
         format!(
             "is not one this model was trained on: it knows the paper's {} words (a model of \
-             the paper's level); use `--checkpoint bundled:babyai` (or \
-             `bundled:babyai-grounded2`, its maps grounded), which reads every BabyAI level, or \
+             the paper's level); use `--checkpoint bundled:babyai`, which reads every BabyAI level, or \
              train one on a BabyAI level (`train --level ID`)",
             known - 1
         )

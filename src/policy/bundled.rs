@@ -1,9 +1,8 @@
 //! The checkpoints shipped in `assets/` and embedded in the binary: the paper's pair, the
-//! default of every command (`bundled:attention` first, then `bundled:baseline`),
-//! `bundled:babyai`, an attention model that reads BabyAI's whole grammar, and
-//! `bundled:babyai-grounded`, its continuation whose maps were supervised to ground, and
-//! `bundled:babyai-grounded2`, a later continuation whose maps ground further (every class but
-//! location words at the issue's targets) at the same success.
+//! default of every command (`bundled:attention` first, then `bundled:baseline`), and
+//! `bundled:babyai`, an attention model that reads BabyAI's whole grammar and whose maps were
+//! supervised to ground (the filter norm study's choice). The names it had before keep
+//! working or say what replaced them ([`alias`]).
 
 use std::path::Path;
 
@@ -14,7 +13,7 @@ use super::error::PolicyError;
 pub const PREFIX: &str = "bundled:";
 
 /// The embedded checkpoints: name, JSON, weights.
-const BUNDLED: [(&str, &str, &[u8]); 5] = [
+const BUNDLED: [(&str, &str, &[u8]); 3] = [
     (
         "attention",
         include_str!("../../assets/attention.json"),
@@ -30,42 +29,64 @@ const BUNDLED: [(&str, &str, &[u8]); 5] = [
         include_str!("../../assets/babyai.json"),
         include_bytes!("../../assets/babyai.safetensors"),
     ),
-    (
-        "babyai-grounded",
-        include_str!("../../assets/babyai-grounded.json"),
-        include_bytes!("../../assets/babyai-grounded.safetensors"),
-    ),
-    (
-        "babyai-grounded2",
-        include_str!("../../assets/babyai-grounded2.json"),
-        include_bytes!("../../assets/babyai-grounded2.safetensors"),
-    ),
 ];
 
-/// The bundled model for BabyAI's levels: it reads every word of their missions.
+/// The bundled model for BabyAI's levels: it reads every word of their missions, and its maps
+/// were supervised to ground (`training.ground_loss` in its metadata).
 pub const BABYAI: &str = "bundled:babyai";
 
-/// `bundled:babyai` continued with the layout path and supervised maps: the recipe the layout
-/// path study's rule chose (experiments/study_layout_path/).
-pub const BABYAI_GROUNDED: &str = "bundled:babyai-grounded";
+/// A name that opened a bundled checkpoint before 2026-12-02, when three BabyAI agents became
+/// one.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Alias {
+    /// The name opens `now`, the same weights under their new name.
+    Renamed {
+        /// The name it opens now.
+        now: &'static str,
+    },
+    /// The weights are no longer bundled; `replacement` is what to use instead.
+    Removed {
+        /// What replaces it.
+        replacement: &'static str,
+        /// Where the old weights can still be had.
+        history: &'static str,
+    },
+}
 
-/// `bundled:babyai` continued with the layout path, the filter at the view's scale and
-/// supervised maps for 3M frames: the recipe the filter norm study's rule chose
-/// (experiments/study_filter_norm/), the most grounded at the success floor.
-pub const BABYAI_GROUNDED2: &str = "bundled:babyai-grounded2";
+/// What an old bundled name stands for now; `None` for any current name or other spec.
+pub fn alias(spec: &str) -> Option<Alias> {
+    match spec {
+        "bundled:babyai-grounded2" => Some(Alias::Renamed { now: BABYAI }),
+        "bundled:babyai-grounded" => Some(Alias::Removed {
+            replacement: BABYAI,
+            history: "git show c848d4d:assets/babyai-grounded.safetensors",
+        }),
+        _ => None,
+    }
+}
+
+impl std::fmt::Display for Alias {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::Renamed { now } => write!(f, "it is {now} now (the same weights)"),
+            Self::Removed {
+                replacement,
+                history,
+            } => write!(
+                f,
+                "it is no longer bundled; {replacement}, its continuation, grounds further and \
+                 replaces it (the old weights: `{history}`)"
+            ),
+        }
+    }
+}
 
 /// How a bundled checkpoint was trained, where its metadata (which names one level) would
 /// not say it truly; `None` for any other name.
 pub fn training_note(spec: &str) -> Option<&'static str> {
     match spec {
         BABYAI => Some(
-            "imitation of minigrid's BabyAI bot on sixteen BabyAI levels at once (experiments/babyai_agent/levels.txt)",
-        ),
-        BABYAI_GROUNDED => Some(
-            "bundled:babyai continued by imitation on its sixteen levels with the layout path (experiments/study_layout_path/)",
-        ),
-        BABYAI_GROUNDED2 => Some(
-            "bundled:babyai continued by imitation on its sixteen levels with the layout path and the filter norm (experiments/study_filter_norm/)",
+            "imitation of minigrid's BabyAI bot on sixteen BabyAI levels at once (experiments/babyai_agent/levels.txt), continued with the layout path, the filter norm and supervised maps (experiments/study_filter_norm/)",
         ),
         _ => None,
     }
@@ -91,6 +112,13 @@ pub fn load(spec: &str) -> Result<Checkpoint, PolicyError> {
     let Some(name) = spec.strip_prefix(PREFIX) else {
         return Checkpoint::load(Path::new(spec));
     };
+    let name = match alias(spec) {
+        Some(Alias::Renamed { now }) => now.trim_start_matches(PREFIX),
+        Some(removed @ Alias::Removed { .. }) => {
+            return Err(PolicyError::Input(format!("{spec}: {removed}")));
+        }
+        None => name,
+    };
     let Some((_, json, weights)) = BUNDLED.iter().find(|(n, _, _)| *n == name) else {
         return Err(PolicyError::Input(format!(
             "no bundled checkpoint {spec:?}; the bundled ones are {}",
@@ -114,14 +142,14 @@ mod tests {
         for n in names() {
             let c = load(&n).unwrap();
             let variant = c.meta.model.variant.name();
-            if [BABYAI, BABYAI_GROUNDED, BABYAI_GROUNDED2].contains(&n.as_str()) {
+            if n == BABYAI {
                 assert_eq!(variant, "attention");
                 assert_eq!(
                     c.meta.model.vocab_size,
                     crate::env::vocab::BABYAI_VOCAB_SIZE
                 );
-                assert_eq!(c.meta.model.layout_path, n != BABYAI);
-                assert_eq!(c.meta.model.filter_norm, n == BABYAI_GROUNDED2);
+                assert!(c.meta.model.layout_path && c.meta.model.filter_norm);
+                assert!(c.meta.training.ground_loss.is_some());
                 assert!(training_note(&n).is_some());
             } else {
                 assert_eq!(format!("{PREFIX}{variant}"), n);
@@ -133,5 +161,18 @@ mod tests {
                 .to_string()
                 .contains("bundled:attention")
         );
+    }
+
+    #[test]
+    fn old_names_open_their_weights_or_name_the_replacement() {
+        let renamed = load("bundled:babyai-grounded2").unwrap();
+        assert_eq!(
+            renamed.meta.weights_sha256,
+            load(BABYAI).unwrap().meta.weights_sha256
+        );
+        let removed = load("bundled:babyai-grounded").unwrap_err().to_string();
+        assert!(removed.contains("bundled:babyai,"), "{removed}");
+        assert!(removed.contains("git show"), "{removed}");
+        assert_eq!(alias(BABYAI), None);
     }
 }

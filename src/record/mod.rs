@@ -5,6 +5,7 @@
 //! Files are written next to their destination under a temporary name and renamed into place
 //! only when complete (footer written), so a failure or Ctrl-C leaves no partial file.
 
+mod accuracy_lines;
 pub mod mcap_recorder;
 pub mod rerun_recorder;
 mod rrd_file;

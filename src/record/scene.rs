@@ -5,18 +5,20 @@
 use image::{RgbImage, RgbaImage};
 
 use crate::env::Pos;
-use crate::env::roles::{DescPart, WordClass};
+use crate::env::roles::DescPart;
 use crate::env::tree::{InstructionTree, Stage, pending_target_cells};
 use crate::env::view::ViewCell;
 use crate::env::world::{Action, World};
 use crate::episode::{EpisodeTrace, StepRecord};
-use crate::metrics::grounding::{EvaluatedMap, ObjectHit, WordKind, ground_step};
+use crate::metrics::grounding::{EvaluatedMap, ObjectHit, ground_step};
 use crate::policy::ViewMap;
 use crate::render::overlay::{CellMark, map_cells};
 use crate::render::palette::{self, GROUNDING_HIT, GROUNDING_MISS, GROUNDING_NEAR, Rgb};
 use crate::render::{
     colorize, draw_trail, outline_targets, overlay_on_world, render_view, render_world,
 };
+
+pub use super::accuracy_lines::{accuracy_rows, no_accuracy_reason, shown_kinds};
 
 /// Pixels per world or view cell in recorded pictures: small enough for ≤ 20 KB a step,
 /// large enough to tell a key from a ball.
@@ -257,63 +259,6 @@ pub fn cell_centre(cell: ViewCell) -> (f32, f32) {
     (cell.0 as f32 + 0.5, cell.1 as f32 + 0.5)
 }
 
-/// Why a kind of grounding accuracy is not shown at this step of `world`: which word it needs
-/// and what is missing from the view, said of the clause the verifier is waiting on (named by
-/// number on a mission of several clauses), since that is the clause `M` is scored on.
-pub fn no_accuracy_reason(kind: WordKind, world: &World) -> String {
-    let clauses = world.instr.clauses();
-    let waited = crate::env::roles::pending_clauses(&world.instr)
-        .first()
-        .and_then(|&c| clauses.get(c).map(|n| (c, n.instr.desc)));
-    let (desc, clause) = match waited {
-        Some((c, d)) => (d, (clauses.len() > 1).then_some(c + 1)),
-        None => (world.desc(), None),
-    };
-    let whose = clause.map_or_else(
-        || "the mission".to_owned(),
-        |c| format!("clause {c}, the one waited on,"),
-    );
-    let named = [
-        desc.color.map(crate::env::object::Color::name),
-        Some(
-            desc.kind
-                .map_or("object", crate::env::object::ObjectKind::name),
-        ),
-    ]
-    .into_iter()
-    .flatten()
-    .collect::<Vec<_>>()
-    .join(" ");
-    match kind {
-        WordKind::Object => match desc.kind {
-            Some(k) => format!("object: no {} in view, nothing to score", k.name()),
-            None => format!("object: {whose} names no object type"),
-        },
-        WordKind::Color => match desc.color {
-            Some(c) => format!("color: no {} object in view, nothing to score", c.name()),
-            None => format!("color: {whose} names no colour"),
-        },
-        WordKind::Combined => {
-            let carried = world
-                .carrying
-                .is_some_and(|o| crate::env::tree::pending_target_ids(world).contains(&o.id));
-            let of = clause.map_or_else(String::new, |c| format!(" of clause {c}"));
-            if carried {
-                format!("combined: the target{of} ({named}) is carried, not in view")
-            } else {
-                format!("combined: no {named} (a target{of}) in view, nothing to score")
-            }
-        }
-        WordKind::Door => "door: no door in view, nothing to score".to_owned(),
-        WordKind::Location => {
-            "location: none of the objects its description matched is in view".to_owned()
-        }
-        WordKind::Goal => "goal: no goal in view, nothing to score".to_owned(),
-        WordKind::Lava => "lava: no lava in view, nothing to score".to_owned(),
-        WordKind::Opening => "opening: no opening in view, nothing to score".to_owned(),
-    }
-}
-
 /// `"1"` for clause 0's description, `"1'"` for its second (PutNext's `fixed`).
 pub fn clause_label(clause: usize, part: DescPart) -> String {
     match part {
@@ -329,48 +274,6 @@ pub fn stage_color(stage: Stage) -> Rgb {
         Stage::Done => palette::CLAUSE_DONE,
         Stage::Later => palette::CLAUSE_LATER,
     }
-}
-
-/// The word kinds a display accounts for at a step of `world` (scores or says why not): `M`
-/// always; colour always on BabyAI's levels, as on the paper's ("names no colour" where the
-/// mission has none); every other kind only where the mission has such a word (no object
-/// line on "go to the red door", whose door word is scored as a door).
-pub fn shown_kinds(world: &World) -> Vec<WordKind> {
-    let roles = crate::env::roles::roles_of(world);
-    let has = |class| roles.iter().any(|r| r.class == class);
-    let minigrid = world.rules.is_some();
-    WordKind::ALL
-        .into_iter()
-        .filter(|k| match k {
-            WordKind::Object => has(WordClass::Object),
-            WordKind::Color => !minigrid || has(WordClass::Color),
-            WordKind::Door => has(WordClass::Door),
-            WordKind::Location => has(WordClass::Location),
-            WordKind::Goal => has(WordClass::Goal),
-            WordKind::Lava => has(WordClass::Lava),
-            WordKind::Opening => has(WordClass::Opening),
-            WordKind::Combined => true,
-        })
-        .collect()
-}
-
-/// Each kind of accuracy a display accounts for at `step` ([`shown_kinds`]): its evaluated map,
-/// or why it is not scored ([`no_accuracy_reason`]).
-pub fn accuracy_rows<'a>(
-    step: &StepRecord,
-    scene: &'a StepScene,
-) -> Vec<(WordKind, Result<&'a EvaluatedMap, String>)> {
-    shown_kinds(&step.world)
-        .into_iter()
-        .map(|kind| {
-            let row = scene
-                .grounding
-                .iter()
-                .find(|g| g.kind == kind)
-                .ok_or_else(|| no_accuracy_reason(kind, &step.world));
-            (kind, row)
-        })
-        .collect()
 }
 
 /// One cell's clause numbers on a world picture: every clause whose targets include the cell
@@ -462,44 +365,7 @@ pub fn action_names() -> [&'static str; Action::COUNT] {
 mod tests {
     use super::*;
     use crate::env::level::{LevelConfig, babyai_world as world};
-
-    #[test]
-    fn a_reason_speaks_of_the_clause_waited_on() {
-        // "… after …" waits on its second clause first: a colour named only by the first
-        // clause must not be reported as missing from "the mission".
-        let mut checked = 0;
-        for seed in 0..300 {
-            let w = world("BabyAI-GoToSeqS5R2-v0", seed);
-            let clauses = w.instr.clauses();
-            let Some(&c) = crate::env::roles::pending_clauses(&w.instr).first() else {
-                continue;
-            };
-            let reason = no_accuracy_reason(WordKind::Color, &w);
-            match clauses[c].instr.desc.color {
-                None => {
-                    let want = if clauses.len() > 1 {
-                        format!(
-                            "color: clause {}, the one waited on, names no colour",
-                            c + 1
-                        )
-                    } else {
-                        "color: the mission names no colour".to_owned()
-                    };
-                    assert_eq!(reason, want, "seed {seed}: {}", w.mission);
-                    checked += usize::from(clauses.iter().any(|n| n.instr.desc.color.is_some()));
-                }
-                Some(col) => assert!(reason.contains(col.name()), "seed {seed}: {reason}"),
-            }
-        }
-        assert!(checked > 0, "no mission whose other clause names a colour");
-        // One clause: "the mission", as before.
-        let w = world("BabyAI-GoToLocal-v0", 0);
-        let r = no_accuracy_reason(WordKind::Combined, &w);
-        assert!(
-            r.starts_with("combined: no ") && !r.contains("clause"),
-            "{r}"
-        );
-    }
+    use crate::metrics::grounding::WordKind;
 
     #[test]
     fn a_cell_several_clauses_name_gets_one_mark_with_every_number() {

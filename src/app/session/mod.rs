@@ -1,431 +1,489 @@
-//! The debugger's model, free of any UI: which checkpoints and episode are loaded, the step
-//! cursor and playback, and the jobs that run off the UI thread (episodes, probes, exports).
-//! Everything here is testable without a display.
+//! The debugger's model, free of any UI: the agents loaded, the one episode asked for
+//! ([`EpisodeRequest`]), the episodes shown, the step cursor and playback, what is selected,
+//! the evaluation browsed, and the jobs that run off the UI thread (episodes, probes, exports,
+//! checkpoint loads). Every panel reads and changes a [`Session`]; everything here is testable
+//! without a display.
 
-use std::path::PathBuf;
+mod agent;
+mod cursor;
+mod jobs;
+mod report;
+mod selection;
+
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
-use std::sync::mpsc::{Receiver, Sender, channel};
-use std::time::{Duration, Instant};
-
-use crate::env::edit::{Edit, apply};
-use crate::env::level::LevelConfig;
-use crate::episode::{
-    ActionMode, EpisodeSpec, EpisodeTrace, StepRecord, rerun_from, run_from, run_from_observed,
-    run_from_with,
-};
-use crate::metrics::faithfulness::episode::{Loop, intervention};
-use crate::panics::panic_line;
-use crate::policy::Acting;
-use crate::record::{RerunTargets, record_rerun, write_mcap};
+use std::sync::atomic::AtomicBool;
 
 pub use super::shown::{SCENES_KEPT, Shown, next_miss};
+pub use agent::Agent;
+pub use cursor::{Cursor, failure_step};
+pub use jobs::{
+    AfterLoad, Export, Job, JobResult, Loaded, run_request, start_attention_probe, start_episodes,
+    start_export, start_fallback, start_load, start_probe, stream_request,
+};
+pub use selection::{FOLD_ABOVE_WORDS, Overlay, Selection};
 
-/// A loaded policy, ready to act: a native checkpoint or an imported ONNX graph.
-#[derive(Clone, Debug)]
-pub struct Agent {
-    /// What the user chose: `bundled:attention`, `bundled:baseline`, a checkpoint path or a
-    /// `.onnx` file.
-    pub spec: String,
-    /// The policy, shared with the jobs that run it.
-    pub policy: Arc<crate::policy::Agent>,
-}
+use super::episodes::Browser;
+use crate::env::edit::Edit;
+pub use crate::episode::EpisodeRequest;
 
-impl Agent {
-    /// Loads `spec` ([`crate::policy::Agent::load`]).
-    pub fn load(spec: &str) -> Result<Self, String> {
-        let policy = crate::policy::Agent::load(spec).map_err(|e| e.to_string())?;
-        Ok(Self {
-            spec: spec.to_owned(),
-            policy: Arc::new(policy),
-        })
-    }
-
-    /// The level it was trained on.
-    pub fn level(&self) -> LevelConfig {
-        self.policy.level()
-    }
-
-    /// The policy, to run episodes with.
-    pub fn acting(&self) -> &(dyn Acting + Send + Sync) {
-        self.policy.acting()
-    }
-}
-
-/// The result of a background job, or (the first two) news from one still running.
+/// Everything the debugger holds but its pictures and its panels' own fields.
 #[derive(Debug)]
-pub enum JobResult {
-    /// The main episode so far, while the job goes on: its first steps (the next come as
-    /// [`JobResult::Steps`]), or the whole of it while the compared one runs.
-    Running(Box<Shown>),
-    /// The next steps of the main episode [`JobResult::Running`] began.
-    Steps(Vec<StepRecord>),
-    /// Fresh episodes: the main one and, in compare mode, the second checkpoint's.
-    Episodes(Box<(Shown, Option<Shown>)>),
-    /// A probe: the main episode re-run from an edited state.
-    Probed(Box<Shown>, usize),
-    /// A file was written or a stream sent.
-    Exported(String),
-    /// Something failed; the message is shown in the UI.
-    Failed(String),
+pub struct Session {
+    /// The agent of the episode shown (`None` until its checkpoint has loaded, or when it
+    /// failed to).
+    pub agent: Option<Agent>,
+    /// The second checkpoint of compare mode, once loaded.
+    pub compare_agent: Option<Agent>,
+    /// Whether compare mode is on.
+    pub compare: bool,
+    /// The compared checkpoint as typed in the top bar.
+    pub compare_text: String,
+    /// The episode asked for: its checkpoint (the top bar's field), level, seed and action
+    /// mode as the controls show them, the step it opens at and a mission override for its
+    /// next run.
+    pub request: EpisodeRequest,
+    /// The mission field: the episode's mission, or what is being typed in its place.
+    pub mission_text: String,
+    /// The main episode, once its first step is there.
+    pub shown: Option<Shown>,
+    /// The compared checkpoint's episode.
+    pub compared: Option<Shown>,
+    /// The step shown and playback.
+    pub cursor: Cursor,
+    /// What is selected on the step shown.
+    pub selection: Selection,
+    /// The jobs running.
+    pub jobs: Vec<Job>,
+    /// Cancels the running export.
+    pub cancel: Arc<AtomicBool>,
+    /// The window's messages, oldest first; `true` marks an error.
+    pub messages: Vec<(bool, String)>,
+    /// Counts the episodes shown: what is cached for one (pictures, measures) is keyed by it.
+    pub generation: u64,
+    /// The grounding threshold's α.
+    pub alpha: f64,
+    /// The evaluation browsed in the episodes panel.
+    pub report: Option<Browser>,
+    /// Whether `shown` is an episode whose steps are still coming.
+    streaming: bool,
+    /// The step to move to once it is there ([`EpisodeRequest::step`]).
+    pending_step: Option<usize>,
 }
 
-impl JobResult {
-    /// Whether more results follow from the same job.
-    pub fn is_progress(&self) -> bool {
-        matches!(self, Self::Running(_) | Self::Steps(_))
-    }
-}
-
-/// A job running on another thread.
-#[derive(Debug)]
-pub struct Job {
-    /// What it does, for the status line.
-    pub what: String,
-    /// Steps done so far (exports), for the progress bar.
-    pub done: Arc<AtomicUsize>,
-    /// Steps in all.
-    pub total: usize,
-    /// Whether it runs the episode shown (a newer episode drops it).
-    pub episode: bool,
-    rx: Receiver<JobResult>,
-}
-
-impl Job {
-    fn spawn(
-        what: String,
-        total: usize,
-        work: impl FnOnce(&AtomicUsize) -> JobResult + Send + 'static,
-    ) -> Self {
-        Self::spawn_with(what, total, move |done, _| work(done))
-    }
-
-    /// A job that also sends progress ([`JobResult::is_progress`]) on the channel it is
-    /// given; a send fails once the job has been dropped, which tells the work to stop.
-    fn spawn_with(
-        what: String,
-        total: usize,
-        work: impl FnOnce(&AtomicUsize, &Sender<JobResult>) -> JobResult + Send + 'static,
-    ) -> Self {
-        let (tx, rx) = channel();
-        let done = Arc::new(AtomicUsize::new(0));
-        let d = done.clone();
-        let label = what.clone();
-        std::thread::spawn(move || {
-            // A panic is the job's error, shown in the window (and the end of a headless
-            // screenshot), not a job the window waits on for ever.
-            let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| work(&d, &tx)))
-                .unwrap_or_else(|p| {
-                    JobResult::Failed(format!("{label} failed: {}", panic_line(p.as_ref())))
-                });
-            let _ = tx.send(result);
-        });
-        Self {
-            what,
-            done,
-            total,
-            episode: false,
-            rx,
-        }
-    }
-
-    /// The result, once the job has finished.
-    pub fn poll(&self) -> Option<JobResult> {
-        match self.rx.try_recv() {
-            Ok(r) => Some(r),
-            Err(std::sync::mpsc::TryRecvError::Empty) => None,
-            // The thread ended without an answer: finished, as a failure.
-            Err(std::sync::mpsc::TryRecvError::Disconnected) => {
-                Some(JobResult::Failed(format!("{} stopped", self.what)))
-            }
-        }
-    }
-
-    /// Blocks until the job has finished (tests and the headless screenshot).
-    /// Progress on the way is skipped.
-    pub fn wait(self) -> JobResult {
-        loop {
-            match self.rx.recv() {
-                Ok(r) if r.is_progress() => {}
-                Ok(r) => return r,
-                Err(_) => return JobResult::Failed(format!("{} stopped", self.what)),
-            }
-        }
-    }
-}
-
-/// What to export.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub enum Export {
-    /// A Rerun recording.
-    Rrd(PathBuf),
-    /// MCAP.
-    Mcap(PathBuf),
-    /// An animated GIF of the world with `M` overlaid.
-    Gif(PathBuf),
-    /// Stream to a spawned viewer.
-    Spawn,
-    /// Stream to a running viewer at this URL.
-    Connect(String),
-}
-
-/// The episode request the controls describe.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Request {
-    /// Level.
-    pub level: LevelConfig,
-    /// Seed.
-    pub seed: u64,
-    /// Greedy or sampled.
-    pub mode: ActionMode,
-    /// Mission override.
-    pub mission: Option<String>,
-}
-
-impl Request {
-    /// The episode this request asks for.
-    fn spec(&self) -> EpisodeSpec {
-        EpisodeSpec {
-            level: self.level,
-            seed: self.seed,
-            mission: self.mission.clone(),
-            mode: self.mode,
-        }
-    }
-}
-
-/// Runs `agent` on `req`.
-pub fn run_request(agent: &Agent, req: &Request, alpha: f64) -> Result<Shown, String> {
-    let spec = req.spec();
-    let world = crate::episode::initial_world(&spec).map_err(|e| e.to_string())?;
-    let trace = run_from(agent.acting(), &agent.spec, &spec, world).map_err(|e| e.to_string())?;
-    Ok(Shown::new(trace, alpha))
-}
-
-/// How often a running episode sends its new steps: the window redraws no more often than
-/// this for them.
-const STEPS_EVERY: Duration = Duration::from_millis(40);
-
-/// Runs `agent` on `req`, sending its first step as [`JobResult::Running`] as soon as it is
-/// taken and the next ones as [`JobResult::Steps`] every [`STEPS_EVERY`]. `None` when the
-/// receiver is gone (a newer episode replaced this one).
-pub fn stream_request(
-    agent: &Agent,
-    req: &Request,
-    alpha: f64,
-    tx: &Sender<JobResult>,
-) -> Result<Option<Shown>, String> {
-    let spec = req.spec();
-    let world = crate::episode::initial_world(&spec).map_err(|e| e.to_string())?;
-    let (mut sent, mut last_sent, mut open) = (0, Instant::now(), true);
-    let trace = run_from_observed(
-        agent.acting(),
-        &agent.spec,
-        &spec,
-        world,
-        &mut |so_far: &EpisodeTrace| {
-            let n = so_far.steps.len();
-            if sent == 0 {
-                let first = Shown::running(so_far.clone(), alpha);
-                open = tx.send(JobResult::Running(Box::new(first))).is_ok();
-                (sent, last_sent) = (n, Instant::now());
-            } else if last_sent.elapsed() >= STEPS_EVERY {
-                let steps = so_far.steps[sent..].to_vec();
-                open = tx.send(JobResult::Steps(steps)).is_ok();
-                (sent, last_sent) = (n, Instant::now());
-            }
-            open
-        },
-    )
-    .map_err(|e| e.to_string())?;
-    Ok(open.then(|| Shown::new(trace, alpha)))
-}
-
-/// Starts running the main (and compared) agent on `req`: the main episode's steps come as
-/// they are taken ([`stream_request`]), then the whole of both.
-pub fn start_episodes(main: Agent, compare: Option<Agent>, req: Request, alpha: f64) -> Job {
-    let what = format!("running seed {}", req.seed);
-    let mut job = Job::spawn_with(what, 0, move |_, tx| {
-        let a = match stream_request(&main, &req, alpha, tx) {
-            Ok(Some(a)) => a,
-            Ok(None) => return JobResult::Failed("replaced by a newer episode".into()),
-            Err(e) => return JobResult::Failed(e),
+impl Session {
+    /// A session that loads the checkpoints of `launch` (off the UI thread) and then runs its
+    /// episode.
+    pub fn new(launch: &super::Launch) -> Self {
+        let request = launch.request.clone();
+        let main = request.checkpoint.clone();
+        let mut me = Self {
+            agent: None,
+            compare_agent: None,
+            compare: false,
+            compare_text: launch
+                .compare
+                .clone()
+                .unwrap_or_else(|| "bundled:baseline".into()),
+            mission_text: request.mission.clone().unwrap_or_default(),
+            pending_step: Some(request.step),
+            request,
+            shown: None,
+            streaming: false,
+            compared: None,
+            cursor: Cursor::default(),
+            selection: Selection::default(),
+            jobs: Vec::new(),
+            cancel: Arc::new(AtomicBool::new(false)),
+            messages: Vec::new(),
+            generation: 0,
+            alpha: 0.5,
+            report: launch.report.clone(),
         };
-        if compare.is_some() {
-            let _ = tx.send(JobResult::Running(Box::new(a.clone())));
-        }
-        let b = match compare
+        me.jobs.push(start_load(
+            Some(main),
+            launch.compare.clone(),
+            AfterLoad::Start,
+        ));
+        me
+    }
+
+    /// Says `m` in the message bar.
+    pub fn info(&mut self, m: impl Into<String>) {
+        self.messages.push((false, m.into()));
+    }
+
+    /// Says `m` in the message bar, as an error.
+    pub fn error(&mut self, m: impl Into<String>) {
+        self.messages.push((true, m.into()));
+    }
+
+    /// The last message, if it is an error.
+    pub fn last_error(&self) -> Option<&str> {
+        self.messages
+            .last()
+            .and_then(|(err, m)| err.then_some(m.as_str()))
+    }
+
+    /// Whether a job is running.
+    pub fn busy(&self) -> bool {
+        !self.jobs.is_empty()
+    }
+
+    /// Steps in the main episode (so far, while it runs); 0 before it is there.
+    pub fn len(&self) -> usize {
+        self.shown.as_ref().map_or(0, Shown::len)
+    }
+
+    /// Whether there is no step to show (yet).
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// How far the main episode has come: its steps so far and whether it is complete;
+    /// `None` before its first step is there.
+    pub fn episode_progress(&self) -> Option<(usize, bool)> {
+        let shown = self.shown.as_ref()?;
+        Some((shown.len(), shown.is_complete() && !self.streaming))
+    }
+
+    /// Moves the cursor to step `k`, or to the last step there is.
+    pub fn go_to_step(&mut self, k: usize) {
+        self.cursor.step = k.min(self.len().saturating_sub(1));
+    }
+
+    /// Whether the agent is minigrid's bot, which acts from the world itself (no maps, no
+    /// network to probe).
+    pub fn agent_is_bot(&self) -> bool {
+        self.agent
             .as_ref()
-            .map(|c| run_request(c, &req, alpha))
-            .transpose()
+            .is_some_and(|a| a.policy.acting().reads_world())
+    }
+
+    /// Runs the episode asked for with the agents loaded (the second beside it in compare
+    /// mode). The request's mission override applies to this run only; the episode asked for
+    /// last is the one shown, an older one still running stops.
+    pub fn run_episode(&mut self) {
+        let mission = self.request.mission.take();
+        let Some(agent) = self.agent.clone() else {
+            self.error("no checkpoint loaded");
+            return;
+        };
+        let request = EpisodeRequest {
+            mission,
+            ..self.request.clone()
+        };
+        let compare = if self.compare {
+            self.compare_agent.clone()
+        } else {
+            None
+        };
+        // An older episode's job is dropped: its next send fails and it stops.
+        self.jobs.retain(|j| !j.episode);
+        self.streaming = false;
+        self.jobs
+            .push(start_episodes(agent, compare, request, self.alpha));
+    }
+
+    /// Opens `request`: loads its checkpoint first (off the UI thread) unless it is the one
+    /// acting, then runs it at its step with its level's own mission.
+    pub fn open(&mut self, request: EpisodeRequest) {
+        if self
+            .agent
+            .as_ref()
+            .is_some_and(|a| a.spec == request.checkpoint)
         {
-            Ok(b) => b,
-            Err(e) => return JobResult::Failed(format!("compared checkpoint: {e}")),
-        };
-        JobResult::Episodes(Box::new((a, b)))
-    });
-    job.episode = true;
-    job
-}
+            self.open_now(request);
+        } else {
+            let main = Some(request.checkpoint.clone());
+            self.jobs
+                .push(start_load(main, None, AfterLoad::Open(request)));
+        }
+    }
 
-/// Applies `edit` to the world at step `k` of `shown` and starts re-running the agent from
-/// there. A refused edit is returned at once, with the reason.
-pub fn start_probe(
-    agent: &Agent,
-    shown: &Shown,
-    k: usize,
-    edit: &Edit,
-    alpha: f64,
-) -> Result<Job, String> {
-    let step = shown
-        .trace
-        .steps
-        .get(k)
-        .ok_or_else(|| format!("step {k} is past the end of the episode"))?;
-    let world = apply(&step.world, edit).map_err(|e| e.to_string())?;
-    let agent = agent.clone();
-    let trace = shown.trace.clone();
-    Ok(Job::spawn(
-        format!("probing step {k}"),
-        0,
-        move |_| match rerun_from(agent.acting(), &trace, k, world) {
-            Ok(t) => JobResult::Probed(Box::new(Shown::new(t, alpha)), k),
-            Err(e) => JobResult::Failed(e.to_string()),
-        },
-    ))
-}
+    /// [`Self::open`] with its checkpoint loaded.
+    fn open_now(&mut self, request: EpisodeRequest) {
+        self.mission_text.clear();
+        self.pending_step = Some(request.step);
+        self.request = request;
+        self.run_episode();
+    }
 
-/// Re-runs the episode of `shown` from its start with `how` applied to the attention at
-/// every step (M uniform, steered onto a distractor, a word's weight zeroed).
-pub fn start_attention_probe(agent: &Agent, shown: &Shown, how: Loop, alpha: f64) -> Job {
-    let agent = agent.clone();
-    let trace = shown.trace.clone();
-    Job::spawn(format!("re-running with {how:?}"), 0, move |_| {
-        let world = trace
-            .steps
-            .first()
-            .map_or_else(|| trace.final_world.clone(), |s| s.world.clone());
-        let spec = EpisodeSpec {
-            level: trace.level,
-            seed: trace.seed,
-            mission: None,
-            mode: trace.mode,
+    /// The top bar's "load": the checkpoint named (and, in compare mode, the compared one),
+    /// loaded off the UI thread; the main one's own level and a fresh episode follow.
+    pub fn load_checkpoints(&mut self) {
+        let main = Some(self.request.checkpoint.trim().to_owned());
+        let compare = self.compare.then(|| self.compare_text.trim().to_owned());
+        self.jobs.push(start_load(main, compare, AfterLoad::Load));
+    }
+
+    /// Where the agent cannot read the level asked for (a word it was not trained on), starts
+    /// loading `bundled:babyai` to act instead — or minigrid's bot where even it cannot — whose
+    /// episode follows, the message bar saying why. False where the agent reads it (or the
+    /// level does not generate), and nothing was started.
+    pub fn fallback_where_unreadable(&mut self) -> bool {
+        let Some(agent) = &self.agent else {
+            return false;
         };
-        let acting = agent.acting();
-        let run = run_from_with(acting, &trace.checkpoint, &spec, world, &|w, o, t, m| {
-            intervention(acting, how, w, o, t, m)
+        let level = self.request.level;
+        let Ok(world) = level.generate(self.request.seed) else {
+            return false;
+        };
+        let read = crate::policy::acting::world_tokens(agent.policy.acting(), &world, || {
+            level.to_string()
         });
-        match run {
-            Ok(t) => JobResult::Probed(Box::new(Shown::new(t, alpha)), 0),
-            Err(e) => JobResult::Failed(e.to_string()),
-        }
-    })
-}
-
-/// Starts an export of `shown`; `stop` cancels it.
-pub fn start_export(shown: &Shown, what: Export, alpha: f64, stop: Arc<AtomicBool>) -> Job {
-    let trace = shown.trace.clone();
-    let total = trace.steps.len();
-    let label = match &what {
-        Export::Rrd(p) | Export::Mcap(p) | Export::Gif(p) => format!("writing {}", p.display()),
-        Export::Spawn => "sending to a new Rerun viewer".into(),
-        Export::Connect(u) => format!("sending to {u}"),
-    };
-    Job::spawn(label, total, move |done| {
-        let eps = std::slice::from_ref(&*trace);
-        let result = match &what {
-            Export::Rrd(p) => record_rerun(
-                eps,
-                &RerunTargets {
-                    save: Some(p.clone()),
-                    ..RerunTargets::default()
-                },
-                alpha,
-                Some(&stop),
-            )
-            .map(|_| format!("wrote {}", p.display()))
-            .map_err(|e| e.to_string()),
-            Export::Spawn | Export::Connect(_) => record_rerun(
-                eps,
-                &RerunTargets {
-                    spawn: what == Export::Spawn,
-                    connect: match &what {
-                        Export::Connect(u) => Some(u.clone()),
-                        _ => None,
-                    },
-                    ..RerunTargets::default()
-                },
-                alpha,
-                Some(&stop),
-            )
-            .map(|s| format!("sent {} steps to Rerun", s.steps))
-            .map_err(|e| e.to_string()),
-            Export::Mcap(p) => write_mcap(eps, p, alpha, Some(&stop))
-                .map(|_| format!("wrote {}", p.display()))
-                .map_err(|e| e.to_string()),
-            Export::Gif(p) => super::gif::write_gif(&trace, p, alpha, done, &stop)
-                .map(|()| format!("wrote {}", p.display())),
+        let Err(e) = read else {
+            return false;
         };
-        done.store(total, Ordering::Relaxed);
-        match result {
-            Ok(m) => JobResult::Exported(m),
-            Err(e) => JobResult::Failed(e),
-        }
-    })
-}
-
-/// Playback over an episode of `len` steps.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Cursor {
-    /// The step shown.
-    pub step: usize,
-    /// Playing forward.
-    pub playing: bool,
-    /// Steps per second while playing.
-    pub speed: f32,
-    /// Seconds accumulated towards the next step.
-    pub carry: f32,
-}
-
-impl Default for Cursor {
-    fn default() -> Self {
-        Self {
-            step: 0,
-            playing: false,
-            speed: 4.0,
-            carry: 0.0,
-        }
-    }
-}
-
-impl Cursor {
-    /// Moves by `delta` steps, clamped to the episode.
-    pub fn nudge(&mut self, delta: isize, len: usize) {
-        let last = len.saturating_sub(1) as isize;
-        self.step = (self.step as isize + delta).clamp(0, last.max(0)) as usize;
+        let said = format!("{} cannot read this level ({e})", agent.spec);
+        self.jobs.push(start_fallback(level, world, said));
+        true
     }
 
-    /// Advances playback by `dt` seconds; stops at the last step.
-    pub fn tick(&mut self, dt: f32, len: usize) {
-        if !self.playing {
+    /// Applies `edit` to the world at the cursor and re-runs the agent from there; a refused
+    /// edit is said with its reason.
+    pub fn probe(&mut self, edit: &Edit) {
+        let (Some(agent), Some(shown)) = (&self.agent, &self.shown) else {
+            return;
+        };
+        match start_probe(agent, shown, self.cursor.step, edit, self.alpha) {
+            Ok(job) => self.jobs.push(job),
+            Err(e) => self.error(format!("edit refused: {e}")),
+        }
+    }
+
+    /// Turns the agent at the cursor by `by` quarter turns clockwise (a probe).
+    pub fn turn(&mut self, by: u8) {
+        let dir = self
+            .shown
+            .as_ref()
+            .and_then(|s| s.trace.steps.get(self.cursor.step))
+            .map(|s| (s.world.agent_dir + by) % 4);
+        if let Some(d) = dir {
+            self.probe(&Edit::TurnAgent(d));
+        }
+    }
+
+    /// Starts exporting the main episode once it has ended.
+    pub fn export(&mut self, what: Export) {
+        let Some(shown) = &self.shown else {
+            return;
+        };
+        if !shown.is_complete() {
+            self.info("the episode is still running: export it once it has ended");
             return;
         }
-        self.carry += dt * self.speed;
-        while self.carry >= 1.0 {
-            self.carry -= 1.0;
-            if self.step + 1 >= len {
-                self.playing = false;
-                self.carry = 0.0;
-                break;
+        self.cancel = Arc::new(AtomicBool::new(false));
+        let job = start_export(shown, what, self.alpha, self.cancel.clone());
+        self.jobs.push(job);
+    }
+
+    /// Where an export of kind `ext` goes in `dir`: named by the seed and step.
+    pub fn export_path(&self, dir: &str, ext: &str) -> PathBuf {
+        Path::new(dir.trim()).join(format!(
+            "groundscope-seed{}-step{}.{ext}",
+            self.request.seed, self.cursor.step
+        ))
+    }
+
+    /// The picture the world panel shows now (the main episode at the cursor, with the chosen
+    /// overlay): objects in their true colours, the floor tinted by the map, targets
+    /// outlined, the trail dotted. `None` before the first episode.
+    pub fn world_image(&self) -> Option<image::RgbImage> {
+        let shown = self.shown.as_ref()?;
+        let step = self.cursor.step.min(shown.len().saturating_sub(1));
+        super::pictures::picture(shown, step, self.selection.world_kind())
+    }
+
+    /// Takes in what the jobs have finished (and the news of those still running).
+    pub fn poll_jobs(&mut self) {
+        let mut finished = Vec::new();
+        self.jobs.retain(|job| {
+            while let Some(r) = job.poll() {
+                let more = r.is_progress();
+                finished.push((job.episode, r));
+                if !more {
+                    return false;
+                }
             }
-            self.step += 1;
+            true
+        });
+        for (from_episode, r) in finished {
+            self.take(from_episode, r);
         }
     }
-}
 
-/// The step where the episode failed: the last step of a failed episode.
-pub fn failure_step(trace: &EpisodeTrace) -> Option<usize> {
-    (!trace.success()).then(|| trace.steps.len().saturating_sub(1))
+    /// Takes in one job's result.
+    fn take(&mut self, from_episode: bool, r: JobResult) {
+        match r {
+            JobResult::Running(a) => {
+                let fresh = !self.streaming;
+                self.streaming = true;
+                self.take_episode(*a, None, fresh);
+            }
+            JobResult::Steps(steps) => {
+                if let Some(shown) = self.shown.as_mut()
+                    && self.streaming
+                {
+                    shown.extend(steps);
+                }
+                self.go_to_pending_step();
+            }
+            JobResult::Episodes(pair) => {
+                let (a, b) = *pair;
+                let fresh = !self.streaming;
+                self.streaming = false;
+                self.take_episode(a, b, fresh);
+            }
+            JobResult::Probed(s, k) => {
+                // The probe's episode replaces the one shown, even one still running.
+                self.jobs.retain(|j| !j.episode);
+                self.streaming = false;
+                self.generation += 1;
+                self.info(format!(
+                    "re-ran from step {k}: {} in {} steps",
+                    if s.trace.success() {
+                        "success"
+                    } else {
+                        "failure"
+                    },
+                    s.len()
+                ));
+                self.mission_text = s
+                    .trace
+                    .steps
+                    .get(k)
+                    .map_or_else(|| s.trace.mission.clone(), |st| st.world.mission.clone());
+                self.cursor.step = k.min(s.len().saturating_sub(1));
+                self.shown = Some(*s);
+            }
+            JobResult::Exported(m) => self.info(m),
+            JobResult::Loaded(loaded) => self.take_loaded(*loaded),
+            JobResult::Failed(e) => {
+                if from_episode {
+                    self.streaming = false;
+                }
+                self.error(e);
+            }
+        }
+    }
+
+    /// Takes in a new main episode (and the compared one): a fresh episode starts at the
+    /// step asked for, a later part of the same one keeps the cursor where it is.
+    fn take_episode(&mut self, a: Shown, b: Option<Shown>, fresh: bool) {
+        if fresh {
+            self.generation += 1;
+            self.cursor = Cursor::default();
+            self.mission_text.clone_from(&a.trace.mission);
+            self.selection.word = 0;
+        }
+        self.shown = Some(a);
+        if b.is_some() || fresh {
+            self.compared = b;
+        }
+        self.go_to_pending_step();
+    }
+
+    /// Moves the cursor to the step asked for once it is there, or to the last step when the
+    /// episode ended before it.
+    fn go_to_pending_step(&mut self) {
+        let (Some(step), Some(shown)) = (self.pending_step, &self.shown) else {
+            return;
+        };
+        let last = shown.len().saturating_sub(1);
+        if step <= last {
+            self.cursor.step = step;
+        } else if shown.is_complete() {
+            // Said once, on stderr and in the window, rather than clamped silently.
+            let m = format!(
+                "--step {step} is past this episode's last step {last}; showing step {last}"
+            );
+            eprintln!("groundscope: warning: {m}");
+            self.error(m);
+            self.cursor.step = last;
+        } else {
+            return;
+        }
+        self.pending_step = None;
+    }
+
+    /// Takes in loaded checkpoints and does what was to follow ([`AfterLoad`]).
+    fn take_loaded(&mut self, loaded: Loaded) {
+        let Loaded {
+            main,
+            compare,
+            then,
+        } = loaded;
+        match then {
+            AfterLoad::Start => {
+                match main {
+                    Some(Ok(a)) => self.agent = Some(a),
+                    Some(Err(e)) => self.error(e),
+                    None => {}
+                }
+                match compare {
+                    Some(Ok(a)) => {
+                        self.compare_agent = Some(a);
+                        self.compare = true;
+                    }
+                    Some(Err(e)) => self.error(format!("compare: {e}")),
+                    None => {}
+                }
+                self.run_episode();
+            }
+            AfterLoad::Load => {
+                match main {
+                    Some(Ok(a)) => {
+                        self.request.level = a.level();
+                        self.info(format!("loaded {}", a.spec));
+                        self.agent = Some(a);
+                    }
+                    Some(Err(e)) => self.error(e),
+                    None => {}
+                }
+                match compare {
+                    Some(Ok(a)) => self.compare_agent = Some(a),
+                    Some(Err(e)) => {
+                        self.error(format!("compare: {e}"));
+                        self.compare_agent = None;
+                    }
+                    None => {}
+                }
+                self.run_episode();
+            }
+            AfterLoad::Fallback(said) => {
+                match main {
+                    Some(Ok(a)) => {
+                        self.info(said);
+                        self.request.checkpoint.clone_from(&a.spec);
+                        self.agent = Some(a);
+                    }
+                    Some(Err(e)) => self.error(e),
+                    None => {}
+                }
+                self.run_episode();
+            }
+            AfterLoad::Open(request) => match main {
+                Some(Err(e)) => self.error(format!("{}: {e}", request.checkpoint)),
+                Some(Ok(a)) => {
+                    self.agent = Some(a);
+                    self.open_now(request);
+                }
+                None => self.open_now(request),
+            },
+            AfterLoad::Compare(selected) => {
+                match compare {
+                    Some(Ok(a)) => self.compare_agent = Some(a),
+                    Some(Err(e)) => self.error(format!("compare: {e}")),
+                    None => {}
+                }
+                match selected {
+                    Some(i) => self.open_report_episode(i),
+                    None => self.run_episode(),
+                }
+            }
+        }
+    }
 }
 
 #[cfg(test)]

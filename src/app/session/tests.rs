@@ -1,27 +1,22 @@
 //! The session's jobs, cursor and episodes, without a window.
+use std::sync::mpsc::channel;
+
 use super::*;
+use crate::env::level::LevelConfig;
+use crate::episode::ActionMode;
+use crate::metrics::faithfulness::episode::Loop;
 
 fn shown(seed: u64) -> (Agent, Shown) {
     let agent = Agent::load("bundled:attention").unwrap();
-    let req = Request {
-        level: agent.level(),
-        seed,
-        mode: ActionMode::Greedy,
-        mission: None,
-    };
+    let req = EpisodeRequest::new("bundled:attention", agent.level(), seed);
     let s = run_request(&agent, &req, 0.5).unwrap();
     (agent, s)
 }
 
-fn boss_level() -> (Agent, Request) {
+fn boss_level() -> (Agent, EpisodeRequest) {
     let agent = Agent::load("bundled:babyai").unwrap();
     let id = crate::env::LevelId::parse("BabyAI-BossLevel-v0").unwrap();
-    let req = Request {
-        level: LevelConfig::babyai(id, false),
-        seed: 3,
-        mode: ActionMode::Greedy,
-        mission: None,
-    };
+    let req = EpisodeRequest::new("bundled:babyai", LevelConfig::babyai(id, false), 3);
     (agent, req)
 }
 
@@ -122,11 +117,9 @@ fn episodes_and_probes_run_off_thread() {
     let job = start_episodes(
         agent.clone(),
         Some(Agent::load("bundled:baseline").unwrap()),
-        Request {
-            level: agent.level(),
-            seed: 3,
+        EpisodeRequest {
             mode: ActionMode::Greedy,
-            mission: None,
+            ..EpisodeRequest::new("bundled:attention", agent.level(), 3)
         },
         0.5,
     );

@@ -1,16 +1,17 @@
-//! The episode at a glance, under the step's panels: each word's weight w and the chosen
-//! action's probability over every step, with the cursor; a click moves the cursor there.
+//! The episode plot, the episode at a glance under the step's panels: each word's weight w
+//! and the chosen action's probability over every step, with the cursor; a click moves the
+//! cursor there.
 
 use eframe::egui;
 use egui::{Align2, Color32, FontId, Pos2, Rect, Sense, Stroke, Vec2};
 
-use super::Debugger;
-use crate::app::session::Shown;
+use crate::app::numbers::EXPERT_LEFT;
+use crate::app::session::Session;
 
 /// Line colours of the words, in mission order (repeating past the end); chosen off the
 /// viridis ramp's dark end so that they read on the dark panel, and without orange, which
 /// means a grounding mark "only nearby".
-pub(super) const WORD_COLORS: [Color32; 6] = [
+const WORD_COLORS: [Color32; 6] = [
     Color32::from_rgb(86, 180, 233),
     Color32::from_rgb(170, 140, 255),
     Color32::from_rgb(0, 158, 115),
@@ -19,9 +20,20 @@ pub(super) const WORD_COLORS: [Color32; 6] = [
     Color32::from_rgb(0, 114, 178),
 ];
 
-impl Debugger {
-    /// Draws the plot `height` points tall across the available width.
-    pub(super) fn history_ui(&mut self, ui: &mut egui::Ui, shown: &Shown, height: f32) {
+/// The episode plot, at the foot of the centre column.
+#[derive(Default)]
+pub(super) struct HistoryPanel {
+    /// How tall the plot is, in points (set by the layout each frame; what the legend leaves
+    /// of it, at least 70).
+    pub(super) height: f32,
+}
+
+impl HistoryPanel {
+    /// Draws the plot across the available width; a click moves the cursor to that step.
+    pub(super) fn ui(&mut self, ui: &mut egui::Ui, session: &mut Session) {
+        let Some(shown) = session.shown.clone() else {
+            return;
+        };
         let steps = &shown.trace.steps;
         if steps.is_empty() {
             return;
@@ -37,7 +49,7 @@ impl Debugger {
             .first()
             .map(|s| crate::env::roles::roles_of(&s.world))
             .unwrap_or_default();
-        let fold = roles.len() == all.len() && self.folds(all.len());
+        let fold = roles.len() == all.len() && session.selection.folds(all.len());
         let words: Vec<(usize, &String)> = all
             .iter()
             .enumerate()
@@ -52,11 +64,11 @@ impl Debugger {
                 ui.weak("(function words folded)");
             }
             ui.colored_label(Color32::GRAY, "p of the chosen action");
-            ui.colored_label(super::numbers::EXPERT_LEFT, "| left the expert's plan");
+            ui.colored_label(EXPERT_LEFT, "| left the expert's plan");
         });
         // What the legend above left of the column, so that the step axis stays on screen
         // however many lines the legend took.
-        let height = height.min(ui.available_height() - 6.0).max(70.0);
+        let height = self.height.min(ui.available_height() - 6.0).max(70.0);
         let width = ui.available_width().max(100.0);
         let (outer, resp) = ui.allocate_exact_size(Vec2::new(width, height), Sense::click());
         resp.widget_info(|| egui::WidgetInfo::labeled(egui::Role::Image, true, "episode plot"));
@@ -99,11 +111,11 @@ impl Debugger {
                 let x = at(k, 0.0).x;
                 painter.line_segment(
                     [Pos2::new(x, rect.max.y), Pos2::new(x, rect.max.y - 8.0)],
-                    Stroke::new(1.5, super::numbers::EXPERT_LEFT),
+                    Stroke::new(1.5, EXPERT_LEFT),
                 );
             }
         }
-        let cursor = self.cursor.step.min(steps.len() - 1);
+        let cursor = session.cursor.step.min(steps.len() - 1);
         let x = at(cursor, 0.0).x;
         painter.line_segment(
             [Pos2::new(x, rect.min.y), Pos2::new(x, rect.max.y)],
@@ -113,7 +125,7 @@ impl Debugger {
             && resp.clicked()
         {
             let t = ((pos.x - rect.min.x) / rect.width()).clamp(0.0, 1.0);
-            self.cursor.step = (t * last).round() as usize;
+            session.cursor.step = (t * last).round() as usize;
         }
     }
 }
@@ -217,9 +229,9 @@ mod tests {
         let rgb = |c: eframe::egui::Color32| [c.r(), c.g(), c.b()];
         let ui = super::WORD_COLORS.iter().map(|&c| rgb(c)).chain(
             [
-                super::super::numbers::HIGHLIGHT,
-                super::super::numbers::FAILED,
-                super::super::numbers::EXPERT_LEFT,
+                crate::app::numbers::HIGHLIGHT,
+                crate::app::numbers::FAILED,
+                crate::app::numbers::EXPERT_LEFT,
             ]
             .map(rgb),
         );

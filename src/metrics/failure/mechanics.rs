@@ -40,7 +40,7 @@ pub struct Mechanics {
 }
 
 /// The rooms of `world` whose square (walls included) holds `pos`.
-fn rooms_at(world: &World, pos: Pos) -> impl Iterator<Item = Room> + '_ {
+pub(super) fn rooms_at(world: &World, pos: Pos) -> impl Iterator<Item = Room> + '_ {
     let r = world.rooms;
     (0..r.num_cols)
         .flat_map(move |i| (0..r.num_rows).map(move |j| (i, j)))

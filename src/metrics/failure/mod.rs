@@ -2,7 +2,13 @@
 //!
 //! The targets are the objects the clauses the verifier is waiting on matched
 //! ([`crate::metrics::grounding::pending_targets`]: on the paper's level, the one clause's).
-//! Every failed episode gets exactly one class, decided in this order:
+//! Every failed episode gets exactly one class. On MiniGrid's own environments (a world with
+//! MiniGrid's step rules) its MiniGrid class comes first, where one holds ([`minigrid`],
+//! [`FailureClass::MINIGRID`] in order): how the episode ended — `stepped_into_lava`,
+//! `hit_obstacle`, `picked_wrong_object`, `doors_out_of_order`, `dropped_far_from_target`,
+//! `wrong_end_object` — else the first link of its level's chain it never got past —
+//! `box_never_opened`, `key_never_picked_up`, `locked_door_never_opened`,
+//! `rooms_never_entered`. Otherwise (and on every BabyAI level) the order is:
 //! 1. [`FailureClass::LockedDoorNoKey`]: at the last step every target lay in rooms the agent
 //!    never entered, every door of those rooms stayed closed, and one of them was locked with
 //!    a key of its colour never carried.
@@ -160,6 +166,8 @@ pub struct Evidence {
     pub ending: Option<Ending>,
     /// Rooms, doors, keys, sequences and PutNext ([`mechanics`]).
     pub mechanics: Mechanics,
+    /// MiniGrid's own endings and chains ([`minigrid`]; empty on BabyAI's levels).
+    pub minigrid: MiniGridEvidence,
 }
 
 /// One of an episode's last steps, as the ending rules read it.
@@ -209,7 +217,10 @@ pub struct Diagnosis {
     /// What the agent was doing ([`FailureClass::BEHAVIOURS`]; `None`: none of them).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub behaviour: Option<FailureClass>,
-    /// The step where the episode was lost, where its mechanics show one: the early door of
+    /// The step where the episode was lost, where its mechanics show one: the act a MiniGrid
+    /// class names ([`minigrid`]: the step into lava, the collision, the wrong pickup, the
+    /// blue door, the drop, the step onto the wrong end; for a chain class the first chance
+    /// passed up, else the last step its object was in view), else the early door of
     /// `wrong_order`, the drop of `wrong_neighbour` ([`decisive_step`] falls back on the first
     /// divergence from the bot that matters, then the last step).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -311,6 +322,7 @@ impl Evidence {
         }
         self.poses.push_back((w.agent_pos, w.agent_dir));
         self.mechanics.push(step);
+        self.minigrid.push(step);
         if step.terminated || step.truncated {
             self.ending = Some(Ending {
                 success: step.reward > 0.0,
@@ -377,7 +389,10 @@ impl Evidence {
             && full
             && self.recent.iter().any(|r| r.blocked)
             && self.recent.iter().all(|r| r.pos == self.recent[0].pos);
-        let class = if let Some(c) = self.mechanics.room_class() {
+        let minigrid = self.minigrid.class();
+        let class = if let Some((c, _)) = minigrid {
+            c
+        } else if let Some(c) = self.mechanics.room_class() {
             c
         } else if self.target_visible_steps == 0 {
             FailureClass::TargetNeverVisible
@@ -406,11 +421,13 @@ impl Evidence {
             target_visible_steps: self.target_visible_steps,
             m_on_target_steps: with_m.then_some(self.m_on_target_steps),
             behaviour,
-            lost_at: self.mechanics.wrong_step.filter(|_| {
-                matches!(
-                    behaviour,
-                    Some(FailureClass::WrongOrder | FailureClass::WrongNeighbour)
-                )
+            lost_at: minigrid.and_then(|(_, t)| t).or_else(|| {
+                self.mechanics.wrong_step.filter(|_| {
+                    matches!(
+                        behaviour,
+                        Some(FailureClass::WrongOrder | FailureClass::WrongNeighbour)
+                    )
+                })
             }),
         })
     }
@@ -501,10 +518,12 @@ pub fn counterfactual<P: crate::policy::Acting + ?Sized>(
 
 mod class;
 pub mod mechanics;
+pub mod minigrid;
 
 pub use class::FailureClass;
 
 pub use mechanics::Mechanics;
+pub use minigrid::{MiniGridEvidence, classes_of};
 
 #[cfg(test)]
 mod tests;

@@ -1,87 +1,16 @@
-//! What a sweep over BabyAI levels (`eval --levels`) adds to a report: `episodes.csv`, every
-//! episode on one line so that it can be lined up with another evaluation of the same levels
-//! and seeds (`export/eval_in_python.py`); the per-level table of `report.md`; and the
-//! per-level figure.
+//! What a sweep over BabyAI levels (`eval --levels`) adds to a report: the per-level table of
+//! `report.md` and the per-level figure (its `episodes.csv` is [`super::episodes`]'s).
 
 use std::fmt::Write as _;
 use std::path::Path;
 
 use super::{Cell, Report};
-use crate::env::level::LevelConfig;
 use crate::metrics::error::MetricsError;
-use crate::metrics::failure::FailureClass;
 use crate::metrics::grounding::WordKind;
-use crate::metrics::sweep::EpisodeSummary;
 use crate::metrics::words::steps_label;
-use crate::table::{Record, Table};
 
 /// The per-level success figure (`eval --levels`).
 pub const LEVELS_SUCCESS: &str = "levels_success.png";
-
-/// `episodes.csv`'s header.
-pub const EPISODES_CSV_HEADER: &str = "checkpoint,level,eval_seed,episode,level_seed,mission,success,steps,return,failure_class,actions,expert_agreement,first_divergence,bot_steps,path_efficiency,behaviour,done_required,decisive_step";
-
-/// `episodes.csv`: one line per episode of every cell, in sweep order (cells as evaluated,
-/// then evaluation seed, then episode): the level, its seed, the mission, the outcome, the
-/// failure class, the actions taken (indices, space-separated), the episode beside the bot,
-/// the done mode it ran in (`done_required`: 1 where 'done' had to end it) and, for a failure,
-/// the step it opens at ([`crate::metrics::failure::decisive_step`]).
-pub fn episodes_csv(cells: &[(String, LevelConfig, Vec<EpisodeSummary>)]) -> String {
-    let mut t = Table::new(EPISODES_CSV_HEADER);
-    for (checkpoint, level, eps) in cells {
-        let name = level.id();
-        let mut index = 0u64;
-        let mut seed = None;
-        for e in eps {
-            if seed != Some(e.eval_seed) {
-                (seed, index) = (Some(e.eval_seed), 0);
-            }
-            let actions: Vec<String> = e.actions.iter().map(u8::to_string).collect();
-            let x = &e.expert;
-            let number = |v: f64| {
-                if v.is_finite() {
-                    format!("{v:.6}")
-                } else {
-                    String::new()
-                }
-            };
-            t.push(
-                &Record::new()
-                    .field(checkpoint)
-                    .field(&name)
-                    .field(e.eval_seed)
-                    .field(index)
-                    .field(e.level_seed)
-                    .field(&e.mission)
-                    .field(u8::from(e.success))
-                    .field(e.length)
-                    .field(format!("{:.6}", e.reward))
-                    .field(e.failure.map_or("", |d| d.class.name()))
-                    .field(actions.join(" "))
-                    .field(number(x.agreement()))
-                    .field(x.first_divergence.map_or(String::new(), |t| t.to_string()))
-                    .field(x.bot_length.map_or(String::new(), |n| n.to_string()))
-                    .field(number(x.path_efficiency(e.success, e.length)))
-                    .field(
-                        e.failure
-                            .and_then(|d| d.behaviour)
-                            .map_or("", FailureClass::name),
-                    )
-                    .field(u8::from(level.done_required))
-                    .field(e.failure.map_or(String::new(), |d| {
-                        crate::metrics::failure::decisive_step(
-                            d.lost_at,
-                            x.first_divergence,
-                            e.length,
-                        )
-                        .to_string()
-                    })),
-            );
-            index += 1;
-        }
-    }
-    t.finish()
-}
 
 impl Report {
     /// The cells on registered BabyAI levels.

@@ -328,17 +328,19 @@ impl Report {
     /// decided (grounding for baselines).
     fn failure_table(&self, s: &mut String) {
         let _ = writeln!(s, "\n## Failure classes\n");
-        // BabyAI's mechanics' classes only where some cell could have them.
-        let classes: Vec<FailureClass> = FailureClass::ALL
+        // BabyAI's mechanics' classes and MiniGrid's own only where some cell could have
+        // them; MiniGrid's first, as they are decided first.
+        let classes: Vec<FailureClass> = FailureClass::MINIGRID
             .into_iter()
+            .chain(FailureClass::ALL)
             .filter(|k| {
-                !FailureClass::MECHANICS.contains(k)
-                    || self.cells.iter().any(|c| c.failure_classes.contains_key(k))
+                let occasional = FailureClass::MECHANICS.contains(k) || k.is_minigrid();
+                !occasional || self.cells.iter().any(|c| c.failure_classes.contains_key(k))
             })
             .collect();
         let mut header = format!("{} failed |", self.key_header());
         for &c in &classes {
-            let _ = write!(header, " {} |", c.name().replace('_', " "));
+            let _ = write!(header, " {} |", c.label());
         }
         let _ = writeln!(s, "{header}");
         let _ = writeln!(s, "{}---|{}", self.key_rule(), "---|".repeat(classes.len()));

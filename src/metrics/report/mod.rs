@@ -4,6 +4,7 @@
 
 mod bars;
 pub mod browse;
+mod episodes;
 mod failures;
 mod level_grounding;
 mod levels;
@@ -11,9 +12,12 @@ pub(crate) mod markdown;
 mod plots;
 mod summary;
 
+pub use episodes::{
+    EPISODES_CSV_HEADER, EPISODES_CSV_REQUIRED, EpisodeRow, episodes_csv, read_episodes_csv,
+};
 pub use failures::{Failure, LOW_ACC_CMB, worst_episodes};
 pub use level_grounding::FIG_GROUNDING_LEVELS;
-pub use levels::{EPISODES_CSV_HEADER, LEVELS_SUCCESS, episodes_csv};
+pub use levels::LEVELS_SUCCESS;
 pub use summary::{GROUNDS_ABOVE_CHANCE, MAX_LINES as SUMMARY_MAX_LINES};
 
 use std::collections::BTreeMap;

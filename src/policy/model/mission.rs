@@ -22,8 +22,7 @@ impl Net {
             return Err(PolicyError::Input(format!(
                 "the mission word {:?} is not one this model was trained on: it knows the paper's \
                  {} words (a model trained on the paper's level); use `--checkpoint \
-                 bundled:babyai` (or `bundled:babyai-grounded2`, its maps grounded), which reads \
-                 every BabyAI level, or train one on a BabyAI level \
+                 bundled:babyai`, which reads every BabyAI level, or train one on a BabyAI level \
                  (`train --level ID`)",
                 crate::env::vocab::word(t).unwrap_or("?"),
                 self.cfg.vocab_size - 1

@@ -20,7 +20,8 @@ impl Acting for super::OnnxAgent {
     }
 
     fn input_token_ids(&self, tokens: &[u32]) -> Option<Vec<i64>> {
-        Some(self.graph_ids(tokens))
+        // A graph that reads no mission receives no ids, and no word is unknown to it.
+        self.reads_mission().then(|| self.graph_ids(tokens))
     }
 
     fn variant(&self) -> Variant {

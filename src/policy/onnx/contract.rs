@@ -6,20 +6,25 @@ use std::collections::BTreeMap;
 
 use serde::Deserialize;
 
-use crate::env::level::LevelConfig;
+use crate::env::level::{LevelConfig, LevelId};
 use crate::env::vocab::VOCABULARY;
 use crate::policy::error::PolicyError;
 
 /// The contract version this build reads.
 pub const CONTRACT: &str = "1";
 
-/// Inputs the contract requires.
-pub const REQUIRED_INPUTS: [&str; 3] = ["image", "mission", "memory"];
+/// Inputs the contract requires: the view. Everything else a policy reads is optional.
+pub const REQUIRED_INPUTS: [&str; 1] = ["image"];
+/// Inputs a model takes where it reads them: the mission (a model without text reads none)
+/// and the recurrent state (a model without memory has none; then no `memory_out` either).
+pub const STATE_INPUTS: [&str; 2] = ["mission", "memory"];
 /// Inputs a graph may take: the agent's direction, and the pair that sets `M` for
 /// interventions (`M' = (1 − α)·M + α·combined_override`, α = `override_weight`).
 pub const OPTIONAL_INPUTS: [&str; 3] = ["direction", "combined_override", "override_weight"];
 /// Outputs the contract requires.
-pub const REQUIRED_OUTPUTS: [&str; 3] = ["logits", "value", "memory_out"];
+pub const REQUIRED_OUTPUTS: [&str; 2] = ["logits", "value"];
+/// The output of a graph with memory (it takes `memory` exactly when it outputs this).
+pub const MEMORY_OUTPUT: &str = "memory_out";
 /// Outputs groundscope shows when a graph has them.
 pub const OPTIONAL_OUTPUTS: [&str; 3] = ["word_maps", "word_weights", "combined_map"];
 
@@ -48,14 +53,34 @@ pub enum MapLayout {
     AgentUp,
 }
 
+/// Which of the inputs the contract leaves to the model a graph takes: what its metadata must
+/// then describe.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Reads {
+    /// It takes `mission`: its `vocabulary` is needed (else it may be left out).
+    pub mission: bool,
+    /// It takes `memory` and outputs `memory_out`: its `memory_size` is needed (else it is 0
+    /// or left out).
+    pub memory: bool,
+}
+
+impl Reads {
+    /// A graph with a mission input and memory (every graph of the first contract).
+    pub const ALL: Self = Self {
+        mission: true,
+        memory: true,
+    };
+}
+
 /// What the metadata says about a model.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Meta {
     /// A display name.
     pub name: String,
-    /// The model's words, index = its token id.
+    /// The model's words, index = its token id (empty for a graph that reads no mission and
+    /// names none).
     pub vocabulary: Vec<String>,
-    /// M, the size of `memory`.
+    /// M, the size of `memory` (0 for a graph without memory).
     pub memory_size: usize,
     /// The level it was trained on.
     pub level: LevelConfig,
@@ -67,39 +92,85 @@ pub struct Meta {
 /// JSON values of any type; they are compared as the protobuf's strings would be).
 pub type Props = BTreeMap<String, String>;
 
-/// Reads `props` (protobuf metadata overridden by a sidecar's), naming the key that is
-/// missing or wrong.
-pub fn meta(props: &Props, fallback_name: &str) -> Result<Meta, PolicyError> {
-    let get = |key: &str| {
-        props.get(key).ok_or_else(|| {
-            PolicyError::Input(format!(
-                "metadata groundscope.{key} is missing (docs/onnx.md lists the keys)"
-            ))
-        })
+/// The `level` metadata: the paper's level by its five fields, or any registered level —
+/// BabyAI's or MiniGrid's — by its id in `"babyai"`, beside which the five fields may be left
+/// out (`{"babyai": "MiniGrid-DoorKey-5x5-v0"}`; `done_required` then defaults to false,
+/// minigrid's registered mode, and the others are the id's own).
+pub fn level_of(text: &str) -> Result<LevelConfig, String> {
+    let value: serde_json::Value = serde_json::from_str(text).map_err(|e| e.to_string())?;
+    let value = match value {
+        serde_json::Value::Object(given) if given.get("babyai").is_some_and(|v| !v.is_null()) => {
+            let id: LevelId =
+                serde_json::from_value(given["babyai"].clone()).map_err(|e| e.to_string())?;
+            let serde_json::Value::Object(mut full) =
+                serde_json::to_value(LevelConfig::babyai(id, false)).map_err(|e| e.to_string())?
+            else {
+                return Err("a level serialises as a JSON object".into());
+            };
+            // The fields given override the id's own; an unknown one is still refused below.
+            full.extend(given);
+            serde_json::Value::Object(full)
+        }
+        other => other,
     };
+    serde_json::from_value(value).map_err(|e| e.to_string())
+}
+
+/// Reads `props` (protobuf metadata overridden by a sidecar's), naming the key that is
+/// missing or wrong; `reads` says which keys the graph needs (a graph that reads no mission
+/// needs no vocabulary, one without memory no `memory_size`).
+pub fn meta(props: &Props, fallback_name: &str, reads: Reads) -> Result<Meta, PolicyError> {
+    let missing = |key: &str, why: &str| {
+        PolicyError::Input(format!(
+            "metadata groundscope.{key} is missing{why} (docs/onnx.md lists the keys)"
+        ))
+    };
+    let get = |key: &str| props.get(key).ok_or_else(|| missing(key, ""));
     let contract = get("contract")?;
     if contract.trim_matches('"') != CONTRACT {
         return Err(PolicyError::Input(format!(
             "metadata groundscope.contract is {contract}; this build reads contract {CONTRACT}"
         )));
     }
-    let vocabulary: Vec<String> = serde_json::from_str(get("vocabulary")?).map_err(|e| {
-        PolicyError::Input(format!(
-            "metadata groundscope.vocabulary is not a JSON list of words: {e}"
-        ))
-    })?;
-    let memory_size: usize = get("memory_size")?
-        .trim_matches('"')
-        .parse()
-        .ok()
-        .filter(|m| (1..=1 << 20).contains(m))
-        .ok_or_else(|| {
+    let vocabulary: Vec<String> = match props.get("vocabulary") {
+        None if !reads.mission => Vec::new(),
+        None => return Err(missing("vocabulary", " (the graph takes \"mission\")")),
+        Some(text) => serde_json::from_str(text).map_err(|e| {
             PolicyError::Input(format!(
-                "metadata groundscope.memory_size = {} must be a whole number in 1..=1048576",
-                props["memory_size"]
+                "metadata groundscope.vocabulary is not a JSON list of words: {e}"
             ))
-        })?;
-    let level: LevelConfig = serde_json::from_str(get("level")?)
+        })?,
+    };
+    let memory_size = match props.get("memory_size") {
+        None if !reads.memory => 0,
+        None => return Err(missing("memory_size", " (the graph takes \"memory\")")),
+        Some(text) => {
+            let m: usize = text
+                .trim_matches('"')
+                .parse()
+                .ok()
+                .filter(|m| (usize::from(reads.memory)..=1 << 20).contains(m))
+                .ok_or_else(|| {
+                    PolicyError::Input(if reads.memory {
+                        format!(
+                            "metadata groundscope.memory_size = {text} must be a whole number \
+                             in 1..=1048576"
+                        )
+                    } else {
+                        format!("metadata groundscope.memory_size = {text} must be a whole number")
+                    })
+                })?;
+            if !reads.memory && m != 0 {
+                return Err(PolicyError::Input(format!(
+                    "metadata groundscope.memory_size = {m}, but the graph has no input \
+                     \"memory\": a graph without memory declares 0 or leaves the key out \
+                     (docs/onnx.md#metadata)"
+                )));
+            }
+            m
+        }
+    };
+    let level = level_of(get("level")?)
         .map_err(|e| PolicyError::Input(format!("metadata groundscope.level: {e}")))?;
     level
         .validate()
@@ -188,7 +259,7 @@ mod tests {
 
     #[test]
     fn complete_metadata_reads_and_defaults_the_layout() {
-        let m = meta(&props(), "agent").unwrap();
+        let m = meta(&props(), "agent", Reads::ALL).unwrap();
         assert_eq!(m.memory_size, 256);
         assert_eq!(m.map_layout, MapLayout::Image);
         assert_eq!(m.name, "agent");
@@ -209,12 +280,12 @@ mod tests {
         ] {
             let mut p = props();
             p.insert(key.to_owned(), value.to_owned());
-            let e = meta(&p, "m").unwrap_err().to_string();
+            let e = meta(&p, "m", Reads::ALL).unwrap_err().to_string();
             assert!(e.contains(expect), "{key}: {e}");
         }
         let mut p = props();
         p.remove("memory_size");
-        let e = meta(&p, "m").unwrap_err().to_string();
+        let e = meta(&p, "m", Reads::ALL).unwrap_err().to_string();
         assert!(e.contains("groundscope.memory_size is missing"), "{e}");
         let no_key: Vec<String> = VOCABULARY
             .iter()
@@ -223,5 +294,84 @@ mod tests {
             .collect();
         let e = token_map(&no_key, true).unwrap_err().to_string();
         assert!(e.contains("no word \"key\""), "{e}");
+    }
+
+    /// A graph that reads no mission needs no vocabulary, one without memory no
+    /// `memory_size` (or 0); a memory size beside a graph without memory is named.
+    #[test]
+    fn a_graph_without_mission_or_memory_needs_neither_key() {
+        let none = Reads {
+            mission: false,
+            memory: false,
+        };
+        let mut p = props();
+        p.remove("vocabulary");
+        p.remove("memory_size");
+        let m = meta(&p, "m", none).unwrap();
+        assert!(m.vocabulary.is_empty());
+        assert_eq!(m.memory_size, 0);
+        p.insert("memory_size".into(), "0".into());
+        assert_eq!(meta(&p, "m", none).unwrap().memory_size, 0);
+        p.insert("memory_size".into(), "8".into());
+        let e = meta(&p, "m", none).unwrap_err().to_string();
+        assert!(
+            e.contains("memory_size = 8, but the graph has no input \"memory\""),
+            "{e}"
+        );
+        let mut p = props();
+        p.remove("vocabulary");
+        let e = meta(&p, "m", Reads::ALL).unwrap_err().to_string();
+        assert!(
+            e.contains("groundscope.vocabulary is missing (the graph takes \"mission\")"),
+            "{e}"
+        );
+    }
+
+    /// A level names any registered id, MiniGrid's included, in `babyai`, with or without the
+    /// paper's five fields beside it; an unknown id or field is refused.
+    #[test]
+    fn a_level_names_any_registered_id_alone() {
+        let doorkey = level_of(r#"{"babyai": "MiniGrid-DoorKey-5x5-v0"}"#).unwrap();
+        assert_eq!(doorkey.id(), "MiniGrid-DoorKey-5x5-v0");
+        assert!(!doorkey.done_required);
+        assert!(doorkey.validate().is_ok());
+        let fetch = level_of(r#"{"babyai": "MiniGrid-Fetch-5x5-N2-v0"}"#).unwrap();
+        assert_eq!(
+            fetch,
+            LevelConfig::babyai(LevelId::parse("MiniGrid-Fetch-5x5-N2-v0").unwrap(), false)
+        );
+        // The first contract's form, all five fields beside the id, reads as before.
+        let full = r#"{"room_size": 8, "n_objects": 4, "tasks": "both", "done_required": false,
+            "color_optional": true, "babyai": "BabyAI-GoToRedBallGrey-v0"}"#;
+        let l = level_of(full).unwrap();
+        assert_eq!((l.room_size, l.n_objects), (8, 4));
+        assert_eq!(l.id(), "BabyAI-GoToRedBallGrey-v0");
+        let done = level_of(r#"{"babyai": "BabyAI-GoToLocal-v0", "done_required": true}"#);
+        assert!(done.unwrap().done_required);
+        assert_eq!(
+            level_of(&serde_json::to_string(&LevelConfig::default()).unwrap()).unwrap(),
+            LevelConfig::default()
+        );
+        for (bad, expect) in [
+            (
+                r#"{"babyai": "MiniGrid-DoorKey-4x4-v0"}"#,
+                "MiniGrid-DoorKey-4x4-v0",
+            ),
+            (
+                r#"{"babyai": "MiniGrid-Empty-5x5-v0", "colour": 1}"#,
+                "colour",
+            ),
+            (r#"{"room_size": 8}"#, "missing field"),
+        ] {
+            let e = level_of(bad).unwrap_err();
+            assert!(e.contains(expect), "{bad}: {e}");
+        }
+        // minigrid's own environments have no done-action mode.
+        let mut p = props();
+        p.insert(
+            "level".into(),
+            r#"{"babyai": "MiniGrid-DoorKey-5x5-v0", "done_required": true}"#.into(),
+        );
+        assert!(meta(&p, "m", Reads::ALL).is_err());
     }
 }

@@ -9,8 +9,8 @@ use tract_onnx::prelude::*;
 
 use super::bounds::Bounds;
 use super::contract::{
-    Meta, ONNX_FLOAT, ONNX_INT64, OPTIONAL_INPUTS, OPTIONAL_OUTPUTS, Props, REQUIRED_INPUTS,
-    REQUIRED_OUTPUTS,
+    MEMORY_OUTPUT, Meta, ONNX_FLOAT, ONNX_INT64, OPTIONAL_INPUTS, OPTIONAL_OUTPUTS, Props,
+    REQUIRED_INPUTS, REQUIRED_OUTPUTS, Reads, STATE_INPUTS,
 };
 use super::mission_cache::MissionCache;
 use crate::policy::error::PolicyError;
@@ -24,6 +24,44 @@ pub(super) struct Inputs {
     pub(super) direction: bool,
     /// It takes `combined_override` and `override_weight` (interventions on `M`).
     pub(super) overrides: bool,
+    /// It takes `mission` and `memory` (with `memory_out`), where the model reads them.
+    pub(super) reads: Reads,
+}
+
+/// The graph's inputs, initializers left out (an exporter may list its weights as inputs).
+fn graph_inputs(graph: &pb::GraphProto) -> Vec<&pb::ValueInfoProto> {
+    let init: std::collections::HashSet<&str> =
+        graph.initializer.iter().map(|t| t.name.as_str()).collect();
+    graph
+        .input
+        .iter()
+        .filter(|v| !init.contains(v.name.as_str()))
+        .collect()
+}
+
+/// Whether the graph reads a mission and has memory, read from its inputs and outputs before
+/// its metadata (which keys it needs depends on them): memory is `memory` in and `memory_out`
+/// out, both or neither, else one line naming the one missing.
+pub(super) fn what_it_reads(path: &Path, graph: &pb::GraphProto) -> Result<Reads, PolicyError> {
+    let inputs = graph_inputs(graph);
+    let takes = |name: &str| inputs.iter().any(|v| v.name == name);
+    let outputs = graph.output.iter().any(|v| v.name == MEMORY_OUTPUT);
+    let pair = "a graph with memory takes \"memory\" and outputs \"memory_out\", one without \
+                memory has neither (docs/onnx.md#inputs)";
+    match (takes("memory"), outputs) {
+        (true, false) => Err(bad(
+            path,
+            format!("the graph takes \"memory\" but has no output \"memory_out\"; {pair}"),
+        )),
+        (false, true) => Err(bad(
+            path,
+            format!("the graph outputs \"memory_out\" but has no input \"memory\"; {pair}"),
+        )),
+        (memory, _) => Ok(Reads {
+            mission: takes("mission"),
+            memory,
+        }),
+    }
 }
 
 /// One line naming the file.
@@ -130,19 +168,15 @@ pub(super) fn check_inputs(
     path: &Path,
     graph: &pb::GraphProto,
     memory_size: usize,
+    reads: Reads,
 ) -> Result<Inputs, PolicyError> {
-    let init: std::collections::HashSet<&str> =
-        graph.initializer.iter().map(|t| t.name.as_str()).collect();
-    let inputs: Vec<&pb::ValueInfoProto> = graph
-        .input
-        .iter()
-        .filter(|v| !init.contains(v.name.as_str()))
-        .collect();
+    let inputs = graph_inputs(graph);
     let find = |name: &str| inputs.iter().find(|v| v.name == name);
     let stray: Vec<String> = inputs
         .iter()
         .filter(|v| {
             !REQUIRED_INPUTS.contains(&v.name.as_str())
+                && !STATE_INPUTS.contains(&v.name.as_str())
                 && !OPTIONAL_INPUTS.contains(&v.name.as_str())
         })
         .map(|v| format!("\"{}\"", v.name))
@@ -150,8 +184,9 @@ pub(super) fn check_inputs(
     // A misnamed input shows up twice: as a stray name and as a contract input missing; one
     // line says both, with every name the contract knows.
     let contract = format!(
-        "the contract's inputs: {}; optionally direction, and combined_override with override_weight; docs/onnx.md#inputs",
-        REQUIRED_INPUTS.join(", ")
+        "the contract's inputs: {}, and {} where the model reads them; optionally direction, and combined_override with override_weight; docs/onnx.md#inputs",
+        REQUIRED_INPUTS.join(", "),
+        STATE_INPUTS.join(" and ")
     );
     let stray_text = match stray.len() {
         0 => String::new(),
@@ -232,6 +267,7 @@ pub(super) fn check_inputs(
         image_int,
         direction: find("direction").is_some(),
         overrides,
+        reads,
     })
 }
 
@@ -310,14 +346,16 @@ pub(super) fn check_outputs(
     path: &Path,
     graph: &pb::GraphProto,
     memory_size: usize,
+    reads: Reads,
 ) -> Result<[bool; 3], PolicyError> {
     let find = |name: &str| graph.output.iter().find(|v| v.name == name);
-    for name in REQUIRED_OUTPUTS {
+    let memory = reads.memory.then_some(MEMORY_OUTPUT);
+    for name in REQUIRED_OUTPUTS.into_iter().chain(memory) {
         let Some(v) = find(name) else {
             return Err(bad(
                 path,
                 format!(
-                    "the graph has no output \"{name}\" (the contract's outputs: logits, value, memory_out)"
+                    "the graph has no output \"{name}\" (the contract's outputs: logits, value, and memory_out with memory)"
                 ),
             ));
         };
@@ -346,12 +384,19 @@ pub(super) fn check_outputs(
             _ => {}
         }
     }
-    Ok(OPTIONAL_OUTPUTS.map(|name| find(name).is_some()))
+    let optional = OPTIONAL_OUTPUTS.map(|name| find(name).is_some());
+    if !reads.mission && (optional[0] || optional[1]) {
+        return Err(bad(
+            path,
+            "the graph outputs word_maps or word_weights but takes no input \"mission\": a map per mission word needs the mission's words (docs/onnx.md#outputs)",
+        ));
+    }
+    Ok(optional)
 }
 
-/// Builds the optimised plan: inputs in the order image, mission, memory (, direction) with a
-/// symbolic batch `B` and mission length `L`; outputs the required ones, then the optional
-/// ones present.
+/// Builds the optimised plan: inputs in the order image (, mission) (, memory) (, direction)
+/// (, the override pair) — those the graph takes — with a symbolic batch `B` and mission
+/// length `L`; outputs logits, value (, memory_out), then the optional ones present.
 pub(super) fn build(
     path: &Path,
     onnx: &tract_onnx::Onnx,
@@ -368,7 +413,13 @@ pub(super) fn build(
         )
     };
     let mut model = onnx.model_for_proto_model(proto).map_err(fail)?;
-    let mut inputs = vec!["image", "mission", "memory"];
+    let mut inputs = vec!["image"];
+    if given.reads.mission {
+        inputs.push("mission");
+    }
+    if given.reads.memory {
+        inputs.push("memory");
+    }
     if given.direction {
         inputs.push("direction");
     }
@@ -382,11 +433,22 @@ pub(super) fn build(
     } else {
         f32::datum_type()
     };
-    let mut facts = vec![
-        InferenceFact::dt_shape(image_type, [b.to_dim(), 7.to_dim(), 7.to_dim(), 3.to_dim()]),
-        InferenceFact::dt_shape(i64::datum_type(), [b.to_dim(), l.to_dim()]),
-        InferenceFact::dt_shape(f32::datum_type(), [b.to_dim(), meta.memory_size.to_dim()]),
-    ];
+    let mut facts = vec![InferenceFact::dt_shape(
+        image_type,
+        [b.to_dim(), 7.to_dim(), 7.to_dim(), 3.to_dim()],
+    )];
+    if given.reads.mission {
+        facts.push(InferenceFact::dt_shape(
+            i64::datum_type(),
+            [b.to_dim(), l.to_dim()],
+        ));
+    }
+    if given.reads.memory {
+        facts.push(InferenceFact::dt_shape(
+            f32::datum_type(),
+            [b.to_dim(), meta.memory_size.to_dim()],
+        ));
+    }
     if given.direction {
         facts.push(InferenceFact::dt_shape(i64::datum_type(), [b.to_dim()]));
     }
@@ -401,6 +463,9 @@ pub(super) fn build(
         model.set_input_fact(i, fact).map_err(fail)?;
     }
     let mut outputs: Vec<&str> = REQUIRED_OUTPUTS.to_vec();
+    if given.reads.memory {
+        outputs.push(MEMORY_OUTPUT);
+    }
     outputs.extend(
         OPTIONAL_OUTPUTS
             .iter()
@@ -417,7 +482,9 @@ pub(super) fn build(
     let runnable = |m: TypedModel| m.into_optimized().and_then(IntoRunnable::into_runnable);
     // The mission (input 1) is cut off when it can be; a cut that tract cannot optimise
     // falls back to the whole graph, which is what every contract check above was made on.
-    if let Ok(Some(parts)) = super::mission_cache::cut(&typed, 1, &b)
+    // A graph that reads no mission has nothing to cut.
+    if given.reads.mission
+        && let Ok(Some(parts)) = super::mission_cache::cut(&typed, 1, &b)
         && let (Ok(step), Ok(encoder)) = (runnable(parts.step), runnable(parts.encoder))
     {
         return Ok(Built {

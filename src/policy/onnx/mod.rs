@@ -6,16 +6,22 @@
 mod acting;
 #[cfg(feature = "onnx")]
 pub mod bounds;
+#[cfg(feature = "onnx")]
+mod clock;
 pub mod contract;
 #[cfg(feature = "onnx")]
 mod load;
+#[cfg(feature = "onnx")]
+mod maps;
 #[cfg(feature = "onnx")]
 mod mission_cache;
 #[cfg(feature = "onnx")]
 mod runtime;
 
 #[cfg(feature = "onnx")]
-pub use runtime::{OnnxAgent, StepTimes};
+pub use clock::StepTimes;
+#[cfg(feature = "onnx")]
+pub use runtime::OnnxAgent;
 
 use crate::policy::trace::ViewMap;
 

@@ -7,15 +7,18 @@ use std::sync::Arc;
 use tract_onnx::prelude::*;
 
 use super::bounds::Bounds;
-use super::contract::{self, MapLayout, Meta};
-use super::load::{Inputs, bad, build, check_inputs, check_outputs, one_line, operators, props};
+use super::clock::{Clock, StepTimes};
+use super::contract::{self, Meta};
+use super::load::{
+    Inputs, bad, build, check_inputs, check_outputs, one_line, operators, props, what_it_reads,
+};
+use super::maps::{graph_map, view_map};
 use super::mission_cache::MissionCache;
 use super::{MapOutputs, OnnxStep};
 use crate::env::view::{Observation, VIEW_SIZE};
 use crate::env::vocab;
 use crate::panics::panic_line;
 use crate::policy::error::PolicyError;
-use crate::policy::trace::ViewMap;
 
 const N_CELLS: usize = VIEW_SIZE * VIEW_SIZE;
 const ACTIONS: usize = crate::env::world::Action::COUNT;
@@ -36,54 +39,6 @@ pub struct OnnxAgent {
     optional: [bool; 3],
     tokens: Vec<Option<i64>>,
     clock: Clock,
-}
-
-/// Where an agent's step time went, summed over its life (for `bench onnx`).
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct StepTimes {
-    /// Calls of [`OnnxAgent::step`].
-    pub steps: u64,
-    /// Graph runs (one per mission length in a step).
-    pub runs: u64,
-    /// Runs of the mission encoder cut from the graph (docs/onnx.md#speed): one per step
-    /// that meets missions not seen before; 0 for a graph that is not cut.
-    pub encoder_runs: u64,
-    /// Seconds inside tract's plans (the step graph and the mission encoder).
-    pub graph_secs: f64,
-    /// Seconds in [`OnnxAgent::step`] in all: the graph, plus building its inputs and reading
-    /// its outputs.
-    pub step_secs: f64,
-}
-
-impl StepTimes {
-    /// What was spent since `before` (an earlier reading of the same agent).
-    #[must_use]
-    pub fn since(&self, before: &Self) -> Self {
-        Self {
-            steps: self.steps - before.steps,
-            runs: self.runs - before.runs,
-            encoder_runs: self.encoder_runs - before.encoder_runs,
-            graph_secs: self.graph_secs - before.graph_secs,
-            step_secs: self.step_secs - before.step_secs,
-        }
-    }
-}
-
-/// Nanosecond counters behind [`StepTimes`] (atomics: sweeps step one agent from threads).
-#[derive(Debug, Default)]
-struct Clock {
-    steps: std::sync::atomic::AtomicU64,
-    runs: std::sync::atomic::AtomicU64,
-    encoder_runs: std::sync::atomic::AtomicU64,
-    graph_ns: std::sync::atomic::AtomicU64,
-    step_ns: std::sync::atomic::AtomicU64,
-}
-
-impl Clock {
-    fn add(counter: &std::sync::atomic::AtomicU64, since: std::time::Instant) {
-        let ns = u64::try_from(since.elapsed().as_nanos()).unwrap_or(u64::MAX);
-        counter.fetch_add(ns, std::sync::atomic::Ordering::Relaxed);
-    }
 }
 
 impl std::fmt::Debug for OnnxAgent {
@@ -133,20 +88,24 @@ impl OnnxAgent {
         let stem = path
             .file_stem()
             .map_or_else(|| "onnx".into(), |s| s.to_string_lossy().into_owned());
-        let meta = contract::meta(&props(path, &proto)?, &stem).map_err(|e| bad(path, e))?;
-        // The message, not the error's own "invalid input:" prefix a second time.
-        let tokens = contract::token_map(&meta.vocabulary, meta.level.babyai.is_none()).map_err(
-            |e| match e {
-                PolicyError::Input(m) => bad(path, m),
-                e => e,
-            },
-        )?;
         let graph = proto
             .graph
             .as_ref()
             .ok_or_else(|| bad(path, "the model has no graph"))?;
-        let inputs = check_inputs(path, graph, meta.memory_size)?;
-        let optional = check_outputs(path, graph, meta.memory_size)?;
+        // Which of mission and memory it takes decides which metadata keys it needs.
+        let reads = what_it_reads(path, graph)?;
+        let meta = contract::meta(&props(path, &proto)?, &stem, reads).map_err(|e| bad(path, e))?;
+        // A graph of the paper's level must know every word its missions use, checked here;
+        // one of a registered level only the words its missions hold, checked as they come;
+        // one that reads no mission none.
+        let paper_words = reads.mission && meta.level.babyai.is_none();
+        // The message, not the error's own "invalid input:" prefix a second time.
+        let tokens = contract::token_map(&meta.vocabulary, paper_words).map_err(|e| match e {
+            PolicyError::Input(m) => bad(path, m),
+            e => e,
+        })?;
+        let inputs = check_inputs(path, graph, meta.memory_size, reads)?;
+        let optional = check_outputs(path, graph, meta.memory_size, reads)?;
         if inputs.overrides && !(optional[0] && optional[2]) {
             return Err(bad(
                 path,
@@ -216,6 +175,16 @@ impl OnnxAgent {
             .iter()
             .map(|&t| self.tokens.get(t as usize).copied().flatten().unwrap_or(-1))
             .collect()
+    }
+
+    /// Whether the graph takes the mission (a model without text reads none).
+    pub fn reads_mission(&self) -> bool {
+        self.inputs.reads.mission
+    }
+
+    /// Whether the graph has memory (`memory` in, `memory_out` out; M = 0 without).
+    pub fn has_memory(&self) -> bool {
+        self.inputs.reads.memory
     }
 
     /// Whether the graph outputs per-word maps.
@@ -312,11 +281,19 @@ impl OnnxAgent {
             memory: vec![0.0; b * m],
             maps: self.has_maps().then(|| vec![MapOutputs::default(); b]),
         };
-        let mut lengths: Vec<usize> = missions.iter().map(|t| t.len()).collect();
+        // A graph that reads no mission runs every row at once.
+        let key = |r: usize| {
+            if self.reads_mission() {
+                missions[r].len()
+            } else {
+                0
+            }
+        };
+        let mut lengths: Vec<usize> = (0..b).map(key).collect();
         lengths.sort_unstable();
         lengths.dedup();
         for len in lengths {
-            let rows: Vec<usize> = (0..b).filter(|&r| missions[r].len() == len).collect();
+            let rows: Vec<usize> = (0..b).filter(|&r| key(r) == len).collect();
             let group = Group {
                 rows: &rows,
                 obs,
@@ -330,38 +307,15 @@ impl OnnxAgent {
         Ok(out)
     }
 
-    fn run_group(&self, g: &Group<'_>, out: &mut OnnxStep) -> Result<(), PolicyError> {
-        let Group {
-            rows,
-            obs,
-            directions,
-            missions,
-            memory,
-            overrides,
-        } = *g;
-        let (n, m) = (rows.len(), self.meta.memory_size);
-        let len = missions[rows[0]].len();
-        self.bounds.check(&self.path, n, len)?;
-        let mut image = Vec::with_capacity(n * N_CELLS * 3);
-        for &r in rows {
-            for col in &obs[r].image {
-                for cell in col {
-                    image.extend(cell.iter().map(|&c| i64::from(c)));
-                }
-            }
-        }
-        let shape = [n, VIEW_SIZE, VIEW_SIZE, 3];
-        let image = if self.inputs.image_int {
-            tract_ndarray::Array::from_shape_vec(shape, image)
-                .map(Tensor::from)
-                .map_err(|e| PolicyError::Input(e.to_string()))?
-        } else {
-            let f: Vec<f32> = image.iter().map(|&c| c as f32).collect();
-            tract_ndarray::Array::from_shape_vec(shape, f)
-                .map(Tensor::from)
-                .map_err(|e| PolicyError::Input(e.to_string()))?
-        };
-        let mut ids = Vec::with_capacity(n * len);
+    /// The graph's token ids of `rows`' missions, each `len` long, row after row; a word
+    /// outside the graph's vocabulary is refused by name.
+    fn mission_ids(
+        &self,
+        rows: &[usize],
+        missions: &[&[u32]],
+        len: usize,
+    ) -> Result<Vec<i64>, PolicyError> {
+        let mut ids = Vec::with_capacity(rows.len() * len);
         for &r in rows {
             for &t in missions[r] {
                 let id = self
@@ -382,6 +336,52 @@ impl OnnxAgent {
                 ids.push(id);
             }
         }
+        Ok(ids)
+    }
+
+    fn run_group(&self, g: &Group<'_>, out: &mut OnnxStep) -> Result<(), PolicyError> {
+        let Group {
+            rows,
+            obs,
+            directions,
+            missions,
+            memory,
+            overrides,
+        } = *g;
+        let (n, m) = (rows.len(), self.meta.memory_size);
+        let reads = self.inputs.reads;
+        // A graph that reads no mission has no L: its sizes are checked at L = 1.
+        let len = if reads.mission {
+            missions[rows[0]].len()
+        } else {
+            0
+        };
+        self.bounds
+            .check(&self.path, n, if reads.mission { len } else { 1 })?;
+        let mut image = Vec::with_capacity(n * N_CELLS * 3);
+        for &r in rows {
+            for col in &obs[r].image {
+                for cell in col {
+                    image.extend(cell.iter().map(|&c| i64::from(c)));
+                }
+            }
+        }
+        let shape = [n, VIEW_SIZE, VIEW_SIZE, 3];
+        let image = if self.inputs.image_int {
+            tract_ndarray::Array::from_shape_vec(shape, image)
+                .map(Tensor::from)
+                .map_err(|e| PolicyError::Input(e.to_string()))?
+        } else {
+            let f: Vec<f32> = image.iter().map(|&c| c as f32).collect();
+            tract_ndarray::Array::from_shape_vec(shape, f)
+                .map(Tensor::from)
+                .map_err(|e| PolicyError::Input(e.to_string()))?
+        };
+        let ids = if reads.mission {
+            self.mission_ids(rows, missions, len)?
+        } else {
+            Vec::new()
+        };
         let cached = match &self.missions {
             Some(cache) => {
                 let ran = std::time::Instant::now();
@@ -401,17 +401,23 @@ impl OnnxAgent {
             }
             None => TVec::new(),
         };
-        let mission = tract_ndarray::Array::from_shape_vec([n, len], ids)
-            .map(Tensor::from)
-            .map_err(|e| PolicyError::Input(e.to_string()))?;
-        let mem: Vec<f32> = rows
-            .iter()
-            .flat_map(|&r| memory[r * m..(r + 1) * m].iter().copied())
-            .collect();
-        let mem = tract_ndarray::Array::from_shape_vec([n, m], mem)
-            .map(Tensor::from)
-            .map_err(|e| PolicyError::Input(e.to_string()))?;
-        let mut inputs: TVec<TValue> = tvec![image.into(), mission.into(), mem.into()];
+        let mut inputs: TVec<TValue> = tvec![image.into()];
+        if reads.mission {
+            let mission = tract_ndarray::Array::from_shape_vec([n, len], ids)
+                .map(Tensor::from)
+                .map_err(|e| PolicyError::Input(e.to_string()))?;
+            inputs.push(mission.into());
+        }
+        if reads.memory {
+            let mem: Vec<f32> = rows
+                .iter()
+                .flat_map(|&r| memory[r * m..(r + 1) * m].iter().copied())
+                .collect();
+            let mem = tract_ndarray::Array::from_shape_vec([n, m], mem)
+                .map(Tensor::from)
+                .map_err(|e| PolicyError::Input(e.to_string()))?;
+            inputs.push(mem.into());
+        }
         if self.inputs.direction {
             let d: Vec<i64> = rows.iter().map(|&r| i64::from(directions[r])).collect();
             inputs.push(Tensor::from(tract_ndarray::Array::from_vec(d)).into());
@@ -487,8 +493,13 @@ impl OnnxAgent {
         };
         let logits = get(0, "logits", ACTIONS)?;
         let values = get(1, "value", 1)?;
-        let new_mem = get(2, "memory_out", m)?;
-        let mut next = 3;
+        // Without memory, M = 0: no memory_out, an empty memory per row.
+        let new_mem = if reads.memory {
+            get(2, "memory_out", m)?
+        } else {
+            Vec::new()
+        };
+        let mut next = if reads.memory { 3 } else { 2 };
         let mut take = |present: bool, name: &str, per_row: usize| {
             if !present {
                 return Ok(None);
@@ -550,28 +561,4 @@ struct Group<'a> {
     missions: &'a [&'a [u32]],
     memory: &'a [f32],
     overrides: Option<&'a [f32]>,
-}
-
-/// 49 agent-up values (`j = vy·7 + vx`) → the graph's layout, into `out`.
-fn graph_map(v: &[f32], layout: MapLayout, out: &mut [f32]) {
-    for (j, x) in v.iter().enumerate().take(N_CELLS) {
-        let (vy, vx) = (j / VIEW_SIZE, j % VIEW_SIZE);
-        match layout {
-            MapLayout::Image => out[vx * VIEW_SIZE + vy] = *x,
-            MapLayout::AgentUp => out[j] = *x,
-        }
-    }
-}
-
-/// 49 values in the graph's layout → an agent-up map (`map[vy][vx]`).
-fn view_map(v: &[f32], layout: MapLayout) -> ViewMap {
-    let mut map = [[0.0; VIEW_SIZE]; VIEW_SIZE];
-    for (j, x) in v.iter().enumerate().take(N_CELLS) {
-        let (a, b) = (j / VIEW_SIZE, j % VIEW_SIZE);
-        match layout {
-            MapLayout::Image => map[b][a] = *x,
-            MapLayout::AgentUp => map[a][b] = *x,
-        }
-    }
-    map
 }

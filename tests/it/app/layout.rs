@@ -5,21 +5,15 @@
 
 use crate::common::debugger::{build_sized, show_until};
 use egui_kittest::kittest::{NodeT as _, Queryable as _};
-use groundscope::app::StartOptions;
+use groundscope::app::{EpisodeRequest, Launch};
 use groundscope::env::level::{LevelConfig, LevelId};
 
-fn options(id: &str, seed: u64, step: usize) -> StartOptions {
-    StartOptions {
-        checkpoint: "bundled:babyai-grounded2".to_owned(),
-        compare: None,
-        level: Some(LevelConfig::babyai(LevelId::parse(id).unwrap(), false)),
-        seed,
-        sample: false,
+fn options(id: &str, seed: u64, step: usize) -> Launch {
+    let level = LevelConfig::babyai(LevelId::parse(id).unwrap(), false);
+    Launch::new(EpisodeRequest {
         step,
-        mission: None,
-        faithfulness: false,
-        report: None,
-    }
+        ..EpisodeRequest::new("bundled:babyai", level, seed)
+    })
 }
 
 #[test]

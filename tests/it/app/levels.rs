@@ -7,8 +7,8 @@ use crate::common;
 use crate::common::debugger::{build, show_until};
 use crate::common::worlds::babyai;
 use egui_kittest::kittest::{NodeT as _, Queryable as _};
-use groundscope::app::StartOptions;
 use groundscope::app::session::Agent;
+use groundscope::app::{EpisodeRequest, Launch};
 use groundscope::env::level::{LevelConfig, LevelId};
 use groundscope::env::tree::{InstructionTree, Stage, doors_text, targets_text};
 use groundscope::env::{DoorState, Instr};
@@ -30,18 +30,10 @@ fn fresh_checkpoint(dir: &Path, level: LevelConfig) -> String {
     name.to_str().unwrap().to_owned()
 }
 
-fn options(checkpoint: &str, level: Option<LevelConfig>, seed: u64) -> StartOptions {
-    StartOptions {
-        checkpoint: checkpoint.to_owned(),
-        compare: None,
-        level,
-        seed,
-        sample: false,
-        step: 0,
-        mission: None,
-        faithfulness: false,
-        report: None,
-    }
+/// The debugger on `checkpoint` at `seed`, on `level` or (`None`) the checkpoint's own.
+fn options(checkpoint: &str, level: Option<LevelConfig>, seed: u64) -> Launch {
+    let level = level.unwrap_or_else(|| Agent::load(checkpoint).unwrap().level());
+    Launch::new(EpisodeRequest::new(checkpoint, level, seed))
 }
 
 #[test]
@@ -152,7 +144,7 @@ fn a_door_level_lists_its_doors_and_their_states() {
 fn the_mission_editor_names_the_words_this_model_was_not_trained_on() {
     // The bundled model reads the paper's 25 words; BabyAI's split makes "door," one word.
     let mut opts = options("bundled:attention", None, 3);
-    opts.mission = Some("go to the red door, then pick up a key".into());
+    opts.request.mission = Some("go to the red door, then pick up a key".into());
     let mut h = build(&opts);
     show_until(&mut h, "not a word this model knows: door, then");
     assert!(
@@ -165,7 +157,7 @@ fn the_mission_editor_names_the_words_this_model_was_not_trained_on() {
     let dir = tempfile::tempdir().unwrap();
     let ckpt = fresh_checkpoint(dir.path(), babyai("BabyAI-GoToSeq-v0"));
     let mut opts = options(&ckpt, None, 3);
-    opts.mission = Some("go to the red ball, then pick up a key".into());
+    opts.request.mission = Some("go to the red ball, then pick up a key".into());
     let mut h = build(&opts);
     show_until(&mut h, "step 0 of ");
     assert!(
@@ -287,7 +279,7 @@ fn an_agent_without_maps_is_offered_nothing_it_lacks() {
 fn a_long_episode_streams_in_and_opens_at_the_step_asked_for() {
     let level = babyai("BabyAI-BossLevel-v0");
     let mut opts = options("bundled:babyai", Some(level), 3);
-    opts.step = 1000;
+    opts.request.step = 1000;
     let mut h = build(&opts);
     show_until(&mut h, "step 1000 of 0–1727 · failure");
     assert_eq!(h.state().episode_progress(), Some((1728, true)));
@@ -299,7 +291,7 @@ fn a_long_episode_streams_in_and_opens_at_the_step_asked_for() {
 /// `eval` gives the same episode — and the button goes there.
 #[test]
 fn a_failed_episode_offers_the_decisive_step_eval_gives_it() {
-    use groundscope::app::session::{Request, run_request};
+    use groundscope::app::session::run_request;
     use groundscope::episode::ActionMode;
     let dir = tempfile::tempdir().unwrap();
     let level = babyai("BabyAI-GoToLocal-v0");
@@ -307,12 +299,7 @@ fn a_failed_episode_offers_the_decisive_step_eval_gives_it() {
     let agent = Agent::load(&ckpt).unwrap();
     let (seed, shown) = (0..20)
         .find_map(|seed| {
-            let request = Request {
-                level,
-                seed,
-                mode: ActionMode::Greedy,
-                mission: None,
-            };
+            let request = EpisodeRequest::new(ckpt.clone(), level, seed);
             let shown = run_request(&agent, &request, 0.5).unwrap();
             (!shown.trace.success()).then_some((seed, shown))
         })
@@ -351,7 +338,7 @@ fn nine_word_missions_fit_their_maps_in_the_window() {
     for (id, seed) in [("BabyAI-PutNextLocal-v0", 3), ("BabyAI-OpenTwoDoors-v0", 1)] {
         for width in [1280.0f32, 1400.0] {
             let mut opts = options("bundled:babyai", Some(babyai(id)), seed);
-            opts.step = 1;
+            opts.request.step = 1;
             let mut h = egui_kittest::Harness::builder()
                 .with_size([width, 900.0])
                 .with_accessibility_check(false)

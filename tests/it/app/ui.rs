@@ -11,8 +11,8 @@ use eframe::egui;
 use egui::accesskit::Toggled;
 use egui_kittest::Harness;
 use egui_kittest::kittest::{NodeT as _, Queryable as _};
-use groundscope::app::session::{Agent, Request, Shown, run_request};
-use groundscope::app::{Debugger, StartOptions};
+use groundscope::app::session::{Agent, Shown, run_request};
+use groundscope::app::{Debugger, EpisodeRequest, Launch};
 use groundscope::episode::ActionMode;
 use groundscope::metrics::faithfulness::annotate_step;
 use groundscope::metrics::faithfulness::peaks::peak_line;
@@ -129,16 +129,9 @@ fn debugger(step: usize, faithfulness: bool) -> Harness<'static, Debugger> {
 
 /// [`debugger`] on another seed.
 fn debugger_seed(seed: u64, step: usize, faithfulness: bool) -> Harness<'static, Debugger> {
-    build(&StartOptions {
-        checkpoint: "bundled:attention".into(),
-        compare: None,
-        level: None,
-        seed,
-        sample: false,
-        step,
-        mission: None,
+    build(&Launch {
         faithfulness,
-        report: None,
+        ..Launch::new(request_of("bundled:attention", seed, step))
     })
 }
 
@@ -149,17 +142,20 @@ fn debugger_of(
     step: usize,
     faithfulness: bool,
 ) -> Harness<'static, Debugger> {
-    build(&StartOptions {
-        checkpoint: checkpoint.into(),
+    build(&Launch {
         compare: compare.map(str::to_owned),
-        level: None,
-        seed: 3,
-        sample: false,
-        step,
-        mission: None,
         faithfulness,
-        report: None,
+        ..Launch::new(request_of(checkpoint, 3, step))
     })
+}
+
+/// `checkpoint` on its own level at `seed`, greedy, opening at `step`.
+fn request_of(checkpoint: &str, seed: u64, step: usize) -> EpisodeRequest {
+    let level = Agent::load(checkpoint).unwrap().level();
+    EpisodeRequest {
+        step,
+        ..EpisodeRequest::new(checkpoint, level, seed)
+    }
 }
 
 /// The episode the debugger runs, run here without it.
@@ -170,11 +166,9 @@ fn episode() -> (Agent, Shown) {
 /// The episode of `seed` as the debugger runs it.
 fn episode_of(seed: u64) -> (Agent, Shown) {
     let agent = Agent::load("bundled:attention").unwrap();
-    let request = Request {
-        level: agent.level(),
-        seed,
+    let request = EpisodeRequest {
         mode: ActionMode::Greedy,
-        mission: None,
+        ..EpisodeRequest::new("bundled:attention", agent.level(), seed)
     };
     let shown = run_request(&agent, &request, 0.5).unwrap();
     (agent, shown)
@@ -309,11 +303,9 @@ fn onnx_fixture(name: &str) -> String {
 fn an_onnx_graph_without_maps_opens_with_its_occlusion_saliency_in_their_place() {
     let acmodel = onnx_fixture("acmodel.onnx");
     let agent = Agent::load(&acmodel).unwrap();
-    let request = Request {
-        level: agent.level(),
-        seed: 3,
+    let request = EpisodeRequest {
         mode: ActionMode::Greedy,
-        mission: None,
+        ..EpisodeRequest::new(acmodel.clone(), agent.level(), 3)
     };
     let shown = run_request(&agent, &request, 0.5).unwrap();
     assert!(shown.trace.steps.iter().all(|s| s.attention.is_none()));

@@ -9,8 +9,8 @@ use crate::common::debugger::{build, show_until};
 use crate::common::{self, assert_bad_input, gs, stderr};
 use eframe::egui;
 use egui_kittest::kittest::Queryable as _;
-use groundscope::app::StartOptions;
-use groundscope::metrics::report::browse::{Browser, Column, Divergence, Outcome};
+use groundscope::app::Launch;
+use groundscope::app::episodes::{Browser, Column, Divergence, Outcome};
 
 /// An evaluation of an untrained model (which fails) and `bundled:babyai` (which mostly
 /// succeeds) on two levels, 4 episodes each: made once, shared by the tests.
@@ -53,13 +53,13 @@ fn report() -> &'static Path {
 #[test]
 fn a_report_reads_back_filters_sorts_and_steps_failure_to_failure() {
     let mut b = Browser::open(report()).unwrap();
-    assert_eq!(b.rows.len(), 16);
-    assert!(!b.sample);
+    assert_eq!(b.report.rows.len(), 16);
+    assert!(!b.report.sample);
     assert_eq!(
         b.values(Column::Level),
         ["BabyAI-GoToDoor-v0", "BabyAI-GoToLocal-v0"]
     );
-    let failures = b.rows.iter().filter(|r| !r.success).count();
+    let failures = b.report.rows.iter().filter(|r| !r.success).count();
     assert!(failures > 0 && failures < 16, "{failures} failures");
     // Failures only, longest first.
     b.filter.outcome = Outcome::Failures;
@@ -67,7 +67,7 @@ fn a_report_reads_back_filters_sorts_and_steps_failure_to_failure() {
     assert_eq!(b.shown().len(), failures);
     b.sort_by(Column::Steps);
     b.sort_by(Column::Steps);
-    let steps: Vec<u32> = b.shown().iter().map(|&i| b.rows[i].steps).collect();
+    let steps: Vec<u32> = b.shown().iter().map(|&i| b.report.rows[i].steps).collect();
     assert!(steps.windows(2).all(|w| w[0] >= w[1]), "{steps:?}");
     // N walks the failures in the order listed and wraps round; P walks back.
     let order = b.shown().to_vec();
@@ -80,20 +80,20 @@ fn a_report_reads_back_filters_sorts_and_steps_failure_to_failure() {
         assert_eq!(b.step_failure(false), Some(order[order.len() - 1]));
     }
     // One level, never diverged: each filter narrows what the last one let through.
-    b.filter = groundscope::metrics::report::browse::Filter {
+    b.filter = groundscope::app::episodes::Filter {
         level: Some("BabyAI-GoToDoor-v0".into()),
         divergence: Divergence::Never,
         ..Default::default()
     };
     b.refresh();
     assert!(b.shown().iter().all(|&i| {
-        let r = &b.rows[i];
+        let r = &b.report.rows[i];
         r.level == "BabyAI-GoToDoor-v0" && r.first_divergence.is_none()
     }));
     // A failure opens with its checkpoint, level, seed and the step where it was lost.
-    let f = b.rows.iter().position(|r| !r.success).unwrap();
+    let f = b.report.rows.iter().position(|r| !r.success).unwrap();
     let ep = b.episode(f).unwrap();
-    let row = &b.rows[f];
+    let row = &b.report.rows[f];
     assert_eq!(ep.seed, row.level_seed);
     assert_eq!(ep.level.id(), row.level);
     assert!(!ep.level.done_required);
@@ -109,17 +109,11 @@ fn the_debugger_browses_a_report_and_opens_the_next_failure() {
     let first = b.first().unwrap();
     let ep = b.episode(first).unwrap();
     b.selected = Some(first);
-    let failed: Vec<usize> = (0..b.rows.len()).filter(|&i| !b.rows[i].success).collect();
-    let mut h = build(&StartOptions {
-        checkpoint: ep.checkpoint.clone(),
-        compare: None,
-        level: Some(ep.level),
-        seed: ep.seed,
-        sample: false,
-        step: ep.step,
-        mission: None,
-        faithfulness: false,
+    let rows = &b.report.rows;
+    let failed: Vec<usize> = (0..rows.len()).filter(|&i| !rows[i].success).collect();
+    let mut h = build(&Launch {
         report: Some(b.clone()),
+        ..Launch::new(ep.clone())
     });
     show_until(&mut h, &format!("step {} of ", ep.step));
     h.get_by_label_contains("16 of 16 episodes listed");
@@ -132,21 +126,59 @@ fn the_debugger_browses_a_report_and_opens_the_next_failure() {
     wait_for_seed(&mut h, want.seed);
 }
 
+/// A click on a row opens that episode and folds the docked list to its one line, which lies
+/// above the world panel, never over it (issue #83: the list was a window over the step it
+/// opened, and stayed there).
+#[test]
+fn picking_an_episode_folds_the_docked_list_off_the_world() {
+    let mut b = Browser::open(report()).unwrap();
+    let first = b.first().unwrap();
+    let ep = b.episode(first).unwrap();
+    b.selected = Some(first);
+    let mut h = build(&Launch {
+        report: Some(b.clone()),
+        ..Launch::new(ep.clone())
+    });
+    show_until(&mut h, &format!("step {} of ", ep.step));
+    h.get_by_label_contains("16 of 16 episodes listed");
+    // The row after the one open: the list opens scrolled to the row open, and the rows beside
+    // it hold other seeds, so the first cell on screen with its seed is its own.
+    let at = b.shown().iter().position(|&i| i == first).unwrap();
+    let pick = *b
+        .shown()
+        .get(at + 1)
+        .expect("a row after the first failure");
+    let want = b.episode(pick).unwrap();
+    assert_ne!(want.seed, ep.seed);
+    h.query_all_by_label(&want.seed.to_string())
+        .next()
+        .expect("the row's seed cell")
+        .click();
+    wait_for_seed(&mut h, want.seed);
+    show_until(&mut h, &format!("step {} of ", want.step));
+    // Folded: neither the rows nor the filters; the panel's line above the world, which is
+    // whole in the window.
+    assert!(h.query_by_label_contains("episodes listed").is_none());
+    assert!(h.query_by_label("diverged from the bot").is_none());
+    let line = h.get_by_label("episodes").rect();
+    let world = h.get_by_label("world picture").rect();
+    assert!(
+        line.max.y <= world.min.y,
+        "the panel's line {line:?} over the world {world:?}"
+    );
+    assert!(world.max.y <= 900.0 && world.max.x <= 1400.0, "{world:?}");
+}
+
 /// The top bar's "report…" opens a report (an empty field is an error naming the file it
 /// looked for); the episodes panel then lists it.
 #[test]
 fn the_report_button_opens_an_evaluation() {
-    let mut h = build(&StartOptions {
-        checkpoint: "bundled:babyai".into(),
-        compare: None,
-        level: None,
-        seed: 0,
-        sample: false,
-        step: 0,
-        mission: None,
-        faithfulness: false,
-        report: None,
-    });
+    let agent = groundscope::app::session::Agent::load("bundled:babyai").unwrap();
+    let mut h = build(&Launch::new(groundscope::app::EpisodeRequest::new(
+        "bundled:babyai",
+        agent.level(),
+        0,
+    )));
     show_until(&mut h, "step 0 of ");
     assert!(h.query_by_label("episodes").is_none());
     h.get_by_label("report…").click();

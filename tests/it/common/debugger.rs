@@ -2,15 +2,15 @@
 
 use egui_kittest::Harness;
 use egui_kittest::kittest::Queryable as _;
-use groundscope::app::{Debugger, StartOptions};
+use groundscope::app::{Debugger, Launch};
 
 /// The debugger at the default window size, 1400×900.
-pub fn build(opts: &StartOptions) -> Harness<'static, Debugger> {
+pub fn build(opts: &Launch) -> Harness<'static, Debugger> {
     build_sized(opts, [1400.0, 900.0])
 }
 
 /// The debugger in a window of `size` points.
-pub fn build_sized(opts: &StartOptions, size: [f32; 2]) -> Harness<'static, Debugger> {
+pub fn build_sized(opts: &Launch, size: [f32; 2]) -> Harness<'static, Debugger> {
     Harness::builder()
         .with_size(size)
         // The harness would also fail on the inputs without an accessible name (the

@@ -64,23 +64,4 @@ impl Eval {
             .unwrap_or_else(|| panic!("no performance row for {checkpoint} on {level}"));
         row["success_mean"].parse().unwrap()
     }
-
-    /// Asserts that `better`'s `column` of `word` on `level` is at least `floor` and exceeds
-    /// `than`'s by more than `margin`: a map that grounds where the other's does not.
-    pub fn assert_gain(
-        &self,
-        (better, than): (&str, &str),
-        (level, word, column): (&str, &str, &str),
-        floor: f64,
-        margin: f64,
-    ) {
-        let (b, t) = (
-            self.accuracy(better, level, word, column),
-            self.accuracy(than, level, word, column),
-        );
-        assert!(
-            b >= floor && b > t + margin,
-            "{level}: {word} {column} {b} against {t}"
-        );
-    }
 }

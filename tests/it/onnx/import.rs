@@ -107,7 +107,10 @@ fn the_bundled_model_through_onnx_acts_and_attends_as_the_native_one() {
 #[test]
 fn broken_graphs_are_refused_naming_what_is_wrong() {
     for (file, expect) in [
-        ("bad_missing_input.onnx", "no input \"mission\""),
+        (
+            "bad_missing_input.onnx",
+            "outputs \"memory_out\" but has no input \"memory\"",
+        ),
         ("bad_missing_output.onnx", "no output \"logits\""),
         ("bad_shape.onnx", "output \"logits\""),
         ("bad_dtype.onnx", "input \"memory\" is int64"),
@@ -528,7 +531,7 @@ fn hand_export_mistakes_are_named_with_their_cause() {
         ),
         (
             "bad_input_name.onnx",
-            "no input \"image\"; its input \"obs\" is not in the contract (the contract's inputs: image, mission, memory; optionally direction, and combined_override with override_weight",
+            "no input \"image\"; its input \"obs\" is not in the contract (the contract's inputs: image, and mission and memory where the model reads them; optionally direction, and combined_override with override_weight",
         ),
     ] {
         let path = fixture(file);

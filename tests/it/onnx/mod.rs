@@ -1,5 +1,7 @@
-//! ONNX import (docs/onnx.md): imported graphs acting, refused and traced (`import`), and their
-//! faithfulness and saliency (`faithfulness`).
+//! ONNX import (docs/onnx.md): imported graphs acting, refused and traced (`import`), their
+//! faithfulness and saliency (`faithfulness`), and rl-starter-files' agents of MiniGrid's own
+//! environments, without memory or a mission input (`minigrid`).
 
 mod faithfulness;
 mod import;
+mod minigrid;

@@ -20,18 +20,17 @@ fn row_norms(t: &Tensor) -> Vec<f32> {
         .collect()
 }
 
-/// `bundled:babyai`'s network, with and without the option.
+/// A BabyAI network without the option ([`super::plain_babyai_parent`]), and the same with it.
 fn nets() -> (Net, Net, ModelConfig) {
-    let parent = groundscope::policy::bundled::load("bundled:babyai").unwrap();
-    let cfg = parent.meta.model;
+    let (cfg, parent_params) = super::plain_babyai_parent();
     assert!(!cfg.filter_norm);
     let normed = ModelConfig {
         filter_norm: true,
         ..cfg
     };
     (
-        Net::new(cfg, parent.params.detached()).unwrap(),
-        Net::new(normed, parent.params.detached()).unwrap(),
+        Net::new(cfg, parent_params.detached()).unwrap(),
+        Net::new(normed, parent_params.detached()).unwrap(),
         normed,
     )
 }
@@ -205,9 +204,8 @@ fn the_option_is_named_kept_and_refused_like_the_others() {
 
 #[test]
 fn a_parent_grown_with_the_search_query_acts_exactly_as_before() {
-    let parent = groundscope::policy::bundled::load("bundled:babyai").unwrap();
-    let cfg = parent.meta.model;
-    let (lp_cfg, lp) = parent.params.with_layout_path(&cfg, 3).unwrap();
+    let (cfg, parent_params) = super::plain_babyai_parent();
+    let (lp_cfg, lp) = parent_params.with_layout_path(&cfg, 3).unwrap();
     let (grown_cfg, grown) = lp.with_search_query(&lp_cfg, 4).unwrap();
     assert!(grown_cfg.search_query && grown_cfg.layout_path);
     assert_eq!(
@@ -254,29 +252,33 @@ fn a_parent_grown_with_the_search_query_acts_exactly_as_before() {
     }
 }
 
-/// `bundled:babyai-grounded2`, the filter norm study's choice, grounds `M` and the door word
-/// where `bundled:babyai-grounded` does not (held out: `M` `acc` 0.72 against 0.17, door 0.96
-/// against 0.44), its location word finds its door on OpenDoorLoc (0.86 against 0.05; on
-/// PickupLoc no map of one word can single out its referent, docs/results.md), and it still
-/// reaches GoToLocal's targets (0.97 held out). Validation seeds, as the study chose it on.
+/// `bundled:babyai` (since 2026-12-02 the filter norm study's choice, once
+/// `bundled:babyai-grounded2`) grounds what the studies measured its parents miss: `M` on
+/// GoToLocal and PickupLoc, the door word on GoToDoor, the location word on OpenDoorLoc
+/// (held out: `M` `acc` 0.72, door 0.96, location 0.86; its parents' 0.17, 0.44 and 0.05 are in
+/// experiments/study_filter_norm/), and it still reaches GoToLocal's targets (0.97 held out).
+/// Validation seeds, as the study chose it on.
 #[test]
-fn the_second_grounded_agent_grounds_m_and_doors_where_the_first_does_not() {
-    let (first, second) = ("bundled:babyai-grounded", "bundled:babyai-grounded2");
+fn the_bundled_babyai_agent_grounds_m_doors_and_locations() {
+    let agent = groundscope::policy::bundled::BABYAI;
     let eval = Eval::validation(
-        &[first, second],
+        &[agent],
         "BabyAI-GoToLocal-v0,BabyAI-GoToDoor-v0,BabyAI-PickupLoc-v0,BabyAI-OpenDoorLoc-v0",
     );
-    let pair = (second, first);
+    let at_least = |level: &str, word: &str, column: &str, floor: f64| {
+        let value = eval.accuracy(agent, level, word, column);
+        assert!(
+            value >= floor,
+            "{word} {column} on {level}: {value} < {floor}"
+        );
+    };
     for level in ["BabyAI-GoToLocal-v0", "BabyAI-PickupLoc-v0"] {
-        eval.assert_gain(pair, (level, "combined", "acc_mean"), 0.6, 0.4);
+        at_least(level, "combined", "acc_mean", 0.6);
     }
-    eval.assert_gain(pair, ("BabyAI-GoToDoor-v0", "door", "acc_mean"), 0.8, 0.2);
-    eval.assert_gain(
-        pair,
-        ("BabyAI-OpenDoorLoc-v0", "location", "acc_mean"),
-        0.6,
-        0.4,
-    );
-    let success = eval.success(second, "BabyAI-GoToLocal-v0");
+    at_least("BabyAI-GoToLocal-v0", "object", "acc_mean", 0.6);
+    at_least("BabyAI-GoToDoor-v0", "door", "acc_mean", 0.8);
+    at_least("BabyAI-GoToDoor-v0", "door", "pointing_mean", 0.8);
+    at_least("BabyAI-OpenDoorLoc-v0", "location", "acc_mean", 0.6);
+    let success = eval.success(agent, "BabyAI-GoToLocal-v0");
     assert!(success >= 0.85, "GoToLocal success {success}");
 }

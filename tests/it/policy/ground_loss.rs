@@ -142,13 +142,12 @@ fn mean_masses(cfg: ModelConfig, params: &Params, level: &LevelConfig) -> (f64, 
 
 #[test]
 fn the_loss_moves_the_maps_onto_what_the_words_name_and_none_without_it() {
-    // bundled:babyai on GoToDoor, whose door word's map misses the door: a few updates of
+    // A fresh BabyAI network on GoToDoor, whose maps do not know the door: a few updates of
     // cloning with a strong grounding loss raise the maps' mass on their objects well past a
     // control that clones alone from the same start.
-    let parent = groundscope::policy::bundled::load("bundled:babyai").unwrap();
-    let cfg = parent.meta.model;
+    let (cfg, parent_params) = super::plain_babyai_parent();
     let level = LevelConfig::babyai(LevelId::parse("BabyAI-GoToDoor-v0").unwrap(), false);
-    let before = mean_masses(cfg, &parent.params, &level);
+    let before = mean_masses(cfg, &parent_params, &level);
     let after = |lambda: f64| {
         let ppo = PpoConfig {
             procs: 8,
@@ -159,10 +158,8 @@ fn the_loss_moves_the_maps_onto_what_the_words_name_and_none_without_it() {
             ground_loss: lambda,
             ..PpoConfig::default()
         };
-        // A fresh load: Adam updates the weights in place.
-        let params = groundscope::policy::bundled::load("bundled:babyai")
-            .unwrap()
-            .params;
+        // A fresh copy: Adam updates the weights in place.
+        let params = super::plain_babyai_parent().1;
         let mut t = Trainer::warm_start(cfg, level, ppo, params, 1, 0, 0).unwrap();
         let mut ground = Vec::new();
         for _ in 0..6 {

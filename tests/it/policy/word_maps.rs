@@ -27,7 +27,7 @@ fn attention(net: &Net, obs: Observation, tokens: &[u32]) -> AttentionTrace {
 
 #[test]
 fn a_words_map_scores_what_is_at_a_cell_not_where_it_is() {
-    let ckpt = bundled::load("bundled:babyai-grounded2").unwrap();
+    let ckpt = bundled::load(bundled::BABYAI).unwrap();
     let net = Net::new(ckpt.meta.model, ckpt.params.detached()).unwrap();
     let tokens = groundscope::env::vocab::tokenize("pick up the red ball on your left").unwrap();
     // Cells at least two from the view's edge: their 3×3 neighbourhoods never reach the

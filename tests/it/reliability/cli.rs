@@ -180,9 +180,44 @@ fn a_level_the_model_cannot_read_names_the_babyai_agent() {
         "1",
     ]);
     assert_bad_input(&o, "--checkpoint bundled:babyai");
+    // One BabyAI agent is bundled; the names it replaced are not offered.
     assert!(
-        stderr(&o).contains("bundled:babyai-grounded"),
+        !stderr(&o).contains("bundled:babyai-grounded"),
         "{}",
         stderr(&o)
+    );
+}
+
+/// The name the BabyAI agent had until 2026-12-02 opens it and says so once; the removed
+/// checkpoint's name is refused naming what replaced it.
+#[test]
+fn old_bundled_names_say_what_they_open_now() {
+    let o = gs(&[
+        "replay",
+        "--checkpoint",
+        "bundled:babyai-grounded2",
+        "--level",
+        "BabyAI-GoToLocal-v0",
+        "--seed",
+        "1",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let err = stderr(&o);
+    assert_eq!(
+        err.matches("note: bundled:babyai-grounded2: it is bundled:babyai now")
+            .count(),
+        1,
+        "{err}"
+    );
+    let o = gs(&[
+        "replay",
+        "--checkpoint",
+        "bundled:babyai-grounded",
+        "--level",
+        "BabyAI-GoToLocal-v0",
+    ]);
+    assert_bad_input(
+        &o,
+        "bundled:babyai-grounded: it is no longer bundled; bundled:babyai",
     );
 }

@@ -263,7 +263,7 @@ fn a_python_policys_report_is_not_reopened_as_a_checkpoint() {
             .path()
             .join(format!("{}-{marked}", name.replace(':', "_")));
         python_report(&dir, name, marked);
-        let b = groundscope::metrics::report::browse::Browser::open(&dir).unwrap();
+        let b = groundscope::metrics::report::browse::ReportEpisodes::open(&dir).unwrap();
         assert!(b.python.contains(name), "{name} {marked}");
         let e = b.episode(0).unwrap_err().to_string();
         assert!(
@@ -290,7 +290,7 @@ fn a_python_policys_report_is_not_reopened_as_a_checkpoint() {
         {"name": "bot", "variant": "bot", "frames": null, "level": null}
     ]});
     std::fs::write(dir.join("report.json"), report.to_string()).unwrap();
-    let b = groundscope::metrics::report::browse::Browser::open(&dir).unwrap();
+    let b = groundscope::metrics::report::browse::ReportEpisodes::open(&dir).unwrap();
     assert!(b.python.is_empty());
     assert_eq!(b.episode(0).unwrap().checkpoint, "bot");
 }

@@ -1,0 +1,54 @@
+//! What the user has picked on the step shown, which several panels read: the map laid over
+//! the world, the word selected, the cell selected for probing, an object being moved, and
+//! whether function words' maps fold.
+
+use crate::env::Pos;
+
+/// Missions longer than this (BabyAI's local ones have at most 9 words) fold their function
+/// words' maps by default.
+pub const FOLD_ABOVE_WORDS: usize = 9;
+
+/// Which map is laid over the world.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Overlay {
+    /// None: the plain world with its targets and trail.
+    None,
+    /// The combined map `M`.
+    #[default]
+    Combined,
+    /// The selected word's map.
+    Word,
+}
+
+/// The picks shared by the panels.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Selection {
+    /// The map laid over the world.
+    pub overlay: Overlay,
+    /// The word selected (its index in the mission), for the overlay and the weight bars.
+    pub word: usize,
+    /// The world cell selected for probing.
+    pub cell: Option<Pos>,
+    /// An object picked up with "move object…": the next click on the world moves it there.
+    pub moving_from: Option<Pos>,
+    /// Whether the maps of words with no role (function words: "go", "the", "then") fold into
+    /// one line; `None` folds them on missions longer than [`FOLD_ABOVE_WORDS`].
+    pub fold_function_words: Option<bool>,
+}
+
+impl Selection {
+    /// Whether function words' maps fold on a mission of `words` words.
+    pub fn folds(&self, words: usize) -> bool {
+        self.fold_function_words.unwrap_or(words > FOLD_ABOVE_WORDS)
+    }
+
+    /// The kind of world picture the overlay asks for: 0 the plain world, 2 with `M` over it,
+    /// `3 + i` with word `i`'s map over it (1 is the agent's view).
+    pub fn world_kind(&self) -> u8 {
+        match self.overlay {
+            Overlay::None => 0,
+            Overlay::Combined => 2,
+            Overlay::Word => 3u8.saturating_add(u8::try_from(self.word).unwrap_or(250)),
+        }
+    }
+}
