@@ -142,7 +142,7 @@ impl Settings {
 
     /// Whether keyword `name` was given.
     fn gave(&self, name: &str) -> bool {
-        self.given.iter().any(|g| *g == name)
+        self.given.contains(&name)
     }
 
     /// The network `model` and `hidden` name (a new run's).

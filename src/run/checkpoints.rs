@@ -308,7 +308,7 @@ pub(super) fn load_latest(run: &Path) -> Result<(Trainer, RunInfo, Option<Notice
     if candidates.is_empty() {
         candidates.push(run.to_path_buf());
     }
-    let mut first_error = None;
+    let mut first_error: Option<RunError> = None;
     for dir in candidates {
         match read_saved(&dir).and_then(|saved| {
             let info = RunInfo {
