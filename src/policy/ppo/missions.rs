@@ -31,6 +31,25 @@ pub(super) struct MissionCache {
 const MAX_DISTINCT: usize = 4096;
 
 impl MissionCache {
+    /// A cache that has met `distinct`, in that order (a resumed run's).
+    pub(super) fn with_missions(distinct: Vec<Vec<u32>>) -> Self {
+        let ids = distinct
+            .iter()
+            .enumerate()
+            .map(|(row, m)| (m.clone(), row as u32))
+            .collect();
+        Self {
+            ids,
+            distinct,
+            inputs: None,
+        }
+    }
+
+    /// The distinct missions met, in row order.
+    pub(super) fn distinct(&self) -> &[Vec<u32>] {
+        &self.distinct
+    }
+
     /// Forgets the inputs (the weights changed) but keeps the missions, which the next
     /// [`Self::inputs`] computes as one batch.
     pub(super) fn renew(&mut self) {

@@ -93,6 +93,12 @@ pub struct RunState {
     /// torch-ac's alternating-offset counter.
     batch_num: u64,
     envs: Vec<EnvSlot>,
+    /// The distinct missions the rollouts have met, in the order the next rollout computes
+    /// their inputs as one batch. Saved because a matrix product's rounding can depend on
+    /// the batch it runs in: a resumed run that met them again one by one drifted from the
+    /// uninterrupted run by 1e-8 after one update. Empty in run states written before.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    missions: Vec<Vec<u32>>,
     /// The `--ground-loss` weight of the run this one was started from with `--init` (or of
     /// its own ancestors), so that a checkpoint names supervision its maps inherited.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -261,6 +267,7 @@ impl Trainer {
                 batch_rng: Pcg64Mcg::seed_from_u64(seed ^ 0xBA7C_4E5D),
                 batch_num: 0,
                 envs,
+                missions: Vec::new(),
                 parent_ground_loss: None,
             },
             times: PhaseTimes::default(),

@@ -11,14 +11,16 @@ use crate::policy::error::PolicyError;
 impl Trainer {
     /// Serialises the run state (RNG streams, environments, counters) as JSON.
     pub fn state_json(&self) -> Result<String, PolicyError> {
-        serde_json::to_string(&self.state)
+        let mut state = self.state.clone();
+        state.missions = self.missions.distinct().to_vec();
+        serde_json::to_string(&state)
             .map_err(|e| PolicyError::Input(format!("serialising run state: {e}")))
     }
 
     /// Restores a run state written by [`Trainer::state_json`], checking every field a later
     /// update relies on; errors name the field (`envs[3].world.agent_pos`, ...).
     pub fn restore_state(&mut self, json: &str) -> Result<(), PolicyError> {
-        let st: RunState = serde_json::from_str(json)
+        let mut st: RunState = serde_json::from_str(json)
             .map_err(|e| PolicyError::Input(format!("reading run state: {e}")))?;
         let bad = |field: String, reason: String| PolicyError::Input(format!("{field}: {reason}"));
         if st.envs.len() != self.ppo.procs {
@@ -30,6 +32,28 @@ impl Trainer {
                     self.ppo.procs
                 ),
             ));
+        }
+        let valid_tokens = |t: &[u32]| {
+            !t.is_empty()
+                && t.len() <= MAX_STATE_TOKENS
+                && t.iter()
+                    .all(|&t| t != 0 && (t as usize) < vocab::VOCABULARY.len())
+        };
+        let mut seen = std::collections::HashSet::new();
+        for (k, m) in st.missions.iter().enumerate() {
+            if !valid_tokens(m) {
+                return Err(bad(
+                    format!("missions[{k}]"),
+                    format!(
+                        "must be 1..={} ids in 1..{}",
+                        MAX_STATE_TOKENS,
+                        vocab::VOCABULARY.len()
+                    ),
+                ));
+            }
+            if !seen.insert(m.as_slice()) {
+                return Err(bad(format!("missions[{k}]"), "is listed twice".into()));
+            }
         }
         let hid = self.model.lstm_hidden;
         for (k, e) in st.envs.iter().enumerate() {
@@ -49,12 +73,7 @@ impl Trainer {
                     "holds NaN or infinite values".into(),
                 ));
             }
-            if e.tokens.is_empty()
-                || e.tokens.len() > MAX_STATE_TOKENS
-                || e.tokens
-                    .iter()
-                    .any(|&t| t == 0 || t as usize >= vocab::VOCABULARY.len())
-            {
+            if !valid_tokens(&e.tokens) {
                 return Err(bad(
                     format!("envs[{k}].tokens"),
                     format!(
@@ -80,6 +99,8 @@ impl Trainer {
                 ));
             }
         }
+        self.missions =
+            super::missions::MissionCache::with_missions(std::mem::take(&mut st.missions));
         self.state = st;
         Ok(())
     }
