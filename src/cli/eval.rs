@@ -13,11 +13,12 @@ use groundscope::metrics::assemble::cell_from_episodes;
 use groundscope::metrics::exploration::EpisodeExploration;
 use groundscope::metrics::failure::counterfactual;
 use groundscope::metrics::report::{
-    CheckpointInfo, Report, SCHEMA_VERSION, episodes_csv, worst_episodes,
+    CheckpointInfo, EPISODES_DIR, REPORT_HTML, Report, SCHEMA_VERSION, episodes_csv, worst_episodes,
 };
 use groundscope::metrics::sweep::{EpisodeSummary, EvalOptions, evaluate_cell_explored};
 use groundscope::policy::Agent;
 
+use super::eval_episodes::{Outputs, put_failures_in_place, remove_old_failures, run_listed};
 use super::flags::SweepArgs;
 use super::stop::Stop;
 use crate::ExitStatus;
@@ -62,6 +63,11 @@ pub struct EvalArgs {
     /// Also record each listed failure as a Rerun recording in DIR/failures/.
     #[arg(long)]
     pub export_failures: bool,
+    /// Also write DIR/report.html (report.md with its figures inline) and one self-contained
+    /// page per listed worst episode in DIR/episodes/ (as `replay --html` makes it), each
+    /// linked from its row.
+    #[arg(long)]
+    pub html: bool,
     /// Worker threads; each evaluates whole cells (default: one per core).
     #[arg(long, value_name = "N", allow_negative_numbers = true)]
     pub jobs: Option<usize>,
@@ -75,6 +81,13 @@ fn check(args: &EvalArgs) -> anyhow::Result<()> {
         anyhow::bail!(
             "--export-failures: {} is not a directory (the recordings go there)",
             failures_dir.display()
+        );
+    }
+    let pages_dir = args.out.join(EPISODES_DIR);
+    if args.html && pages_dir.exists() && !pages_dir.is_dir() {
+        anyhow::bail!(
+            "--html: {} is not a directory (the episode pages go there)",
+            pages_dir.display()
         );
     }
     Ok(())
@@ -192,31 +205,7 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitStatus> {
     }
     bar.finish_and_clear();
     let elapsed = start.elapsed().as_secs_f64();
-    let report = Report {
-        schema_version: SCHEMA_VERSION,
-        groundscope_version: env!("CARGO_PKG_VERSION").into(),
-        alpha: args.alpha,
-        mode: mode.name().into(),
-        seeds: args.sweep.seeds,
-        first_seed: args.sweep.first_seed,
-        episodes_per_seed: args.sweep.episodes,
-        saliency: args.saliency,
-        checkpoints: ckpts
-            .iter()
-            .map(|(n, c)| CheckpointInfo {
-                name: n.clone(),
-                variant: c.kind_name().into(),
-                frames: c.frames(),
-                level: c.trained_level(),
-                model_name: c.acting().model_name(),
-                training: groundscope::policy::bundled::training_note(n).map(str::to_owned),
-                ground_loss: c.ground_loss(),
-                python: false,
-            })
-            .collect(),
-        cells: report_cells,
-        elapsed_secs: elapsed,
-    };
+    let report = report_of(args, &ckpts, mode, report_cells, elapsed);
     let sample = if args.sweep.sample { " --sample" } else { "" };
     let mut failures = worst_episodes(&all_eps, args.top_k, &|ckpt, level, seed| {
         let on = match level.babyai {
@@ -248,41 +237,55 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitStatus> {
     let failures_dir = args.out.join("failures");
     // The recordings are made first, into a hidden directory of --out, and put in place with
     // the report once both are complete: a recording that fails (or Ctrl-C) leaves --out as
-    // it was, the earlier report and its recordings included.
-    let recorded = if args.export_failures {
+    // it was, the earlier report and its recordings included. The pages of --html go with
+    // the report itself.
+    let staged = if args.export_failures {
         let staged = groundscope::files::StagedDir::new(&args.out)
             .map_err(|e| anyhow::anyhow!("--out {e}"))?;
-        let dir = staged.path("failures");
-        std::fs::create_dir(&dir)
+        std::fs::create_dir(staged.path("failures"))
             .with_context(|| format!("cannot create a directory in {}", args.out.display()))?;
-        let n = export_failures(
-            &failures,
-            &ckpts,
-            &dir,
-            &failures_dir,
-            mode,
-            args.alpha,
-            &stop,
-        );
+        Some(staged)
+    } else {
+        None
+    };
+    let listed = if args.export_failures || args.html {
+        let rrd = staged.as_ref().map(|s| s.path("failures"));
+        let outputs = Outputs {
+            rrd: rrd.as_deref().map(|d| (d, failures_dir.as_path())),
+            html: args.html,
+        };
+        let listed = run_listed(&failures, &ckpts, &outputs, mode, args.alpha, &stop);
         if stop.requested() {
             drop(staged);
             Stop::report(&args.out);
             return Ok(ExitStatus::Interrupted);
         }
-        Some((staged, n?))
+        Some(listed?)
     } else {
         None
     };
-    report.write(&args.out, &failures, &episodes_csv(&all_eps))?;
-    if let Some((staged, (failed, successes))) = recorded {
-        put_failures_in_place(&staged.path("failures"), &failures_dir)?;
-        staged.commit().map_err(|e| anyhow::anyhow!("--out {e}"))?;
+    let pages = listed.as_ref().filter(|_| args.html).map(|l| &l.pages);
+    report.write_with_pages(&args.out, &failures, &episodes_csv(&all_eps), pages)?;
+    match (staged, &listed) {
+        (Some(staged), Some(l)) => {
+            put_failures_in_place(&staged.path("failures"), &failures_dir)?;
+            staged.commit().map_err(|e| anyhow::anyhow!("--out {e}"))?;
+            println!(
+                "recorded {} failed episode(s) and {} success(es) listed for their low acc_cmb, one recording each, in {}",
+                l.failed,
+                l.successes,
+                failures_dir.display()
+            );
+        }
+        _ => remove_old_failures(&failures_dir)?,
+    }
+    if let Some(p) = pages {
         println!(
-            "recorded {failed} failed episode(s) and {successes} success(es) listed for their low acc_cmb, one recording each, in {}",
-            failures_dir.display()
+            "wrote {} and {} episode page(s) in {}",
+            args.out.join(REPORT_HTML).display(),
+            p.pages.len(),
+            args.out.join(EPISODES_DIR).display()
         );
-    } else {
-        remove_old_failures(&failures_dir)?;
     }
     println!(
         "evaluated {total} episodes in {elapsed:.1} s; report in {}",
@@ -296,6 +299,41 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitStatus> {
             println!("check failed: {f}");
         }
         Ok(ExitStatus::CheckFailed)
+    }
+}
+
+/// The report of a sweep of `ckpts` that gave `cells` in `elapsed` seconds.
+fn report_of(
+    args: &EvalArgs,
+    ckpts: &[(String, Agent)],
+    mode: ActionMode,
+    cells: Vec<groundscope::metrics::report::Cell>,
+    elapsed: f64,
+) -> Report {
+    Report {
+        schema_version: SCHEMA_VERSION,
+        groundscope_version: env!("CARGO_PKG_VERSION").into(),
+        alpha: args.alpha,
+        mode: mode.name().into(),
+        seeds: args.sweep.seeds,
+        first_seed: args.sweep.first_seed,
+        episodes_per_seed: args.sweep.episodes,
+        saliency: args.saliency,
+        checkpoints: ckpts
+            .iter()
+            .map(|(n, c)| CheckpointInfo {
+                name: n.clone(),
+                variant: c.kind_name().into(),
+                frames: c.frames(),
+                level: c.trained_level(),
+                model_name: c.acting().model_name(),
+                training: groundscope::policy::bundled::training_note(n).map(str::to_owned),
+                ground_loss: c.ground_loss(),
+                python: false,
+            })
+            .collect(),
+        cells,
+        elapsed_secs: elapsed,
     }
 }
 
@@ -457,122 +495,4 @@ fn add_counterfactuals(
         }
     }
     Ok(skipped)
-}
-
-/// Puts this run's recordings (the directory `staged`) in place of an earlier run's at `dir`:
-/// the earlier `*.rrd` removed, then the directory renamed into place, or, where `dir` keeps
-/// files of the user's own, each recording moved in beside them.
-fn put_failures_in_place(staged: &std::path::Path, dir: &std::path::Path) -> anyhow::Result<()> {
-    remove_old_failures(dir)?;
-    let moved =
-        |e: std::io::Error| anyhow::anyhow!("cannot move recordings to {}: {e}", dir.display());
-    if !dir.exists() {
-        return std::fs::rename(staged, dir).map_err(moved);
-    }
-    for entry in std::fs::read_dir(staged).map_err(moved)? {
-        let entry = entry.map_err(moved)?;
-        std::fs::rename(entry.path(), dir.join(entry.file_name())).map_err(moved)?;
-    }
-    Ok(())
-}
-
-/// Removes an earlier run's `failures/` recordings (`*.rrd`), and the directory when nothing
-/// else is in it.
-fn remove_old_failures(dir: &std::path::Path) -> anyhow::Result<()> {
-    let Ok(entries) = std::fs::read_dir(dir) else {
-        return Ok(());
-    };
-    for entry in entries.flatten() {
-        let path = entry.path();
-        if entry.file_type().is_ok_and(|t| t.is_file())
-            && path.extension().is_some_and(|e| e == "rrd")
-        {
-            std::fs::remove_file(&path).with_context(|| format!("removing {}", path.display()))?;
-        }
-    }
-    // Only an empty directory is removed.
-    let _ = std::fs::remove_dir(dir);
-    Ok(())
-}
-
-/// Replays every failure (the same level, seed and action mode as in the sweep) and records
-/// it as `DIR/<kind>-<checkpoint>-S<size>-N<objects>-seed<seed>.rrd`; an error names the
-/// recording in `shown`, the directory where it is going.
-fn export_failures(
-    failures: &[groundscope::metrics::report::Failure],
-    ckpts: &[(String, Agent)],
-    dir: &std::path::Path,
-    shown: &std::path::Path,
-    mode: ActionMode,
-    alpha: f64,
-    stop: &Stop,
-) -> anyhow::Result<(usize, usize)> {
-    use groundscope::record::{RecordError, RerunTargets, record_rerun};
-    let (mut failed, mut successes) = (0, 0);
-    // An episode listed twice (a long failure with a low acc_cmb too) is recorded once, under
-    // the first kind it is listed for: `failed` comes first.
-    let mut seen = std::collections::HashSet::new();
-    for f in failures {
-        let Some((name, ckpt)) = ckpts.iter().find(|(n, _)| *n == f.checkpoint) else {
-            continue;
-        };
-        let key = (
-            &f.checkpoint,
-            &f.level,
-            f.size,
-            f.objects,
-            f.seed,
-            f.done_required,
-        );
-        if !seen.insert(key) {
-            continue;
-        }
-        let spec = EpisodeSpec {
-            level: f.level_config(ckpt.level())?,
-            seed: f.seed,
-            mission: None,
-            mode,
-        };
-        let trace = groundscope::episode::run_from(
-            &stop.guard(ckpt.acting()),
-            name,
-            &spec,
-            groundscope::episode::initial_world(&spec)?,
-        )?;
-        // The whole name, so two checkpoints called `model` in different runs do not share
-        // file names.
-        let short: String = name
-            .trim_start_matches("bundled:")
-            .trim_start_matches("./")
-            .chars()
-            .map(|c| {
-                if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
-                    c
-                } else {
-                    '_'
-                }
-            })
-            .collect();
-        let on = f
-            .level
-            .clone()
-            .unwrap_or_else(|| format!("S{}-N{}", f.size, f.objects));
-        let file = format!("{}-{short}-{on}-seed{}.rrd", f.kind, f.seed);
-        let targets = RerunTargets {
-            save: Some(dir.join(&file)),
-            ..RerunTargets::default()
-        };
-        record_rerun(std::slice::from_ref(&trace), &targets, alpha, None).map_err(|e| match e {
-            RecordError::Io { reason, .. } => {
-                anyhow::anyhow!("cannot write {}: {reason}", shown.join(&file).display())
-            }
-            e => e.into(),
-        })?;
-        if trace.success() {
-            successes += 1;
-        } else {
-            failed += 1;
-        }
-    }
-    Ok((failed, successes))
 }

@@ -11,6 +11,7 @@ mod curve;
 mod default_model;
 mod env_cmd;
 mod eval;
+mod eval_episodes;
 mod faithfulness;
 mod flags;
 mod model_options;

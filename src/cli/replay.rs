@@ -1,5 +1,5 @@
 //! `groundscope replay`: run a checkpoint on episodes and write what it saw and did — a JSON
-//! trace, Rerun (file, spawned or running viewer) and/or MCAP.
+//! trace, Rerun (file, spawned or running viewer), MCAP and/or a self-contained HTML page.
 
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -12,6 +12,7 @@ use groundscope::env::vocab::{tokenize, words};
 use groundscope::episode::{EpisodeSpec, EpisodeTrace, initial_world, run_from};
 use groundscope::metrics::faithfulness::annotate;
 use groundscope::policy::Agent;
+use groundscope::record::html::episode_page;
 use groundscope::record::{
     McapRecorder, PendingFile, RecordError, RerunRecorder, RerunTargets, StopFlag, block_starts,
     scene_block, word_paths,
@@ -31,6 +32,7 @@ const DEFAULT_VIEWER_URL: &str = "rerun+http://127.0.0.1:9876/proxy";
     groundscope replay --seed 3 --episodes 5 --save five.rrd --mcap five.mcap\n  \
     groundscope replay --checkpoint bundled:baseline --mission \"go to the red ball\" --save red.rrd\n  \
     groundscope replay --checkpoint runs/untrained --seed 3 --trace out.json\n  \
+    groundscope replay --seed 3 --html ep.html --compare bundled:baseline\n  \
     groundscope replay --checkpoint my_agent.onnx --room-size 12 --faithfulness --save mine.rrd",
     // The room's old spelling here, kept for scripts (hidden).
     mut_arg("room_size", |a| a.alias("size")))]
@@ -65,6 +67,15 @@ pub struct ReplayArgs {
     /// Write the episodes as MCAP (Foxglove / Lichtblick).
     #[arg(long, value_name = "FILE.mcap")]
     pub mcap: Option<PathBuf>,
+    /// Write the episode as one self-contained HTML page that opens offline in any browser:
+    /// every step's world with M, view, word maps, action probabilities and instruction tree
+    /// under a step slider (one episode only; docs/sharing.md).
+    #[arg(long, value_name = "FILE.html")]
+    pub html: Option<PathBuf>,
+    /// With --html: run this checkpoint too on the same episode (level, seed, mission, mode)
+    /// and show both side by side on one step axis.
+    #[arg(long, value_name = "NAME")]
+    pub compare: Option<String>,
     /// Add faithfulness measures to every step: occlusion Δ (7×7), ρ(M, Δ) and one-step
     /// interventions on M (in the trace, the `.rrd` and the MCAP; see docs/faithfulness.md).
     #[arg(long)]
@@ -81,6 +92,7 @@ fn check_outputs(args: &ReplayArgs) -> anyhow::Result<()> {
         ("--trace", args.trace.as_deref()),
         ("--save", args.save.as_deref()),
         ("--mcap", args.mcap.as_deref()),
+        ("--html", args.html.as_deref()),
     ]
     .into_iter()
     .filter_map(|(flag, path)| path.map(|p| (flag, p)))
@@ -88,14 +100,23 @@ fn check_outputs(args: &ReplayArgs) -> anyhow::Result<()> {
     check_distinct_outputs(&outputs)
 }
 
-/// Runs `replay`. Episodes are streamed: each is run, printed and recorded while the next
-/// one runs, so memory does not grow with `--episodes`.
-pub fn replay(args: &ReplayArgs) -> anyhow::Result<ExitStatus> {
+/// Refuses flags no replay runs with, before anything is loaded or written.
+fn check_args(args: &ReplayArgs) -> anyhow::Result<()> {
     if args.episodes == 0 {
         anyhow::bail!("--episodes 0: give at least one episode");
     }
     if args.trace.is_some() && args.episodes > 1 {
         anyhow::bail!("--trace writes one episode; drop --episodes or use --save / --mcap");
+    }
+    // One page is one episode: a page per seed is what `eval --html` writes for the episodes
+    // worth a look, and a slider over several episodes would mix their step axes.
+    if args.html.is_some() && args.episodes > 1 {
+        anyhow::bail!("--html writes one episode; drop --episodes or use --save / --mcap");
+    }
+    if args.compare.is_some() && args.html.is_none() {
+        anyhow::bail!(
+            "--compare needs --html (the page shows both); the debugger compares with `view --compare`"
+        );
     }
     if !(0.0..=1.0).contains(&args.alpha) {
         anyhow::bail!("--alpha {:?} is outside [0, 1]", args.alpha);
@@ -106,7 +127,42 @@ pub fn replay(args: &ReplayArgs) -> anyhow::Result<ExitStatus> {
     if let Some(p) = &args.mcap {
         check_extension(p, "mcap", "--mcap")?;
     }
+    if let Some(p) = &args.html {
+        check_extension(p, "html", "--html")?;
+    }
     check_outputs(args)?;
+    Ok(())
+}
+
+/// The page of `trace`, with the `compared` checkpoint's run of the same episode `spec`
+/// beside it; and the longer episode's steps.
+fn html_page(
+    trace: &EpisodeTrace,
+    compared: Option<&(String, Agent)>,
+    spec: &EpisodeSpec,
+    alpha: f64,
+    stop: &StopFlag,
+) -> anyhow::Result<(String, usize)> {
+    // The second checkpoint on the very episode spec the first ran: same level, seed,
+    // mission and action mode.
+    let other = match compared {
+        Some((name, a)) => Some(run_from(a.acting(), name, spec, initial_world(spec)?)?),
+        None => None,
+    };
+    if stop.load(Ordering::Relaxed) {
+        return Err(RecordError::Interrupted.into());
+    }
+    let mut shown = vec![trace];
+    shown.extend(other.as_ref());
+    let page = episode_page(&shown, alpha, Some(stop))?;
+    let steps = shown.iter().map(|t| t.steps.len()).max().unwrap_or(0);
+    Ok((page, steps))
+}
+
+/// Runs `replay`. Episodes are streamed: each is run, printed and recorded while the next
+/// one runs, so memory does not grow with `--episodes`.
+pub fn replay(args: &ReplayArgs) -> anyhow::Result<ExitStatus> {
+    check_args(args)?;
     let stop: StopFlag = Arc::new(AtomicBool::new(false));
     {
         let s = stop.clone();
@@ -117,6 +173,13 @@ pub fn replay(args: &ReplayArgs) -> anyhow::Result<ExitStatus> {
         Some(name) => (name.clone(), Agent::load(name)?),
         None => super::default_model::for_episode(&args.episode, "replay")?,
     };
+    // Loaded before anything runs: a checkpoint that does not load is an error, not a page
+    // without its second panel.
+    let compared = args
+        .compare
+        .as_deref()
+        .map(|c| Agent::load(c).map(|a| (c.to_owned(), a)))
+        .transpose()?;
     let level = args.episode.level(agent.level())?;
     let mode = args.episode.mode();
     let last = args
@@ -152,6 +215,7 @@ pub fn replay(args: &ReplayArgs) -> anyhow::Result<ExitStatus> {
     }
     // Destinations that can be checked before any work are checked now.
     let trace_file = args.trace.as_deref().map(PendingFile::new).transpose()?;
+    let html_file = args.html.as_deref().map(PendingFile::new).transpose()?;
     let mut mcap = args.mcap.as_deref().map(McapRecorder::create).transpose()?;
     let mut rerun: Option<RerunRecorder> = None;
     let targets = RerunTargets {
@@ -223,7 +287,7 @@ pub fn replay(args: &ReplayArgs) -> anyhow::Result<ExitStatus> {
                     }
                 }
             }
-            if args.trace.is_some() {
+            if args.trace.is_some() || args.html.is_some() {
                 kept = Some(trace);
             }
         }
@@ -250,6 +314,19 @@ pub fn replay(args: &ReplayArgs) -> anyhow::Result<ExitStatus> {
     }
     if let (Some(file), Some(trace)) = (trace_file, &kept) {
         file.write_all(trace.to_json().as_bytes())?;
+        pending.push(file);
+    }
+    let mut page_stats = None;
+    if let (Some(file), Some(trace)) = (html_file, &kept) {
+        let (page, steps) = html_page(
+            trace,
+            compared.as_ref(),
+            &spec(trace.seed),
+            args.alpha,
+            &stop,
+        )?;
+        file.write_all(page.as_bytes())?;
+        page_stats = Some((page.len(), steps));
         pending.push(file);
     }
     for file in pending {
@@ -283,6 +360,13 @@ pub fn replay(args: &ReplayArgs) -> anyhow::Result<ExitStatus> {
     }
     if let (Some(path), Some(_)) = (&args.trace, &kept) {
         println!("wrote {}", path.display());
+    }
+    if let (Some(path), Some((bytes, steps))) = (&args.html, page_stats) {
+        println!(
+            "wrote {} ({steps} steps, {bytes} bytes = {:.1} KB/step)",
+            path.display(),
+            bytes as f64 / 1000.0 / steps.max(1) as f64
+        );
     }
     Ok(ExitStatus::Success)
 }

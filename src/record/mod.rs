@@ -1,11 +1,12 @@
-//! Sinks that consume episode traces: Rerun (`.rrd` files, a spawned or running viewer) and
-//! MCAP for Foxglove / Lichtblick. They only read [`EpisodeTrace`](crate::episode::EpisodeTrace)s;
-//! nothing here runs the policy.
+//! Sinks that consume episode traces: Rerun (`.rrd` files, a spawned or running viewer), MCAP
+//! for Foxglove / Lichtblick, and a self-contained HTML page per episode ([`html`]). They only
+//! read [`EpisodeTrace`](crate::episode::EpisodeTrace)s; nothing here runs the policy.
 //!
 //! Files are written next to their destination under a temporary name and renamed into place
 //! only when complete (footer written), so a failure or Ctrl-C leaves no partial file.
 
 mod accuracy_lines;
+pub mod html;
 pub mod mcap_recorder;
 pub mod rerun_recorder;
 mod rrd_file;
@@ -50,6 +51,9 @@ pub enum RecordError {
     /// Nothing to record.
     #[error("no episodes to record")]
     Empty,
+    /// A picture could not be encoded (a PNG of the HTML page's tiles).
+    #[error("cannot encode a picture: {0}")]
+    Encode(String),
 }
 
 /// A recording's destination. A regular file (or a new path) is written under a temporary

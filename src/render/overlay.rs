@@ -23,9 +23,25 @@ pub enum CellMark {
 }
 
 /// Width in pixels of the ring drawn on occupied cells: an eighth of the tile, at least 1.
-fn ring_px(tile_size: u32) -> u32 {
+/// Public, as the sizes below are, so that a page that draws these marks itself (the HTML
+/// episode page) draws them as wide as every other display.
+pub fn ring_px(tile_size: u32) -> u32 {
     (tile_size / 8).max(1)
 }
+
+/// Length in pixels of each arm of a target's corner brackets ([`outline_targets`]).
+pub fn target_arm_px(tile_size: u32) -> u32 {
+    (tile_size / 3).max(1)
+}
+
+/// Half the side, in pixels, of the trail's dot ([`draw_trail`]): the dot covers the pixels
+/// closer than this to the tile's centre.
+pub fn trail_half_px(tile_size: u32) -> u32 {
+    (tile_size / 10).max(1)
+}
+
+/// Opacity of the trail's dot.
+pub const TRAIL_ALPHA: f32 = 0.8;
 
 /// The world cells a view map covers, each with its value and how it is drawn, in view
 /// order; view cells outside the grid are left out.
@@ -122,7 +138,7 @@ pub fn overlay_on_world(
 /// the band keeps the attention ring's.
 pub fn outline_targets(img: &mut RgbImage, cells: &[Pos], tile_size: u32) {
     let ring = ring_px(tile_size);
-    let arm = (tile_size / 3).max(1);
+    let arm = target_arm_px(tile_size);
     let near_end = |d: u32| d < arm || d + arm >= tile_size;
     for &pos in cells {
         paint_cell(img, pos, tile_size, palette::TARGET, 1.0, |dx, dy| {
@@ -134,12 +150,17 @@ pub fn outline_targets(img: &mut RgbImage, cells: &[Pos], tile_size: u32) {
 /// Marks every cell of `trail` (the agent's earlier cells) with a small square of
 /// [`palette::TRAIL`] at its centre.
 pub fn draw_trail(img: &mut RgbImage, trail: &[Pos], tile_size: u32) {
-    let half = (tile_size / 10).max(1);
+    let half = trail_half_px(tile_size);
     let mid = tile_size / 2;
     for &pos in trail {
-        paint_cell(img, pos, tile_size, palette::TRAIL, 0.8, |dx, dy| {
-            dx.abs_diff(mid) < half && dy.abs_diff(mid) < half
-        });
+        paint_cell(
+            img,
+            pos,
+            tile_size,
+            palette::TRAIL,
+            TRAIL_ALPHA,
+            |dx, dy| dx.abs_diff(mid) < half && dy.abs_diff(mid) < half,
+        );
     }
 }
 

@@ -108,10 +108,20 @@ impl Failure {
             .replay
             .replacen("groundscope replay", "groundscope view", 1);
         if self.kind == "failed" && self.length > 0 {
-            let step = self.decisive_step.unwrap_or(self.length - 1);
-            format!("{view} --step {step}")
+            format!("{view} --step {}", self.opening_step())
         } else {
             view
+        }
+    }
+
+    /// The step the debugger and the episode's page open at: a failed episode's decisive
+    /// step ([`Self::decisive_step`], else its last step), 0 for a success listed for its
+    /// low `acc_cmb`.
+    pub fn opening_step(&self) -> u32 {
+        if self.kind == "failed" && self.length > 0 {
+            self.decisive_step.unwrap_or(self.length - 1)
+        } else {
+            0
         }
     }
 }

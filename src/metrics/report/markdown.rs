@@ -3,7 +3,8 @@
 use std::fmt::Write as _;
 
 use super::{
-    Cell, FIG6_REWARD, FIG6_SUCCESS, FIG7_OBJECT, FIG8_COLOR, Failure, LOW_ACC_CMB, Report,
+    Cell, EPISODES_DIR, EpisodePages, FIG6_REWARD, FIG6_SUCCESS, FIG7_OBJECT, FIG8_COLOR, Failure,
+    LOW_ACC_CMB, Report,
 };
 use crate::metrics::failure::FailureClass;
 use crate::metrics::grounding::WordKind;
@@ -66,6 +67,12 @@ impl Report {
     /// `report.md`: the summary, then the tables, each figure linked under the table it
     /// shows.
     pub fn markdown(&self, failures: &[Failure]) -> String {
+        self.markdown_linked(failures, None)
+    }
+
+    /// [`Report::markdown`], each worst episode with a page among `pages` (`eval --html`)
+    /// linked to it in a last column.
+    pub fn markdown_linked(&self, failures: &[Failure], pages: Option<&EpisodePages>) -> String {
         let mut s = String::new();
         let figs = self.figure_names();
         let _ = writeln!(s, "# groundscope evaluation\n");
@@ -103,7 +110,7 @@ impl Report {
         s.push_str(&self.levels_markdown());
         self.failure_table(&mut s);
         self.exploration_tables(&mut s);
-        self.worst_table(&mut s, failures);
+        self.worst_table(&mut s, failures, pages);
         s
     }
 
@@ -253,8 +260,8 @@ impl Report {
     }
 
     /// The worst episodes: how they were chosen, then one row each with what replays it and
-    /// opens it in the debugger.
-    fn worst_table(&self, s: &mut String, failures: &[Failure]) {
+    /// opens it in the debugger, and its page where `pages` has one.
+    fn worst_table(&self, s: &mut String, failures: &[Failure], pages: Option<&EpisodePages>) {
         let _ = writeln!(s, "\n## Worst episodes\n");
         let _ = writeln!(
             s,
@@ -281,16 +288,35 @@ impl Report {
                 "{skipped} failed episode(s) could not be re-run without distractors (\"not built\" below, with the reason); the sweep kept them.\n"
             );
         }
+        let (page_header, page_rule) = match pages {
+            Some(_) => (" page |", "---|"),
+            None => ("", ""),
+        };
         let _ = writeln!(
             s,
-            "| why {} seed | mission | reward | length | acc_cmb (M) | class (behaviour) | without distractors | replay · open in the debugger |",
+            "| why {} seed | mission | reward | length | acc_cmb (M) | class (behaviour) | without distractors | replay · open in the debugger |{page_header}",
             self.key_header()
         );
-        let _ = writeln!(s, "|---{}---|---|---|---|---|---|---|---|", self.key_rule());
+        let _ = writeln!(
+            s,
+            "|---{}---|---|---|---|---|---|---|---|{page_rule}",
+            self.key_rule()
+        );
         for f in failures {
+            let page = match pages {
+                Some(p) if p.has(&f.page_name()) => {
+                    format!(
+                        " [open]({EPISODES_DIR}/{}#step={}) |",
+                        f.page_name(),
+                        f.opening_step()
+                    )
+                }
+                Some(_) => " – |".to_owned(),
+                None => String::new(),
+            };
             let _ = writeln!(
                 s,
-                "| {} {} {} | {} | {:.3} | {} | {} | {} | {} | `{}` · `{}` |",
+                "| {} {} {} | {} | {:.3} | {} | {} | {} | {} | `{}` · `{}` |{page}",
                 f.kind,
                 self.key_cells(&f.checkpoint, f.level.as_deref(), f.size, f.objects),
                 f.seed,

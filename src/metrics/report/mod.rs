@@ -6,6 +6,7 @@ mod bars;
 pub mod browse;
 mod episodes;
 mod failures;
+mod html;
 mod level_grounding;
 mod levels;
 pub(crate) mod markdown;
@@ -16,6 +17,7 @@ pub use episodes::{
     EPISODES_CSV_HEADER, EPISODES_CSV_REQUIRED, EpisodeRow, episodes_csv, read_episodes_csv,
 };
 pub use failures::{Failure, LOW_ACC_CMB, worst_episodes};
+pub use html::{EPISODES_DIR, EpisodePages, REPORT_HTML, escape_html, report_html};
 pub use level_grounding::FIG_GROUNDING_LEVELS;
 pub use levels::LEVELS_SUCCESS;
 pub use summary::{GROUNDS_ABOVE_CHANCE, MAX_LINES as SUMMARY_MAX_LINES};
@@ -450,11 +452,26 @@ impl Report {
         failures: &[Failure],
         episodes: &str,
     ) -> Result<(), MetricsError> {
+        self.write_with_pages(dir, failures, episodes, None)
+    }
+
+    /// [`Report::write`], and with `pages` (`eval --html`) also `report.html` ([`REPORT_HTML`],
+    /// its figures inline) and the episode pages in [`EPISODES_DIR`], each worst episode's row
+    /// linking its page in both `report.md` and `report.html`. Without `pages`, an earlier
+    /// run's `report.html` and pages are removed, as its figures are.
+    pub fn write_with_pages(
+        &self,
+        dir: &Path,
+        failures: &[Failure],
+        episodes: &str,
+        pages: Option<&EpisodePages>,
+    ) -> Result<(), MetricsError> {
         let io = |p: &Path, e: std::io::Error| MetricsError::Io {
             path: p.to_path_buf(),
             reason: e.to_string(),
         };
         let staged = crate::files::StagedDir::new(dir).map_err(staged_err)?;
+        let markdown = self.markdown_linked(failures, pages);
         // Plain data with string keys cannot fail to serialise.
         let files: Vec<(&str, String)> = vec![
             (
@@ -465,7 +482,7 @@ impl Report {
                 "failures.json",
                 serde_json::to_string_pretty(failures).unwrap_or_default(),
             ),
-            ("report.md", self.markdown(failures)),
+            ("report.md", markdown.clone()),
             ("performance.csv", self.performance_csv()),
             ("accuracy.csv", self.accuracy_csv()),
             ("around.csv", self.around_csv()),
@@ -477,6 +494,58 @@ impl Report {
             staged.write(name, text.as_bytes()).map_err(staged_err)?;
         }
         let figs = self.figure_names();
+        self.draw_figures(&staged, &figs)?;
+        // report.html inlines the figures just drawn: it reads nothing an earlier run left.
+        let pages_dir = staged.path(EPISODES_DIR);
+        if let Some(pages) = pages {
+            html::stage_pages(&staged, dir, &markdown, pages)?;
+        }
+        // A directory reused from an evaluation with attention checkpoints must not keep
+        // that run's accuracy figures beside this run's report.
+        for stale in [
+            FIG6_REWARD,
+            FIG6_SUCCESS,
+            LEVELS_SUCCESS,
+            FIG_GROUNDING_LEVELS,
+            FIG7_OBJECT,
+            FIG8_COLOR,
+            super::exploration::FIG_EXPLORATION,
+            super::exploration::FIG_EXPLORATION_MAPS,
+        ] {
+            if !figs.contains(&stale) {
+                let p = dir.join(stale);
+                if p.exists() {
+                    std::fs::remove_file(&p).map_err(|e| io(&p, e))?;
+                }
+            }
+        }
+        // The pages go in first, as `eval --export-failures`'s recordings do: a directory
+        // of the user's own files at `episodes/` keeps them beside this run's pages.
+        html::put_pages_in_place(
+            pages.is_some().then_some(pages_dir.as_path()),
+            &dir.join(EPISODES_DIR),
+        )?;
+        // A reused directory keeps no figure or table an earlier run wrote and this one did
+        // not (fig7/fig8 without an attention model, report.html without --html).
+        let names: Vec<&str> = files.iter().map(|(n, _)| *n).collect();
+        staged
+            .commit_owned(|n| {
+                names.contains(&n)
+                    || n == REPORT_HTML
+                    || n == LEVELS_SUCCESS
+                    || (n.starts_with("fig")
+                        && Path::new(n).extension().is_some_and(|e| e == "png"))
+            })
+            .map_err(staged_err)?;
+        Ok(())
+    }
+
+    /// Draws the figures `figs` names ([`Report::figure_names`]) into `staged`.
+    fn draw_figures(
+        &self,
+        staged: &crate::files::StagedDir,
+        figs: &[&str],
+    ) -> Result<(), MetricsError> {
         let paper = |c: &Cell| c.level.is_none();
         if figs.contains(&LEVELS_SUCCESS) {
             self.levels_figure(&staged.path(LEVELS_SUCCESS))?;
@@ -499,93 +568,11 @@ impl Report {
             )?;
         }
         if figs.contains(&FIG7_OBJECT) {
-            self.accuracy_figures(&staged, &paper)?;
+            self.accuracy_figures(staged, &paper)?;
         }
         // The exploration figures are drawn on the conditions `figure_names` names them on.
         let drawn = self.exploration_figures(staged.dir())?;
         debug_assert!(drawn.iter().all(|f| figs.contains(f)), "{drawn:?}");
-        // A directory reused from an evaluation with attention checkpoints must not keep
-        // that run's accuracy figures beside this run's report.
-        for stale in [
-            FIG6_REWARD,
-            FIG6_SUCCESS,
-            LEVELS_SUCCESS,
-            FIG_GROUNDING_LEVELS,
-            FIG7_OBJECT,
-            FIG8_COLOR,
-            super::exploration::FIG_EXPLORATION,
-            super::exploration::FIG_EXPLORATION_MAPS,
-        ] {
-            if !figs.contains(&stale) {
-                let p = dir.join(stale);
-                if p.exists() {
-                    std::fs::remove_file(&p).map_err(|e| io(&p, e))?;
-                }
-            }
-        }
-        // A reused directory keeps no figure or table an earlier run wrote and this one did
-        // not (fig7/fig8 without an attention model).
-        let names: Vec<&str> = files.iter().map(|(n, _)| *n).collect();
-        staged
-            .commit_owned(|n| {
-                names.contains(&n)
-                    || n == LEVELS_SUCCESS
-                    || (n.starts_with("fig")
-                        && Path::new(n).extension().is_some_and(|e| e == "png"))
-            })
-            .map_err(staged_err)?;
-        Ok(())
-    }
-}
-
-impl Report {
-    /// The paper's Figs. 7 and 8 (the object and colour words' four accuracies) of the cells
-    /// `paper` accepts, into `staged`.
-    fn accuracy_figures(
-        &self,
-        staged: &crate::files::StagedDir,
-        paper: &dyn Fn(&Cell) -> bool,
-    ) -> Result<(), MetricsError> {
-        for (name, kind, title) in [
-            (
-                FIG7_OBJECT,
-                WordKind::Object,
-                "Object-word map accuracy (Fig. 7)",
-            ),
-            (
-                FIG8_COLOR,
-                WordKind::Color,
-                "Colour-word map accuracy (Fig. 8)",
-            ),
-        ] {
-            self.figure_of(&staged.path(name), title, paper, &|c| {
-                let Some(a) = &c.accuracy else {
-                    return Vec::new();
-                };
-                let g = if kind == WordKind::Object {
-                    &a.object
-                } else {
-                    &a.color
-                };
-                let prefix = if self
-                    .checkpoints
-                    .iter()
-                    .filter(|k| k.variant == "attention")
-                    .count()
-                    > 1
-                {
-                    format!("{} ", c.checkpoint)
-                } else {
-                    String::new()
-                };
-                vec![
-                    (format!("{prefix}acc"), g.acc),
-                    (format!("{prefix}acc_ng"), g.acc_ng),
-                    (format!("{prefix}acc_bs"), g.acc_bs),
-                    (format!("{prefix}acc_cmb"), g.acc_cmb),
-                ]
-            })?;
-        }
         Ok(())
     }
 }

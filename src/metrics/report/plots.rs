@@ -4,9 +4,10 @@ use std::path::Path;
 
 use plotters::prelude::*;
 
-use super::{Cell, Point, Report};
+use super::{Cell, FIG7_OBJECT, FIG8_COLOR, Point, Report};
 use crate::metrics::error::MetricsError;
 use crate::metrics::figures::{save_rgb, series_color};
+use crate::metrics::grounding::WordKind;
 use crate::metrics::sweep::MeanStd;
 
 impl Report {
@@ -134,5 +135,57 @@ impl Report {
             root.present().map_err(|e| err(&e))?;
         }
         save_rgb(&buf, w, h, path)
+    }
+}
+
+impl Report {
+    /// The paper's Figs. 7 and 8 (the object and colour words' four accuracies) of the cells
+    /// `paper` accepts, into `staged`.
+    pub(super) fn accuracy_figures(
+        &self,
+        staged: &crate::files::StagedDir,
+        paper: &dyn Fn(&Cell) -> bool,
+    ) -> Result<(), MetricsError> {
+        for (name, kind, title) in [
+            (
+                FIG7_OBJECT,
+                WordKind::Object,
+                "Object-word map accuracy (Fig. 7)",
+            ),
+            (
+                FIG8_COLOR,
+                WordKind::Color,
+                "Colour-word map accuracy (Fig. 8)",
+            ),
+        ] {
+            self.figure_of(&staged.path(name), title, paper, &|c| {
+                let Some(a) = &c.accuracy else {
+                    return Vec::new();
+                };
+                let g = if kind == WordKind::Object {
+                    &a.object
+                } else {
+                    &a.color
+                };
+                let prefix = if self
+                    .checkpoints
+                    .iter()
+                    .filter(|k| k.variant == "attention")
+                    .count()
+                    > 1
+                {
+                    format!("{} ", c.checkpoint)
+                } else {
+                    String::new()
+                };
+                vec![
+                    (format!("{prefix}acc"), g.acc),
+                    (format!("{prefix}acc_ng"), g.acc_ng),
+                    (format!("{prefix}acc_bs"), g.acc_bs),
+                    (format!("{prefix}acc_cmb"), g.acc_cmb),
+                ]
+            })?;
+        }
+        Ok(())
     }
 }
