@@ -180,8 +180,19 @@ pub(in crate::app) fn heat_map(
 /// A vertical colour bar `height` points tall for the scale `0..=hi`, with its ends
 /// labelled and a caption saying which maps use it.
 pub(in crate::app) fn color_bar(ui: &mut egui::Ui, hi: f32, height: f32, caption: &str) {
+    color_bar_labelled(ui, &format!("{hi:.3}"), hi, height, caption);
+}
+
+/// [`color_bar`] with its top labelled `top` (`"max"`: each map's own largest value).
+pub(in crate::app) fn color_bar_labelled(
+    ui: &mut egui::Ui,
+    top: &str,
+    hi: f32,
+    height: f32,
+    caption: &str,
+) {
     ui.vertical(|ui| {
-        ui.label(format!("{hi:.3}"));
+        ui.label(top);
         let (rect, _) = ui.allocate_exact_size(Vec2::new(14.0, height), Sense::hover());
         let painter = ui.painter_at(rect);
         let n = 48;

@@ -6,12 +6,12 @@
 use eframe::egui;
 use egui::{Color32, Sense, Vec2};
 
-use super::maps::{MapLook, color_bar, heat_map};
+use super::maps::{MapLook, color_bar, color_bar_labelled, heat_map};
 use super::session::{FOLD_ABOVE_WORDS, Overlay, Selection, Shown};
 use super::tree::color32;
-use crate::episode::StepRecord;
+use crate::episode::{EpisodeTrace, StepRecord};
 use crate::record::StepScene;
-use crate::record::scene::{NEGLIGIBLE_WEIGHT, accuracy_rows, action_names};
+use crate::record::scene::{NEGLIGIBLE_WEIGHT, accuracy_rows, action_rows, map_scale_max};
 use crate::render::palette;
 
 /// The most maps in one row: more wrap to the next ([`maps_row`]).
@@ -74,6 +74,7 @@ pub(in crate::app) fn maps_row(
         .and_then(|r| r.iter().filter_map(|x| x.clause).max())
         .map_or(1, |m| m + 1);
     let fold = roles.is_some() && selection.folds(att.words.len());
+    let own = selection.own_scale(step.world.rules.is_some());
     ui.horizontal_top(|ui| {
         ui.vertical(|ui| {
             ui.set_width(side);
@@ -86,7 +87,7 @@ pub(in crate::app) fn maps_row(
                 .map(|g| g.hits.as_slice())
                 .unwrap_or_default();
             let look = MapLook {
-                hi: scene.scale_max,
+                hi: map_hi(&att.combined, scene, own),
                 side,
                 selected: selection.overlay == Overlay::Combined,
                 dimmed: false,
@@ -101,12 +102,34 @@ pub(in crate::app) fn maps_row(
             }
         });
         delta(ui);
-        color_bar(
-            ui,
-            scene.scale_max,
-            side * 0.8,
-            "shared scale:\nall word maps and M",
-        );
+        ui.vertical(|ui| {
+            if own {
+                color_bar_labelled(
+                    ui,
+                    "max",
+                    1.0,
+                    side * 0.8,
+                    "own scale:\neach map 0 to\nits largest value",
+                );
+            } else {
+                color_bar(
+                    ui,
+                    scene.scale_max,
+                    side * 0.8,
+                    "shared scale:\nall word maps and M",
+                );
+            }
+            let mut ticked = own;
+            if ui
+                .checkbox(&mut ticked, "own scale")
+                .on_hover_text(
+                    "each map, and the map on the world, coloured from 0 to its own largest value: a spread map is not washed out beside a peaked one; off, all maps share the step's scale",
+                )
+                .changed()
+            {
+                selection.own_scale = Some(ticked);
+            }
+        });
         // The words wrap within what is left of the row, never past its edge.
         let rest = ui.available_width();
         ui.vertical(|ui| {
@@ -139,6 +162,16 @@ pub(in crate::app) fn maps_row(
             }
         });
     });
+}
+
+/// The top of `map`'s colour scale: its own largest value with `own` scales, else the step's
+/// shared one.
+fn map_hi(map: &crate::policy::ViewMap, scene: &StepScene, own: bool) -> f32 {
+    if own {
+        map_scale_max(map)
+    } else {
+        scene.scale_max
+    }
 }
 
 /// One word's map with its name, weight and entropy; a click selects it for the overlay.
@@ -175,7 +208,11 @@ fn word_map(
             .map(|g| g.hits.as_slice())
             .unwrap_or_default();
         let look = MapLook {
-            hi: scene.scale_max,
+            hi: map_hi(
+                &w.map,
+                scene,
+                selection.own_scale(step.world.rules.is_some()),
+            ),
             side,
             selected: i == selection.word && selection.overlay == Overlay::Word,
             dimmed,
@@ -310,13 +347,17 @@ pub(in crate::app) fn plan_line(ui: &mut egui::Ui, step: &StepRecord) {
     ui.label(format!("plan: {plan}"));
 }
 
-/// The action probabilities as named bars, the chosen action highlighted.
-pub(in crate::app) fn policy_bars(ui: &mut egui::Ui, step: &StepRecord) {
-    let labels: Vec<String> = action_names().iter().map(|s| (*s).to_owned()).collect();
+/// The action probabilities as named bars, one per action the policy of `trace` scores (an
+/// agent of three actions gets three), the chosen action highlighted.
+pub(in crate::app) fn policy_bars(ui: &mut egui::Ui, step: &StepRecord, trace: &EpisodeTrace) {
+    let (labels, values): (Vec<String>, Vec<f32>) = action_rows(trace.action_probs(step))
+        .into_iter()
+        .map(|(n, p)| (n.to_owned(), p))
+        .unzip();
     bars(
         ui,
         &labels,
-        &step.probs,
+        &values,
         Some(step.action as usize),
         step.expert_action.map(|a| a as usize),
     );
@@ -325,7 +366,7 @@ pub(in crate::app) fn policy_bars(ui: &mut egui::Ui, step: &StepRecord) {
 /// [`policy_header`] and [`policy_bars`] (the compare panel).
 pub(in crate::app) fn policy_panel(ui: &mut egui::Ui, step: &StepRecord, shown: &Shown) {
     policy_header(ui, step, shown);
-    policy_bars(ui, step);
+    policy_bars(ui, step, &shown.trace);
 }
 
 /// `"step 4 of 0–12 · success · total reward 0.817"`: steps count from 0, so the range is

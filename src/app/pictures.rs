@@ -13,7 +13,7 @@ use super::session::{Overlay, Session, Shown};
 use crate::env::Pos;
 use crate::env::edit::Edit;
 use crate::env::view::view_from_world;
-use crate::record::scene::{trail, world_picture};
+use crate::record::scene::{map_scale_max, referent_marks, trail, world_picture};
 
 /// The margin around the world picture, in [`BACKING`]: the outer walls, `MiniGrid`'s grey,
 /// stand out from it where the map does not tint them; on egui's dark panel they would not.
@@ -28,24 +28,38 @@ const BACKING: Color32 = Color32::BLACK;
 const TEXTURES_KEPT: usize = 64;
 
 /// Picture `kind` of step `step` of `shown`: 1 the agent's view; 0 the world with its targets
-/// and trail; 2 that with `M` over it; `3 + i` with word `i`'s map over it.
-pub fn picture(shown: &Shown, step: usize, kind: u8) -> Option<image::RgbImage> {
+/// and trail; 2 that with `M` over it; `3 + i` with word `i`'s map over it and the objects the
+/// word names circled by whether the map passes τ on them (as the 7×7 maps circle them). The
+/// map is coloured on the step's shared scale, or with `own_scale` from 0 to its own largest
+/// value, as the maps beside it are.
+pub fn picture(shown: &Shown, step: usize, kind: u8, own_scale: bool) -> Option<image::RgbImage> {
     let scene = shown.scene(step)?;
     if kind == 1 {
         return Some(scene.view.clone());
     }
     let record = shown.trace.steps.get(step)?;
-    let map = record.attention.as_ref().and_then(|a| match kind {
-        2 => Some(&a.combined),
-        3.. => a.words.get(usize::from(kind - 3)).map(|w| &w.map),
+    let word = kind.checked_sub(3).map(usize::from);
+    let map = record.attention.as_ref().and_then(|a| match (kind, word) {
+        (2, _) => Some(&a.combined),
+        (_, Some(i)) => a.words.get(i).map(|w| &w.map),
         _ => None,
     });
+    let hi = match map {
+        Some(m) if own_scale => map_scale_max(m),
+        _ => scene.scale_max,
+    };
+    // `M`'s targets have their magenta corners; a word's related objects get their circles.
+    let referents = match (map, word) {
+        (Some(_), Some(i)) => referent_marks(&record.world, scene.hits_of(Some(i))),
+        _ => Vec::new(),
+    };
     Some(world_picture(
         record,
         &scene.world,
         map,
-        scene.scale_max,
+        hi,
         &trail(&shown.trace, step),
+        &referents,
     ))
 }
 
@@ -62,29 +76,30 @@ fn rgb_texture(ctx: &egui::Context, name: &str, img: &image::RgbImage) -> Textur
 #[derive(Default)]
 pub struct Textures {
     generation: u64,
-    by_step: HashMap<(usize, u8), TextureHandle>,
+    by_step: HashMap<(usize, u8, bool), TextureHandle>,
 }
 
 impl Textures {
-    /// The texture of picture `kind` of step `step` of `shown` ([`picture`]), drawn now
-    /// unless it is cached for this `generation` of the episode.
+    /// The texture of picture `kind` of step `step` of `shown` ([`picture`], its map on its
+    /// own scale with `own_scale`), drawn now unless it is cached for this `generation` of
+    /// the episode.
     pub fn get(
         &mut self,
         ctx: &egui::Context,
         shown: &Shown,
         generation: u64,
         step: usize,
-        kind: u8,
+        (kind, own_scale): (u8, bool),
     ) -> Option<TextureHandle> {
         if self.generation != generation {
             self.by_step.clear();
             self.generation = generation;
         }
-        let key = (step, kind);
+        let key = (step, kind, own_scale);
         if let Some(t) = self.by_step.get(&key) {
             return Some(t.clone());
         }
-        let img = picture(shown, step, kind)?;
+        let img = picture(shown, step, kind, own_scale)?;
         let t = rgb_texture(ctx, &format!("{generation} {key:?}"), &img);
         if self.by_step.len() >= TEXTURES_KEPT {
             // Playing a long episode would otherwise keep every step's pictures (0.5 MB each
@@ -125,7 +140,8 @@ pub fn world_picture_ui(
     };
     let selection = &session.selection;
     let kind = selection.world_kind();
-    let Some(tex) = textures.get(ui.ctx(), &shown, session.generation, step_i, kind) else {
+    let own = selection.own_scale(step.world.rules.is_some());
+    let Some(tex) = textures.get(ui.ctx(), &shown, session.generation, step_i, (kind, own)) else {
         return;
     };
     let (gw, gh) = (step.world.grid.width(), step.world.grid.height());

@@ -106,6 +106,10 @@ impl Acting for Stoppable<'_> {
         self.agent.takes_interventions()
     }
 
+    fn n_actions(&self) -> usize {
+        self.agent.n_actions()
+    }
+
     fn model_name(&self) -> Option<String> {
         self.agent.model_name()
     }

@@ -87,7 +87,7 @@ impl EpisodeTrace {
                     obs: s.obs.to_nested(),
                     action: s.action as u8,
                     action_name: s.action.name(),
-                    probs: &s.probs,
+                    probs: self.action_probs(s),
                     value: s.value,
                     reward: s.reward,
                     terminated: s.terminated,

@@ -117,6 +117,10 @@ pub struct EpisodeTrace {
     pub model_name: Option<String>,
     /// Greedy or sampled.
     pub mode: ActionMode,
+    /// How many actions the policy scores ([`Acting::n_actions`]): MiniGrid's first
+    /// `n_actions`, 7 or 3 (left, right, forward); each step's `probs` is 0 past them, and
+    /// displays show only these ([`Self::action_probs`]).
+    pub n_actions: usize,
     /// The steps.
     pub steps: Vec<StepRecord>,
     /// The world after the last action.
@@ -137,6 +141,12 @@ impl EpisodeTrace {
     /// The mission's words.
     pub fn words(&self) -> Vec<&'static str> {
         vocab::words(&self.tokens)
+    }
+
+    /// The probabilities of the actions the policy scores at `step` ([`Self::n_actions`] of
+    /// them, at least one): what every display lists.
+    pub fn action_probs<'a>(&self, step: &'a StepRecord) -> &'a [f32] {
+        &step.probs[..self.n_actions.clamp(1, Action::COUNT)]
     }
 }
 
@@ -397,6 +407,7 @@ fn run_loop<P: Acting + ?Sized>(
         model_name: net.model_name(),
         tokens,
         mode: spec.mode,
+        n_actions: net.n_actions().clamp(1, Action::COUNT),
         steps,
         final_world: world,
     };
@@ -431,7 +442,9 @@ fn run_loop<P: Acting + ?Sized>(
         let value = out.values.first().copied().unwrap_or(0.0);
         let attention = out.traces.and_then(|t| t.into_iter().next());
         check_finite(&probs, value, attention.as_ref(), t, spec)?;
-        let action = choose(&probs, spec.mode, &mut rng);
+        // Only the actions it scores: a sampled draw past their sum (rounding) would
+        // otherwise fall on the zero-padded last action, `done`.
+        let action = choose(&probs[..trace.n_actions], spec.mode, &mut rng);
         expert.told(action);
         let before = world.clone();
         let outcome = world.step(action)?;

@@ -194,6 +194,13 @@ pub trait Acting {
     /// an imported graph with maps that takes the override inputs of docs/onnx.md).
     fn takes_interventions(&self) -> bool;
 
+    /// How many actions the policy scores: MiniGrid's first `n` (left, right, forward, pickup,
+    /// drop, toggle, done). Seven but for an imported graph trained on the first three, as
+    /// Dynamic-Obstacles' and many lava agents are; displays show that many, never empty bars.
+    fn n_actions(&self) -> usize {
+        crate::env::Action::COUNT
+    }
+
     /// The name the model gives itself, where it has one beside its file name: an imported
     /// graph's `groundscope.name` metadata.
     fn model_name(&self) -> Option<String> {

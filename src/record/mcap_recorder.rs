@@ -30,8 +30,7 @@ use image::RgbImage;
 use serde_json::{Value, json};
 
 use super::scene::{
-    StepScene, action_names, for_each_block, hit_color, trail, with_scene_blocks,
-    world_with_overlay,
+    StepScene, action_rows, for_each_block, hit_color, trail, with_scene_blocks, world_with_overlay,
 };
 use super::{PendingFile, RecordError, StopFlag, io_err, stopped};
 use crate::env::Action;
@@ -197,11 +196,10 @@ fn step_messages(out: &mut Msgs, e: usize, ep: &EpisodeTrace, k: usize, scene: &
     };
     out.image("/world/image", t, &scene.world);
     out.image("/view/image", t, &scene.view);
-    let names = action_names();
-    let probs: serde_json::Map<String, Value> = names
-        .iter()
-        .zip(step.probs)
-        .map(|(n, p)| ((*n).to_owned(), json!(p)))
+    // The actions the policy scores only: three keys for an agent of 3 actions.
+    let probs: serde_json::Map<String, Value> = action_rows(ep.action_probs(step))
+        .into_iter()
+        .map(|(n, p)| (n.to_owned(), json!(p)))
         .collect();
     out.json(
         "/policy",

@@ -9,6 +9,7 @@ use crate::env::roles::DescPart;
 use crate::env::tree::{InstructionTree, Stage, pending_target_cells};
 use crate::env::view::ViewCell;
 use crate::env::world::{Action, World};
+use crate::env::world_from_view;
 use crate::episode::{EpisodeTrace, StepRecord};
 use crate::metrics::grounding::{EvaluatedMap, ObjectHit, ground_step};
 use crate::policy::ViewMap;
@@ -16,6 +17,7 @@ use crate::render::overlay::{CellMark, map_cells};
 use crate::render::palette::{self, GROUNDING_HIT, GROUNDING_MISS, GROUNDING_NEAR, Rgb};
 use crate::render::{
     colorize, draw_trail, outline_targets, overlay_on_world, render_view, render_world,
+    ring_referents,
 };
 
 pub use super::accuracy_lines::{accuracy_rows, no_accuracy_reason, shown_kinds};
@@ -92,6 +94,12 @@ pub fn step_scale_max(step: &StepRecord) -> f32 {
     })
 }
 
+/// The upper end of a map's own colour scale: its largest value (never 0, so that a scale
+/// `0..=hi` stays a scale). The debugger's "own scale" draws each map on it.
+pub fn map_scale_max(map: &ViewMap) -> f32 {
+    map.iter().flatten().fold(f32::EPSILON, |m, &v| m.max(v))
+}
+
 /// The hits and misses of `step`'s maps ([`StepScene::grounding`]) without the pictures: what
 /// a search over every step of an episode needs.
 pub fn step_grounding(step: &StepRecord, alpha: f64) -> Vec<EvaluatedMap> {
@@ -158,23 +166,41 @@ pub fn hit_color(h: &ObjectHit) -> Rgb {
     }
 }
 
+/// The world cells of the objects an evaluated map is scored on (a word's related objects:
+/// the keys "key" names, the goal cells of "goal", the lava of "lava"), each with its
+/// grounding mark's colour ([`hit_color`]): what a world picture under that map circles
+/// ([`ring_referents`]). None where the map was not evaluated (`g` is `None`).
+pub fn referent_marks(world: &World, g: Option<&EvaluatedMap>) -> Vec<(Pos, Rgb)> {
+    g.map_or_else(Vec::new, |g| {
+        g.hits
+            .iter()
+            .map(|h| {
+                let pos = world_from_view(world.agent_pos, world.agent_dir, h.cell);
+                (pos, hit_color(h))
+            })
+            .collect()
+    })
+}
+
 /// The scene's world picture with `M` over the view's cells on the step's shared colour scale
 /// (floor tinted, occupied cells ringed: objects keep their colours), the targets of the
 /// clauses the verifier waits on (`M`'s) outlined and the agent's earlier cells (`trail`)
 /// dotted. The baseline gets no map.
 pub fn world_with_overlay(step: &StepRecord, scene: &StepScene, trail: &[Pos]) -> RgbImage {
     let map = step.attention.as_ref().map(|a| &a.combined);
-    world_picture(step, &scene.world, map, scene.scale_max, trail)
+    world_picture(step, &scene.world, map, scene.scale_max, trail, &[])
 }
 
 /// [`world_with_overlay`] with any map (a word's, or none) laid over `world`, the step's
-/// world render.
+/// world render, on the scale `0..=scale_max`, and `referents` (the cells the map's word
+/// names, [`referent_marks`]) circled in their grounding colours.
 pub fn world_picture(
     step: &StepRecord,
     world: &RgbImage,
     map: Option<&ViewMap>,
     scale_max: f32,
     trail: &[Pos],
+    referents: &[(Pos, Rgb)],
 ) -> RgbImage {
     let mut img = world.clone();
     draw_trail(&mut img, trail, TILE_PX);
@@ -189,6 +215,7 @@ pub fn world_picture(
             scale_max,
         );
     }
+    ring_referents(&mut img, referents, TILE_PX);
     outline_targets(&mut img, &pending_target_cells(&step.world), TILE_PX);
     img
 }
@@ -361,6 +388,16 @@ pub fn action_names() -> [&'static str; Action::COUNT] {
     std::array::from_fn(|i| Action::from_index(i).map_or("?", Action::name))
 }
 
+/// Each action a policy scores with its probability, in index order, from one value per action
+/// it scores ([`EpisodeTrace::action_probs`]): an agent of three actions lists left, right and
+/// forward, never four empty rows after them. What every display's bars and tables list.
+pub fn action_rows(probs: &[f32]) -> Vec<(&'static str, f32)> {
+    action_names()
+        .into_iter()
+        .zip(probs.iter().copied())
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -436,6 +473,16 @@ mod tests {
             beside * 10 >= marks * 9,
             "{beside} of {marks} beside their targets"
         );
+    }
+
+    /// A 3-action agent's rows are its three actions; a 7-action agent's all seven, in order.
+    #[test]
+    fn an_agent_of_three_actions_lists_three_rows() {
+        let rows = action_rows(&[0.2, 0.3, 0.5]);
+        assert_eq!(rows, [("left", 0.2), ("right", 0.3), ("forward", 0.5)]);
+        let all = action_rows(&[1.0 / 7.0; Action::COUNT]);
+        assert_eq!(all.len(), 7);
+        assert_eq!(all.last().map(|r| r.0), Some("done"));
     }
 
     #[test]

@@ -31,7 +31,7 @@ use thiserror::Error;
 
 pub use heatmap::{ViewMap, blend, colorbar, colorize, render_heatmap, viridis};
 pub use image::RgbImage;
-pub use overlay::{draw_trail, outline_targets, overlay_on_world};
+pub use overlay::{draw_trail, outline_targets, overlay_on_world, ring_referents};
 pub use tiles::{render_agent_tile, render_tile};
 pub use view::{decode_view_cell, render_view};
 pub use world::{px_in_image, render_world, visible_cells};

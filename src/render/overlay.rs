@@ -1,6 +1,7 @@
 //! Marks drawn over a world render: an attention map that tints the floor and only rings the
 //! cells that hold something (so an object keeps its true colour and colour words can be
-//! checked by eye), the mission's targets outlined, and the agent's trail.
+//! checked by eye), the mission's targets outlined, the cells a word names circled by whether
+//! its map falls on them, and the agent's trail.
 
 use image::RgbImage;
 
@@ -143,6 +144,27 @@ pub fn outline_targets(img: &mut RgbImage, cells: &[Pos], tile_size: u32) {
     for &pos in cells {
         paint_cell(img, pos, tile_size, palette::TARGET, 1.0, |dx, dy| {
             on_edge(dx, dy, tile_size, ring) && near_end(dx) && near_end(dy)
+        });
+    }
+}
+
+/// Circles each cell of `marks` in its colour, as the 7×7 maps circle a word's related
+/// objects (white: the map passes τ on the cell; orange: only next to it; red: a miss): a ring
+/// of radius 0.42 of the tile, round a ball or a key rather than over it, edged in black on
+/// both sides so that it reads on any tile, orange on lava included.
+pub fn ring_referents(img: &mut RgbImage, marks: &[(Pos, Rgb)], tile_size: u32) {
+    let t = tile_size as f32;
+    let (radius, half, edge) = (0.42 * t, (0.07 * t).max(0.75), (0.06 * t).max(0.5));
+    let off_ring = |dx: u32, dy: u32| {
+        let (x, y) = (dx as f32 + 0.5 - t / 2.0, dy as f32 + 0.5 - t / 2.0);
+        (x.hypot(y) - radius).abs()
+    };
+    for &(pos, color) in marks {
+        paint_cell(img, pos, tile_size, palette::BACKGROUND, 1.0, |dx, dy| {
+            off_ring(dx, dy) <= half + edge
+        });
+        paint_cell(img, pos, tile_size, color, 1.0, |dx, dy| {
+            off_ring(dx, dy) <= half
         });
     }
 }
@@ -297,6 +319,38 @@ mod tests {
             1.0,
         );
         assert_eq!(small.dimensions(), (20, 10));
+    }
+
+    /// A referent's circle takes its colour on the ring and black just beside it; the
+    /// tile's centre and corners (where a ball's middle and the target's corners are) keep
+    /// theirs, and a cell not marked is left alone.
+    #[test]
+    fn referents_are_circled_in_their_colour_around_the_middle() {
+        let world = fixtures::world();
+        let ts = 16;
+        let plain = render_world(&world, ts, false);
+        let mut img = plain.clone();
+        ring_referents(&mut img, &[(fixtures::BALL, palette::GROUNDING_MISS)], ts);
+        let (bx, by) = px_in_image(fixtures::BALL, ts);
+        let at = |img: &RgbImage, dx: u32, dy: u32| img.get_pixel(bx + dx, by + dy).0;
+        // On the ring: left, right, top and bottom of the centre, 0.42 of the tile away.
+        for (dx, dy) in [(1, 8), (14, 8), (8, 1), (8, 14)] {
+            assert_eq!(at(&img, dx, dy), palette::GROUNDING_MISS, "({dx}, {dy})");
+        }
+        // Just inside the ring, black; the ball's middle and the tile's corners unchanged.
+        assert_eq!(at(&img, 2, 8), palette::BACKGROUND);
+        for (dx, dy) in [(8, 8), (7, 7), (0, 0), (15, 15)] {
+            assert_eq!(at(&img, dx, dy), at(&plain, dx, dy), "({dx}, {dy})");
+        }
+        let (ox, oy) = px_in_image((2, 3), ts);
+        for dy in 0..ts {
+            for dx in 0..ts {
+                assert_eq!(
+                    img.get_pixel(ox + dx, oy + dy),
+                    plain.get_pixel(ox + dx, oy + dy)
+                );
+            }
+        }
     }
 
     #[test]

@@ -292,7 +292,17 @@ impl Session {
     pub fn world_image(&self) -> Option<image::RgbImage> {
         let shown = self.shown.as_ref()?;
         let step = self.cursor.step.min(shown.len().saturating_sub(1));
-        super::pictures::picture(shown, step, self.selection.world_kind())
+        let minigrid = shown
+            .trace
+            .steps
+            .get(step)
+            .is_some_and(|s| s.world.rules.is_some());
+        super::pictures::picture(
+            shown,
+            step,
+            self.selection.world_kind(),
+            self.selection.own_scale(minigrid),
+        )
     }
 
     /// Takes in what the jobs have finished (and the news of those still running).

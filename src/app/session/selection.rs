@@ -1,6 +1,6 @@
 //! What the user has picked on the step shown, which several panels read: the map laid over
-//! the world, the word selected, the cell selected for probing, an object being moved, and
-//! whether function words' maps fold.
+//! the world, the word selected, the cell selected for probing, an object being moved,
+//! whether function words' maps fold and whether each map gets its own colour scale.
 
 use crate::env::Pos;
 
@@ -34,12 +34,25 @@ pub struct Selection {
     /// Whether the maps of words with no role (function words: "go", "the", "then") fold into
     /// one line; `None` folds them on missions longer than [`FOLD_ABOVE_WORDS`].
     pub fold_function_words: Option<bool>,
+    /// Whether each map (and the map laid over the world) is coloured from 0 to its own
+    /// largest value instead of the step's shared scale; `None`: on MiniGrid's own
+    /// environments only ([`Self::own_scale`]).
+    pub own_scale: Option<bool>,
 }
 
 impl Selection {
     /// Whether function words' maps fold on a mission of `words` words.
     pub fn folds(&self, words: usize) -> bool {
         self.fold_function_words.unwrap_or(words > FOLD_ABOVE_WORDS)
+    }
+
+    /// Whether maps are drawn on their own scales, on a step of one of MiniGrid's own
+    /// environments (`minigrid`) or not. By default they are there: such a mission ("avoid
+    /// the lava and get to the green goal square") holds words whose maps peak beside words
+    /// whose maps are spread over the view, and on a scale shared with a peak a spread map
+    /// reads as one dark colour.
+    pub fn own_scale(&self, minigrid: bool) -> bool {
+        self.own_scale.unwrap_or(minigrid)
     }
 
     /// The kind of world picture the overlay asks for: 0 the plain world, 2 with `M` over it,

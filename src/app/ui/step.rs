@@ -12,7 +12,7 @@ use crate::app::numbers::{
 use crate::app::session::{Selection, Session, start_attention_probe};
 use crate::app::tree::tree_ui;
 use crate::env::roles::{WordClass, roles_of};
-use crate::episode::StepRecord;
+use crate::episode::{EpisodeTrace, StepRecord};
 use crate::record::StepScene;
 
 /// The step panel, with the faithfulness view's switch and its measures of the step.
@@ -61,7 +61,7 @@ impl StepPanel {
             words
         };
         // The accuracy lines go under the shorter column.
-        let under_actions = shown_words > crate::record::scene::action_names().len();
+        let under_actions = shown_words > shown.trace.n_actions;
         // The bot has neither maps nor a network to probe: its plan (above) is what it
         // attends to.
         if session.agent_is_bot() {
@@ -69,7 +69,14 @@ impl StepPanel {
                 "minigrid's bot acts from the world itself: no attention maps and no network to probe; its plan is shown above",
             );
             ui.separator();
-            numbers(ui, &session.selection, step, scene, under_actions);
+            numbers(
+                ui,
+                &session.selection,
+                step,
+                &shown.trace,
+                scene,
+                under_actions,
+            );
             tree_ui(ui, &scene.tree);
             return;
         }
@@ -130,7 +137,14 @@ impl StepPanel {
             });
         }
         ui.separator();
-        numbers(ui, &session.selection, step, scene, under_actions);
+        numbers(
+            ui,
+            &session.selection,
+            step,
+            &shown.trace,
+            scene,
+            under_actions,
+        );
         tree_ui(ui, &scene.tree);
         if let Some(agent) = agent {
             let combined = step.attention.as_ref().map(|a| &a.combined);
@@ -145,11 +159,12 @@ impl StepPanel {
 }
 
 /// The action probabilities beside the word weights, the step's accuracies under the shorter
-/// of the two (`under_actions`: under the actions).
+/// of the two (`under_actions`: under the actions); `step` is a step of `trace`.
 fn numbers(
     ui: &mut egui::Ui,
     selection: &Selection,
     step: &StepRecord,
+    trace: &EpisodeTrace,
     scene: &StepScene,
     under_actions: bool,
 ) {
@@ -157,7 +172,7 @@ fn numbers(
         ui.vertical(|ui| {
             ui.set_width(330.0);
             ui.label("action probabilities");
-            policy_bars(ui, step);
+            policy_bars(ui, step, trace);
             if under_actions {
                 ui.add_space(4.0);
                 accuracy_lines(ui, step, scene);

@@ -49,7 +49,7 @@ impl WorldPanel {
         world_picture_ui(ui, session, &mut self.textures, false, self.side);
         ui.label(
             egui::RichText::new(
-                "magenta corners: targets waited on · numbers: clauses · dots: cells visited · floor tint and rings: the map",
+                "magenta corners: targets waited on · numbers: clauses · dots: cells visited · floor tint and rings: the map · circles: what the selected word names (colours as on its map)",
             )
             .weak(),
         );
@@ -58,8 +58,13 @@ impl WorldPanel {
         let left = self.height - (ui.cursor().min.y - top) - 10.0;
         let view_side = left.min(self.side * 0.6).clamp(96.0, 200.0);
         let view = session.shown.as_ref().and_then(|s| {
-            self.textures
-                .get(ui.ctx(), s, session.generation, session.cursor.step, 1)
+            self.textures.get(
+                ui.ctx(),
+                s,
+                session.generation,
+                session.cursor.step,
+                (1, false),
+            )
         });
         if let Some(t) = view {
             ui.add(egui::Image::new(&t).fit_to_exact_size(Vec2::splat(view_side)));

@@ -80,6 +80,10 @@ impl Acting for super::OnnxAgent {
     fn takes_interventions(&self) -> bool {
         self.takes_overrides()
     }
+
+    fn n_actions(&self) -> usize {
+        super::OnnxAgent::n_actions(self)
+    }
 }
 
 #[cfg(feature = "onnx")]

@@ -23,6 +23,26 @@ pub const STATE_INPUTS: [&str; 2] = ["mission", "memory"];
 pub const OPTIONAL_INPUTS: [&str; 3] = ["direction", "combined_override", "override_weight"];
 /// Outputs the contract requires.
 pub const REQUIRED_OUTPUTS: [&str; 2] = ["logits", "value"];
+/// How many actions `logits` may score: MiniGrid's seven, or its first three (left, right,
+/// forward) — the action space of Dynamic-Obstacles, and what many MiniGrid agents are trained
+/// with (lava crossings); no other prefix is a space an agent is trained on.
+pub const ACTION_COUNTS: [usize; 2] = [7, 3];
+
+/// The number of actions a graph's `logits` score, from its declared shape `(B, n)` (`None`
+/// where a size is symbolic or the shape undeclared): `n` where it is one of
+/// [`ACTION_COUNTS`], seven where the graph does not say; any other size is refused.
+pub fn logits_width(dims: Option<&[Option<i64>]>) -> Result<usize, String> {
+    let Some(Some(n)) = dims.and_then(|d| d.get(1)) else {
+        return Ok(ACTION_COUNTS[0]);
+    };
+    match ACTION_COUNTS.iter().find(|&&k| k as i64 == *n) {
+        Some(&k) => Ok(k),
+        None => Err(format!(
+            "output \"logits\" scores {n} actions; the contract wants 7 (MiniGrid's actions) or 3 (left, right, forward) on axis 1"
+        )),
+    }
+}
+
 /// The output of a graph with memory (it takes `memory` exactly when it outputs this).
 pub const MEMORY_OUTPUT: &str = "memory_out";
 /// Outputs groundscope shows when a graph has them.
@@ -255,6 +275,23 @@ mod tests {
         .into_iter()
         .map(|(k, v)| (k.to_owned(), v))
         .collect()
+    }
+
+    /// A graph of three actions (left, right, forward) is read as such; seven is the default
+    /// where the size is symbolic; any other count is refused, naming the output.
+    #[test]
+    fn logits_score_seven_actions_or_the_first_three() {
+        assert_eq!(logits_width(Some([None, Some(3)].as_slice())), Ok(3));
+        assert_eq!(logits_width(Some([Some(1), Some(7)].as_slice())), Ok(7));
+        assert_eq!(logits_width(Some([None, None].as_slice())), Ok(7));
+        assert_eq!(logits_width(None), Ok(7));
+        for n in [1i64, 5, 6, 8] {
+            let e = logits_width(Some([None, Some(n)].as_slice())).unwrap_err();
+            assert!(
+                e.contains("output \"logits\"") && e.contains(&n.to_string()),
+                "{e}"
+            );
+        }
     }
 
     #[test]

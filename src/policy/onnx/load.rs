@@ -10,7 +10,7 @@ use tract_onnx::prelude::*;
 use super::bounds::Bounds;
 use super::contract::{
     MEMORY_OUTPUT, Meta, ONNX_FLOAT, ONNX_INT64, OPTIONAL_INPUTS, OPTIONAL_OUTPUTS, Props,
-    REQUIRED_INPUTS, REQUIRED_OUTPUTS, Reads, STATE_INPUTS,
+    REQUIRED_INPUTS, REQUIRED_OUTPUTS, Reads, STATE_INPUTS, logits_width,
 };
 use super::mission_cache::MissionCache;
 use crate::policy::error::PolicyError;
@@ -341,15 +341,17 @@ pub(super) fn check_dims(
     Ok(())
 }
 
-/// Checks the outputs; returns which optional ones are present.
+/// Checks the outputs; returns which optional ones are present and how many actions the
+/// logits score ([`logits_width`]).
 pub(super) fn check_outputs(
     path: &Path,
     graph: &pb::GraphProto,
     memory_size: usize,
     reads: Reads,
-) -> Result<[bool; 3], PolicyError> {
+) -> Result<([bool; 3], usize), PolicyError> {
     let find = |name: &str| graph.output.iter().find(|v| v.name == name);
     let memory = reads.memory.then_some(MEMORY_OUTPUT);
+    let mut actions = crate::env::Action::COUNT;
     for name in REQUIRED_OUTPUTS.into_iter().chain(memory) {
         let Some(v) = find(name) else {
             return Err(bad(
@@ -372,7 +374,10 @@ pub(super) fn check_outputs(
             ));
         }
         match name {
-            "logits" => check_dims(path, "output", name, dims.as_deref(), 2, &[(1, 7)])?,
+            "logits" => {
+                check_dims(path, "output", name, dims.as_deref(), 2, &[])?;
+                actions = logits_width(dims.as_deref()).map_err(|e| bad(path, e))?;
+            }
             "memory_out" => check_dims(
                 path,
                 "output",
@@ -391,7 +396,7 @@ pub(super) fn check_outputs(
             "the graph outputs word_maps or word_weights but takes no input \"mission\": a map per mission word needs the mission's words (docs/onnx.md#outputs)",
         ));
     }
-    Ok(optional)
+    Ok((optional, actions))
 }
 
 /// Builds the optimised plan: inputs in the order image (, mission) (, memory) (, direction)

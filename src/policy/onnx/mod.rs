@@ -39,7 +39,7 @@ pub struct MapOutputs {
 /// One step of an ONNX policy for B environments.
 #[derive(Clone, Debug, PartialEq)]
 pub struct OnnxStep {
-    /// (B, 7) action logits.
+    /// (B, n) action logits: n = 7, or 3 for a graph of left, right and forward only.
     pub logits: Vec<Vec<f32>>,
     /// (B,) values.
     pub values: Vec<f32>,

@@ -21,7 +21,6 @@ use crate::panics::panic_line;
 use crate::policy::error::PolicyError;
 
 const N_CELLS: usize = VIEW_SIZE * VIEW_SIZE;
-const ACTIONS: usize = crate::env::world::Action::COUNT;
 
 /// An ONNX policy ready to run: its metadata and an optimised tract plan with a symbolic batch
 /// size and mission length.
@@ -37,6 +36,8 @@ pub struct OnnxAgent {
     bounds: Bounds,
     inputs: Inputs,
     optional: [bool; 3],
+    /// How many actions `logits` score: 7, or 3 (left, right, forward).
+    actions: usize,
     tokens: Vec<Option<i64>>,
     clock: Clock,
 }
@@ -105,7 +106,7 @@ impl OnnxAgent {
             e => e,
         })?;
         let inputs = check_inputs(path, graph, meta.memory_size, reads)?;
-        let optional = check_outputs(path, graph, meta.memory_size, reads)?;
+        let (optional, actions) = check_outputs(path, graph, meta.memory_size, reads)?;
         if inputs.overrides && !(optional[0] && optional[2]) {
             return Err(bad(
                 path,
@@ -148,9 +149,16 @@ impl OnnxAgent {
             bounds: built.bounds,
             inputs,
             optional,
+            actions,
             tokens,
             clock: Clock::default(),
         })
+    }
+
+    /// How many actions the graph scores: MiniGrid's 7, or its first 3 (left, right,
+    /// forward) for a graph whose `logits` are (B, 3).
+    pub fn n_actions(&self) -> usize {
+        self.actions
     }
 
     /// How the graph is shown: its metadata name and its file, `NAME (file.onnx)`; the file
@@ -491,7 +499,8 @@ impl OnnxAgent {
             }
             Ok(v)
         };
-        let logits = get(0, "logits", ACTIONS)?;
+        let actions = self.actions;
+        let logits = get(0, "logits", actions)?;
         let values = get(1, "value", 1)?;
         // Without memory, M = 0: no memory_out, an empty memory per row.
         let new_mem = if reads.memory {
@@ -511,7 +520,7 @@ impl OnnxAgent {
         let weights = take(self.optional[1], "word_weights", len)?;
         let combined = take(self.optional[2], "combined_map", N_CELLS)?;
         for (k, &r) in rows.iter().enumerate() {
-            out.logits[r] = logits[k * ACTIONS..(k + 1) * ACTIONS].to_vec();
+            out.logits[r] = logits[k * actions..(k + 1) * actions].to_vec();
             out.values[r] = values[k];
             out.memory[r * m..(r + 1) * m].copy_from_slice(&new_mem[k * m..(k + 1) * m]);
             if let Some(maps) = out.maps.as_mut() {

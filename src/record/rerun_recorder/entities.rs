@@ -12,14 +12,13 @@ use super::marks::{
 use super::{RecordError, sdk, word_path};
 use crate::env::Pos;
 use crate::env::tree::pending_target_cells;
-use crate::env::world::Action;
 use crate::episode::{EpisodeTrace, StepRecord};
 use crate::metrics::faithfulness::peaks::peak_line;
 use crate::metrics::grounding::{EvaluatedMap, WordKind};
 use crate::policy::ViewMap;
 use crate::record::RERUN_SDK_VERSION;
 use crate::record::scene::{
-    NEGLIGIBLE_WEIGHT, StepScene, TILE_PX, accuracy_rows, action_label, action_names,
+    NEGLIGIBLE_WEIGHT, StepScene, TILE_PX, accuracy_rows, action_label, action_rows,
     attention_rings, cell_centre, hit_color,
 };
 
@@ -71,7 +70,8 @@ pub(super) fn log_static(
         &rerun::TextDocument::from_markdown(WORLD_LEGEND_TEXT),
     )
     .map_err(sdk)?;
-    rec.log_static("policy/probs/frame", &bar_frame(Action::COUNT))
+    // One row per action the policy scores: an agent of 3 actions gets a frame of 3.
+    rec.log_static("policy/probs/frame", &bar_frame(first.n_actions))
         .map_err(sdk)?;
     if first.variant.name() == "attention" {
         rec.log_static(format!("{LANDMARKS}/agent"), &agent_marker())
@@ -321,11 +321,10 @@ pub(super) fn log_step(
     if let Some(f) = &step.faithfulness {
         log_faithfulness(rec, f, step.attention.as_ref().map(|a| &a.combined))?;
     }
-    let names = action_names();
-    let probs: Vec<(String, f32)> = names
+    let rows = action_rows(ep.action_probs(step));
+    let probs: Vec<(String, f32)> = rows
         .iter()
-        .zip(step.probs)
-        .map(|(n, p)| (format!("{n} {p:.3}"), p))
+        .map(|(n, p)| (format!("{n} {p:.3}"), *p))
         .collect();
     log_bars(rec, "policy/probs", &probs, 1.0, Some(step.action as usize))?;
     rec.log(
@@ -359,7 +358,7 @@ pub(super) fn log_step(
         step.reward,
         expert_line(step),
     );
-    for (i, (n, p)) in names.iter().zip(step.probs).enumerate() {
+    for (i, (n, p)) in rows.iter().enumerate() {
         let mut mark = if i == step.action as usize {
             " ◀".to_string()
         } else {

@@ -19,7 +19,6 @@ use rerun::log::LogMsg;
 use rerun::{RecordingStream, RecordingStreamBuilder};
 
 use super::{RecordError, marks, sdk};
-use crate::env::world::Action;
 
 /// The title of word map `path` (`attention/words/<i>_<word>`): the word, with its position
 /// first (`"3:the"`) when the recording holds the same word at several positions. Short, so
@@ -61,6 +60,7 @@ fn layout(
     attention: bool,
     faithfulness: bool,
     world_cells: (usize, usize),
+    actions: usize,
 ) -> (Blueprint, Settings) {
     let mut settings = Settings::default();
     // Its legend would sit on the curves (at the start the value is high, at the end the
@@ -103,10 +103,11 @@ fn layout(
             &mut settings,
         ),
     ];
+    // As many rows as actions the policy scores (3 for a 3-action agent).
     let probs = bar_view(
         "action probabilities",
         "/policy/probs",
-        Action::COUNT,
+        actions,
         &mut settings,
     );
     if !attention {
@@ -279,8 +280,9 @@ pub(super) fn send_layout(
     attention: bool,
     faithfulness: bool,
     world_cells: (usize, usize),
+    actions: usize,
 ) -> Result<(), RecordError> {
-    let (bp, settings) = layout(word_paths, attention, faithfulness, world_cells);
+    let (bp, settings) = layout(word_paths, attention, faithfulness, world_cells, actions);
     let (carrier, storage) = RecordingStreamBuilder::new(super::APP_ID)
         .memory()
         .map_err(sdk)?;

@@ -237,6 +237,7 @@ impl RerunRecorder {
                 first.final_world.grid.width(),
                 first.final_world.grid.height(),
             ),
+            first.n_actions,
         )?;
         // Recordings of the same episodes then differ only in row ids.
         rec.set_log_time_enabled(false);

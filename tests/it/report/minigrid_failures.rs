@@ -60,6 +60,7 @@ fn play(
         input_token_ids: None,
         model_name: None,
         mode: ActionMode::Greedy,
+        n_actions: Action::COUNT,
         steps,
         final_world: world,
     }

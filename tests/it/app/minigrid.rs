@@ -1,0 +1,91 @@
+//! The debugger on MiniGrid's own environments: the lava the word "lava" names circled on the
+//! world under its map, by whether the map passes τ there, and the maps on their own colour
+//! scales by default.
+
+use std::path::Path;
+
+use crate::common::debugger::{build, show_until};
+use crate::common::worlds::babyai;
+use egui_kittest::kittest::Queryable as _;
+use groundscope::app::session::Overlay;
+use groundscope::app::{EpisodeRequest, Launch};
+use groundscope::env::ObjectKind;
+use groundscope::env::level::LevelConfig;
+use groundscope::policy::{Checkpoint, ModelConfig, Params, TrainingState, Variant};
+use groundscope::record::scene::{TILE_PX, referent_marks};
+use groundscope::render::{RgbImage, px_in_image, visible_cells};
+
+/// An untrained attention model of every word, saved as `DIR/fresh`.
+fn fresh_checkpoint(dir: &Path, level: LevelConfig) -> String {
+    let cfg = ModelConfig {
+        vocab_size: ModelConfig::vocab_size_for(&level),
+        ..ModelConfig::new(Variant::Attention)
+    };
+    let params = Params::init(&cfg, 0).unwrap();
+    let name = dir.join("fresh");
+    Checkpoint::new(cfg, level, TrainingState::default(), params)
+        .save(&name)
+        .unwrap();
+    name.to_str().unwrap().to_owned()
+}
+
+/// On LavaCrossingS11N5, with the map of "lava" laid over the world, every lava cell in view
+/// is circled in its grounding colour (white ≥ τ, orange near, red miss), as the 7×7 map
+/// circles it; under `M` the same pixels are the map's ring, not the circle. The maps are on
+/// their own scales (a MiniGrid mission), and the box turns the shared scale back on.
+#[test]
+fn the_lava_in_view_is_circled_under_the_map_of_lava() {
+    let level = babyai("MiniGrid-LavaCrossingS11N5-v0");
+    let seed = (0..50)
+        .find(|&s| {
+            let w = level.generate(s).unwrap();
+            visible_cells(&w)
+                .iter()
+                .any(|&p| w.grid.get(p).is_some_and(|o| o.kind == ObjectKind::Lava))
+        })
+        .expect("lava in view at the start of a seed in 50");
+    let dir = tempfile::tempdir().unwrap();
+    let ckpt = fresh_checkpoint(dir.path(), level);
+    let mut h = build(&Launch::new(EpisodeRequest::new(ckpt, level, seed)));
+    show_until(&mut h, "step 0 of ");
+    // A MiniGrid mission's maps start on their own scales.
+    assert!(h.query_by_label_contains("each map 0 to").is_some());
+    assert!(h.query_by_label_contains("shared scale").is_none());
+    let shown = h.state().session().shown.clone().unwrap();
+    let step = &shown.trace.steps[0];
+    let att = step.attention.as_ref().unwrap();
+    let lava = att.words.iter().position(|w| w.word == "lava").unwrap();
+    let scene = shown.scene(0).unwrap();
+    let marks = referent_marks(&step.world, scene.hits_of(Some(lava)));
+    let in_view = visible_cells(&step.world)
+        .into_iter()
+        .filter(|&p| {
+            step.world
+                .grid
+                .get(p)
+                .is_some_and(|o| o.kind == ObjectKind::Lava)
+        })
+        .count();
+    assert_eq!(marks.len(), in_view, "every lava cell in view, once");
+    let ring = |img: &RgbImage, p| {
+        let (x, y) = px_in_image(p, TILE_PX);
+        img.get_pixel(x + 1, y + TILE_PX / 2).0
+    };
+    let selection = &mut h.state_mut().session_mut().selection;
+    selection.overlay = Overlay::Word;
+    selection.word = lava;
+    h.run();
+    let under_lava = h.state().world_image().unwrap();
+    for &(p, color) in &marks {
+        assert_eq!(ring(&under_lava, p), color, "lava at {p:?}");
+    }
+    h.state_mut().session_mut().selection.overlay = Overlay::Combined;
+    h.run();
+    let under_m = h.state().world_image().unwrap();
+    for &(p, color) in &marks {
+        assert_ne!(ring(&under_m, p), color, "no circle at {p:?} under M");
+    }
+    h.get_by_label("own scale").click();
+    h.run();
+    assert!(h.query_by_label_contains("shared scale").is_some());
+}
