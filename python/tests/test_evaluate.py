@@ -267,9 +267,10 @@ def test_record_refuses_bad_paths_and_levels(tmp_path):
 
 @pytest.mark.parametrize("name", ["bot", "python", "bundled:attention"])
 def test_a_python_policys_report_is_not_reopened_as_a_checkpoint(tmp_path, name):
-    """`view --report` on a Python policy's report: one line saying its episodes cannot be
-    re-run (it used to fail on "python.json: No such file or directory", and a policy named
-    "bot" opened minigrid's bot instead)."""
+    """`view --report` on a Python policy's report opens it read-only, its episodes replayed
+    from the actions the report holds: nothing is loaded under the policy's name (it used to
+    fail on "python.json: No such file or directory", and a policy named "bot" opened
+    minigrid's bot instead), so without a display the only error left is the window's."""
     import subprocess
 
     from conftest import find_groundscope_bin
@@ -286,7 +287,13 @@ def test_a_python_policys_report_is_not_reopened_as_a_checkpoint(tmp_path, name)
     )
     assert done.returncode == 2, done.stderr
     assert len(done.stderr.strip().splitlines()) == 1, done.stderr
-    assert "Python policy" in done.stderr and "groundscope.record" in done.stderr, done.stderr
+    assert "no display" in done.stderr, done.stderr
+    assert "Python policy" not in done.stderr and name + ".json" not in done.stderr, done.stderr
+    # What the debugger replays: each episode's actions, one per step.
+    with open(out / "episodes.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    assert rows and all(r["checkpoint"] == name for r in rows)
+    assert all(len(r["actions"].split()) == int(r["steps"]) for r in rows), rows
 
 
 def test_every_babyai_level_evaluates_with_word_maps(tmp_path):

@@ -10,7 +10,7 @@ use std::path::Path;
 use crate::episode::EpisodeRequest;
 use crate::metrics::MetricsError;
 use crate::metrics::report::EpisodeRow;
-use crate::metrics::report::browse::ReportEpisodes;
+use crate::metrics::report::browse::{RecordedEpisode, ReportEpisodes};
 
 /// The columns the panel shows and sorts by.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -211,6 +211,16 @@ impl Browser {
     /// What opens row `i` ([`ReportEpisodes::episode`]).
     pub fn episode(&self, i: usize) -> Result<EpisodeRequest, MetricsError> {
         self.report.episode(i)
+    }
+
+    /// Whether row `i` is a Python policy's, replayed read-only ([`ReportEpisodes::is_python`]).
+    pub fn is_python(&self, i: usize) -> bool {
+        self.report.is_python(i)
+    }
+
+    /// What replays row `i`, a Python policy's ([`ReportEpisodes::recorded`]).
+    pub fn recorded(&self, i: usize) -> Result<RecordedEpisode, MetricsError> {
+        self.report.recorded(i)
     }
 
     /// The first failure in the file, else its first episode ([`ReportEpisodes::first`]).

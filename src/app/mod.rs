@@ -28,6 +28,8 @@ use std::sync::{Arc, Mutex};
 use eframe::egui;
 use thiserror::Error;
 
+use crate::metrics::MetricsError;
+
 pub use crate::episode::EpisodeRequest;
 pub use screenshot::ScreenshotTarget;
 pub use ui::Debugger;
@@ -55,6 +57,36 @@ impl Launch {
             faithfulness: false,
             report: None,
         }
+    }
+
+    /// The debugger on an evaluation (`view --report DIR`), opened at its first failure, else
+    /// its first episode, selected: a checkpoint's episode run by its checkpoint, a Python
+    /// policy's replayed read-only from the report — with nothing to load, so the checkpoint
+    /// field is left empty rather than given the policy's name (one named `bot` is not
+    /// minigrid's bot). Fails on a report without episodes, and on a Python policy's episode
+    /// whose actions the report does not hold.
+    pub fn from_report(mut report: episodes::Browser) -> Result<Self, MetricsError> {
+        let first = report.first().ok_or_else(|| {
+            MetricsError::Invalid(format!(
+                "{}: episodes.csv lists no episode",
+                report.report.dir.display()
+            ))
+        })?;
+        let request = if report.is_python(first) {
+            let rec = report.recorded(first)?;
+            EpisodeRequest {
+                mode: rec.mode,
+                step: rec.step,
+                ..EpisodeRequest::new(String::new(), rec.level, rec.seed)
+            }
+        } else {
+            report.episode(first)?
+        };
+        report.selected = Some(first);
+        Ok(Self {
+            report: Some(report),
+            ..Self::new(request)
+        })
     }
 }
 

@@ -68,12 +68,13 @@ pub(in crate::app) fn maps_row(
         return;
     };
     let roles = crate::env::roles::roles_of(&step.world);
+    // The recordings' rule: what folds here is what a recording of the step folds.
+    let folds = selection.folded(&roles, att.words.len());
     let roles = (roles.len() == att.words.len()).then_some(roles);
     let clauses = roles
         .as_ref()
         .and_then(|r| r.iter().filter_map(|x| x.clause).max())
         .map_or(1, |m| m + 1);
-    let fold = roles.is_some() && selection.folds(att.words.len());
     let own = selection.own_scale(step.world.rules.is_some());
     ui.horizontal_top(|ui| {
         ui.vertical(|ui| {
@@ -139,8 +140,7 @@ pub(in crate::app) fn maps_row(
                 let mut clause = None;
                 for (i, w) in att.words.iter().enumerate() {
                     let role = roles.as_ref().map(|r| r[i]);
-                    if fold && role.is_some_and(|r| r.class == crate::env::roles::WordClass::Other)
-                    {
+                    if folds.get(i).copied().unwrap_or(false) {
                         folded.push(format!("{} {:.3}", w.word, w.weight));
                         continue;
                     }
@@ -240,13 +240,9 @@ pub(in crate::app) fn weights_panel(selection: &Selection, ui: &mut egui::Ui, st
         return;
     };
     // Folded function words leave the bars too (their weights stand in the maps' fold).
-    let roles = crate::env::roles::roles_of(&step.world);
+    let folds = selection.folded(&crate::env::roles::roles_of(&step.world), att.words.len());
     let shown: Vec<usize> = (0..att.words.len())
-        .filter(|&i| {
-            !(roles.len() == att.words.len()
-                && selection.folds(att.words.len())
-                && roles[i].class == crate::env::roles::WordClass::Other)
-        })
+        .filter(|&i| !folds.get(i).copied().unwrap_or(false))
         .collect();
     ui.label(if shown.len() < att.words.len() {
         "word weights w (function words folded)"

@@ -9,8 +9,8 @@ use anyhow::Context as _;
 use clap::Args;
 use groundscope::episode::{ActionMode, EpisodeSpec, initial_world, run_episode, run_from};
 use groundscope::record::{
-    McapRecorder, RerunRecorder, RerunTargets, block_starts, record_rerun, scene_block, word_paths,
-    write_mcap,
+    McapRecorder, RerunRecorder, RerunTargets, block_starts, mission_words, record_rerun,
+    scene_block, word_paths, write_mcap,
 };
 
 use crate::ExitStatus;
@@ -95,7 +95,7 @@ fn long_episode(
     let written = Instant::now();
     match format {
         "rrd" => {
-            let paths = word_paths([trace.words()]);
+            let paths = word_paths([mission_words(trace.words(), &trace.final_world)]);
             let targets = RerunTargets {
                 save: Some(path.clone()),
                 ..RerunTargets::default()

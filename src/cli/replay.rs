@@ -15,7 +15,7 @@ use groundscope::policy::Agent;
 use groundscope::record::html::episode_page;
 use groundscope::record::{
     McapRecorder, PendingFile, RecordError, RerunRecorder, RerunTargets, StopFlag, block_starts,
-    scene_block, word_paths,
+    mission_words, scene_block, word_paths,
 };
 
 use super::flags::EpisodeArgs;
@@ -200,17 +200,19 @@ pub fn replay(args: &ReplayArgs) -> anyhow::Result<ExitStatus> {
     let mut paths = Vec::new();
     let variant = agent.acting().variant();
     if wants_rerun && variant.name() == "attention" {
-        let mut missions = std::collections::BTreeSet::new();
+        // One world per mission: the words that fold follow from its instruction.
+        let mut missions = std::collections::BTreeMap::new();
         for seed in args.episode.seed..=last {
             if stop.load(Ordering::Relaxed) {
                 return Err(RecordError::Interrupted.into());
             }
-            missions.insert(initial_world(&spec(seed))?.mission);
+            let world = initial_world(&spec(seed))?;
+            missions.entry(world.mission.clone()).or_insert(world);
         }
         let words = missions
             .iter()
-            .map(|m| tokenize(m).map(|t| words(&t)))
-            .collect::<Result<Vec<Vec<&str>>, _>>()?;
+            .map(|(m, world)| tokenize(m).map(|t| mission_words(words(&t), world)))
+            .collect::<Result<Vec<_>, _>>()?;
         paths = word_paths(words);
     }
     // Destinations that can be checked before any work are checked now.

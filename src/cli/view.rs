@@ -143,25 +143,27 @@ pub fn start_options(args: &ViewArgs) -> anyhow::Result<Launch> {
 }
 
 /// `view --report DIR`: the evaluation read and its first failure (else first episode) opened,
-/// its checkpoint loaded here so that a report that cannot open is a one-line error.
+/// its checkpoint loaded here so that a report that cannot open is a one-line error; a Python
+/// policy's episode has none to load, and opens read-only ([`Launch::from_report`]).
 fn report_options(args: &ViewArgs, dir: &std::path::Path) -> anyhow::Result<Launch> {
-    let mut browser = Browser::open(dir)?;
+    let browser = Browser::open(dir)?;
     let first = browser
         .first()
         .with_context(|| format!("--report {}: episodes.csv lists no episode", dir.display()))?;
-    let ep = browser.episode(first)?;
-    groundscope::policy::Agent::load(&ep.checkpoint)
-        .with_context(|| format!("--report {}: checkpoint {}", dir.display(), ep.checkpoint))?;
+    // A Python policy's episodes are replayed read-only: there is no checkpoint to load.
+    let python = browser.is_python(first);
+    let mut launch = Launch::from_report(browser)?;
+    if !python {
+        let ep = &launch.request;
+        groundscope::policy::Agent::load(&ep.checkpoint)
+            .with_context(|| format!("--report {}: checkpoint {}", dir.display(), ep.checkpoint))?;
+    }
     if let Some(c) = &args.compare {
         groundscope::policy::Agent::load(c)?;
     }
-    browser.selected = Some(first);
-    Ok(Launch {
-        request: ep,
-        compare: args.compare.clone(),
-        faithfulness: args.faithfulness,
-        report: Some(browser),
-    })
+    launch.compare.clone_from(&args.compare);
+    launch.faithfulness = args.faithfulness;
+    Ok(launch)
 }
 
 #[cfg(test)]

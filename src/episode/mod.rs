@@ -2,8 +2,10 @@
 //! recordings, the debugger). A trace is never recomputed elsewhere.
 
 mod json;
+mod replay;
 mod request;
 
+pub use replay::replay_actions;
 pub use request::EpisodeRequest;
 
 use rand::{Rng, SeedableRng};

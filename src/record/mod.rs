@@ -6,6 +6,7 @@
 //! only when complete (footer written), so a failure or Ctrl-C leaves no partial file.
 
 mod accuracy_lines;
+pub mod fold;
 pub mod html;
 pub mod mcap_recorder;
 pub mod rerun_recorder;
@@ -17,7 +18,9 @@ use std::path::{Path, PathBuf};
 use thiserror::Error;
 
 pub use mcap_recorder::{McapRecorder, write_mcap};
-pub use rerun_recorder::{RecordStats, RerunRecorder, RerunTargets, record_rerun, word_paths};
+pub use rerun_recorder::{
+    RecordStats, RerunRecorder, RerunTargets, mission_words, record_rerun, word_paths,
+};
 pub use scene::{SCENE_BLOCK, StepScene, block_starts, scene_block, with_scene_blocks};
 
 /// The Rerun SDK version recordings are written with (the crate is pinned to it).

@@ -14,10 +14,11 @@ use crate::env::World;
 use crate::env::edit::{Edit, apply};
 use crate::env::level::LevelConfig;
 use crate::episode::{
-    EpisodeRequest, EpisodeSpec, EpisodeTrace, StepRecord, rerun_from, run_from, run_from_observed,
-    run_from_with,
+    EpisodeRequest, EpisodeSpec, EpisodeTrace, StepRecord, replay_actions, rerun_from, run_from,
+    run_from_observed, run_from_with,
 };
 use crate::metrics::faithfulness::episode::{Loop, intervention};
+use crate::metrics::report::browse::RecordedEpisode;
 use crate::panics::panic_line;
 use crate::record::{RerunTargets, record_rerun, write_mcap};
 
@@ -31,6 +32,9 @@ pub enum JobResult {
     Steps(Vec<StepRecord>),
     /// Fresh episodes: the main one and, in compare mode, the second checkpoint's.
     Episodes(Box<(Shown, Option<Shown>)>),
+    /// A Python policy's episode replayed read-only from its report (and, in compare mode, the
+    /// second checkpoint's on the same level and seed), with the policy's name.
+    Replayed(Box<(Shown, Option<Shown>)>, String),
     /// A probe: the main episode re-run from an edited state.
     Probed(Box<Shown>, usize),
     /// A file was written or a stream sent.
@@ -211,6 +215,37 @@ pub fn start_episodes(main: Agent, compare: Option<Agent>, req: EpisodeRequest, 
             Err(e) => return JobResult::Failed(format!("compared checkpoint: {e}")),
         };
         JobResult::Episodes(Box::new((a, b)))
+    });
+    job.episode = true;
+    job
+}
+
+/// Starts replaying a Python policy's episode from the actions its report recorded
+/// ([`replay_actions`]): the policy is not run (nor loaded: its name is no checkpoint's), and
+/// `compare`, where given, runs on the same level and seed beside it.
+pub fn start_replay(rec: RecordedEpisode, compare: Option<Agent>, alpha: f64) -> Job {
+    let what = format!("replaying seed {} from the report", rec.seed);
+    let mut job = Job::spawn(what, 0, move |_| {
+        let trace = match replay_actions(&rec.label(), &rec.spec(), &rec.actions) {
+            Ok(t) => t,
+            Err(e) => return JobResult::Failed(format!("{}: {e}", rec.label())),
+        };
+        let a = Shown::new(trace, alpha);
+        // The compared checkpoint's own run: `run_request` names it by its agent.
+        let req = EpisodeRequest {
+            mode: rec.mode,
+            step: rec.step,
+            ..EpisodeRequest::new(String::new(), rec.level, rec.seed)
+        };
+        let b = match compare
+            .as_ref()
+            .map(|c| run_request(c, &req, alpha))
+            .transpose()
+        {
+            Ok(b) => b,
+            Err(e) => return JobResult::Failed(format!("compared checkpoint: {e}")),
+        };
+        JobResult::Replayed(Box::new((a, b)), rec.policy)
     });
     job.episode = true;
     job

@@ -19,7 +19,7 @@ pub use agent::Agent;
 pub use cursor::{Cursor, failure_step};
 pub use jobs::{
     AfterLoad, Export, Job, JobResult, Loaded, run_request, start_attention_probe, start_episodes,
-    start_export, start_fallback, start_load, start_probe, stream_request,
+    start_export, start_fallback, start_load, start_probe, start_replay, stream_request,
 };
 pub use selection::{FOLD_ABOVE_WORDS, Overlay, Selection};
 
@@ -65,6 +65,10 @@ pub struct Session {
     pub alpha: f64,
     /// The evaluation browsed in the episodes panel.
     pub report: Option<Browser>,
+    /// The Python policy whose episode is shown, replayed read-only from its report
+    /// ([`crate::metrics::report::browse::RecordedEpisode`]); `None` for an episode an agent
+    /// runs. No probe or faithfulness measure runs on it: there is no policy to run.
+    pub read_only: Option<String>,
     /// Whether `shown` is an episode whose steps are still coming.
     streaming: bool,
     /// The step to move to once it is there ([`EpisodeRequest::step`]).
@@ -99,12 +103,30 @@ impl Session {
             generation: 0,
             alpha: 0.5,
             report: launch.report.clone(),
+            read_only: None,
         };
-        me.jobs.push(start_load(
-            Some(main),
-            launch.compare.clone(),
-            AfterLoad::Start,
-        ));
+        // A Python policy's episode has no checkpoint to load: it is replayed from the report
+        // (beside the compared checkpoint, once that has loaded).
+        let replayed = launch
+            .report
+            .as_ref()
+            .and_then(|b| b.selected.filter(|&i| b.is_python(i)));
+        match replayed {
+            Some(i) if launch.compare.is_some() => {
+                me.compare = true;
+                me.jobs.push(start_load(
+                    None,
+                    launch.compare.clone(),
+                    AfterLoad::Compare(Some(i)),
+                ));
+            }
+            Some(i) => me.open_report_episode(i),
+            None => me.jobs.push(start_load(
+                Some(main),
+                launch.compare.clone(),
+                AfterLoad::Start,
+            )),
+        }
         me
     }
 
@@ -166,7 +188,11 @@ impl Session {
     pub fn run_episode(&mut self) {
         let mission = self.request.mission.take();
         let Some(agent) = self.agent.clone() else {
-            self.error("no checkpoint loaded");
+            self.error(if self.read_only.is_some() {
+                "no checkpoint loaded: the Python policy's episodes are replayed from the report; name a checkpoint and load it to run one"
+            } else {
+                "no checkpoint loaded"
+            });
             return;
         };
         let request = EpisodeRequest {
@@ -243,6 +269,14 @@ impl Session {
     /// Applies `edit` to the world at the cursor and re-runs the agent from there; a refused
     /// edit is said with its reason.
     pub fn probe(&mut self, edit: &Edit) {
+        if let Some(policy) = &self.read_only {
+            let m = format!(
+                "edit refused: {}; there is no policy to re-run from the edited step",
+                crate::metrics::report::browse::read_only_line(policy)
+            );
+            self.error(m);
+            return;
+        }
         let (Some(agent), Some(shown)) = (&self.agent, &self.shown) else {
             return;
         };
@@ -329,6 +363,7 @@ impl Session {
             JobResult::Running(a) => {
                 let fresh = !self.streaming;
                 self.streaming = true;
+                self.read_only = None;
                 self.take_episode(*a, None, fresh);
             }
             JobResult::Steps(steps) => {
@@ -343,7 +378,14 @@ impl Session {
                 let (a, b) = *pair;
                 let fresh = !self.streaming;
                 self.streaming = false;
+                self.read_only = None;
                 self.take_episode(a, b, fresh);
+            }
+            JobResult::Replayed(pair, policy) => {
+                let (a, b) = *pair;
+                self.streaming = false;
+                self.read_only = Some(policy);
+                self.take_episode(a, b, true);
             }
             JobResult::Probed(s, k) => {
                 // The probe's episode replaces the one shown, even one still running.

@@ -1,11 +1,12 @@
 //! The evaluation browsed (`view --report DIR`, or "report…" in the top bar): opening it,
-//! opening its episodes, N / P from failure to failure, and comparing a second checkpoint of
-//! it on the same episode.
+//! opening its episodes (a Python policy's read-only, replayed from the report), N / P from
+//! failure to failure, and comparing a second checkpoint of it on the same episode.
 
 use std::path::Path;
 
-use super::{AfterLoad, Session, start_load};
+use super::{AfterLoad, Session, start_load, start_replay};
 use crate::app::episodes::Browser;
+use crate::metrics::report::browse::RecordedEpisode;
 
 impl Session {
     /// Opens the evaluation in `dir` in the episodes panel, listed, replacing any open one.
@@ -32,16 +33,48 @@ impl Session {
     }
 
     /// Opens the report's episode `i` (an index into its rows): its checkpoint (loaded if it is
-    /// not the one acting), level, seed and sampling, at the step where it was lost.
+    /// not the one acting), level, seed and sampling, at the step where it was lost; a Python
+    /// policy's episode replayed read-only from the actions its report recorded.
     pub fn open_report_episode(&mut self, i: usize) {
         let Some(b) = self.report.as_mut() else {
             return;
         };
         b.selected = Some(i);
+        if b.is_python(i) {
+            match b.recorded(i) {
+                Ok(rec) => self.open_recorded(rec),
+                Err(e) => self.error(e.to_string()),
+            }
+            return;
+        }
         match b.episode(i) {
             Ok(request) => self.open(request),
             Err(e) => self.error(e.to_string()),
         }
+    }
+
+    /// Shows a Python policy's episode read-only: replayed from the actions its report
+    /// recorded, off the UI thread, at the step it opens at, the compared checkpoint beside it
+    /// in compare mode. The policy is never run, nor its name loaded as a checkpoint; the
+    /// controls take the episode's level, seed and sampling, the checkpoint field keeps what
+    /// it held.
+    fn open_recorded(&mut self, rec: RecordedEpisode) {
+        self.info(rec.line());
+        self.request.level = rec.level;
+        self.request.seed = rec.seed;
+        self.request.mode = rec.mode;
+        self.request.mission = None;
+        self.mission_text.clear();
+        self.pending_step = Some(rec.step);
+        // An episode still running is replaced, as a new one replaces it.
+        self.jobs.retain(|j| !j.episode);
+        self.streaming = false;
+        let compare = if self.compare {
+            self.compare_agent.clone()
+        } else {
+            None
+        };
+        self.jobs.push(start_replay(rec, compare, self.alpha));
     }
 
     /// A click on the report's episode `i`: it opens, and the list folds away

@@ -3,10 +3,10 @@
 //! whether function words' maps fold and whether each map gets its own colour scale.
 
 use crate::env::Pos;
+use crate::env::roles::WordRole;
 
-/// Missions longer than this (BabyAI's local ones have at most 9 words) fold their function
-/// words' maps by default.
-pub const FOLD_ABOVE_WORDS: usize = 9;
+// The rule's own threshold, under the name the panels know it by.
+pub use crate::record::fold::FOLD_ABOVE_WORDS;
 
 /// Which map is laid over the world.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -41,9 +41,17 @@ pub struct Selection {
 }
 
 impl Selection {
-    /// Whether function words' maps fold on a mission of `words` words.
+    /// Whether function words' maps fold on a mission of `words` words: the box where it was
+    /// set, else the recordings' rule ([`crate::record::fold::folds`]).
     pub fn folds(&self, words: usize) -> bool {
-        self.fold_function_words.unwrap_or(words > FOLD_ABOVE_WORDS)
+        crate::record::fold::folds(words, self.fold_function_words)
+    }
+
+    /// For each of a mission's `words` words, whether its map folds
+    /// ([`crate::record::fold::folded_words`], with the box's choice): what the maps, the
+    /// weight bars and the episode plot leave out, as a recording does.
+    pub fn folded(&self, roles: &[WordRole], words: usize) -> Vec<bool> {
+        crate::record::fold::folded_words(roles, words, self.fold_function_words)
     }
 
     /// Whether maps are drawn on their own scales, on a step of one of MiniGrid's own

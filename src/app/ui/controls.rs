@@ -105,10 +105,16 @@ impl ControlsPanel {
     /// The checkpoint field with the bundled names, the compare box and field, and "load".
     fn checkpoints(ui: &mut egui::Ui, session: &mut Session) {
         ui.label("checkpoint");
-        ui.add(egui::TextEdit::singleline(&mut session.request.checkpoint).desired_width(160.0))
+        checkpoint_field(ui, &mut session.request.checkpoint, CHECKPOINT_FIELD_MIN)
             .on_hover_text("bundled:attention, bundled:baseline, a checkpoint NAME (NAME.json + NAME.safetensors) or an ONNX graph FILE.onnx");
-        // An imported graph's own name (groundscope.name), which the path does not show.
-        if let Some(name) = session.agent.as_ref().and_then(|a| a.acting().model_name()) {
+        if let Some(policy) = &session.read_only {
+            // The episode shown is no checkpoint's: the field keeps what "load" would load.
+            ui.label(
+                egui::RichText::new(format!("shown: python policy '{policy}' (read-only)"))
+                    .strong(),
+            );
+        } else if let Some(name) = session.agent.as_ref().and_then(|a| a.acting().model_name()) {
+            // An imported graph's own name (groundscope.name), which the path does not show.
             ui.label(egui::RichText::new(name).strong());
         }
         // The bundled names fill the field: one place shows the checkpoint, not two.
@@ -123,10 +129,9 @@ impl ControlsPanel {
         .response
         .on_hover_text("bundled checkpoints");
         ui.checkbox(&mut session.compare, "compare with");
-        ui.add_enabled(
-            session.compare,
-            egui::TextEdit::singleline(&mut session.compare_text).desired_width(140.0),
-        );
+        ui.add_enabled_ui(session.compare, |ui| {
+            checkpoint_field(ui, &mut session.compare_text, COMPARE_FIELD_MIN)
+        });
         if ui.button("load").clicked() {
             session.load_checkpoints();
         }
@@ -187,6 +192,61 @@ impl ControlsPanel {
             }
         });
     }
+}
+
+/// The narrowest the checkpoint field gets, in points: room for `bundled:attention`.
+const CHECKPOINT_FIELD_MIN: f32 = 160.0;
+
+/// The narrowest the compared checkpoint's field gets, in points: room for `bundled:baseline`.
+const COMPARE_FIELD_MIN: f32 = 140.0;
+
+/// What a field adds to its text's width (its margins and the cursor), in points.
+const FIELD_PADDING: f32 = 20.0;
+
+/// The width of a checkpoint field for a name `text_width` points wide, where `room` points
+/// are left on the bar's row: the name's own width (at least `min`), and whether it must wrap,
+/// a name wider than the row wrapping onto more lines of a field as wide as the row. A fixed
+/// 160 points cut "bundled:babyai-grounded" and any path longer than it, in the window and in
+/// its screenshots.
+fn checkpoint_field_width(text_width: f32, room: f32, min: f32) -> (f32, bool) {
+    let want = (text_width + FIELD_PADDING).max(min);
+    let room = room.max(min);
+    if want <= room {
+        (want, false)
+    } else {
+        (room, true)
+    }
+}
+
+/// A checkpoint field that shows its whole name, `min` points wide at least
+/// ([`checkpoint_field_width`]).
+fn checkpoint_field(ui: &mut egui::Ui, text: &mut String, min: f32) -> egui::Response {
+    let font = egui::TextStyle::Body.resolve(ui.style());
+    let color = ui.visuals().text_color();
+    let text_width = ui
+        .painter()
+        .layout_no_wrap(text.clone(), font, color)
+        .size()
+        .x;
+    let (width, wraps) = checkpoint_field_width(text_width, ui.available_width(), min);
+    if !wraps {
+        return ui.add(
+            egui::TextEdit::singleline(&mut *text)
+                .font(egui::TextStyle::Body)
+                .desired_width(width),
+        );
+    }
+    let r = ui.add(
+        egui::TextEdit::multiline(&mut *text)
+            .font(egui::TextStyle::Body)
+            .desired_width(width)
+            .desired_rows(1),
+    );
+    // A name has no line breaks: Enter in the wrapping field adds none.
+    if r.changed() {
+        text.retain(|c| c != '\n');
+    }
+    r
 }
 
 /// The mission field, what in it the model cannot read, and "apply at this step".
@@ -282,5 +342,21 @@ fn level_picker(ui: &mut egui::Ui, session: &mut Session) {
         if !session.fallback_where_unreadable() {
             session.run_episode();
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{CHECKPOINT_FIELD_MIN, FIELD_PADDING, checkpoint_field_width};
+
+    /// A name gets the field's width it needs, a short one the field's least, and one wider
+    /// than the row wraps in a field as wide as the row: never a field narrower than its name.
+    #[test]
+    fn a_checkpoint_field_is_as_wide_as_its_name() {
+        let min = CHECKPOINT_FIELD_MIN;
+        assert_eq!(checkpoint_field_width(50.0, 900.0, min), (min, false));
+        let (w, wraps) = checkpoint_field_width(400.0, 900.0, min);
+        assert!(!wraps && w >= 400.0 + FIELD_PADDING, "{w}");
+        assert_eq!(checkpoint_field_width(1500.0, 900.0, min), (900.0, true));
     }
 }

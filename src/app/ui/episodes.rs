@@ -92,12 +92,19 @@ impl EpisodesPanel {
             return;
         }
         filters(ui, b);
-        let checkpoints = b.values(Column::Checkpoint);
-        if checkpoints.len() > 1 {
+        // A Python policy is no checkpoint to run beside another (a policy named `bot` is not
+        // minigrid's bot).
+        let all = b.values(Column::Checkpoint);
+        let checkpoints: Vec<&String> = all
+            .iter()
+            .filter(|c| !b.report.python.contains(*c))
+            .collect();
+        if all.len() > 1 && !checkpoints.is_empty() {
             ui.horizontal(|ui| {
                 ui.label("compare with");
                 for c in checkpoints
                     .iter()
+                    .copied()
                     .filter(|c| current.as_deref() != Some(c.as_str()))
                 {
                     if ui

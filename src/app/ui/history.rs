@@ -49,11 +49,11 @@ impl HistoryPanel {
             .first()
             .map(|s| crate::env::roles::roles_of(&s.world))
             .unwrap_or_default();
-        let fold = roles.len() == all.len() && session.selection.folds(all.len());
+        let folds = session.selection.folded(&roles, all.len());
         let words: Vec<(usize, &String)> = all
             .iter()
             .enumerate()
-            .filter(|&(i, _)| !(fold && roles[i].class == crate::env::roles::WordClass::Other))
+            .filter(|&(i, _)| !folds.get(i).copied().unwrap_or(false))
             .collect();
         ui.horizontal_wrapped(|ui| {
             ui.label("over the episode:");

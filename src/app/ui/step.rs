@@ -11,8 +11,9 @@ use crate::app::numbers::{
 };
 use crate::app::session::{Selection, Session, start_attention_probe};
 use crate::app::tree::tree_ui;
-use crate::env::roles::{WordClass, roles_of};
+use crate::env::roles::roles_of;
 use crate::episode::{EpisodeTrace, StepRecord};
+use crate::metrics::report::browse::read_only_line;
 use crate::record::StepScene;
 
 /// The step panel, with the faithfulness view's switch and its measures of the step.
@@ -55,13 +56,25 @@ impl StepPanel {
         let roles = roles_of(&step.world);
         let words = step.attention.as_ref().map_or(0, |a| a.words.len());
         let with_roles = roles.len() == words && words > 0;
-        let shown_words = if with_roles && session.selection.folds(words) {
-            roles.iter().filter(|r| r.class != WordClass::Other).count()
-        } else {
-            words
-        };
+        let shown_words = session
+            .selection
+            .folded(&roles, words)
+            .iter()
+            .filter(|f| !**f)
+            .count();
         // The accuracy lines go under the shorter column.
         let under_actions = shown_words > shown.trace.n_actions;
+        // A Python policy's episode replayed from its report: what it computed was not
+        // recorded, and there is no policy here to run for probes or the faithfulness view.
+        if let Some(policy) = &session.read_only {
+            ui.label(egui::RichText::new(read_only_line(policy)).strong())
+                .on_hover_text(
+                    "the report holds its actions, not its probabilities, values or maps: the world, the agent's view and minigrid's bot beside it are replayed step by step",
+                );
+            ui.separator();
+            tree_ui(ui, &scene.tree);
+            return;
+        }
         // The bot has neither maps nor a network to probe: its plan (above) is what it
         // attends to.
         if session.agent_is_bot() {

@@ -266,8 +266,9 @@ pub struct CheckpointInfo {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub ground_loss: Option<f64>,
     /// A Python callable evaluated by `groundscope.evaluate`, not a file groundscope loads:
-    /// its episodes cannot be re-run from the report (`view --report` says so), whatever its
-    /// name. Absent (false) for every checkpoint `eval` runs.
+    /// its episodes cannot be re-run from the report, so `view --report` replays them
+    /// read-only from their recorded actions, and never takes its name for a checkpoint's.
+    /// Absent (false) for every checkpoint `eval` runs.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub python: bool,
 }

@@ -11,12 +11,14 @@ use super::marks::{
 };
 use super::{RecordError, sdk, word_path};
 use crate::env::Pos;
+use crate::env::roles::roles_of;
 use crate::env::tree::pending_target_cells;
 use crate::episode::{EpisodeTrace, StepRecord};
 use crate::metrics::faithfulness::peaks::peak_line;
 use crate::metrics::grounding::{EvaluatedMap, WordKind};
 use crate::policy::ViewMap;
 use crate::record::RERUN_SDK_VERSION;
+use crate::record::fold::folded_words;
 use crate::record::scene::{
     NEGLIGIBLE_WEIGHT, StepScene, TILE_PX, accuracy_rows, action_label, action_rows,
     attention_rings, cell_centre, hit_color,
@@ -392,28 +394,7 @@ pub(super) fn log_step(
     };
     let hi = scene.scale_max;
     log_landmarks(rec, &step.obs)?;
-    let mut legend = String::from("| word | w | H |\n|---|---:|---:|\n");
-    for (i, wa) in att.words.iter().enumerate() {
-        let path = word_path(i, &wa.word);
-        let grey = wa.weight < NEGLIGIBLE_WEIGHT;
-        rec.log(path.as_str(), &map_image(&wa.map, hi, grey))
-            .map_err(sdk)?;
-        // Short, so that it fits under the map (the word is the view's title; the scale is
-        // on M's label and the bar); a narrow view wraps it onto a second line.
-        let note = if grey { " · not in M" } else { "" };
-        rec.log(
-            format!("{path}/label"),
-            &label_box(format!("w {:.2} · H {:.2}{note}", wa.weight, wa.entropy)),
-        )
-        .map_err(sdk)?;
-        rec.log(format!("{path}/pad"), &label_room()).map_err(sdk)?;
-        log_grounding(rec, &format!("{path}/grounding"), scene.hits_of(Some(i)))?;
-        let _ = writeln!(
-            legend,
-            "| {} | {:.3} | {:.2} |",
-            wa.word, wa.weight, wa.entropy
-        );
-    }
+    let legend = log_word_maps(rec, step, att, scene)?;
     rec.log("attention/combined", &map_image(&att.combined, hi, false))
         .map_err(sdk)?;
     rec.log(
@@ -483,6 +464,47 @@ pub(super) fn log_step(
         .map_err(sdk)?;
     }
     Ok(())
+}
+
+/// Logs every word's map, label and grounding marks, a word the debugger folds under its own
+/// path ([`word_path`]); returns the words table (word, w, H), which marks the folded ones.
+fn log_word_maps(
+    rec: &RecordingStream,
+    step: &StepRecord,
+    att: &crate::policy::AttentionTrace,
+    scene: &StepScene,
+) -> Result<String, RecordError> {
+    let hi = scene.scale_max;
+    let mut legend = String::from("| word | w | H |\n|---|---:|---:|\n");
+    // The debugger's rule, on this step's mission: a folded word's map is kept, under a
+    // path whose view the layout hides.
+    let folded = folded_words(&roles_of(&step.world), att.words.len(), None);
+    for (i, wa) in att.words.iter().enumerate() {
+        let fold = folded.get(i).copied().unwrap_or(false);
+        let path = word_path(i, &wa.word, fold);
+        let grey = wa.weight < NEGLIGIBLE_WEIGHT;
+        rec.log(path.as_str(), &map_image(&wa.map, hi, grey))
+            .map_err(sdk)?;
+        // Short, so that it fits under the map (the word is the view's title; the scale is
+        // on M's label and the bar); a narrow view wraps it onto a second line.
+        let note = if grey { " · not in M" } else { "" };
+        rec.log(
+            format!("{path}/label"),
+            &label_box(format!("w {:.2} · H {:.2}{note}", wa.weight, wa.entropy)),
+        )
+        .map_err(sdk)?;
+        rec.log(format!("{path}/pad"), &label_room()).map_err(sdk)?;
+        log_grounding(rec, &format!("{path}/grounding"), scene.hits_of(Some(i)))?;
+        let _ = writeln!(
+            legend,
+            "| {}{} | {:.3} | {:.2} |",
+            wa.word,
+            if fold { " (folded)" } else { "" },
+            wa.weight,
+            wa.entropy
+        );
+    }
+    Ok(legend)
 }
 
 /// Logs the markers of a map, or clears them when the map was not evaluated at this step.

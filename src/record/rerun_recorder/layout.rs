@@ -20,10 +20,29 @@ use rerun::{RecordingStream, RecordingStreamBuilder};
 
 use super::{RecordError, marks, sdk};
 
-/// The title of word map `path` (`attention/words/<i>_<word>`): the word, with its position
-/// first (`"3:the"`) when the recording holds the same word at several positions. Short, so
-/// that a long mission's grid of small maps does not cut it ("go (word 0)" read "go (wo…").
+/// The longest title a word map gets, in characters: what a map of a long mission's grid
+/// shows uncut ("go (word 0)" read "go (wo…" in the 0.36.3 viewer at 1600×1000).
+const MAX_MAP_TITLE: usize = 9;
+
+/// The title of word map `path` (`attention/words/<i>_<word>`, or a folded word's under
+/// `attention/function_words/`): the word, with its position first (`"3:the"`) when the
+/// recording holds the same word at several positions, cut to [`MAX_MAP_TITLE`] characters
+/// with "…" where it is longer ("12:match…"), so that the viewer never cuts it elsewhere.
 fn word_title(path: &str, all: &[String]) -> String {
+    fit_title(full_word_title(path, all))
+}
+
+/// `title`, cut to [`MAX_MAP_TITLE`] characters, its last one "…" where it was longer.
+fn fit_title(title: String) -> String {
+    if title.chars().count() <= MAX_MAP_TITLE {
+        return title;
+    }
+    let kept: String = title.chars().take(MAX_MAP_TITLE - 1).collect();
+    format!("{kept}…")
+}
+
+/// [`word_title`] before it is cut.
+fn full_word_title(path: &str, all: &[String]) -> String {
     let name = path.rsplit('/').next().unwrap_or(path);
     let (i, word) = name.split_once('_').unwrap_or(("", name));
     let same = all
@@ -130,16 +149,25 @@ fn layout(
     );
     let with_landmarks =
         |origin: String| [format!("{origin}/**"), format!("/{}/**", marks::LANDMARKS)];
-    let mut maps: Vec<_> = word_paths
+    let folded = |p: &str| p.starts_with(super::FUNCTION_WORD_MAPS);
+    let mut maps: Vec<ContainerLike> = word_paths
         .iter()
         .map(|p| {
             let origin = format!("/{p}");
-            Spatial2DView::new(word_title(p, word_paths))
+            let view = Spatial2DView::new(word_title(p, word_paths))
                 .with_origin(origin.as_str())
-                .with_contents(with_landmarks(origin.clone()))
-                .into()
+                .with_contents(with_landmarks(origin.clone()));
+            // Folded as the debugger folds it: in the grid, in mission order, but hidden
+            // (its eye in the blueprint panel shows it again), so the content words' maps
+            // get the room.
+            if folded(p.as_str()) {
+                view.with_visible(false).into()
+            } else {
+                view.into()
+            }
         })
         .collect();
+    let hidden = word_paths.iter().filter(|p| folded(p.as_str())).count();
     maps.push(
         Spatial2DView::new("combined M")
             .with_origin("/attention/combined")
@@ -159,7 +187,8 @@ fn layout(
                 .into(),
         );
     }
-    let n_maps = maps.len();
+    // Hidden views take no cell of the grid.
+    let n_maps = maps.len() - hidden;
     let middle = Vertical::new([
         Horizontal::new([
             Grid::new(maps)
@@ -396,5 +425,13 @@ mod tests {
         ];
         assert_eq!(word_title(&paths[0], &paths), "2:the");
         assert_eq!(word_title(&paths[2], &paths), "yellow");
+        // A folded word is titled as any other; a long title is cut to fit, never elsewhere.
+        let long = [
+            "attention/function_words/12_matching".to_owned(),
+            "attention/words/14_matching".to_owned(),
+        ];
+        assert_eq!(word_title(&long[0], &long), "12:match…");
+        assert_eq!(word_title(&long[0], &long).chars().count(), MAX_MAP_TITLE);
+        assert_eq!(word_title(&long[1], &long[1..]), "matching");
     }
 }

@@ -15,6 +15,7 @@
 //! | `attention/words/<i>_<word>` | DepthImage (7×7, viridis; grey when w ≈ 0) | word i's map |
 //! | `attention/words/<i>_<word>/label` | Boxes2D | weight w and entropy H (the word is the view's title) |
 //! | `attention/words/<i>_<word>/grounding` | Points2D | hit / miss at each related object |
+//! | `attention/function_words/<i>_<word>` (+ `/label`, `/grounding`) | as a word's | the map of a word the debugger folds ([`crate::record::fold`]): kept, its view hidden |
 //! | `attention/combined` (+ `/label`, `/grounding`) | DepthImage, Boxes2D, Points2D | `M` |
 //! | `attention/landmarks/*` | Boxes2D, LineStrips2D, Points2D | walls, objects, unseen cells, agent |
 //! | `attention/colorbar` | DepthImage | the maps' shared scale |
@@ -47,9 +48,12 @@ use rerun::external::re_uri;
 use rerun::sink::{GrpcSink, LogSink};
 use rerun::{RecordingStream, RecordingStreamBuilder};
 
+use super::fold::folded_words;
 use super::rrd_file::RrdWriter;
 use super::scene::StepScene;
 use super::{PendingFile, RERUN_SDK_VERSION, RecordError, StopFlag, stopped};
+use crate::env::World;
+use crate::env::roles::roles_of;
 use crate::episode::EpisodeTrace;
 use entities::{log_static, log_step};
 
@@ -119,27 +123,48 @@ const FLUSH_STEPS: usize = 64;
 /// The application id of every recording (the viewer keys blueprints by it).
 const APP_ID: &str = "groundscope";
 
-/// The entity path of word `i` of a mission.
-pub fn word_path(i: usize, word: &str) -> String {
-    format!("attention/words/{i}_{word}")
+/// Where the maps of the words shown are logged.
+pub const WORD_MAPS: &str = "attention/words";
+
+/// Where the maps of the words the debugger folds are logged ([`crate::record::fold`]): kept
+/// in the recording, under a path of their own whose views the default layout hides.
+pub const FUNCTION_WORD_MAPS: &str = "attention/function_words";
+
+/// The entity path of word `i` of a mission: under [`WORD_MAPS`], or [`FUNCTION_WORD_MAPS`]
+/// where its map is `folded`.
+pub fn word_path(i: usize, word: &str, folded: bool) -> String {
+    let under = if folded {
+        FUNCTION_WORD_MAPS
+    } else {
+        WORD_MAPS
+    };
+    format!("{under}/{i}_{word}")
 }
 
-/// The word-map entity paths of a recording of these missions (each a list of words), in
-/// mission order — by the word's position, then the word — whatever the mission's length (as
-/// strings, "10_…" would sort before "2_…"); the blueprint shows one view per path.
-pub fn word_paths<'a>(missions: impl IntoIterator<Item = Vec<&'a str>>) -> Vec<String> {
+/// A mission's `words` (its attention trace's) as a recording lays them out: each with whether
+/// its map folds, by the debugger's rule ([`folded_words`]) on `world`'s mission.
+pub fn mission_words<'a>(words: Vec<&'a str>, world: &World) -> Vec<(&'a str, bool)> {
+    let folded = folded_words(&roles_of(world), words.len(), None);
+    words.into_iter().zip(folded).collect()
+}
+
+/// The word-map entity paths of a recording of these missions (each its words with whether
+/// they fold, [`mission_words`]), in mission order — by the word's position, then the word —
+/// whatever the mission's length (as strings, "10_…" would sort before "2_…"); the blueprint
+/// shows one view per path, a folded word's hidden.
+pub fn word_paths<'a>(missions: impl IntoIterator<Item = Vec<(&'a str, bool)>>) -> Vec<String> {
     missions
         .into_iter()
         .flat_map(|words| {
             words
                 .into_iter()
                 .enumerate()
-                .map(|(i, w)| (i, w.to_owned()))
+                .map(|(i, (w, folded))| (i, w.to_owned(), folded))
                 .collect::<Vec<_>>()
         })
         .collect::<BTreeSet<_>>()
         .into_iter()
-        .map(|(i, w)| word_path(i, &w))
+        .map(|(i, w, folded)| word_path(i, &w, folded))
         .collect()
 }
 
@@ -153,7 +178,12 @@ pub fn record_rerun(
     stop: Option<&StopFlag>,
 ) -> Result<RecordStats, RecordError> {
     let first = episodes.first().ok_or(RecordError::Empty)?;
-    let paths = word_paths(episodes.iter().map(EpisodeTrace::words));
+    // The mission the trace's words are of: its last world's (a probe may have changed it).
+    let paths = word_paths(
+        episodes
+            .iter()
+            .map(|e| mission_words(e.words(), &e.final_world)),
+    );
     let mut recorder = RerunRecorder::start(targets, first, episodes.len(), &paths)?;
     super::scene::with_scene_blocks(episodes, alpha, |ep, first, scenes| {
         recorder.push_block(ep, first, scenes, stop)
@@ -392,17 +422,20 @@ mod tests {
         let long: Vec<&str> = "put the red ball next to the blue key and then go to a box"
             .split(' ')
             .collect();
-        let paths = word_paths([long.clone()]);
+        let shown = |words: &[&'static str]| -> Vec<(&'static str, bool)> {
+            words.iter().map(|w| (*w, false)).collect()
+        };
+        let paths = word_paths([shown(&long)]);
         let want: Vec<String> = long
             .iter()
             .enumerate()
-            .map(|(i, w)| word_path(i, w))
+            .map(|(i, w)| word_path(i, w, false))
             .collect();
         assert_eq!(paths, want);
         // Two missions: each position once per word, positions in order.
         let two = word_paths([
-            vec!["go", "to", "the", "key"],
-            vec!["go", "to", "a", "ball"],
+            shown(&["go", "to", "the", "key"]),
+            shown(&["go", "to", "a", "ball"]),
         ]);
         assert_eq!(
             two,
@@ -415,5 +448,40 @@ mod tests {
                 "attention/words/3_key"
             ]
         );
+    }
+
+    /// A folded word's map goes under a path of its own, in the same order as the others.
+    #[test]
+    fn a_folded_words_map_is_kept_under_its_own_path() {
+        let world = crate::env::LevelConfig::babyai(
+            crate::env::LevelId::parse("BabyAI-BossLevel-v0").unwrap(),
+            false,
+        )
+        .generate(3)
+        .unwrap();
+        let tokens = crate::env::vocab::tokenize(&world.mission).unwrap();
+        let words = crate::env::vocab::words(&tokens);
+        assert!(
+            words.len() > crate::record::fold::FOLD_ABOVE_WORDS,
+            "{}",
+            world.mission
+        );
+        let laid = mission_words(words.clone(), &world);
+        let paths = word_paths([laid.clone()]);
+        assert_eq!(paths.len(), words.len());
+        for (i, ((w, folded), path)) in laid.iter().zip(&paths).enumerate() {
+            let under = if *folded {
+                FUNCTION_WORD_MAPS
+            } else {
+                WORD_MAPS
+            };
+            assert_eq!(path, &format!("{under}/{i}_{w}"));
+        }
+        // Every description has an article: a function word.
+        assert!(
+            laid.iter().any(|(w, f)| matches!(*w, "the" | "a") && *f),
+            "{laid:?}"
+        );
+        assert!(laid.iter().any(|(_, f)| !f), "{laid:?}");
     }
 }

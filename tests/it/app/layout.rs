@@ -1,9 +1,11 @@
 //! The maps in view at every window size from 1280×800 up: on BossLevel (seeds 0 and 3, the
 //! step a report names), PickupLoc, GoToSeqS5R2 and PutNextLocal, `M` and every word map
 //! unfolded are whole, at least 90 points a side, inside the window and above the episode
-//! plot.
+//! plot; and the checkpoint field shows its whole name at 1280×800.
 
 use crate::common::debugger::{build_sized, show_until};
+use crate::common::wait_until;
+use eframe::egui;
 use egui_kittest::kittest::{NodeT as _, Queryable as _};
 use groundscope::app::{EpisodeRequest, Launch};
 use groundscope::env::level::{LevelConfig, LevelId};
@@ -53,4 +55,54 @@ fn every_map_is_whole_and_readable_at_every_window_size() {
         }
     }
     assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+/// The checkpoint field names its checkpoint in full at 1280×800, as a screenshot shows it
+/// (issue 83: "bundled:babyai-grounded" was cut by a field of 160 points): as wide as a name
+/// that fits the bar's row, and a path longer than the row wraps onto more lines of a field
+/// as wide as the row, inside the window.
+#[test]
+fn the_checkpoint_field_shows_the_whole_name() {
+    let size = [1280.0, 800.0];
+    let level = LevelConfig::babyai(LevelId::parse("BabyAI-GoToLocal-v0").unwrap(), false);
+    // No such checkpoint: the field shows what was asked for, loaded or not.
+    let long = format!(
+        "{}/checkpoints/update-01200",
+        ["runs/a-study-of-grounded-agents-on-babyai-levels"; 6].join("/")
+    );
+    let mut heights = Vec::new();
+    for name in ["bundled:babyai-grounded", long.as_str()] {
+        let mut h = build_sized(&Launch::new(EpisodeRequest::new(name, level, 0)), size);
+        wait_until(&format!("{name} loaded or refused"), || {
+            h.step();
+            !h.state().session().busy()
+        });
+        h.run();
+        let field = h.get_by_value(name).rect();
+        let font = egui::TextStyle::Body.resolve(&h.ctx.global_style());
+        let text = h.ctx.fonts_mut(|f| {
+            f.layout_no_wrap(name.to_owned(), font, egui::Color32::WHITE)
+                .size()
+                .x
+        });
+        assert!(
+            field.min.x >= 0.0 && field.max.x <= size[0] && field.max.y <= size[1],
+            "{name}: the field at {field:?} is not inside the window"
+        );
+        if text < 0.8 * size[0] {
+            assert!(
+                field.width() >= text,
+                "{name}: a field {} wide for a name {text} wide",
+                field.width()
+            );
+        } else {
+            assert!(field.width() < text, "{name}: wrapped, not one line");
+        }
+        heights.push(field.height());
+    }
+    // The long path's field holds it on two lines at least.
+    assert!(
+        heights[1] >= 1.5 * heights[0],
+        "the long name did not wrap: field heights {heights:?}"
+    );
 }

@@ -1,6 +1,6 @@
 //! `view --report DIR` (issue #66): an evaluation's episodes browsed in the debugger — read
-//! back, filtered, sorted, stepped failure to failure and opened where each was lost — and the
-//! bad reports refused in one line.
+//! back, filtered, sorted, stepped failure to failure and opened where each was lost — a
+//! Python policy's replayed read-only, and the bad reports refused in one line.
 
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
@@ -11,6 +11,7 @@ use eframe::egui;
 use egui_kittest::kittest::Queryable as _;
 use groundscope::app::Launch;
 use groundscope::app::episodes::{Browser, Column, Divergence, Outcome};
+use groundscope::metrics::report::browse::read_only_line;
 
 /// An evaluation of an untrained model (which fails) and `bundled:babyai` (which mostly
 /// succeeds) on two levels, 4 episodes each: made once, shared by the tests.
@@ -186,6 +187,100 @@ fn the_report_button_opens_an_evaluation() {
     h.state_mut().open_report(report());
     show_until(&mut h, "16 of 16 episodes listed");
     h.get_by_label("episodes");
+}
+
+/// A report as `groundscope.evaluate` writes it for a Python policy named `name`: the files of
+/// the writer the Python binding calls (here through `eval` of `bundled:babyai`, whose episodes
+/// a callable could have taken), its checkpoint renamed `name`, with neither frames nor level,
+/// and marked `python` in `report.json`.
+fn python_report(name: &str) -> (tempfile::TempDir, PathBuf) {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("report");
+    let o = gs(&[
+        "eval",
+        "--checkpoint",
+        "bundled:babyai",
+        "--levels",
+        "BabyAI-GoToLocal-v0",
+        "--seeds",
+        "1",
+        "--episodes",
+        "3",
+        "--quiet",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let json = out.join("report.json");
+    let mut report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let ckpt = &mut report["checkpoints"][0];
+    ckpt["name"] = name.into();
+    ckpt["python"] = true.into();
+    ckpt["frames"] = serde_json::Value::Null;
+    ckpt["level"] = serde_json::Value::Null;
+    std::fs::write(&json, report.to_string()).unwrap();
+    let csv = out.join("episodes.csv");
+    let text = std::fs::read_to_string(&csv).unwrap();
+    assert!(text.contains("\nbundled:babyai,"), "{text}");
+    std::fs::write(
+        &csv,
+        text.replace("\nbundled:babyai,", &format!("\n{name},")),
+    )
+    .unwrap();
+    (dir, out)
+}
+
+/// A Python policy's report opens read-only (issues #81 and #83): its episode is replayed from
+/// the report's level, seed and actions, step for step as the evaluation ran it, under the one
+/// line that says so; nothing is loaded — a policy named `bot` does not open minigrid's bot —
+/// and a probe, with no policy to re-run, is refused. `view --report` used to fail on
+/// "checkpoint python: python.json: No such file or directory", or open the bot.
+#[test]
+fn a_python_policys_report_opens_read_only_and_never_as_the_bot() {
+    for name in ["bot", "python"] {
+        let (_dir, out) = python_report(name);
+        let b = Browser::open(&out).unwrap();
+        let first = b.first().unwrap();
+        assert!(b.is_python(first), "{name}");
+        assert!(
+            b.episode(first).is_err(),
+            "{name}: never re-run as a checkpoint"
+        );
+        let row = b.report.rows[first].clone();
+        let launch = Launch::from_report(b).unwrap();
+        assert_eq!(launch.request.checkpoint, "", "{name}: nothing to load");
+        assert_eq!(launch.request.seed, row.level_seed);
+        let mut h = build(&launch);
+        show_until(&mut h, &read_only_line(name));
+        let s = h.state().session();
+        assert!(s.agent.is_none(), "{name}: an agent was loaded");
+        assert_eq!(s.read_only.as_deref(), Some(name));
+        let shown = s.shown.as_ref().expect("the episode replayed");
+        let trace = &shown.trace;
+        assert_eq!(trace.checkpoint, format!("python policy '{name}'"));
+        assert_eq!(trace.seed, row.level_seed);
+        assert_eq!(trace.steps.len(), row.steps as usize, "{name}");
+        assert_eq!(trace.success(), row.success, "{name}");
+        let actions: Vec<String> = trace
+            .steps
+            .iter()
+            .map(|s| (s.action as usize).to_string())
+            .collect();
+        assert_eq!(
+            actions.join(" "),
+            row.actions,
+            "{name}: the report's actions"
+        );
+        assert!(trace.steps.iter().all(|s| s.attention.is_none()));
+        assert_eq!(s.cursor.step, row.open_step());
+        h.get_by_label_contains(&format!("shown: python policy '{name}'"));
+        // No policy to re-run from an edited step.
+        h.state_mut().session_mut().turn(1);
+        let e = h.state().last_error().unwrap_or_default().to_owned();
+        assert!(e.contains("read-only"), "{name}: {e}");
+        assert!(!h.state().session().busy(), "{name}: a probe was started");
+    }
 }
 
 /// Runs frames until the debugger shows seed `seed`'s episode.

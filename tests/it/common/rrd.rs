@@ -33,6 +33,8 @@ pub struct Decoded {
     pub hidden_legends: BTreeSet<String>,
     /// The names of the blueprint's views.
     pub view_names: BTreeSet<String>,
+    /// The names of the views the blueprint hides (`ViewBlueprint:visible` false).
+    pub hidden_views: BTreeSet<String>,
     pub blueprints: usize,
 }
 
@@ -55,6 +57,8 @@ pub fn decode(path: &Path) -> Decoded {
     // View paths hold random ids: the legends are recorded by their views' names.
     let (mut view_paths, mut hidden) = (BTreeMap::new(), Vec::new());
     let view_name: rerun::ComponentIdentifier = "ViewBlueprint:display_name".into();
+    let view_visible: rerun::ComponentIdentifier = "ViewBlueprint:visible".into();
+    let mut hidden_views = Vec::new();
     for msg in DecoderApp::decode_lazy(file) {
         match msg.unwrap() {
             LogMsg::SetStoreInfo(info) => {
@@ -95,6 +99,11 @@ pub fn decode(path: &Path) -> Decoded {
                             .map(|c| format!("{:?}", c.0.kind))
                             .collect();
                         hidden_columns.push((view.to_owned(), hidden));
+                    }
+                }
+                for v in chunk.iter_component::<rerun::components::Visible>(view_visible) {
+                    if v.as_slice().iter().any(|v| !v.0.0) {
+                        hidden_views.push(entity.clone());
                     }
                 }
                 for v in chunk.iter_component::<rerun::components::Visible>(legend_visible) {
@@ -180,6 +189,10 @@ pub fn decode(path: &Path) -> Decoded {
     out.view_bounds = view_bounds
         .into_iter()
         .filter_map(|(p, b)| Some((view_paths.get(&p)?.clone(), b)))
+        .collect();
+    out.hidden_views = hidden_views
+        .iter()
+        .filter_map(|p| view_paths.get(p).cloned())
         .collect();
     out.hidden_legends = hidden
         .iter()

@@ -1,11 +1,14 @@
 //! The layout of a `.rrd` read back from the file: every bar chart's label sits right above
 //! its own bar and inside the chart (Rerun 0.36 draws a 2-D label centred below its anchor),
-//! and a chart with more rows than fit at a readable size scrolls instead of overprinting.
+//! a chart with more rows than fit at a readable size scrolls instead of overprinting, and a
+//! long mission's function words fold out of view as the debugger folds them.
 
-use crate::common::rrd::{Decoded, decode};
+use crate::common::rrd::{Decoded, decode, rows};
 use groundscope::env::level::{LevelConfig, LevelId};
+use groundscope::env::roles::roles_of;
 use groundscope::episode::{ActionMode, EpisodeSpec, EpisodeTrace, run_episode};
 use groundscope::policy::bundled;
+use groundscope::record::fold::{FOLD_ABOVE_WORDS, folded_words};
 use groundscope::record::{RerunTargets, record_rerun};
 
 const ACTIONS: [&str; 7] = [
@@ -225,8 +228,10 @@ fn a_big_world_and_a_long_mission_fit_their_views() {
         );
     }
     // BossLevel seed 3's mission repeats "the": those maps are titled by position.
+    let folded = folded_words(&roles_of(&ep.final_world), ep.words().len(), None);
     for (i, word) in ep.words().iter().enumerate() {
-        let path = format!("/attention/words/{i}_{word}/label");
+        let under = if folded[i] { "function_words" } else { "words" };
+        let path = format!("/attention/{under}/{i}_{word}/label");
         for label in &d.labels[&path] {
             assert!(label[0].starts_with("w "), "{path}: {label:?}");
             assert!(label[0].contains(" · H "), "{path}: {label:?}");
@@ -244,4 +249,57 @@ fn a_big_world_and_a_long_mission_fit_their_views() {
         );
         assert!(title.chars().count() <= 9, "{title}");
     }
+}
+
+/// A long mission's recording follows the debugger's rule ([`folded_words`], the one
+/// function both use): the content words' maps are in view, and each function word's map is
+/// kept under `attention/function_words/`, its view hidden in the layout, whose grid it then
+/// leaves to the others; the words table marks it folded.
+#[test]
+fn a_long_missions_function_words_fold_out_of_view_as_in_the_debugger() {
+    let mut ep = episode("bundled:babyai", Some("BabyAI-BossLevel-v0"), 3);
+    ep.steps.truncate(12);
+    let words = ep.words();
+    assert!(
+        words.len() > FOLD_ABOVE_WORDS,
+        "a long mission: {}",
+        ep.mission
+    );
+    let folded = folded_words(&roles_of(&ep.final_world), words.len(), None);
+    let n_folded = folded.iter().filter(|f| **f).count();
+    assert!(
+        n_folded > 0 && n_folded < words.len(),
+        "some words fold, not all: {folded:?}"
+    );
+    let d = recorded(std::slice::from_ref(&ep));
+    let title = |i: usize, w: &str| {
+        if words.iter().filter(|x| **x == w).count() > 1 {
+            format!("{i}:{w}")
+        } else {
+            w.to_owned()
+        }
+    };
+    for (i, (w, &f)) in words.iter().zip(&folded).enumerate() {
+        let shown = format!("/attention/words/{i}_{w}");
+        let kept = format!("/attention/function_words/{i}_{w}");
+        let (here, not_here) = if f { (&kept, &shown) } else { (&shown, &kept) };
+        assert_eq!(
+            rows(&d, here, "DepthImage:buffer"),
+            ep.steps.len(),
+            "{here}: a map at every step"
+        );
+        assert_eq!(rows(&d, not_here, "DepthImage:buffer"), 0, "{not_here}");
+        let t = title(i, *w);
+        assert!(d.view_names.contains(&t), "{t:?} in {:?}", d.view_names);
+        assert_eq!(
+            d.hidden_views.contains(&t),
+            f,
+            "{t:?}: hidden iff folded ({:?})",
+            d.hidden_views
+        );
+    }
+    // Nothing else is hidden: M, the bars, the text views.
+    assert_eq!(d.hidden_views.len(), n_folded, "{:?}", d.hidden_views);
+    let legend = &d.texts["/attention/legend"][0];
+    assert_eq!(legend.matches("(folded)").count(), n_folded, "{legend}");
 }

@@ -226,7 +226,7 @@ fn two_outputs_naming_one_file_are_refused() {
 
 /// A report as `groundscope.evaluate` writes it for a Python policy named `name`: its
 /// `report.json` (marked `python` unless `marked` is false, as reports written before the
-/// field) and `episodes.csv` with one failed episode.
+/// field) and `episodes.csv` with one failed episode and the actions it took.
 fn python_report(dir: &Path, name: &str, marked: bool) {
     std::fs::create_dir_all(dir).unwrap();
     let mut ckpt = serde_json::json!({
@@ -237,18 +237,20 @@ fn python_report(dir: &Path, name: &str, marked: bool) {
     }
     let report = serde_json::json!({"mode": "greedy", "checkpoints": [ckpt]});
     std::fs::write(dir.join("report.json"), report.to_string()).unwrap();
+    let actions = vec!["0"; 64].join(" ");
     std::fs::write(
         dir.join("episodes.csv"),
         format!(
-            "checkpoint,level,level_seed,mission,success,steps,return\n{name},BabyAI-GoToLocal-v0,3,go to the red ball,0,64,0\n"
+            "checkpoint,level,level_seed,mission,success,steps,return,actions\n{name},BabyAI-GoToLocal-v0,3,go to the red ball,0,64,0,{actions}\n"
         ),
     )
     .unwrap();
 }
 
-/// A Python policy's episodes cannot be re-run: its report is refused by name, and a policy
-/// named `bot` (or like a bundled checkpoint) is not opened as that checkpoint, where `view
-/// --report` used to fail on "python.json: No such file or directory" or open the bot.
+/// A Python policy's episodes cannot be re-run: the report never resolves its name as a
+/// checkpoint's (a policy named `bot`, or like a bundled checkpoint, is not opened as that
+/// checkpoint), and `view --report` opens it read-only — past the report, as far as the
+/// window — where it used to fail on "python.json: No such file or directory" or open the bot.
 #[test]
 fn a_python_policys_report_is_not_reopened_as_a_checkpoint() {
     let tmp = tempfile::tempdir().unwrap();
@@ -271,6 +273,12 @@ fn a_python_policys_report_is_not_reopened_as_a_checkpoint() {
                 && e.contains("groundscope.record(act, \"BabyAI-GoToLocal-v0\", 3"),
             "{e}"
         );
+        // Read-only instead: its recorded actions, under its own name.
+        let rec = b.recorded(0).unwrap();
+        assert_eq!(
+            (rec.policy.as_str(), rec.seed, rec.actions.len()),
+            (name, 3, 64)
+        );
         #[cfg(feature = "app")]
         {
             let o = Command::new(env!("CARGO_BIN_EXE_groundscope"))
@@ -280,7 +288,10 @@ fn a_python_policys_report_is_not_reopened_as_a_checkpoint() {
                 .env_remove("WAYLAND_DISPLAY")
                 .output()
                 .unwrap();
-            assert_bad_input(&o, "Python policy");
+            // The report opened (no checkpoint to load, none refused): only the window is
+            // missing here.
+            assert_bad_input(&o, "no display");
+            assert!(!stderr(&o).contains("Python policy"), "{}", stderr(&o));
         }
     }
     // The bot itself, as `eval --checkpoint bot` records it, still opens as the bot.
@@ -293,4 +304,5 @@ fn a_python_policys_report_is_not_reopened_as_a_checkpoint() {
     let b = groundscope::metrics::report::browse::ReportEpisodes::open(&dir).unwrap();
     assert!(b.python.is_empty());
     assert_eq!(b.episode(0).unwrap().checkpoint, "bot");
+    assert!(b.recorded(0).is_err(), "the bot is re-run, not replayed");
 }
