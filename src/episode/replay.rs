@@ -63,6 +63,7 @@ pub fn replay_actions(
         input_token_ids: None,
         model_name: None,
         mode: spec.mode,
+        n_actions: Action::COUNT,
         steps,
         final_world: world,
     })

@@ -78,7 +78,12 @@ fn the_checkpoint_field_shows_the_whole_name() {
             !h.state().session().busy()
         });
         h.run();
-        let field = h.get_by_value(name).rect();
+        // The field and its text run both hold the name; the field's rect holds the run's.
+        let field = h
+            .query_all_by_value(name)
+            .map(|n| n.rect())
+            .reduce(|a, b| a.union(b))
+            .unwrap_or_else(|| panic!("no field holds {name}"));
         let font = egui::TextStyle::Body.resolve(&h.ctx.global_style());
         let text = h.ctx.fonts_mut(|f| {
             f.layout_no_wrap(name.to_owned(), font, egui::Color32::WHITE)
