@@ -28,6 +28,10 @@ use crate::ExitStatus;
 #[command(
     after_long_help = "EXAMPLES:\n  groundscope eval --out report/\n  groundscope eval --checkpoint runs/att/model --sizes 8,10 --objects 4,6 --seeds 2 --episodes 50 --out quick/ --min-success 0.9\n  groundscope eval --checkpoint my_agent.onnx --saliency --out mine/\n  groundscope eval --checkpoint bundled:babyai --levels BabyAI-GoToDoor-v0,BabyAI-PickupLoc-v0 --seeds 1 --out levels/\n  groundscope eval --checkpoint runs/mg --levels MiniGrid-DoorKey-5x5-v0,\"MultiRoomEnv(minNumRooms=3, maxNumRooms=3)\" --out minigrid/"
 )]
+#[expect(
+    clippy::struct_excessive_bools,
+    reason = "each switch is a flag of its own on the command line"
+)]
 pub struct EvalArgs {
     /// Checkpoints to evaluate (repeatable): NAME, a run directory (its model),
     /// bundled:attention / bundled:baseline / bundled:babyai[-grounded[2]], an ONNX graph FILE.onnx or

@@ -202,13 +202,12 @@ pub(super) fn panel(
                 out.grids.push(grid);
             }
             let tree = tree_html(&scene.tree);
-            let tr = match tree_ids.get(&tree) {
-                Some(&i) => i,
-                None => {
-                    out.trees.push(tree.clone());
-                    tree_ids.insert(tree, out.trees.len() - 1);
-                    out.trees.len() - 1
-                }
+            let tr = if let Some(&i) = tree_ids.get(&tree) {
+                i
+            } else {
+                out.trees.push(tree.clone());
+                tree_ids.insert(tree, out.trees.len() - 1);
+                out.trees.len() - 1
             };
             let g = out.grids.len() - 1;
             out.steps

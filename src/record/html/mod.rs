@@ -126,21 +126,19 @@ fn fill(template: &str, values: &[(&str, &str)]) -> String {
     while let Some(at) = rest.find("{{") {
         out.push_str(&rest[..at]);
         let after = &rest[at + 2..];
-        match after.find("}}").and_then(|end| {
+        let found = after.find("}}").and_then(|end| {
             let name = &after[..end];
             values
                 .iter()
                 .find(|(n, _)| *n == name)
                 .map(|(_, v)| (end, *v))
-        }) {
-            Some((end, value)) => {
-                out.push_str(value);
-                rest = &after[end + 2..];
-            }
-            None => {
-                out.push_str("{{");
-                rest = after;
-            }
+        });
+        if let Some((end, value)) = found {
+            out.push_str(value);
+            rest = &after[end + 2..];
+        } else {
+            out.push_str("{{");
+            rest = after;
         }
     }
     out.push_str(rest);

@@ -82,7 +82,7 @@ fn the_checkpoint_field_shows_the_whole_name() {
         let field = h
             .query_all_by_value(name)
             .map(|n| n.rect())
-            .reduce(|a, b| a.union(b))
+            .reduce(egui::Rect::union)
             .unwrap_or_else(|| panic!("no field holds {name}"));
         let font = egui::TextStyle::Body.resolve(&h.ctx.global_style());
         let text = h.ctx.fonts_mut(|f| {

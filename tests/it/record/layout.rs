@@ -289,7 +289,7 @@ fn a_long_missions_function_words_fold_out_of_view_as_in_the_debugger() {
             "{here}: a map at every step"
         );
         assert_eq!(rows(&d, not_here, "DepthImage:buffer"), 0, "{not_here}");
-        let t = title(i, *w);
+        let t = title(i, w);
         assert!(d.view_names.contains(&t), "{t:?} in {:?}", d.view_names);
         assert_eq!(
             d.hidden_views.contains(&t),
