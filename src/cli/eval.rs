@@ -109,8 +109,12 @@ pub fn validate(args: &EvalArgs) -> anyhow::Result<()> {
 
 /// Runs `eval`.
 pub fn run(args: &EvalArgs) -> anyhow::Result<ExitStatus> {
+    run_with(args, &Stop::install())
+}
+
+/// Runs `eval`, stopped by `stop` (a study's exec hands its own on: a process has one).
+pub(super) fn run_with(args: &EvalArgs, stop: &Stop) -> anyhow::Result<ExitStatus> {
     check(args)?;
-    let stop = Stop::install();
     let specs = if args.checkpoint.is_empty() {
         let paper = Agent::load(&groundscope::policy::bundled::names()[0])?;
         let levels = args.sweep.levels(paper.level())?;
@@ -160,7 +164,7 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitStatus> {
     };
     let mut order: Vec<usize> = (0..cells.len()).collect();
     order.sort_by_key(|&i| std::cmp::Reverse(cost(&cells[i].2)));
-    let results = run_cells(&cells, &order, jobs, args, mode, &bar, &stop);
+    let results = run_cells(&cells, &order, jobs, args, mode, &bar, stop);
     if stop.requested() {
         bar.finish_and_clear();
         Stop::report(&args.out);
@@ -234,7 +238,7 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitStatus> {
         };
         format!("groundscope replay --checkpoint {ckpt} {on}{done} --seed {seed}{sample}")
     });
-    let counterfactuals = add_counterfactuals(&mut failures, &ckpts, mode, &stop);
+    let counterfactuals = add_counterfactuals(&mut failures, &ckpts, mode, stop);
     if stop.requested() {
         Stop::report(&args.out);
         return Ok(ExitStatus::Interrupted);
@@ -262,7 +266,7 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitStatus> {
             &failures_dir,
             mode,
             args.alpha,
-            &stop,
+            stop,
         );
         if stop.requested() {
             drop(staged);
