@@ -126,8 +126,12 @@ pub fn validate(args: &EvalArgs) -> anyhow::Result<()> {
 
 /// Runs `eval`.
 pub fn run(args: &EvalArgs) -> anyhow::Result<ExitStatus> {
+    run_with(args, &Stop::install())
+}
+
+/// Runs `eval`, stopped by `stop` (a study's exec hands its own on: a process has one).
+pub(super) fn run_with(args: &EvalArgs, stop: &Stop) -> anyhow::Result<ExitStatus> {
     check(args)?;
-    let stop = Stop::install();
     let specs = if args.checkpoint.is_empty() {
         let paper = Agent::load(&groundscope::policy::bundled::names()[0])?;
         let levels = args.sweep.levels(paper.level())?;
@@ -177,7 +181,7 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitStatus> {
     };
     let mut order: Vec<usize> = (0..cells.len()).collect();
     order.sort_by_key(|&i| std::cmp::Reverse(cost(&cells[i].2)));
-    let results = run_cells(&cells, &order, jobs, args, mode, &bar, &stop);
+    let results = run_cells(&cells, &order, jobs, args, mode, &bar, stop);
     if stop.requested() {
         bar.finish_and_clear();
         Stop::report(&args.out);
@@ -227,7 +231,7 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitStatus> {
         };
         format!("groundscope replay --checkpoint {ckpt} {on}{done} --seed {seed}{sample}")
     });
-    let counterfactuals = add_counterfactuals(&mut failures, &ckpts, mode, &stop);
+    let counterfactuals = add_counterfactuals(&mut failures, &ckpts, mode, stop);
     if stop.requested() {
         Stop::report(&args.out);
         return Ok(ExitStatus::Interrupted);
@@ -258,7 +262,7 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<ExitStatus> {
             rrd: rrd.as_deref().map(|d| (d, failures_dir.as_path())),
             html: args.html,
         };
-        let listed = run_listed(&failures, &ckpts, &outputs, mode, args.alpha, &stop);
+        let listed = run_listed(&failures, &ckpts, &outputs, mode, args.alpha, stop);
         if stop.requested() {
             drop(staged);
             Stop::report(&args.out);

@@ -82,8 +82,12 @@ pub fn validate(args: &FaithfulnessArgs) -> anyhow::Result<()> {
 
 /// Runs `faithfulness`.
 pub fn run(args: &FaithfulnessArgs) -> anyhow::Result<ExitStatus> {
+    run_with(args, &Stop::install())
+}
+
+/// Runs `faithfulness`, stopped by `stop` (a study's exec hands its own on: a process has one).
+pub(super) fn run_with(args: &FaithfulnessArgs, stop: &Stop) -> anyhow::Result<ExitStatus> {
     validate(args)?;
-    let stop = Stop::install();
     let specs = if args.checkpoint.is_empty() {
         vec![bundled::names()[0].clone()]
     } else {

@@ -1,15 +1,23 @@
-//! `groundscope study run`: a planned study on this machine's cores, N `study exec` processes
-//! at a time, with one progress line; and `groundscope bench study`, the aggregate training
-//! speed of 1 and N concurrent runs.
+//! `groundscope study run`: a planned study on this machine's cores, a small scheduler of N
+//! `study exec` processes at a time (each run one process: its steps run inside it), with one
+//! progress line; and `groundscope bench study`, the aggregate training speed of 1 and N
+//! concurrent runs.
+//!
+//! A child's output goes to an unnamed temporary file, never to a pipe left unread (a full
+//! one would stop a chatty child for good); a stop is passed on with `kill(2)`, once; a run's
+//! progress is its `log.csv` read by column name ([`groundscope::run::last_row`]); and how a
+//! run ended is what its exec says in its outcome file ([`ExecOutcome`]), not its exit status
+//! alone.
 
 use std::fmt::Write as _;
+use std::fs::File;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
 use anyhow::Context as _;
 use clap::Args;
-use groundscope::study::{DONE_FILE, FAILED_FILE, LOG_FILE, Manifest, PlannedRun, RunState};
+use groundscope::study::{ExecOutcome, FAILED_FILE, Failed, LOG_FILE, PlannedRun, RunState};
 
 use crate::ExitStatus;
 use crate::cli::stop::Stop;
@@ -34,9 +42,13 @@ const POLL: Duration = Duration::from_millis(200);
 struct Running {
     run: PlannedRun,
     child: Child,
-    /// What the exec printed (its standard output and error), in an unnamed temporary file:
-    /// shown when the run fails, and never a pipe left unread (a full one would stop the exec).
-    output: std::fs::File,
+    /// What the exec printed (its standard output and error), shown when the run fails
+    /// ([`spawn_captured`]).
+    output: File,
+    /// Where the exec writes how the run ended.
+    outcome: PathBuf,
+    /// Whether this runner has passed its stop on to the exec.
+    signalled: bool,
 }
 
 /// The most of a failed exec's output the runner reads back (its end).
@@ -50,8 +62,8 @@ const TAIL_LINES: usize = 5;
 struct Tally {
     done: usize,
     failed: Vec<String>,
-    /// Runs stopped by a signal that this runner did not send (to the exec or its step
-    /// alone): neither done nor failed, they resume on the next run.
+    /// Runs stopped by a signal that this runner did not send (to the exec alone): neither
+    /// done nor failed, they resume on the next run.
     stopped: Vec<String>,
     elsewhere: usize,
 }
@@ -73,7 +85,7 @@ pub(super) fn count(flag: &str, n: i64) -> anyhow::Result<usize> {
 pub(super) fn run(args: &RunArgs) -> anyhow::Result<ExitStatus> {
     let study = &args.study;
     let jobs = args.jobs.map(|n| count("--jobs", n)).transpose()?;
-    let manifest = Manifest::read(study)?;
+    let manifest = super::study_legacy::read_manifest(study, true)?;
     // A hand-edited run (a name outside runs/, steps that do not hash to their hash) is
     // refused before any run starts.
     manifest.check_runs(&study.join("manifest.json"))?;
@@ -98,6 +110,7 @@ pub(super) fn run(args: &RunArgs) -> anyhow::Result<ExitStatus> {
         indicatif::ProgressBar::new_spinner()
     };
     let exe = std::env::current_exe().context("finding this binary")?;
+    let outcomes = tempfile::tempdir().context("creating a temporary directory")?;
     let mut running: Vec<Running> = Vec::new();
     println!(
         "study {}: {} of {total} runs to do, {jobs} at a time",
@@ -107,17 +120,24 @@ pub(super) fn run(args: &RunArgs) -> anyhow::Result<ExitStatus> {
     loop {
         while running.len() < jobs && !stop.requested() {
             let Some(run) = queue.pop_front() else { break };
-            let output = tempfile::tempfile().context("creating a temporary file")?;
-            let child = Command::new(&exe)
-                .args(["study", "exec"])
-                .arg(study)
-                .arg(&run.name)
-                .stdin(Stdio::null())
-                .stdout(output.try_clone()?)
-                .stderr(output.try_clone()?)
-                .spawn()
-                .with_context(|| format!("starting run {}", run.name))?;
-            running.push(Running { run, child, output });
+            // Names are plain (checked above): a file name of the directory.
+            let outcome = outcomes.path().join(format!("{}.json", run.name));
+            let (child, output) = spawn_captured(
+                Command::new(&exe)
+                    .args(["study", "exec"])
+                    .arg(study)
+                    .arg(&run.name)
+                    .arg("--outcome")
+                    .arg(&outcome),
+            )
+            .with_context(|| format!("starting run {}", run.name))?;
+            running.push(Running {
+                run,
+                child,
+                output,
+                outcome,
+                signalled: false,
+            });
         }
         if running.is_empty() {
             break;
@@ -134,11 +154,10 @@ pub(super) fn run(args: &RunArgs) -> anyhow::Result<ExitStatus> {
         }
         if stop.requested() {
             // A Ctrl-C reaches the runs too (one process group); a SIGTERM sent to the runner
-            // alone is passed on, so that every training saves before it ends.
-            for r in &running {
-                let _ = Command::new("kill")
-                    .args(["-INT", &r.child.id().to_string()])
-                    .status();
+            // alone is passed on, once, so that every training saves before it ends.
+            for r in running.iter_mut().filter(|r| !r.signalled) {
+                interrupt(&mut r.child);
+                r.signalled = true;
             }
         }
         bar.set_message(format!(
@@ -198,12 +217,66 @@ fn summary(name: &str, total: usize, tally: &Tally, study: &Path) -> ExitStatus 
     ExitStatus::CheckFailed
 }
 
-/// Counts a run that ended and says so above the progress line. A run whose exec ended
-/// with a non-zero status is a failed run (its last lines are shown: the exec's error, and
-/// the end of its `study.log` where a step failed), except a stopped one, which resumes on
-/// the next run: one that this runner stopped (`stopping`: it sent the stop, and the run
-/// ended interrupted, 130, or by a signal), or whose exec ended 130 all the same (a signal
-/// sent to the exec or its step alone stopped it before it finished).
+/// What the end of a run's exec means to the runner.
+#[derive(Clone, Debug, PartialEq, Eq)]
+enum Verdict {
+    /// Every step has ended in order.
+    Done,
+    /// Another process holds the run (named): left alone.
+    Elsewhere(String),
+    /// Stopped by this runner's own stop: it resumes on the next run.
+    Paused,
+    /// Stopped by a signal this runner did not send (to the exec alone): neither done nor
+    /// failed, it resumes on the next run.
+    Stopped,
+    /// Failed, and how (`exit 1`, `killed by a signal`, an exit 0 that said nothing).
+    Failed(String),
+}
+
+/// How a run ended, from its exec's exit `code` (`None`: killed by a signal) and the outcome
+/// it wrote (`Ok(None)`: none; `Err`: one that does not read), `stopping` when this runner
+/// had passed its stop on. The outcome decides where there is one; without one, an exec that
+/// ended 130 (or, under a stop, by a signal) was stopped, and any other is a failure — an
+/// exec that ends with 0 and says nothing of the run too, named as such.
+fn verdict(
+    code: Option<i32>,
+    outcome: Result<Option<ExecOutcome>, String>,
+    stopping: bool,
+) -> Verdict {
+    let how = |code: Option<i32>| {
+        code.map_or_else(|| "killed by a signal".to_owned(), |c| format!("exit {c}"))
+    };
+    match outcome {
+        Ok(Some(ExecOutcome::Done)) => Verdict::Done,
+        Ok(Some(ExecOutcome::Elsewhere { holder })) => Verdict::Elsewhere(holder),
+        Ok(Some(ExecOutcome::Stopped { .. })) if stopping => Verdict::Paused,
+        Ok(Some(ExecOutcome::Stopped { .. })) => Verdict::Stopped,
+        Ok(Some(ExecOutcome::Failed { .. })) => Verdict::Failed(how(code)),
+        _ if stopping && matches!(code, Some(130) | None) => Verdict::Paused,
+        _ if code == Some(130) => Verdict::Stopped,
+        Ok(None) if code == Some(0) => Verdict::Failed(
+            "exit 0 without an outcome: its exec said nothing of how the run ended".to_owned(),
+        ),
+        Err(why) if code == Some(0) => {
+            Verdict::Failed(format!("exit 0 with an outcome that does not read: {why}"))
+        }
+        Ok(None) | Err(_) => Verdict::Failed(how(code)),
+    }
+}
+
+/// The outcome an exec wrote at `path`: `Ok(None)` where it wrote none.
+fn read_outcome(path: &Path) -> Result<Option<ExecOutcome>, String> {
+    match std::fs::read_to_string(path) {
+        Ok(text) => serde_json::from_str(&text)
+            .map(Some)
+            .map_err(|e| groundscope::study::one_line(&format!("{}: {e}", path.display()))),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
+        Err(e) => Err(format!("{}: {e}", path.display())),
+    }
+}
+
+/// Counts a run that ended ([`verdict`]) and says so above the progress line. A failed run's
+/// last lines are shown: the exec's error, and the end of its `study.log` where a step failed.
 fn ended(
     study: &Path,
     r: &mut Running,
@@ -212,59 +285,74 @@ fn ended(
     tally: &mut Tally,
     bar: &indicatif::ProgressBar,
 ) {
-    let dir = r.run.dir(study);
     let name = &r.run.name;
-    if dir.join(DONE_FILE).is_file() {
-        tally.done += 1;
-        say(bar, format!("{name}: done"));
-    } else if status.success() {
-        // Its lock was held: another runner (or engine) has it.
-        tally.elsewhere += 1;
-        say(bar, format!("{name}: running elsewhere; left alone"));
-    } else if stopping && matches!(status.code(), Some(130) | None) {
-        say(bar, format!("{name}: stopped; it resumes on the next run"));
-    } else if status.code() == Some(130) {
-        tally.stopped.push(name.clone());
-        say(
-            bar,
-            format!(
-                "{name}: stopped by a signal before it finished (exit 130); it resumes on the next run"
-            ),
+    match verdict(status.code(), read_outcome(&r.outcome), stopping) {
+        Verdict::Done => {
+            tally.done += 1;
+            say(bar, format!("{name}: done"));
+        }
+        Verdict::Elsewhere(holder) => {
+            tally.elsewhere += 1;
+            say(
+                bar,
+                format!("{name}: running elsewhere ({holder}); left alone"),
+            );
+        }
+        Verdict::Paused => say(bar, format!("{name}: stopped; it resumes on the next run")),
+        Verdict::Stopped => {
+            tally.stopped.push(name.clone());
+            say(
+                bar,
+                format!(
+                    "{name}: stopped by a signal before it finished (exit 130); it resumes on the next run"
+                ),
+            );
+        }
+        Verdict::Failed(how) => {
+            tally.failed.push(name.clone());
+            let text = failure_text(study, r, &how);
+            say(bar, text);
+        }
+    }
+}
+
+/// What the runner says of failed run `r`: how it failed, the end of its exec's output, and
+/// where a step failed, that step and the end of its `study.log`.
+fn failure_text(study: &Path, r: &mut Running, how: &str) -> String {
+    let dir = r.run.dir(study);
+    let mut text = format!("{}: failed ({how})", r.run.name);
+    let output = output_of(&mut r.output);
+    for line in tail(&output, TAIL_LINES) {
+        text.push_str("\n  ");
+        text.push_str(line);
+    }
+    let failed = dir.join(FAILED_FILE);
+    if failed.is_file() {
+        let log_path = dir.join(LOG_FILE);
+        let record = std::fs::read_to_string(&failed).unwrap_or_default();
+        let said = match serde_json::from_str::<Failed>(&record) {
+            Ok(f) => format!("{} failed, exit {}", f.step, f.exit),
+            // A record of an earlier version's, shown as it is.
+            Err(_) => groundscope::study::one_line(record.trim()),
+        };
+        let _ = write!(
+            text,
+            "\n  {} ({said}); the end of {}:",
+            failed.display(),
+            log_path.display()
         );
-    } else {
-        tally.failed.push(name.clone());
-        let how = status
-            .code()
-            .map_or_else(|| "killed by a signal".to_owned(), |c| format!("exit {c}"));
-        let mut text = format!("{name}: failed ({how})");
-        let output = output_of(&mut r.output);
-        for line in tail(&output, TAIL_LINES) {
-            text.push_str("\n  ");
+        let log = std::fs::read_to_string(&log_path).unwrap_or_default();
+        for line in tail(&log, TAIL_LINES) {
+            text.push_str("\n    ");
             text.push_str(line);
         }
-        let failed = dir.join(FAILED_FILE);
-        if failed.is_file() {
-            let log_path = dir.join(LOG_FILE);
-            let _ = write!(
-                text,
-                "\n  {} ({}); the end of {}:",
-                failed.display(),
-                std::fs::read_to_string(&failed).unwrap_or_default().trim(),
-                log_path.display()
-            );
-            let log = std::fs::read_to_string(&log_path).unwrap_or_default();
-            for line in tail(&log, TAIL_LINES) {
-                text.push_str("\n    ");
-                text.push_str(line);
-            }
-        }
-        say(bar, text);
     }
+    text
 }
 
 /// The end of what an exec printed (at most its last [`OUTPUT_TAIL_BYTES`]); empty where it
 /// cannot be read back.
-fn output_of(file: &mut std::fs::File) -> String {
+fn output_of(file: &mut File) -> String {
     use std::io::{Read as _, Seek as _, SeekFrom};
     let len = file.metadata().map_or(0, |m| m.len());
     let mut bytes = Vec::new();
@@ -300,15 +388,43 @@ fn say(bar: &indicatif::ProgressBar, line: String) {
 
 /// The frames/s of a run's last logged update (0 before its first).
 fn latest_fps(run: &Path) -> f64 {
-    std::fs::read_to_string(run.join("log.csv"))
-        .ok()
-        .and_then(|t| {
-            t.lines()
-                .skip(1)
-                .last()
-                .and_then(|l| l.split(',').nth(2).and_then(|v| v.parse().ok()))
-        })
-        .unwrap_or(0.0)
+    groundscope::run::last_row(&run.join("log.csv")).map_or(0.0, |row| row.fps)
+}
+
+/// Starts `cmd` with no input and its standard output and error in one unnamed temporary
+/// file, returned for reading back. Never a pipe: a pipe nobody reads fills up (64 KiB) and
+/// stops a chatty child for good, and the runner reads a child's output only once it ends.
+fn spawn_captured(cmd: &mut Command) -> anyhow::Result<(Child, File)> {
+    let output = tempfile::tempfile().context("creating a temporary file")?;
+    let child = cmd
+        .stdin(Stdio::null())
+        .stdout(output.try_clone()?)
+        .stderr(output.try_clone()?)
+        .spawn()?;
+    Ok((child, output))
+}
+
+/// Passes a stop on to `child` as Ctrl-C would (SIGINT).
+#[cfg(unix)]
+#[expect(
+    unsafe_code,
+    reason = "kill(2) of a child process this process has not reaped"
+)]
+fn interrupt(child: &mut Child) {
+    let Ok(pid) = libc::pid_t::try_from(child.id()) else {
+        return;
+    };
+    // SAFETY: kill takes plain integers. The child has not been waited for (the poll found it
+    // running), so its pid is still its own, never another process's.
+    unsafe {
+        libc::kill(pid, libc::SIGINT);
+    }
+}
+
+/// Elsewhere than on Unix there is no SIGINT to pass on: the child is ended.
+#[cfg(not(unix))]
+fn interrupt(child: &mut Child) {
+    let _ = child.kill();
 }
 
 /// The peak resident memory of process `pid` so far, in MiB (Linux's `VmHWM`; 0 elsewhere).
@@ -339,34 +455,32 @@ pub(super) fn bench_study(frames: u64, runs: usize) -> anyhow::Result<ExitStatus
     let mut rates = Vec::new();
     for n in [1, runs] {
         let start = Instant::now();
-        let mut children: Vec<(Child, f64)> = (0..n)
+        let mut children: Vec<(Child, File, f64)> = (0..n)
             .map(|i| {
                 let out = tmp.path().join(format!("n{n}-run{i}"));
-                Command::new(&exe)
-                    .arg("train")
-                    .args(["--frames", &frames.to_string(), "--seed", &i.to_string()])
-                    .args([
-                        "--eval-interval",
-                        "0",
-                        "--save-interval",
-                        "1000000",
-                        "--quiet",
-                    ])
-                    .arg("--out")
-                    .arg(&out)
-                    .stdin(Stdio::null())
-                    .stdout(Stdio::null())
-                    .stderr(Stdio::piped())
-                    .spawn()
-                    .map(|c| (c, 0.0))
-                    .context("starting a training")
+                spawn_captured(
+                    Command::new(&exe)
+                        .arg("train")
+                        .args(["--frames", &frames.to_string(), "--seed", &i.to_string()])
+                        .args([
+                            "--eval-interval",
+                            "0",
+                            "--save-interval",
+                            "1000000",
+                            "--quiet",
+                        ])
+                        .arg("--out")
+                        .arg(&out),
+                )
+                .map(|(c, output)| (c, output, 0.0))
+                .context("starting a training")
             })
             .collect::<anyhow::Result<_>>()?;
         let mut left = n;
         while left > 0 {
             std::thread::sleep(Duration::from_millis(50));
             left = 0;
-            for (c, peak) in &mut children {
+            for (c, _, peak) in &mut children {
                 if c.try_wait()?.is_none() {
                     *peak = peak_rss_mib(c.id()).max(*peak);
                     left += 1;
@@ -374,13 +488,10 @@ pub(super) fn bench_study(frames: u64, runs: usize) -> anyhow::Result<ExitStatus
             }
         }
         let secs = start.elapsed().as_secs_f64();
-        for (c, _) in &mut children {
+        for (c, output, _) in &mut children {
             if !c.wait()?.success() {
-                let mut err = String::new();
-                if let Some(e) = c.stderr.as_mut() {
-                    std::io::Read::read_to_string(e, &mut err)?;
-                }
-                anyhow::bail!("a training failed: {}", err.trim());
+                let err = output_of(output);
+                anyhow::bail!("a training failed: {}", tail(&err, TAIL_LINES).join(" / "));
             }
         }
         // Whole updates of 2,048 frames: what each run trained.
@@ -388,7 +499,7 @@ pub(super) fn bench_study(frames: u64, runs: usize) -> anyhow::Result<ExitStatus
         let fps = (per_run * n as u64) as f64 / secs;
         let peaks: Vec<f64> = children
             .iter()
-            .map(|(_, p)| (p * 10.0).round() / 10.0)
+            .map(|(_, _, p)| (p * 10.0).round() / 10.0)
             .collect();
         println!(
             "{}",
@@ -406,4 +517,79 @@ pub(super) fn bench_study(frames: u64, runs: usize) -> anyhow::Result<ExitStatus
         );
     }
     Ok(ExitStatus::Success)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use groundscope::study::Step;
+
+    #[test]
+    fn an_exec_that_ends_with_0_and_says_nothing_is_a_failed_run() {
+        let failed = |v: Verdict| matches!(v, Verdict::Failed(_));
+        assert!(failed(verdict(Some(0), Ok(None), false)));
+        let Verdict::Failed(how) = verdict(Some(0), Ok(None), false) else {
+            unreachable!()
+        };
+        assert!(how.contains("without an outcome"), "{how}");
+        assert!(failed(verdict(Some(0), Err("garbled".into()), false)));
+        // What the outcome says decides, not the status alone.
+        let holder = ExecOutcome::Elsewhere {
+            holder: "pid 7".into(),
+        };
+        assert_eq!(
+            verdict(Some(0), Ok(Some(holder)), false),
+            Verdict::Elsewhere("pid 7".into())
+        );
+        assert_eq!(
+            verdict(Some(0), Ok(Some(ExecOutcome::Done)), false),
+            Verdict::Done
+        );
+        let stopped = || Ok(Some(ExecOutcome::Stopped { step: Step::Eval }));
+        assert_eq!(verdict(Some(130), stopped(), false), Verdict::Stopped);
+        assert_eq!(verdict(Some(130), stopped(), true), Verdict::Paused);
+        let step_failed = ExecOutcome::Failed {
+            step: Step::Train,
+            exit: 2,
+            error: "no".into(),
+        };
+        assert_eq!(
+            verdict(Some(1), Ok(Some(step_failed)), false),
+            Verdict::Failed("exit 1".into())
+        );
+        // Without an outcome: an exec refused (2), stopped (130) or killed.
+        assert_eq!(
+            verdict(Some(2), Ok(None), false),
+            Verdict::Failed("exit 2".into())
+        );
+        assert_eq!(verdict(Some(130), Ok(None), false), Verdict::Stopped);
+        assert_eq!(verdict(None, Ok(None), true), Verdict::Paused);
+        assert_eq!(
+            verdict(None, Ok(None), false),
+            Verdict::Failed("killed by a signal".into())
+        );
+    }
+
+    #[test]
+    fn a_chatty_child_never_blocks_on_its_output() {
+        // 4 MB on each stream, far past what a pipe holds, and nobody reading meanwhile.
+        let (mut child, mut output) = spawn_captured(Command::new("sh").args([
+            "-c",
+            "head -c 4000000 /dev/zero | tr '\\0' x; head -c 4000000 /dev/zero >&2; echo; echo the end >&2",
+        ]))
+        .unwrap();
+        let deadline = Instant::now() + Duration::from_mins(2);
+        let status = loop {
+            if let Some(status) = child.try_wait().unwrap() {
+                break status;
+            }
+            if Instant::now() > deadline {
+                let _ = child.kill();
+                panic!("the child is stuck on its output");
+            }
+            std::thread::sleep(Duration::from_millis(10));
+        };
+        assert!(status.success());
+        assert_eq!(tail(&output_of(&mut output), 1), ["the end"]);
+    }
 }

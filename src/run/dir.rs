@@ -58,6 +58,17 @@ impl RunDir {
         Ok(dir)
     }
 
+    /// Makes `path` if need be and locks it for a run that goes on where the directory holds
+    /// one and starts anew where it holds none (a study's rule), refused as [`Self::open`] is
+    /// where another process holds it ([`RunError::Held`]). Which of the two it is, is decided
+    /// under the lock: a holder that saved its first checkpoint just before it let go makes
+    /// this a resume, not a new run refused as [`RunError::Occupied`].
+    pub fn claim(path: &Path) -> Result<Self, RunError> {
+        let mut dir = Self::open(path, false)?;
+        dir.fresh = !dir.holds_run();
+        Ok(dir)
+    }
+
     /// The directory.
     pub fn path(&self) -> &Path {
         &self.path

@@ -195,7 +195,7 @@ impl RunInfo {
 
 /// The model options a checkpoint keeps (the network's choices beyond its sizes), each by
 /// its field's name, as text.
-fn model_options(cfg: &ModelConfig) -> [(&'static str, String); 11] {
+pub fn model_options(cfg: &ModelConfig) -> [(&'static str, String); 11] {
     [
         ("conv_kernel", cfg.conv_kernel.to_string()),
         ("filter_scale", cfg.filter_scale.to_string()),

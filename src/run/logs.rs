@@ -11,6 +11,29 @@ use crate::policy::ppo::{Trainer, UpdateLog};
 /// `log.csv`'s header.
 pub const LOG_HEADER: &str = "update,frames,fps,episodes,success_rate,mean_reward,mean_length,policy_loss,value_loss,entropy,grad_norm,elapsed_secs";
 
+/// A row of `log.csv` as a reader of a run's progress (a study's runner) sees it: its columns
+/// read by their names in the header, never by their places, so a column added or moved is
+/// still read right.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Deserialize)]
+pub struct LogRow {
+    /// The update.
+    pub update: u64,
+    /// Frames trained so far.
+    pub frames: u64,
+    /// Frames per second since the process started the run.
+    pub fps: f64,
+}
+
+/// The last complete row of the training log at `path`; `None` where it cannot be read or
+/// holds no row yet. A row still being appended (fewer fields than the header) is skipped.
+pub fn last_row(path: &Path) -> Option<LogRow> {
+    let file = std::fs::File::open(path).ok()?;
+    csv::Reader::from_reader(file)
+        .deserialize::<LogRow>()
+        .filter_map(Result::ok)
+        .last()
+}
+
 /// `log.csv`'s row for one update, `fps` and `elapsed` seconds measured by the run.
 pub(super) fn update_row(log: &UpdateLog, fps: f64, elapsed: f64) -> String {
     let row = crate::table::Record::new()
@@ -163,4 +186,32 @@ pub(super) fn resumed_rows(
         )));
     }
     Ok(rows)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_last_row_is_read_by_column_name_and_a_row_cut_short_is_skipped() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("log.csv");
+        // The columns in another order than LOG_HEADER's, and a last row cut short.
+        std::fs::write(
+            &path,
+            "fps,frames,update,episodes\n100,2048,1,3\n250,4096,2,7\n99,61",
+        )
+        .unwrap();
+        assert_eq!(
+            last_row(&path),
+            Some(LogRow {
+                update: 2,
+                frames: 4096,
+                fps: 250.0
+            })
+        );
+        std::fs::write(&path, format!("{LOG_HEADER}\n")).unwrap();
+        assert_eq!(last_row(&path), None);
+        assert_eq!(last_row(&dir.path().join("missing.csv")), None);
+    }
 }

@@ -19,8 +19,9 @@
 //!
 //! Files: `dir` ([`RunDir`]: the directory, its lock and clean-up), `checkpoints` (the
 //! crash-safe generations), `spec` ([`RunSpec`], [`Start`], [`Tracking`]), `info`
-//! ([`RunInfo`], [`Difference`]), `start` (a parent, the labels imitation needs), `logs`,
-//! `error` ([`RunError`], [`Notice`]).
+//! ([`RunInfo`], [`Difference`]), `start` (a parent, the labels imitation needs), `logs`
+//! (and [`LogRow`], a row as a reader of the run's progress sees it), `recipe` ([`RunRecipe`],
+//! a run as data: what a study stores), `error` ([`RunError`], [`Notice`]).
 
 mod checkpoints;
 mod dir;
@@ -28,6 +29,7 @@ mod error;
 mod info;
 mod lock;
 mod logs;
+mod recipe;
 mod spec;
 mod start;
 
@@ -41,8 +43,9 @@ use crate::policy::{ModelConfig, Net, Params, TrainingState};
 
 pub use dir::{RUN_LOCK, RunDir, holds_run};
 pub use error::{Notice, RunError};
-pub use info::{Difference, RunInfo};
-pub use logs::LOG_HEADER;
+pub use info::{Difference, RunInfo, model_options};
+pub use logs::{LOG_HEADER, LogRow, last_row};
+pub use recipe::{RunRecipe, WarmStart};
 pub use spec::{DEFAULT_SAVE_INTERVAL, RunSpec, Start, Tracking};
 pub use start::{Parent, check_labels};
 
@@ -154,12 +157,25 @@ impl Run {
         Ok(run)
     }
 
+    /// [`Self::create`] in a directory the caller has already locked ([`RunDir::claim`]): the
+    /// whole of `spec` checked first, then the run started there.
+    pub fn create_in(dir: RunDir, spec: RunSpec) -> Result<Self, RunError> {
+        let unlabelled = spec.check()?;
+        let mut run = Self::start(dir, spec)?;
+        run.unlabelled = unlabelled;
+        Ok(run)
+    }
+
     /// Locks the run at `path` and loads its newest checkpoint that loads
     /// ([`RunError::NothingToResume`] where it holds none), for the caller to compare its
     /// settings with the run's ([`Resumable::info`]) before it goes on
     /// ([`Resumable::start`]).
     pub fn resume(path: &Path) -> Result<Resumable, RunError> {
-        let dir = RunDir::open(path, false)?;
+        Self::resume_in(RunDir::open(path, false)?)
+    }
+
+    /// [`Self::resume`] in a directory the caller has already locked ([`RunDir::claim`]).
+    pub fn resume_in(dir: RunDir) -> Result<Resumable, RunError> {
         let (trainer, info, skipped) = dir.load_noting()?;
         Ok(Resumable {
             dir,
@@ -228,11 +244,19 @@ impl Run {
 
     /// Ends the run: a last checkpoint (a resumed run with nothing left to do keeps its
     /// checkpoint as it is). Returns the last update's log, if any ran.
-    pub fn finish(mut self) -> Result<Option<UpdateLog>, RunError> {
+    pub fn finish(self) -> Result<Option<UpdateLog>, RunError> {
+        self.finish_keeping_dir().map(|(last, _)| last)
+    }
+
+    /// [`Self::finish`], handing back the run's directory still locked: a caller with more to
+    /// do in it (a study's evaluation of the run) keeps every other training out until it
+    /// drops it.
+    pub fn finish_keeping_dir(mut self) -> Result<(Option<UpdateLog>, RunDir), RunError> {
         if self.last.is_some() || self.kept.is_none() {
             self.save(self.training_state(self.last.as_ref()))?;
         }
-        Ok(self.last.take())
+        let last = self.last.take();
+        Ok((last, self.dir))
     }
 
     /// The tracked held-out evaluation of one update: a row per level, and for a mix a row

@@ -104,12 +104,7 @@ pub fn collect(study: &Path, manifest: &Manifest) -> Result<Collected, StudyErro
 /// closed-loop success and localisation where it ran.
 fn run_figures(run: &Path) -> Result<RunFigures, StudyError> {
     let path = run.join("eval").join("report.json");
-    let read = |p: &Path| {
-        crate::files::read_regular_to_string(p)
-            .map_err(|e| StudyError(format!("{}: {e} (the run has {DONE_FILE})", p.display())))
-    };
-    let report: Report = serde_json::from_str(&read(&path)?)
-        .map_err(|e| StudyError(format!("{}: {}", path.display(), one_line(&e.to_string()))))?;
+    let report: Report = read_json(&path)?;
     let mut out = RunFigures::new();
     for c in &report.cells {
         let level = c
@@ -144,38 +139,55 @@ fn run_figures(run: &Path) -> Result<RunFigures, StudyError> {
             }
         }
     }
-    // The file `faithfulness --out runs/NAME/faithfulness` writes, read through the report's
-    // own types: a renamed field is a compile error or a refused file, never a silent gap.
     let faith = run.join("faithfulness").join(REPORT_FILE);
     if faith.is_file() {
-        let report: FaithfulnessFigures = serde_json::from_str(&read(&faith)?).map_err(|e| {
-            StudyError(format!("{}: {}", faith.display(), one_line(&e.to_string())))
-        })?;
-        for c in &report.checkpoints {
-            // The faithfulness report names a level `S8N4 goto` or `ID (done-action mode)`:
-            // its first word is the name the evaluation's rows have.
-            let level = c
-                .level
-                .split_whitespace()
-                .next()
-                .unwrap_or_default()
-                .to_owned();
-            let f = out.entry(level).or_default();
-            for (name, l) in &c.closed_loop {
-                if let Some(x) = l.success.mean {
-                    f.insert(format!("faith_{name}_success"), x);
-                }
-            }
-            if let Some(x) = c
-                .localisation
-                .get(&WordKind::Combined)
-                .and_then(|l| l.pointing_game.value.mean)
-            {
-                f.insert("faith_m_pointing".into(), x);
-            }
-        }
+        add_faithfulness(&faith, &mut out)?;
     }
     Ok(out)
+}
+
+/// A finished run's report at `path`, read through its own types: a renamed field is a compile
+/// error or a refused file naming it, never a silent gap.
+fn read_json<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T, StudyError> {
+    let text = crate::files::read_regular_to_string(path).map_err(|e| StudyError::RunFile {
+        path: path.to_path_buf(),
+        what: format!("{e} (the run has {DONE_FILE})"),
+    })?;
+    serde_json::from_str(&text).map_err(|e| StudyError::RunFile {
+        path: path.to_path_buf(),
+        what: one_line(&e.to_string()),
+    })
+}
+
+/// The faithfulness report at `faith` (what the run's faithfulness step writes), its
+/// closed-loop success per intervention and `M`'s pointing game added to the figures of the
+/// level it names.
+fn add_faithfulness(faith: &Path, out: &mut RunFigures) -> Result<(), StudyError> {
+    let report: FaithfulnessFigures = read_json(faith)?;
+    for c in &report.checkpoints {
+        // The faithfulness report names a level `S8N4 goto` or `ID (done-action mode)`: its
+        // first word is the name the evaluation's rows have.
+        let level = c
+            .level
+            .split_whitespace()
+            .next()
+            .unwrap_or_default()
+            .to_owned();
+        let f = out.entry(level).or_default();
+        for (name, l) in &c.closed_loop {
+            if let Some(x) = l.success.mean {
+                f.insert(format!("faith_{name}_success"), x);
+            }
+        }
+        if let Some(x) = c
+            .localisation
+            .get(&WordKind::Combined)
+            .and_then(|l| l.pointing_game.value.mean)
+        {
+            f.insert("faith_m_pointing".into(), x);
+        }
+    }
+    Ok(())
 }
 
 impl Collected {
@@ -291,5 +303,32 @@ impl Collected {
             }
         }
         s
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_faithfulness_report_is_read_through_its_types_and_a_renamed_field_is_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join(REPORT_FILE);
+        let figure = r#"{"mean": 0.75, "std": null}"#;
+        let report = format!(
+            r#"{{"schema_version": 1, "checkpoints": [{{"level": "S8N4 goto",
+                "closed_loop": {{"none": {{"success": {figure}, "distractor": {figure}, "episodes": 4}}}},
+                "localisation": {{}}}}]}}"#
+        );
+        std::fs::write(&path, &report).unwrap();
+        let mut out = RunFigures::new();
+        add_faithfulness(&path, &mut out).unwrap();
+        assert_eq!(out["S8N4"]["faith_none_success"], 0.75);
+        // A field the report no longer has under that name is a refused file, never a gap.
+        std::fs::write(&path, report.replace("closed_loop", "closed_loops")).unwrap();
+        let e = add_faithfulness(&path, &mut RunFigures::new())
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains(REPORT_FILE) && e.contains("closed_loop"), "{e}");
     }
 }

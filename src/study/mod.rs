@@ -1,50 +1,58 @@
-//! Studies: seeds × recipes × levels, each trained and then evaluated, planned once into plain
-//! command lines and a manifest, run by whatever engine the user has (this machine's cores, a
-//! Slurm array, Ray tasks) and collected from the runs' own files.
+//! Studies: seeds × recipes × levels, each trained and then evaluated, planned once into typed
+//! steps and a manifest, run by whatever engine the user has (this machine's cores, a Slurm
+//! array, Ray tasks), one `study exec STUDY NAME` line per run, and collected from the runs'
+//! own files.
 //!
 //! A study directory holds:
-//! - `study.toml`: the spec it was planned from;
-//! - `manifest.json`: every run's name, recipe, level set, seed and the arguments of its steps
-//!   (`train`, then `eval`, then optionally `faithfulness`), each with a hash of its spec;
-//! - `commands.txt`: one `groundscope study exec STUDY NAME` line per run, in manifest order;
-//! - `slurm.sbatch`: an array job that runs line `$SLURM_ARRAY_TASK_ID`, logging into
-//!   `slurm-logs/` (which the plan makes);
-//! - `ray_driver.py`: the same lines as Ray tasks;
+//! - `study.toml`: the spec it was planned from ([`StudySpec`]);
+//! - `manifest.json` ([`Manifest`]): every run's name, recipe, level set, seed and its steps as
+//!   data — the training ([`RunRecipe`]), the evaluation ([`EvalSpec`]) and optionally a
+//!   faithfulness run ([`FaithfulnessSpec`]) — each run with a hash of its steps;
+//! - `commands.txt`, `slurm.sbatch`, `ray_driver.py` (`scripts`): the lines an engine runs;
 //! - `runs/NAME/`: the run's training directory, with `eval/` and `faithfulness/` reports,
-//!   `study.log` (what its steps printed) and `study-done.json` once every step has ended.
+//!   `study.log` (what its steps printed) and [`DONE_FILE`] once every step has ended in order.
 //!
-//! Each step is an ordinary resumable command, so an engine only schedules: a killed run is
-//! run again with `train --resume` and goes on from its last checkpoint.
+//! The steps are parsed from the spec's flags once, by the command line's own parser, when the
+//! study is planned: this module deals in typed steps only. A run is an ordinary resumable
+//! training, so an engine only schedules: a killed run is run again and goes on from its last
+//! checkpoint, under the run directory's own lock.
 
 pub mod collect;
+mod error;
+mod scripts;
 mod spec;
+mod steps;
 
-pub use spec::{LevelSet, StudySpec};
+pub use error::StudyError;
+pub use scripts::{carried, study_path};
+pub use spec::{Cell, LevelSet, PAPER, StudySpec};
+pub use steps::{
+    Done, EvalSpec, ExecOutcome, Failed, FaithParts, FaithfulnessSpec, RunSteps, Step, Sweep,
+};
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
+use serde_json::Value;
 use sha2::{Digest as _, Sha256};
+
+use crate::run::RunRecipe;
 
 /// `manifest.json`'s `format`.
 pub const MANIFEST_FORMAT: &str = "groundscope-study";
-/// The file a finished run holds (its steps all ended with status 0).
+/// `manifest.json`'s `version`: 2, the runs' steps as typed data. (A manifest without one was
+/// planned when they were command lines: [`Stored::CommandLines`].)
+pub const MANIFEST_VERSION: u32 = 2;
+/// The file a finished run holds ([`Done`]: its steps all ended in order).
 pub const DONE_FILE: &str = "study-done.json";
-/// The file a run whose last attempt failed holds: the step and its exit status.
+/// The file a run whose last attempt failed holds ([`Failed`]: the step and its error).
 pub const FAILED_FILE: &str = "study-failed.json";
-/// The lock a run's executor holds while it runs (so one run never runs twice at once).
-pub const LOCK_FILE: &str = ".study-lock";
 /// What a run's steps printed, appended attempt after attempt.
 pub const LOG_FILE: &str = "study.log";
 /// The directory of `slurm.sbatch`'s logs in the study, which the plan makes (Slurm fails a
 /// task whose `--output` directory does not exist).
 pub const SLURM_LOGS: &str = "slurm-logs";
-
-/// An error in a study's spec or files, naming the file and the field.
-#[derive(Debug, thiserror::Error)]
-#[error("{0}")]
-pub struct StudyError(pub String);
 
 /// Text from a spec or a manifest (a recipe's name, a flag, a value) as a study's error quotes
 /// it: quoted, control characters escaped, cut after 80 characters.
@@ -87,8 +95,8 @@ pub fn is_plain_name(name: &str) -> bool {
             .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '.' || c == '-')
 }
 
-/// One run of a study: a recipe on a level set from a seed.
-#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+/// One run of a study: a recipe on a level set from a seed, and its steps.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct PlannedRun {
     /// `RECIPE-LEVELS-sSEED`: the run's directory under `runs/`.
@@ -99,20 +107,64 @@ pub struct PlannedRun {
     pub levels: String,
     /// The training seed.
     pub seed: u64,
-    /// `groundscope train` arguments (without the program), run in the study directory.
-    pub train: Vec<String>,
-    /// `groundscope eval` arguments.
-    pub eval: Vec<String>,
-    /// `groundscope faithfulness` arguments, where the spec asks for it.
+    /// The training, into `runs/NAME/`.
+    pub train: RunRecipe,
+    /// The evaluation of the trained run, into `runs/NAME/eval/`.
+    pub eval: EvalSpec,
+    /// A faithfulness run after it, into `runs/NAME/faithfulness/`, where the spec asks for it.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub faithfulness: Option<Vec<String>>,
-    /// Threads its training uses (`--threads`): what an engine reserves for it.
+    pub faithfulness: Option<FaithfulnessSpec>,
+    /// Threads its training uses: what an engine reserves for it.
     pub threads: usize,
-    /// SHA-256 of the run's name and steps: a plan again may add runs, never change one.
+    /// SHA-256 of the run's name and its steps' canonical JSON: a hand-edited step is refused,
+    /// and a plan again may add runs, never change one.
     pub hash: String,
+    /// The hash of the steps as `manifest.json` holds them (not as they read back, so that a
+    /// field a later version adds with a default leaves a run planned before it intact).
+    #[serde(skip)]
+    read_hash: Option<String>,
+}
+
+/// The steps of a run as they hash.
+#[derive(Serialize)]
+struct StepsOf<'a> {
+    train: &'a RunRecipe,
+    eval: &'a EvalSpec,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    faithfulness: Option<&'a FaithfulnessSpec>,
 }
 
 impl PlannedRun {
+    /// The run `name`, recipe `recipe` on level set `levels` from `seed`, with its steps,
+    /// hashed; its threads are its training's.
+    pub fn new(
+        name: &str,
+        recipe: &str,
+        levels: &str,
+        seed: u64,
+        steps: RunSteps,
+    ) -> Result<Self, StudyError> {
+        let RunSteps {
+            train,
+            eval,
+            faithfulness,
+        } = steps;
+        let mut run = Self {
+            name: name.to_owned(),
+            recipe: recipe.to_owned(),
+            levels: levels.to_owned(),
+            seed,
+            threads: train.ppo.threads.max(1),
+            train,
+            eval,
+            faithfulness,
+            hash: String::new(),
+            read_hash: None,
+        };
+        run.hash = run.steps_hash()?;
+        Ok(run)
+    }
+
     /// The run's directory inside study `dir`.
     pub fn dir(&self, study: &Path) -> PathBuf {
         study.join("runs").join(&self.name)
@@ -122,42 +174,102 @@ impl PlannedRun {
     /// runs: its name is a plain name (so its directory is inside `runs/`), and its steps hash
     /// to its recorded `hash` (a hand-edited step is refused, not run unchecked).
     pub fn check(&self, manifest: &Path) -> Result<(), StudyError> {
+        let edited = |what: String| {
+            Err(StudyError::Edited {
+                path: manifest.to_path_buf(),
+                what,
+            })
+        };
         if !is_plain_name(&self.name) {
-            return Err(StudyError(format!(
-                "{}: run name {} is not a plain name (letters, digits, '_', '.' and '-', as a plan writes them): the manifest was edited; plan the study again (groundscope study plan SPEC --out STUDY)",
-                manifest.display(),
+            return edited(format!(
+                "run name {} is not a plain name (letters, digits, '_', '.' and '-', as a plan writes them)",
                 shown(&self.name)
-            )));
+            ));
         }
-        if run_hash(&self.name, &self.steps()) != self.hash {
-            return Err(StudyError(format!(
-                "{}: run {}: its steps do not hash to its recorded hash (the manifest was edited); plan the study again (groundscope study plan SPEC --out STUDY)",
-                manifest.display(),
+        let actual = match &self.read_hash {
+            Some(h) => h.clone(),
+            None => self.steps_hash()?,
+        };
+        if actual != self.hash {
+            return edited(format!(
+                "run {}: its steps do not hash to its recorded hash",
                 self.name
-            )));
+            ));
         }
         Ok(())
     }
 
-    /// Its steps in order: `(command, arguments)`.
-    pub fn steps(&self) -> Vec<(&'static str, &[String])> {
-        let mut steps = vec![
-            ("train", self.train.as_slice()),
-            ("eval", self.eval.as_slice()),
-        ];
-        if let Some(f) = &self.faithfulness {
-            steps.push(("faithfulness", f.as_slice()));
+    /// Its steps in order.
+    pub fn steps(&self) -> Vec<Step> {
+        let mut steps = vec![Step::Train, Step::Eval];
+        if self.faithfulness.is_some() {
+            steps.push(Step::Faithfulness);
         }
         steps
     }
+
+    /// The first of its steps that differs from `other`'s.
+    fn changed_step(&self, other: &Self) -> Option<Step> {
+        if self.train != other.train {
+            Some(Step::Train)
+        } else if self.eval != other.eval {
+            Some(Step::Eval)
+        } else if self.faithfulness != other.faithfulness {
+            Some(Step::Faithfulness)
+        } else {
+            None
+        }
+    }
+
+    /// The hash of its steps as they are now.
+    fn steps_hash(&self) -> Result<String, StudyError> {
+        let steps = StepsOf {
+            train: &self.train,
+            eval: &self.eval,
+            faithfulness: self.faithfulness.as_ref(),
+        };
+        // Through the text, as the manifest holds it: a value's JSON (an f32's shortest
+        // digits) reads back as what it was written from.
+        let canonical = serde_json::to_string(&steps)
+            .and_then(|text| serde_json::from_str::<Value>(&text))
+            .map_err(|e| StudyError::Json {
+                run: self.name.clone(),
+                error: e.to_string(),
+            })?;
+        Ok(hash_steps(&self.name, &canonical))
+    }
+}
+
+/// The hash of run `name` whose steps are `steps` (a JSON object of `train`, `eval` and
+/// `faithfulness`): SHA-256 of the name and the steps' compact JSON, whose objects' keys are
+/// in one order whatever order a file had them in.
+fn hash_steps(name: &str, steps: &Value) -> String {
+    let mut h = Sha256::new();
+    h.update(name.as_bytes());
+    h.update([0]);
+    h.update(steps.to_string().as_bytes());
+    format!("{:x}", h.finalize())
+}
+
+/// The hash of the steps of `run`, a run of `manifest.json` as it reads as JSON.
+fn stored_hash(name: &str, run: &Value) -> String {
+    let mut steps = serde_json::Map::new();
+    for key in ["train", "eval", "faithfulness"] {
+        if let Some(v) = run.get(key) {
+            steps.insert(key.to_owned(), v.clone());
+        }
+    }
+    hash_steps(name, &Value::Object(steps))
 }
 
 /// `manifest.json`.
-#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Manifest {
     /// [`MANIFEST_FORMAT`].
     pub format: String,
+    /// [`MANIFEST_VERSION`].
+    pub version: u32,
     /// The study's name (its directory's).
     pub name: String,
     /// The binary that runs the lines (`commands.txt`, the sbatch script, the Ray driver).
@@ -166,27 +278,100 @@ pub struct Manifest {
     pub runs: Vec<PlannedRun>,
 }
 
+/// A `manifest.json` as it was read: typed, or planned when the runs' steps were command lines.
+#[derive(Clone, Debug)]
+pub enum Stored {
+    /// This version's manifest.
+    Typed(Manifest),
+    /// An earlier one, whose steps are command lines: its text, for the command line's parser
+    /// to turn into typed steps.
+    CommandLines {
+        /// The file.
+        path: PathBuf,
+        /// Its text.
+        text: String,
+    },
+}
+
 impl Manifest {
-    /// Reads `STUDY/manifest.json`, naming the file in every error.
-    pub fn read(study: &Path) -> Result<Self, StudyError> {
-        let path = study.join("manifest.json");
-        let text = crate::files::read_regular_to_string(&path).map_err(|e| {
-            StudyError(format!(
-                "{}: {e} (plan the study first: groundscope study plan SPEC --out {})",
-                path.display(),
-                study.display()
-            ))
-        })?;
-        let m: Self = serde_json::from_str(&text)
-            .map_err(|e| StudyError(format!("{}: {}", path.display(), one_line(&e.to_string()))))?;
-        if m.format != MANIFEST_FORMAT {
-            return Err(StudyError(format!(
-                "{}: format {} is not {MANIFEST_FORMAT:?}",
-                path.display(),
-                shown(&m.format)
-            )));
+    /// The manifest of study `name` with `runs`, run by `binary`.
+    pub fn new(name: &str, binary: &str, runs: Vec<PlannedRun>) -> Self {
+        Self {
+            format: MANIFEST_FORMAT.into(),
+            version: MANIFEST_VERSION,
+            name: name.to_owned(),
+            binary: binary.to_owned(),
+            runs,
         }
-        Ok(m)
+    }
+
+    /// Reads `STUDY/manifest.json`, naming the file in every error; one planned when the steps
+    /// were command lines is refused as [`StudyError::CommandLines`] ([`Self::read_stored`]
+    /// hands it over instead).
+    pub fn read(study: &Path) -> Result<Self, StudyError> {
+        match Self::read_stored(study)? {
+            Stored::Typed(m) => Ok(m),
+            Stored::CommandLines { path, .. } => Err(StudyError::CommandLines { path }),
+        }
+    }
+
+    /// Reads `STUDY/manifest.json`, typed or as an earlier version left it.
+    pub fn read_stored(study: &Path) -> Result<Stored, StudyError> {
+        let path = study.join("manifest.json");
+        let text = crate::files::read_regular_to_string(&path).map_err(|error| {
+            StudyError::NoManifest {
+                path: path.clone(),
+                study: study.to_path_buf(),
+                error,
+            }
+        })?;
+        let bad = |what: String| StudyError::BadManifest {
+            path: path.clone(),
+            what,
+        };
+        let value: Value =
+            serde_json::from_str(&text).map_err(|e| bad(one_line(&e.to_string())))?;
+        let format = value.get("format").and_then(Value::as_str);
+        if format != Some(MANIFEST_FORMAT) {
+            let what = format.map_or_else(
+                || "no format".to_owned(),
+                |f| format!("format {}", shown(f)),
+            );
+            return Err(bad(format!("{what} is not {MANIFEST_FORMAT:?}")));
+        }
+        match value.get("version") {
+            None => {
+                return Ok(Stored::CommandLines {
+                    path: path.clone(),
+                    text,
+                });
+            }
+            Some(v) if v.as_u64() == Some(u64::from(MANIFEST_VERSION)) => {}
+            Some(v) => {
+                return Err(bad(format!(
+                    "version {}: this groundscope reads version {MANIFEST_VERSION}; plan the study again with it (groundscope study plan SPEC --out {})",
+                    shown(&v.to_string()),
+                    study.display()
+                )));
+            }
+        }
+        let mut m: Self = serde_json::from_str(&text).map_err(|e| bad(one_line(&e.to_string())))?;
+        if let Some(runs) = value.get("runs").and_then(Value::as_array) {
+            for (run, raw) in m.runs.iter_mut().zip(runs) {
+                run.read_hash = Some(stored_hash(&run.name, raw));
+            }
+        }
+        Ok(Stored::Typed(m))
+    }
+
+    /// The manifest as `manifest.json` holds it.
+    pub fn to_json(&self) -> Result<String, StudyError> {
+        serde_json::to_string_pretty(self)
+            .map(|text| text + "\n")
+            .map_err(|e| StudyError::Json {
+                run: self.name.clone(),
+                error: e.to_string(),
+            })
     }
 
     /// Checks every run ([`PlannedRun::check`]) and that no two share a name (a directory),
@@ -196,11 +381,10 @@ impl Manifest {
         for run in &self.runs {
             run.check(manifest)?;
             if !seen.insert(run.name.as_str()) {
-                return Err(StudyError(format!(
-                    "{}: run {} is listed twice: the manifest was edited; plan the study again (groundscope study plan SPEC --out STUDY)",
-                    manifest.display(),
-                    run.name
-                )));
+                return Err(StudyError::Edited {
+                    path: manifest.to_path_buf(),
+                    what: format!("run {} is listed twice", run.name),
+                });
             }
         }
         Ok(())
@@ -208,175 +392,21 @@ impl Manifest {
 
     /// The run called `name`.
     pub fn run(&self, name: &str) -> Result<&PlannedRun, StudyError> {
-        self.runs.iter().find(|r| r.name == name).ok_or_else(|| {
-            StudyError(format!(
-                "the study {} has no run {} (its runs: {})",
-                shown(&self.name),
-                shown(name),
-                self.runs
+        self.runs
+            .iter()
+            .find(|r| r.name == name)
+            .ok_or_else(|| StudyError::NoRun {
+                study: shown(&self.name),
+                name: shown(name),
+                runs: self
+                    .runs
                     .iter()
                     .map(|r| shown(&r.name))
                     .take(6)
                     .collect::<Vec<_>>()
-                    .join(", ")
-            ))
-        })
-    }
-
-    /// `commands.txt`: one line per run, each word quoted as sh reads it (`sh_word`), so
-    /// that a binary or a study whose path holds a space or a quote runs as planned.
-    pub fn commands(&self, study: &Path) -> String {
-        let binary = sh_word(&self.binary);
-        let dir = shell(study);
-        let mut out = String::new();
-        for r in &self.runs {
-            let _ = writeln!(out, "{binary} study exec {dir} {}", sh_word(&r.name));
-        }
-        out
-    }
-
-    /// `slurm.sbatch`: an array of one task per line of `commands.txt`, each with the CPUs its
-    /// training uses; logs in `slurm-logs/`. Paths in the script's body are quoted as sh reads
-    /// them; those of the `#SBATCH` lines, which sbatch reads itself, as sbatch does
-    /// (`sbatch_value`).
-    pub fn sbatch(&self, study: &Path) -> String {
-        let cpus = self.runs.iter().map(|r| r.threads).max().unwrap_or(1);
-        let last = self.runs.len().saturating_sub(1);
-        let name = &self.name;
-        // A job's name is only shown: letters, digits and `_.-` of the study's, the rest `_`.
-        let job: String = name
-            .chars()
-            .map(|c| {
-                if c.is_ascii_alphanumeric() || "_.-".contains(c) {
-                    c
-                } else {
-                    '_'
-                }
+                    .join(", "),
             })
-            .collect();
-        // `%` starts one of Slurm's file name patterns (`%A`, `%a`): a literal one is `%%`.
-        let logs = format!(
-            "{}/{SLURM_LOGS}/%A_%a.txt",
-            study.display().to_string().replace('%', "%%")
-        );
-        let output = sbatch_value(&logs);
-        let script = shell(&study.join("slurm.sbatch"));
-        let commands = shell(&study.join("commands.txt"));
-        let dir = shell(study);
-        format!(
-            "#!/bin/bash\n\
-             # groundscope study {name}: one array task per line of commands.txt.\n\
-             # Submit: sbatch {script}   (then: groundscope study collect {dir})\n\
-             #SBATCH --job-name=gs-{job}\n\
-             #SBATCH --array=0-{last}\n\
-             #SBATCH --cpus-per-task={cpus}\n\
-             #SBATCH --output={output}\n\
-             set -euo pipefail\n\
-             line=$(sed -n \"$((SLURM_ARRAY_TASK_ID + 1))p\" {commands})\n\
-             exec bash -c \"$line\"\n"
-        )
     }
-
-    /// `ray_driver.py`: every run as a Ray task with `num_cpus` = its threads, on the cluster
-    /// at `--address` (default: a local one); waits for all and names the ones that failed.
-    pub fn ray_driver(study: &Path) -> String {
-        // A JSON string is a Python string literal, whatever the path holds.
-        let literal = serde_json::to_string(&study.display().to_string()).unwrap_or_default();
-        include_str!("ray_driver.py").replace("\"@STUDY@\"", &literal)
-    }
-}
-
-/// A path that the plan writes into its files (`commands.txt`, `slurm.sbatch`,
-/// `ray_driver.py`, `manifest.json`), as text; `what` names it in the error. Refused where
-/// those files cannot carry it: a path that is not UTF-8 (the manifest is JSON text), or that
-/// holds a control character — a newline would end a line of `commands.txt` (a task would run
-/// half a path) and, in `slurm.sbatch`, run the rest of the path as a command.
-pub fn carried<'a>(path: &'a Path, what: &str) -> Result<&'a str, StudyError> {
-    let Some(text) = path.to_str() else {
-        return Err(StudyError(format!(
-            "{what} {}: not valid UTF-8, which manifest.json and the study's scripts cannot carry; choose another path",
-            shown(&path.to_string_lossy())
-        )));
-    };
-    if let Some(c) = text.chars().find(|&c| c.is_control()) {
-        return Err(StudyError(format!(
-            "{what} {}: holds a control character ('{}'), which commands.txt and slurm.sbatch cannot carry (a newline would end a command line, or run the rest of the path as a command); choose a path without one",
-            shown(text),
-            c.escape_debug()
-        )));
-    }
-    Ok(text)
-}
-
-/// The study directory's path as the plan writes it ([`carried`]), also refused where it
-/// holds a backslash: Slurm reads a `\` in `--output` as "no file name patterns", so every
-/// task of `slurm.sbatch` would log into one file named `%A_%a.txt`.
-pub fn study_path(study: &Path) -> Result<&str, StudyError> {
-    let text = carried(study, "--out")?;
-    if text.contains('\\') {
-        return Err(StudyError(format!(
-            "--out {}: holds a backslash, which slurm.sbatch cannot carry (Slurm reads one in --output as \"no file name patterns\": every task would log into one file); choose a path without one",
-            shown(text)
-        )));
-    }
-    Ok(text)
-}
-
-/// Whether `s` needs no quoting: letters, digits and `/._-+,=:` (`%` too for sbatch).
-fn plain_word(s: &str, extra: &str) -> bool {
-    !s.is_empty()
-        && s.chars()
-            .all(|c| c.is_ascii_alphanumeric() || "/._-+,=:".contains(c) || extra.contains(c))
-}
-
-/// `s` as one sh word: as it is where it holds only safe characters, else in single quotes,
-/// each `'` written `'\''` (sh takes everything between single quotes literally).
-fn sh_word(s: &str) -> String {
-    if plain_word(s, "") {
-        s.to_owned()
-    } else {
-        format!("'{}'", s.replace('\'', "'\\''"))
-    }
-}
-
-/// A path as one sh word ([`sh_word`]).
-fn shell(p: &Path) -> String {
-    sh_word(&p.display().to_string())
-}
-
-/// A value of a `#SBATCH` option as sbatch's own parser of those lines reads it back: as it
-/// is where it holds only safe characters, else in double quotes (sbatch ends a value at a
-/// space outside quotes) with `\`, `"`, `'` and `#` escaped by a backslash (sbatch undoes a
-/// backslash before any character, ends a quote at its own quote character, and takes a `#`
-/// as the start of a comment — outside quotes, and in older versions inside them too).
-fn sbatch_value(s: &str) -> String {
-    if plain_word(s, "%") {
-        return s.to_owned();
-    }
-    let mut out = String::from("\"");
-    for c in s.chars() {
-        if matches!(c, '\\' | '"' | '\'' | '#') {
-            out.push('\\');
-        }
-        out.push(c);
-    }
-    out.push('"');
-    out
-}
-
-/// The hash of a run: its name and every step's arguments.
-fn run_hash(name: &str, steps: &[(&str, &[String])]) -> String {
-    let mut h = Sha256::new();
-    h.update(name.as_bytes());
-    for (cmd, args) in steps {
-        h.update([0]);
-        h.update(cmd.as_bytes());
-        for a in *args {
-            h.update([1]);
-            h.update(a.as_bytes());
-        }
-    }
-    format!("{:x}", h.finalize())
 }
 
 /// Where each run of a study stands, from its own files.
@@ -421,35 +451,22 @@ impl RunState {
 
 /// Checks a new plan against the manifest already in the study: the same runs give the same
 /// manifest; new runs may be added; a run whose steps changed, or that the spec no longer has,
-/// is refused by name (its directory holds results of the old steps).
+/// is refused by name (its directory holds results of the old steps). The steps are compared
+/// as data, so a manifest planned by an earlier version compares by what its steps mean.
 pub fn check_replan(old: &Manifest, new: &Manifest) -> Result<(), StudyError> {
     for run in &old.runs {
-        match new.runs.iter().find(|r| r.name == run.name) {
-            None => {
-                return Err(StudyError(format!(
-                    "the new spec drops run {} of the planned study; a study's runs may only be added (plan into a new --out)",
-                    run.name
-                )));
-            }
-            Some(r) if r.hash != run.hash => {
-                return Err(StudyError(format!(
-                    "the new spec changes run {} (its {} arguments differ from the planned ones); a study's runs may only be added (plan into a new --out)",
-                    run.name,
-                    changed_step(run, r)
-                )));
-            }
-            Some(_) => {}
+        let Some(r) = new.runs.iter().find(|r| r.name == run.name) else {
+            return Err(StudyError::Dropped(run.name.clone()));
+        };
+        if let Some(step) = run.changed_step(r) {
+            return Err(StudyError::Changed {
+                run: run.name.clone(),
+                step,
+            });
         }
     }
     Ok(())
 }
 
-fn changed_step(old: &PlannedRun, new: &PlannedRun) -> &'static str {
-    if old.train != new.train {
-        "train"
-    } else if old.eval != new.eval {
-        "eval"
-    } else {
-        "faithfulness"
-    }
-}
+#[cfg(test)]
+mod tests;

@@ -35,5 +35,6 @@ mod report;
 mod study;
 mod study_reliability;
 mod study_reliability2;
+mod study_typed;
 mod train;
 mod vendor;

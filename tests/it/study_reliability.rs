@@ -328,16 +328,13 @@ fn a_hand_edited_manifest_is_refused_before_anything_runs() {
     }
     assert_eq!(entries(dir.path()), ["study", "study.toml"]);
     assert!(entries(&runs).is_empty(), "{:?}", entries(&runs));
-    // Edited steps (the evaluation's episodes) that no longer hash to the run's hash: named,
-    // with the advice to plan again.
+    // Edited steps (the evaluation's episodes, a typed field of its step) that no longer hash
+    // to the run's hash: named, with the advice to plan again.
     std::fs::write(study.join("manifest.json"), &planned).unwrap();
     edit_manifest(&study, |m| {
-        let eval = m["runs"][1]["eval"].as_array_mut().unwrap();
-        let i = eval
-            .iter()
-            .position(|a| a.as_str() == Some("--episodes"))
-            .unwrap();
-        eval[i + 1] = "1".into();
+        let episodes = &mut m["runs"][1]["eval"]["sweep"]["episodes"];
+        assert_eq!(*episodes, 4);
+        *episodes = 1.into();
     });
     let o = gs(&["study", "exec", s, "tiny-small-s1"]);
     assert_bad_input(&o, "run tiny-small-s1: its steps do not hash");

@@ -1,6 +1,6 @@
 //! `groundscope study` when things go wrong (#81), continued: a training stopped by a signal
-//! sent to it alone, values that every run refuses, paths that the plan's scripts must quote
-//! or refuse, and an exec killed during its evaluation and run again at once.
+//! sent to its exec alone, values that every run refuses, paths that the plan's scripts must
+//! quote or refuse, and an exec stopped or killed during its evaluation and run again at once.
 
 use crate::common::{self, assert_bad_input, gs, stderr, stdout};
 use crate::study::{plan, read, spec};
@@ -23,28 +23,16 @@ fn runs(pid: u32, cmd: &str) -> bool {
         .is_ok_and(|line| line.split(|&b| b == 0).any(|w| w == cmd.as_bytes()))
 }
 
-/// A process killed (SIGKILL) when the test ends, however it ends: an orphaned step of a
-/// killed exec is not left running.
-struct KillOnDrop(u32);
-
-impl Drop for KillOnDrop {
-    fn drop(&mut self) {
-        kill(self.0, "KILL");
-    }
-}
-
-/// The pid of the step `cmd` (`train`, `eval`) that holds the run's lock, once the lock file
-/// names one that runs (`exec PID, CMD PID`).
-fn step_pid(run: &Path, cmd: &str) -> u32 {
+/// The pid of the `study exec` that holds the run's lock (the run directory's own,
+/// `.train-lock`, which names its holder), once it names one that runs: the process in which
+/// the run's steps run.
+fn exec_pid(run: &Path) -> u32 {
     let mut pid = None;
-    common::wait_until(&format!("a {cmd} step holding the run's lock"), || {
-        pid = std::fs::read_to_string(run.join(".study-lock"))
+    common::wait_until("an exec holding the run's lock", || {
+        pid = std::fs::read_to_string(run.join(".train-lock"))
             .ok()
-            .and_then(|t| {
-                let (_, p) = t.split_once(&format!(", {cmd} "))?;
-                p.trim().parse::<u32>().ok()
-            })
-            .filter(|&p| runs(p, cmd));
+            .and_then(|t| t.trim().parse::<u32>().ok())
+            .filter(|&p| runs(p, "exec"));
         pid.is_some()
     });
     pid.unwrap()
@@ -79,12 +67,13 @@ fn a_training_stopped_by_a_signal_to_it_alone_is_a_stopped_run_not_a_finished_on
     let study = dir.path().join("study");
     let s = study.to_str().unwrap();
     let run = study.join("runs/tiny-small-s1");
-    // SIGTERM to the training alone, once its first update is logged: it used to save, exit
-    // 0, and be evaluated and marked done at a fraction of its frames.
+    // SIGTERM to the exec alone (the training runs inside it), once its first update is
+    // logged: a training so stopped used to save, exit 0, and be evaluated and marked done at
+    // a fraction of its frames.
     let exec = spawn_exec(s, "tiny-small-s1");
-    let train = step_pid(&run, "train");
+    assert_eq!(exec_pid(&run), exec.id());
     common::wait_until("the training's first update", || logged(&run));
-    assert!(kill(train, "TERM"));
+    assert!(kill(exec.id(), "TERM"));
     let o = common::output_after_exit(exec, "the exec of a stopped training");
     assert_eq!(o.status.code(), Some(130), "{}{}", stdout(&o), stderr(&o));
     assert!(
@@ -112,8 +101,8 @@ fn a_training_stopped_by_a_signal_to_it_alone_is_a_stopped_run_not_a_finished_on
         .unwrap();
     assert!(last_train.ends_with("--resume"), "{log}");
     assert_eq!(read(&run.join("log.csv")).lines().count(), 1 + 200);
-    // Under the runner: a run whose training alone is stopped is named as stopped, neither
-    // done nor failed, and the runner ends with 130; run again, it finishes.
+    // Under the runner: a run whose exec alone is stopped is named as stopped, neither done
+    // nor failed, and the runner ends with 130; run again, it finishes.
     let other = study.join("runs/other-small-s1");
     let runner = Command::new(env!("CARGO_BIN_EXE_groundscope"))
         .args(["study", "run", s, "--jobs", "1", "--quiet"])
@@ -122,9 +111,9 @@ fn a_training_stopped_by_a_signal_to_it_alone_is_a_stopped_run_not_a_finished_on
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
-    let train = step_pid(&other, "train");
+    let exec = exec_pid(&other);
     common::wait_until("the other run's first update", || logged(&other));
-    assert!(kill(train, "TERM"));
+    assert!(kill(exec, "TERM"));
     let o = common::output_after_exit(runner, "the runner");
     let out = stdout(&o);
     assert_eq!(o.status.code(), Some(130), "{out}{}", stderr(&o));
@@ -409,8 +398,33 @@ fn paths_with_spaces_and_quotes_run_as_planned_and_a_newline_is_refused() {
     assert!(!out.exists());
 }
 
+/// A process killed (SIGKILL) when the test ends, however it ends: an exec left evaluating
+/// forever is not left running.
+struct KillOnDrop(u32);
+
+impl Drop for KillOnDrop {
+    fn drop(&mut self) {
+        kill(self.0, "KILL");
+    }
+}
+
+impl KillOnDrop {
+    /// The process has ended and been waited for: its pid is no longer its own to signal.
+    fn disarm(self) {
+        std::mem::forget(self);
+    }
+}
+
+/// How many steps named `cmd` the run's `study.log` says have started.
+fn started(run: &Path, cmd: &str) -> usize {
+    std::fs::read_to_string(run.join("study.log"))
+        .unwrap_or_default()
+        .matches(&format!("== groundscope {cmd}"))
+        .count()
+}
+
 #[test]
-fn an_exec_killed_during_its_evaluation_leaves_the_run_locked_until_the_evaluation_ends() {
+fn an_exec_evaluating_holds_the_run_and_a_stop_or_a_kill_leaves_it_to_evaluate_again() {
     let dir = tempfile::tempdir().unwrap();
     // An evaluation that runs until it is stopped (999,999 episodes).
     let text = spec("[1]", false).replace(
@@ -422,42 +436,52 @@ fn an_exec_killed_during_its_evaluation_leaves_the_run_locked_until_the_evaluati
     let study = dir.path().join("study");
     let s = study.to_str().unwrap();
     let run = study.join("runs/tiny-small-s1");
-    let mut exec = spawn_exec(s, "tiny-small-s1");
-    let eval = KillOnDrop(step_pid(&run, "eval"));
-    // SIGKILL to the exec alone: its evaluation runs on, orphaned.
-    exec.kill().unwrap();
-    exec.wait().unwrap();
-    assert!(runs(eval.0, "eval"));
-    // The line run again at once is refused while that evaluation runs (it used to start a
-    // second evaluation beside the first), naming the holder.
+    let exec = spawn_exec(s, "tiny-small-s1");
+    let guard = KillOnDrop(exec.id());
+    common::wait_until("the evaluation's start", || started(&run, "eval") == 1);
+    // The line run again at once is left alone while that evaluation runs, naming the holder
+    // (it used to start a second evaluation beside the first when the exec was killed): the
+    // evaluation runs inside the exec, under the run directory's lock.
     let o = common::gs_guarded(&["study", "exec", s, "tiny-small-s1"]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     let said = stdout(&o);
     assert!(
-        said.contains("running elsewhere (its lock is held by exec ")
-            && said.contains(&format!(", eval {}", eval.0))
-            && said.contains("left alone"),
+        said.contains(&format!(
+            "running elsewhere (its lock is held by pid {})",
+            exec.id()
+        )) && said.contains("left alone"),
         "{said}"
     );
-    assert!(runs(eval.0, "eval"), "the evaluation ended meanwhile");
-    let log = read(&run.join("study.log"));
-    assert_eq!(log.matches("== groundscope eval").count(), 1, "{log}");
-    // Once it has ended, the run's lock is free and the line evaluates the run again (its
-    // training has nothing left to do); a stop of that exec is passed on to the evaluation,
-    // which writes nothing: a stopped run, not a failed one.
-    drop(eval);
-    common::wait_until("the orphaned evaluation's end", || {
-        std::fs::File::open(run.join(".study-lock")).is_ok_and(|f| f.try_lock().is_ok())
-    });
-    let exec = spawn_exec(s, "tiny-small-s1");
-    let again = KillOnDrop(step_pid(&run, "eval"));
+    assert_eq!(started(&run, "eval"), 1);
+    // A stop of the exec stops its evaluation, which writes nothing: a stopped run, not a
+    // failed one.
     assert!(kill(exec.id(), "INT"));
     let o = common::output_after_exit(exec, "the stopped exec");
+    guard.disarm();
     assert_eq!(o.status.code(), Some(130), "{}{}", stdout(&o), stderr(&o));
-    assert!(!runs(again.0, "eval"), "the evaluation outlived its exec");
+    assert!(
+        stderr(&o).contains("eval was stopped by a signal before it ended"),
+        "{}",
+        stderr(&o)
+    );
     for file in ["study-done.json", "study-failed.json", "eval/report.json"] {
         assert!(!run.join(file).exists(), "{file}");
     }
+    // Run again, its training has nothing left to do and it evaluates again; killed (SIGKILL)
+    // meanwhile, it takes its evaluation with it, and the system frees the run's lock.
+    let mut exec = spawn_exec(s, "tiny-small-s1");
+    let guard = KillOnDrop(exec.id());
+    common::wait_until("the second evaluation's start", || {
+        started(&run, "eval") == 2
+    });
+    exec.kill().unwrap();
+    exec.wait().unwrap();
+    guard.disarm();
+    assert!(
+        std::fs::File::open(run.join(".train-lock")).is_ok_and(|f| f.try_lock().is_ok()),
+        "the run's lock outlived its exec"
+    );
     let log = read(&run.join("study.log"));
-    assert_eq!(log.matches("== groundscope eval").count(), 2, "{log}");
+    assert_eq!(log.matches("== groundscope train").count(), 2, "{log}");
+    assert!(log.contains("== groundscope train --resume"), "{log}");
 }

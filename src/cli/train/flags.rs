@@ -11,7 +11,7 @@ use clap::parser::ValueSource;
 use groundscope::env::{LevelConfig, TaskSet};
 use groundscope::policy::ModelConfig;
 use groundscope::policy::ppo::LevelMix;
-use groundscope::run::{Parent, RunError, RunInfo, RunSpec, Start, Tracking};
+use groundscope::run::{Parent, RunError, RunInfo, RunSpec, Start, Tracking, model_options};
 
 use super::args::{TrainArgs, level_mix, ppo_config};
 
@@ -203,58 +203,88 @@ pub(super) fn refusal(e: RunError, how: &str, init: Option<&str>) -> anyhow::Err
     }
 }
 
-/// `--init NAME`: the parent, refusing a checkpoint of the other model or a `--hidden` or
-/// model option (`--conv-kernel`, …) that differs from its own, except `--layout-path` and
-/// `--search-query`, which grow a parent without them ([`Parent::grow_layout_path`],
-/// [`Parent::grow_search_query`]), and `--filter-norm`, which has no weights
-/// ([`Parent::add_filter_norm`]). (Levels with words it lacks are refused by the run, before
-/// it touches its directory.)
+/// `--init NAME`: the parent for the network `model` the flags describe ([`warm_parent`]),
+/// the network flags given on the command line being the settings it must share.
 pub(super) fn parent(
     name: &str,
-    variant: groundscope::policy::Variant,
+    model: &ModelConfig,
     args: &TrainArgs,
     matches: Option<&ArgMatches>,
+) -> anyhow::Result<Parent> {
+    let fixed = network_given(args, model, matches);
+    warm_parent(name, model, args.seed, &|id: &str| {
+        fixed.iter().any(|f| f == id)
+    })
+}
+
+/// The network settings given on the command line (`hidden`, a model option's id): what a warm
+/// start must share with its parent.
+pub(super) fn network_given(
+    args: &TrainArgs,
+    model: &ModelConfig,
+    matches: Option<&ArgMatches>,
+) -> Vec<String> {
+    std::iter::once("hidden")
+        .chain(args.model_options.against(model).map(|(id, _, _)| id))
+        .filter(|id| given(matches, id))
+        .map(str::to_owned)
+        .collect()
+}
+
+/// A warm start's parent `name` for a run that asks for the network `want` (seeded by `seed`),
+/// refusing a checkpoint of the other model or a setting in `fixed` (`hidden`, a model
+/// option's id: what the run gives itself) that differs from the parent's, except
+/// `layout_path` and `search_query`, which grow a parent without them
+/// ([`Parent::grow_layout_path`], [`Parent::grow_search_query`]), and `filter_norm`, which
+/// has no weights ([`Parent::add_filter_norm`]). (Levels with words it lacks are refused by
+/// the run, before it touches its directory.) The refusals name `train`'s flags, as a study's
+/// recipe gives them too.
+pub(super) fn warm_parent(
+    name: &str,
+    want: &ModelConfig,
+    seed: u64,
+    fixed: &dyn Fn(&str) -> bool,
 ) -> anyhow::Result<Parent> {
     let mut parent = Parent::load(name).map_err(|e| match e {
         e @ (RunError::BotParent | RunError::Invalid { .. }) => refusal(e, "--init", Some(name)),
         e => anyhow::Error::from(e).context(format!("--init {name}")),
     })?;
-    if args.model_options.layout_path {
+    if want.layout_path {
         // The one option a warm start may add: its weights start at zero, so the run begins
         // with its parent's behaviour.
         parent
-            .grow_layout_path(args.seed)
+            .grow_layout_path(seed)
             .with_context(|| format!("--init {name} --layout-path"))?;
     }
-    if args.model_options.search_query {
+    if want.search_query {
         // Grown as the layout path is: zero columns, the parent's behaviour at the start.
         parent
-            .grow_search_query(args.seed.wrapping_add(1))
+            .grow_search_query(seed.wrapping_add(1))
             .with_context(|| format!("--init {name} --search-query"))?;
     }
-    if args.model_options.filter_norm {
+    if want.filter_norm {
         // It has no weights: the parent's, with its filter's output rescaled.
         parent
             .add_filter_norm()
             .with_context(|| format!("--init {name} --filter-norm"))?;
     }
     let model = &parent.checkpoint.meta.model;
-    if model.variant != variant {
+    if model.variant != want.variant {
         anyhow::bail!(
             "--init: {name} is a {} model, not {}",
             model.variant.name(),
-            variant.name()
+            want.variant.name()
         );
     }
-    if given(matches, "hidden") && args.hidden != model.lstm_hidden {
+    if fixed("hidden") && want.lstm_hidden != model.lstm_hidden {
         anyhow::bail!(
             "--init: {name} has hidden size {}, not --hidden {}",
             model.lstm_hidden,
-            args.hidden
+            want.lstm_hidden
         );
     }
-    for (id, now, theirs) in args.model_options.against(model) {
-        if given(matches, id) && now != theirs {
+    for ((id, now), (_, theirs)) in model_options(want).into_iter().zip(model_options(model)) {
+        if fixed(id) && now != theirs {
             let flag = id.replace('_', "-");
             anyhow::bail!("--init: {name} was trained with --{flag} {theirs}, not --{flag} {now}");
         }
@@ -263,6 +293,6 @@ pub(super) fn parent(
 }
 
 /// Whether flag `id` was given on the command line rather than left at its default.
-fn given(matches: Option<&ArgMatches>, id: &str) -> bool {
+pub(super) fn given(matches: Option<&ArgMatches>, id: &str) -> bool {
     matches.is_some_and(|m| m.value_source(id) == Some(ValueSource::CommandLine))
 }

@@ -6,23 +6,22 @@ mod args;
 mod flags;
 
 use std::path::Path;
-use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
 
 use clap::ArgMatches;
 use groundscope::metrics::tracking::TrackedEval;
 use groundscope::policy::ppo::{LevelMix, PpoConfig, UpdateLog};
 use groundscope::policy::{ModelConfig, Variant};
-use groundscope::run::{Run, RunSpec, Start};
+use groundscope::run::{Run, RunDir, RunRecipe, RunSpec, Start, WarmStart};
 
 use crate::ExitStatus;
 use crate::cli::policy_cmd::parse_variant;
+use crate::cli::stop::Stop;
 pub use args::TrainArgs;
 use args::{level_mix, ppo_config};
 
 /// Runs `train`.
 pub fn run(args: &TrainArgs, matches: Option<&ArgMatches>) -> anyhow::Result<ExitStatus> {
-    let (variant, model) = model_of(args)?;
+    let (_, model) = model_of(args)?;
     let mut run = if args.resume {
         let resumable = Run::resume(&args.out).map_err(|e| flags::refusal(e, "--resume", None))?;
         for n in resumable.notices() {
@@ -41,7 +40,7 @@ pub fn run(args: &TrainArgs, matches: Option<&ArgMatches>) -> anyhow::Result<Exi
         let (ppo, levels) = new_run(args, &model)?;
         let start = match &args.init {
             Some(name) => Start::Init {
-                parent: Box::new(flags::parent(name, variant, args, matches)?),
+                parent: Box::new(flags::parent(name, &model, args, matches)?),
                 levels,
                 ppo,
                 seed: args.seed,
@@ -68,21 +67,105 @@ pub fn run(args: &TrainArgs, matches: Option<&ArgMatches>) -> anyhow::Result<Exi
         run
     };
     run.on_notice(|n| eprintln!("groundscope: {n}"));
-    train(run, args.quiet)
+    Ok(steps(run, args.quiet, &Stop::install())?.0)
 }
 
-/// Refuses the flags that `train` itself refuses before it touches its run directory — the
-/// model, the intervals and, for a new run, the network's options, the PPO settings and the
-/// levels (an unknown id included) — with the same messages, reading no file: what `study
-/// plan` checks of each run's training, so that a value every run refuses is one line at plan
-/// time, not a failure once the study runs. (A `--init` parent and `--imitate`'s labels are
-/// read from files and checked when the training starts.)
-pub fn validate(args: &TrainArgs) -> anyhow::Result<()> {
-    let (_, model) = model_of(args)?;
-    if !args.resume {
-        new_run(args, &model)?;
+/// A study's training step as data, from the recipe's flags (`matches`: which were given):
+/// what they ask of a new run, refused as `train` refuses its flags before it touches its run
+/// directory — the model, the intervals, the network's options, the PPO settings and the
+/// levels (an unknown id included) — with the same messages, reading no file, so that a value
+/// every run refuses is one line at plan time, not a failure once the study runs. For a warm
+/// start: the parent and the network flags given, which the parent must share when the run
+/// starts (a parent and `--imitate`'s labels are read from files, when the training starts).
+/// A recipe never resumes by a flag: its run does so by itself ([`study_train`]).
+pub(in crate::cli) fn recipe(
+    args: &TrainArgs,
+    matches: Option<&ArgMatches>,
+) -> anyhow::Result<RunRecipe> {
+    if args.resume {
+        anyhow::bail!("--resume: a study's run resumes by itself; leave the flag out");
     }
-    Ok(())
+    let (_, model) = model_of(args)?;
+    let (ppo, levels) = new_run(args, &model)?;
+    let init = args.init.as_ref().map(|parent| WarmStart {
+        parent: parent.clone(),
+        fixed: flags::network_given(args, &model, matches),
+    });
+    Ok(RunRecipe {
+        model,
+        levels,
+        ppo,
+        seed: args.seed,
+        frames: args.frames,
+        tracking: flags::tracking(args, matches, None),
+        init,
+    })
+}
+
+/// A study's training step, in this process: the run of `recipe` in the directory `dir` the
+/// caller has locked ([`RunDir::claim`]) — started where it holds no run (a warm start's
+/// parent loaded and checked now), resumed where it holds one, refusing one that differs from
+/// the recipe ([`RunRecipe::resume_differences`]: the directory then holds another run) —
+/// and trained to its frames or until `stop`, with `train --quiet`'s lines. Returns how it
+/// ended and the directory, still locked, for the steps that follow.
+pub(in crate::cli) fn study_train(
+    recipe: &RunRecipe,
+    dir: RunDir,
+    stop: &Stop,
+) -> anyhow::Result<(ExitStatus, RunDir)> {
+    let mut run = if dir.holds_run() {
+        let resumable = Run::resume_in(dir).map_err(|e| flags::refusal(e, "--resume", None))?;
+        for n in resumable.notices() {
+            eprintln!("groundscope: {n}");
+        }
+        if let Some(d) = recipe.resume_differences(resumable.info()).first() {
+            anyhow::bail!(
+                "{} holds a run started with {} {}, and the study plans it with {}: not this study's run; move it away to run the study's",
+                resumable.dir().display(),
+                d.field,
+                d.stored,
+                d.given
+            );
+        }
+        resumable
+            .start(recipe.frames, recipe.tracking)
+            .map_err(|e| flags::refusal(e, "--resume", None))?
+    } else {
+        let start = match &recipe.init {
+            Some(w) => Start::Init {
+                parent: Box::new(flags::warm_parent(
+                    &w.parent,
+                    &recipe.model,
+                    recipe.seed,
+                    &|id: &str| w.fixed.iter().any(|f| f == id),
+                )?),
+                levels: recipe.levels.clone(),
+                ppo: recipe.ppo,
+                seed: recipe.seed,
+            },
+            None => Start::New {
+                model: recipe.model,
+                levels: recipe.levels.clone(),
+                ppo: recipe.ppo,
+                seed: recipe.seed,
+            },
+        };
+        let spec = RunSpec {
+            start,
+            frames: recipe.frames,
+            tracking: recipe.tracking,
+        };
+        let init = recipe.init.as_ref().map(|w| w.parent.as_str());
+        let run = Run::create_in(dir, spec).map_err(|e| flags::refusal(e, "--out", init))?;
+        for what in run.unlabelled() {
+            eprintln!(
+                "groundscope: warning: --imitate: the bot labels almost nothing of {what}: its episodes give imitation no labels"
+            );
+        }
+        run
+    };
+    run.on_notice(|n| eprintln!("groundscope: {n}"));
+    steps(run, true, stop)
 }
 
 /// The model the flags ask for, and the interval flags checked (every run, resumed or not).
@@ -113,17 +196,11 @@ fn new_run(args: &TrainArgs, model: &ModelConfig) -> anyhow::Result<(PpoConfig, 
     Ok((ppo, levels))
 }
 
-/// Steps `run` until it has trained its frames or a signal asks it to stop, showing progress
-/// (`quiet`: a line every ten updates and the tracked evaluations instead of a bar).
-fn train(mut run: Run, quiet: bool) -> anyhow::Result<ExitStatus> {
-    let stop = Arc::new(AtomicBool::new(false));
-    {
-        let stop = Arc::clone(&stop);
-        // Ctrl-C, SIGTERM and SIGHUP (ctrlc's `termination` feature) all stop after the
-        // current update and save. A second handler cannot be installed in tests that call
-        // run twice; ignore that case.
-        let _ = ctrlc::set_handler(move || stop.store(true, Ordering::SeqCst));
-    }
+/// Steps `run` until it has trained its frames or `stop` is asked for (Ctrl-C, SIGTERM and
+/// SIGHUP all stop after the current update and save), showing progress (`quiet`: a line
+/// every ten updates and the tracked evaluations instead of a bar). Returns the exit status
+/// and the run's directory, still locked.
+fn steps(mut run: Run, quiet: bool, stop: &Stop) -> anyhow::Result<(ExitStatus, RunDir)> {
     let bar = if quiet {
         indicatif::ProgressBar::hidden()
     } else {
@@ -143,7 +220,7 @@ fn train(mut run: Run, quiet: bool) -> anyhow::Result<ExitStatus> {
         t.ppo.frames_per_update(),
         t.state.frames
     );
-    while !run.done() && !stop.load(Ordering::SeqCst) {
+    while !run.done() && !stop.requested() {
         let p = run.update()?;
         let (log, fps) = (&p.log, p.fps);
         bar.set_position(log.frames);
@@ -173,9 +250,9 @@ fn train(mut run: Run, quiet: bool) -> anyhow::Result<ExitStatus> {
         updates: run.trainer().state.updates,
         target: run.target_frames(),
     };
-    let last = run.finish()?;
+    let (last, locked) = run.finish_keeping_dir()?;
     bar.finish_and_clear();
-    Ok(say_end(&dir, last.as_ref(), counts))
+    Ok((say_end(&dir, last.as_ref(), counts), locked))
 }
 
 /// Where a run's training ended: its frames and updates, and the frames it trains to.
