@@ -137,6 +137,7 @@ fn eval_spec(a: &EvalArgs) -> EvalSpec {
         min_acc_ng,
         quiet: _,
         export_failures,
+        html,
         jobs,
     } = a;
     EvalSpec {
@@ -147,6 +148,7 @@ fn eval_spec(a: &EvalArgs) -> EvalSpec {
         min_success: *min_success,
         min_acc_ng: *min_acc_ng,
         export_failures: *export_failures,
+        html: *html,
         jobs: *jobs,
     }
 }
@@ -161,6 +163,7 @@ pub(super) fn eval_args(spec: &EvalSpec, run: &Path) -> EvalArgs {
         min_success,
         min_acc_ng,
         export_failures,
+        html,
         jobs,
     } = spec;
     EvalArgs {
@@ -174,6 +177,7 @@ pub(super) fn eval_args(spec: &EvalSpec, run: &Path) -> EvalArgs {
         min_acc_ng: *min_acc_ng,
         quiet: true,
         export_failures: *export_failures,
+        html: *html,
         jobs: *jobs,
     }
 }

@@ -82,6 +82,9 @@ pub struct EvalSpec {
     pub min_acc_ng: Option<f64>,
     /// Listed failures recorded as Rerun recordings too.
     pub export_failures: bool,
+    /// report.html beside report.md, with a page per listed episode (absent: no).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub html: bool,
     /// Worker threads (absent: one per core).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub jobs: Option<usize>,

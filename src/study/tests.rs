@@ -38,6 +38,7 @@ fn eval() -> EvalSpec {
         top_k: 10,
         min_success: None,
         min_acc_ng: None,
+        html: false,
         export_failures: false,
         jobs: None,
     }
