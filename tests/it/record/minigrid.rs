@@ -261,7 +261,11 @@ fn the_cells_goal_lava_and_key_name_are_circled_under_their_maps() {
             }
             let ep = attention_episode(id, seed);
             // ObstructedMaze-Full's balls are behind its doors' blockers, seen later.
-            let steps = if id.contains("ObstructedMaze") { 400 } else { 30 };
+            let steps = if id.contains("ObstructedMaze") {
+                400
+            } else {
+                30
+            };
             for step in ep.steps.iter().take(steps) {
                 let scene = StepScene::new(step, 0.5);
                 let att = step.attention.as_ref().unwrap();
