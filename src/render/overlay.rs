@@ -157,7 +157,9 @@ pub fn ring_referents(img: &mut RgbImage, marks: &[(Pos, Rgb)], tile_size: u32) 
     let (radius, half, edge) = (0.42 * t, (0.07 * t).max(0.75), (0.06 * t).max(0.5));
     let off_ring = |dx: u32, dy: u32| {
         let (x, y) = (dx as f32 + 0.5 - t / 2.0, dy as f32 + 0.5 - t / 2.0);
-        (x.hypot(y) - radius).abs()
+        // Not `hypot`: glibc's `hypotf` is versioned 2.35, past the Python wheel's
+        // manylinux_2_34.
+        ((x * x + y * y).sqrt() - radius).abs()
     };
     for &(pos, color) in marks {
         paint_cell(img, pos, tile_size, palette::BACKGROUND, 1.0, |dx, dy| {
