@@ -92,6 +92,10 @@ pub enum BenchCommand {
     /// against the paper's 20-cell sweep, alternated, one thread: time per episode step of
     /// each and their ratio, as one JSON line.
     Levels(super::bench_levels::BenchLevelsArgs),
+    /// The default evaluation sweep as `groundscope eval --out DIR` runs it, every measure
+    /// included, in a process of its own: its wall time, its episodes' and the rest's (the
+    /// worst episodes' re-runs, tables, figures, report), as one JSON line.
+    Sweep(super::bench_sweep::BenchSweepArgs),
     /// minigrid's BabyAI bot alone, one thread: demonstrations/s and steps/s per level
     /// (default: six levels from one room to BossLevel), in each level's registered mode, as
     /// one JSON line per level.
@@ -140,6 +144,7 @@ pub fn run(cmd: &BenchCommand) -> anyhow::Result<ExitStatus> {
         #[cfg(feature = "onnx")]
         BenchCommand::Onnx(args) => super::bench_onnx::run(args),
         BenchCommand::Levels(args) => super::bench_levels::run(args),
+        BenchCommand::Sweep(args) => super::bench_sweep::run(args),
         BenchCommand::Bot(args) => super::bench_bot::run(args),
         BenchCommand::View(args) => super::bench_view::run(args),
         BenchCommand::Record(args) => super::bench_record::run(args),

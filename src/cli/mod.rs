@@ -3,6 +3,7 @@
 mod bench;
 mod bench_bot;
 mod bench_levels;
+mod bench_sweep;
 #[cfg(feature = "onnx")]
 mod bench_onnx;
 mod bench_record;

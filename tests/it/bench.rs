@@ -84,3 +84,30 @@ fn bench_record_long_gives_each_formats_peak_memory() {
     let bad = gs(&["bench", "record", "--level", "BabyAI-GoToLocl-v0"]);
     common::assert_bad_input(&bad, "BabyAI-GoToLocl-v0");
 }
+
+/// `bench sweep` runs `eval` as a user does and splits its wall time into the episodes and
+/// the rest; a shrunk sweep keeps the test short.
+#[test]
+fn bench_sweep_times_the_default_evaluation_and_its_parts() {
+    let o = gs(&["bench", "sweep", "--seeds", "1", "--episodes", "3"]);
+    assert_eq!(
+        o.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let j: serde_json::Value = serde_json::from_str(String::from_utf8(o.stdout).unwrap().trim())
+        .expect("one JSON line");
+    assert_eq!(j["bench"], "sweep");
+    // The default sweep: both bundled models on 20 cells.
+    assert_eq!(j["cells"].as_u64(), Some(40));
+    assert_eq!(j["episodes"].as_u64(), Some(120));
+    let (total, episodes, rest) = (
+        j["total_secs"].as_f64().unwrap(),
+        j["episodes_secs"].as_f64().unwrap(),
+        j["rest_secs"].as_f64().unwrap(),
+    );
+    assert!(episodes > 0.0 && episodes <= total, "{j}");
+    assert!((episodes + rest - total).abs() < 1e-6, "{j}");
+    common::assert_bad_input(&gs(&["bench", "sweep", "--episodes", "0"]), "--episodes 0");
+}
