@@ -63,8 +63,8 @@ pub(super) fn run(args: &BenchSweepArgs) -> anyhow::Result<ExitStatus> {
         );
     }
     let path = out.join("report.json");
-    let text = std::fs::read_to_string(&path)
-        .with_context(|| format!("reading {}", path.display()))?;
+    let text =
+        std::fs::read_to_string(&path).with_context(|| format!("reading {}", path.display()))?;
     let report: serde_json::Value =
         serde_json::from_str(&text).with_context(|| format!("reading {}", path.display()))?;
     let field = |name: &str| {

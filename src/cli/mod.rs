@@ -3,10 +3,10 @@
 mod bench;
 mod bench_bot;
 mod bench_levels;
-mod bench_sweep;
 #[cfg(feature = "onnx")]
 mod bench_onnx;
 mod bench_record;
+mod bench_sweep;
 mod bench_view;
 mod curve;
 mod default_model;

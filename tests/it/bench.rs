@@ -96,8 +96,8 @@ fn bench_sweep_times_the_default_evaluation_and_its_parts() {
         "{}",
         String::from_utf8_lossy(&o.stderr)
     );
-    let j: serde_json::Value = serde_json::from_str(String::from_utf8(o.stdout).unwrap().trim())
-        .expect("one JSON line");
+    let j: serde_json::Value =
+        serde_json::from_str(String::from_utf8(o.stdout).unwrap().trim()).expect("one JSON line");
     assert_eq!(j["bench"], "sweep");
     // The default sweep: both bundled models on 20 cells.
     assert_eq!(j["cells"].as_u64(), Some(40));
