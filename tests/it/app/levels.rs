@@ -12,22 +12,12 @@ use groundscope::app::{EpisodeRequest, Launch};
 use groundscope::env::level::{LevelConfig, LevelId};
 use groundscope::env::tree::{InstructionTree, Stage, doors_text, targets_text};
 use groundscope::env::{DoorState, Instr};
-use groundscope::policy::{Checkpoint, ModelConfig, Params, TrainingState, Variant};
 use groundscope::record::scene::TILE_PX;
 
 /// An untrained attention model of all of BabyAI's words, saved as `DIR/fresh`: what
 /// `train --level` starts from, enough to open any level's missions.
 fn fresh_checkpoint(dir: &Path, level: LevelConfig) -> String {
-    let cfg = ModelConfig {
-        vocab_size: ModelConfig::vocab_size_for(&level),
-        ..ModelConfig::new(Variant::Attention)
-    };
-    let params = Params::init(&cfg, 0).unwrap();
-    let name = dir.join("fresh");
-    Checkpoint::new(cfg, level, TrainingState::default(), params)
-        .save(&name)
-        .unwrap();
-    name.to_str().unwrap().to_owned()
+    crate::common::save_fresh_attention(dir, level)
 }
 
 /// The debugger on `checkpoint` at `seed`, on `level` or (`None`) the checkpoint's own.

@@ -11,22 +11,12 @@ use groundscope::app::session::Overlay;
 use groundscope::app::{EpisodeRequest, Launch};
 use groundscope::env::ObjectKind;
 use groundscope::env::level::LevelConfig;
-use groundscope::policy::{Checkpoint, ModelConfig, Params, TrainingState, Variant};
 use groundscope::record::scene::{TILE_PX, referent_marks};
 use groundscope::render::{RgbImage, px_in_image, visible_cells};
 
 /// An untrained attention model of every word, saved as `DIR/fresh`.
 fn fresh_checkpoint(dir: &Path, level: LevelConfig) -> String {
-    let cfg = ModelConfig {
-        vocab_size: ModelConfig::vocab_size_for(&level),
-        ..ModelConfig::new(Variant::Attention)
-    };
-    let params = Params::init(&cfg, 0).unwrap();
-    let name = dir.join("fresh");
-    Checkpoint::new(cfg, level, TrainingState::default(), params)
-        .save(&name)
-        .unwrap();
-    name.to_str().unwrap().to_owned()
+    crate::common::save_fresh_attention(dir, level)
 }
 
 /// On LavaCrossingS11N5, with the map of "lava" laid over the world, every lava cell in view

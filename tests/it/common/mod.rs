@@ -288,3 +288,27 @@ pub fn small_run<'a>(dir: &'a str, frames: &'a str, extra: &[&'a str]) -> Vec<&'
     args.extend_from_slice(extra);
     args
 }
+
+/// An untrained attention model of every word `level` can say, as `train --level` starts
+/// from: enough to open any of its missions.
+pub fn fresh_attention(level: groundscope::env::LevelConfig) -> groundscope::policy::Checkpoint {
+    use groundscope::policy::{Checkpoint, ModelConfig, Params, TrainingState, Variant};
+    let cfg = ModelConfig {
+        vocab_size: ModelConfig::vocab_size_for(&level),
+        ..ModelConfig::new(Variant::Attention)
+    };
+    Checkpoint::new(
+        cfg,
+        level,
+        TrainingState::default(),
+        Params::init(&cfg, 0).unwrap(),
+    )
+}
+
+/// [`fresh_attention`] saved as `DIR/fresh`; its name, as the debugger is given it.
+#[cfg(feature = "app")]
+pub fn save_fresh_attention(dir: &Path, level: groundscope::env::LevelConfig) -> String {
+    let name = dir.join("fresh");
+    fresh_attention(level).save(&name).unwrap();
+    name.to_str().unwrap().to_owned()
+}

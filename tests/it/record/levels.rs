@@ -7,7 +7,6 @@ use groundscope::env::level::{LevelConfig, LevelId};
 use groundscope::env::tree::InstructionTree;
 use groundscope::env::{DoorState, Instr};
 use groundscope::episode::{ActionMode, EpisodeSpec, EpisodeTrace, run_episode};
-use groundscope::policy::{Checkpoint, ModelConfig, Params, TrainingState, Variant};
 use groundscope::record::scene::{ClauseMark, clause_marks};
 use groundscope::record::{RerunTargets, SCENE_BLOCK, record_rerun, write_mcap};
 
@@ -15,16 +14,7 @@ use groundscope::record::{RerunTargets, SCENE_BLOCK, record_rerun, write_mcap};
 /// seed whose world `pick` accepts.
 fn episode(id: &str, pick: impl Fn(&groundscope::env::World) -> bool) -> EpisodeTrace {
     let level = LevelConfig::babyai(LevelId::parse(id).unwrap(), false);
-    let cfg = ModelConfig {
-        vocab_size: ModelConfig::vocab_size_for(&level),
-        ..ModelConfig::new(Variant::Attention)
-    };
-    let ckpt = Checkpoint::new(
-        cfg,
-        level,
-        TrainingState::default(),
-        Params::init(&cfg, 0).unwrap(),
-    );
+    let ckpt = crate::common::fresh_attention(level);
     let seed = (0..100)
         .find(|&s| pick(&level.generate(s).unwrap()))
         .expect("a seed in 100");

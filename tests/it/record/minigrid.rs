@@ -11,10 +11,7 @@ use groundscope::episode::{
 };
 use groundscope::metrics::grounding::WordKind;
 use groundscope::policy::acting::{flat_memory_rows, softmax};
-use groundscope::policy::{
-    ActOutput, Acting, Checkpoint, Memory, MissionInputs, ModelConfig, Params, PolicyError, Step,
-    TrainingState, Variant,
-};
+use groundscope::policy::{ActOutput, Acting, Memory, MissionInputs, PolicyError, Step, Variant};
 use groundscope::record::scene::{StepScene, TILE_PX, referent_marks, world_picture};
 use groundscope::record::{RerunTargets, record_rerun, write_mcap};
 use groundscope::render::{palette, px_in_image, visible_cells};
@@ -215,16 +212,7 @@ fn an_agent_of_three_actions_is_recorded_with_three_bars() {
 /// An untrained attention model of every word, greedy on `id` at `seed`.
 fn attention_episode(id: &str, seed: u64) -> EpisodeTrace {
     let level = babyai(id);
-    let cfg = ModelConfig {
-        vocab_size: ModelConfig::vocab_size_for(&level),
-        ..ModelConfig::new(Variant::Attention)
-    };
-    let ckpt = Checkpoint::new(
-        cfg,
-        level,
-        TrainingState::default(),
-        Params::init(&cfg, 0).unwrap(),
-    );
+    let ckpt = crate::common::fresh_attention(level);
     run_episode(&ckpt, "fresh", &spec(level, seed)).unwrap()
 }
 
