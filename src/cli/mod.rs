@@ -93,8 +93,9 @@ pub enum Command {
         #[arg(long, value_enum, default_value = "acc-ng")]
         accuracy: curve::Accuracy,
     },
-    /// Studies: seeds × recipes × levels planned into command lines, run here N at a time,
-    /// on Slurm or on Ray, and collected into one report (docs/studies.md).
+    /// Studies: seeds × recipes × levels planned into typed runs (one `study exec` line
+    /// each), run here N at a time, on Slurm or on Ray, and collected into one report
+    /// (docs/studies.md).
     #[command(subcommand)]
     Study(study::StudyCommand),
     /// Speed benchmarks that print JSON lines.

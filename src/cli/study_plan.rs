@@ -258,19 +258,7 @@ fn check_owned(spec: &StudySpec, file: &Path) -> anyhow::Result<()> {
 mod tests {
     use super::*;
 
-    const SPEC: &str = r#"
-seeds = [1, 2]
-frames = 1000
-eval = ["--episodes", "10"]
-
-[recipes]
-ppo = ["--model", "attention"]
-ent = ["--model", "attention", "--entropy-coef", "0.001", "--threads", "2"]
-
-[levels]
-paper = "paper"
-mix = { train = ["--levels", "BabyAI-GoToLocal-v0,BabyAI-PickupLoc-v0:2"] }
-"#;
+    use crate::study::TEST_SPEC as SPEC;
 
     fn planned(text: &str) -> anyhow::Result<Manifest> {
         let path = Path::new("study.toml");

@@ -6,8 +6,6 @@
 use std::path::Path;
 
 use crate::common::{assert_bad_input, gs, stderr};
-use groundscope::env::view::Observation;
-use groundscope::policy::onnx::OnnxAgent;
 use serde_json::Value;
 
 use crate::common::onnx_fixture as fixture;
@@ -86,25 +84,6 @@ fn faithfulness_of_the_onnx_export_equals_the_native_models() {
     assert!(d < 1e-4, "largest difference {d}");
 }
 
-/// The memory after feeding `obs` to `agent` from zeros, one step at a time (batch 1).
-fn memory_after(agent: &OnnxAgent, steps: &[(Observation, u8)], tokens: &[u32]) -> Vec<f32> {
-    let mut memory = vec![0.0; agent.meta.memory_size];
-    for (obs, dir) in steps {
-        memory = agent
-            .step(&[*obs], &[*dir], &[tokens], &memory, None)
-            .unwrap()
-            .memory;
-    }
-    memory
-}
-
-fn softmax(l: &[f32]) -> Vec<f64> {
-    let max = l.iter().fold(f32::NEG_INFINITY, |a, &b| a.max(b));
-    let e: Vec<f64> = l.iter().map(|&x| f64::from(x - max).exp()).collect();
-    let z: f64 = e.iter().sum();
-    e.into_iter().map(|x| x / z).collect()
-}
-
 #[test]
 fn a_graph_without_maps_gets_occlusion_maps_equal_to_a_direct_recomputation() {
     let dir = tempfile::tempdir().unwrap();
@@ -131,61 +110,7 @@ fn a_graph_without_maps_gets_occlusion_maps_equal_to_a_direct_recomputation() {
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     assert!(std::fs::metadata(&rrd).unwrap().len() > 1000);
     assert!(std::fs::metadata(&mcap).unwrap().len() > 1000);
-    let t = read(&trace);
-    let tokens: Vec<u32> = t["token_ids"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|v| u32::try_from(v.as_u64().unwrap()).unwrap())
-        .collect();
-    let steps: Vec<(Observation, u8)> = t["steps"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|s| {
-            let image: [[[u8; 3]; 7]; 7] = serde_json::from_value(s["obs"].clone()).unwrap();
-            let dir = u8::try_from(s["agent_dir"].as_u64().unwrap()).unwrap();
-            (Observation { image }, dir)
-        })
-        .collect();
-    let agent = OnnxAgent::load(&acmodel).unwrap();
-    let mut nonzero = 0;
-    for (k, s) in t["steps"].as_array().unwrap().iter().enumerate() {
-        assert!(s["attention"].is_null(), "a graph without maps");
-        let recorded: [[f64; 7]; 7] =
-            serde_json::from_value(s["faithfulness"]["occlusion"].clone()).unwrap();
-        let memory = memory_after(&agent, &steps[..k], &tokens);
-        let (obs, dir) = steps[k];
-        let base = agent
-            .step(&[obs], &[dir], &[&tokens], &memory, None)
-            .unwrap();
-        let p = softmax(&base.logits[0]);
-        // Written out here: every visible cell that is not floor, not unseen and not the
-        // agent's own, replaced by empty floor, one forward each.
-        for (vy, row) in recorded.iter().enumerate() {
-            for (vx, &got) in row.iter().enumerate() {
-                let code = obs.image[vx][vy];
-                let want = if (vx, vy) == (3, 6) || code[0] == 0 || code[0] == 1 {
-                    0.0
-                } else {
-                    let mut o = obs;
-                    o.image[vx][vy] = [1, 0, 0];
-                    let q = softmax(
-                        &agent
-                            .step(&[o], &[dir], &[&tokens], &memory, None)
-                            .unwrap()
-                            .logits[0],
-                    );
-                    0.5 * p.iter().zip(&q).map(|(a, b)| (a - b).abs()).sum::<f64>()
-                };
-                assert!(
-                    (got - want).abs() < 1e-5,
-                    "step {k} cell ({vx}, {vy}): trace {got}, recomputed {want}"
-                );
-                nonzero += usize::from(want > 1e-4);
-            }
-        }
-    }
+    let nonzero = super::occlusion::check_trace(&acmodel, &read(&trace), usize::MAX, "acmodel");
     assert!(nonzero > 0, "some cell matters to the policy");
 }
 

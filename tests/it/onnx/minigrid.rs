@@ -12,7 +12,6 @@ use std::path::Path;
 
 use crate::common::onnx_fixture as fixture;
 use crate::common::{assert_bad_input, csv_rows, gs, stderr, stdout};
-use groundscope::env::view::Observation;
 use groundscope::policy::onnx::OnnxAgent;
 use serde_json::Value;
 
@@ -290,25 +289,6 @@ fn a_graph_that_reads_no_mission_is_not_refused_for_its_words() {
     );
 }
 
-/// The memory after feeding `steps` to `agent` from zeros, one step at a time (batch 1).
-fn memory_after(agent: &OnnxAgent, steps: &[(Observation, u8)], tokens: &[u32]) -> Vec<f32> {
-    let mut memory = vec![0.0; agent.meta.memory_size];
-    for (obs, dir) in steps {
-        memory = agent
-            .step(&[*obs], &[*dir], &[tokens], &memory, None)
-            .unwrap()
-            .memory;
-    }
-    memory
-}
-
-fn softmax(l: &[f32]) -> Vec<f64> {
-    let max = l.iter().fold(f32::NEG_INFINITY, |a, &b| a.max(b));
-    let e: Vec<f64> = l.iter().map(|&x| f64::from(x - max).exp()).collect();
-    let z: f64 = e.iter().sum();
-    e.into_iter().map(|x| x / z).collect()
-}
-
 /// A map-less agent on a MiniGrid id gets occlusion saliency as on BabyAI: in `replay
 /// --faithfulness` traces, equal to a recomputation written out here (every visible cell
 /// that is not floor, not unseen and not the agent's own replaced by empty floor, one
@@ -331,60 +311,8 @@ fn a_map_less_minigrid_agent_gets_occlusion_saliency_as_on_babyai() {
             trace.to_str().unwrap(),
         ]);
         assert_eq!(o.status.code(), Some(0), "{file}: {}", stderr(&o));
-        let t = read(&trace);
-        let tokens: Vec<u32> = t["token_ids"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .map(|v| u32::try_from(v.as_u64().unwrap()).unwrap())
-            .collect();
-        let steps: Vec<(Observation, u8)> = t["steps"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .map(|s| {
-                let image: [[[u8; 3]; 7]; 7] = serde_json::from_value(s["obs"].clone()).unwrap();
-                let dir = u8::try_from(s["agent_dir"].as_u64().unwrap()).unwrap();
-                (Observation { image }, dir)
-            })
-            .collect();
-        let agent = OnnxAgent::load(&graph).unwrap();
-        let mut nonzero = 0;
         // The first steps (an episode of DoorKey may run to its 250-step limit).
-        for (k, s) in t["steps"].as_array().unwrap().iter().enumerate().take(12) {
-            assert!(s["attention"].is_null(), "{file}: a graph without maps");
-            let recorded: [[f64; 7]; 7] =
-                serde_json::from_value(s["faithfulness"]["occlusion"].clone()).unwrap();
-            let memory = memory_after(&agent, &steps[..k], &tokens);
-            let (obs, dir) = steps[k];
-            let base = agent
-                .step(&[obs], &[dir], &[&tokens], &memory, None)
-                .unwrap();
-            let p = softmax(&base.logits[0]);
-            for (vy, row) in recorded.iter().enumerate() {
-                for (vx, &got) in row.iter().enumerate() {
-                    let code = obs.image[vx][vy];
-                    let want = if (vx, vy) == (3, 6) || code[0] == 0 || code[0] == 1 {
-                        0.0
-                    } else {
-                        let mut o = obs;
-                        o.image[vx][vy] = [1, 0, 0];
-                        let q = softmax(
-                            &agent
-                                .step(&[o], &[dir], &[&tokens], &memory, None)
-                                .unwrap()
-                                .logits[0],
-                        );
-                        0.5 * p.iter().zip(&q).map(|(a, b)| (a - b).abs()).sum::<f64>()
-                    };
-                    assert!(
-                        (got - want).abs() < 1e-5,
-                        "{file} step {k} cell ({vx}, {vy}): trace {got}, recomputed {want}"
-                    );
-                    nonzero += usize::from(want > 1e-4);
-                }
-            }
-        }
+        let nonzero = super::occlusion::check_trace(&graph, &read(&trace), 12, file);
         assert!(nonzero > 0, "{file}: some cell matters to the policy");
         // eval --saliency on its level: the occlusion map stands in for M.
         let eval = dir.path().join("eval");
