@@ -258,7 +258,7 @@ fn check_owned(spec: &StudySpec, file: &Path) -> anyhow::Result<()> {
 mod tests {
     use super::*;
 
-    use crate::study::TEST_SPEC as SPEC;
+    const SPEC: &str = include_str!("../study/test_spec.toml");
 
     fn planned(text: &str) -> anyhow::Result<Manifest> {
         let path = Path::new("study.toml");

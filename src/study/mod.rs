@@ -25,8 +25,6 @@ mod steps;
 
 pub use error::StudyError;
 pub use scripts::{carried, study_path};
-#[cfg(test)]
-pub(crate) use spec::TEST_SPEC;
 pub use spec::{Cell, LevelSet, PAPER, StudySpec};
 pub use steps::{
     Done, EvalSpec, ExecOutcome, Failed, FaithParts, FaithfulnessSpec, RunSteps, Step, Sweep,

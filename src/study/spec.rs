@@ -174,27 +174,11 @@ fn toml_error(e: &toml::de::Error, text: &str) -> String {
     }
 }
 
-/// A two-seed, two-recipe, two-level-set spec the tests of `study` and `cli` plan.
-#[cfg(test)]
-pub(crate) const TEST_SPEC: &str = r#"
-seeds = [1, 2]
-frames = 1000
-eval = ["--episodes", "10"]
-
-[recipes]
-ppo = ["--model", "attention"]
-ent = ["--model", "attention", "--entropy-coef", "0.001", "--threads", "2"]
-
-[levels]
-paper = "paper"
-mix = { train = ["--levels", "BabyAI-GoToLocal-v0,BabyAI-PickupLoc-v0:2"] }
-"#;
-
 #[cfg(test)]
 mod tests {
     use super::*;
 
-    const SPEC: &str = TEST_SPEC;
+    const SPEC: &str = include_str!("test_spec.toml");
 
     #[test]
     fn a_spec_names_one_run_per_seed_recipe_and_level_set() {
