@@ -14,6 +14,11 @@
 //! raises (or replans more than [`MAX_REPLANS`] times in one step, the bound the shared
 //! fixture script uses), this one gives up for the rest of the episode and says why.
 //! Deterministic: no randomness anywhere.
+//!
+//! Beyond BabyAI it plans the MiniGrid environments rewarded for picking up one object
+//! (KeyCorridor, UnlockPickup, BlockedUnlockPickup, ObstructedMaze: [`plans`]), given BabyAI's
+//! `pick up the <color> <kind>` of that object; on ObstructedMaze's presets whose keys are in
+//! boxes it gives up when it needs a key (it never opens a box, as minigrid's bot never does).
 
 mod dump;
 mod search;
@@ -22,6 +27,7 @@ mod subgoal;
 use serde::{Deserialize, Serialize};
 
 use crate::env::instr::Targets;
+use crate::env::minigrid::Rules;
 use crate::env::{Action, DIR_TO_VEC, ObjDesc, ObjectId, ObjectKind, Observation, Pos, World};
 
 pub use dump::verify_bot;
@@ -97,16 +103,31 @@ impl Pose {
 
 impl Bot {
     /// A bot for the episode that starts in `world` (a freshly reset level): its stack is
-    /// the instruction's subgoals (`_process_instr`).
+    /// the instruction's subgoals (`_process_instr`). On a MiniGrid environment rewarded for
+    /// picking up one object ([`Rules::Pickup`]) they are those of BabyAI's
+    /// `pick up the <color> <kind>` of that object, its description matching that object
+    /// alone.
     pub fn new(world: &World) -> Self {
         let mut stack = Vec::new();
-        let mut clause = 0;
-        process_instr(&world.instr, &mut clause, &mut stack);
+        let mut gave_up = None;
+        if let Some(Rules::Pickup { target }) = &world.rules {
+            match pickup_target(world, *target) {
+                Some(datum) => push_pickup(datum, &mut stack),
+                None => {
+                    gave_up = Some(GiveUp::Broken(
+                        "the object to pick up is not on the grid".to_owned(),
+                    ));
+                }
+            }
+        } else {
+            let mut clause = 0;
+            process_instr(&world.instr, &mut clause, &mut stack);
+        }
         Self {
             planner: Planner::new(world.grid.width() as i32, world.grid.height() as i32),
             stack,
             memory: Memory::default(),
-            gave_up: None,
+            gave_up,
             replans: 0,
         }
     }
@@ -264,9 +285,17 @@ impl Bot {
     }
 }
 
-/// The expert's plan on MiniGrid's own environments, where BabyAI's bot has no instruction to
-/// plan.
+/// The expert's plan on MiniGrid's own environments it does not plan (every one but those
+/// [`plans`] takes), where BabyAI's bot has no instruction to plan.
 pub const NO_EXPERT: &str = "none: BabyAI's bot plans BabyAI instructions only";
+
+/// Whether the bot plans `world`: every BabyAI level, and the MiniGrid environments rewarded
+/// for picking up one object ([`Rules::Pickup`]: KeyCorridor, UnlockPickup,
+/// BlockedUnlockPickup, ObstructedMaze), whose mission is a BabyAI pickup instruction. The
+/// other MiniGrid rules (a goal to reach, Fetch's any pickup, PutNear's drop, …) have none.
+pub fn plans(world: &World) -> bool {
+    matches!(world.rules, None | Some(Rules::Pickup { .. }))
+}
 
 /// The bot beside an episode: told every action taken (its own suggestions or anyone
 /// else's, as minigrid's bot is in `gen_minigrid_fixtures.py`), it gives at each step the
@@ -287,18 +316,20 @@ impl Expert {
     }
 
     /// The action it would take in `world`, the state before the next action, whose
-    /// observation is `obs`; `None` once it has given up.
+    /// observation is `obs`; `None` once it has given up, and always on a MiniGrid
+    /// environment it does not plan ([`plans`]).
     pub fn advise(&mut self, world: &World, obs: &Observation) -> Option<Action> {
-        if world.rules.is_some() {
-            // MiniGrid's own environments: no BabyAI instruction to plan, no expert.
+        if !plans(world) {
+            // No BabyAI instruction to plan: no expert.
             return None;
         }
         self.bot.replan_seeing(world, obs, self.taken.take())
     }
 
-    /// Its plan after the last [`Self::advise`], top first, or why it gave up.
+    /// Its plan after the last [`Self::advise`], top first, or why it gave up ([`NO_EXPERT`]
+    /// where it does not plan).
     pub fn plan(&self, world: &World) -> String {
-        if world.rules.is_some() {
+        if !plans(world) {
             return NO_EXPERT.to_owned();
         }
         self.bot.plan_text(world)
@@ -333,7 +364,8 @@ impl LabelShare {
 }
 
 /// [`LabelShare`] of `level` on `seeds`: the bot acts until the episode ends or it gives up
-/// (KeyInBox's key hidden in a box: it explores a few steps, then has no plan).
+/// (KeyInBox's key hidden in a box, as ObstructedMaze's "h" presets hide theirs: it explores
+/// a few steps, then has no plan); nothing is labelled where it does not plan ([`plans`]).
 pub fn label_share(
     level: &crate::env::LevelConfig,
     seeds: impl IntoIterator<Item = u64>,
@@ -424,11 +456,7 @@ fn process_instr(instr: &crate::env::Instr, clause: &mut usize, stack: &mut Vec<
                     stack.push(Subgoal::new(SubgoalKind::Open, None, None));
                     stack.push(Subgoal::go_next_to(desc, Some(Reason::Open)));
                 }
-                TaskKind::Pickup => {
-                    stack.push(Subgoal::new(SubgoalKind::Drop, None, None));
-                    stack.push(Subgoal::new(SubgoalKind::Pickup, None, None));
-                    stack.push(Subgoal::go_next_to(desc, None));
-                }
+                TaskKind::Pickup => push_pickup(desc, stack),
                 TaskKind::PutNext => {
                     let fixed = Datum::Clause {
                         clause: me,
@@ -461,6 +489,36 @@ fn process_instr(instr: &crate::env::Instr, clause: &mut usize, stack: &mut Vec<
             *clause = b_first;
         }
     }
+}
+
+/// A Pickup clause's subgoals (`PickupInstr` in `_process_instr`): go next to the object,
+/// pick it up, drop it (the drop minigrid's bot plans after every pickup).
+fn push_pickup(desc: Datum, stack: &mut Vec<Subgoal>) {
+    stack.push(Subgoal::new(SubgoalKind::Drop, None, None));
+    stack.push(Subgoal::new(SubgoalKind::Pickup, None, None));
+    stack.push(Subgoal::go_next_to(desc, None));
+}
+
+/// The description of `pick up the <color> <kind>` for MiniGrid's pickup target `target`,
+/// matching that object alone: MiniGrid rewards picking up that very object (by identity),
+/// so another of its kind and colour — KeyCorridor's door key when the class is asked for a
+/// key of the door's colour — must not be taken for it. `None` where it is not on the grid.
+/// The target leaves its cell only when it is picked up (by the bot, even as a blocker, or by
+/// anyone), which ends the episode with success, so its one position never goes stale.
+fn pickup_target(world: &World, target: ObjectId) -> Option<Datum> {
+    let pos = world.grid.find_id(target)?;
+    let obj = world.grid.get(pos)?;
+    let desc = ObjDesc {
+        kind: Some(obj.kind),
+        color: Some(obj.color),
+        loc: None,
+    };
+    let targets = Targets {
+        obj_set: vec![target],
+        obj_poss: vec![pos],
+        pose: None,
+    };
+    Some(Datum::Own { desc, targets })
 }
 
 fn count_clauses(instr: &crate::env::Instr, n: &mut usize) {

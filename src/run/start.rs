@@ -128,8 +128,9 @@ const LABEL_SHARE_MIN: f64 = 0.01;
 
 /// Imitation learns only from the steps the bot advises. The bot is run alone on each level's
 /// first training episodes: a run where every level is labelled under [`LABEL_SHARE_MIN`] of
-/// its steps (the bot gives up at once or nearly, as on KeyInBox) is refused rather than
-/// trained on nothing (an `imitate` [`RunError::Invalid`] naming the levels); otherwise
+/// its steps (the bot gives up at once or nearly, as on KeyInBox, or has no plan at all, as on
+/// MiniGrid's ids but those rewarded for one pickup: [`crate::bot::plans`]) is refused rather
+/// than trained on nothing (an `imitate` [`RunError::Invalid`] naming the levels); otherwise
 /// returns the levels so labelled, each with its share, for a warning.
 pub fn check_labels(levels: &LevelMix) -> Result<Vec<String>, RunError> {
     use crate::policy::ppo::TRAIN_SEED_OFFSET;

@@ -88,7 +88,8 @@ pub enum Datum {
         /// PutNext's fixed object.
         fixed: bool,
     },
-    /// A description the bot made (a locked door's key), with what it matched when made.
+    /// A description the bot made (a locked door's key; a MiniGrid environment's object to
+    /// pick up, matching that object alone), with what it matched when made.
     Own {
         /// The description.
         desc: ObjDesc,

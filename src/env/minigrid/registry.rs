@@ -167,6 +167,20 @@ impl Class {
         }
     }
 
+    /// Whether its `step` rewards picking up one object ([`super::Rules::Pickup`]):
+    /// KeyCorridor, UnlockPickup, BlockedUnlockPickup and ObstructedMaze, whose missions are
+    /// BabyAI pickup instructions.
+    pub const fn rewards_one_pickup(&self) -> bool {
+        matches!(
+            self,
+            Self::KeyCorridor { .. }
+                | Self::UnlockPickup
+                | Self::BlockedUnlockPickup
+                | Self::ObstructedMaze1 { .. }
+                | Self::ObstructedMazeFull { .. }
+        )
+    }
+
     /// Grid width and height.
     pub const fn grid_size(&self) -> (i32, i32) {
         match *self {

@@ -67,12 +67,14 @@ impl Report {
                         .unwrap_or_else(|| "–".into())
                 })
                 .collect();
-            // MiniGrid's own environments have no BabyAI instruction for the bot to plan.
-            let minigrid = c.level.as_deref().is_some_and(|id| {
-                crate::env::LevelId::parse(id).is_ok_and(|l| l.minigrid().is_some())
+            // MiniGrid's own environments have no BabyAI instruction for the bot to plan, but
+            // those rewarded for one pickup (`crate::bot::plans`).
+            let no_expert = c.level.as_deref().is_some_and(|id| {
+                crate::env::LevelId::parse(id)
+                    .is_ok_and(|l| l.minigrid().is_some_and(|m| !m.rewards_one_pickup()))
             });
-            let expert: Vec<String> = c.expert.as_ref().filter(|_| !minigrid).map_or_else(
-                || vec![if minigrid { "none" } else { "–" }.to_string(); 4],
+            let expert: Vec<String> = c.expert.as_ref().filter(|_| !no_expert).map_or_else(
+                || vec![if no_expert { "none" } else { "–" }.to_string(); 4],
                 |x| {
                     [
                         &x.agreement,

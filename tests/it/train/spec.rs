@@ -256,3 +256,31 @@ fn create_refuses_imitation_on_a_level_the_bot_cannot_label() {
     assert!(reason.contains("BabyAI-KeyInBox-v0"), "{reason}");
     assert!(reason.contains("no labelled frame"), "{reason}");
 }
+
+/// The bot labels MiniGrid's ids rewarded for one pickup (it is given the pickup instruction
+/// of the target), so imitation on KeyCorridor is not refused; DoorKey's goal it does not
+/// plan: beside KeyCorridor that level is named in the warning with nothing labelled, alone
+/// it is refused.
+#[test]
+fn imitation_labels_minigrids_pickup_ids() {
+    use groundscope::policy::ppo::LevelMix;
+    use groundscope::run::check_labels;
+    let kc = LevelMix::parse("MiniGrid-KeyCorridorS3R1-v0", false).unwrap();
+    assert_eq!(check_labels(&kc).unwrap(), Vec::<String>::new());
+    let both =
+        LevelMix::parse("MiniGrid-KeyCorridorS3R1-v0,MiniGrid-DoorKey-5x5-v0", false).unwrap();
+    let silent = check_labels(&both).unwrap();
+    assert_eq!(silent.len(), 1, "{silent:?}");
+    assert!(
+        silent[0].starts_with("MiniGrid-DoorKey-5x5-v0 (0 of "),
+        "{silent:?}"
+    );
+    let door_key = LevelMix::parse("MiniGrid-DoorKey-5x5-v0", false).unwrap();
+    match check_labels(&door_key) {
+        Err(RunError::Invalid { field, reason }) => {
+            assert_eq!(field, "imitate");
+            assert!(reason.contains("MiniGrid-DoorKey-5x5-v0"), "{reason}");
+        }
+        other => panic!("not refused: {other:?}"),
+    }
+}
