@@ -139,11 +139,14 @@ def evaluate(
     int64, ``mission`` a list of N str) and a bool array ``first`` (N,) marking episode
     starts (a recurrent policy resets its memory there). Row ``i`` is the same episode at
     every call; a finished episode's row repeats its last observation and its output is
-    ignored. It returns logits (N,7), or a dict with ``logits`` and optionally ``word_maps``
+    ignored. It returns logits (N,7) — or (N,3) for a policy of MiniGrid's first three
+    actions only (left, right, forward: Dynamic-Obstacles' action space), whose actions are
+    then always among those three — or a dict with ``logits`` and optionally ``word_maps``
     (N,L,7,7) — one map per mission word (BabyAI's split: runs of a-z), in the axis order of
     ``image`` (``map_layout="image"``, ``[vx][vy]``) or ``"agent-up"`` (``[vy][vx]``) —
-    ``word_weights`` (N,L), ``combined_map`` (N,7,7) and ``values`` (N,). With word maps the
-    report holds the grounding accuracies.
+    ``word_weights`` (N,L), ``combined_map`` (N,7,7) and ``values`` (N,). The logits' width
+    is read from the first call and must stay the same at every later one (else a
+    ``ValueError``). With word maps the report holds the grounding accuracies.
 
     ``levels``: BabyAI ids (or ``groundscope-PaperLocalS{S}N{N}-v0``); episode ``e`` of
     evaluation seed ``s`` runs level seed ``s * 10**6 + e``. Greedy actions unless ``sample``.
@@ -182,8 +185,8 @@ def record(
 ):
     """Runs ``act`` (as in :func:`evaluate`, with N = 1) on one episode of ``level`` from level
     seed ``seed`` and writes what ``groundscope replay`` writes: a Rerun recording (``.rrd``)
-    or MCAP (``.mcap``), word maps included when ``act`` returns them. Returns
-    ``(success, steps, reward)``."""
+    or MCAP (``.mcap``), word maps included when ``act`` returns them, and the probabilities
+    of the 3 or 7 actions its logits score. Returns ``(success, steps, reward)``."""
     _check_count("seed", seed)
     return _core.record(
         act, _bare(level), seed, os.fspath(path), bool(sample), float(alpha), str(name), map_layout

@@ -3,8 +3,12 @@
 //!
 //! The callable is `act(obs, first)`: `obs` a batch dict (`image` (N,7,7,3) uint8,
 //! `direction` (N,) int64, `mission` a list of N str), `first` a bool array (N,) marking each
-//! episode's first step. It returns logits (N,7), or a dict with `logits` and optionally
-//! `word_maps` (N,L,7,7), `word_weights` (N,L), `combined_map` (N,7,7) and `values` (N,).
+//! episode's first step. It returns logits (N,7), or (N,3) for a policy that scores only
+//! MiniGrid's first three actions (left, right, forward: Dynamic-Obstacles' action space), or
+//! a dict with `logits` and optionally `word_maps` (N,L,7,7), `word_weights` (N,L),
+//! `combined_map` (N,7,7) and `values` (N,). The width is read from the first answer and held
+//! at every later call; [`Acting::n_actions`] reports it (7 before the first call: the episode
+//! runner reads it again after each step).
 //!
 //! The runners drop finished episodes from their batch; a Python policy keeps its own memory
 //! by row, so the callable always sees the full batch, in a fixed order: row `i` is episode
@@ -14,6 +18,7 @@
 
 use std::cell::RefCell;
 
+use groundscope::env::Action;
 use groundscope::env::view::Observation;
 use groundscope::policy::onnx::{MapOutputs, trace};
 use groundscope::policy::trace::ViewMap;
@@ -56,6 +61,10 @@ const OUTPUT_KEYS: [&str; 5] = [
     "combined_map",
 ];
 
+/// The logits' widths a callable may return: MiniGrid's first 3 actions (left, right,
+/// forward) or all 7.
+const WIDTHS: [usize; 2] = [3, Action::COUNT];
+
 /// How far a map's sum may stray from 1 (float32 softmaxes sum within 1e-6; a map normalised
 /// in float16 within about 1e-3).
 const MAP_SUM_TOLERANCE: f32 = 1e-2;
@@ -69,6 +78,8 @@ struct Batch {
     started: Vec<bool>,
     /// Whether the callable returned maps (`None` before its first answer).
     maps: Option<bool>,
+    /// How many logits a row the callable returned, 3 or 7 (`None` before its first answer).
+    width: Option<usize>,
     /// The Python exception that stopped the run, re-raised as it was.
     error: Option<PyErr>,
 }
@@ -219,14 +230,26 @@ impl<'py> PyPolicy<'py> {
             None => out.clone(),
         };
         let (shape, flat) = floats(&logits_obj, "logits")?;
-        if shape != [n, 7] {
+        let width = match shape.as_slice() {
+            [b, w] if *b == n && WIDTHS.contains(w) => *w,
+            _ => {
+                return Err(PyValueError::new_err(format!(
+                    "act returned logits of shape {shape:?}, expected (N, 3) or (N, 7) with N = {n} (MiniGrid's first 3 actions: left, right, forward; or all 7)"
+                )));
+            }
+        };
+        let seen = self.batch.borrow().width;
+        if let Some(seen) = seen
+            && seen != width
+        {
             return Err(PyValueError::new_err(format!(
-                "act returned logits of shape {shape:?}, expected ({n}, 7)"
+                "act returned {width} logits per row after {seen} on its first call: the width (3 or 7 actions) must stay the same at every call"
             )));
         }
+        self.batch.borrow_mut().width = Some(width);
         let mut logits = Vec::with_capacity(rows.len());
         for &r in rows {
-            let row = flat[r * 7..][..7].to_vec();
+            let row = flat[r * width..][..width].to_vec();
             if row.iter().any(|x| !x.is_finite()) {
                 return Err(PyValueError::new_err(format!(
                     "act returned non-finite logits[{r}]: {row:?}"
@@ -439,5 +462,10 @@ impl Acting for PyPolicy<'_> {
 
     fn takes_interventions(&self) -> bool {
         false
+    }
+
+    /// The width of the callable's logits, 3 or 7, as its first answer gave it (7 before).
+    fn n_actions(&self) -> usize {
+        self.batch.borrow().width.unwrap_or(Action::COUNT)
     }
 }

@@ -121,7 +121,8 @@ pub struct EpisodeTrace {
     pub mode: ActionMode,
     /// How many actions the policy scores ([`Acting::n_actions`]): MiniGrid's first
     /// `n_actions`, 7 or 3 (left, right, forward); each step's `probs` is 0 past them, and
-    /// displays show only these ([`Self::action_probs`]).
+    /// displays show only these ([`Self::action_probs`]). Read again after every step, for a
+    /// policy that learns its width from its first answer (a Python callable).
     pub n_actions: usize,
     /// The steps.
     pub steps: Vec<StepRecord>,
@@ -435,6 +436,10 @@ fn run_loop<P: Acting + ?Sized>(
             })
             .map_err(|e| at_step(e, t, spec))?
         };
+        // Read again once the policy has answered: a Python callable learns its width (3 or
+        // 7 logits) and whether it gives maps from its first answer, after the trace began.
+        trace.n_actions = net.n_actions().clamp(1, Action::COUNT);
+        trace.variant = net.variant();
         memory = out.memory;
         let probs_v = out.probs.into_iter().next().unwrap_or_default();
         let mut probs = [0.0; Action::COUNT];

@@ -1,6 +1,6 @@
 //! Recordings of MiniGrid's own environments: Dynamic-Obstacles' balls drawn where the env has
 //! them at every step, an agent of three actions recorded with three bars (`.rrd`, MCAP, the
-//! JSON trace), and the objects "key", "ball", "goal" and "lava" name circled on the world
+//! JSON trace) even where it knows its width only once it has answered, and the objects "key", "ball", "goal" and "lava" name circled on the world
 //! under their maps, on small and big worlds alike.
 
 use crate::common::rrd::{decode, rows};
@@ -206,6 +206,67 @@ fn an_agent_of_three_actions_is_recorded_with_three_bars() {
     let json: serde_json::Value = serde_json::from_str(&ep.to_json()).unwrap();
     for s in json["steps"].as_array().unwrap() {
         assert_eq!(s["probs"].as_array().unwrap().len(), 3);
+    }
+}
+
+/// [`ThreeActions`] that says it scores 7 until its first step, as a Python callable does (it
+/// learns its width from the logits it gets back).
+struct LearnsWidth(ThreeActions, std::cell::Cell<bool>);
+
+impl Acting for LearnsWidth {
+    fn variant(&self) -> Variant {
+        self.0.variant()
+    }
+
+    fn zero_memory(&self) -> Result<Memory, PolicyError> {
+        self.0.zero_memory()
+    }
+
+    fn prepare(&self, tokens: &[u32]) -> Result<Option<MissionInputs>, PolicyError> {
+        self.0.prepare(tokens)
+    }
+
+    fn act_step(&self, step: &Step<'_>) -> Result<ActOutput, PolicyError> {
+        self.1.set(true);
+        self.0.act_step(step)
+    }
+
+    fn zero_memory_batch(&self, batch: usize) -> Result<Memory, PolicyError> {
+        self.0.zero_memory_batch(batch)
+    }
+
+    fn prepare_batch(&self, missions: &[&[u32]]) -> Result<Option<MissionInputs>, PolicyError> {
+        self.0.prepare_batch(missions)
+    }
+
+    fn takes_interventions(&self) -> bool {
+        false
+    }
+
+    fn n_actions(&self) -> usize {
+        if self.1.get() { 3 } else { 7 }
+    }
+}
+
+/// A policy whose width is known only once it has answered (a Python callable's) is traced
+/// with that width from the first step: three probabilities shown, and its sampled actions
+/// drawn among the three it scores.
+#[test]
+fn a_width_learned_at_the_first_step_is_the_traces() {
+    let level = babyai("MiniGrid-Dynamic-Obstacles-8x8-v0");
+    for seed in 0..4 {
+        let policy = LearnsWidth(ThreeActions([0.0, 0.0, 0.0]), std::cell::Cell::new(false));
+        let spec = EpisodeSpec {
+            mode: ActionMode::Sampled,
+            ..spec(level, seed)
+        };
+        let ep = run_from(&policy, "learns", &spec, initial_world(&spec).unwrap()).unwrap();
+        assert_eq!(ep.n_actions, 3, "seed {seed}");
+        assert!(!ep.steps.is_empty());
+        for s in &ep.steps {
+            assert!((s.action as usize) < 3, "seed {seed}: {:?}", s.action);
+            assert_eq!(ep.action_probs(s).len(), 3);
+        }
     }
 }
 
