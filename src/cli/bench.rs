@@ -447,10 +447,22 @@ fn bench_train(
 
 /// The process's peak resident memory (`VmHWM`), in bytes; `None` where `/proc` has none.
 pub(super) fn peak_rss_bytes() -> Option<u64> {
+    status_bytes("VmHWM:")
+}
+
+/// The process's resident memory now (`VmRSS`), in bytes; `None` where `/proc` has none.
+/// Unlike the peak it shows growth after the peak was reached (a walk over an episode's
+/// steps once the episode is in).
+pub(super) fn rss_bytes() -> Option<u64> {
+    status_bytes("VmRSS:")
+}
+
+/// A `kB` figure of `/proc/self/status` (`field` with its colon), in bytes.
+fn status_bytes(field: &str) -> Option<u64> {
     let status = std::fs::read_to_string("/proc/self/status").ok()?;
-    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let line = status.lines().find(|l| l.starts_with(field))?;
     let kb: u64 = line
-        .trim_start_matches("VmHWM:")
+        .trim_start_matches(field)
         .trim()
         .trim_end_matches("kB")
         .trim()

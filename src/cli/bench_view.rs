@@ -3,7 +3,8 @@
 //! memory. Per level: the time to the first frame that shows step 0, the time until the
 //! whole episode is in, the mean time of a frame while walking over the episode's steps, and
 //! the process's peak resident memory (`VmHWM` of `/proc/self/status`); then one line with
-//! the levels side by side.
+//! the levels side by side. `--walk-every-step` walks every step instead and says, as it
+//! goes, what the process holds (issue #83: whether the window grows with the steps shown).
 
 use std::time::{Duration, Instant};
 
@@ -26,6 +27,10 @@ const FRAME: Duration = Duration::from_millis(16);
 /// Frames drawn over the episode's steps once it is in (evenly spaced steps).
 const WALK_FRAMES: usize = 200;
 
+/// Points of a walk over every step at which the process's memory and textures are read:
+/// enough to tell growth with the steps shown from a step in the memory.
+const WALK_SAMPLES: usize = 10;
+
 /// `bench view`'s flags.
 #[derive(Debug, Args)]
 pub struct BenchViewArgs {
@@ -42,6 +47,11 @@ pub struct BenchViewArgs {
     /// Window size in logical pixels.
     #[arg(long, value_name = "WxH", default_value = "1400x900")]
     window: String,
+    /// Walk every step of the episode, one frame each, instead of up to 200 evenly spaced
+    /// ones, and report the resident memory (`VmRSS`), egui's live textures and the scenes
+    /// kept at ten points of the walk: what the window holds as the steps shown grow.
+    #[arg(long)]
+    walk_every_step: bool,
     /// Time one level in this process (what each level's own process runs).
     #[arg(long, hide = true)]
     in_process: bool,
@@ -70,6 +80,9 @@ pub fn run(args: &BenchViewArgs) -> anyhow::Result<ExitStatus> {
         if let Some(c) = &args.checkpoint {
             cmd.args(["--checkpoint", c]);
         }
+        if args.walk_every_step {
+            cmd.arg("--walk-every-step");
+        }
         let out = cmd.output().context("running the level's own process")?;
         let stdout = String::from_utf8_lossy(&out.stdout);
         if !out.status.success() {
@@ -95,6 +108,7 @@ pub fn run(args: &BenchViewArgs) -> anyhow::Result<ExitStatus> {
         "time_to_full_episode_s": column("time_to_full_episode_s"),
         "walk_frame_ms": column("walk_frame_ms"),
         "peak_rss_bytes": column("peak_rss_bytes"),
+        "walk_rss_growth_bytes_per_step": column("walk_rss_growth_bytes_per_step"),
     });
     println!("{summary}");
     Ok(ExitStatus::Success)
@@ -155,15 +169,7 @@ fn time_level(args: &BenchViewArgs, level: &str) -> anyhow::Result<serde_json::V
         std::thread::sleep(FRAME.saturating_sub(frame_start.elapsed()));
     };
     let steps = debugger.episode_progress().map_or(0, |(n, _)| n);
-    let stride = steps.div_ceil(WALK_FRAMES).max(1);
-    let walk_start = Instant::now();
-    let mut walked = 0u32;
-    for k in (0..steps).step_by(stride) {
-        debugger.go_to_step(k);
-        let _ = ctx.run_ui(input(), |ui| debugger.frame(ui));
-        walked += 1;
-    }
-    let walk_ms = walk_start.elapsed().as_secs_f64() * 1000.0 / f64::from(walked.max(1));
+    let walked = walk(&ctx, &mut debugger, steps, args.walk_every_step, input);
     let round = |d: Duration| (d.as_secs_f64() * 1000.0).round() / 1000.0;
     Ok(serde_json::json!({
         "bench": "view",
@@ -174,9 +180,94 @@ fn time_level(args: &BenchViewArgs, level: &str) -> anyhow::Result<serde_json::V
         "time_to_first_frame_s": first.map(round),
         "time_to_full_episode_s": round(full),
         "frames_until_full": frames,
-        "walked_steps": walked,
-        "walk_frame_ms": (walk_ms * 10.0).round() / 10.0,
+        "walked_steps": walked.frames,
+        "walk_frame_ms": (walked.frame_ms * 10.0).round() / 10.0,
         "peak_rss_bytes": super::bench::peak_rss_bytes(),
+        "rss_before_walk_bytes": walked.rss_before,
+        "rss_after_walk_bytes": walked.rss_after,
+        "walk_rss_growth_bytes_per_step": walked.growth_per_step(),
+        "walk_samples": walked.samples,
         "threads": 1,
     }))
+}
+
+/// What a walk over an episode's steps measured.
+struct Walk {
+    /// Frames drawn, one per step walked.
+    frames: u32,
+    /// The mean time of a frame, in milliseconds.
+    frame_ms: f64,
+    /// The process's resident memory before the first frame of the walk.
+    rss_before: Option<u64>,
+    /// The process's resident memory after the last frame of the walk.
+    rss_after: Option<u64>,
+    /// A walk over every step: what the process held at [`WALK_SAMPLES`] points of it
+    /// ([`walk_sample`]); empty otherwise.
+    samples: Vec<serde_json::Value>,
+}
+
+impl Walk {
+    /// How much the resident memory grew per step walked; `None` without `/proc`.
+    fn growth_per_step(&self) -> Option<f64> {
+        let (before, after) = self.rss_before.zip(self.rss_after)?;
+        let per_step = (after as f64 - before as f64) / f64::from(self.frames.max(1));
+        Some(per_step.round())
+    }
+}
+
+/// Draws a frame at each of up to [`WALK_FRAMES`] evenly spaced steps of the `steps` the
+/// episode has, or (`every_step`) at every step, sampling what the process holds as it goes.
+/// The samples are read between frames, outside the frames' time.
+fn walk(
+    ctx: &egui::Context,
+    debugger: &mut Debugger,
+    steps: usize,
+    every_step: bool,
+    input: impl Fn() -> egui::RawInput,
+) -> Walk {
+    let stride = if every_step {
+        1
+    } else {
+        steps.div_ceil(WALK_FRAMES).max(1)
+    };
+    let sample_every = steps.div_ceil(WALK_SAMPLES).max(1);
+    let rss_before = super::bench::rss_bytes();
+    let (mut frames, mut drawing, mut samples) = (0u32, Duration::ZERO, Vec::new());
+    for k in (0..steps).step_by(stride) {
+        let frame_start = Instant::now();
+        debugger.go_to_step(k);
+        let _ = ctx.run_ui(input(), |ui| debugger.frame(ui));
+        drawing += frame_start.elapsed();
+        frames += 1;
+        if every_step && (k % sample_every == 0 || k + 1 == steps) {
+            samples.push(walk_sample(ctx, debugger, k));
+        }
+    }
+    Walk {
+        frames,
+        frame_ms: drawing.as_secs_f64() * 1000.0 / f64::from(frames.max(1)),
+        rss_before,
+        rss_after: super::bench::rss_bytes(),
+        samples,
+    }
+}
+
+/// What the process holds with step `k` shown: its resident memory, the textures egui has
+/// allocated (the pictures' and the font atlas; their pixels live on the GPU, or nowhere
+/// without a renderer) and the scenes the episode keeps.
+fn walk_sample(ctx: &egui::Context, debugger: &Debugger, k: usize) -> serde_json::Value {
+    let manager = ctx.tex_manager();
+    let textures = manager.read();
+    let texture_bytes: usize = textures.allocated().map(|(_, m)| m.bytes_used()).sum();
+    serde_json::json!({
+        "step": k,
+        "rss_bytes": super::bench::rss_bytes(),
+        "textures": textures.num_allocated(),
+        "texture_bytes": texture_bytes,
+        "scenes_kept": debugger
+            .session()
+            .shown
+            .as_ref()
+            .map(groundscope::app::session::Shown::scenes_kept),
+    })
 }

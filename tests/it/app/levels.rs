@@ -277,6 +277,32 @@ fn a_long_episode_streams_in_and_opens_at_the_step_asked_for() {
     show_until(&mut h, "step 1727 of 0–1727 · failure");
 }
 
+/// Stepping through a long episode keeps the textures of a window of its pictures, not one
+/// per step shown (issue #83): with each of 100 steps shown in turn, its world and its view
+/// drawn, egui never holds more textures than at the first step and the 64 pictures the
+/// world panel keeps (one per step shown would be 200).
+#[test]
+fn stepping_through_a_long_episode_keeps_a_window_of_textures() {
+    let level = babyai("BabyAI-BossLevel-v0");
+    let mut h = build(&options("bundled:babyai", Some(level), 3));
+    show_until(&mut h, "step 0 of 0–1727");
+    let first = h.ctx.tex_manager().read().num_allocated();
+    let mut most = first;
+    for k in 1..100 {
+        h.state_mut().go_to_step(k);
+        h.step();
+        most = most.max(h.ctx.tex_manager().read().num_allocated());
+    }
+    assert!(
+        most > 40,
+        "each step shown draws its pictures: {most} textures at most"
+    );
+    assert!(
+        most <= first + 64,
+        "{most} textures after 100 steps shown, {first} at the first"
+    );
+}
+
 /// A failed episode names its class and behaviour and offers its decisive step — the step
 /// `eval` gives the same episode — and the button goes there.
 #[test]

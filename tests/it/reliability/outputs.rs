@@ -477,3 +477,41 @@ fn bench_view_times_each_level_and_puts_them_side_by_side() {
         "BabyAI-Nope-v0",
     );
 }
+
+/// `bench view --walk-every-step` draws every step and says what the process holds as it
+/// goes (issue #83): its resident memory, egui's live textures and the scenes kept.
+#[test]
+fn bench_view_walks_every_step_and_samples_what_the_process_holds() {
+    let o = gs(&[
+        "bench",
+        "view",
+        "--levels",
+        "paper",
+        "--seed",
+        "3",
+        "--walk-every-step",
+    ]);
+    assert_eq!(
+        o.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    let line: serde_json::Value = serde_json::from_str(stdout.lines().next().unwrap()).unwrap();
+    let steps = line["steps"].as_u64().unwrap();
+    assert_eq!(line["walked_steps"].as_u64(), Some(steps), "{line}");
+    let samples = line["walk_samples"].as_array().unwrap();
+    assert!(
+        !samples.is_empty() && samples.len() as u64 <= steps,
+        "{line}"
+    );
+    assert_eq!(samples.last().unwrap()["step"].as_u64(), Some(steps - 1));
+    for s in samples {
+        assert!(s["rss_bytes"].as_u64().unwrap() > 1 << 20, "{s}");
+        // The font atlas, and the world and view of the step shown at least.
+        assert!(s["textures"].as_u64().unwrap() >= 3, "{s}");
+        assert!(s["scenes_kept"].as_u64().unwrap() >= 1, "{s}");
+    }
+    assert!(line["walk_rss_growth_bytes_per_step"].is_number(), "{line}");
+}
