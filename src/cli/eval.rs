@@ -34,8 +34,10 @@ use crate::ExitStatus;
 )]
 pub struct EvalArgs {
     /// Checkpoints to evaluate (repeatable): NAME, a run directory (its model),
-    /// bundled:attention / bundled:baseline / bundled:babyai[-grounded[2]], an ONNX graph FILE.onnx or
-    /// `bot` (minigrid's BabyAI bot) [default: both bundled ones].
+    /// bundled:attention / bundled:baseline / bundled:babyai / bundled:minigrid[-baseline], an
+    /// ONNX graph FILE.onnx or `bot` (minigrid's BabyAI bot) [default: the paper's pair,
+    /// bundled:babyai on a BabyAI level the paper's model cannot read, MiniGrid's pair where a
+    /// level is one of MiniGrid's own ids].
     #[arg(long, value_name = "NAME")]
     pub checkpoint: Vec<String>,
     /// Report directory: report.json, report.md, CSVs, PNG figures, failures.json.

@@ -48,7 +48,7 @@ pub const EPISODES_HELP: &str = "Episodes per evaluation seed: each checkpoint a
     mut_arg("episodes", |a| a.help(EPISODES_HELP).long_help(EPISODES_HELP)))]
 pub struct FaithfulnessArgs {
     /// Checkpoints (repeatable): NAME, a run directory (its model), bundled:NAME or an ONNX
-    /// graph FILE.onnx (docs/onnx.md) [default: bundled:attention]; not `bot`, which has no
+    /// graph FILE.onnx (docs/onnx.md) [default: bundled:attention; bundled:minigrid on MiniGrid's own ids]; not `bot`, which has no
     /// network to probe.
     #[arg(long, value_name = "NAME")]
     pub checkpoint: Vec<String>,
@@ -89,7 +89,9 @@ pub fn run(args: &FaithfulnessArgs) -> anyhow::Result<ExitStatus> {
 pub(super) fn run_with(args: &FaithfulnessArgs, stop: &Stop) -> anyhow::Result<ExitStatus> {
     validate(args)?;
     let specs = if args.checkpoint.is_empty() {
-        vec![bundled::names()[0].clone()]
+        let paper = Agent::load(&bundled::names()[0])?;
+        let levels = args.sweep.levels(paper.level())?;
+        vec![super::default_model::for_faithfulness(&levels)]
     } else {
         args.checkpoint.clone()
     };

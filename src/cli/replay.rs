@@ -38,8 +38,10 @@ const DEFAULT_VIEWER_URL: &str = "rerun+http://127.0.0.1:9876/proxy";
     mut_arg("room_size", |a| a.alias("size")))]
 pub struct ReplayArgs {
     /// Checkpoint: NAME (NAME.json + NAME.safetensors), a run directory (its model),
-    /// bundled:attention / bundled:baseline / bundled:babyai[-grounded[2]], an ONNX graph FILE.onnx or `bot`
-    /// (minigrid's BabyAI bot) [default: bundled:attention].
+    /// bundled:attention / bundled:baseline / bundled:babyai / bundled:minigrid[-baseline], an
+    /// ONNX graph FILE.onnx or `bot` (minigrid's BabyAI bot) [default: bundled:attention,
+    /// bundled:babyai on a BabyAI level whose mission it cannot read, bundled:minigrid on
+    /// MiniGrid's own ids].
     #[arg(long, value_name = "NAME")]
     pub checkpoint: Option<String>,
     /// Number of episodes, on consecutive seeds from --seed.

@@ -22,9 +22,10 @@ xvfb-run -a groundscope view --screenshot shot.png --seed 3 --step 4 --window 14
 )]
 pub struct ViewArgs {
     /// Checkpoint: NAME (NAME.json + NAME.safetensors), a run directory (its model),
-    /// bundled:attention / bundled:baseline / bundled:babyai[-grounded[2]], an ONNX graph FILE.onnx
-    /// (docs/onnx.md) or `bot` (minigrid's BabyAI bot) [default: bundled:attention, or bundled:babyai on a level whose mission
-    /// it cannot read].
+    /// bundled:attention / bundled:baseline / bundled:babyai / bundled:minigrid[-baseline], an
+    /// ONNX graph FILE.onnx (docs/onnx.md) or `bot` (minigrid's BabyAI bot) [default:
+    /// bundled:attention, bundled:babyai on a BabyAI level whose mission it cannot read,
+    /// bundled:minigrid on MiniGrid's own ids].
     #[arg(long, value_name = "NAME")]
     pub checkpoint: Option<String>,
     /// A second checkpoint (any form --checkpoint takes), run on the same seed side by side.

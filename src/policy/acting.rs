@@ -76,8 +76,9 @@ pub fn check_known_words<P: Acting + ?Sized>(
     } else if t as usize >= crate::env::vocab::BABYAI_VOCAB_SIZE {
         format!(
             "is one of MiniGrid's own missions' words, and this model knows {} words only \
-             (BabyAI's at most); `groundscope init --level ID` makes a model with rows for all \
-             {}, `groundscope train --level ID` trains one",
+             (BabyAI's at most); `--checkpoint bundled:minigrid` reads every MiniGrid id, \
+             `groundscope init --level ID` makes a model with rows for all {}, \
+             `groundscope train --level ID` trains one",
             known - 1,
             crate::env::vocab::VOCAB_SIZE - 1
         )

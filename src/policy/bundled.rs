@@ -1,8 +1,11 @@
 //! The checkpoints shipped in `assets/` and embedded in the binary: the paper's pair, the
-//! default of every command (`bundled:attention` first, then `bundled:baseline`), and
+//! default of every command (`bundled:attention` first, then `bundled:baseline`);
 //! `bundled:babyai`, an attention model that reads BabyAI's whole grammar and whose maps were
-//! supervised to ground (the filter norm study's choice). The names it had before keep
-//! working or say what replaced them ([`alias`]).
+//! supervised to ground (the filter norm study's choice); and MiniGrid's pair,
+//! `bundled:minigrid` and `bundled:minigrid-baseline`, trained beside each other by one PPO
+//! recipe on fourteen of MiniGrid's own ids (the MiniGrid study's choice), the default on any
+//! `MiniGrid-*` id. The names BabyAI's model had before keep working or say what replaced them
+//! ([`alias`]).
 
 use std::path::Path;
 
@@ -13,7 +16,7 @@ use super::error::PolicyError;
 pub const PREFIX: &str = "bundled:";
 
 /// The embedded checkpoints: name, JSON, weights.
-const BUNDLED: [(&str, &str, &[u8]); 3] = [
+const BUNDLED: [(&str, &str, &[u8]); 5] = [
     (
         "attention",
         include_str!("../../assets/attention.json"),
@@ -29,11 +32,31 @@ const BUNDLED: [(&str, &str, &[u8]); 3] = [
         include_str!("../../assets/babyai.json"),
         include_bytes!("../../assets/babyai.safetensors"),
     ),
+    (
+        "minigrid",
+        include_str!("../../assets/minigrid.json"),
+        include_bytes!("../../assets/minigrid.safetensors"),
+    ),
+    (
+        "minigrid-baseline",
+        include_str!("../../assets/minigrid-baseline.json"),
+        include_bytes!("../../assets/minigrid-baseline.safetensors"),
+    ),
 ];
 
 /// The bundled model for BabyAI's levels: it reads every word of their missions, and its maps
 /// were supervised to ground (`training.ground_loss` in its metadata).
 pub const BABYAI: &str = "bundled:babyai";
+
+/// The bundled attention model for MiniGrid's own ids: it reads all of groundscope's words
+/// (MiniGrid's missions and BabyAI's), and its maps are unsupervised.
+pub const MINIGRID: &str = "bundled:minigrid";
+
+/// The no-attention baseline trained beside [`MINIGRID`] by the same recipe.
+pub const MINIGRID_BASELINE: &str = "bundled:minigrid-baseline";
+
+/// What MiniGrid's pair was trained on, said once for both names.
+const MINIGRID_NOTE: &str = "PPO from scratch on fourteen of MiniGrid's own ids at once (experiments/study_minigrid/, stage 2: 10,240,000 frames), no imitation and no supervision of the maps";
 
 /// A name that opened a bundled checkpoint before 2026-12-02, when three BabyAI agents became
 /// one.
@@ -88,6 +111,7 @@ pub fn training_note(spec: &str) -> Option<&'static str> {
         BABYAI => Some(
             "imitation of minigrid's BabyAI bot on sixteen BabyAI levels at once (experiments/babyai_agent/levels.txt), continued with the layout path, the filter norm and supervised maps (experiments/study_filter_norm/)",
         ),
+        MINIGRID | MINIGRID_BASELINE => Some(MINIGRID_NOTE),
         _ => None,
     }
 }
@@ -96,6 +120,12 @@ pub fn training_note(spec: &str) -> Option<&'static str> {
 /// `faithfulness` run without `--checkpoint`.
 pub fn pair() -> Vec<String> {
     names().into_iter().take(2).collect()
+}
+
+/// MiniGrid's pair, [`MINIGRID`] then [`MINIGRID_BASELINE`]: what `eval` runs without
+/// `--checkpoint` on MiniGrid's own ids.
+pub fn minigrid_pair() -> Vec<String> {
+    vec![MINIGRID.to_owned(), MINIGRID_BASELINE.to_owned()]
 }
 
 /// Names of the embedded checkpoints, default first.
@@ -151,6 +181,22 @@ mod tests {
                 assert!(c.meta.model.layout_path && c.meta.model.filter_norm);
                 assert!(c.meta.training.ground_loss.is_some());
                 assert!(training_note(&n).is_some());
+            } else if n == MINIGRID || n == MINIGRID_BASELINE {
+                let want = if n == MINIGRID {
+                    "attention"
+                } else {
+                    "baseline"
+                };
+                assert_eq!(variant, want, "{n}");
+                assert_eq!(c.meta.model.vocab_size, crate::env::vocab::VOCAB_SIZE);
+                assert!(c.meta.training.ground_loss.is_none(), "{n}");
+                assert!(
+                    c.meta
+                        .level
+                        .babyai
+                        .is_some_and(|id| id.minigrid().is_some())
+                );
+                assert_eq!(training_note(&n), Some(MINIGRID_NOTE));
             } else {
                 assert_eq!(format!("{PREFIX}{variant}"), n);
             }
@@ -174,5 +220,14 @@ mod tests {
         assert!(removed.contains("bundled:babyai,"), "{removed}");
         assert!(removed.contains("git show"), "{removed}");
         assert_eq!(alias(BABYAI), None);
+    }
+
+    #[test]
+    fn minigrids_pair_was_trained_together() {
+        let [a, b] = [MINIGRID, MINIGRID_BASELINE].map(|n| load(n).unwrap().meta);
+        assert_eq!(a.level.babyai, b.level.babyai);
+        assert_eq!(a.training.frames, b.training.frames);
+        assert_eq!(a.training.seed, b.training.seed);
+        assert_eq!(minigrid_pair(), [MINIGRID, MINIGRID_BASELINE]);
     }
 }

@@ -399,9 +399,9 @@ pub fn start_load(main: Option<String>, compare: Option<String>, then: AfterLoad
     })
 }
 
-/// Loads a model that reads `world`'s mission on another thread: `bundled:babyai` where it
-/// does, else minigrid's bot. `said` begins the message that says so ("X cannot read this
-/// level (why)").
+/// Loads a model that reads `world`'s mission on another thread: `bundled:minigrid` on
+/// MiniGrid's own ids, `bundled:babyai` where it reads the mission, else minigrid's bot.
+/// `said` begins the message that says so ("X cannot read this level (why)").
 pub fn start_fallback(level: LevelConfig, world: World, said: String) -> Job {
     Job::spawn(
         "loading a model that reads this level".into(),
@@ -410,11 +410,18 @@ pub fn start_fallback(level: LevelConfig, world: World, said: String) -> Job {
             let reads = |a: &Agent| {
                 crate::policy::acting::world_tokens(a.policy.acting(), &world, || level.to_string())
             };
-            let babyai = Agent::load(crate::policy::bundled::BABYAI)
-                .ok()
-                .filter(|b| reads(b).is_ok());
-            let (main, what) = match babyai {
-                Some(b) => (Ok(b), "the bundled BabyAI model"),
+            let minigrid = level.babyai.is_some_and(|id| id.minigrid().is_some());
+            let (name, what) = if minigrid {
+                (
+                    crate::policy::bundled::MINIGRID,
+                    "the bundled MiniGrid model",
+                )
+            } else {
+                (crate::policy::bundled::BABYAI, "the bundled BabyAI model")
+            };
+            let bundled = Agent::load(name).ok().filter(|b| reads(b).is_ok());
+            let (main, what) = match bundled {
+                Some(b) => (Ok(b), what),
                 None => (
                     Agent::load(crate::policy::acting::BOT),
                     "minigrid's bot (checkpoint \"bot\")",

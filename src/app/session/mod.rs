@@ -85,10 +85,14 @@ impl Session {
             agent: None,
             compare_agent: None,
             compare: false,
-            compare_text: launch
-                .compare
-                .clone()
-                .unwrap_or_else(|| "bundled:baseline".into()),
+            // Each bundled attention model is compared with the baseline trained beside it.
+            compare_text: launch.compare.clone().unwrap_or_else(|| {
+                if request.checkpoint == crate::policy::bundled::MINIGRID {
+                    crate::policy::bundled::MINIGRID_BASELINE.into()
+                } else {
+                    "bundled:baseline".into()
+                }
+            }),
             mission_text: request.mission.clone().unwrap_or_default(),
             pending_step: Some(request.step),
             request,

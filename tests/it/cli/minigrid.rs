@@ -186,15 +186,17 @@ fn refused_minigrid_requests_say_why() {
         ]),
         "BabyAI's bot plans BabyAI instructions only",
     );
-    // No bundled model knows MiniGrid's words: the refusal says how to make one.
-    assert_bad_input(
-        &gs(&[
-            "replay",
-            "--level",
-            "MiniGrid-DoorKey-5x5-v0",
-            "--seed",
-            "1",
-        ]),
-        "init --level ID",
-    );
+    // A model without MiniGrid's words: the refusal names the bundled one that has them and
+    // how to make one.
+    let o = gs(&[
+        "replay",
+        "--checkpoint",
+        "bundled:babyai",
+        "--level",
+        "MiniGrid-DoorKey-5x5-v0",
+        "--seed",
+        "1",
+    ]);
+    assert_bad_input(&o, "init --level ID");
+    assert_bad_input(&o, "bundled:minigrid");
 }

@@ -4,3 +4,4 @@
 mod commands;
 mod env;
 mod minigrid;
+mod minigrid_bundled;
