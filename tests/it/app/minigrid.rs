@@ -79,3 +79,44 @@ fn the_lava_in_view_is_circled_under_the_map_of_lava() {
     h.run();
     assert!(h.query_by_label_contains("shared scale").is_some());
 }
+
+/// Picking a MiniGrid id the loaded model cannot read runs `bundled:minigrid` instead, saying
+/// so; the MiniGrid model is compared with the baseline trained beside it, not the paper's.
+#[test]
+fn a_minigrid_id_the_model_cannot_read_runs_the_minigrid_model() {
+    let paper = groundscope::app::session::Agent::load("bundled:attention").unwrap();
+    let mut h = build(&Launch::new(EpisodeRequest::new(
+        "bundled:attention",
+        paper.level(),
+        1,
+    )));
+    show_until(&mut h, "step 0 of ");
+    // What the level picker does on a pick (its MiniGrid rows are below the fold).
+    let level = babyai("MiniGrid-DoorKey-5x5-v0");
+    let session = h.state_mut().session_mut();
+    session.request.level = level;
+    assert!(
+        session.fallback_where_unreadable(),
+        "the paper's model reads DoorKey?"
+    );
+    show_until(&mut h, "cannot read this level");
+    show_until(&mut h, "running the bundled MiniGrid model instead");
+    show_until(&mut h, &level.generate(1).unwrap().mission);
+    assert!(
+        h.query_all_by_value("bundled:minigrid").next().is_some(),
+        "the checkpoint field names the MiniGrid model"
+    );
+
+    let mut h = build(&Launch::new(EpisodeRequest::new(
+        "bundled:minigrid",
+        level,
+        1,
+    )));
+    show_until(&mut h, "step 0 of ");
+    assert!(
+        h.query_all_by_value("bundled:minigrid-baseline")
+            .next()
+            .is_some(),
+        "the compare field offers the MiniGrid baseline"
+    );
+}
