@@ -34,11 +34,6 @@ fn switch_note(command: &str, level: &LevelConfig) -> String {
     )
 }
 
-/// Whether `level` is one of MiniGrid's own environments (not a BabyAI level).
-fn is_minigrid(level: &LevelConfig) -> bool {
-    level.babyai.is_some_and(|id| id.minigrid().is_some())
-}
-
 /// The line a command prints when it opens MiniGrid's model (or pair, `what`) instead.
 fn minigrid_note(command: &str, level: &LevelConfig, what: &str) -> String {
     format!(
@@ -52,7 +47,7 @@ pub fn for_episode(episode: &EpisodeArgs, command: &str) -> anyhow::Result<(Stri
     let first = bundled::names()[0].clone();
     let agent = Agent::load(&first)?;
     let level = episode.level(agent.level())?;
-    if is_minigrid(&level) {
+    if level.is_minigrid() {
         eprintln!("{}", minigrid_note(command, &level, bundled::MINIGRID));
         return Ok((
             bundled::MINIGRID.to_owned(),
@@ -71,7 +66,7 @@ pub fn for_episode(episode: &EpisodeArgs, command: &str) -> anyhow::Result<(Stri
 /// already loaded) cannot read one of the levels, or MiniGrid's pair where one of them is
 /// MiniGrid's own (said on stderr, naming it).
 pub fn for_levels(paper: &Agent, levels: &[LevelConfig], first_seed: u64) -> Vec<String> {
-    if let Some(l) = levels.iter().find(|l| is_minigrid(l)) {
+    if let Some(l) = levels.iter().find(|l| l.is_minigrid()) {
         let pair = bundled::minigrid_pair();
         eprintln!("{}", minigrid_note("eval", l, &pair.join(" and ")));
         return pair;
@@ -86,7 +81,7 @@ pub fn for_levels(paper: &Agent, levels: &[LevelConfig], first_seed: u64) -> Vec
 /// The model `faithfulness` runs without `--checkpoint` on `levels`: the paper's attention
 /// model, or `bundled:minigrid` where one of them is MiniGrid's own (said on stderr).
 pub fn for_faithfulness(levels: &[LevelConfig]) -> String {
-    if let Some(l) = levels.iter().find(|l| is_minigrid(l)) {
+    if let Some(l) = levels.iter().find(|l| l.is_minigrid()) {
         eprintln!("{}", minigrid_note("faithfulness", l, bundled::MINIGRID));
         return bundled::MINIGRID.to_owned();
     }

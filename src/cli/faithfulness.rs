@@ -48,8 +48,8 @@ pub const EPISODES_HELP: &str = "Episodes per evaluation seed: each checkpoint a
     mut_arg("episodes", |a| a.help(EPISODES_HELP).long_help(EPISODES_HELP)))]
 pub struct FaithfulnessArgs {
     /// Checkpoints (repeatable): NAME, a run directory (its model), bundled:NAME or an ONNX
-    /// graph FILE.onnx (docs/onnx.md) [default: bundled:attention; bundled:minigrid on MiniGrid's own ids]; not `bot`, which has no
-    /// network to probe.
+    /// graph FILE.onnx (docs/onnx.md) [default: bundled:attention; bundled:minigrid on
+    /// MiniGrid's own ids]; not `bot`, which has no network to probe.
     #[arg(long, value_name = "NAME")]
     pub checkpoint: Vec<String>,
     /// Output directory.

@@ -128,6 +128,11 @@ impl fmt::Display for LevelConfig {
 pub const MAX_ROOM_SIZE: usize = 64;
 
 impl LevelConfig {
+    /// Whether this is one of MiniGrid's own environments (not a BabyAI level, not the paper's).
+    pub fn is_minigrid(&self) -> bool {
+        self.babyai.is_some_and(|id| id.minigrid().is_some())
+    }
+
     /// Checks the config, naming the field at fault.
     pub fn validate(&self) -> Result<(), EnvError> {
         if let Some(id) = self.babyai {

@@ -128,6 +128,16 @@ pub fn minigrid_pair() -> Vec<String> {
     vec![MINIGRID.to_owned(), MINIGRID_BASELINE.to_owned()]
 }
 
+/// The bundled baseline trained beside the bundled model `name`: what it is compared with by
+/// default. MiniGrid's pair for `bundled:minigrid`, the paper's baseline for any other name.
+pub fn baseline_beside(name: &str) -> &'static str {
+    if name == MINIGRID {
+        MINIGRID_BASELINE
+    } else {
+        "bundled:baseline"
+    }
+}
+
 /// Names of the embedded checkpoints, default first.
 pub fn names() -> Vec<String> {
     BUNDLED
@@ -190,12 +200,7 @@ mod tests {
                 assert_eq!(variant, want, "{n}");
                 assert_eq!(c.meta.model.vocab_size, crate::env::vocab::VOCAB_SIZE);
                 assert!(c.meta.training.ground_loss.is_none(), "{n}");
-                assert!(
-                    c.meta
-                        .level
-                        .babyai
-                        .is_some_and(|id| id.minigrid().is_some())
-                );
+                assert!(c.meta.level.is_minigrid());
                 assert_eq!(training_note(&n), Some(MINIGRID_NOTE));
             } else {
                 assert_eq!(format!("{PREFIX}{variant}"), n);
@@ -229,5 +234,7 @@ mod tests {
         assert_eq!(a.training.frames, b.training.frames);
         assert_eq!(a.training.seed, b.training.seed);
         assert_eq!(minigrid_pair(), [MINIGRID, MINIGRID_BASELINE]);
+        assert_eq!(baseline_beside(MINIGRID), MINIGRID_BASELINE);
+        assert_eq!(baseline_beside(BABYAI), pair()[1]);
     }
 }

@@ -410,8 +410,7 @@ pub fn start_fallback(level: LevelConfig, world: World, said: String) -> Job {
             let reads = |a: &Agent| {
                 crate::policy::acting::world_tokens(a.policy.acting(), &world, || level.to_string())
             };
-            let minigrid = level.babyai.is_some_and(|id| id.minigrid().is_some());
-            let (name, what) = if minigrid {
+            let (name, what) = if level.is_minigrid() {
                 (
                     crate::policy::bundled::MINIGRID,
                     "the bundled MiniGrid model",

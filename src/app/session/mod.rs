@@ -85,13 +85,8 @@ impl Session {
             agent: None,
             compare_agent: None,
             compare: false,
-            // Each bundled attention model is compared with the baseline trained beside it.
             compare_text: launch.compare.clone().unwrap_or_else(|| {
-                if request.checkpoint == crate::policy::bundled::MINIGRID {
-                    crate::policy::bundled::MINIGRID_BASELINE.into()
-                } else {
-                    "bundled:baseline".into()
-                }
+                crate::policy::bundled::baseline_beside(&request.checkpoint).into()
             }),
             mission_text: request.mission.clone().unwrap_or_default(),
             pending_step: Some(request.step),
