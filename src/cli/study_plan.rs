@@ -73,6 +73,9 @@ fn plan_into(
         .context("finding this binary's path")?;
     let binary = groundscope::study::carried(&exe, "this binary's path")?.to_owned();
     let manifest = Manifest::new(&name, &binary, runs(spec, spec_path)?);
+    for warning in misplaced_parents(&manifest, &study) {
+        eprintln!("groundscope: warning: {warning}");
+    }
     if existing {
         let old = super::study_legacy::read_manifest(&study, false)?;
         check_replan(&old, &manifest)?;
@@ -122,6 +125,45 @@ fn plan_into(
         study.display()
     );
     Ok(ExitStatus::Success)
+}
+
+/// A warning for each recipe whose `--init` parent is a relative path found from here but not
+/// from the study directory, where the steps run (so the training would stop at once, naming
+/// the missing checkpoint, perhaps hours after the plan). A parent found nowhere yet is
+/// passed over: an earlier study may still be making it.
+fn misplaced_parents(manifest: &Manifest, study: &Path) -> Vec<String> {
+    // A parent is a run directory or a checkpoint's name, `NAME` for `NAME.json`.
+    let found = |p: &Path| {
+        let mut json = p.as_os_str().to_owned();
+        json.push(".json");
+        p.is_dir() || Path::new(&json).is_file()
+    };
+    let mut warned: Vec<(&str, &str)> = Vec::new();
+    let mut warnings = Vec::new();
+    for run in &manifest.runs {
+        let Some(init) = &run.train.init else {
+            continue;
+        };
+        let parent = Path::new(&init.parent);
+        if init.parent.starts_with("bundled:")
+            || parent.is_absolute()
+            || warned.contains(&(run.recipe.as_str(), init.parent.as_str()))
+        {
+            continue;
+        }
+        warned.push((&run.recipe, &init.parent));
+        if !found(&study.join(parent)) && found(parent) {
+            let here = std::path::absolute(parent).unwrap_or_else(|_| parent.to_path_buf());
+            warnings.push(format!(
+                "recipe {}: --init {}: a run's steps run in the study directory, {}, where there is no such checkpoint; from here it is {} (name it by that path, or by one relative to the study directory)",
+                run.recipe,
+                groundscope::study::shown(&init.parent),
+                study.display(),
+                here.to_string_lossy().escape_debug()
+            ));
+        }
+    }
+    warnings
 }
 
 /// Every run of the grid with its typed steps: each step written as its command's flags —
@@ -309,6 +351,45 @@ mod tests {
         let init = m.run("ppo-paper-s1").unwrap().train.init.clone().unwrap();
         assert_eq!(init.parent, "bundled:attention");
         assert_eq!(init.fixed, ["hidden"]);
+    }
+
+    #[test]
+    fn a_relative_parent_found_only_from_here_is_warned_of_once_per_recipe() {
+        // The tests run in the package's root, where assets/minigrid.json is.
+        let with = |parent: &str| {
+            SPEC.replace(
+                "ppo = [\"--model\", \"attention\"]",
+                &format!("ppo = [\"--model\", \"attention\", \"--init\", \"{parent}\"]"),
+            )
+        };
+        let study = tempfile::tempdir().unwrap();
+        let warnings = misplaced_parents(&planned(&with("assets/minigrid")).unwrap(), study.path());
+        assert_eq!(warnings.len(), 1, "{warnings:?}");
+        assert!(
+            warnings[0].starts_with("recipe ppo: --init \"assets/minigrid\""),
+            "{}",
+            warnings[0]
+        );
+        assert!(
+            warnings[0].contains(
+                &std::path::absolute("assets/minigrid")
+                    .unwrap()
+                    .display()
+                    .to_string()
+            )
+        );
+        // Found from the study directory, found nowhere yet, absolute or bundled: nothing.
+        std::fs::create_dir_all(study.path().join("assets/minigrid")).unwrap();
+        let absolute = std::path::absolute("assets/minigrid").unwrap();
+        for parent in [
+            "assets/minigrid",
+            "runs/not-yet",
+            absolute.to_str().unwrap(),
+            "bundled:attention",
+        ] {
+            let m = planned(&with(parent)).unwrap();
+            assert!(misplaced_parents(&m, study.path()).is_empty(), "{parent}");
+        }
     }
 
     #[test]
