@@ -132,12 +132,8 @@ fn plan_into(
 /// the missing checkpoint, perhaps hours after the plan). A parent found nowhere yet is
 /// passed over: an earlier study may still be making it.
 fn misplaced_parents(manifest: &Manifest, study: &Path) -> Vec<String> {
-    // A parent is a run directory or a checkpoint's name, `NAME` for `NAME.json`.
-    let found = |p: &Path| {
-        let mut json = p.as_os_str().to_owned();
-        json.push(".json");
-        p.is_dir() || Path::new(&json).is_file()
-    };
+    // A parent is a run directory or a checkpoint's name, read as the loader reads it.
+    let found = |p: &Path| p.is_dir() || groundscope::policy::checkpoint_paths(p).1.is_file();
     let mut warned: Vec<(&str, &str)> = Vec::new();
     let mut warnings = Vec::new();
     for run in &manifest.runs {
