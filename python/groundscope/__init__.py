@@ -214,7 +214,9 @@ def train(
     ``epochs``, ``batch_size``, ``recurrence``, ``lr``, ``adam_eps``, ``discount``,
     ``gae_lambda``, ``entropy_coef``, ``value_loss_coef``, ``max_grad_norm``, ``clip_eps``,
     ``threads``, ``reward_scale``, ``normalize_advantages``; ``imitate`` (clone minigrid's bot
-    instead of PPO) and ``imitate_policy_share``; the maps' ``ground_loss``,
+    instead of PPO), ``imitate_policy_share`` and ``teacher`` ("[ID=]CHECKPOINT", or a list of
+    them: trained models whose greedy actions imitation learns, as ``train --teacher``); the
+    maps' ``ground_loss``,
     ``word_temperature_anneal`` ("START:END") and ``freeze_attention_at``; and the tracking
     ones ``eval_interval``, ``eval_episodes``, ``save_interval``.
 

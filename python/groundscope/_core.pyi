@@ -108,6 +108,7 @@ def train(
     normalize_advantages: Optional[bool] = None,
     imitate: Optional[bool] = None,
     imitate_policy_share: Optional[float] = None,
+    teacher: Optional[Union[str, Sequence[str]]] = None,
     ground_loss: Optional[float] = None,
     word_temperature_anneal: Optional[str] = None,
     freeze_attention_at: Optional[int] = None,

@@ -5,7 +5,9 @@
 
 use std::path::{Path, PathBuf};
 
-use groundscope::policy::ppo::{LevelMix, MixEntry, PpoConfig, TemperatureAnneal, UpdateLog};
+use groundscope::policy::ppo::{
+    LevelMix, MixEntry, PpoConfig, TeacherSpec, TemperatureAnneal, UpdateLog,
+};
 use groundscope::policy::{ModelConfig, Variant, WordTemperature};
 use groundscope::run::{Parent, Run, RunError, RunInfo, RunSpec, Start, Tracking};
 use pyo3::exceptions::{PyRuntimeError, PyTypeError, PyValueError};
@@ -16,7 +18,7 @@ use crate::env::{opt_u64_arg, parse_level, u64_arg, usize_arg};
 
 /// The keyword arguments `train` takes besides `out`, `levels`, `frames`, `resume` and
 /// `callback`: the command's flags in snake case (`--frames-per-proc`: `frames_per_proc`).
-const KEYWORDS: [&str; 28] = [
+const KEYWORDS: [&str; 29] = [
     "model",
     "hidden",
     "seed",
@@ -39,6 +41,7 @@ const KEYWORDS: [&str; 28] = [
     "normalize_advantages",
     "imitate",
     "imitate_policy_share",
+    "teacher",
     "ground_loss",
     "word_temperature_anneal",
     "freeze_attention_at",
@@ -59,6 +62,7 @@ struct Settings {
     eval_interval: Option<u64>,
     eval_episodes: Option<u64>,
     save_interval: Option<u64>,
+    teachers: Vec<TeacherSpec>,
     given: Vec<&'static str>,
 }
 
@@ -78,6 +82,7 @@ impl Settings {
             eval_interval: None,
             eval_episodes: None,
             save_interval: None,
+            teachers: Vec::new(),
             given: Vec::new(),
         };
         let Some(kwargs) = kwargs else {
@@ -131,6 +136,24 @@ impl Settings {
             "ground_loss" => p.ground_loss = number(v, name)?,
             "normalize_advantages" => p.normalize_advantages = flag(v, name)?,
             "imitate" => p.imitate = flag(v, name)?,
+            "teacher" => {
+                // One teacher as a str, several as a list of str (`train --teacher`'s values).
+                let items: Vec<String> = match v.extract::<String>() {
+                    Ok(one) => vec![one],
+                    Err(_) => v.extract().map_err(|_| {
+                        PyValueError::new_err(format!(
+                            "teacher must be a str or a list of str ([ID=]CHECKPOINT), got {}",
+                            repr(v)
+                        ))
+                    })?,
+                };
+                self.teachers = items
+                    .iter()
+                    .map(|t| {
+                        TeacherSpec::parse(t).map_err(|e| PyValueError::new_err(e.to_string()))
+                    })
+                    .collect::<PyResult<_>>()?;
+            }
             _ => {
                 return Err(PyTypeError::new_err(format!(
                     "train() got an unexpected keyword argument '{name}'"
@@ -446,6 +469,11 @@ pub fn train<'py>(
                 "resume=True: init starts a new run from a checkpoint's weights; leave out init",
             ));
         }
+        if settings.gave("teacher") {
+            return Err(PyValueError::new_err(
+                "resume=True: a resumed run keeps the teachers it was started with; leave out teacher",
+            ));
+        }
         let resumable = Run::resume(&out).map_err(|e| refusal(e, true))?;
         for n in resumable.notices() {
             eprintln!("groundscope: {n}");
@@ -465,6 +493,7 @@ pub fn train<'py>(
             start: settings.start(levels)?,
             frames,
             tracking: settings.tracking(None),
+            teachers: settings.teachers.clone(),
         };
         // The run checks the whole of it (imitation's labels included) before it makes its
         // directory.

@@ -193,6 +193,29 @@ def test_imitation_on_a_level_the_bot_cannot_label_is_refused_naming_it(tmp_path
     assert not out.exists()
 
 
+def test_a_teacher_labels_a_level_the_bot_cannot_and_is_the_runs_own_on_resume(tmp_path):
+    level = "MiniGrid-DoorKey-5x5-v0"
+    teacher = tmp_path / "teacher"
+    groundscope.train(teacher, level, frames=32, **TINY)
+    out = tmp_path / "student"
+    # DoorKey alone is refused to the bot (it labels nothing there); a teacher labels it all.
+    log = groundscope.train(
+        out, level, frames=64, imitate=True, teacher=str(teacher / "model"), **TINY
+    )
+    assert log["frames"] == 64
+    with pytest.raises(ValueError, match="teacher"):
+        groundscope.train(out, frames=96, resume=True, teacher=str(teacher / "model"))
+    for bad, what in [
+        (dict(teacher=str(teacher / "model")), "imitate"),
+        (dict(imitate=True, teacher=f"MiniGrid-Unlock-v0={teacher / 'model'}"), "MiniGrid-Unlock-v0"),
+        (dict(imitate=True, teacher=3), "teacher must be"),
+    ]:
+        fresh = tmp_path / "refused"
+        with pytest.raises(ValueError, match=what):
+            groundscope.train(fresh, level, frames=32, **bad, **TINY)
+        assert not fresh.exists()
+
+
 def test_a_resume_names_the_keyword_it_was_given_otherwise_and_takes_the_runs_own(tmp_path):
     out = tmp_path / "run"
     groundscope.train(out, LEVEL, frames=32, seed=3, **TINY)

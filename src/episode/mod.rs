@@ -156,18 +156,21 @@ impl EpisodeTrace {
 /// Chooses an action from probabilities.
 pub fn choose(probs: &[f32], mode: ActionMode, rng: &mut Pcg64Mcg) -> Action {
     let idx = match mode {
-        ActionMode::Greedy => {
-            probs
-                .iter()
-                .enumerate()
-                .fold((0, f32::NEG_INFINITY), |best, (i, &p)| {
-                    if p > best.1 { (i, p) } else { best }
-                })
-                .0
-        }
+        ActionMode::Greedy => greedy_index(probs),
         ActionMode::Sampled => crate::policy::sample_index(probs, rng.random()),
     };
     Action::from_index(idx).unwrap_or(Action::Done)
+}
+
+/// The greedy action's index: the most probable, the first of equals.
+pub fn greedy_index(probs: &[f32]) -> usize {
+    probs
+        .iter()
+        .enumerate()
+        .fold((0, f32::NEG_INFINITY), |best, (i, &p)| {
+            if p > best.1 { (i, p) } else { best }
+        })
+        .0
 }
 
 /// What to run: the level, seed, optional mission override and action mode.

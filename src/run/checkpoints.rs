@@ -282,6 +282,16 @@ fn restore(saved: Saved) -> Result<Trainer, RunError> {
             path: state_path.clone(),
             reason: e.to_string(),
         })?;
+    let teachers = trainer.teacher_specs().to_vec();
+    if !teachers.is_empty() {
+        let nets = super::load_teachers(&teachers, &trainer.levels)?;
+        trainer
+            .attach_teachers(teachers, nets)
+            .map_err(|e| RunError::Damaged {
+                path: state_path.clone(),
+                reason: e.to_string(),
+            })?;
+    }
     let t = &ckpt.meta.training;
     if trainer.state.updates != t.updates || trainer.state.frames != t.frames {
         return Err(RunError::Damaged {

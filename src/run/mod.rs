@@ -47,7 +47,7 @@ pub use info::{Difference, RunInfo, model_options};
 pub use logs::{LOG_HEADER, LogRow, last_row};
 pub use recipe::{RunRecipe, WarmStart};
 pub use spec::{DEFAULT_SAVE_INTERVAL, RunSpec, Start, Tracking};
-pub use start::{Parent, check_labels};
+pub use start::{Parent, absolute_teachers, check_labels, load_teachers};
 
 /// One update's outcome, for the caller to show.
 pub struct Progress {
@@ -88,6 +88,7 @@ impl Run {
     pub fn start(mut dir: RunDir, spec: RunSpec) -> Result<Self, RunError> {
         let log_path = dir.path.join("log.csv");
         let eval_path = dir.path.join("eval_log.csv");
+        let teachers = spec.teachers;
         let (trainer, seed, kept) = match spec.start {
             Start::Resume { trainer, info } => {
                 let u = trainer.state.updates;
@@ -105,7 +106,7 @@ impl Run {
                 seed,
             } => {
                 dir.refuse_held()?;
-                let trainer = new_trainer(model, levels, ppo, seed)?;
+                let trainer = taught(new_trainer(model, levels, ppo, seed)?, &teachers)?;
                 logs::write_fresh(&mut dir, None, &trainer)?;
                 (trainer, seed, None)
             }
@@ -117,7 +118,7 @@ impl Run {
             } => {
                 dir.refuse_held()?;
                 let name = parent.name.clone();
-                let trainer = warm_trainer(*parent, levels, ppo, seed)?;
+                let trainer = taught(warm_trainer(*parent, levels, ppo, seed)?, &teachers)?;
                 logs::write_fresh(&mut dir, Some(&name), &trainer)?;
                 (trainer, seed, None)
             }
@@ -384,6 +385,7 @@ impl Resumable {
             },
             frames,
             tracking,
+            teachers: Vec::new(),
         };
         Run::start(self.dir, spec)
     }
@@ -409,6 +411,23 @@ fn new_trainer(
     };
     let params = Params::init(&model, seed)?;
     Ok(Trainer::new(model, levels, ppo, params, seed)?)
+}
+
+/// `trainer` with `--teacher`'s networks attached (as it is without any), their file names
+/// made absolute first.
+fn taught(
+    mut trainer: Trainer,
+    teachers: &[crate::policy::ppo::TeacherSpec],
+) -> Result<Trainer, RunError> {
+    if teachers.is_empty() {
+        return Ok(trainer);
+    }
+    let specs = absolute_teachers(teachers)?;
+    let nets = load_teachers(&specs, &trainer.levels)?;
+    trainer
+        .attach_teachers(specs, nets)
+        .map_err(|e| RunError::invalid("teacher", e))?;
+    Ok(trainer)
 }
 
 /// A warm start's trainer on `parent`'s weights.

@@ -6,7 +6,7 @@ use serde::{Deserialize, Serialize};
 
 use super::{Difference, RunInfo, RunSpec, Start, Tracking, model_options};
 use crate::policy::ModelConfig;
-use crate::policy::ppo::{LevelMix, PpoConfig};
+use crate::policy::ppo::{LevelMix, PpoConfig, TeacherSpec};
 
 /// A run as data: a new run's network, levels, PPO settings, seed, frames and tracking, or a
 /// warm start's parent ([`WarmStart`]), which is read only when the run starts.
@@ -30,6 +30,10 @@ pub struct RunRecipe {
     /// Where the run starts from trained weights: the parent.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub init: Option<WarmStart>,
+    /// `--teacher`: imitation's teachers, loaded when the run starts (file names from the
+    /// directory the run's steps run in).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub teachers: Vec<TeacherSpec>,
 }
 
 /// A warm start's parent, as a recipe names it: loaded and checked when the run starts.
@@ -55,6 +59,7 @@ impl RunRecipe {
             start: self.new_start(),
             frames: self.frames,
             tracking: self.tracking,
+            teachers: Vec::new(),
         };
         let network: Vec<&str> = std::iter::once("hidden")
             .chain(model_options(&self.model).map(|(field, _)| field))

@@ -5,7 +5,7 @@ use serde::{Deserialize, Serialize};
 
 use super::{Parent, RunError, RunInfo};
 use crate::env::LevelConfig;
-use crate::policy::ppo::{LevelMix, PpoConfig, Trainer};
+use crate::policy::ppo::{LevelMix, PpoConfig, TeacherSpec, Trainer};
 use crate::policy::{ModelConfig, Variant};
 
 /// The checkpoint interval by default (`train --save-interval`), and of a run that recorded
@@ -143,6 +143,9 @@ pub struct RunSpec {
     pub frames: u64,
     /// The tracked evaluation and the checkpoint interval.
     pub tracking: Tracking,
+    /// `--teacher`: trained policies whose greedy actions label imitation's frames on the
+    /// levels they teach (a new or warm-started run; a resumed one keeps its own).
+    pub teachers: Vec<TeacherSpec>,
 }
 
 impl Default for RunSpec {
@@ -159,6 +162,7 @@ impl Default for RunSpec {
             },
             frames: 5_000_000,
             tracking: Tracking::default(),
+            teachers: Vec::new(),
         }
     }
 }
@@ -214,6 +218,33 @@ impl RunSpec {
                 "ground_loss",
                 "a baseline has no word maps to supervise (the attention model has)",
             ));
+        }
+        if !self.teachers.is_empty() {
+            if !ppo.imitate {
+                return Err(RunError::invalid(
+                    "teacher",
+                    "a teacher labels imitation's frames: it needs imitate",
+                ));
+            }
+            let specs = super::absolute_teachers(&self.teachers)?;
+            super::load_teachers(&specs, levels)?;
+            let of_entry = crate::policy::ppo::teacher_of(&specs, levels)
+                .map_err(|e| RunError::invalid("teacher", e))?;
+            // The taught levels are labelled, so a level the bot leaves silent is a warning.
+            let mut silent = Vec::new();
+            for (e, _) in levels
+                .entries()
+                .iter()
+                .zip(of_entry)
+                .filter(|(_, t)| t.is_none())
+            {
+                match super::check_labels(&LevelMix::from(e.level)) {
+                    Ok(some) => silent.extend(some),
+                    Err(RunError::Invalid { .. }) => silent.push(e.level.id()),
+                    Err(other) => return Err(other),
+                }
+            }
+            return Ok(silent);
         }
         if ppo.imitate {
             return super::check_labels(levels);

@@ -1,9 +1,9 @@
 //! What a run starts from, checked before it writes anything: a parent's weights for a warm
-//! start, the words its levels need, and the bot's labels for imitation.
+//! start, the words its levels need, the bot's labels for imitation, and imitation's teachers.
 
 use super::RunError;
-use crate::policy::Checkpoint;
-use crate::policy::ppo::LevelMix;
+use crate::policy::ppo::{LevelMix, MixEntry, TeacherSpec};
+use crate::policy::{Checkpoint, ModelConfig, Params};
 
 /// Trained weights a new run starts from (a warm start), loaded and checked.
 pub struct Parent {
@@ -160,4 +160,71 @@ pub fn check_labels(levels: &LevelMix) -> Result<Vec<String>, RunError> {
         ));
     }
     Ok(silent)
+}
+
+/// Loads `--teacher`'s networks, in order, refusing what cannot teach `levels`: what
+/// [`Parent::load`] refuses (the bot, an ONNX graph, a file that does not load), a teacher
+/// for a level outside the mix or two for one level ([`crate::policy::ppo::teacher_of`]),
+/// and one that lacks a word of the missions it is to read ([`Parent::check_words`]).
+pub fn load_teachers(
+    specs: &[TeacherSpec],
+    levels: &LevelMix,
+) -> Result<Vec<(ModelConfig, Params)>, RunError> {
+    let of_entry = crate::policy::ppo::teacher_of(specs, levels)
+        .map_err(|e| RunError::invalid("teacher", e))?;
+    let mut nets = Vec::with_capacity(specs.len());
+    for (t, spec) in specs.iter().enumerate() {
+        let teacher = Parent::load(&spec.name).map_err(|e| match e {
+            RunError::BotParent => RunError::invalid(
+                "teacher",
+                format!(
+                    "{}: the bot already labels imitation's frames where it can; name a trained checkpoint",
+                    spec.name
+                ),
+            ),
+            other => other,
+        })?;
+        let taught: Vec<MixEntry> = levels
+            .entries()
+            .iter()
+            .zip(&of_entry)
+            .filter(|(_, o)| **o == Some(t))
+            .map(|(e, _)| *e)
+            .collect();
+        if taught.is_empty() {
+            return Err(RunError::invalid(
+                "teacher",
+                format!("{spec}: teaches none of the levels (each is named by another teacher)"),
+            ));
+        }
+        let taught = LevelMix::new(taught).map_err(|e| RunError::invalid("teacher", e))?;
+        teacher.check_words(&taught).map_err(|e| match e {
+            RunError::Invalid { reason, .. } => {
+                RunError::invalid("teacher", format!("{}: {reason}", spec.name))
+            }
+            other => other,
+        })?;
+        let ckpt = teacher.checkpoint;
+        nets.push((ckpt.meta.model, ckpt.params));
+    }
+    Ok(nets)
+}
+
+/// `specs` with every file name made absolute (from the working directory), so that a resume
+/// from anywhere loads the same teachers; bundled names stay as they are.
+pub fn absolute_teachers(specs: &[TeacherSpec]) -> Result<Vec<TeacherSpec>, RunError> {
+    specs
+        .iter()
+        .map(|s| {
+            if s.name.starts_with(crate::policy::bundled::PREFIX) {
+                return Ok(s.clone());
+            }
+            let path = std::path::absolute(&s.name)
+                .map_err(RunError::io(format!("resolving --teacher {}", s.name)))?;
+            Ok(TeacherSpec {
+                level: s.level,
+                name: path.display().to_string(),
+            })
+        })
+        .collect()
 }

@@ -18,6 +18,7 @@ fn recipe() -> RunRecipe {
         frames: 1000,
         tracking: Tracking::default(),
         init: None,
+        teachers: Vec::new(),
     }
 }
 

@@ -123,6 +123,13 @@ pub struct TrainArgs {
         allow_negative_numbers = true
     )]
     pub imitate_policy_share: f64,
+    /// With --imitate: a trained policy whose greedy actions label (and take) the steps of
+    /// level ID, in place of the bot's; without `ID=`, of every level no other --teacher
+    /// names (policy distillation). Repeatable; a level no teacher names keeps the bot.
+    /// A checkpoint, a run directory or `bundled:NAME`; recorded in the run, so a resume
+    /// loads the same teachers.
+    #[arg(help_heading = "Imitation", long, value_name = "[ID=]CHECKPOINT")]
+    pub teacher: Vec<String>,
     /// Supervise the word maps with weight λ (0 to 100; 0, the default, leaves them
     /// unsupervised as the paper does): on each frame, −ln of each scored word's map mass on
     /// the objects it names in view, and of M's mass on the objects the clauses waited on

@@ -10,7 +10,7 @@ use clap::ArgMatches;
 use clap::parser::ValueSource;
 use groundscope::env::{LevelConfig, TaskSet};
 use groundscope::policy::ModelConfig;
-use groundscope::policy::ppo::LevelMix;
+use groundscope::policy::ppo::{LevelMix, TeacherSpec};
 use groundscope::run::{Parent, RunError, RunInfo, RunSpec, Start, Tracking, model_options};
 
 use super::args::{TrainArgs, level_mix, ppo_config};
@@ -64,6 +64,7 @@ pub(super) fn resume_spec(
         },
         frames: args.frames,
         tracking: tracking(args, matches, info.tracking),
+        teachers: Vec::new(),
     })
 }
 
@@ -295,4 +296,16 @@ pub(super) fn warm_parent(
 /// Whether flag `id` was given on the command line rather than left at its default.
 pub(super) fn given(matches: Option<&ArgMatches>, id: &str) -> bool {
     matches.is_some_and(|m| m.value_source(id) == Some(ValueSource::CommandLine))
+}
+
+/// `--teacher`'s values, each parsed ([`TeacherSpec::parse`]); refused without `--imitate`.
+pub(super) fn teachers(args: &TrainArgs) -> anyhow::Result<Vec<TeacherSpec>> {
+    if !args.teacher.is_empty() && !args.imitate {
+        anyhow::bail!("--teacher: a teacher labels imitation's frames; add --imitate");
+    }
+    Ok(args
+        .teacher
+        .iter()
+        .map(|t| TeacherSpec::parse(t))
+        .collect::<Result<_, _>>()?)
 }

@@ -23,6 +23,11 @@ use args::{level_mix, ppo_config};
 pub fn run(args: &TrainArgs, matches: Option<&ArgMatches>) -> anyhow::Result<ExitStatus> {
     let (_, model) = model_of(args)?;
     let mut run = if args.resume {
+        if !args.teacher.is_empty() {
+            anyhow::bail!(
+                "--teacher: a resumed run keeps the teachers it was started with; leave the flag out"
+            );
+        }
         let resumable = Run::resume(&args.out).map_err(|e| flags::refusal(e, "--resume", None))?;
         for n in resumable.notices() {
             eprintln!("groundscope: {n}");
@@ -56,6 +61,7 @@ pub fn run(args: &TrainArgs, matches: Option<&ArgMatches>) -> anyhow::Result<Exi
             start,
             frames: args.frames,
             tracking: flags::tracking(args, matches, None),
+            teachers: flags::teachers(args)?,
         };
         let run = Run::create(&args.out, spec)
             .map_err(|e| flags::refusal(e, "--out", args.init.as_deref()))?;
@@ -99,6 +105,7 @@ pub(in crate::cli) fn recipe(
         frames: args.frames,
         tracking: flags::tracking(args, matches, None),
         init,
+        teachers: flags::teachers(args)?,
     })
 }
 
@@ -154,6 +161,7 @@ pub(in crate::cli) fn study_train(
             start,
             frames: recipe.frames,
             tracking: recipe.tracking,
+            teachers: recipe.teachers.clone(),
         };
         let init = recipe.init.as_ref().map(|w| w.parent.as_str());
         let run = Run::create_in(dir, spec).map_err(|e| flags::refusal(e, "--out", init))?;

@@ -118,20 +118,25 @@ impl LevelMix {
 
     /// The level of the episode on training seed `k` (counted from the first training seed).
     pub fn pick(&self, k: u64) -> LevelConfig {
+        self.entries[self.pick_entry(k)].level
+    }
+
+    /// The index of the entry [`Self::pick`] draws for training seed `k`.
+    pub fn pick_entry(&self, k: u64) -> usize {
         if self.entries.len() == 1 {
-            return self.entries[0].level;
+            return 0;
         }
         let total: f64 = self.entries.iter().map(|e| e.weight).sum();
         // 53 bits of a well-mixed hash: a uniform draw in [0, 1).
         let u = (splitmix64(k) >> 11) as f64 / (1u64 << 53) as f64 * total;
         let mut acc = 0.0;
-        for e in &self.entries {
+        for (i, e) in self.entries.iter().enumerate() {
             acc += e.weight;
             if u < acc {
-                return e.level;
+                return i;
             }
         }
-        self.entries[self.entries.len() - 1].level
+        self.entries.len() - 1
     }
 }
 

@@ -20,6 +20,7 @@ mod missions;
 mod mix;
 mod rollout;
 mod state;
+mod teacher;
 mod update;
 mod workers;
 
@@ -38,6 +39,7 @@ use adam::{Adam, AdamConfig};
 pub use config::{PpoConfig, TemperatureAnneal};
 pub use loss::{PpoLosses, ppo_loss, tensor_to_vec};
 pub use mix::{LevelMix, MixEntry};
+pub use teacher::{TeacherSpec, teacher_of};
 
 pub use crate::env::seeds::TRAIN_SEED_OFFSET;
 
@@ -62,6 +64,19 @@ struct EnvSlot {
     /// minigrid's bot beside the episode (`--imitate`): its demonstration's next action.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     expert: Option<crate::bot::Expert>,
+    /// The index of the episode's level in the mix (0 in run states written before).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    entry: usize,
+    /// `--teacher`: the teacher's memory after the last step (empty where none teaches).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    teacher_h: Vec<f32>,
+    /// The teacher's cell state.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    teacher_c: Vec<f32>,
+}
+
+fn is_zero(x: &usize) -> bool {
+    *x == 0
 }
 
 /// Episode statistics since the last log line.
@@ -103,6 +118,9 @@ pub struct RunState {
     /// its own ancestors), so that a checkpoint names supervision its maps inherited.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub parent_ground_loss: Option<f64>,
+    /// `--teacher`: the policies imitation learns from, loaded again on a resume.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub teachers: Vec<TeacherSpec>,
 }
 
 /// What one update logged.
@@ -153,6 +171,8 @@ pub struct Trainer {
     /// The missions the rollouts have met, kept across updates (not saved: it only decides
     /// which rows are computed together, not their values).
     missions: missions::MissionCache,
+    /// `--teacher`'s networks (not saved: the run state names them).
+    teachers: Option<teacher::Teachers>,
 }
 
 /// Seconds spent in each phase of training (`groundscope bench train`). With
@@ -250,7 +270,7 @@ impl Trainer {
                 &levels,
                 &mut next_seed,
                 model.lstm_hidden,
-                ppo.imitate,
+                &|_| ppo.imitate,
             )?);
         }
         Ok(Self {
@@ -269,9 +289,11 @@ impl Trainer {
                 envs,
                 missions: Vec::new(),
                 parent_ground_loss: None,
+                teachers: Vec::new(),
             },
             times: PhaseTimes::default(),
             missions: missions::MissionCache::default(),
+            teachers: None,
         })
     }
 
@@ -291,12 +313,9 @@ impl Trainer {
         let mut trainer = Self::new(model, levels, ppo, params, seed)?;
         let mut next_seed = frames + WARM_START_SEED_GAP;
         for slot in &mut trainer.state.envs {
-            *slot = new_slot(
-                &trainer.levels,
-                &mut next_seed,
-                model.lstm_hidden,
-                ppo.imitate,
-            )?;
+            *slot = new_slot(&trainer.levels, &mut next_seed, model.lstm_hidden, &|_| {
+                ppo.imitate
+            })?;
         }
         trainer.state.next_seed = next_seed;
         trainer.state.frames = frames;
@@ -353,26 +372,31 @@ impl Trainer {
 }
 
 /// A fresh episode on the next training seed, `next_seed` advanced past it (and past any
-/// seed minigrid cannot generate: it loops forever there, so no such level exists).
+/// seed minigrid cannot generate: it loops forever there, so no such level exists), with the
+/// bot beside it where `bot` says so of its mix entry.
 fn new_slot(
     levels: &LevelMix,
     next_seed: &mut u64,
     hidden: usize,
-    imitate: bool,
+    bot: &dyn Fn(usize) -> bool,
 ) -> Result<EnvSlot, PolicyError> {
-    let (level, seed, world) = loop {
+    let (entry, level, seed, world) = loop {
         let k = *next_seed;
         *next_seed += 1;
-        let level = levels.pick(k);
+        let entry = levels.pick_entry(k);
+        let level = levels.entries()[entry].level;
         let seed = TRAIN_SEED_OFFSET + k;
         match level.generate(seed) {
             Err(crate::env::EnvError::GenerationHangs { .. }) => {}
-            world => break (level, seed, world?),
+            world => break (entry, level, seed, world?),
         }
     };
     let tokens = vocab::tokenize_on_level(&world.mission, || format!("{level} seed {seed}"))?;
     Ok(EnvSlot {
-        expert: imitate.then(|| crate::bot::Expert::new(&world)),
+        expert: bot(entry).then(|| crate::bot::Expert::new(&world)),
+        entry,
+        teacher_h: Vec::new(),
+        teacher_c: Vec::new(),
         world,
         tokens,
         h: vec![0.0; hidden],
@@ -398,7 +422,7 @@ mod tests {
             levels.first().generate(TRAIN_SEED_OFFSET + next),
             Err(crate::env::EnvError::GenerationHangs { .. })
         ));
-        let slot = new_slot(&levels, &mut next, 8, true).unwrap();
+        let slot = new_slot(&levels, &mut next, 8, &|_| true).unwrap();
         assert_eq!(next, 14_831);
         let world = levels.first().generate(TRAIN_SEED_OFFSET + 14_830).unwrap();
         assert_eq!(slot.world.mission, world.mission);

@@ -68,8 +68,12 @@ impl Trainer {
         }
         let mut stats = EpisodeStats::default();
         let (share, scale) = (self.ppo.imitate_policy_share, self.ppo.reward_scale);
+        let bot: Vec<bool> = (0..self.levels.entries().len())
+            .map(|e| self.bot_labels(e))
+            .collect();
         for t in 0..t_n {
             let out = self.act_all(&net, &mut missions)?;
+            let taught = self.teach(&out.obs)?;
             let env_t = std::time::Instant::now();
             let st = &mut self.state;
             // The action stream is drawn in environment order, whatever the thread count.
@@ -91,7 +95,7 @@ impl Trainer {
                 1
             };
             let stepped = on_shards(&mut st.envs, env_threads, |p, env| {
-                step_env(env, draws[p], &out, p, ground)
+                step_env(env, draws[p], taught[p], &out, p, ground)
             })?;
             for (p, (env, s)) in st.envs.iter_mut().zip(stepped).enumerate() {
                 let i = p * t_n + t;
@@ -113,7 +117,7 @@ impl Trainer {
                     stats.successes += u64::from(s.outcome.reward > 0.0);
                     stats.return_sum += env.ep_return;
                     stats.length_sum += u64::from(env.ep_len);
-                    let fresh = new_slot(&self.levels, &mut st.next_seed, hid, self.ppo.imitate)?;
+                    let fresh = new_slot(&self.levels, &mut st.next_seed, hid, &|e| bot[e])?;
                     *env = EnvSlot {
                         mask: 0.0,
                         h: std::mem::take(&mut env.h),
@@ -259,20 +263,28 @@ struct Stepped {
     targets: Option<FrameTargets>,
 }
 
-/// Steps environment `p`: the bot's advice (imitation), the grounding targets (`ground`), the
-/// action, the world, the memory.
+/// Steps environment `p`: the teacher's action (`taught`) or the bot's advice (imitation), the
+/// grounding targets (`ground`), the action, the world, the memory.
 fn step_env(
     env: &mut EnvSlot,
     draw: Draw,
+    taught: Option<usize>,
     out: &ActAll,
     p: usize,
     ground: bool,
 ) -> Result<Stepped, PolicyError> {
-    // Imitation: the bot's action is the label, and the action taken unless this step takes
-    // the policy's own (DAgger's mixture) or the bot gave up.
+    // Imitation: the teacher's or the bot's action is the label, and the action taken unless
+    // this step takes the policy's own (DAgger's mixture) or the bot gave up.
     let obs = out.obs[p];
-    let advice = env.expert.as_mut().and_then(|e| e.advise(&env.world, &obs));
-    let label = advice.map_or(draw.sampled, |a| a as usize);
+    let advice = match taught {
+        Some(a) => Some(a),
+        None => env
+            .expert
+            .as_mut()
+            .and_then(|e| e.advise(&env.world, &obs))
+            .map(|a| a as usize),
+    };
+    let label = advice.unwrap_or(draw.sampled);
     let targets = ground.then(|| FrameTargets::of(&env.world, &obs, env.tokens.len()));
     let a = if draw.own { draw.sampled } else { label };
     let action = Action::from_index(a).unwrap_or(Action::Done);

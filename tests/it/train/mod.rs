@@ -1,6 +1,7 @@
 //! Training: PPO (`ppo`), `train` on the command line (`cli`) and on several levels
 //! (`levels`), the run as a core object (`run`), its spec, refusals and a resume's
-//! differences (`spec`), and crash consistency (`crash`).
+//! differences (`spec`), imitation of trained teachers (`teacher`), and crash consistency
+//! (`crash`).
 
 mod cli;
 mod crash;
@@ -8,3 +9,4 @@ mod levels;
 mod ppo;
 mod run;
 mod spec;
+mod teacher;

@@ -49,6 +49,7 @@ fn a_run_starts_steps_finishes_and_resumes_without_the_command_line() {
         },
         frames: 192,
         tracking: tracking(),
+        teachers: Vec::new(),
     };
     let mut run = Run::start(RunDir::open(&path, true).unwrap(), spec).unwrap();
     let mut evals = 0;
@@ -84,6 +85,7 @@ fn a_run_starts_steps_finishes_and_resumes_without_the_command_line() {
         },
         frames: 256,
         tracking: tracking(),
+        teachers: Vec::new(),
     };
     let mut run = Run::start(held, spec).unwrap();
     while !run.done() {
@@ -115,6 +117,7 @@ fn a_new_run_that_fails_before_its_first_checkpoint_leaves_nothing() {
         },
         frames: 64,
         tracking: tracking(),
+        teachers: Vec::new(),
     };
     let dir = RunDir::open(&path, true).unwrap();
     assert!(path.exists());

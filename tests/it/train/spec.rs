@@ -25,6 +25,7 @@ fn small(seed: u64) -> RunSpec {
             eval_episodes: 1,
             save_interval: Some(1),
         },
+        teachers: Vec::new(),
     }
 }
 
