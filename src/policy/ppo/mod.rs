@@ -75,6 +75,10 @@ struct EnvSlot {
     teacher_c: Vec<f32>,
 }
 
+#[allow(
+    clippy::trivially_copy_pass_by_ref,
+    reason = "serde's skip_serializing_if passes a reference"
+)]
 fn is_zero(x: &usize) -> bool {
     *x == 0
 }

@@ -10,7 +10,7 @@ fn mix(ids: &str) -> LevelMix {
 #[test]
 fn a_teacher_names_its_level_or_every_level_no_other_names() {
     let a = TeacherSpec::parse("MiniGrid-DoorKey-5x5-v0=runs/a/model").unwrap();
-    assert_eq!(a.level.map(|l| l.id()), Some("MiniGrid-DoorKey-5x5-v0"));
+    assert_eq!(a.level.map(LevelId::id), Some("MiniGrid-DoorKey-5x5-v0"));
     assert_eq!(a.name, "runs/a/model");
     assert_eq!(a.to_string(), "MiniGrid-DoorKey-5x5-v0=runs/a/model");
     // Not an id before the `=`: the whole is a file name.
@@ -27,7 +27,7 @@ fn a_teacher_names_its_level_or_every_level_no_other_names() {
         [Some(1), Some(0), Some(1)]
     );
     assert_eq!(
-        teacher_of(&[unlock.clone()], &levels).unwrap(),
+        teacher_of(std::slice::from_ref(&unlock), &levels).unwrap(),
         [None, Some(0), None]
     );
     let outside = TeacherSpec::parse("MiniGrid-Fetch-5x5-N2-v0=f").unwrap();
