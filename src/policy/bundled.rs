@@ -2,9 +2,9 @@
 //! default of every command (`bundled:attention` first, then `bundled:baseline`);
 //! `bundled:babyai`, an attention model that reads BabyAI's whole grammar and whose maps were
 //! supervised to ground (the filter norm study's choice); and MiniGrid's pair,
-//! `bundled:minigrid` and `bundled:minigrid-baseline`, trained beside each other by one PPO
-//! recipe on fourteen of MiniGrid's own ids (the MiniGrid study's choice), the default on any
-//! `MiniGrid-*` id. The names BabyAI's model had before keep working or say what replaced them
+//! `bundled:minigrid` and `bundled:minigrid-baseline`, distilled beside each other by one
+//! recipe from the best model of each of fourteen of MiniGrid's own ids (the MiniGrid study's
+//! choice), the default on any `MiniGrid-*` id. The names BabyAI's model had before keep working or say what replaced them
 //! ([`alias`]).
 
 use std::path::Path;
@@ -56,7 +56,7 @@ pub const MINIGRID: &str = "bundled:minigrid";
 pub const MINIGRID_BASELINE: &str = "bundled:minigrid-baseline";
 
 /// What MiniGrid's pair was trained on, said once for both names.
-const MINIGRID_NOTE: &str = "PPO from scratch on fourteen of MiniGrid's own ids at once (experiments/study_minigrid/, stage 2: 10,240,000 frames), no imitation and no supervision of the maps";
+const MINIGRID_NOTE: &str = "imitation of the best model of each of fourteen of MiniGrid's own ids at once (`--imitate --teacher`, pure cloning; experiments/study_minigrid/, stage 8: 3,072,000 frames), no supervision of the maps";
 
 /// A name that opened a bundled checkpoint before 2026-12-02, when three BabyAI agents became
 /// one.
@@ -202,6 +202,11 @@ mod tests {
                 assert!(c.meta.training.ground_loss.is_none(), "{n}");
                 assert!(c.meta.level.is_minigrid());
                 assert_eq!(training_note(&n), Some(MINIGRID_NOTE));
+                // The note says how long the embedded weights trained.
+                let frames = c.meta.training.frames.to_string();
+                let (millions, rest) = frames.split_at(frames.len() - 6);
+                let said = format!("{millions},{},{} frames", &rest[..3], &rest[3..]);
+                assert!(MINIGRID_NOTE.contains(&said), "{n}: {said}");
             } else {
                 assert_eq!(format!("{PREFIX}{variant}"), n);
             }

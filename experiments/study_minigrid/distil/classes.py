@@ -26,6 +26,8 @@ def first_number(cell):
 def scored(text, head):
     """(acc, pointing, chance) per level of one section, levels with no scored step left out."""
     out = []
+    if head not in text:
+        return out
     for line in text[text.index(head):].splitlines()[1:]:
         if line.startswith("## "):
             break

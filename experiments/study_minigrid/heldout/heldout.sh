@@ -1,6 +1,7 @@
 #!/bin/bash
 # The held-out evaluation of the bundled MiniGrid pair, run once (2026-12-03 05:45–06:30 UTC)
-# after the pair was chosen on validation seeds. ids.txt: MiniGrid's 76 ids less Playground,
+# after the pair was chosen on validation seeds: stage 2's pair then, whose reports these are
+# (`git show 98afcf3:assets/minigrid.*` since stage 8's pair replaced it, ../distil/heldout.sh). ids.txt: MiniGrid's 76 ids less Playground,
 # whose mission is empty (no model reads it and minigrid never rewards it).
 set -e
 IDS=$(paste -sd, "$(dirname "$0")/ids.txt")

@@ -60,18 +60,18 @@ fn minigrid_ids_open_the_minigrid_pair_by_default() {
             .unwrap_or_else(|| panic!("no row for {ck} on {level}"));
         r["success_mean"].parse().unwrap()
     };
-    // The study's validation figures (seed 1400, 50 episodes): 1.00 for both on Empty-Random,
-    // 0.86 (attention) and 1.00 (baseline) on DoorKey-5x5; a model that lost them would fall
-    // far below these bounds on the first 20 of those episodes.
+    // The study's validation figures (seed 1400, 50 episodes, stage 8): 0.88 (attention) and
+    // 0.92 (baseline) on Empty-Random, 1.00 and 0.98 on DoorKey-5x5; a model that lost them
+    // would fall far below these bounds on the first 20 of those episodes.
     for (ck, level, at_least) in [
-        ("bundled:minigrid", "MiniGrid-Empty-Random-5x5-v0", 0.9),
-        ("bundled:minigrid", "MiniGrid-DoorKey-5x5-v0", 0.6),
+        ("bundled:minigrid", "MiniGrid-Empty-Random-5x5-v0", 0.7),
+        ("bundled:minigrid", "MiniGrid-DoorKey-5x5-v0", 0.85),
         (
             "bundled:minigrid-baseline",
             "MiniGrid-Empty-Random-5x5-v0",
-            0.9,
+            0.75,
         ),
-        ("bundled:minigrid-baseline", "MiniGrid-DoorKey-5x5-v0", 0.9),
+        ("bundled:minigrid-baseline", "MiniGrid-DoorKey-5x5-v0", 0.85),
     ] {
         let s = success(ck, level);
         assert!(s >= at_least, "{ck} on {level}: success {s}");
