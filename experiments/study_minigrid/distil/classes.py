@@ -1,9 +1,10 @@
 #!/usr/bin/env python3
 """Grounding per class from `groundscope eval`'s report.md, as docs/studies/minigrid-agent.md
 tabulates it: the ids where the class was scored, the pointing game's range and mean over them,
-a uniform map's chance, and the paper's `acc`. With a second report, its mean pointing beside.
+a uniform map's chance, and the paper's `acc`. The levels of several reports (one evaluation
+split over processes) are pooled; with `--beside EARLIER.md`, that report's mean pointing beside.
 
-    python3 experiments/study_minigrid/distil/classes.py REPORT.md [EARLIER_REPORT.md]
+    python3 experiments/study_minigrid/distil/classes.py REPORT.md [REPORT.md ...] [--beside EARLIER.md]
 """
 import re
 import sys
@@ -41,19 +42,25 @@ def scored(text, head):
 
 
 def main():
-    texts = [open(p).read() for p in sys.argv[1:3]]
-    earlier = " | earlier mean" if len(texts) > 1 else ""
-    print(f"| class | ids | pointing | mean | chance | `acc` (mean){earlier} |")
-    print("|---|---|---|---|---|---|" + ("---|" if earlier else ""))
+    args = sys.argv[1:]
+    beside = None
+    if "--beside" in args:
+        i = args.index("--beside")
+        beside = open(args[i + 1]).read()
+        args = args[:i] + args[i + 2:]
+    texts = [open(p).read() for p in args]
+    extra = " | earlier mean" if beside else ""
+    print(f"| class | ids | pointing | mean | chance | `acc` (mean){extra} |")
+    print("|---|---|---|---|---|---|" + ("---|" if beside else ""))
     for name, head in SECTIONS.items():
-        rows = scored(texts[0], head)
+        rows = [r for t in texts for r in scored(t, head)]
         if not rows:
             continue
         acc, pts, chance = zip(*rows)
         line = (f"| {name} | {len(rows)} | {min(pts):.2f}–{max(pts):.2f} | {sum(pts) / len(pts):.2f} "
                 f"| {min(chance):.2f}–{max(chance):.2f} | {sum(acc) / len(acc):.3f} |")
-        if earlier:
-            old = [p for _, p, _ in scored(texts[1], head)]
+        if beside:
+            old = [p for _, p, _ in scored(beside, head)]
             line += f" {sum(old) / len(old):.2f} |" if old else " – |"
         print(line)
 
