@@ -3,8 +3,8 @@
 //! `bundled:babyai`, an attention model that reads BabyAI's whole grammar and whose maps were
 //! supervised to ground (the filter norm study's choice); and MiniGrid's pair,
 //! `bundled:minigrid` and `bundled:minigrid-baseline`, distilled beside each other by one
-//! recipe from the best model of each of fourteen of MiniGrid's own ids (the MiniGrid study's
-//! choice), the default on any `MiniGrid-*` id. The names BabyAI's model had before keep working or say what replaced them
+//! recipe from the best model of each of fourteen of MiniGrid's own ids, the attention model's
+//! maps supervised to ground (the MiniGrid study's choice), the default on any `MiniGrid-*` id. The names BabyAI's model had before keep working or say what replaced them
 //! ([`alias`]).
 
 use std::path::Path;
@@ -49,14 +49,15 @@ const BUNDLED: [(&str, &str, &[u8]); 5] = [
 pub const BABYAI: &str = "bundled:babyai";
 
 /// The bundled attention model for MiniGrid's own ids: it reads all of groundscope's words
-/// (MiniGrid's missions and BabyAI's), and its maps are unsupervised.
+/// (MiniGrid's missions and BabyAI's), and its maps were supervised to ground
+/// (`training.ground_loss` in its metadata).
 pub const MINIGRID: &str = "bundled:minigrid";
 
 /// The no-attention baseline trained beside [`MINIGRID`] by the same recipe.
 pub const MINIGRID_BASELINE: &str = "bundled:minigrid-baseline";
 
 /// What MiniGrid's pair was trained on, said once for both names.
-const MINIGRID_NOTE: &str = "imitation of the best model of each of fourteen of MiniGrid's own ids at once (`--imitate --teacher`, pure cloning; experiments/study_minigrid/, stage 8: 3,072,000 frames), no supervision of the maps";
+const MINIGRID_NOTE: &str = "imitation of the best model of each of fourteen of MiniGrid's own ids at once (`--imitate --teacher`, pure cloning; experiments/study_minigrid/, stages 8 and 9: 3,072,000 frames), the attention model's maps supervised to ground (`--ground-loss 0.1`)";
 
 /// A name that opened a bundled checkpoint before 2026-12-02, when three BabyAI agents became
 /// one.
@@ -199,7 +200,9 @@ mod tests {
                 };
                 assert_eq!(variant, want, "{n}");
                 assert_eq!(c.meta.model.vocab_size, crate::env::vocab::VOCAB_SIZE);
-                assert!(c.meta.training.ground_loss.is_none(), "{n}");
+                // The attention model's maps were supervised; a baseline has none.
+                let supervised = c.meta.training.ground_loss.is_some();
+                assert_eq!(supervised, n == MINIGRID, "{n}");
                 assert!(c.meta.level.is_minigrid());
                 assert_eq!(training_note(&n), Some(MINIGRID_NOTE));
                 // The note says how long the embedded weights trained.
