@@ -57,7 +57,7 @@ pub const MINIGRID: &str = "bundled:minigrid";
 pub const MINIGRID_BASELINE: &str = "bundled:minigrid-baseline";
 
 /// What MiniGrid's pair was trained on, said once for both names.
-const MINIGRID_NOTE: &str = "imitation of the best model of each of fourteen of MiniGrid's own ids at once (`--imitate --teacher`, pure cloning; experiments/study_minigrid/, stages 8 and 9: 3,072,000 frames), the attention model's maps supervised to ground (`--ground-loss 0.1`)";
+const MINIGRID_NOTE: &str = "imitation of the best model of each of fourteen of MiniGrid's own ids at once (`--imitate --teacher`; experiments/study_minigrid/, stages 8 to 10: 4,608,000 frames, pure cloning then DAgger, `--imitate-policy-share 0.5`), the attention model's maps supervised to ground (`--ground-loss 0.1`)";
 
 /// A name that opened a bundled checkpoint before 2026-12-02, when three BabyAI agents became
 /// one.

@@ -4,7 +4,9 @@
 # The ids and seeds of ../heldout/heldout.sh, each model's in two halves, two processes at a
 # time (one core each; an episode depends on its id and seed only, so the halves are the whole
 # evaluation); reports in heldout-dagger-{att,base}/part{1,2}/, each model's halves'
-# performance.csv joined beside them, faithfulness in heldout-dagger-faith/.
+# performance.csv joined beside them, faithfulness in heldout-dagger-faith/; then the control
+# (heldout-dagger-ctl/, heldout-dagger-ctl-faith/). The pair is bundled since:
+# `--checkpoint bundled:minigrid` and `bundled:minigrid-baseline` open the same weights.
 set -e
 IDS="$(dirname "$0")/../heldout/ids.txt"
 FIRST="$(head -38 "$IDS" | paste -sd,)"
@@ -20,3 +22,11 @@ held dagger_base-mg14-s1 "$FIRST" base-1
 groundscope faithfulness --checkpoint $R/dagger_gl-mg14-s1/model --levels "$LANG" \
   --first-seed 1500 --seeds 3 --episodes 20 --quiet --out studies/held10/faith
 wait "$long"
+# The unsupervised control `dagger_att`, evaluated the same way after the pair (20:07 UTC), for
+# the control column beside the bundled model; it chooses nothing.
+held dagger_att-mg14-s1 "$FIRST" ctl-1 &
+ctl=$!
+held dagger_att-mg14-s1 "$REST" ctl-2
+wait "$ctl"
+groundscope faithfulness --checkpoint $R/dagger_att-mg14-s1/model --levels "$LANG" \
+  --first-seed 1500 --seeds 3 --episodes 20 --quiet --out studies/held10/ctl-faith

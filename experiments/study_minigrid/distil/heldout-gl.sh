@@ -4,8 +4,8 @@
 # it on validation seeds. The ids and seeds of ../heldout/heldout.sh, split in two halves run
 # side by side (one core each; every episode depends on its id and seed only, so the halves
 # are the whole evaluation); reports in heldout-gl/part{1,2}/, both halves' performance.csv
-# joined in heldout-gl/performance.csv, faithfulness in heldout-gl-faith/. The checkpoint is
-# bundled since: `--checkpoint bundled:minigrid` opens the same weights.
+# joined in heldout-gl/performance.csv, faithfulness in heldout-gl-faith/. The checkpoint was
+# bundled:minigrid for an hour of 2026-12-04 (commit f35a57d), before stage 10 replaced it.
 set -e
 IDS="$(dirname "$0")/../heldout/ids.txt"
 LANG=MiniGrid-Fetch-5x5-N2-v0,MiniGrid-GoToObject-6x6-N2-v0,MiniGrid-GoToDoor-5x5-v0,MiniGrid-PutNear-6x6-N2-v0
